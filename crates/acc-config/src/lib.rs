@@ -1,0 +1,131 @@
+//! `acc-config`: typed, validated TOML configuration for `acc`.
+//!
+//! Every configuration file is read once at start-up with [`load_toml`], which refuses
+//! unknown keys (when the target type uses `#[serde(deny_unknown_fields)]`) and reports
+//! the file and key of any error. Range checks use [`check_range`] so that every error
+//! names the file, the key and the allowed range.
+//!
+//! ```
+//! use acc_config::{check_range, ConfigError};
+//! let err = check_range("m.toml", "controller.period_s", -1.0, 1e-3, 10.0).unwrap_err();
+//! assert_eq!(err.to_string(), "m.toml: key `controller.period_s` = -1 is out of range: allowed 0.001 ..= 10");
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+
+/// A configuration error: which file, which key, what is wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {reason}")]
+    Io {
+        /// File path.
+        file: PathBuf,
+        /// OS error text.
+        reason: String,
+    },
+    /// TOML syntax or type error (unknown key, wrong type, missing key).
+    #[error("{file}: {message}")]
+    Parse {
+        /// File path.
+        file: PathBuf,
+        /// Parser message, including line and column and the key where known.
+        message: String,
+    },
+    /// A value outside its allowed range.
+    #[error("{file}: key `{key}` = {value} is out of range: allowed {allowed}")]
+    OutOfRange {
+        /// File path.
+        file: PathBuf,
+        /// Dotted key path.
+        key: String,
+        /// Offending value as written.
+        value: String,
+        /// Allowed range in words, e.g. `0.001 ..= 10`.
+        allowed: String,
+    },
+    /// Any other invalid value (inconsistent keys, unknown preset name, ...).
+    #[error("{file}: key `{key}`: {message}")]
+    Invalid {
+        /// File path.
+        file: PathBuf,
+        /// Dotted key path.
+        key: String,
+        /// What is wrong and what is allowed.
+        message: String,
+    },
+}
+
+/// Read and deserialize a TOML file; errors name the file and, where TOML knows it, the
+/// line, column and key.
+pub fn load_toml<T: DeserializeOwned>(path: impl AsRef<Path>) -> Result<T, ConfigError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+        file: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    parse_toml(path, &text)
+}
+
+/// Deserialize TOML text that came from `path` (used for errors only).
+pub fn parse_toml<T: DeserializeOwned>(path: impl AsRef<Path>, text: &str) -> Result<T, ConfigError> {
+    toml::from_str(text).map_err(|e| ConfigError::Parse {
+        file: path.as_ref().to_path_buf(),
+        message: e.to_string().trim_end().replace('\n', "\n  "),
+    })
+}
+
+/// Check `lo <= value <= hi` (and finite); the error names file, key and range.
+pub fn check_range(
+    file: impl AsRef<Path>,
+    key: &str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<f64, ConfigError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(value)
+    } else {
+        Err(ConfigError::OutOfRange {
+            file: file.as_ref().to_path_buf(),
+            key: key.to_string(),
+            value: value.to_string(),
+            allowed: format!("{lo} ..= {hi}"),
+        })
+    }
+}
+
+/// Check `lo < value < hi` (open interval, finite); the error names file, key and range.
+pub fn check_open_range(
+    file: impl AsRef<Path>,
+    key: &str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<f64, ConfigError> {
+    if value.is_finite() && value > lo && value < hi {
+        Ok(value)
+    } else {
+        Err(ConfigError::OutOfRange {
+            file: file.as_ref().to_path_buf(),
+            key: key.to_string(),
+            value: value.to_string(),
+            allowed: format!("{lo} < x < {hi}"),
+        })
+    }
+}
+
+/// Resolve `rel` against the directory of the config file `base` (config files refer to
+/// each other by paths relative to themselves).
+pub fn resolve_relative(base: impl AsRef<Path>, rel: impl AsRef<Path>) -> PathBuf {
+    let rel = rel.as_ref();
+    if rel.is_absolute() {
+        return rel.to_path_buf();
+    }
+    match base.as_ref().parent() {
+        Some(dir) => dir.join(rel),
+        None => rel.to_path_buf(),
+    }
+}

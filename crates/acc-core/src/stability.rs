@@ -1,0 +1,1 @@
+//! Closed-loop stability analysis: poles, Jury test, stable Kc ranges.

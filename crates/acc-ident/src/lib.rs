@@ -1,0 +1,1 @@
+//! `acc-ident`: Model-discrepancy workflow: replay, residuals, candidate effects, selection, report.

@@ -1,0 +1,1 @@
+//! `acc-plot`: SVG and PNG plots with an embedded font.

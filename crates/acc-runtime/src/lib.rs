@@ -1,0 +1,1 @@
+//! `acc-runtime`: Fixed-period real-time loop, threads, fault policy and shutdown for acc.

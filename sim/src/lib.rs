@@ -1,0 +1,1 @@
+//! `acc-sim`: the simulated machine.
