@@ -70,7 +70,10 @@ pub fn load_toml<T: DeserializeOwned>(path: impl AsRef<Path>) -> Result<T, Confi
 }
 
 /// Deserialize TOML text that came from `path` (used for errors only).
-pub fn parse_toml<T: DeserializeOwned>(path: impl AsRef<Path>, text: &str) -> Result<T, ConfigError> {
+pub fn parse_toml<T: DeserializeOwned>(
+    path: impl AsRef<Path>,
+    text: &str,
+) -> Result<T, ConfigError> {
     toml::from_str(text).map_err(|e| ConfigError::Parse {
         file: path.as_ref().to_path_buf(),
         message: e.to_string().trim_end().replace('\n', "\n  "),

@@ -12,6 +12,7 @@ pub mod estimator;
 pub mod override_spec;
 pub mod pi;
 pub mod poles;
+pub mod source;
 pub mod stability;
 
 pub use controller::{
@@ -21,6 +22,7 @@ pub use controller::{
 pub use estimator::{EstimatorConfig, EstimatorGain, KcEstimator};
 pub use override_spec::{FeedOverride, OverrideSpec};
 pub use poles::{DesiredPoles, PiGains, PoleError};
+pub use source::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
 
 /// Errors raised when building controller parts from parameters.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,1 +1,82 @@
-//! `acc-pmc`: PMC interface trait, board register map, Modbus RTU and CAN links.
+//! `acc-pmc`: the PMC interface trait, the board register map (`../shared/docs/pmc-board.md`),
+//! and the Modbus RTU and CAN links.
+//!
+//! CONTRACT NOTE (remove when implemented): the names in this file are shared with the
+//! simulator and runtime crates. Add, but do not rename.
+
+/// Status read from the board once per cycle (input registers 0…8).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BoardStatus {
+    /// `STATUS` bit 0: operator's ACC ON switch.
+    pub acc_switch: bool,
+    /// `STATUS` bit 1: the board is driving the override.
+    pub acc_active: bool,
+    /// `STATUS` bit 2: NC cycle running.
+    pub cycle_active: bool,
+    /// `STATUS` bit 3: feed hold asserted.
+    pub feed_hold_active: bool,
+    /// `STATUS` bit 4: watchdog tripped (cleared only by `ALARM_RESET`).
+    pub watchdog_tripped: bool,
+    /// `STATUS` bit 5: NC forces 100 % (tapping, threading, override cancel).
+    pub override_locked: bool,
+    /// `STATUS` bit 6: CNC alarm.
+    pub cnc_alarm: bool,
+    /// `OVERRIDE_APPLIED`, percent.
+    pub override_applied_pct: u16,
+    /// `OPERATOR_OVERRIDE`, percent.
+    pub operator_override_pct: u16,
+    /// `OVERRIDE_STEP`, percent (10 or 1).
+    pub override_step_pct: u16,
+    /// `POWER_HI:POWER_LO`, spindle input power, W.
+    pub spindle_power_w: u32,
+    /// `SPINDLE_RPM`, rpm.
+    pub spindle_rpm: u16,
+    /// `SAMPLE_SEQ`, wraps; unchanged ⇒ stale power sensor.
+    pub sample_seq: u16,
+    /// `PROGRAMMED_FEED`, mm/min (0 = unknown).
+    pub programmed_feed_mm_min: u16,
+}
+
+/// `CONTROL` register bits (holding register 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ControlBits {
+    /// bit 0 `ACC_REQUEST`: the controller wants to drive the override.
+    pub acc_request: bool,
+    /// bit 1 `FEED_HOLD_REQUEST`.
+    pub feed_hold_request: bool,
+    /// bit 2 `ALARM_RESET`: write 1 to clear a tripped watchdog (reads back 0).
+    pub alarm_reset: bool,
+}
+
+/// Error kinds the runtime acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PmcErrorKind {
+    /// No (complete) reply within the timeout.
+    Timeout,
+    /// Reply with a bad checksum.
+    Crc,
+    /// The board answered with a Modbus exception code (01 function, 02 address, 03 value…).
+    Exception(u8),
+    /// The power sample did not change (`SAMPLE_SEQ` frozen) for longer than allowed.
+    Stale,
+    /// The port or bus is gone.
+    Disconnected,
+    /// A reply that parses but violates the protocol (wrong slave, wrong function, length).
+    Protocol,
+}
+
+/// The PMC interface: narrow and fallible. Implemented by the Modbus RTU board, the CAN
+/// board and the simulated board.
+pub trait Pmc {
+    /// Error type; maps onto [`PmcErrorKind`].
+    type Error: std::error::Error + Send + Sync + 'static;
+    /// Classify an error.
+    fn kind(err: &Self::Error) -> PmcErrorKind;
+    /// Read the status block (input registers 0…8).
+    fn read_status(&mut self) -> Result<BoardStatus, Self::Error>;
+    /// Write `OVERRIDE_CMD` (percent, a multiple of the board's step) and `HEARTBEAT` in
+    /// one transaction.
+    fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Self::Error>;
+    /// Write the `CONTROL` bits (ACC request, feed-hold request, alarm reset).
+    fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error>;
+}
