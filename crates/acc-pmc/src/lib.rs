@@ -1,8 +1,11 @@
 //! `acc-pmc`: the PMC interface trait, the board register map (`../shared/docs/pmc-board.md`),
 //! and the Modbus RTU and CAN links.
 //!
-//! CONTRACT NOTE (remove when implemented): the names in this file are shared with the
-//! simulator and runtime crates. Add, but do not rename.
+//! CONTRACT NOTE: the names in this file are shared with the simulator and runtime crates.
+//! Add, but do not rename.
+#![deny(missing_docs)]
+
+pub mod board;
 
 /// Status read from the board once per cycle (input registers 0…8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
