@@ -1,6 +1,41 @@
 //! `Controller::step`: one control period of the adaptive feedrate-override loop.
+//!
+//! Per period `T` (seed 002, physics.md §1):
+//!
+//! 1. `E(i) = Fr − Fc(i)` (eq. 2).
+//! 2. The Kc estimator (eqs. 11–12) compares `Fc(i)` with the feed that produced it
+//!    (`Measurement::feed_mm_min`); it runs only while cutting.
+//! 3. The gains: fixed, or by pole assignment on `Kc_hat(i)` (eq. 14), or the single pole
+//!    of the integral-only law (conclusion 5).
+//! 4. The PI law (eq. 4) gives the feed command `U(i)` in mm/min; the override is
+//!    `100·U/F_programmed`, quantized to the board step and clamped, with anti-windup
+//!    (see [`crate::pi`]).
+//!
+//! ```
+//! use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
+//! let mut ctl = Controller::new(ControllerConfig::paper_case(PaperCase::III)).unwrap();
+//! ctl.engage(FeedOverride(100));
+//! // Plant of eq. 6 with Kc = 5 N/(mm/min): F(i) = Km·Kc·U_applied(i−1).
+//! let (kc, programmed) = (5.0, 200.0);
+//! let mut feed = 200.0;
+//! let mut out = None;
+//! for _ in 0..60 {
+//!     let m = Measurement { force_n: kc * feed, feed_mm_min: feed,
+//!                           programmed_feed_mm_min: programmed, valid: true };
+//!     let o = ctl.step(&m);
+//!     feed = o.command.feed_mm_min(programmed);
+//!     out = Some(o);
+//! }
+//! let o = out.unwrap();
+//! // 800 N needs 160 mm/min = 80 %, a board position: the loop settles there exactly.
+//! assert_eq!(o.command, FeedOverride(80));
+//! assert!((ctl.kc_hat() - 5.0).abs() < 1e-6);
+//! ```
 
-use crate::{DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec};
+use crate::estimator::KcEstimator;
+use crate::pi::PiState;
+use crate::poles::{self, PiGains};
+use crate::{CoreError, DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec};
 
 /// What the controller sees once per period `T`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -135,5 +170,324 @@ pub trait OverrideLaw {
 /// The adaptive feedrate-override controller.
 #[derive(Debug, Clone)]
 pub struct Controller {
-    // implementation-defined
+    cfg: ControllerConfig,
+    estimator: KcEstimator,
+    pi: PiState,
+    /// Gain-free numerator of Kp (eq. 14: −z1·z2; 0 in integral-only mode).
+    num_p: f64,
+    /// Gain-free numerator of Ki (eq. 14: 1 − (z1 + z2) + z1·z2; 1 − p integral-only).
+    num_i: f64,
+    pending_engage: Option<FeedOverride>,
+    last_command: FeedOverride,
+    last_saturation: Saturation,
+    frozen: bool,
+}
+
+impl Controller {
+    /// Build a controller; every parameter is validated (errors name the configuration key
+    /// and the allowed range). The controller starts as if engaged at 100 %; call
+    /// [`OverrideLaw::engage`] with the override in force when ACC is switched on.
+    pub fn new(cfg: ControllerConfig) -> Result<Self, CoreError> {
+        cfg.validate()?;
+        let estimator = KcEstimator::new(cfg.estimator, cfg.km)?;
+        let (num_p, num_i) = match cfg.mode {
+            ModeConfig::AdaptivePi { poles } => poles.numerators(),
+            ModeConfig::FixedPi { .. } => (0.0, 0.0),
+            ModeConfig::AdaptiveIntegral { pole } => (0.0, 1.0 - pole),
+        };
+        Ok(Self {
+            cfg,
+            estimator,
+            pi: PiState::new(0.0),
+            num_p,
+            num_i,
+            pending_engage: Some(FeedOverride::NOMINAL),
+            last_command: FeedOverride::NOMINAL,
+            last_saturation: Saturation::None,
+            frozen: false,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ControllerConfig {
+        &self.cfg
+    }
+
+    /// Current estimate Kc_hat, N/(mm/min).
+    pub fn kc_hat(&self) -> f64 {
+        self.estimator.kc_hat()
+    }
+
+    /// The Kc estimator.
+    pub fn estimator(&self) -> &KcEstimator {
+        &self.estimator
+    }
+
+    /// Integrator state, mm/min.
+    pub fn integral_mm_min(&self) -> f64 {
+        self.pi.integral_mm_min()
+    }
+
+    /// The last override command.
+    pub fn last_command(&self) -> FeedOverride {
+        self.last_command
+    }
+
+    /// Whether the integrator is frozen.
+    pub fn is_frozen(&self) -> bool {
+        self.frozen
+    }
+
+    /// Change the force reference Fr, N (ignored unless finite and > 0).
+    pub fn set_force_ref_n(&mut self, force_ref_n: f64) {
+        if force_ref_n.is_finite() && force_ref_n > 0.0 {
+            self.cfg.force_ref_n = force_ref_n;
+        }
+    }
+
+    /// The gains in use at the current `Kc_hat` (eq. 14 in adaptive modes).
+    pub fn gains(&self) -> PiGains {
+        let g = self.cfg.km * self.estimator.kc_hat();
+        match self.cfg.mode {
+            ModeConfig::FixedPi { kp, ki } => PiGains { kp, ki },
+            ModeConfig::AdaptivePi { .. } | ModeConfig::AdaptiveIntegral { .. } => PiGains {
+                kp: self.num_p / g,
+                ki: self.num_i / (self.cfg.period_s * g),
+            },
+        }
+    }
+
+    /// The mode reported in the trace.
+    pub fn mode(&self) -> Mode {
+        self.cfg.mode.mode()
+    }
+
+    fn held_output(&mut self, m: &Measurement, feed_ok: bool) -> StepOutput {
+        self.estimator.hold();
+        let gains = self.gains();
+        let cmd = self.last_command;
+        let feed = if feed_ok {
+            cmd.feed_mm_min(m.programmed_feed_mm_min)
+        } else {
+            f64::NAN
+        };
+        StepOutput {
+            command: cmd,
+            trace: Trace {
+                force_ref_n: self.cfg.force_ref_n,
+                error_n: self.cfg.force_ref_n - m.force_n,
+                kc_hat: self.estimator.kc_hat(),
+                kp: gains.kp,
+                ki: gains.ki,
+                integral_mm_min: self.pi.integral_mm_min(),
+                feed_cmd_mm_min: feed,
+                unquantized_pct: f64::from(cmd.pct()),
+                saturation: self.last_saturation,
+                mode: self.mode(),
+                estimator_active: false,
+                excitation: self.estimator.excitation(),
+            },
+        }
+    }
+}
+
+impl OverrideLaw for Controller {
+    fn name(&self) -> &str {
+        match self.cfg.mode {
+            ModeConfig::AdaptivePi { .. } => "adaptive-pi",
+            ModeConfig::FixedPi { .. } => "fixed-pi",
+            ModeConfig::AdaptiveIntegral { .. } => "adaptive-i",
+        }
+    }
+
+    /// Bumpless start: the integrator starts from the feed `current` gives at the next
+    /// step's programmed feed, so with zero error the first command equals `current`.
+    fn engage(&mut self, current: FeedOverride) {
+        let spec = self.cfg.override_spec;
+        let current = FeedOverride(current.pct().clamp(spec.min_pct, spec.max_pct));
+        self.pending_engage = Some(current);
+        self.last_command = current;
+        self.last_saturation = Saturation::None;
+    }
+
+    /// One period. An invalid or non-finite measurement, or a programmed feed that is not
+    /// > 0, holds the last command, the integrator and the estimator (never raises the feed).
+    fn step(&mut self, m: &Measurement) -> StepOutput {
+        let fp = m.programmed_feed_mm_min;
+        let feed_ok = fp.is_finite() && fp > 0.0;
+        if feed_ok {
+            if let Some(cur) = self.pending_engage.take() {
+                self.pi.set_integral_mm_min(cur.feed_mm_min(fp));
+            }
+        }
+        if !(feed_ok && m.valid && m.force_n.is_finite()) {
+            return self.held_output(m, feed_ok);
+        }
+        let error_n = self.cfg.force_ref_n - m.force_n; // eq. 2
+        let active = self.estimator.update(m.force_n, m.feed_mm_min); // eqs. 11-12
+        let gains = self.gains(); // eq. 14 or fixed
+        let s = self.pi.step(
+            gains,
+            error_n,
+            self.cfg.period_s,
+            fp,
+            &self.cfg.override_spec,
+            self.cfg.anti_windup,
+            !self.frozen,
+        ); // eq. 4
+        self.last_command = s.command;
+        self.last_saturation = s.saturation;
+        StepOutput {
+            command: s.command,
+            trace: Trace {
+                force_ref_n: self.cfg.force_ref_n,
+                error_n,
+                kc_hat: self.estimator.kc_hat(),
+                kp: gains.kp,
+                ki: gains.ki,
+                integral_mm_min: s.integral_mm_min,
+                feed_cmd_mm_min: s.feed_cmd_mm_min,
+                unquantized_pct: s.unquantized_pct,
+                saturation: s.saturation,
+                mode: self.mode(),
+                estimator_active: active,
+                excitation: self.estimator.excitation(),
+            },
+        }
+    }
+
+    fn set_frozen(&mut self, frozen: bool) {
+        self.frozen = frozen;
+    }
+}
+
+impl ModeConfig {
+    /// The paper's fixed-gain controller: Ki = 2.5 (mm/min)/(N·s), Kp = 0.05 (mm/min)/N.
+    pub const PAPER_FIXED: ModeConfig = ModeConfig::FixedPi { kp: 0.05, ki: 2.5 };
+
+    /// The [`Mode`] this configuration runs in.
+    pub fn mode(&self) -> Mode {
+        match self {
+            ModeConfig::AdaptivePi { .. } => Mode::AdaptivePi,
+            ModeConfig::FixedPi { .. } => Mode::FixedPi,
+            ModeConfig::AdaptiveIntegral { .. } => Mode::AdaptiveIntegral,
+        }
+    }
+
+    /// Check the mode parameters: poles strictly inside the unit circle, fixed gains
+    /// finite with `kp >= 0`, `ki > 0`.
+    pub fn validate(&self) -> Result<(), CoreError> {
+        match *self {
+            ModeConfig::AdaptivePi { poles } => poles.validate().map_err(CoreError::Pole),
+            ModeConfig::AdaptiveIntegral { pole } => {
+                poles::validate_single(pole).map_err(CoreError::Pole)
+            }
+            ModeConfig::FixedPi { kp, ki } => {
+                if !(kp.is_finite() && kp >= 0.0) {
+                    return Err(CoreError::OutOfRange {
+                        name: "mode.kp",
+                        value: kp,
+                        allowed: ">= 0",
+                    });
+                }
+                if !(ki.is_finite() && ki > 0.0) {
+                    return Err(CoreError::OutOfRange {
+                        name: "mode.ki",
+                        value: ki,
+                        allowed: "> 0",
+                    });
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// The paper's experiments (seed 002, physics.md §1 table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PaperCase {
+    /// Fixed gains Ki = 2.5, Kp = 0.05 (depth steps 1, 2, 3 mm).
+    FixedGain,
+    /// Poles 0.2, −0.05 (depth steps 2, 3, 4 mm).
+    I,
+    /// Poles 0.1, −0.6 (depth steps 2, 3, 4 mm).
+    II,
+    /// Poles 0.001, −0.001 (depth steps 2, 3, 4 mm).
+    III,
+    /// Poles 0.001, −0.001 (depth ramp 2 → 4 mm).
+    IV,
+}
+
+impl PaperCase {
+    /// The controller mode of the case.
+    pub fn mode(self) -> ModeConfig {
+        match self {
+            PaperCase::FixedGain => ModeConfig::PAPER_FIXED,
+            PaperCase::I => ModeConfig::AdaptivePi {
+                poles: DesiredPoles::PAPER_CASE_I,
+            },
+            PaperCase::II => ModeConfig::AdaptivePi {
+                poles: DesiredPoles::PAPER_CASE_II,
+            },
+            PaperCase::III | PaperCase::IV => ModeConfig::AdaptivePi {
+                poles: DesiredPoles::PAPER_CASE_III,
+            },
+        }
+    }
+}
+
+impl ControllerConfig {
+    /// The paper's set-up with `mode`: T = 0.1 s, Fr = 800 N, Km = 1, 10 % board 0…150 %,
+    /// [`EstimatorConfig::paper`], anti-windup on.
+    pub const fn paper(mode: ModeConfig) -> Self {
+        Self {
+            period_s: 0.1,
+            force_ref_n: 800.0,
+            km: 1.0,
+            mode,
+            override_spec: OverrideSpec::paper(),
+            estimator: EstimatorConfig::paper(),
+            anti_windup: true,
+        }
+    }
+
+    /// One of the paper's experiments, see [`PaperCase`].
+    pub fn paper_case(case: PaperCase) -> Self {
+        Self::paper(case.mode())
+    }
+
+    /// Check every value; errors name the configuration key and the allowed range.
+    pub fn validate(&self) -> Result<(), CoreError> {
+        if !(self.period_s.is_finite() && self.period_s > 0.0 && self.period_s <= 10.0) {
+            return Err(CoreError::OutOfRange {
+                name: "period_s",
+                value: self.period_s,
+                allowed: "0 < T <= 10",
+            });
+        }
+        if !(self.force_ref_n.is_finite() && self.force_ref_n > 0.0) {
+            return Err(CoreError::OutOfRange {
+                name: "force_ref_n",
+                value: self.force_ref_n,
+                allowed: "> 0",
+            });
+        }
+        if !(self.km.is_finite() && self.km > 0.0) {
+            return Err(CoreError::OutOfRange {
+                name: "km",
+                value: self.km,
+                allowed: "> 0",
+            });
+        }
+        self.mode.validate()?;
+        self.override_spec.validate()?;
+        self.estimator.validate()
+    }
+}
+
+impl Default for ControllerConfig {
+    /// Paper case III (poles 0.001, −0.001), see [`ControllerConfig::paper`].
+    fn default() -> Self {
+        Self::paper_case(PaperCase::III)
+    }
 }

@@ -1,8 +1,45 @@
 //! Feed override values, resolution and range.
+//!
+//! The paper's FANUC 0-MC takes the override from 0 % to 150 % in 10 % steps (a 4-bit PMC
+//! code, physics.md §1); a byte board takes 1 % steps. [`OverrideSpec::quantize`] turns the
+//! controller's continuous override into what the board can actually apply.
+
+use crate::CoreError;
 
 /// A feed override in percent of the programmed feed (integer percent).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct FeedOverride(pub u16);
+
+impl FeedOverride {
+    /// 100 %: the programmed feed.
+    pub const NOMINAL: FeedOverride = FeedOverride(100);
+
+    /// The override in percent.
+    pub fn pct(self) -> u16 {
+        self.0
+    }
+
+    /// The override as a fraction (100 % → 1.0).
+    pub fn fraction(self) -> f64 {
+        f64::from(self.0) / 100.0
+    }
+
+    /// The feed this override gives at `programmed_feed_mm_min`, mm/min.
+    ///
+    /// ```
+    /// use acc_core::FeedOverride;
+    /// assert_eq!(FeedOverride(150).feed_mm_min(200.0), 300.0);
+    /// ```
+    pub fn feed_mm_min(self, programmed_feed_mm_min: f64) -> f64 {
+        self.fraction() * programmed_feed_mm_min
+    }
+}
+
+impl Default for FeedOverride {
+    fn default() -> Self {
+        Self::NOMINAL
+    }
+}
 
 /// Override resolution and range of the PMC board.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -13,4 +50,153 @@ pub struct OverrideSpec {
     pub min_pct: u16,
     /// Maximum override, percent (default 150; never above 150).
     pub max_pct: u16,
+}
+
+impl OverrideSpec {
+    /// Highest override any CNC in scope accepts, percent.
+    pub const ABSOLUTE_MAX_PCT: u16 = 150;
+
+    /// The paper's board: 10 % steps, 0 … 150 % (16 positions, a 4-bit code).
+    pub const fn paper() -> Self {
+        Self {
+            step_pct: 10,
+            min_pct: 0,
+            max_pct: 150,
+        }
+    }
+
+    /// A byte board: 1 % steps, 0 … 150 %.
+    pub const fn byte_board() -> Self {
+        Self {
+            step_pct: 1,
+            min_pct: 0,
+            max_pct: 150,
+        }
+    }
+
+    /// Check the spec: `step_pct` in 1 ..= 50, `min_pct <= max_pct <= 150`, and both
+    /// limits on the step grid (so that the limits are reachable positions).
+    pub fn validate(&self) -> Result<(), CoreError> {
+        if self.step_pct == 0 || self.step_pct > 50 {
+            return Err(CoreError::OutOfRange {
+                name: "override.step_pct",
+                value: f64::from(self.step_pct),
+                allowed: "1 ..= 50",
+            });
+        }
+        if self.max_pct > Self::ABSOLUTE_MAX_PCT || !self.max_pct.is_multiple_of(self.step_pct) {
+            return Err(CoreError::OutOfRange {
+                name: "override.max_pct",
+                value: f64::from(self.max_pct),
+                allowed: "a multiple of step_pct, <= 150",
+            });
+        }
+        if self.min_pct > self.max_pct || !self.min_pct.is_multiple_of(self.step_pct) {
+            return Err(CoreError::OutOfRange {
+                name: "override.min_pct",
+                value: f64::from(self.min_pct),
+                allowed: "a multiple of step_pct, <= max_pct",
+            });
+        }
+        Ok(())
+    }
+
+    /// Round `pct` to the nearest board step and clamp it to `[min_pct, max_pct]`.
+    /// A NaN request gives `min_pct` (the safe side: never raise the feed on garbage).
+    ///
+    /// ```
+    /// use acc_core::{FeedOverride, OverrideSpec};
+    /// let spec = OverrideSpec::paper();
+    /// assert_eq!(spec.quantize(64.9), FeedOverride(60));
+    /// assert_eq!(spec.quantize(65.0), FeedOverride(70));
+    /// assert_eq!(spec.quantize(212.0), FeedOverride(150));
+    /// assert_eq!(spec.quantize(-3.0), FeedOverride(0));
+    /// assert_eq!(spec.quantize(f64::NAN), FeedOverride(0));
+    /// ```
+    pub fn quantize(&self, pct: f64) -> FeedOverride {
+        if pct.is_nan() {
+            return FeedOverride(self.min_pct);
+        }
+        let clamped = self.clamp_pct(pct);
+        let step = f64::from(self.step_pct.max(1));
+        let q = (clamped / step).round() * step;
+        // `q` is inside [min_pct, max_pct] <= 150, so the cast cannot truncate.
+        let q = q.clamp(f64::from(self.min_pct), f64::from(self.max_pct));
+        FeedOverride(q as u16)
+    }
+
+    /// Clamp a continuous override to `[min_pct, max_pct]`, percent (NaN stays NaN).
+    pub fn clamp_pct(&self, pct: f64) -> f64 {
+        pct.clamp(f64::from(self.min_pct), f64::from(self.max_pct))
+    }
+
+    /// Number of positions the board can take (16 for the paper's board).
+    pub fn positions(&self) -> u16 {
+        (self.max_pct - self.min_pct) / self.step_pct.max(1) + 1
+    }
+}
+
+impl Default for OverrideSpec {
+    /// [`OverrideSpec::paper`].
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_board_has_sixteen_positions() {
+        assert_eq!(OverrideSpec::paper().positions(), 16);
+        assert!(OverrideSpec::paper().validate().is_ok());
+    }
+
+    #[test]
+    fn byte_board_quantizes_to_one_percent() {
+        let s = OverrideSpec::byte_board();
+        assert_eq!(s.quantize(63.4), FeedOverride(63));
+        assert_eq!(s.quantize(63.6), FeedOverride(64));
+    }
+
+    #[test]
+    fn invalid_specs_are_refused() {
+        let bad = [
+            OverrideSpec {
+                step_pct: 0,
+                min_pct: 0,
+                max_pct: 150,
+            },
+            OverrideSpec {
+                step_pct: 10,
+                min_pct: 0,
+                max_pct: 160,
+            },
+            OverrideSpec {
+                step_pct: 10,
+                min_pct: 0,
+                max_pct: 145,
+            },
+            OverrideSpec {
+                step_pct: 10,
+                min_pct: 100,
+                max_pct: 50,
+            },
+        ];
+        for s in bad {
+            assert!(s.validate().is_err(), "{s:?} accepted");
+        }
+    }
+
+    #[test]
+    fn quantize_respects_a_raised_minimum() {
+        let s = OverrideSpec {
+            step_pct: 10,
+            min_pct: 20,
+            max_pct: 120,
+        };
+        assert_eq!(s.quantize(0.0), FeedOverride(20));
+        assert_eq!(s.quantize(500.0), FeedOverride(120));
+    }
 }
