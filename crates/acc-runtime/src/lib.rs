@@ -1,1 +1,26 @@
-//! `acc-runtime`: Fixed-period real-time loop, threads, fault policy and shutdown for acc.
+//! `acc-runtime`: the fixed-period real-time loop of `acc`, its fault policy and operator
+//! priority, the threads that join link I/O, control and logging, and shutdown.
+//!
+//! Layers (copper-rs habit: pure algorithm, thin runtime adapter):
+//! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]);
+//! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
+//! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
+//! - [`policy`]: the fault policy and operator priority as a pure state machine;
+//! - [`cycle`]: one controller cycle against any `Pmc` (read, decide, write);
+//! - [`testing`]: a scripted board, law and force source for tests.
+#![deny(missing_docs)]
+
+pub mod clock;
+pub mod cycle;
+pub mod policy;
+pub mod stats;
+pub mod testing;
+pub mod ticker;
+
+pub use clock::{Clock, ManualClock, SystemClock};
+pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
+pub use policy::{
+    AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Release,
+};
+pub use stats::LatencyStats;
+pub use ticker::{Tick, Ticker, TickerError, TickerStats};

@@ -1,0 +1,775 @@
+//! Fault policy and operator priority: a pure state machine, one call per period.
+//!
+//! Inputs of [`FaultPolicy::step`]: the result of this period's status read (or the link
+//! error), the error of the previous period's writes, the force sample the force source made
+//! of the status, and the time. Outputs ([`CycleOutput`]): the override to write (with the
+//! heartbeat), the `CONTROL` bits wanted on the board, the alarms in force and the events of
+//! this period. The controller itself is any [`OverrideLaw`], stepped from here so that the
+//! policy decides when it runs, when it is frozen and what of its command reaches the board.
+//!
+//! Rules (issue 5, items 6 and 7):
+//! - **ACC only while the operator's switch is on**: the policy arms (bumpless: the law is
+//!   engaged at the override in force) when `ACC_SWITCH` is on, and releases at once when it
+//!   goes off.
+//! - **Link timeout / CRC / exception / protocol error** (read or write): hold the last
+//!   override (keep writing it and the heartbeat) for at most `link_hold_periods`, then
+//!   release to the operator and raise [`Alarms::link_lost`]. The board's own watchdog is the
+//!   backstop when nothing gets through at all.
+//! - **Power invalid or stale** (force source says invalid; NaN, negative or above
+//!   `max_power_w`; `SAMPLE_SEQ` unchanged for `stale_seq_periods`): the command may go down
+//!   but never up; after `invalid_power_periods` in a row, release and alarm.
+//! - **Watchdog tripped / board reset** (the board dropped `ACC_ACTIVE` while the switch is
+//!   on and nothing else explains it, or never confirmed it within `ack_periods`): release,
+//!   alarm, latch. A latched policy re-arms only after the operator's switch has been seen
+//!   off and then on again; re-arming writes `ALARM_RESET` if the watchdog is still tripped.
+//! - **Overload**: force above `overload_force_n` for at least `overload_time_s` → feed-hold
+//!   request and alarm, release and latch (tool-breakage protection). The feed-hold request
+//!   stays until the operator's switch changes position.
+//! - **`OVERRIDE_LOCKED`** (tapping, threading, override cancel): the law is frozen
+//!   ([`OverrideLaw::set_frozen`]) and not stepped; the last command is held, never fought.
+//! - **Operator knob down** by more than `operator_handback_pct` from its highest position
+//!   since arming → hand back to the operator, latch.
+//! - **Never above the maximum**: every command is clamped to `[min_override_pct,
+//!   max_override_pct]` and floored to the board's `OVERRIDE_STEP`.
+//!
+//! Invariant (property-tested): a period with a fault input never writes a command higher
+//! than the last one written.
+
+use acc_core::{FeedOverride, ForceSample, Measurement, OverrideLaw, StepOutput};
+use acc_pmc::{BoardStatus, ControlBits, PmcErrorKind};
+
+/// Parameters of the fault policy. Defaults in each field's doc.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PolicyConfig {
+    /// Control period T, s (default 0.1); converts `overload_time_s` into periods.
+    pub period_s: f64,
+    /// Lowest override ever commanded, percent (default 0).
+    pub min_override_pct: u16,
+    /// Highest override ever commanded, percent (default 150, never above 150).
+    pub max_override_pct: u16,
+    /// Consecutive link failures during which the last override is held (default 5).
+    pub link_hold_periods: u32,
+    /// Consecutive invalid or stale power samples tolerated before release (default 5).
+    pub invalid_power_periods: u32,
+    /// `SAMPLE_SEQ` unchanged for this many periods ⇒ the power sensor is stale (default 3).
+    pub stale_seq_periods: u32,
+    /// Periods after arming within which the board must report `ACC_ACTIVE` (default 3).
+    pub ack_periods: u32,
+    /// Overload force limit, N (default 1600, twice the paper's Fr).
+    pub overload_force_n: f64,
+    /// Time above the overload limit before feed hold, s (default 0.3).
+    pub overload_time_s: f64,
+    /// Operator knob turned down by more than this from its highest position since arming
+    /// hands control back, percent (default 10).
+    pub operator_handback_pct: u16,
+    /// Largest plausible spindle power, W (default 30 000); above it the sample is invalid.
+    pub max_power_w: f64,
+    /// Feed assumed when the board reports `PROGRAMMED_FEED` = 0 (unknown), mm/min
+    /// (default 200, the paper's nominal feed).
+    pub nominal_feed_mm_min: f64,
+}
+
+impl Default for PolicyConfig {
+    fn default() -> Self {
+        Self {
+            period_s: 0.1,
+            min_override_pct: 0,
+            max_override_pct: 150,
+            link_hold_periods: 5,
+            invalid_power_periods: 5,
+            stale_seq_periods: 3,
+            ack_periods: 3,
+            overload_force_n: 1600.0,
+            overload_time_s: 0.3,
+            operator_handback_pct: 10,
+            max_power_w: 30_000.0,
+            nominal_feed_mm_min: 200.0,
+        }
+    }
+}
+
+/// A policy parameter outside its allowed range: `(key, value, allowed)`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("policy key `{key}` = {value} is out of range: allowed {allowed}")]
+pub struct PolicyConfigError {
+    /// Key name as in the `[policy]` table of the run config.
+    pub key: &'static str,
+    /// Offending value.
+    pub value: String,
+    /// Allowed range in words.
+    pub allowed: &'static str,
+}
+
+impl PolicyConfig {
+    /// Check every field; the error names the key and the allowed range.
+    pub fn validate(&self) -> Result<(), PolicyConfigError> {
+        fn err(
+            key: &'static str,
+            value: impl ToString,
+            allowed: &'static str,
+        ) -> PolicyConfigError {
+            PolicyConfigError {
+                key,
+                value: value.to_string(),
+                allowed,
+            }
+        }
+        let finite_pos = |x: f64| x.is_finite() && x > 0.0;
+        if !(finite_pos(self.period_s) && self.period_s <= 10.0) {
+            return Err(err("period_s", self.period_s, "0 < x <= 10"));
+        }
+        if self.max_override_pct > 150 || self.max_override_pct == 0 {
+            return Err(err("max_override_pct", self.max_override_pct, "1 ..= 150"));
+        }
+        if self.min_override_pct > self.max_override_pct {
+            return Err(err(
+                "min_override_pct",
+                self.min_override_pct,
+                "0 ..= max_override_pct",
+            ));
+        }
+        if self.link_hold_periods > 1000 {
+            return Err(err(
+                "link_hold_periods",
+                self.link_hold_periods,
+                "0 ..= 1000",
+            ));
+        }
+        if self.invalid_power_periods > 1000 {
+            return Err(err(
+                "invalid_power_periods",
+                self.invalid_power_periods,
+                "0 ..= 1000",
+            ));
+        }
+        if self.stale_seq_periods == 0 || self.stale_seq_periods > 1000 {
+            return Err(err(
+                "stale_seq_periods",
+                self.stale_seq_periods,
+                "1 ..= 1000",
+            ));
+        }
+        if self.ack_periods == 0 || self.ack_periods > 1000 {
+            return Err(err("ack_periods", self.ack_periods, "1 ..= 1000"));
+        }
+        if !finite_pos(self.overload_force_n) {
+            return Err(err("overload_force_n", self.overload_force_n, "> 0"));
+        }
+        if !(self.overload_time_s.is_finite() && self.overload_time_s >= 0.0) {
+            return Err(err("overload_time_s", self.overload_time_s, ">= 0"));
+        }
+        if self.operator_handback_pct > 150 {
+            return Err(err(
+                "operator_handback_pct",
+                self.operator_handback_pct,
+                "0 ..= 150",
+            ));
+        }
+        if !finite_pos(self.max_power_w) {
+            return Err(err("max_power_w", self.max_power_w, "> 0"));
+        }
+        if !finite_pos(self.nominal_feed_mm_min) {
+            return Err(err("nominal_feed_mm_min", self.nominal_feed_mm_min, "> 0"));
+        }
+        Ok(())
+    }
+}
+
+/// Why ACC let go of the override.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Release {
+    /// The operator switched ACC off (not latched: switching on re-arms).
+    SwitchOff,
+    /// The operator turned the override knob down by more than the hand-back amount.
+    OperatorHandback,
+    /// Link failures for more than `link_hold_periods`.
+    LinkLost,
+    /// Invalid or stale power for more than `invalid_power_periods`.
+    PowerInvalid,
+    /// The board's watchdog tripped.
+    Watchdog,
+    /// The board dropped `ACC_ACTIVE` unexplained (power cycle / reset).
+    BoardReset,
+    /// The board never confirmed `ACC_ACTIVE` after arming.
+    NoBoardAck,
+    /// Force above the overload limit for too long (feed hold requested).
+    Overload,
+    /// Program shutdown (Ctrl-C).
+    Shutdown,
+}
+
+impl Release {
+    /// Short lower-case name for logs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Release::SwitchOff => "switch_off",
+            Release::OperatorHandback => "operator_handback",
+            Release::LinkLost => "link_lost",
+            Release::PowerInvalid => "power_invalid",
+            Release::Watchdog => "watchdog",
+            Release::BoardReset => "board_reset",
+            Release::NoBoardAck => "no_board_ack",
+            Release::Overload => "overload",
+            Release::Shutdown => "shutdown",
+        }
+    }
+
+    /// Whether re-arming needs the operator's switch to be cycled off and on.
+    pub fn latches(self) -> bool {
+        !matches!(self, Release::SwitchOff | Release::Shutdown)
+    }
+}
+
+/// ACC state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AccState {
+    /// Not driving the override; arms when the operator's switch is on.
+    Idle,
+    /// Driving the override (`ACC_REQUEST` set).
+    Active,
+    /// Released after a fault or a hand-back; re-arms only after the switch cycles off → on.
+    Latched(Release),
+}
+
+impl AccState {
+    /// Short name for logs (`idle`, `active`, `latched:<reason>`).
+    pub fn name(self) -> &'static str {
+        match self {
+            AccState::Idle => "idle",
+            AccState::Active => "active",
+            AccState::Latched(r) => r.as_str(),
+        }
+    }
+}
+
+/// Alarms in force (cleared when the operator re-arms by cycling the switch).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Alarms {
+    /// Link lost for more than the hold time.
+    pub link_lost: bool,
+    /// Power invalid or stale for too long.
+    pub power_invalid: bool,
+    /// Board watchdog tripped.
+    pub watchdog: bool,
+    /// Board reset / did not confirm ACC.
+    pub board_reset: bool,
+    /// Overload: feed hold requested.
+    pub overload: bool,
+}
+
+impl Alarms {
+    /// Any alarm set.
+    pub fn any(&self) -> bool {
+        self.link_lost || self.power_invalid || self.watchdog || self.board_reset || self.overload
+    }
+
+    /// Compact bit code for the run log: bit 0 link, 1 power, 2 watchdog, 3 board reset,
+    /// 4 overload.
+    pub fn bits(&self) -> u8 {
+        u8::from(self.link_lost)
+            | u8::from(self.power_invalid) << 1
+            | u8::from(self.watchdog) << 2
+            | u8::from(self.board_reset) << 3
+            | u8::from(self.overload) << 4
+    }
+}
+
+/// Something that happened in a period (for tracing and the event log).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// ACC armed at this override (percent); `alarm_reset` written with the request.
+    Armed {
+        /// Override in force when armed, percent.
+        at_pct: u16,
+        /// `ALARM_RESET` written with the request.
+        alarm_reset: bool,
+    },
+    /// ACC released.
+    Released(Release),
+    /// A link error this period (the count of consecutive failures).
+    LinkError {
+        /// Error kind.
+        kind: PmcErrorKind,
+        /// Consecutive failures including this one.
+        consecutive: u32,
+    },
+    /// The force sample was not usable (count of consecutive invalid samples).
+    PowerInvalid {
+        /// `SAMPLE_SEQ` unchanged for too long.
+        stale: bool,
+        /// Consecutive invalid samples including this one.
+        consecutive: u32,
+    },
+    /// `OVERRIDE_LOCKED` seen: the law was frozen (`true`) or thawed (`false`).
+    Frozen(bool),
+    /// Feed-hold request set (`true`) or cleared (`false`).
+    FeedHold(bool),
+    /// The board's watchdog was seen tripped.
+    WatchdogTripped,
+}
+
+/// Up to [`Events::CAPACITY`] events of one period, without allocation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Events {
+    items: [Option<Event>; Events::CAPACITY],
+    len: usize,
+}
+
+impl Default for Events {
+    fn default() -> Self {
+        Self {
+            items: [None; Events::CAPACITY],
+            len: 0,
+        }
+    }
+}
+
+impl Events {
+    /// Most events one period can produce.
+    pub const CAPACITY: usize = 8;
+
+    fn push(&mut self, e: Event) {
+        if let Some(slot) = self.items.get_mut(self.len) {
+            *slot = Some(e);
+            self.len += 1;
+        }
+    }
+
+    /// The events in order.
+    pub fn iter(&self) -> impl Iterator<Item = &Event> {
+        self.items.iter().take(self.len).flatten()
+    }
+
+    /// Number of events.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// No events.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Whether an event equal to `e` happened.
+    pub fn contains(&self, e: &Event) -> bool {
+        self.iter().any(|x| x == e)
+    }
+}
+
+/// What the runtime hands the policy once per period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleInput {
+    /// Time of the period (start of the read), s since the run began.
+    pub t_s: f64,
+    /// Status read this period, or the link error kind.
+    pub link: Result<BoardStatus, PmcErrorKind>,
+    /// Error of the previous period's writes, if any.
+    pub write_error: Option<PmcErrorKind>,
+    /// Force sample computed from this period's status ([`ForceSample::INVALID`] when the
+    /// read failed).
+    pub force: ForceSample,
+}
+
+/// What the runtime does with the board this period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleOutput {
+    /// State after this period.
+    pub state: AccState,
+    /// Override to write with the heartbeat (`None`: leave `OVERRIDE_CMD` alone).
+    pub write_override: Option<FeedOverride>,
+    /// `CONTROL` bits wanted on the board (write when they differ from the last written).
+    pub control: ControlBits,
+    /// Alarms in force.
+    pub alarms: Alarms,
+    /// Events of this period.
+    pub events: Events,
+    /// The law's output, if it was stepped.
+    pub step: Option<StepOutput>,
+    /// What the law saw, if it was stepped.
+    pub measurement: Option<Measurement>,
+    /// Whether the force sample was used as valid this period.
+    pub force_valid: bool,
+    /// This period had a fault input (link, power, watchdog, reset, lock): the written
+    /// override, if any, is not above the previous one.
+    pub fault: bool,
+}
+
+/// The fault-policy state machine.
+#[derive(Debug, Clone)]
+pub struct FaultPolicy {
+    cfg: PolicyConfig,
+    state: AccState,
+    alarms: Alarms,
+    feed_hold: bool,
+    feed_hold_switch: bool,
+    last_cmd: Option<u16>,
+    link_failures: u32,
+    invalid_count: u32,
+    last_seq: Option<u16>,
+    seq_unchanged: u32,
+    overload_since_s: Option<f64>,
+    switch_seen_off: bool,
+    operator_ref: u16,
+    acc_confirmed: bool,
+    arm_age: u32,
+    frozen: bool,
+    alarm_reset_pulse: bool,
+    acc_request: bool,
+}
+
+impl FaultPolicy {
+    /// A policy in the idle state. Validate `cfg` first ([`PolicyConfig::validate`]).
+    pub fn new(cfg: PolicyConfig) -> Self {
+        Self {
+            cfg,
+            state: AccState::Idle,
+            alarms: Alarms::default(),
+            feed_hold: false,
+            feed_hold_switch: false,
+            last_cmd: None,
+            link_failures: 0,
+            invalid_count: 0,
+            last_seq: None,
+            seq_unchanged: 0,
+            overload_since_s: None,
+            switch_seen_off: false,
+            operator_ref: 0,
+            acc_confirmed: false,
+            arm_age: 0,
+            frozen: false,
+            alarm_reset_pulse: false,
+            acc_request: false,
+        }
+    }
+
+    /// Current state.
+    pub fn state(&self) -> AccState {
+        self.state
+    }
+
+    /// Alarms in force.
+    pub fn alarms(&self) -> Alarms {
+        self.alarms
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PolicyConfig {
+        &self.cfg
+    }
+
+    /// Last override written while active, percent.
+    pub fn last_command(&self) -> Option<u16> {
+        self.last_cmd
+    }
+
+    /// The `CONTROL` bits for an orderly shutdown: ACC request and feed hold cleared, the
+    /// override left to the operator. Moves the policy to idle.
+    pub fn shutdown(&mut self) -> ControlBits {
+        self.state = AccState::Idle;
+        self.acc_request = false;
+        self.feed_hold = false;
+        ControlBits::default()
+    }
+
+    fn control(&self) -> ControlBits {
+        ControlBits {
+            acc_request: self.acc_request,
+            feed_hold_request: self.feed_hold,
+            alarm_reset: self.alarm_reset_pulse,
+        }
+    }
+
+    fn release(
+        &mut self,
+        why: Release,
+        out: &mut CycleOutput,
+        law: &mut (impl OverrideLaw + ?Sized),
+    ) {
+        out.events.push(Event::Released(why));
+        tracing::info!(reason = why.as_str(), "ACC released to the operator");
+        self.acc_request = false;
+        self.acc_confirmed = false;
+        if self.frozen {
+            law.set_frozen(false);
+            self.frozen = false;
+        }
+        self.state = if why.latches() {
+            self.switch_seen_off = false;
+            AccState::Latched(why)
+        } else {
+            AccState::Idle
+        };
+        match why {
+            Release::LinkLost => self.alarms.link_lost = true,
+            Release::PowerInvalid => self.alarms.power_invalid = true,
+            Release::Watchdog => self.alarms.watchdog = true,
+            Release::BoardReset | Release::NoBoardAck => self.alarms.board_reset = true,
+            Release::Overload => self.alarms.overload = true,
+            Release::SwitchOff | Release::OperatorHandback | Release::Shutdown => {}
+        }
+    }
+
+    /// Floor to the board step and clamp to the configured range.
+    fn quantize(&self, pct: u16, step: u16) -> u16 {
+        let step = if step == 0 { 10 } else { step };
+        let hi = self.cfg.max_override_pct.min(150);
+        let hi = hi - hi % step;
+        let lo = self.cfg.min_override_pct.div_ceil(step) * step;
+        let v = pct.min(hi);
+        (v - v % step).max(lo).min(hi)
+    }
+
+    /// Advance one period. `law` is the controller (stepped only while active and unlocked).
+    pub fn step<L: OverrideLaw + ?Sized>(
+        &mut self,
+        input: &CycleInput,
+        law: &mut L,
+    ) -> CycleOutput {
+        self.alarm_reset_pulse = false;
+        let mut out = CycleOutput {
+            state: self.state,
+            write_override: None,
+            control: self.control(),
+            alarms: self.alarms,
+            events: Events::default(),
+            step: None,
+            measurement: None,
+            force_valid: false,
+            fault: false,
+        };
+
+        // 1. Link health: read errors (except Stale) and last period's write errors.
+        let read_fault = match input.link {
+            Err(PmcErrorKind::Stale) | Ok(_) => None,
+            Err(k) => Some(k),
+        };
+        let link_fault = read_fault.or(input.write_error);
+        if let Some(kind) = link_fault {
+            self.link_failures = self.link_failures.saturating_add(1);
+            out.events.push(Event::LinkError {
+                kind,
+                consecutive: self.link_failures,
+            });
+            out.fault = true;
+        } else {
+            self.link_failures = 0;
+        }
+        let status = input.link.ok();
+
+        // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
+        let mut stale = matches!(input.link, Err(PmcErrorKind::Stale));
+        if let Some(s) = status {
+            if self.last_seq == Some(s.sample_seq) {
+                self.seq_unchanged = self.seq_unchanged.saturating_add(1);
+            } else {
+                self.seq_unchanged = 0;
+            }
+            self.last_seq = Some(s.sample_seq);
+            stale |= self.seq_unchanged >= self.cfg.stale_seq_periods;
+        }
+        let f = input.force;
+        let power_ok = f
+            .power_w
+            .is_none_or(|p| p.is_finite() && p >= 0.0 && p <= self.cfg.max_power_w);
+        let force_valid = status.is_some()
+            && !stale
+            && f.valid
+            && f.force_n.is_finite()
+            && f.force_n >= 0.0
+            && power_ok;
+        out.force_valid = force_valid;
+        if status.is_some() || stale {
+            if force_valid {
+                self.invalid_count = 0;
+            } else {
+                self.invalid_count = self.invalid_count.saturating_add(1);
+                out.events.push(Event::PowerInvalid {
+                    stale,
+                    consecutive: self.invalid_count,
+                });
+                out.fault = true;
+            }
+        }
+
+        // 3. Board-level observations that apply in every state.
+        if let Some(s) = status {
+            if !s.acc_switch {
+                self.switch_seen_off = true;
+            }
+            if self.feed_hold && s.acc_switch != self.feed_hold_switch {
+                self.feed_hold = false;
+                out.events.push(Event::FeedHold(false));
+            }
+            if s.watchdog_tripped || s.override_locked {
+                out.fault = true;
+            }
+            // Overload (tool-breakage protection), in any state.
+            if force_valid && f.force_n > self.cfg.overload_force_n {
+                let since = *self.overload_since_s.get_or_insert(input.t_s);
+                if input.t_s - since + 1e-9 >= self.cfg.overload_time_s && !self.feed_hold {
+                    self.feed_hold = true;
+                    self.feed_hold_switch = s.acc_switch;
+                    out.events.push(Event::FeedHold(true));
+                    tracing::warn!(force_n = f.force_n, "overload: feed hold requested");
+                    out.fault = true;
+                    if self.state == AccState::Active {
+                        self.release(Release::Overload, &mut out, law);
+                    } else {
+                        self.alarms.overload = true;
+                        self.state = AccState::Latched(Release::Overload);
+                        self.switch_seen_off = !s.acc_switch;
+                    }
+                }
+            } else {
+                self.overload_since_s = None;
+            }
+        }
+
+        // 4. State transitions.
+        match (self.state, status) {
+            (AccState::Active, None) => {
+                // No status this period: hold, or release after the budget.
+                let over_link = self.link_failures > self.cfg.link_hold_periods;
+                let over_power = self.invalid_count > self.cfg.invalid_power_periods;
+                if over_link {
+                    self.release(Release::LinkLost, &mut out, law);
+                } else if over_power {
+                    self.release(Release::PowerInvalid, &mut out, law);
+                } else {
+                    out.write_override = self.last_cmd.map(FeedOverride);
+                }
+            }
+            (AccState::Active, Some(s)) => self.active_step(s, force_valid, input, &mut out, law),
+            (AccState::Idle, Some(s)) => {
+                if s.watchdog_tripped {
+                    out.events.push(Event::WatchdogTripped);
+                    self.alarms.watchdog = true;
+                    self.state = AccState::Latched(Release::Watchdog);
+                    self.switch_seen_off = !s.acc_switch;
+                } else if s.acc_switch && link_fault.is_none() {
+                    self.arm(s, &mut out, law);
+                }
+            }
+            (AccState::Latched(_), Some(s)) => {
+                if self.switch_seen_off && s.acc_switch && link_fault.is_none() && !self.feed_hold {
+                    self.arm(s, &mut out, law);
+                }
+            }
+            (AccState::Idle | AccState::Latched(_), None) => {}
+        }
+
+        out.state = self.state;
+        out.control = self.control();
+        out.alarms = self.alarms;
+        out
+    }
+
+    fn arm<L: OverrideLaw + ?Sized>(&mut self, s: BoardStatus, out: &mut CycleOutput, law: &mut L) {
+        let at = self.quantize(s.override_applied_pct, s.override_step_pct);
+        law.engage(FeedOverride(at));
+        self.alarm_reset_pulse = s.watchdog_tripped;
+        self.alarms = Alarms::default();
+        self.acc_request = true;
+        self.acc_confirmed = false;
+        self.arm_age = 0;
+        self.operator_ref = s.operator_override_pct;
+        self.last_cmd = Some(at);
+        self.state = AccState::Active;
+        out.write_override = Some(FeedOverride(at));
+        out.events.push(Event::Armed {
+            at_pct: at,
+            alarm_reset: s.watchdog_tripped,
+        });
+        tracing::info!(at_pct = at, "ACC armed");
+    }
+
+    fn active_step<L: OverrideLaw + ?Sized>(
+        &mut self,
+        s: BoardStatus,
+        force_valid: bool,
+        input: &CycleInput,
+        out: &mut CycleOutput,
+        law: &mut L,
+    ) {
+        // Operator priority first.
+        if !s.acc_switch {
+            return self.release(Release::SwitchOff, out, law);
+        }
+        self.operator_ref = self.operator_ref.max(s.operator_override_pct);
+        if u32::from(s.operator_override_pct) + u32::from(self.cfg.operator_handback_pct)
+            < u32::from(self.operator_ref)
+        {
+            return self.release(Release::OperatorHandback, out, law);
+        }
+        // Board-side faults.
+        if s.watchdog_tripped {
+            out.events.push(Event::WatchdogTripped);
+            return self.release(Release::Watchdog, out, law);
+        }
+        if s.override_locked {
+            if !self.frozen {
+                law.set_frozen(true);
+                self.frozen = true;
+                out.events.push(Event::Frozen(true));
+            }
+            out.write_override = self.last_cmd.map(FeedOverride);
+            return;
+        }
+        if self.frozen {
+            law.set_frozen(false);
+            self.frozen = false;
+            out.events.push(Event::Frozen(false));
+        }
+        if s.acc_active {
+            self.acc_confirmed = true;
+        } else if self.acc_confirmed {
+            out.fault = true;
+            return self.release(Release::BoardReset, out, law);
+        } else {
+            self.arm_age = self.arm_age.saturating_add(1);
+            if self.arm_age > self.cfg.ack_periods {
+                out.fault = true;
+                return self.release(Release::NoBoardAck, out, law);
+            }
+        }
+        // Link failures (e.g. a write error with a good read) and power budget.
+        if self.link_failures > self.cfg.link_hold_periods {
+            return self.release(Release::LinkLost, out, law);
+        }
+        if self.invalid_count > self.cfg.invalid_power_periods {
+            return self.release(Release::PowerInvalid, out, law);
+        }
+        let last = self
+            .last_cmd
+            .unwrap_or_else(|| self.quantize(s.override_applied_pct, s.override_step_pct));
+        if self.link_failures > 0 {
+            out.write_override = Some(FeedOverride(last));
+            return;
+        }
+        // The control step.
+        let programmed = if s.programmed_feed_mm_min > 0 {
+            f64::from(s.programmed_feed_mm_min)
+        } else {
+            self.cfg.nominal_feed_mm_min
+        };
+        let m = Measurement {
+            force_n: if force_valid {
+                input.force.force_n
+            } else {
+                0.0
+            },
+            feed_mm_min: programmed * f64::from(s.override_applied_pct) / 100.0,
+            programmed_feed_mm_min: programmed,
+            valid: force_valid,
+        };
+        let step = law.step(&m);
+        let mut cmd = self.quantize(step.command.0, s.override_step_pct);
+        if !force_valid {
+            cmd = cmd.min(last);
+        }
+        self.last_cmd = Some(cmd);
+        out.write_override = Some(FeedOverride(cmd));
+        out.step = Some(step);
+        out.measurement = Some(m);
+    }
+}
