@@ -6,6 +6,10 @@
 #![deny(missing_docs)]
 
 pub mod board;
+pub mod fault;
+pub mod loopback;
+pub mod rtu;
+pub mod serial;
 
 /// Status read from the board once per cycle (input registers 0…8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

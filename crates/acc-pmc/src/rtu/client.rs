@@ -1,0 +1,403 @@
+//! The Modbus RTU client link to the board: [`RtuBoard`].
+
+use std::io::{Read, Write};
+use std::time::Duration;
+
+use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
+use super::{is_idle, LinkClock, MonotonicClock};
+use crate::board::{holding, input};
+use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+
+/// Link parameters of [`RtuBoard`] (validated from the `[board]` config by
+/// [`crate::serial::RtuConfig::validate`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RtuLinkConfig {
+    /// Modbus slave address, 1…247. Default 1.
+    pub slave: u8,
+    /// Time allowed for one complete reply after the request is sent. Default 40 ms.
+    pub timeout: Duration,
+    /// Extra attempts after a timeout, CRC or protocol error (never after an exception or
+    /// an I/O error). Default 1.
+    pub retries: u8,
+    /// Total time one call (all attempts) may take; a retry is started only if a full
+    /// `timeout` still fits. Keep it below the control period T. Default 90 ms.
+    pub budget: Duration,
+    /// Reads in a row with an unchanged `SAMPLE_SEQ` after which `read_status` reports
+    /// [`RtuError::Stale`]; 0 disables the check. Default 3.
+    pub stale_after_reads: u16,
+}
+
+impl Default for RtuLinkConfig {
+    fn default() -> Self {
+        Self {
+            slave: 1,
+            timeout: Duration::from_millis(40),
+            retries: 1,
+            budget: Duration::from_millis(90),
+            stale_after_reads: 3,
+        }
+    }
+}
+
+/// Errors of the RTU link, layered: the board refused (exception) ≠ line noise (CRC) ≠ no
+/// answer (timeout) ≠ a wrong answer (protocol) ≠ the port is gone (I/O) ≠ a frozen sensor.
+#[derive(Debug, thiserror::Error)]
+pub enum RtuError {
+    /// The board answered with a Modbus exception.
+    #[error("slave {slave}: {source}")]
+    Exception {
+        /// Slave address.
+        slave: u8,
+        /// The exception ([`FrameError::Exception`]).
+        source: FrameError,
+    },
+    /// The reply's CRC was wrong (on the last attempt).
+    #[error("slave {slave}: {source}")]
+    Crc {
+        /// Slave address.
+        slave: u8,
+        /// The CRC error ([`FrameError::Crc`]).
+        source: FrameError,
+    },
+    /// No complete reply within the timeout (on the last attempt).
+    #[error("slave {slave}: no complete reply within {timeout_ms} ms ({received} bytes received) after {attempts} attempt(s)")]
+    Timeout {
+        /// Slave address.
+        slave: u8,
+        /// The per-attempt timeout, ms.
+        timeout_ms: u64,
+        /// Bytes of the reply received before the deadline.
+        received: usize,
+        /// Attempts made.
+        attempts: u8,
+    },
+    /// A reply that breaks the protocol (on the last attempt).
+    #[error("slave {slave}: protocol violation: {source}")]
+    Protocol {
+        /// Slave address.
+        slave: u8,
+        /// What was wrong.
+        source: ProtocolError,
+    },
+    /// The byte stream failed (port unplugged, pty closed).
+    #[error("serial I/O failed: {0}")]
+    Io(#[source] std::io::Error),
+    /// `SAMPLE_SEQ` did not change for `unchanged_reads` reads: the power value is stale.
+    /// The status block read this cycle is attached (everything but the power is current).
+    #[error("SAMPLE_SEQ stuck at {} for {unchanged_reads} reads: spindle power is stale", status.sample_seq)]
+    Stale {
+        /// Reads in a row with the same `SAMPLE_SEQ`.
+        unchanged_reads: u32,
+        /// The status read this cycle.
+        status: BoardStatus,
+    },
+    /// A request that cannot be encoded (caller error).
+    #[error(transparent)]
+    Build(#[from] super::codec::BuildError),
+}
+
+impl RtuError {
+    /// The [`PmcErrorKind`] the runtime acts on.
+    pub fn kind(&self) -> PmcErrorKind {
+        match self {
+            RtuError::Exception {
+                source: FrameError::Exception { code, .. },
+                ..
+            } => PmcErrorKind::Exception(*code),
+            RtuError::Exception { .. } | RtuError::Protocol { .. } | RtuError::Build(_) => {
+                PmcErrorKind::Protocol
+            }
+            RtuError::Crc { .. } => PmcErrorKind::Crc,
+            RtuError::Timeout { .. } => PmcErrorKind::Timeout,
+            RtuError::Io(_) => PmcErrorKind::Disconnected,
+            RtuError::Stale { .. } => PmcErrorKind::Stale,
+        }
+    }
+
+    fn retryable(&self) -> bool {
+        matches!(
+            self,
+            RtuError::Crc { .. } | RtuError::Timeout { .. } | RtuError::Protocol { .. }
+        )
+    }
+}
+
+/// Counters of the link since it was created (for logs and the run summary).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LinkStats {
+    /// Transactions started (calls, not attempts).
+    pub transactions: u64,
+    /// Attempts beyond the first.
+    pub retries: u64,
+    /// Attempts that timed out.
+    pub timeouts: u64,
+    /// Replies with a bad CRC.
+    pub crc_errors: u64,
+    /// Replies that broke the protocol.
+    pub protocol_errors: u64,
+    /// Exception replies.
+    pub exceptions: u64,
+    /// Bytes thrown away while resynchronising after an error (late or garbled replies).
+    pub bytes_discarded: u64,
+}
+
+/// The board over Modbus RTU on any byte stream `T` (a serial port, a pty, a test double).
+///
+/// One controller cycle is [`Pmc::read_status`] (FC04, registers 0…8) then
+/// [`Pmc::write_override`] (FC16, registers 0…1). After any failed attempt the link drains
+/// the input until the line is silent, so a late reply is never taken for the next one.
+pub struct RtuBoard<T: Read + Write> {
+    port: T,
+    cfg: RtuLinkConfig,
+    clock: Box<dyn LinkClock>,
+    stats: LinkStats,
+    resync: bool,
+    last_seq: Option<u16>,
+    unchanged_reads: u32,
+}
+
+impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RtuBoard")
+            .field("cfg", &self.cfg)
+            .field("stats", &self.stats)
+            .finish()
+    }
+}
+
+impl<T: Read + Write> RtuBoard<T> {
+    /// A link on `port` with the system monotonic clock.
+    pub fn new(port: T, cfg: RtuLinkConfig) -> Self {
+        Self::with_clock(port, cfg, Box::new(MonotonicClock::default()))
+    }
+
+    /// A link with an injected clock (deadlines are measured on it).
+    pub fn with_clock(port: T, cfg: RtuLinkConfig, clock: Box<dyn LinkClock>) -> Self {
+        Self {
+            port,
+            cfg,
+            clock,
+            stats: LinkStats::default(),
+            resync: false,
+            last_seq: None,
+            unchanged_reads: 0,
+        }
+    }
+
+    /// The link parameters.
+    pub fn config(&self) -> &RtuLinkConfig {
+        &self.cfg
+    }
+
+    /// Counters since creation.
+    pub fn stats(&self) -> LinkStats {
+        self.stats
+    }
+
+    /// The byte stream (e.g. to change a test double's behaviour).
+    pub fn get_mut(&mut self) -> &mut T {
+        &mut self.port
+    }
+
+    /// Give the byte stream back.
+    pub fn into_inner(self) -> T {
+        self.port
+    }
+
+    /// Forget the `SAMPLE_SEQ` history (after a board restart or a long pause).
+    pub fn reset_staleness(&mut self) {
+        self.last_seq = None;
+        self.unchanged_reads = 0;
+    }
+
+    /// FC03: read holding registers 0…3 (`OVERRIDE_CMD`, `HEARTBEAT`, `CONTROL`,
+    /// `WATCHDOG_MS`) — e.g. to see whether the board restarted (all back to defaults).
+    pub fn read_holding(&mut self) -> Result<[u16; holding::COUNT as usize], RtuError> {
+        let tx = Transaction::read_holding_registers(self.cfg.slave, 0, holding::COUNT)?;
+        let regs = self.registers(&tx)?;
+        let mut out = [0u16; holding::COUNT as usize];
+        out.copy_from_slice(&regs);
+        Ok(out)
+    }
+
+    /// FC06: set `WATCHDOG_MS` (100…5000 ms; the board answers exception 03 otherwise).
+    pub fn write_watchdog_ms(&mut self, watchdog_ms: u16) -> Result<(), RtuError> {
+        let tx =
+            Transaction::write_single_register(self.cfg.slave, holding::WATCHDOG_MS, watchdog_ms)?;
+        self.transact(&tx).map(|_| ())
+    }
+
+    /// FC04: read input registers 0…8 without the staleness check.
+    pub fn read_status_raw(&mut self) -> Result<BoardStatus, RtuError> {
+        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
+        let regs = self.registers(&tx)?;
+        let mut block = [0u16; input::COUNT as usize];
+        block.copy_from_slice(&regs);
+        Ok(BoardStatus::from_input_registers(&block))
+    }
+
+    fn registers(&mut self, tx: &Transaction) -> Result<Vec<u16>, RtuError> {
+        match self.transact(tx)? {
+            Decoded::Registers(r) => Ok(r),
+            Decoded::WriteAck => Err(RtuError::Protocol {
+                slave: self.cfg.slave,
+                source: ProtocolError::Truncated { len: 0 },
+            }),
+        }
+    }
+
+    /// Run one transaction with retries inside the budget.
+    fn transact(&mut self, tx: &Transaction) -> Result<Decoded, RtuError> {
+        self.stats.transactions += 1;
+        let start = self.clock.now();
+        let mut attempts: u8 = 0;
+        loop {
+            attempts = attempts.saturating_add(1);
+            if self.resync {
+                self.drain(start + self.cfg.budget)?;
+            }
+            let result = self.attempt(tx, attempts);
+            let err = match result {
+                Ok(d) => return Ok(d),
+                Err(e) => e,
+            };
+            match &err {
+                RtuError::Timeout { .. } => self.stats.timeouts += 1,
+                RtuError::Crc { .. } => self.stats.crc_errors += 1,
+                RtuError::Protocol { .. } => self.stats.protocol_errors += 1,
+                RtuError::Exception { .. } => self.stats.exceptions += 1,
+                _ => {}
+            }
+            if err.retryable() {
+                self.resync = true;
+            }
+            let elapsed = self.clock.now().saturating_sub(start);
+            let fits = elapsed + self.cfg.timeout <= self.cfg.budget;
+            if err.retryable() && attempts <= self.cfg.retries && fits {
+                self.stats.retries += 1;
+                continue;
+            }
+            return Err(err);
+        }
+    }
+
+    /// Send the request and read exactly one reply frame.
+    fn attempt(&mut self, tx: &Transaction, attempts: u8) -> Result<Decoded, RtuError> {
+        let slave = self.cfg.slave;
+        self.port
+            .write_all(tx.request_bytes())
+            .map_err(RtuError::Io)?;
+        self.port.flush().map_err(RtuError::Io)?;
+        let deadline = self.clock.now() + self.cfg.timeout;
+        let mut buf = [0u8; 256];
+        let mut have = 0usize;
+        // 3 bytes tell the length of any reply (rmodbus guess_response_frame_len).
+        let mut need = 3usize;
+        loop {
+            if have == need {
+                let n = match tx.reply_len(&buf[..have]) {
+                    Ok(Some(n)) => n,
+                    Ok(None) => have + 1,
+                    Err(source) => return Err(RtuError::Protocol { slave, source }),
+                };
+                if n <= have {
+                    break;
+                }
+                need = n.min(buf.len());
+            }
+            if self.clock.now() >= deadline {
+                return Err(RtuError::Timeout {
+                    slave,
+                    timeout_ms: self.cfg.timeout.as_millis() as u64,
+                    received: have,
+                    attempts,
+                });
+            }
+            match self.port.read(&mut buf[have..need]) {
+                Ok(0) => {
+                    return Err(RtuError::Io(std::io::Error::new(
+                        std::io::ErrorKind::UnexpectedEof,
+                        "serial stream closed",
+                    )))
+                }
+                Ok(n) => have += n,
+                Err(e) if is_idle(&e) => {}
+                Err(e) => return Err(RtuError::Io(e)),
+            }
+        }
+        tx.decode(&buf[..have]).map_err(|e| match e {
+            FrameError::Crc { .. } => RtuError::Crc { slave, source: e },
+            FrameError::Exception { .. } => RtuError::Exception { slave, source: e },
+            FrameError::Protocol(source) => RtuError::Protocol { slave, source },
+        })
+    }
+
+    /// Throw away input until one read finds the line silent (or `until` passes).
+    fn drain(&mut self, until: Duration) -> Result<(), RtuError> {
+        let mut scratch = [0u8; 64];
+        loop {
+            match self.port.read(&mut scratch) {
+                Ok(0) => break,
+                Ok(n) => self.stats.bytes_discarded += n as u64,
+                Err(e) if is_idle(&e) => break,
+                Err(e) => return Err(RtuError::Io(e)),
+            }
+            if self.clock.now() >= until {
+                break;
+            }
+        }
+        self.resync = false;
+        Ok(())
+    }
+
+    fn check_staleness(&mut self, status: BoardStatus) -> Result<BoardStatus, RtuError> {
+        if self.last_seq == Some(status.sample_seq) {
+            self.unchanged_reads = self.unchanged_reads.saturating_add(1);
+        } else {
+            self.unchanged_reads = 0;
+        }
+        self.last_seq = Some(status.sample_seq);
+        let limit = u32::from(self.cfg.stale_after_reads);
+        if limit > 0 && self.unchanged_reads >= limit {
+            return Err(RtuError::Stale {
+                unchanged_reads: self.unchanged_reads,
+                status,
+            });
+        }
+        Ok(status)
+    }
+}
+
+impl<T: Read + Write> Pmc for RtuBoard<T> {
+    type Error = RtuError;
+
+    fn kind(err: &RtuError) -> PmcErrorKind {
+        err.kind()
+    }
+
+    /// FC04 registers 0…8, then the `SAMPLE_SEQ` staleness check.
+    fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
+        let status = self.read_status_raw()?;
+        self.check_staleness(status)
+    }
+
+    /// FC16 registers 0…1 (`OVERRIDE_CMD`, `HEARTBEAT`).
+    fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), RtuError> {
+        let tx = Transaction::write_multiple_registers(
+            self.cfg.slave,
+            holding::OVERRIDE_CMD,
+            &[override_pct, heartbeat],
+        )?;
+        self.transact(&tx).map(|_| ())
+    }
+
+    /// FC06 register 2 (`CONTROL`).
+    fn write_control(&mut self, control: ControlBits) -> Result<(), RtuError> {
+        let tx = Transaction::write_single_register(
+            self.cfg.slave,
+            holding::CONTROL,
+            control.to_register(),
+        )?;
+        self.transact(&tx).map(|_| ())
+    }
+}

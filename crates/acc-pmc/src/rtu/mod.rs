@@ -1,0 +1,52 @@
+//! Modbus RTU: the board's link over a serial line.
+//!
+//! * [`codec`]: pure frames (built and checked with `rmodbus`), layered reply errors.
+//! * [`RtuBoard`]: the client link, generic over any `Read + Write` byte stream; implements
+//!   [`crate::Pmc`].
+//! * [`RtuServer`]: serves a [`crate::board::BoardLogic`] over any `Read + Write` (the
+//!   `acc board-sim` emulator and the tests).
+//!
+//! Streams must return from `read` within a short time when no byte arrives
+//! (`ErrorKind::TimedOut` or `WouldBlock`): a [`serialport::TTYPort`] opened by
+//! [`crate::serial::open_port`] or configured with [`crate::serial::POLL_SLICE`] does.
+
+pub mod client;
+pub mod codec;
+pub mod server;
+
+pub use client::{LinkStats, RtuBoard, RtuError, RtuLinkConfig};
+pub use server::{RtuServer, ServerStats, SharedBoard};
+
+use std::time::{Duration, Instant};
+
+/// A monotonic time source for link deadlines, handed to each link (not global).
+pub trait LinkClock: Send {
+    /// Time since an arbitrary fixed origin.
+    fn now(&self) -> Duration;
+}
+
+/// The system's monotonic clock (`std::time::Instant`), origin at construction.
+#[derive(Debug, Clone, Copy)]
+pub struct MonotonicClock(Instant);
+
+impl Default for MonotonicClock {
+    fn default() -> Self {
+        Self(Instant::now())
+    }
+}
+
+impl LinkClock for MonotonicClock {
+    fn now(&self) -> Duration {
+        self.0.elapsed()
+    }
+}
+
+/// Whether an I/O error only means "no byte yet" (the stream's read timeout).
+pub(crate) fn is_idle(err: &std::io::Error) -> bool {
+    matches!(
+        err.kind(),
+        std::io::ErrorKind::TimedOut
+            | std::io::ErrorKind::WouldBlock
+            | std::io::ErrorKind::Interrupted
+    )
+}
