@@ -1,0 +1,321 @@
+//! Error metrics and the evaluations on real data used by `acc estimate-eval` and the
+//! tests.
+//!
+//! * [`rms_error`], [`error_rate_pct`] (seed 000's "error rate": RMS error over the mean
+//!   true force), [`mape_pct`];
+//! * [`TurningModel`] and [`cross_tool`]: calibrate on one tool of the turning data set,
+//!   validate on the others;
+//! * [`wax_check`]: the estimator on the wax-milling logs, where a correct estimator
+//!   reports no cutting load above its noise floor.
+
+use std::collections::BTreeMap;
+
+use crate::calibrate::{least_squares, Constants};
+use crate::datasets::{MillRow, TurningRow};
+use crate::estimate::{EstimatorConfig, Invalid, Method, NoLoadMode, SpindleEstimator};
+use crate::noload::{AdaptRule, NoLoadModel};
+use crate::SpindleError;
+
+/// RMS of `est − truth`.
+pub fn rms_error(est: &[f64], truth: &[f64]) -> f64 {
+    let n = est.len().min(truth.len());
+    if n == 0 {
+        return f64::NAN;
+    }
+    let s: f64 = est.iter().zip(truth).map(|(e, t)| (e - t).powi(2)).sum();
+    (s / n as f64).sqrt()
+}
+
+/// Error rate, %: RMS error divided by the mean true value (seed 000 §3.3 reports both).
+pub fn error_rate_pct(est: &[f64], truth: &[f64]) -> f64 {
+    let n = truth.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    let mean = truth.iter().sum::<f64>() / n as f64;
+    100.0 * rms_error(est, truth) / mean
+}
+
+/// Mean absolute percentage error, %.
+pub fn mape_pct(est: &[f64], truth: &[f64]) -> f64 {
+    let n = est.len().min(truth.len());
+    if n == 0 {
+        return f64::NAN;
+    }
+    let s: f64 = est
+        .iter()
+        .zip(truth)
+        .map(|(e, t)| ((e - t) / t).abs())
+        .sum();
+    100.0 * s / n as f64
+}
+
+/// Force-from-power models for the turning data. Turning has no tool radius: `ω·r` of
+/// seed 000 eq. 14 becomes `k·n` (the workpiece radius is lumped into `k`); `n` is the
+/// encoder speed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum TurningModel {
+    /// `P = k·F·n` → `F = P/(k·n)` (eq. 14, no no-load term).
+    Plain,
+    /// `P = k·F·n + c·n²`: a speed-dependent no-load term.
+    SpeedNoLoad,
+    /// `P = k·F·n + q·(F·n)²`: load-dependent efficiency.
+    Efficiency,
+    /// `F = a·P/n + b·I_z`: spindle power plus the feed drive's current (the static form
+    /// of seed 004's spindle + feed-drive combination: the feed current carries the feed
+    /// force, which grows with flank wear).
+    FeedCurrent,
+}
+
+impl TurningModel {
+    /// All models, table order.
+    pub const ALL: [TurningModel; 4] = [
+        TurningModel::Plain,
+        TurningModel::SpeedNoLoad,
+        TurningModel::Efficiency,
+        TurningModel::FeedCurrent,
+    ];
+
+    /// Label for tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            TurningModel::Plain => "power P/(k·n)",
+            TurningModel::SpeedNoLoad => "power − c·n² (no-load)",
+            TurningModel::Efficiency => "power, efficiency q·(Fn)²",
+            TurningModel::FeedCurrent => "power + feed-drive current",
+        }
+    }
+
+    /// Fit on `rows`; returns the parameters for [`TurningModel::predict`].
+    pub fn fit(self, rows: &[TurningRow]) -> Result<[f64; 2], SpindleError> {
+        let n = |r: &TurningRow| r.speed * 1e-7;
+        match self {
+            TurningModel::Plain => {
+                let m: Vec<_> = rows
+                    .iter()
+                    .map(|r| ([r.force_n * n(r)], r.power_w))
+                    .collect();
+                least_squares(&m, "turning plain").map(|[k]| [k, 0.0])
+            }
+            TurningModel::SpeedNoLoad => {
+                let m: Vec<_> = rows
+                    .iter()
+                    .map(|r| ([r.force_n * n(r), n(r) * n(r)], r.power_w))
+                    .collect();
+                least_squares(&m, "turning no-load")
+            }
+            TurningModel::Efficiency => {
+                let m: Vec<_> = rows
+                    .iter()
+                    .map(|r| {
+                        let fnn = r.force_n * n(r);
+                        ([fnn, fnn * fnn], r.power_w)
+                    })
+                    .collect();
+                least_squares(&m, "turning efficiency")
+            }
+            TurningModel::FeedCurrent => {
+                let m: Vec<_> = rows
+                    .iter()
+                    .map(|r| ([r.power_w / n(r), r.feed_current_a], r.force_n))
+                    .collect();
+                least_squares(&m, "turning feed current")
+            }
+        }
+    }
+
+    /// Predict the cutting force of one row, N.
+    pub fn predict(self, p: [f64; 2], r: &TurningRow) -> f64 {
+        let n = r.speed * 1e-7;
+        match self {
+            TurningModel::Plain => r.power_w / (p[0] * n),
+            TurningModel::SpeedNoLoad => (r.power_w - p[1] * n * n) / (p[0] * n),
+            TurningModel::Efficiency => {
+                // Root of q·x² + k·x − P = 0 that is 0 at P = 0, x = F·n.
+                let disc = (p[0] * p[0] + 4.0 * p[1] * r.power_w).max(0.0);
+                2.0 * r.power_w / (p[0] + disc.sqrt()) / n
+            }
+            TurningModel::FeedCurrent => p[0] * r.power_w / n + p[1] * r.feed_current_a,
+        }
+    }
+}
+
+/// One calibration tool's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrossToolResult {
+    /// Tool used for calibration.
+    pub calibration_tool: u32,
+    /// MAPE on each other tool, %.
+    pub per_tool_mape_pct: Vec<(u32, f64)>,
+    /// Mean of `per_tool_mape_pct`, %.
+    pub mean_mape_pct: f64,
+}
+
+/// Calibrate `model` on each tool in turn and validate on the others.
+pub fn cross_tool(
+    rows: &[TurningRow],
+    model: TurningModel,
+) -> Result<Vec<CrossToolResult>, SpindleError> {
+    let mut by_tool: BTreeMap<u32, Vec<TurningRow>> = BTreeMap::new();
+    for r in rows {
+        by_tool.entry(r.tool).or_default().push(*r);
+    }
+    let mut out = Vec::new();
+    for (&cal, cal_rows) in &by_tool {
+        let p = model.fit(cal_rows)?;
+        let mut per = Vec::new();
+        for (&val, val_rows) in &by_tool {
+            if val == cal {
+                continue;
+            }
+            let est: Vec<f64> = val_rows.iter().map(|r| model.predict(p, r)).collect();
+            let truth: Vec<f64> = val_rows.iter().map(|r| r.force_n).collect();
+            per.push((val, mape_pct(&est, &truth)));
+        }
+        let mean = per.iter().map(|x| x.1).sum::<f64>() / per.len().max(1) as f64;
+        out.push(CrossToolResult {
+            calibration_tool: cal,
+            per_tool_mape_pct: per,
+            mean_mape_pct: mean,
+        });
+    }
+    Ok(out)
+}
+
+/// Minimum, median and maximum of a list.
+pub fn min_median_max(v: &[f64]) -> (f64, f64, f64) {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if s.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    s.sort_by(f64::total_cmp);
+    let m = s.len();
+    let med = if m % 2 == 1 {
+        s[m / 2]
+    } else {
+        0.5 * (s[m / 2 - 1] + s[m / 2])
+    };
+    (s[0], med, s[m - 1])
+}
+
+/// Assumptions used to turn the wax log into estimator input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WaxSetup {
+    /// rpm per unit of `S1_ActualVelocity` (the unit is undocumented; 60 assumes rev/s).
+    pub rpm_per_unit: f64,
+    /// Tool radius, mm (the tool is undocumented; 3.175 assumes a ¼" end mill). Only the
+    /// force scale depends on it, not whether a load is above the noise floor.
+    pub tool_radius_mm: f64,
+    /// Lowest `S1_ActualVelocity` of a running spindle.
+    pub min_velocity: f64,
+}
+
+impl Default for WaxSetup {
+    fn default() -> Self {
+        Self {
+            rpm_per_unit: 60.0,
+            tool_radius_mm: 3.175,
+            min_velocity: 50.0,
+        }
+    }
+}
+
+/// Result of [`wax_check`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct WaxResult {
+    /// Air periods used to learn the no-load model.
+    pub air_periods: usize,
+    /// Learned no-load power, W, and its period-to-period σ, W.
+    pub no_load_power_w: f64,
+    /// σ of the air-cut power, W.
+    pub sigma_power_w: f64,
+    /// Cutting periods with a valid estimate.
+    pub valid_cut_periods: usize,
+    /// Cutting periods flagged invalid, by reason.
+    pub invalid: BTreeMap<&'static str, usize>,
+    /// Valid cutting periods whose force is above the noise floor.
+    pub above_floor: usize,
+    /// Noise floor, N.
+    pub noise_floor_n: f64,
+    /// Mean estimated force over the valid cutting periods, N.
+    pub mean_force_n: f64,
+    /// Mean cutting power `P − P_air` over the valid cutting periods, W.
+    pub mean_cut_power_w: f64,
+}
+
+/// The power estimator on the wax logs: learn the no-load model from the rows where the
+/// spindle runs steadily outside the cutting layers, then estimate every cutting row.
+pub fn wax_check(experiments: &[Vec<MillRow>], setup: WaxSetup) -> Result<WaxResult, SpindleError> {
+    let mut nl = NoLoadModel::new(AdaptRule {
+        speed_tolerance: 0.02,
+        ..AdaptRule::default()
+    });
+    let steady =
+        |r: &MillRow| r.spindle_velocity > setup.min_velocity && r.spindle_accel.abs() < 0.5;
+    let mut air = 0;
+    for exp in experiments {
+        for r in exp.iter().filter(|r| !r.is_cutting() && steady(r)) {
+            nl.learn(
+                r.spindle_velocity * setup.rpm_per_unit,
+                r.spindle_power_w,
+                0.0,
+            )?;
+            air += 1;
+        }
+    }
+    let cfg = EstimatorConfig {
+        method: Method::Power,
+        tool_radius_mm: setup.tool_radius_mm,
+        no_load: NoLoadMode::Fixed,
+        ..Default::default()
+    };
+    let (mut valid, mut above, mut sum_f, mut sum_p, mut floor) = (0, 0, 0.0, 0.0, 0.0);
+    let mut invalid: BTreeMap<&'static str, usize> = BTreeMap::new();
+    for exp in experiments {
+        let mut est = SpindleEstimator::new(cfg, Constants::default(), nl.clone())?;
+        for r in exp {
+            let rpm = r.spindle_velocity * setup.rpm_per_unit;
+            let e = est.estimate(rpm, Some(r.spindle_power_w), None);
+            if !r.is_cutting() {
+                continue;
+            }
+            match e {
+                Ok(e) => {
+                    valid += 1;
+                    above += usize::from(e.above_floor);
+                    sum_f += e.force_n;
+                    sum_p += r.spindle_power_w - e.no_load_power_w;
+                    floor = e.noise_floor_n;
+                }
+                Err(i) => *invalid.entry(Invalid::as_str(i)).or_default() += 1,
+            }
+        }
+    }
+    let nl_pt = nl.points().next();
+    Ok(WaxResult {
+        air_periods: air,
+        no_load_power_w: nl_pt.map_or(f64::NAN, |p| p.power_w),
+        sigma_power_w: nl_pt.map_or(f64::NAN, |p| p.sigma_power_w),
+        valid_cut_periods: valid,
+        invalid,
+        above_floor: above,
+        noise_floor_n: floor,
+        mean_force_n: sum_f / valid.max(1) as f64,
+        mean_cut_power_w: sum_p / valid.max(1) as f64,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metrics() {
+        let t = [100.0, 200.0];
+        let e = [110.0, 180.0];
+        assert!((rms_error(&e, &t) - (250.0f64).sqrt()).abs() < 1e-12);
+        assert!((error_rate_pct(&e, &t) - 100.0 * (250.0f64).sqrt() / 150.0).abs() < 1e-12);
+        assert!((mape_pct(&e, &t) - 10.0).abs() < 1e-12);
+        assert_eq!(min_median_max(&[3.0, 1.0, 2.0, 10.0]), (1.0, 2.5, 10.0));
+    }
+}

@@ -1,0 +1,770 @@
+//! Induction spindle motor: what a DAQ on the spindle cables samples.
+//!
+//! The spindle drive holds the commanded speed (speed loop, slip compensation): the
+//! electrical frequency is `f_e = p·n/60 / (1 − s)` with `p` pole pairs and slip `s`. Per
+//! phase, the steady-state equivalent circuit (seed 000 §2.2, Fig. 3; the textbook
+//! T-circuit):
+//!
+//! ```text
+//!   V ──R_s──jX_s──┬──────────┬──────────┐
+//!                  │          │          │
+//!                R_fe       jX_m     R_r/s + jX_r
+//!                  │          │          │
+//!   N ─────────────┴──────────┴──────────┘        E = air-gap EMF
+//! ```
+//!
+//! * The drive holds the flux: `E ∝ f_e` up to base speed, `E` constant above it (field
+//!   weakening). Reactances scale with `f_e`; `R_fe` with `f_e^(2−k)` so the iron loss
+//!   `3E²/R_fe` grows as `f_e^k` (`iron_loss_exponent`, default 1.5).
+//! * Air-gap power `P_ag = 3·|I_r|²·R_r/s`, electromagnetic torque
+//!   `T_em = P_ag / ω_sync` with `ω_sync = 2π·f_e/p`; the slip is solved so that `T_em` equals
+//!   the load: cutting torque plus friction and windage (`T_f = T_0 + B·n + windage`). In
+//!   the stable region torque ∝ slip (seed 000 eq. 7).
+//! * Losses: stator copper `3|I_s|²R_s` (∝ I²), iron `3E²/R_fe`, rotor copper `s·P_ag`,
+//!   friction and windage. So the power factor, slip and efficiency change with load as on
+//!   a real motor (seed 000 Figs. 2, 4): at light load the no-load losses dominate and the
+//!   efficiency is low.
+//!
+//! The load torque reaches the motor through a first-order lag `torque_lag_s` (speed loop
+//! and rotor inertia, seed 004: spindle signals have ≈ 5 Hz bandwidth), plus a white
+//! drive-side torque disturbance `torque_noise_nm` (not part of the cutting truth). The sampled
+//! signals are the phase currents `i_U`, `i_V` and the line voltages `v_UW`, `v_VW` (as in
+//! seed 000's test bed), with 5th/7th harmonics, seeded Gaussian noise (ChaCha8) and ADC
+//! quantisation. Deterministic for a seed.
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use acc_config::{check_range, ConfigError};
+use acc_core::PhaseBlock;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+/// `[rated]` table: nameplate data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rated {
+    /// Rated (maximum) output power, W.
+    pub power_w: f64,
+    /// Rated (maximum) torque, N·m.
+    pub torque_nm: f64,
+    /// Pole pairs `p`.
+    pub pole_pairs: u32,
+    /// Base speed: full flux up to here, field weakening above, rpm.
+    pub base_speed_rpm: f64,
+    /// Highest allowed speed, rpm.
+    pub max_speed_rpm: f64,
+    /// Line-to-line air-gap EMF `√3·E` held at base speed, V.
+    pub emf_line_v: f64,
+}
+
+/// `[circuit]` table: per-phase equivalent circuit at the base frequency.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Circuit {
+    /// Stator resistance `R_s`, Ω.
+    pub r_s_ohm: f64,
+    /// Stator leakage reactance `X_s` at base frequency, Ω.
+    pub x_s_ohm: f64,
+    /// Rotor resistance referred to the stator `R_r`, Ω.
+    pub r_r_ohm: f64,
+    /// Rotor leakage reactance `X_r` at base frequency, Ω.
+    pub x_r_ohm: f64,
+    /// Magnetising reactance `X_m` at base frequency, Ω.
+    pub x_m_ohm: f64,
+    /// Iron-loss resistance `R_fe` at base frequency, Ω.
+    pub r_fe_ohm: f64,
+    /// Iron loss ∝ `f_e^k` at constant flux, `k`. Default 1.5.
+    #[serde(default = "default_iron_exp")]
+    pub iron_loss_exponent: f64,
+}
+
+fn default_iron_exp() -> f64 {
+    1.5
+}
+
+/// `[friction]` table: bearing friction and windage, as a load torque.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Friction {
+    /// Constant (Coulomb) friction torque, N·m.
+    pub coulomb_nm: f64,
+    /// Viscous friction torque per 1000 rpm, N·m.
+    pub viscous_nm_per_krpm: f64,
+    /// Windage power at base speed, W (∝ n³).
+    pub windage_w_at_base: f64,
+}
+
+/// `[drive]` table.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Drive {
+    /// Time constant of the load torque reaching the motor current, s. Default 0.03
+    /// (≈ 5 Hz, seed 004).
+    pub torque_lag_s: f64,
+    /// Load-torque disturbance of the drive (speed-loop ripple, bearing noise): σ of a
+    /// white sequence, one value per torque slice, N·m. Default 0.1.
+    pub torque_noise_nm: f64,
+}
+
+impl Default for Drive {
+    fn default() -> Self {
+        Self {
+            torque_lag_s: 0.03,
+            torque_noise_nm: 0.1,
+        }
+    }
+}
+
+/// `[sensors]` table: the DAQ.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Sensors {
+    /// Sampling rate, Hz. Default 10 000.
+    pub sample_rate_hz: f64,
+    /// Gaussian noise on each current channel (σ), A. Default 0.05.
+    pub current_noise_a: f64,
+    /// Gaussian noise on each voltage channel (σ), V. Default 0.2.
+    pub voltage_noise_v: f64,
+    /// ADC resolution, bits (1…32). Default 24 (NI-9247 / NI-9225 of seed 000).
+    pub adc_bits: u32,
+    /// Current input range ±, A. Default 200.
+    pub current_range_a: f64,
+    /// Voltage input range ±, V. Default 600.
+    pub voltage_range_v: f64,
+    /// 5th-harmonic voltage amplitude relative to the fundamental, −. Default 0.02.
+    pub voltage_h5: f64,
+    /// 7th-harmonic voltage amplitude relative to the fundamental, −. Default 0.01.
+    pub voltage_h7: f64,
+    /// 5th-harmonic current amplitude relative to the fundamental, −. Default 0.03.
+    pub current_h5: f64,
+    /// 7th-harmonic current amplitude relative to the fundamental, −. Default 0.015.
+    pub current_h7: f64,
+}
+
+impl Default for Sensors {
+    fn default() -> Self {
+        Self {
+            sample_rate_hz: 10_000.0,
+            current_noise_a: 0.05,
+            voltage_noise_v: 0.2,
+            adc_bits: 24,
+            current_range_a: 200.0,
+            voltage_range_v: 600.0,
+            voltage_h5: 0.02,
+            voltage_h7: 0.01,
+            current_h5: 0.03,
+            current_h7: 0.015,
+        }
+    }
+}
+
+/// A spindle motor file (`configs/motors/*.toml`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorConfig {
+    /// Short name.
+    pub name: String,
+    /// What it models and where the numbers come from.
+    #[serde(default)]
+    pub description: String,
+    /// Nameplate.
+    pub rated: Rated,
+    /// Equivalent circuit.
+    pub circuit: Circuit,
+    /// Friction and windage.
+    pub friction: Friction,
+    /// Drive dynamics.
+    #[serde(default)]
+    pub drive: Drive,
+    /// DAQ.
+    #[serde(default)]
+    pub sensors: Sensors,
+}
+
+impl MotorConfig {
+    /// Read and validate a motor file; errors name the file, the key and the range.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ConfigError> {
+        let path = path.as_ref();
+        let cfg: Self = acc_config::load_toml(path)?;
+        cfg.validate(path)?;
+        Ok(cfg)
+    }
+
+    /// Range checks of every value.
+    pub fn validate(&self, file: &Path) -> Result<(), ConfigError> {
+        let r = &self.rated;
+        check_range(file, "rated.power_w", r.power_w, 10.0, 1e6)?;
+        check_range(file, "rated.torque_nm", r.torque_nm, 0.01, 1e5)?;
+        check_range(file, "rated.pole_pairs", f64::from(r.pole_pairs), 1.0, 12.0)?;
+        check_range(file, "rated.base_speed_rpm", r.base_speed_rpm, 10.0, 1e5)?;
+        check_range(
+            file,
+            "rated.max_speed_rpm",
+            r.max_speed_rpm,
+            r.base_speed_rpm,
+            2e5,
+        )?;
+        check_range(file, "rated.emf_line_v", r.emf_line_v, 1.0, 2e4)?;
+        let c = &self.circuit;
+        for (key, v) in [
+            ("circuit.r_s_ohm", c.r_s_ohm),
+            ("circuit.x_s_ohm", c.x_s_ohm),
+            ("circuit.r_r_ohm", c.r_r_ohm),
+            ("circuit.x_r_ohm", c.x_r_ohm),
+            ("circuit.x_m_ohm", c.x_m_ohm),
+            ("circuit.r_fe_ohm", c.r_fe_ohm),
+        ] {
+            check_range(file, key, v, 1e-6, 1e6)?;
+        }
+        check_range(
+            file,
+            "circuit.iron_loss_exponent",
+            c.iron_loss_exponent,
+            1.0,
+            2.0,
+        )?;
+        let f = &self.friction;
+        check_range(file, "friction.coulomb_nm", f.coulomb_nm, 0.0, 1e4)?;
+        check_range(
+            file,
+            "friction.viscous_nm_per_krpm",
+            f.viscous_nm_per_krpm,
+            0.0,
+            1e4,
+        )?;
+        check_range(
+            file,
+            "friction.windage_w_at_base",
+            f.windage_w_at_base,
+            0.0,
+            1e6,
+        )?;
+        check_range(
+            file,
+            "drive.torque_lag_s",
+            self.drive.torque_lag_s,
+            0.0,
+            10.0,
+        )?;
+        check_range(
+            file,
+            "drive.torque_noise_nm",
+            self.drive.torque_noise_nm,
+            0.0,
+            1e4,
+        )?;
+        let s = &self.sensors;
+        check_range(file, "sensors.sample_rate_hz", s.sample_rate_hz, 100.0, 1e7)?;
+        check_range(file, "sensors.current_noise_a", s.current_noise_a, 0.0, 1e3)?;
+        check_range(file, "sensors.voltage_noise_v", s.voltage_noise_v, 0.0, 1e4)?;
+        check_range(file, "sensors.adc_bits", f64::from(s.adc_bits), 1.0, 32.0)?;
+        check_range(
+            file,
+            "sensors.current_range_a",
+            s.current_range_a,
+            1e-3,
+            1e5,
+        )?;
+        check_range(
+            file,
+            "sensors.voltage_range_v",
+            s.voltage_range_v,
+            1e-3,
+            1e5,
+        )?;
+        for (key, v) in [
+            ("sensors.voltage_h5", s.voltage_h5),
+            ("sensors.voltage_h7", s.voltage_h7),
+            ("sensors.current_h5", s.current_h5),
+            ("sensors.current_h7", s.current_h7),
+        ] {
+            check_range(file, key, v, 0.0, 0.5)?;
+        }
+        Ok(())
+    }
+}
+
+/// Minimal complex number for the phasor algebra of one operating point (four operations;
+/// kept local so the simulator's dependency list stays as its owner set it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Cx {
+    re: f64,
+    im: f64,
+}
+
+impl Cx {
+    const fn new(re: f64, im: f64) -> Self {
+        Self { re, im }
+    }
+    fn add(self, o: Cx) -> Cx {
+        Cx::new(self.re + o.re, self.im + o.im)
+    }
+    fn mul(self, o: Cx) -> Cx {
+        Cx::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
+    }
+    fn div(self, o: Cx) -> Cx {
+        let d = o.re * o.re + o.im * o.im;
+        Cx::new(
+            (self.re * o.re + self.im * o.im) / d,
+            (self.im * o.re - self.re * o.im) / d,
+        )
+    }
+    fn scale(self, k: f64) -> Cx {
+        Cx::new(self.re * k, self.im * k)
+    }
+    fn norm(self) -> f64 {
+        self.re.hypot(self.im)
+    }
+    fn arg(self) -> f64 {
+        self.im.atan2(self.re)
+    }
+}
+
+/// Steady state of the motor at one speed and load.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OperatingPoint {
+    /// Spindle speed, rpm.
+    pub rpm: f64,
+    /// Cutting torque, N·m.
+    pub cut_torque_nm: f64,
+    /// Friction and windage torque, N·m.
+    pub friction_torque_nm: f64,
+    /// Slip `s = (N_s − N)/N_s` (seed 000 eq. 2).
+    pub slip: f64,
+    /// Electrical frequency `f_e`, Hz.
+    pub freq_hz: f64,
+    /// RMS line voltage at the terminals, V.
+    pub line_voltage_v: f64,
+    /// RMS phase current, A.
+    pub current_a: f64,
+    /// Power factor (seed 000 eq. 1).
+    pub power_factor: f64,
+    /// Input power, W.
+    pub input_w: f64,
+    /// Stator copper loss, W.
+    pub stator_copper_w: f64,
+    /// Iron loss, W.
+    pub iron_w: f64,
+    /// Rotor copper loss, W.
+    pub rotor_copper_w: f64,
+    /// Friction and windage loss, W.
+    pub friction_w: f64,
+    /// Cutting power `T_c·ω`, W.
+    pub cut_w: f64,
+    /// Shaft efficiency `T_em·ω / P_in`, −.
+    pub efficiency: f64,
+    /// `true` if the load exceeds the torque the motor can give at this speed.
+    pub overloaded: bool,
+    /// Angle of the terminal phase voltage relative to the EMF, rad.
+    voltage_angle: f64,
+    /// Angle of the phase current relative to the EMF, rad.
+    current_angle: f64,
+}
+
+/// The motor's physics (no signals): operating points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Motor {
+    cfg: MotorConfig,
+}
+
+impl Motor {
+    /// From a validated configuration.
+    pub fn new(cfg: MotorConfig) -> Self {
+        Self { cfg }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MotorConfig {
+        &self.cfg
+    }
+
+    /// Friction and windage torque at `rpm`, N·m.
+    pub fn friction_torque_nm(&self, rpm: f64) -> f64 {
+        let f = &self.cfg.friction;
+        let n = rpm.abs();
+        let wb = 2.0 * PI * self.cfg.rated.base_speed_rpm / 60.0;
+        let windage = f.windage_w_at_base / wb * (n / self.cfg.rated.base_speed_rpm).powi(2);
+        f.coulomb_nm + f.viscous_nm_per_krpm * n / 1000.0 + windage
+    }
+
+    /// Circuit values at electrical frequency `f` Hz: `(E_phase, X_s, X_r, X_m, R_fe)`.
+    fn circuit_at(&self, f: f64) -> (f64, f64, f64, f64, f64) {
+        let r = &self.cfg.rated;
+        let c = &self.cfg.circuit;
+        let fb = f64::from(r.pole_pairs) * r.base_speed_rpm / 60.0;
+        let k = f / fb;
+        let e = r.emf_line_v / 3f64.sqrt() * k.min(1.0);
+        (
+            e,
+            c.x_s_ohm * k,
+            c.x_r_ohm * k,
+            c.x_m_ohm * k,
+            c.r_fe_ohm * k.powf(2.0 - c.iron_loss_exponent),
+        )
+    }
+
+    fn freq(&self, rpm: f64, slip: f64) -> f64 {
+        (f64::from(self.cfg.rated.pole_pairs) * rpm / 60.0 / (1.0 - slip)).max(0.5)
+    }
+
+    /// Electromagnetic torque at slip `s`, N·m: `3E²·s·R_r / ((R_r² + s²X_r²)·ω_sync)`.
+    fn torque_at(&self, rpm: f64, s: f64) -> f64 {
+        let f = self.freq(rpm, s);
+        let (e, _, xr, _, _) = self.circuit_at(f);
+        let rr = self.cfg.circuit.r_r_ohm;
+        let w_sync = 2.0 * PI * f / f64::from(self.cfg.rated.pole_pairs);
+        3.0 * e * e * s * rr / ((rr * rr + s * s * xr * xr) * w_sync)
+    }
+
+    /// Steady state at `rpm` (≥ 0) with cutting torque `cut_torque_nm`.
+    pub fn operating_point(&self, rpm: f64, cut_torque_nm: f64) -> OperatingPoint {
+        let rpm = if rpm.is_finite() { rpm.abs() } else { 0.0 };
+        let cut = if cut_torque_nm.is_finite() {
+            cut_torque_nm
+        } else {
+            0.0
+        };
+        let t_f = self.friction_torque_nm(rpm);
+        let load = cut + t_f;
+        // Slip at breakdown ≈ R_r / X_r: search the stable region on both sides of 0.
+        let (_, _, xr_b, _, _) = self.circuit_at(self.freq(rpm, 0.0));
+        let s_bd = 0.9 * self.cfg.circuit.r_r_ohm / xr_b.max(1e-9);
+        let s_bd = s_bd.min(0.5);
+        let (mut lo, mut hi) = (-s_bd, s_bd);
+        let overloaded = load > self.torque_at(rpm, hi) || load < self.torque_at(rpm, lo);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if self.torque_at(rpm, mid) < load {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let s = 0.5 * (lo + hi);
+        let f = self.freq(rpm, s);
+        let (e, xs, xr, xm, rfe) = self.circuit_at(f);
+        let c = &self.cfg.circuit;
+        let emf = Cx::new(e, 0.0);
+        // Rotor branch admittance s/(R_r + j·s·X_r): no singularity at s = 0.
+        let i_r = emf.scale(s).div(Cx::new(c.r_r_ohm, s * xr));
+        let i_0 = Cx::new(e / rfe, -e / xm);
+        let i_s = i_0.add(i_r);
+        let v = emf.add(i_s.mul(Cx::new(c.r_s_ohm, xs)));
+        let i_mag = i_s.norm();
+        let input_w = 3.0 * (v.re * i_s.re + v.im * i_s.im);
+        let p_ag = 3.0 * e * e * s * c.r_r_ohm / (c.r_r_ohm.powi(2) + (s * xr).powi(2));
+        let omega = 2.0 * PI * rpm / 60.0;
+        let w_sync = 2.0 * PI * f / f64::from(self.cfg.rated.pole_pairs);
+        let t_em = p_ag / w_sync;
+        let apparent = 3.0 * v.norm() * i_mag;
+        OperatingPoint {
+            rpm,
+            cut_torque_nm: cut,
+            friction_torque_nm: t_f,
+            slip: s,
+            freq_hz: f,
+            line_voltage_v: 3f64.sqrt() * v.norm(),
+            current_a: i_mag,
+            power_factor: if apparent > 0.0 {
+                input_w / apparent
+            } else {
+                0.0
+            },
+            input_w,
+            stator_copper_w: 3.0 * i_mag * i_mag * c.r_s_ohm,
+            iron_w: 3.0 * e * e / rfe,
+            rotor_copper_w: s * p_ag,
+            friction_w: t_f * omega,
+            cut_w: cut * omega,
+            efficiency: if input_w > 0.0 {
+                t_em * omega / input_w
+            } else {
+                0.0
+            },
+            overloaded,
+            voltage_angle: v.arg(),
+            current_angle: i_s.arg(),
+        }
+    }
+}
+
+/// Means over one simulated period (the truth a test compares against).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PeriodTruth {
+    /// Mean cutting torque at the motor (after the drive lag), N·m.
+    pub cut_torque_nm: f64,
+    /// Mean input power (noise-free), W.
+    pub input_w: f64,
+    /// Mean cutting power, W.
+    pub cut_w: f64,
+    /// RMS phase current (noise-free fundamental), A.
+    pub current_a: f64,
+    /// Mean slip, −.
+    pub slip: f64,
+    /// Last operating point of the period.
+    pub last: OperatingPoint,
+}
+
+/// One period of sampled signals.
+#[derive(Debug, Clone, Default)]
+pub struct MotorBlock {
+    /// Sampling rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Phase current U, A.
+    pub i_u: Vec<f64>,
+    /// Phase current V, A.
+    pub i_v: Vec<f64>,
+    /// Line voltage U–W, V.
+    pub v_uw: Vec<f64>,
+    /// Line voltage V–W, V.
+    pub v_vw: Vec<f64>,
+    /// Noise-free means of the period.
+    pub truth: PeriodTruth,
+}
+
+impl MotorBlock {
+    /// The block as the force sources take it.
+    pub fn phase_block(&self) -> PhaseBlock<'_> {
+        PhaseBlock {
+            sample_rate_hz: self.sample_rate_hz,
+            i_u: &self.i_u,
+            i_v: &self.i_v,
+            v_uw: &self.v_uw,
+            v_vw: &self.v_vw,
+        }
+    }
+}
+
+/// The sampled motor: physics + drive lag + DAQ, seeded.
+#[derive(Debug, Clone)]
+pub struct MotorSim {
+    motor: Motor,
+    rng: ChaCha8Rng,
+    theta: f64,
+    lagged_torque_nm: f64,
+    block: MotorBlock,
+}
+
+/// Quantise to the ADC grid and clip to the range.
+fn adc(x: f64, range: f64, lsb: f64) -> f64 {
+    ((x.clamp(-range, range) / lsb).round() * lsb).clamp(-range, range)
+}
+
+impl MotorSim {
+    /// A motor at rest in phase, idle, with RNG `seed`.
+    pub fn new(cfg: MotorConfig, seed: u64) -> Self {
+        Self {
+            motor: Motor::new(cfg),
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            theta: 0.0,
+            lagged_torque_nm: 0.0,
+            block: MotorBlock::default(),
+        }
+    }
+
+    /// The motor physics.
+    pub fn motor(&self) -> &Motor {
+        &self.motor
+    }
+
+    /// Simulate one period of `period_s` at `rpm`. `torque_nm` holds the cutting torque over
+    /// the period in equal time slices (one value = constant over the period; the
+    /// simulator passes its internal samples). Returns the sampled block.
+    pub fn run_period(&mut self, rpm: f64, torque_nm: &[f64], period_s: f64) -> &MotorBlock {
+        let s = self.motor.cfg.sensors;
+        let fs = s.sample_rate_hz;
+        let n = (period_s * fs).round().max(0.0) as usize;
+        let b = &mut self.block;
+        b.sample_rate_hz = fs;
+        for ch in [&mut b.i_u, &mut b.i_v, &mut b.v_uw, &mut b.v_vw] {
+            ch.clear();
+            ch.reserve(n);
+        }
+        let slices = torque_nm.len().clamp(1, n.max(1));
+        let lag = self.motor.cfg.drive.torque_lag_s;
+        let mut truth = PeriodTruth::default();
+        let full = 2f64.powi(s.adc_bits as i32 - 1);
+        let (lsb_i, lsb_v) = (s.current_range_a / full, s.voltage_range_v / full);
+        let (c3, s3) = ((2.0 * PI / 3.0).cos(), (2.0 * PI / 3.0).sin());
+        // Harmonic k of a phase shifted by −2π/3: angle shift k·2π/3.
+        let rot = |k: f64| ((k * 2.0 * PI / 3.0).cos(), (k * 2.0 * PI / 3.0).sin());
+        let (r5, r7) = (rot(5.0), rot(7.0));
+        let mut current_sq = 0.0;
+        for j in 0..slices {
+            let start = j * n / slices;
+            let end = (j + 1) * n / slices;
+            let t_cut = torque_nm.get(j).copied().unwrap_or(0.0);
+            let dt = (end - start) as f64 / fs;
+            self.lagged_torque_nm = if lag > 0.0 {
+                t_cut + (self.lagged_torque_nm - t_cut) * (-dt / lag).exp()
+            } else {
+                t_cut
+            };
+            let disturbance = if self.motor.cfg.drive.torque_noise_nm > 0.0 {
+                let z: f64 = StandardNormal.sample(&mut self.rng);
+                self.motor.cfg.drive.torque_noise_nm * z
+            } else {
+                0.0
+            };
+            let mut op = self
+                .motor
+                .operating_point(rpm, self.lagged_torque_nm + disturbance);
+            // The disturbance is drive-side: the cutting truth is the lagged cutting torque.
+            op.cut_torque_nm = self.lagged_torque_nm;
+            op.cut_w = self.lagged_torque_nm * 2.0 * PI * op.rpm / 60.0;
+            let w = (end - start) as f64 / n.max(1) as f64;
+            truth.cut_torque_nm += w * op.cut_torque_nm;
+            truth.input_w += w * op.input_w;
+            truth.cut_w += w * op.cut_w;
+            truth.slip += w * op.slip;
+            current_sq += w * op.current_a * op.current_a;
+            truth.last = op;
+            let av = 2f64.sqrt() * op.line_voltage_v / 3f64.sqrt();
+            let ai = 2f64.sqrt() * op.current_a;
+            let dtheta = 2.0 * PI * op.freq_hz / fs;
+            let (sva, cva) = op.voltage_angle.sin_cos();
+            let (sia, cia) = op.current_angle.sin_cos();
+            for _ in start..end {
+                self.theta = (self.theta + dtheta) % (2.0 * PI);
+                let (sn, cs) = self.theta.sin_cos();
+                // Voltage phase U angle θ+α_v; V, W lag/lead by 2π/3.
+                let (cv, sv) = (cs * cva - sn * sva, sn * cva + cs * sva);
+                let (ci, si) = (cs * cia - sn * sia, sn * cia + cs * sia);
+                let v_u = cv;
+                let v_v = cv * c3 + sv * s3;
+                let v_w = cv * c3 - sv * s3;
+                let mut vu = av * v_u;
+                let mut vv = av * v_v;
+                let mut vw = av * v_w;
+                let mut iu = ai * ci;
+                let mut iv = ai * (ci * c3 + si * s3);
+                for (k, hv, hi, (ck, sk)) in [
+                    (5.0, s.voltage_h5, s.current_h5, r5),
+                    (7.0, s.voltage_h7, s.current_h7, r7),
+                ] {
+                    if hv == 0.0 && hi == 0.0 {
+                        continue;
+                    }
+                    let x = k * (self.theta + op.voltage_angle);
+                    let (sx, cx) = x.sin_cos();
+                    // Phase V: cos(x − k·2π/3); W: cos(x + k·2π/3).
+                    vu += hv * av * cx;
+                    vv += hv * av * (cx * ck + sx * sk);
+                    vw += hv * av * (cx * ck - sx * sk);
+                    // Current harmonic lags its voltage by π/2 (inductive): cos(y) = sin(x).
+                    iu += hi * ai * sx;
+                    iv += hi * ai * (sx * ck - cx * sk);
+                }
+                let mut noise = |sigma: f64| -> f64 {
+                    if sigma > 0.0 {
+                        let z: f64 = StandardNormal.sample(&mut self.rng);
+                        sigma * z
+                    } else {
+                        0.0
+                    }
+                };
+                let ni = s.current_noise_a;
+                let nv = s.voltage_noise_v;
+                let iu_n = iu + noise(ni);
+                let iv_n = iv + noise(ni);
+                let vuw_n = vu - vw + noise(nv);
+                let vvw_n = vv - vw + noise(nv);
+                b.i_u.push(adc(iu_n, s.current_range_a, lsb_i));
+                b.i_v.push(adc(iv_n, s.current_range_a, lsb_i));
+                b.v_uw.push(adc(vuw_n, s.voltage_range_v, lsb_v));
+                b.v_vw.push(adc(vvw_n, s.voltage_range_v, lsb_v));
+            }
+        }
+        truth.current_a = current_sq.sqrt();
+        b.truth = truth;
+        &self.block
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seed000() -> MotorConfig {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../configs/motors/seed000-dnm4500.toml"
+        );
+        MotorConfig::load(path).unwrap()
+    }
+
+    #[test]
+    fn power_balance_and_load_dependence() {
+        let m = Motor::new(seed000());
+        let mut prev: Option<OperatingPoint> = None;
+        for t in [0.0, 5.0, 20.0, 60.0, 118.0] {
+            let op = m.operating_point(1500.0, t);
+            let losses =
+                op.stator_copper_w + op.iron_w + op.rotor_copper_w + op.friction_w + op.cut_w;
+            assert!(
+                (op.input_w - losses).abs() < 1e-6 * op.input_w,
+                "{t}: {op:?}"
+            );
+            assert!(!op.overloaded);
+            if let Some(p) = prev {
+                assert!(op.slip > p.slip && op.current_a > p.current_a);
+                assert!(op.power_factor > p.power_factor, "PF rises with load");
+            }
+            prev = Some(op);
+        }
+        // Efficiency low at light load (iron loss dominates), high near rated.
+        let light = m.operating_point(1500.0, 2.0).efficiency;
+        let rated = m.operating_point(1500.0, 100.0).efficiency;
+        assert!(light < 0.6 && rated > 0.85, "{light} {rated}");
+        // Torque ∝ slip in the stable region: doubling the load doubles the slip ± 10 %.
+        let s1 = m.operating_point(1500.0, 30.0).slip;
+        let s2 = m.operating_point(1500.0, 60.0).slip;
+        assert!((s2 / s1 - 2.0).abs() < 0.2, "{s1} {s2}");
+    }
+
+    #[test]
+    fn sampled_power_matches_the_operating_point() {
+        let mut sim = MotorSim::new(seed000(), 1);
+        sim.run_period(1500.0, &[40.0], 1.0);
+        let b = sim.run_period(1500.0, &[40.0], 0.1);
+        assert_eq!(b.i_u.len(), 1000);
+        let p: f64 = (0..1000)
+            .map(|k| b.i_u[k] * b.v_uw[k] + b.i_v[k] * b.v_vw[k])
+            .sum::<f64>()
+            / 1000.0;
+        let t = b.truth;
+        assert!(
+            (p - t.input_w).abs() < 0.01 * t.input_w,
+            "{p} vs {}",
+            t.input_w
+        );
+        let again = MotorSim::new(seed000(), 1)
+            .run_period(1500.0, &[40.0], 1.0)
+            .i_u[5];
+        let mut s2 = MotorSim::new(seed000(), 1);
+        assert_eq!(s2.run_period(1500.0, &[40.0], 1.0).i_u[5], again);
+    }
+
+    #[test]
+    fn bad_motor_file_names_the_key() {
+        let dir = std::env::temp_dir().join(format!("acc-motor-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("m.toml");
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../configs/motors/seed000-dnm4500.toml"
+        ))
+        .unwrap()
+        .replace("r_r_ohm = ", "r_r_ohm = -");
+        std::fs::write(&path, text).unwrap();
+        let e = MotorConfig::load(&path).unwrap_err().to_string();
+        assert!(e.contains("circuit.r_r_ohm") && e.contains("m.toml"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
