@@ -15,6 +15,10 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+pub mod preset;
+
+pub use preset::{load_controller, load_preset, parse_preset, resolve_preset, Preset, PresetFile};
+
 /// A configuration error: which file, which key, what is wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ConfigError {
