@@ -1,0 +1,442 @@
+//! Candidate effects: named, bounded, physically parameterized changes to the nominal
+//! model. Each is `None` (switched off) in a nominal model; its null parameter values also
+//! switch it off. They are kept apart from the nominal physics so that each can move into
+//! the simulator (`sim/`) unchanged: an effect is a pure function of the replay state.
+
+use std::path::Path;
+
+use acc_config::{check_range, ConfigError};
+use serde::{Deserialize, Serialize};
+
+/// The effect library.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffectKind {
+    /// Tool wear: `Ks` grows linearly with removed volume (physics.md §1, case I).
+    ToolWear,
+    /// Load-dependent motor efficiency: copper loss ∝ load² (physics.md §2, I² losses).
+    MotorEfficiency,
+    /// Feed-drive first-order lag τ (physics.md eq. (5)).
+    FeedDriveLag,
+    /// First-order low-pass in the measurement channel.
+    SensorLowpass,
+    /// Dead time in the override path (PMC scan + board).
+    OverrideDeadTime,
+    /// Feed exponent β ≠ nominal (physics.md eq. (1), (3)).
+    FeedExponent,
+    /// Once-per-revolution force ripple (runout), seen only when sampling resolves it.
+    Runout,
+    /// Thermal drift of the no-load power: first-order rise after start.
+    NoloadDrift,
+}
+
+/// Description of one effect parameter.
+#[derive(Debug, Clone, Copy)]
+pub struct ParamInfo {
+    /// Key in the `[effects.<name>]` section.
+    pub key: &'static str,
+    /// Unit (text).
+    pub unit: &'static str,
+    /// Lower bound used in fitting.
+    pub lo: f64,
+    /// Upper bound used in fitting.
+    pub hi: f64,
+    /// Value that switches the effect off.
+    pub null: f64,
+    /// Typical scale (finite-difference steps, starting points).
+    pub scale: f64,
+    /// Grid searched before local refinement (delays and time constants), if any.
+    pub grid: Option<&'static [f64]>,
+    /// `false` for a setting the fit does not change (e.g. a reference feed).
+    pub fitted: bool,
+}
+
+const TAU_GRID: &[f64] = &[
+    0.0, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0, 1.3, 1.6, 2.0,
+];
+const DELAY_GRID: &[f64] = &[
+    0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.25, 1.5,
+];
+const PHASE_GRID: &[f64] = &[0.0, 0.785, 1.571, 2.356, 3.142, 3.927, 4.712, 5.498];
+const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
+
+const fn p(
+    key: &'static str,
+    unit: &'static str,
+    lo: f64,
+    hi: f64,
+    scale: f64,
+    grid: Option<&'static [f64]>,
+) -> ParamInfo {
+    ParamInfo {
+        key,
+        unit,
+        lo,
+        hi,
+        null: 0.0,
+        scale,
+        grid,
+        fitted: true,
+    }
+}
+
+const P_TOOL_WEAR: [ParamInfo; 1] = [p("ks_growth_per_cm3", "1/cm³", -0.5, 10.0, 0.002, None)];
+const P_MOTOR: [ParamInfo; 1] = [p("copper_loss_per_kw", "1/kW", -0.5, 5.0, 0.02, None)];
+const P_LAG: [ParamInfo; 1] = [p("extra_tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
+const P_LOWPASS: [ParamInfo; 1] = [p("tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
+const P_DEAD: [ParamInfo; 1] = [p("extra_delay_s", "s", 0.0, 3.0, 0.05, Some(DELAY_GRID))];
+const P_BETA: [ParamInfo; 2] = [
+    p("delta_beta", "1", -0.7, 0.5, 0.02, None),
+    ParamInfo {
+        fitted: false,
+        ..p("feed_ref_mm_min", "mm/min", 1e-3, 1e6, 1.0, None)
+    },
+];
+const P_RUNOUT: [ParamInfo; 2] = [
+    p("amplitude", "1", 0.0, 0.5, 0.01, None),
+    p("phase_rad", "rad", -10.0, 10.0, 0.1, Some(PHASE_GRID)),
+];
+const P_DRIFT: [ParamInfo; 2] = [
+    p("delta_w", "W", -2000.0, 2000.0, 5.0, None),
+    p("tau_s", "s", 5.0, 1e4, 10.0, Some(THERMAL_GRID)),
+];
+
+impl EffectKind {
+    /// All effects, in report order.
+    pub const ALL: [EffectKind; 8] = [
+        EffectKind::ToolWear,
+        EffectKind::MotorEfficiency,
+        EffectKind::FeedDriveLag,
+        EffectKind::SensorLowpass,
+        EffectKind::OverrideDeadTime,
+        EffectKind::FeedExponent,
+        EffectKind::Runout,
+        EffectKind::NoloadDrift,
+    ];
+
+    /// Name used in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::ToolWear => "tool_wear",
+            EffectKind::MotorEfficiency => "motor_efficiency",
+            EffectKind::FeedDriveLag => "feed_drive_lag",
+            EffectKind::SensorLowpass => "sensor_lowpass",
+            EffectKind::OverrideDeadTime => "override_dead_time",
+            EffectKind::FeedExponent => "feed_exponent",
+            EffectKind::Runout => "runout",
+            EffectKind::NoloadDrift => "noload_drift",
+        }
+    }
+
+    /// Look an effect up by [`EffectKind::name`].
+    pub fn from_name(name: &str) -> Option<EffectKind> {
+        EffectKind::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The effect's parameters; the first is the primary one (its interval must exclude
+    /// the null for the effect to be accepted).
+    pub fn params(self) -> &'static [ParamInfo] {
+        match self {
+            EffectKind::ToolWear => &P_TOOL_WEAR,
+            EffectKind::MotorEfficiency => &P_MOTOR,
+            EffectKind::FeedDriveLag => &P_LAG,
+            EffectKind::SensorLowpass => &P_LOWPASS,
+            EffectKind::OverrideDeadTime => &P_DEAD,
+            EffectKind::FeedExponent => &P_BETA,
+            EffectKind::Runout => &P_RUNOUT,
+            EffectKind::NoloadDrift => &P_DRIFT,
+        }
+    }
+
+    /// Which measured channels can see the effect.
+    pub fn power_only(self) -> bool {
+        matches!(self, EffectKind::MotorEfficiency | EffectKind::NoloadDrift)
+    }
+
+    /// The experiment that tells this effect from `other`, for "ambiguous" verdicts.
+    pub fn separating_experiment(self, other: EffectKind) -> &'static str {
+        use EffectKind::*;
+        let pair = if self <= other {
+            (self, other)
+        } else {
+            (other, self)
+        };
+        match pair {
+            (ToolWear, NoloadDrift) => {
+                "an air-cut pause late in the run (spindle on, no engagement): no-load drift raises the air power, tool wear does not"
+            }
+            (FeedDriveLag, SensorLowpass) => {
+                "a depth step (or tool entry) at constant feed: a sensor low-pass smears it, a feed-drive lag does not"
+            }
+            (FeedDriveLag, OverrideDeadTime) => {
+                "a large override step (≥ 30 %) held for several seconds: dead time shifts the response without rounding it, a lag rounds it without shifting it"
+            }
+            (SensorLowpass, OverrideDeadTime) => {
+                "a depth step at constant feed: a sensor low-pass smears it, an override dead time does not"
+            }
+            (MotorEfficiency, FeedExponent) => {
+                "a depth sweep at constant feed: load-dependent losses follow the load, the feed exponent only the feed"
+            }
+            (ToolWear, FeedExponent) => {
+                "a repeat of an early feed step late in the run: wear changes the force at equal feed, the feed exponent does not"
+            }
+            (ToolWear, MotorEfficiency) => {
+                "a load sweep (several depths) on a fresh tool: losses grow with load², wear with removed volume"
+            }
+            (MotorEfficiency, NoloadDrift) => {
+                "air-cut pauses at the start and end: drift moves the air power, load-dependent losses do not"
+            }
+            _ => {
+                "a run with an air-cut pause, an override step and a depth step at constant feed: each excites a different pair of effects"
+            }
+        }
+    }
+}
+
+/// Tool wear: extra growth `g` added to the simulator's `tool.wear.growth_per_cm3`, so the
+/// `Ks` factor is `initial · (1 + (g_V + g)·V + g_t·t)` with `V` the removed volume in cm³
+/// (Ks grows with wear, physics.md §1 case I). Null: `g = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolWear {
+    /// Relative growth of Ks per cm³ removed, 1/cm³. Range −0.5 ..= 50.
+    pub ks_growth_per_cm3: f64,
+}
+
+/// Load-dependent motor losses: `P_in = P_air + P_c + c · P_c² / 1000`, so the efficiency
+/// of the cutting share is `1 / (1 + c · P_c / 1000)` (copper loss ∝ I² ∝ torque², seed 000
+/// and physics.md §2). Null: `c = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorEfficiency {
+    /// Loss coefficient `c`, 1/kW. Range −0.5 ..= 5.
+    pub copper_loss_per_kw: f64,
+}
+
+/// Extra feed-drive lag added to `feed_drive.tau_s` (physics.md eq. (5)). Null: 0 s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedDriveLag {
+    /// Extra time constant, s. Range 0 ..= 3.
+    pub extra_tau_s: f64,
+}
+
+/// First-order low-pass of the measured channel: `y' = (x − y)/τ`. Null: 0 s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorLowpass {
+    /// Time constant, s. Range 0 ..= 3.
+    pub tau_s: f64,
+}
+
+/// Extra dead time in the override path, added to `feed_drive.override_delay_s`. Null: 0 s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OverrideDeadTime {
+    /// Extra delay, s. Range 0 ..= 3.
+    pub extra_delay_s: f64,
+}
+
+/// Feed exponent change: force multiplied by `(f / f_ref)^Δβ` (physics.md eq. (1)); the
+/// model's exponent becomes `β + Δβ` with `Ks` rescaled at `f_ref`. Null: `Δβ = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedExponent {
+    /// Exponent change Δβ. Range −0.7 ..= 0.5.
+    pub delta_beta: f64,
+    /// Reference feed at which `Ks` is unchanged, mm/min (> 0).
+    pub feed_ref_mm_min: f64,
+}
+
+/// Runout: force multiplied by `1 + A · cos(θ + φ)`, θ the spindle angle; a mean-per-period
+/// channel sees its period average. Null: `A = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Runout {
+    /// Relative amplitude A. Range 0 ..= 0.5.
+    pub amplitude: f64,
+    /// Phase φ at t = 0, rad.
+    pub phase_rad: f64,
+}
+
+/// Thermal drift of the no-load power: `P_air(t) = P_air + ΔP · (1 − e^(−t/τ))`.
+/// Null: `ΔP = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoloadDrift {
+    /// Final drift ΔP, W. Range −2000 ..= 2000.
+    pub delta_w: f64,
+    /// Thermal time constant τ, s. Range 5 ..= 10000.
+    pub tau_s: f64,
+}
+
+/// The `[effects]` section: each effect absent (off) or present with its parameters.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {
+    /// Tool wear.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_wear: Option<ToolWear>,
+    /// Load-dependent motor efficiency.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motor_efficiency: Option<MotorEfficiency>,
+    /// Feed-drive lag.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_drive_lag: Option<FeedDriveLag>,
+    /// Sensor low-pass.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_lowpass: Option<SensorLowpass>,
+    /// Override dead time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub override_dead_time: Option<OverrideDeadTime>,
+    /// Feed exponent change.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_exponent: Option<FeedExponent>,
+    /// Runout ripple.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runout: Option<Runout>,
+    /// No-load thermal drift.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noload_drift: Option<NoloadDrift>,
+}
+
+impl Effects {
+    /// `true` when no effect is switched on.
+    pub fn is_empty(&self) -> bool {
+        self.active().is_empty()
+    }
+
+    /// Whether `kind` is switched on.
+    pub fn is_on(&self, kind: EffectKind) -> bool {
+        match kind {
+            EffectKind::ToolWear => self.tool_wear.is_some(),
+            EffectKind::MotorEfficiency => self.motor_efficiency.is_some(),
+            EffectKind::FeedDriveLag => self.feed_drive_lag.is_some(),
+            EffectKind::SensorLowpass => self.sensor_lowpass.is_some(),
+            EffectKind::OverrideDeadTime => self.override_dead_time.is_some(),
+            EffectKind::FeedExponent => self.feed_exponent.is_some(),
+            EffectKind::Runout => self.runout.is_some(),
+            EffectKind::NoloadDrift => self.noload_drift.is_some(),
+        }
+    }
+
+    /// The effects switched on.
+    pub fn active(&self) -> Vec<EffectKind> {
+        EffectKind::ALL
+            .into_iter()
+            .filter(|k| self.is_on(*k))
+            .collect()
+    }
+
+    /// Switch `kind` off.
+    pub fn remove(&mut self, kind: EffectKind) {
+        match kind {
+            EffectKind::ToolWear => self.tool_wear = None,
+            EffectKind::MotorEfficiency => self.motor_efficiency = None,
+            EffectKind::FeedDriveLag => self.feed_drive_lag = None,
+            EffectKind::SensorLowpass => self.sensor_lowpass = None,
+            EffectKind::OverrideDeadTime => self.override_dead_time = None,
+            EffectKind::FeedExponent => self.feed_exponent = None,
+            EffectKind::Runout => self.runout = None,
+            EffectKind::NoloadDrift => self.noload_drift = None,
+        }
+    }
+
+    /// Parameter `i` of `kind` (its null value when the effect is off).
+    pub fn get(&self, kind: EffectKind, i: usize) -> f64 {
+        let null = kind.params().get(i).map(|p| p.null).unwrap_or(0.0);
+        match (kind, i) {
+            (EffectKind::ToolWear, 0) => self.tool_wear.map(|e| e.ks_growth_per_cm3),
+            (EffectKind::MotorEfficiency, 0) => self.motor_efficiency.map(|e| e.copper_loss_per_kw),
+            (EffectKind::FeedDriveLag, 0) => self.feed_drive_lag.map(|e| e.extra_tau_s),
+            (EffectKind::SensorLowpass, 0) => self.sensor_lowpass.map(|e| e.tau_s),
+            (EffectKind::OverrideDeadTime, 0) => self.override_dead_time.map(|e| e.extra_delay_s),
+            (EffectKind::FeedExponent, 0) => self.feed_exponent.map(|e| e.delta_beta),
+            (EffectKind::FeedExponent, 1) => self.feed_exponent.map(|e| e.feed_ref_mm_min),
+            (EffectKind::Runout, 0) => self.runout.map(|e| e.amplitude),
+            (EffectKind::Runout, 1) => self.runout.map(|e| e.phase_rad),
+            (EffectKind::NoloadDrift, 0) => self.noload_drift.map(|e| e.delta_w),
+            (EffectKind::NoloadDrift, 1) => self.noload_drift.map(|e| e.tau_s),
+            _ => None,
+        }
+        .unwrap_or(null)
+    }
+
+    /// Switch `kind` on (with null parameters if it was off) and set parameter `i`.
+    pub fn set(&mut self, kind: EffectKind, i: usize, v: f64) {
+        match kind {
+            EffectKind::ToolWear => {
+                self.tool_wear = Some(ToolWear {
+                    ks_growth_per_cm3: v,
+                })
+            }
+            EffectKind::MotorEfficiency => {
+                self.motor_efficiency = Some(MotorEfficiency {
+                    copper_loss_per_kw: v,
+                })
+            }
+            EffectKind::FeedDriveLag => self.feed_drive_lag = Some(FeedDriveLag { extra_tau_s: v }),
+            EffectKind::SensorLowpass => self.sensor_lowpass = Some(SensorLowpass { tau_s: v }),
+            EffectKind::OverrideDeadTime => {
+                self.override_dead_time = Some(OverrideDeadTime { extra_delay_s: v })
+            }
+            EffectKind::FeedExponent => {
+                let mut e = self.feed_exponent.unwrap_or(FeedExponent {
+                    delta_beta: 0.0,
+                    feed_ref_mm_min: 200.0,
+                });
+                if i == 0 {
+                    e.delta_beta = v;
+                } else {
+                    e.feed_ref_mm_min = v;
+                }
+                self.feed_exponent = Some(e);
+            }
+            EffectKind::Runout => {
+                let mut e = self.runout.unwrap_or(Runout {
+                    amplitude: 0.0,
+                    phase_rad: 0.0,
+                });
+                if i == 0 {
+                    e.amplitude = v;
+                } else {
+                    e.phase_rad = v;
+                }
+                self.runout = Some(e);
+            }
+            EffectKind::NoloadDrift => {
+                let mut e = self.noload_drift.unwrap_or(NoloadDrift {
+                    delta_w: 0.0,
+                    tau_s: 300.0,
+                });
+                if i == 0 {
+                    e.delta_w = v;
+                } else {
+                    e.tau_s = v;
+                }
+                self.noload_drift = Some(e);
+            }
+        }
+    }
+
+    /// Range checks of every present effect; errors name `effects.<name>.<key>`.
+    pub fn validate(&self, f: &Path) -> Result<(), ConfigError> {
+        for kind in self.active() {
+            for (i, p) in kind.params().iter().enumerate() {
+                let key = format!("effects.{}.{}", kind.name(), p.key);
+                check_range(f, &key, self.get(kind, i), p.lo, p.hi)?;
+            }
+        }
+        if let Some(e) = self.feed_exponent {
+            if e.feed_ref_mm_min <= 0.0 {
+                return Err(ConfigError::OutOfRange {
+                    file: f.to_path_buf(),
+                    key: "effects.feed_exponent.feed_ref_mm_min".into(),
+                    value: e.feed_ref_mm_min.to_string(),
+                    allowed: "> 0".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,356 @@
+//! Least-squares fitting of a model's free parameters on a subset of a log's rows:
+//! a grid over delays and time constants first, then Levenberg–Marquardt (the
+//! `levenberg-marquardt` crate, a port of MINPACK's `lmder`) on everything, with
+//! confidence intervals from the Jacobian inflated for AR(1) residuals.
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use serde::Serialize;
+
+use crate::effects::EffectKind;
+use crate::model::Model;
+use crate::replay::{replay, Inputs};
+use crate::stats::{lag1, n_eff, t_critical};
+
+/// A free parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Free {
+    /// Multiplier on `process.ks` (nominal, confusable with every load effect).
+    KsScale,
+    /// Offset added to `spindle.noload_power_w`, W (nominal, power channel).
+    Noload,
+    /// Parameter `i` of an effect.
+    Effect(EffectKind, usize),
+}
+
+impl Free {
+    /// Name in reports: `process.ks_scale`, `spindle.noload_offset_w`, `<effect>.<key>`.
+    pub fn name(self) -> String {
+        match self {
+            Free::KsScale => "process.ks_scale".into(),
+            Free::Noload => "spindle.noload_offset_w".into(),
+            Free::Effect(k, i) => format!("{}.{}", k.name(), k.params()[i].key),
+        }
+    }
+
+    fn bounds(self) -> (f64, f64) {
+        match self {
+            Free::KsScale => (0.02, 50.0),
+            Free::Noload => (-1e5, 1e5),
+            Free::Effect(k, i) => (k.params()[i].lo, k.params()[i].hi),
+        }
+    }
+
+    fn scale(self) -> f64 {
+        match self {
+            Free::KsScale => 0.01,
+            Free::Noload => 1.0,
+            Free::Effect(k, i) => k.params()[i].scale,
+        }
+    }
+
+    /// Value that switches the parameter off (1 for the Ks multiplier, 0 otherwise).
+    pub fn null(self) -> f64 {
+        match self {
+            Free::KsScale => 1.0,
+            Free::Noload => 0.0,
+            Free::Effect(k, i) => k.params()[i].null,
+        }
+    }
+}
+
+/// `base` with the free parameters set to `theta`.
+pub fn apply(base: &Model, free: &[Free], theta: &[f64]) -> Model {
+    let mut m = base.clone();
+    for (f, &v) in free.iter().zip(theta) {
+        match *f {
+            Free::KsScale => m.tool.process.calib_force_n = base.tool.process.calib_force_n * v,
+            Free::Noload => {
+                m.machine.spindle.no_load_power_w = base.machine.spindle.no_load_power_w + v
+            }
+            Free::Effect(k, i) => m.effects.set(k, i, v),
+        }
+    }
+    m
+}
+
+/// Current values of the free parameters in `base` (KsScale 1, Noload 0).
+pub fn current(base: &Model, free: &[Free]) -> Vec<f64> {
+    free.iter()
+        .map(|f| match *f {
+            Free::KsScale => 1.0,
+            Free::Noload => 0.0,
+            Free::Effect(k, i) => base.effects.get(k, i),
+        })
+        .collect()
+}
+
+/// One fitted parameter.
+#[derive(Debug, Clone, Serialize)]
+pub struct FittedParam {
+    /// Parameter name (see [`Free::name`]).
+    pub name: String,
+    /// Estimate.
+    pub value: f64,
+    /// Standard error (AR(1)-inflated).
+    pub std_err: f64,
+    /// 95 % interval, low end.
+    pub ci_low: f64,
+    /// 95 % interval, high end.
+    pub ci_high: f64,
+    /// Null value (the parameter switched off).
+    pub null: f64,
+    /// `true` when the estimate sits on a fitting bound (interval unreliable).
+    pub at_bound: bool,
+}
+
+/// A fit result.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// The model with fitted parameters.
+    pub model: Model,
+    /// Free parameters.
+    pub free: Vec<Free>,
+    /// Estimates (same order as `free`).
+    pub theta: Vec<f64>,
+    /// Parameter table with intervals.
+    pub params: Vec<FittedParam>,
+    /// Sum of squared residuals over the fitted rows.
+    pub sse: f64,
+    /// Number of fitted rows.
+    pub n: usize,
+}
+
+struct Problem<'a> {
+    base: &'a Model,
+    free: &'a [Free],
+    inp: &'a Inputs,
+    rows: &'a [usize],
+    theta: DVector<f64>,
+}
+
+impl Problem<'_> {
+    fn resid(&self, theta: &[f64]) -> DVector<f64> {
+        let m = apply(self.base, self.free, theta);
+        let r = replay(&m, self.inp);
+        DVector::from_iterator(
+            self.rows.len(),
+            self.rows
+                .iter()
+                .map(|&i| self.inp.measured[i] - r.predicted[i]),
+        )
+    }
+
+    fn clamp(&self, theta: &mut [f64]) {
+        for (v, f) in theta.iter_mut().zip(self.free) {
+            let (lo, hi) = f.bounds();
+            *v = if v.is_finite() {
+                v.clamp(lo, hi)
+            } else {
+                f.null()
+            };
+        }
+    }
+
+    /// Forward-difference Jacobian of the residuals (steps of 1 % of each parameter's
+    /// scale, taken inward at an upper bound).
+    fn jac(&self, theta: &[f64]) -> DMatrix<f64> {
+        let p = theta.len();
+        let r0 = self.resid(theta);
+        let mut j = DMatrix::zeros(self.rows.len(), p);
+        for k in 0..p {
+            let (lo, hi) = self.free[k].bounds();
+            let h = self.free[k].scale() * 1e-2;
+            let mut tp = theta.to_vec();
+            tp[k] = if theta[k] + h <= hi {
+                theta[k] + h
+            } else {
+                theta[k] - h
+            };
+            tp[k] = tp[k].clamp(lo, hi);
+            let step = tp[k] - theta[k];
+            if step == 0.0 {
+                continue;
+            }
+            let col = (self.resid(&tp) - &r0) / step;
+            j.set_column(k, &col);
+        }
+        j
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        let mut t: Vec<f64> = x.iter().copied().collect();
+        self.clamp(&mut t);
+        self.theta = DVector::from_vec(t);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.theta.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(self.resid(self.theta.as_slice()))
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        Some(self.jac(self.theta.as_slice()))
+    }
+}
+
+fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) -> Vec<f64> {
+    if free.is_empty() {
+        return Vec::new();
+    }
+    let mut theta = start.to_vec();
+    let problem = Problem {
+        base,
+        free,
+        inp,
+        rows,
+        theta: DVector::from_vec(start.to_vec()),
+    };
+    problem.clamp(&mut theta);
+    let problem = Problem {
+        theta: DVector::from_vec(theta),
+        ..problem
+    };
+    let (solved, _report) = LevenbergMarquardt::new()
+        .with_patience(30)
+        .minimize(problem);
+    solved.theta.iter().copied().collect()
+}
+
+/// Local refinement only (no grid, no intervals): LM from the values in `base`; returns
+/// the fitted model. Used inside cross-validation.
+pub fn refine(base: &Model, free: &[Free], inp: &Inputs, rows: &[usize]) -> Model {
+    let th = lm(base, free, &current(base, free), inp, rows);
+    apply(base, free, &th)
+}
+
+/// Sum of squared residuals of `model` over `rows`.
+pub fn sse(model: &Model, inp: &Inputs, rows: &[usize]) -> f64 {
+    let r = replay(model, inp);
+    rows.iter()
+        .map(|&i| (inp.measured[i] - r.predicted[i]).powi(2))
+        .sum()
+}
+
+/// Fit `free` (starting from their values in `base`) on `rows`: grid over the parameters
+/// listed in `grid` (each tried with the other parameters refined by LM), then LM on all.
+pub fn fit(base: &Model, free: &[Free], grid: &[Free], inp: &Inputs, rows: &[usize]) -> Fit {
+    let start = current(base, free);
+    let mut best = start.clone();
+    let grid_params: Vec<(usize, &'static [f64])> = grid
+        .iter()
+        .filter_map(|g| {
+            let k = free.iter().position(|f| f == g)?;
+            match *g {
+                Free::Effect(e, i) => e.params()[i].grid.map(|gr| (k, gr)),
+                _ => None,
+            }
+        })
+        .collect();
+    if !grid_params.is_empty() {
+        let mut best_sse = f64::INFINITY;
+        let mut combos: Vec<Vec<f64>> = vec![Vec::new()];
+        for (_, values) in &grid_params {
+            combos = combos
+                .into_iter()
+                .flat_map(|c| {
+                    values.iter().map(move |v| {
+                        let mut c = c.clone();
+                        c.push(*v);
+                        c
+                    })
+                })
+                .collect();
+        }
+        let inner: Vec<usize> = (0..free.len())
+            .filter(|k| !grid_params.iter().any(|(g, _)| g == k))
+            .collect();
+        let inner_free: Vec<Free> = inner.iter().map(|&k| free[k]).collect();
+        for combo in combos {
+            let mut fixed = base.clone();
+            let mut full = start.clone();
+            for ((k, _), v) in grid_params.iter().zip(&combo) {
+                full[*k] = *v;
+            }
+            fixed = apply(&fixed, free, &full);
+            // Inner parameters are fitted relative to `fixed`; KsScale/Noload restart at null.
+            let inner_start: Vec<f64> = inner.iter().map(|&k| full[k]).collect();
+            let th = lm(&fixed, &inner_free, &inner_start, inp, rows);
+            let m = apply(&fixed, &inner_free, &th);
+            let s = sse(&m, inp, rows);
+            if s < best_sse {
+                best_sse = s;
+                for (j, &k) in inner.iter().enumerate() {
+                    best[k] = th[j];
+                }
+                for ((k, _), v) in grid_params.iter().zip(&combo) {
+                    best[*k] = *v;
+                }
+            }
+        }
+    }
+    let theta = lm(base, free, &best, inp, rows);
+    finish(base, free, theta, inp, rows)
+}
+
+fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[usize]) -> Fit {
+    let model = apply(base, free, &theta);
+    let problem = Problem {
+        base,
+        free,
+        inp,
+        rows,
+        theta: DVector::from_vec(theta.clone()),
+    };
+    let r = problem.resid(&theta);
+    let sse = r.norm_squared();
+    let n = rows.len();
+    let p = free.len();
+    let rho = lag1(r.as_slice()).max(0.0);
+    let ne = n_eff(n, rho);
+    let s2 = sse / (n.saturating_sub(p)).max(1) as f64;
+    let infl = (1.0 + rho) / (1.0 - rho);
+    let j = problem.jac(&theta);
+    let jtj = j.transpose() * &j;
+    let cov = jtj
+        .clone()
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+    let tc = t_critical(0.95, (ne - p as f64).max(1.0));
+    let params = free
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let se = (cov[(k, k)] * s2 * infl).max(0.0).sqrt();
+            let se = if se.is_finite() { se } else { f64::INFINITY };
+            let (lo, hi) = f.bounds();
+            let v = theta[k];
+            FittedParam {
+                name: f.name(),
+                value: v,
+                std_err: se,
+                ci_low: v - tc * se,
+                ci_high: v + tc * se,
+                null: f.null(),
+                at_bound: (v - lo).abs() < 1e-12 || (v - hi).abs() < 1e-12,
+            }
+        })
+        .collect();
+    Fit {
+        model,
+        free: free.to_vec(),
+        theta,
+        params,
+        sse,
+        n,
+    }
+}

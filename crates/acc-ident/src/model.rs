@@ -1,0 +1,326 @@
+//! The model file (`--model`, `model.updated.toml`).
+//!
+//! It is the simulator's machine file under `[machine]` and its tool file under `[tool]`
+//! (same keys: `machine.spindle.no_load_power_w`, `machine.feed_drive.tau_s`,
+//! `machine.override_path.delay_s`, `tool.process.calib_force_n`, `tool.wear.growth_per_cm3`
+//! …), plus `[measurement]` (which channel to compare) and `[effects.*]` for the candidate
+//! effects the simulator does not have yet. [`Model::machine_toml`] and
+//! [`Model::tool_toml`] give the two sections as stand-alone simulator files.
+
+use std::path::Path;
+
+use acc_config::{check_range, ConfigError};
+use serde::{Deserialize, Serialize};
+
+use crate::effects::{EffectKind, Effects};
+
+/// Which measured channel the model predicts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Channel {
+    /// Spindle input power `power_w`, W.
+    #[default]
+    Power,
+    /// Mean cutting force `force_n`, N.
+    Force,
+}
+
+/// Where the replayed feed comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum FeedInput {
+    /// The command path (`programmed_feed_mm_min · override_cmd_pct / 100` through the
+    /// override delay and the feed-drive lag) when the log has both columns, else the
+    /// recorded feed.
+    #[default]
+    Auto,
+    /// Always the command path (error if the columns are missing).
+    Command,
+    /// Always the recorded `feed_mm_min` (feed-drive lag and override dead time are then
+    /// not identifiable and are skipped).
+    Recorded,
+}
+
+/// `[machine.spindle]` (simulator machine file `[spindle]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spindle {
+    /// Commanded spindle speed, rpm (the simulator's; the replay uses the logged speed).
+    pub rpm: f64,
+    /// Spindle input power while turning in air, W.
+    pub no_load_power_w: f64,
+    /// Efficiency from electrical input to cutting power, 0.05 … 1.
+    pub efficiency: f64,
+}
+
+/// `[machine.feed_drive]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedDrive {
+    /// First-order lag τ of the feed drive, s (seed 002 eq. 5).
+    pub tau_s: f64,
+}
+
+/// `[machine.override_path]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OverridePath {
+    /// Dead time from the override command to the feed starting to change, s.
+    pub delay_s: f64,
+    /// Override resolution, % (1 or 10).
+    pub step_pct: u16,
+}
+
+/// `[machine]`: the simulator's machine file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Machine {
+    /// Name.
+    pub name: String,
+    /// Spindle.
+    pub spindle: Spindle,
+    /// Feed drive.
+    pub feed_drive: FeedDrive,
+    /// Override path.
+    pub override_path: OverridePath,
+    /// Simulator integration rates, passed through unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sim: Option<toml::Table>,
+}
+
+/// `[tool.process]`: the mean-force law of seed 002 eq. (1),
+/// `F = Ks·a_p·d^α·f^β·s^γ`, with `Ks` fixed by one calibration point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Process {
+    /// Mean resultant force at the calibration point, N.
+    pub calib_force_n: f64,
+    /// Radial depth of the calibration point, mm.
+    pub calib_radial_mm: f64,
+    /// Feed of the calibration point, mm/min.
+    pub calib_feed_mm_min: f64,
+    /// Spindle speed of the calibration point, rpm.
+    pub calib_rpm: f64,
+    /// Axial depth of the calibration point, mm.
+    pub calib_axial_mm: f64,
+    /// Radial-depth exponent α.
+    pub alpha: f64,
+    /// Feed exponent β.
+    pub beta: f64,
+    /// Speed exponent γ.
+    pub gamma: f64,
+    /// Radial-to-tangential force ratio r1 (seed 004): torque `R·F/√(1 + r1²)`.
+    pub radial_ratio: f64,
+}
+
+/// `[tool.wear]`: `Ks` factor `initial · (1 + g_V·V + g_t·t)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wear {
+    /// `Ks` factor at the start of the log. Default 1.
+    #[serde(default = "one")]
+    pub initial_factor: f64,
+    /// Relative `Ks` growth per cm³ removed, 1/cm³. Default 0.
+    #[serde(default)]
+    pub growth_per_cm3: f64,
+    /// Relative `Ks` growth per minute of cutting, 1/min. Default 0.
+    #[serde(default)]
+    pub growth_per_min: f64,
+}
+
+impl Default for Wear {
+    fn default() -> Self {
+        Wear {
+            initial_factor: 1.0,
+            growth_per_cm3: 0.0,
+            growth_per_min: 0.0,
+        }
+    }
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `[tool]`: the simulator's tool file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tool {
+    /// Name.
+    pub name: String,
+    /// Diameter D, mm (in turning: the workpiece diameter, for the cutting speed).
+    pub diameter_mm: f64,
+    /// Number of flutes.
+    pub flutes: usize,
+    /// Force law.
+    pub process: Process,
+    /// Wear law.
+    #[serde(default)]
+    pub wear: Wear,
+    /// Tooth-level geometry, passed through unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tooth: Option<toml::Table>,
+}
+
+/// `[measurement]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Measurement {
+    /// Channel compared with the model. Default `power`.
+    #[serde(default)]
+    pub channel: Channel,
+    /// Source of the replayed feed. Default `auto`.
+    #[serde(default)]
+    pub feed_input: FeedInput,
+}
+
+/// A complete model file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Model {
+    /// Free-text name.
+    #[serde(default)]
+    pub name: String,
+    /// Measured channel and feed source.
+    #[serde(default)]
+    pub measurement: Measurement,
+    /// The simulator machine.
+    pub machine: Machine,
+    /// The simulator tool.
+    pub tool: Tool,
+    /// Candidate effects on top of machine and tool (all absent in a nominal model).
+    #[serde(default, skip_serializing_if = "Effects::is_empty")]
+    pub effects: Effects,
+}
+
+impl Model {
+    /// Read and validate a model file.
+    pub fn load(path: &Path) -> Result<Model, ConfigError> {
+        let m: Model = acc_config::load_toml(path)?;
+        m.validate(path)?;
+        Ok(m)
+    }
+
+    /// Parse and validate model TOML text (`path` names the source in errors).
+    pub fn parse(path: &Path, text: &str) -> Result<Model, ConfigError> {
+        let m: Model = acc_config::parse_toml(path, text)?;
+        m.validate(path)?;
+        Ok(m)
+    }
+
+    /// Range checks (the simulator's ranges); errors name file, key and allowed range.
+    pub fn validate(&self, f: &Path) -> Result<(), ConfigError> {
+        let s = &self.machine.spindle;
+        check_range(f, "machine.spindle.rpm", s.rpm, 1.0, 60_000.0)?;
+        check_range(
+            f,
+            "machine.spindle.no_load_power_w",
+            s.no_load_power_w,
+            0.0,
+            1e6,
+        )?;
+        check_range(f, "machine.spindle.efficiency", s.efficiency, 0.05, 1.0)?;
+        check_range(
+            f,
+            "machine.feed_drive.tau_s",
+            self.machine.feed_drive.tau_s,
+            0.0,
+            10.0,
+        )?;
+        check_range(
+            f,
+            "machine.override_path.delay_s",
+            self.machine.override_path.delay_s,
+            0.0,
+            10.0,
+        )?;
+        let t = &self.tool;
+        check_range(f, "tool.diameter_mm", t.diameter_mm, 0.1, 5000.0)?;
+        check_range(f, "tool.flutes", t.flutes as f64, 1.0, 32.0)?;
+        let p = &t.process;
+        check_range(f, "tool.process.calib_force_n", p.calib_force_n, 1e-3, 1e6)?;
+        check_range(
+            f,
+            "tool.process.calib_radial_mm",
+            p.calib_radial_mm,
+            1e-3,
+            100.0,
+        )?;
+        check_range(
+            f,
+            "tool.process.calib_feed_mm_min",
+            p.calib_feed_mm_min,
+            1e-3,
+            1e5,
+        )?;
+        check_range(f, "tool.process.calib_rpm", p.calib_rpm, 1e-3, 1e8)?;
+        check_range(
+            f,
+            "tool.process.calib_axial_mm",
+            p.calib_axial_mm,
+            1e-3,
+            200.0,
+        )?;
+        check_range(f, "tool.process.alpha", p.alpha, 0.0, 3.0)?;
+        check_range(f, "tool.process.beta", p.beta, 0.1, 2.0)?;
+        check_range(f, "tool.process.gamma", p.gamma, -3.0, 3.0)?;
+        check_range(f, "tool.process.radial_ratio", p.radial_ratio, 0.0, 5.0)?;
+        let w = &t.wear;
+        check_range(f, "tool.wear.initial_factor", w.initial_factor, 0.1, 10.0)?;
+        check_range(f, "tool.wear.growth_per_cm3", w.growth_per_cm3, 0.0, 10.0)?;
+        check_range(f, "tool.wear.growth_per_min", w.growth_per_min, 0.0, 10.0)?;
+        self.effects.validate(f)
+    }
+
+    /// The effects that the simulator already has a key for are folded into the
+    /// machine and tool sections (extra lag into `feed_drive.tau_s`, extra dead time into
+    /// `override_path.delay_s`, wear into `wear.growth_per_cm3`, feed exponent into
+    /// `process.beta` with `Ks` kept at the calibration point); the others stay in
+    /// `[effects]`.
+    pub fn folded(&self) -> Model {
+        let mut m = self.clone();
+        let fx = &self.effects;
+        if let Some(e) = fx.feed_drive_lag {
+            m.machine.feed_drive.tau_s += e.extra_tau_s;
+        }
+        if let Some(e) = fx.override_dead_time {
+            m.machine.override_path.delay_s += e.extra_delay_s;
+        }
+        if let Some(e) = fx.tool_wear {
+            // Clamp at the simulator's lower bound: a negative growth is not a wear law.
+            m.tool.wear.growth_per_cm3 =
+                (m.tool.wear.growth_per_cm3 + e.ks_growth_per_cm3).max(0.0);
+        }
+        if let Some(e) = fx.feed_exponent {
+            // F = Ks f^β (f/f_ref)^Δβ with f_ref = calib feed ⇔ β' = β + Δβ at the same
+            // calibration point (seed 002 eq. 1).
+            if (e.feed_ref_mm_min - m.tool.process.calib_feed_mm_min).abs() < 1e-9 {
+                m.tool.process.beta += e.delta_beta;
+                m.effects.feed_exponent = None;
+            }
+        }
+        for k in [
+            EffectKind::FeedDriveLag,
+            EffectKind::OverrideDeadTime,
+            EffectKind::ToolWear,
+        ] {
+            m.effects.remove(k);
+        }
+        m
+    }
+
+    /// Serialize to TOML text (the format [`Model::load`] reads).
+    pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string_pretty(self)
+    }
+
+    /// The `[machine]` section as a stand-alone simulator machine file.
+    pub fn machine_toml(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string_pretty(&self.machine)
+    }
+
+    /// The `[tool]` section as a stand-alone simulator tool file.
+    pub fn tool_toml(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string_pretty(&self.tool)
+    }
+}

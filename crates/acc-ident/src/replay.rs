@@ -1,0 +1,274 @@
+//! Open-loop replay of a model on the inputs recorded in a run log: the recorded
+//! engagement, spindle speed and feed (or feed command) drive the model; nothing is fed
+//! back, so the prediction is compared with the measurement like for like.
+
+use crate::effects::EffectKind;
+use crate::model::{Channel, FeedInput, Model};
+use crate::physics;
+use crate::runlog::RunLog;
+
+/// The model inputs taken from a run log, prepared once per log.
+#[derive(Debug, Clone)]
+pub struct Inputs {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// Period ending at each row, s (the first row uses the median period).
+    pub dt_s: Vec<f64>,
+    /// Radial depth, mm.
+    pub radial_depth_mm: Vec<f64>,
+    /// Axial depth, mm.
+    pub axial_depth_mm: Vec<f64>,
+    /// Spindle speed, rpm.
+    pub spindle_rpm: Vec<f64>,
+    /// Recorded feed, mm/min.
+    pub feed_mm_min: Vec<f64>,
+    /// Feed command `programmed · override_cmd / 100`, mm/min, when both columns exist.
+    pub feed_cmd_mm_min: Option<Vec<f64>>,
+    /// Measured channel value (W or N).
+    pub measured: Vec<f64>,
+    /// Channel compared.
+    pub channel: Channel,
+    /// Median period, s.
+    pub period_s: f64,
+}
+
+/// Errors preparing replay inputs.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReplayError {
+    /// The model's channel is not in the log.
+    #[error("the model compares `{0}` but the log has no such column")]
+    MissingChannel(&'static str),
+    /// `feed_input = "command"` but the command columns are missing.
+    #[error("measurement.feed_input = \"command\" needs `programmed_feed_mm_min` and `override_cmd_pct` in the log")]
+    MissingCommand,
+}
+
+impl Inputs {
+    /// Prepare the inputs of `log` for `model`'s channel and feed source.
+    pub fn from_log(log: &RunLog, model: &Model) -> Result<Inputs, ReplayError> {
+        let channel = model.measurement.channel;
+        let measured = match channel {
+            Channel::Power => log
+                .power_w
+                .clone()
+                .ok_or(ReplayError::MissingChannel("power_w"))?,
+            Channel::Force => log
+                .force_n
+                .clone()
+                .ok_or(ReplayError::MissingChannel("force_n"))?,
+        };
+        let cmd = match (&log.programmed_feed_mm_min, &log.override_cmd_pct) {
+            (Some(p), Some(o)) => Some(p.iter().zip(o).map(|(p, o)| p * o / 100.0).collect()),
+            _ => None,
+        };
+        let feed_cmd_mm_min = match model.measurement.feed_input {
+            FeedInput::Recorded => None,
+            FeedInput::Auto => cmd,
+            FeedInput::Command => Some(cmd.ok_or(ReplayError::MissingCommand)?),
+        };
+        let period_s = log.median_period_s();
+        let mut dt_s = vec![period_s; log.len()];
+        for i in 1..log.len() {
+            dt_s[i] = log.t_s[i] - log.t_s[i - 1];
+        }
+        Ok(Inputs {
+            t_s: log.t_s.clone(),
+            dt_s,
+            radial_depth_mm: log.radial_depth_mm.clone(),
+            axial_depth_mm: log.axial_depth_mm.clone(),
+            spindle_rpm: log.spindle_rpm.clone(),
+            feed_mm_min: log.feed_mm_min.clone(),
+            feed_cmd_mm_min,
+            measured,
+            channel,
+            period_s,
+        })
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// `true` when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Whether row `i` is cutting (both depths and the spindle speed above zero).
+    pub fn is_cut(&self, i: usize) -> bool {
+        self.radial_depth_mm[i] > 0.0 && self.axial_depth_mm[i] > 0.0 && self.spindle_rpm[i] > 0.0
+    }
+
+    /// Whether an effect can act on these inputs at all (channel, command path, sampling).
+    pub fn applicable(&self, kind: EffectKind) -> Result<(), &'static str> {
+        if kind.power_only() && self.channel != Channel::Power {
+            return Err("acts on spindle power only; the compared channel is force");
+        }
+        match kind {
+            EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime
+                if self.feed_cmd_mm_min.is_none() =>
+            {
+                Err("needs the feed command (programmed_feed_mm_min, override_cmd_pct)")
+            }
+            EffectKind::Runout if self.runout_visibility() < 0.05 => {
+                Err("not observable: the sampling averages whole spindle revolutions")
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Mean gain of a period-averaging channel for a once-per-revolution ripple,
+    /// |sin(Δθ/2) / (Δθ/2)| with Δθ the spindle angle swept in one period (0 … 1).
+    pub fn runout_visibility(&self) -> f64 {
+        let mut s = 0.0;
+        let mut n = 0.0;
+        for i in 0..self.len() {
+            if self.is_cut(i) {
+                let h = std::f64::consts::PI * self.spindle_rpm[i] / 60.0 * self.dt_s[i];
+                s += if h < 1e-9 { 1.0 } else { (h.sin() / h).abs() };
+                n += 1.0;
+            }
+        }
+        if n > 0.0 {
+            s / n
+        } else {
+            0.0
+        }
+    }
+}
+
+/// One replay: the predicted channel and the internal signals that explain it.
+#[derive(Debug, Clone, Default)]
+pub struct Replay {
+    /// Predicted measured channel (W or N).
+    pub predicted: Vec<f64>,
+    /// Replayed feed, mm/min.
+    pub feed_mm_min: Vec<f64>,
+    /// Replayed mean cutting force, N.
+    pub force_n: Vec<f64>,
+    /// Removed volume since the start of the log, mm³.
+    pub volume_mm3: Vec<f64>,
+    /// Cutting power `F · v`, W.
+    pub cut_power_w: Vec<f64>,
+    /// Spindle angle at the end of each period, rad.
+    pub spindle_angle_rad: Vec<f64>,
+}
+
+/// Replay `model` on `inp` (open loop).
+///
+/// Feed: command delayed by the override path (nominal + dead-time effect; the command
+/// of row i acts from row i+1, physics.md eq. (5) `z⁻¹`) then a first-order drive lag
+/// `f_i = a·f_{i−1} + (1−a)·u_i`, `a = e^(−T/τ)` (eq. (5)). Force: eq. (1) through
+/// [`crate::physics`] with the simulator's wear factor, times the feed-exponent and runout
+/// effects. Power: `P_air + ω·T/η` plus the effects' losses and drift. Finally the
+/// sensor low-pass.
+pub fn replay(model: &Model, inp: &Inputs) -> Replay {
+    let n = inp.len();
+    let fx = &model.effects;
+    let mut out = Replay {
+        predicted: vec![0.0; n],
+        feed_mm_min: vec![0.0; n],
+        force_n: vec![0.0; n],
+        volume_mm3: vec![0.0; n],
+        cut_power_w: vec![0.0; n],
+        spindle_angle_rad: vec![0.0; n],
+    };
+    // Feed path.
+    match &inp.feed_cmd_mm_min {
+        Some(cmd) if n > 0 => {
+            let delay_s = model.machine.override_path.delay_s
+                + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0);
+            let tau = model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0);
+            let shift = 1.0 + delay_s / inp.period_s.max(1e-9);
+            let m = shift.floor();
+            let w = shift - m;
+            let m = m as isize;
+            let at = |k: isize| cmd[k.clamp(0, n as isize - 1) as usize];
+            let mut f = at(-m);
+            for i in 0..n {
+                let ii = i as isize - m;
+                let u = (1.0 - w) * at(ii) + w * at(ii - 1);
+                let a = if tau > 1e-9 {
+                    (-inp.dt_s[i] / tau).exp()
+                } else {
+                    0.0
+                };
+                f = a * f + (1.0 - a) * u;
+                out.feed_mm_min[i] = f;
+            }
+        }
+        _ => out.feed_mm_min.copy_from_slice(&inp.feed_mm_min),
+    }
+    // Process force, volume and wear (the simulator's wear law, extra growth added).
+    let p = &model.tool.process;
+    let ks = physics::ks(p);
+    let w = &model.tool.wear;
+    let growth = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
+    let dbeta = fx.get(EffectKind::FeedExponent, 0);
+    let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
+    let amp = fx.get(EffectKind::Runout, 0);
+    let phase = fx.get(EffectKind::Runout, 1);
+    let mut vol = 0.0;
+    let mut cut_min = 0.0;
+    let mut theta = 0.0;
+    for i in 0..n {
+        let s = inp.spindle_rpm[i];
+        let dth = 2.0 * std::f64::consts::PI * s / 60.0 * inp.dt_s[i];
+        let th0 = theta;
+        theta += dth;
+        out.spindle_angle_rad[i] = theta;
+        let f = out.feed_mm_min[i];
+        let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
+        let factor = w.initial_factor * (1.0 + growth * vol / 1000.0 + w.growth_per_min * cut_min);
+        let mut force = physics::mean_force_n(p, ks, d, a, f, s, factor);
+        if force > 0.0 {
+            vol += d * a * f / 60.0 * inp.dt_s[i];
+            cut_min += inp.dt_s[i] / 60.0;
+            if dbeta != 0.0 {
+                force *= (f / fref).powf(dbeta);
+            }
+            if amp != 0.0 {
+                let mean_cos = if dth.abs() < 1e-9 {
+                    (theta + phase).cos()
+                } else {
+                    ((theta + phase).sin() - (th0 + phase).sin()) / dth
+                };
+                force *= 1.0 + amp * mean_cos;
+            }
+            out.force_n[i] = force;
+        }
+        out.volume_mm3[i] = vol;
+    }
+    // Channel.
+    let drift_w = fx.get(EffectKind::NoloadDrift, 0);
+    let drift_tau = fx.get(EffectKind::NoloadDrift, 1).max(1e-9);
+    let cu = fx.get(EffectKind::MotorEfficiency, 0);
+    let t0 = inp.t_s.first().copied().unwrap_or(0.0);
+    let radius = 0.5 * model.tool.diameter_mm;
+    for i in 0..n {
+        let s = inp.spindle_rpm[i];
+        let pc = physics::cut_power_w(p, out.force_n[i], radius, s);
+        out.cut_power_w[i] = pc;
+        out.predicted[i] = match inp.channel {
+            Channel::Force => out.force_n[i],
+            Channel::Power if s > 0.0 => {
+                let drift = drift_w * (1.0 - (-(inp.t_s[i] - t0) / drift_tau).exp());
+                physics::input_power_w(&model.machine.spindle, pc, s)
+                    + drift
+                    + cu * pc * pc / 1000.0
+            }
+            Channel::Power => 0.0,
+        };
+    }
+    let tau_m = fx.get(EffectKind::SensorLowpass, 0);
+    if tau_m > 1e-9 && n > 0 {
+        let mut y = out.predicted[0];
+        for i in 0..n {
+            let a = (-inp.dt_s[i] / tau_m).exp();
+            y = a * y + (1.0 - a) * out.predicted[i];
+            out.predicted[i] = y;
+        }
+    }
+    out
+}

@@ -1,0 +1,374 @@
+//! `report.json` (stable schema, [`SCHEMA_VERSION`]) and `report.md`.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::fit::FittedParam;
+use crate::segment::SegmentBias;
+use crate::stats::Noise;
+
+/// Version of the `report.json` schema; bumped on any incompatible change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// What was analysed.
+#[derive(Debug, Clone, Serialize)]
+pub struct InputInfo {
+    /// Rows in the log.
+    pub rows: usize,
+    /// Median sampling period, s.
+    pub period_s: f64,
+    /// Compared channel (`power` or `force`).
+    pub channel: String,
+    /// Unit of the channel (`W` or `N`).
+    pub unit: String,
+    /// `command` when the feed was replayed from the override command, else `recorded`.
+    pub feed_source: String,
+    /// Rows used for selection (the first part of the log).
+    pub selection_rows: usize,
+    /// Time where the sealed final part starts, s.
+    pub sealed_from_s: f64,
+    /// Number of contiguous cross-validation folds.
+    pub folds: usize,
+}
+
+/// Correlation of the nominal residual with a candidate signal.
+#[derive(Debug, Clone, Serialize)]
+pub struct SignalCorrelation {
+    /// Signal name (`time`, `load`, `cut_volume`, `feed`, `feed_change`, `depth_change`,
+    /// `spindle_angle_cos`, `spindle_angle_sin`).
+    pub signal: String,
+    /// Pearson correlation.
+    pub r: f64,
+    /// Two-sided p-value with the AR(1) effective sample size.
+    pub p: f64,
+    /// Significant after Bonferroni correction over the signals.
+    pub significant: bool,
+}
+
+/// Step 1, locate: where and under which conditions model and measurement disagree.
+#[derive(Debug, Clone, Serialize)]
+pub struct Locate {
+    /// RMS of the nominal residual over the selection part, channel unit.
+    pub residual_rms: f64,
+    /// Per-segment bias of the nominal model.
+    pub segments: Vec<SegmentBias>,
+    /// Correlations of the residual with candidate signals.
+    pub correlations: Vec<SignalCorrelation>,
+}
+
+/// One candidate in one round of forward selection.
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateResult {
+    /// Effect name.
+    pub effect: String,
+    /// `false` when the effect cannot act on this log (reason in `skip_reason`).
+    pub applicable: bool,
+    /// Why it was skipped.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub skip_reason: Option<String>,
+    /// Fitted parameters (effect and the nominal ones fitted with it), 95 % intervals.
+    pub params: Vec<FittedParam>,
+    /// Held-out mean squared error of the base model, channel unit².
+    pub heldout_mse_base: f64,
+    /// Held-out mean squared error with the candidate.
+    pub heldout_mse: f64,
+    /// Relative held-out improvement, % of the base MSE.
+    pub heldout_gain_pct: f64,
+    /// Folds where the candidate predicted better.
+    pub folds_improved: usize,
+    /// Held-out likelihood-ratio statistic `(SSE_base − SSE)/(σ̂²·(1+ρ)/(1−ρ))`.
+    pub heldout_chi2: f64,
+    /// Degrees of freedom of the statistic (the effect's fitted parameters).
+    pub dof: usize,
+    /// χ² upper-tail p-value times the number of candidates (Bonferroni), capped at 1.
+    pub p_adjusted: f64,
+    /// The primary parameter's 95 % interval excludes its null value.
+    pub ci_excludes_null: bool,
+    /// Correlation of the base residual with the effect's signature.
+    pub signature_r_before: f64,
+    /// Same after adding the effect.
+    pub signature_r_after: f64,
+    /// The signature is gone (not significant, or at most half the correlation before).
+    pub signature_gone: bool,
+    /// Effect-to-noise ratio: RMS of the effect's contribution over σ.
+    pub effect_to_noise: f64,
+    /// All criteria met.
+    pub passed: bool,
+}
+
+/// One round of greedy forward selection.
+#[derive(Debug, Clone, Serialize)]
+pub struct Round {
+    /// 1-based round number.
+    pub round: usize,
+    /// Effects already in the model at the start of the round.
+    pub base: Vec<String>,
+    /// Every candidate's result.
+    pub candidates: Vec<CandidateResult>,
+    /// `accepted`, `ambiguous` or `none`.
+    pub verdict: String,
+    /// The effect added in this round, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub added: Option<String>,
+}
+
+/// Two effects the data cannot tell apart.
+#[derive(Debug, Clone, Serialize)]
+pub struct Ambiguity {
+    /// The two effects (the better-scoring first; it is in the updated model).
+    pub effects: [String; 2],
+    /// The experiment that would separate them.
+    pub experiment: String,
+}
+
+/// The residual that no candidate explains.
+#[derive(Debug, Clone, Serialize)]
+pub struct Unexplained {
+    /// Segments whose bias stays significant with the updated model.
+    pub segments: Vec<SegmentBias>,
+    /// Residual variance over the noise variance (selection part).
+    pub variance_ratio: f64,
+    /// z of the variance ratio against 1.
+    pub variance_z: f64,
+    /// Signals the remaining residual still correlates with.
+    pub correlations: Vec<SignalCorrelation>,
+}
+
+/// Accuracy of one model on the sealed part.
+#[derive(Debug, Clone, Serialize)]
+pub struct Metrics {
+    /// RMS error, channel unit.
+    pub rms: f64,
+    /// Fit %, `100·(1 − ‖y − ŷ‖ / ‖y − ȳ‖)`.
+    pub fit_pct: f64,
+    /// Mean error (bias), channel unit.
+    pub bias: f64,
+    /// Per-segment bias.
+    pub segments: Vec<SegmentBias>,
+}
+
+/// Step 5: the sealed final part that selection never saw.
+#[derive(Debug, Clone, Serialize)]
+pub struct Sealed {
+    /// Start, s.
+    pub from_s: f64,
+    /// End, s.
+    pub to_s: f64,
+    /// Rows.
+    pub rows: usize,
+    /// The model as given.
+    pub nominal: Metrics,
+    /// The nominal model with its nominal parameters refitted on the selection part.
+    pub nominal_refit: Metrics,
+    /// The updated model.
+    pub updated: Metrics,
+    /// RMS reduction of the updated model against the model as given, %.
+    pub rms_reduction_pct: f64,
+    /// RMS reduction against the refitted nominal model, %.
+    pub rms_reduction_vs_refit_pct: f64,
+}
+
+/// The whole report.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// Input description.
+    pub input: InputInfo,
+    /// Noise of the channel (detrended air and steady-cut stretches).
+    pub noise: Noise,
+    /// Locate step.
+    pub locate: Locate,
+    /// Forward-selection rounds.
+    pub rounds: Vec<Round>,
+    /// Effects named with confidence.
+    pub accepted: Vec<String>,
+    /// Pairs that cannot be told apart.
+    pub ambiguous: Vec<Ambiguity>,
+    /// Residual left unexplained, and where.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<Unexplained>,
+    /// Parameters of the updated model (nominal refits and effects) with intervals.
+    pub updated_params: Vec<FittedParam>,
+    /// Sealed-part comparison.
+    pub sealed: Sealed,
+    /// One-paragraph conclusion.
+    pub conclusion: String,
+}
+
+impl Report {
+    /// Render `report.md`.
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let u = &self.input.unit;
+        let _ = writeln!(s, "# Model discrepancy report\n");
+        let _ = writeln!(s, "{}\n", self.conclusion);
+        let _ = writeln!(
+            s,
+            "Log: {} rows, period {:.3} s, channel `{}` ({u}), feed from {}; selection on the first {} rows, sealed part from {:.1} s; {} contiguous folds.\n",
+            self.input.rows,
+            self.input.period_s,
+            self.input.channel,
+            self.input.feed_source,
+            self.input.selection_rows,
+            self.input.sealed_from_s,
+            self.input.folds
+        );
+        let _ = writeln!(
+            s,
+            "Noise (detrended air and steady-cut stretches): σ = {:.4} {u}, AR(1) ρ = {:.3}, {} samples.\n",
+            self.noise.sigma, self.noise.rho, self.noise.samples
+        );
+        let _ = writeln!(s, "## Sealed final part (never seen by selection)\n");
+        let _ = writeln!(s, "| model | RMS ({u}) | fit % | bias ({u}) |");
+        let _ = writeln!(s, "| --- | ---: | ---: | ---: |");
+        for (name, m) in [
+            ("nominal (as given)", &self.sealed.nominal),
+            ("nominal, refitted", &self.sealed.nominal_refit),
+            ("updated", &self.sealed.updated),
+        ] {
+            let _ = writeln!(
+                s,
+                "| {name} | {:.4} | {:.1} | {:.4} |",
+                m.rms, m.fit_pct, m.bias
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nRMS reduction: {:.1} % against the model as given, {:.1} % against the refitted nominal model.\n",
+            self.sealed.rms_reduction_pct, self.sealed.rms_reduction_vs_refit_pct
+        );
+        let _ = writeln!(s, "## Where the nominal model disagrees\n");
+        let _ = writeln!(
+            s,
+            "| regime | from (s) | to (s) | rows | bias ({u}) | z | flagged |"
+        );
+        let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | :---: |");
+        for b in self
+            .locate
+            .segments
+            .iter()
+            .filter(|b| b.significant)
+            .take(30)
+        {
+            let _ = writeln!(
+                s,
+                "| {} | {:.1} | {:.1} | {} | {:.3} | {:.1} | yes |",
+                b.regime.name(),
+                b.t_start_s,
+                b.t_end_s,
+                b.samples,
+                b.bias,
+                b.z
+            );
+        }
+        let _ = writeln!(s, "\n| signal | r | p | significant |");
+        let _ = writeln!(s, "| --- | ---: | ---: | :---: |");
+        for c in &self.locate.correlations {
+            let _ = writeln!(
+                s,
+                "| {} | {:.3} | {:.2e} | {} |",
+                c.signal,
+                c.r,
+                c.p,
+                if c.significant { "yes" } else { "no" }
+            );
+        }
+        for r in &self.rounds {
+            let _ = writeln!(
+                s,
+                "\n## Round {} (base: {})\n",
+                r.round,
+                if r.base.is_empty() {
+                    "nominal".to_string()
+                } else {
+                    r.base.join(", ")
+                }
+            );
+            let _ = writeln!(
+                s,
+                "| effect | held-out gain % | folds | held-out χ² | p (Bonferroni) | CI excl. null | signature r before → after | ENR | passed |"
+            );
+            let _ = writeln!(
+                s,
+                "| --- | ---: | ---: | ---: | ---: | :---: | --- | ---: | :---: |"
+            );
+            for c in &r.candidates {
+                if !c.applicable {
+                    let _ = writeln!(
+                        s,
+                        "| {} | — | — | — | — | — | skipped: {} | — | — |",
+                        c.effect,
+                        c.skip_reason.as_deref().unwrap_or("")
+                    );
+                    continue;
+                }
+                let _ = writeln!(
+                    s,
+                    "| {} | {:.2} | {}/{} | {:.1} | {:.2e} | {} | {:.2} → {:.2} | {:.1} | {} |",
+                    c.effect,
+                    c.heldout_gain_pct,
+                    c.folds_improved,
+                    self.input.folds,
+                    c.heldout_chi2,
+                    c.p_adjusted,
+                    if c.ci_excludes_null { "yes" } else { "no" },
+                    c.signature_r_before,
+                    c.signature_r_after,
+                    c.effect_to_noise,
+                    if c.passed { "**yes**" } else { "no" }
+                );
+            }
+            let _ = writeln!(s, "\nVerdict: {}.", r.verdict);
+        }
+        if !self.ambiguous.is_empty() {
+            let _ = writeln!(s, "\n## Ambiguous\n");
+            for a in &self.ambiguous {
+                let _ = writeln!(
+                    s,
+                    "- ambiguous between `{}` and `{}`: {}",
+                    a.effects[0], a.effects[1], a.experiment
+                );
+            }
+        }
+        if let Some(un) = &self.unexplained {
+            let _ = writeln!(s, "\n## Unexplained\n");
+            let _ = writeln!(
+                s,
+                "Residual variance / noise variance = {:.2} (z = {:.1}).\n",
+                un.variance_ratio, un.variance_z
+            );
+            for b in &un.segments {
+                let _ = writeln!(
+                    s,
+                    "- {} {:.1}–{:.1} s: bias {:.3} {u} (z = {:.1})",
+                    b.regime.name(),
+                    b.t_start_s,
+                    b.t_end_s,
+                    b.bias,
+                    b.z
+                );
+            }
+            for c in un.correlations.iter().filter(|c| c.significant) {
+                let _ = writeln!(s, "- still correlates with `{}` (r = {:.2})", c.signal, c.r);
+            }
+        }
+        let _ = writeln!(s, "\n## Updated parameters (95 % intervals)\n");
+        let _ = writeln!(s, "| parameter | value | interval | null |");
+        let _ = writeln!(s, "| --- | ---: | --- | ---: |");
+        for p in &self.updated_params {
+            let _ = writeln!(
+                s,
+                "| {} | {:.5} | [{:.5}, {:.5}]{} | {} |",
+                p.name,
+                p.value,
+                p.ci_low,
+                p.ci_high,
+                if p.at_bound { " (at bound)" } else { "" },
+                p.null
+            );
+        }
+        s
+    }
+}

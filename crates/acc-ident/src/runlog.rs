@@ -1,0 +1,337 @@
+//! Run logs: the CSV schema `acc sim` and `acc run` write, read column by column.
+//!
+//! Required columns: `t_s, feed_mm_min, spindle_rpm, radial_depth_mm, axial_depth_mm` and at
+//! least one of `power_w`, `force_n`. Optional: `x_mm, programmed_feed_mm_min,
+//! override_cmd_pct, override_applied_pct, force_true_n, force_ref_n, kc_hat, kp, ki, mode`
+//! and, from the importers, `tool_id`, `phase`, `wear_vb_um`. Unknown columns are ignored.
+//! Every error names the file, the 1-based line and the column.
+
+use std::path::{Path, PathBuf};
+
+/// A run-log reading or writing error; names file, line and column where they exist.
+#[derive(Debug, thiserror::Error)]
+pub enum RunLogError {
+    /// The file could not be opened or written.
+    #[error("{file}: cannot open: {reason}")]
+    Io {
+        /// File path.
+        file: PathBuf,
+        /// OS error text.
+        reason: String,
+    },
+    /// A required column is missing from the header line.
+    #[error("{file}: line 1: missing required column `{column}` (required: {required})")]
+    MissingColumn {
+        /// File path.
+        file: PathBuf,
+        /// The missing column.
+        column: String,
+        /// The list of required columns.
+        required: String,
+    },
+    /// A cell is not a finite number, or is out of its allowed range.
+    #[error("{file}: line {line}, column {col} (`{column}`): {message}")]
+    BadValue {
+        /// File path.
+        file: PathBuf,
+        /// 1-based line number in the file (the header is line 1).
+        line: u64,
+        /// 1-based column number.
+        col: usize,
+        /// Column name.
+        column: String,
+        /// What is wrong and what is allowed.
+        message: String,
+    },
+    /// Malformed CSV (wrong number of fields, bad quoting).
+    #[error("{file}: line {line}: malformed CSV: {message}")]
+    Csv {
+        /// File path.
+        file: PathBuf,
+        /// 1-based line number.
+        line: u64,
+        /// Parser message.
+        message: String,
+    },
+    /// The log is unusable as a whole (too short, time not increasing).
+    #[error("{file}: {message}")]
+    Invalid {
+        /// File path.
+        file: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// One run log held column-wise. All vectors have the same length; optional columns are
+/// `None` when the file did not have them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunLog {
+    /// Time since start, s (strictly increasing).
+    pub t_s: Vec<f64>,
+    /// Tool position along the path, mm.
+    pub x_mm: Option<Vec<f64>>,
+    /// Radial depth of cut, mm (0 = air cut).
+    pub radial_depth_mm: Vec<f64>,
+    /// Axial depth of cut, mm (0 = air cut).
+    pub axial_depth_mm: Vec<f64>,
+    /// Spindle speed, rpm.
+    pub spindle_rpm: Vec<f64>,
+    /// Programmed feed (100 % override), mm/min.
+    pub programmed_feed_mm_min: Option<Vec<f64>>,
+    /// Override commanded by the controller, % (0–150).
+    pub override_cmd_pct: Option<Vec<f64>>,
+    /// Override in effect at the CNC, %.
+    pub override_applied_pct: Option<Vec<f64>>,
+    /// Actual (recorded) feed, mm/min.
+    pub feed_mm_min: Vec<f64>,
+    /// Measured mean cutting force, N.
+    pub force_n: Option<Vec<f64>>,
+    /// Measured spindle input power, W.
+    pub power_w: Option<Vec<f64>>,
+    /// Tool flank wear VB, µm (importers only; the workflow never reads it).
+    pub wear_vb_um: Option<Vec<f64>>,
+    /// Machining phase label per row (importers), e.g. `Layer 1 Up`.
+    pub phase: Option<Vec<String>>,
+}
+
+/// The columns a run log must have.
+pub const REQUIRED: [&str; 5] = [
+    "t_s",
+    "feed_mm_min",
+    "spindle_rpm",
+    "radial_depth_mm",
+    "axial_depth_mm",
+];
+
+impl RunLog {
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// `true` when the log has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Median sampling period, s (0 for fewer than two rows).
+    pub fn median_period_s(&self) -> f64 {
+        let mut d: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        if d.is_empty() {
+            return 0.0;
+        }
+        d.sort_by(f64::total_cmp);
+        d[d.len() / 2]
+    }
+
+    /// Rows `range` of the log as a new log (all columns sliced alike).
+    pub fn slice(&self, range: std::ops::Range<usize>) -> RunLog {
+        let s = |v: &Vec<f64>| v[range.clone()].to_vec();
+        let so = |v: &Option<Vec<f64>>| v.as_ref().map(|v| v[range.clone()].to_vec());
+        RunLog {
+            t_s: s(&self.t_s),
+            x_mm: so(&self.x_mm),
+            radial_depth_mm: s(&self.radial_depth_mm),
+            axial_depth_mm: s(&self.axial_depth_mm),
+            spindle_rpm: s(&self.spindle_rpm),
+            programmed_feed_mm_min: so(&self.programmed_feed_mm_min),
+            override_cmd_pct: so(&self.override_cmd_pct),
+            override_applied_pct: so(&self.override_applied_pct),
+            feed_mm_min: s(&self.feed_mm_min),
+            force_n: so(&self.force_n),
+            power_w: so(&self.power_w),
+            wear_vb_um: so(&self.wear_vb_um),
+            phase: self.phase.as_ref().map(|v| v[range.clone()].to_vec()),
+        }
+    }
+
+    /// Check lengths, time order and value ranges; `file` is used in errors only.
+    pub fn validate(&self, file: &Path) -> Result<(), RunLogError> {
+        let n = self.t_s.len();
+        let invalid = |message: String| RunLogError::Invalid {
+            file: file.to_path_buf(),
+            message,
+        };
+        if n < 10 {
+            return Err(invalid(format!("{n} data rows; at least 10 are needed")));
+        }
+        if self.force_n.is_none() && self.power_w.is_none() {
+            return Err(invalid(
+                "neither `power_w` nor `force_n` present: one measured channel is required".into(),
+            ));
+        }
+        let lens = [
+            self.radial_depth_mm.len(),
+            self.axial_depth_mm.len(),
+            self.spindle_rpm.len(),
+            self.feed_mm_min.len(),
+        ];
+        if lens.iter().any(|&l| l != n) {
+            return Err(invalid("columns have different lengths".into()));
+        }
+        for (i, w) in self.t_s.windows(2).enumerate() {
+            if w[1] <= w[0] {
+                return Err(RunLogError::BadValue {
+                    file: file.to_path_buf(),
+                    line: i as u64 + 3,
+                    col: 1,
+                    column: "t_s".into(),
+                    message: format!("time {} is not after the previous row's {}", w[1], w[0]),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Write the log as CSV in the run-log schema (present optional columns only).
+    pub fn write_csv(&self, path: &Path) -> Result<(), RunLogError> {
+        let io = |e: &dyn std::fmt::Display| RunLogError::Io {
+            file: path.to_path_buf(),
+            reason: e.to_string(),
+        };
+        let mut w = csv::Writer::from_path(path).map_err(|e| io(&e))?;
+        let mut cols: Vec<(&str, &Vec<f64>)> = vec![("t_s", &self.t_s)];
+        if let Some(v) = &self.x_mm {
+            cols.push(("x_mm", v));
+        }
+        cols.push(("radial_depth_mm", &self.radial_depth_mm));
+        cols.push(("axial_depth_mm", &self.axial_depth_mm));
+        cols.push(("spindle_rpm", &self.spindle_rpm));
+        for (name, v) in [
+            ("programmed_feed_mm_min", &self.programmed_feed_mm_min),
+            ("override_cmd_pct", &self.override_cmd_pct),
+            ("override_applied_pct", &self.override_applied_pct),
+        ] {
+            if let Some(v) = v {
+                cols.push((name, v));
+            }
+        }
+        cols.push(("feed_mm_min", &self.feed_mm_min));
+        for (name, v) in [
+            ("force_n", &self.force_n),
+            ("power_w", &self.power_w),
+            ("wear_vb_um", &self.wear_vb_um),
+        ] {
+            if let Some(v) = v {
+                cols.push((name, v));
+            }
+        }
+        let mut header: Vec<&str> = cols.iter().map(|c| c.0).collect();
+        if self.phase.is_some() {
+            header.push("phase");
+        }
+        w.write_record(&header).map_err(|e| io(&e))?;
+        for i in 0..self.len() {
+            let mut rec: Vec<String> = cols.iter().map(|c| format!("{}", c.1[i])).collect();
+            if let Some(p) = &self.phase {
+                rec.push(p[i].clone());
+            }
+            w.write_record(&rec).map_err(|e| io(&e))?;
+        }
+        w.flush().map_err(|e| io(&e))
+    }
+}
+
+/// Read a run log from a CSV file; see the module docs for the columns.
+pub fn read_csv(path: &Path) -> Result<RunLog, RunLogError> {
+    let file = std::fs::File::open(path).map_err(|e| RunLogError::Io {
+        file: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    read_csv_from(file, path)
+}
+
+/// Read a run log from any reader; `path` is used in errors only.
+pub fn read_csv_from(reader: impl std::io::Read, path: &Path) -> Result<RunLog, RunLogError> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let csv_err = |e: csv::Error| RunLogError::Csv {
+        file: path.to_path_buf(),
+        line: e.position().map(|p| p.line()).unwrap_or(0),
+        message: e.to_string(),
+    };
+    let header = rdr.headers().map_err(csv_err)?.clone();
+    let find = |name: &str| header.iter().position(|h| h == name);
+    let mut idx_req = [0usize; 5];
+    for (k, name) in REQUIRED.iter().enumerate() {
+        idx_req[k] = find(name).ok_or_else(|| RunLogError::MissingColumn {
+            file: path.to_path_buf(),
+            column: name.to_string(),
+            required: format!("{} and one of power_w, force_n", REQUIRED.join(", ")),
+        })?;
+    }
+    let optional = [
+        "x_mm",
+        "programmed_feed_mm_min",
+        "override_cmd_pct",
+        "override_applied_pct",
+        "force_n",
+        "power_w",
+        "wear_vb_um",
+    ];
+    let idx_opt: Vec<Option<usize>> = optional.iter().map(|n| find(n)).collect();
+    let idx_phase = find("phase");
+    let mut req: [Vec<f64>; 5] = Default::default();
+    let mut opt: Vec<Vec<f64>> = vec![Vec::new(); optional.len()];
+    let mut phase = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(csv_err)?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let cell = |col: usize, name: &str| -> Result<f64, RunLogError> {
+            let bad = |message: String| RunLogError::BadValue {
+                file: path.to_path_buf(),
+                line,
+                col: col + 1,
+                column: name.to_string(),
+                message,
+            };
+            let text = rec.get(col).ok_or_else(|| bad("missing cell".into()))?;
+            let v: f64 = text
+                .parse()
+                .map_err(|_| bad(format!("`{text}` is not a number")))?;
+            if !v.is_finite() {
+                return Err(bad(format!("`{text}` is not finite")));
+            }
+            let nonneg = matches!(
+                name,
+                "radial_depth_mm" | "axial_depth_mm" | "spindle_rpm" | "feed_mm_min"
+            );
+            if nonneg && v < 0.0 {
+                return Err(bad(format!("{v} is negative; allowed >= 0")));
+            }
+            Ok(v)
+        };
+        for (k, name) in REQUIRED.iter().enumerate() {
+            req[k].push(cell(idx_req[k], name)?);
+        }
+        for (k, name) in optional.iter().enumerate() {
+            if let Some(c) = idx_opt[k] {
+                opt[k].push(cell(c, name)?);
+            }
+        }
+        if let Some(c) = idx_phase {
+            phase.push(rec.get(c).unwrap_or("").to_string());
+        }
+    }
+    let take = |k: usize| idx_opt[k].map(|_| opt[k].clone());
+    let [t_s, feed_mm_min, spindle_rpm, radial_depth_mm, axial_depth_mm] = req;
+    let log = RunLog {
+        t_s,
+        x_mm: take(0),
+        radial_depth_mm,
+        axial_depth_mm,
+        spindle_rpm,
+        programmed_feed_mm_min: take(1),
+        override_cmd_pct: take(2),
+        override_applied_pct: take(3),
+        feed_mm_min,
+        force_n: take(4),
+        power_w: take(5),
+        wear_vb_um: take(6),
+        phase: idx_phase.map(|_| phase),
+    };
+    log.validate(path)?;
+    Ok(log)
+}

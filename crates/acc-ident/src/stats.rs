@@ -1,0 +1,193 @@
+//! Small statistics helpers: AR(1) noise, effective sample size, correlation tests.
+//!
+//! Correlated noise is handled with the AR(1) effective sample size
+//! `n_eff = n·(1 − ρ)/(1 + ρ)` (Bartlett 1946; von Storch & Zwiers, *Statistical Analysis
+//! in Climate Research*, eq. 6.17), and for a correlation between two AR(1) series
+//! `n_eff = n·(1 − ρx·ρy)/(1 + ρx·ρy)` (Bretherton et al. 1999, J. Climate 12, eq. 31).
+
+use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+
+/// Mean of a slice (0 for an empty slice).
+pub fn mean(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        0.0
+    } else {
+        x.iter().sum::<f64>() / x.len() as f64
+    }
+}
+
+/// Root mean square (0 for an empty slice).
+pub fn rms(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        0.0
+    } else {
+        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+    }
+}
+
+/// Lag-1 autocorrelation of `x` about its mean, clamped to [−0.95, 0.99].
+pub fn lag1(x: &[f64]) -> f64 {
+    if x.len() < 3 {
+        return 0.0;
+    }
+    let m = mean(x);
+    let (mut num, mut den) = (0.0, 0.0);
+    for i in 0..x.len() {
+        let d = x[i] - m;
+        den += d * d;
+        if i > 0 {
+            num += d * (x[i - 1] - m);
+        }
+    }
+    if den <= 0.0 {
+        0.0
+    } else {
+        (num / den).clamp(-0.95, 0.99)
+    }
+}
+
+/// AR(1) effective sample size `n·(1 − ρ)/(1 + ρ)` for ρ ≥ 0 (ρ < 0 is treated as 0).
+pub fn n_eff(n: usize, rho: f64) -> f64 {
+    let r = rho.clamp(0.0, 0.99);
+    (n as f64 * (1.0 - r) / (1.0 + r)).max(1.0)
+}
+
+/// Standard normal upper-tail probability `P(Z > z)`.
+pub fn normal_sf(z: f64) -> f64 {
+    Normal::standard().sf(z)
+}
+
+/// Standard normal quantile.
+pub fn normal_quantile(p: f64) -> f64 {
+    Normal::standard().inverse_cdf(p.clamp(1e-300, 1.0 - 1e-16))
+}
+
+/// Two-sided Student-t critical value for confidence `level` and `dof` degrees of freedom.
+pub fn t_critical(level: f64, dof: f64) -> f64 {
+    match StudentsT::new(0.0, 1.0, dof.max(1.0)) {
+        Ok(t) => t.inverse_cdf(0.5 + level / 2.0),
+        Err(_) => normal_quantile(0.5 + level / 2.0),
+    }
+}
+
+/// Noise estimate: standard deviation and lag-1 correlation.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Noise {
+    /// Standard deviation, channel unit.
+    pub sigma: f64,
+    /// AR(1) lag-1 correlation.
+    pub rho: f64,
+    /// Number of samples used.
+    pub samples: usize,
+}
+
+/// Pooled noise from several stretches, each detrended by its own least-squares line
+/// (so slow drifts inside a stretch do not count as noise).
+pub fn pooled_noise(stretches: &[&[f64]]) -> Noise {
+    let (mut ss, mut dof, mut num, mut den, mut count) = (0.0, 0.0, 0.0, 0.0, 0usize);
+    for s in stretches {
+        let n = s.len();
+        if n < 5 {
+            continue;
+        }
+        let r = detrend(s);
+        ss += r.iter().map(|v| v * v).sum::<f64>();
+        dof += n as f64 - 2.0;
+        for i in 1..n {
+            num += r[i] * r[i - 1];
+        }
+        den += r.iter().map(|v| v * v).sum::<f64>();
+        count += n;
+    }
+    if dof <= 0.0 || den <= 0.0 {
+        return Noise {
+            sigma: 0.0,
+            rho: 0.0,
+            samples: count,
+        };
+    }
+    // Detrending short stretches biases ρ low by about (1 + 3ρ)/n (Kendall 1954); the
+    // stretches used here are long enough that this is ignored.
+    Noise {
+        sigma: (ss / dof).sqrt(),
+        rho: (num / den).clamp(-0.95, 0.99),
+        samples: count,
+    }
+}
+
+/// Residuals of a least-squares straight line through `y` against its index.
+pub fn detrend(y: &[f64]) -> Vec<f64> {
+    let n = y.len() as f64;
+    let xm = (n - 1.0) / 2.0;
+    let ym = mean(y);
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, v) in y.iter().enumerate() {
+        let dx = i as f64 - xm;
+        sxy += dx * (v - ym);
+        sxx += dx * dx;
+    }
+    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    y.iter()
+        .enumerate()
+        .map(|(i, v)| v - ym - b * (i as f64 - xm))
+        .collect()
+}
+
+/// Pearson correlation of `x` and `y` and its two-sided p-value, with the effective
+/// sample size of two AR(1) series (Bretherton et al. 1999, eq. 31).
+pub fn correlation(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len().min(y.len());
+    if n < 5 {
+        return (0.0, 1.0);
+    }
+    let (mx, my) = (mean(&x[..n]), mean(&y[..n]));
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (a, b) = (x[i] - mx, y[i] - my);
+        sxy += a * b;
+        sxx += a * a;
+        syy += b * b;
+    }
+    if sxx <= 0.0 || syy <= 0.0 {
+        return (0.0, 1.0);
+    }
+    let r = sxy / (sxx * syy).sqrt();
+    let rr = (lag1(&x[..n]) * lag1(&y[..n])).max(0.0);
+    let ne = (n as f64 * (1.0 - rr) / (1.0 + rr)).max(3.0);
+    let t = r * ((ne - 2.0) / (1.0 - r * r).max(1e-12)).sqrt();
+    let p = match StudentsT::new(0.0, 1.0, ne - 2.0) {
+        Ok(d) => 2.0 * d.sf(t.abs()),
+        Err(_) => 2.0 * normal_sf(t.abs()),
+    };
+    (r, p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn n_eff_shrinks_with_correlation() {
+        assert_eq!(n_eff(100, 0.0), 100.0);
+        assert!((n_eff(100, 0.5) - 100.0 / 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn detrend_removes_a_line() {
+        let y: Vec<f64> = (0..10).map(|i| 3.0 + 2.0 * i as f64).collect();
+        assert!(rms(&detrend(&y)) < 1e-9);
+    }
+
+    #[test]
+    fn correlation_of_a_line_with_itself_is_one() {
+        let x: Vec<f64> = (0..50).map(|i| (i as f64 * 0.7).sin()).collect();
+        let (r, p) = correlation(&x, &x);
+        assert!((r - 1.0).abs() < 1e-9 && p < 1e-6);
+    }
+
+    #[test]
+    fn quantiles_match_tables() {
+        assert!((normal_quantile(0.975) - 1.959964).abs() < 1e-5);
+        assert!((t_critical(0.95, 10.0) - 2.228139).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,816 @@
+//! The discrepancy workflow: locate, fit candidates, select by held-out prediction,
+//! check the sealed final part.
+
+use crate::effects::EffectKind;
+use crate::fit::{self, Free};
+use crate::model::{Channel, Model};
+use crate::replay::{replay, Inputs, ReplayError};
+use crate::report::{
+    Ambiguity, CandidateResult, InputInfo, Locate, Metrics, Report, Round, Sealed,
+    SignalCorrelation, Unexplained, SCHEMA_VERSION,
+};
+use crate::runlog::RunLog;
+use crate::segment::{label_rows, segment_biases, segments, Segment};
+use crate::stats::{self, correlation, lag1, mean, n_eff, normal_quantile, Noise};
+
+/// Workflow settings.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Contiguous cross-validation folds over the selection part. Default 5.
+    pub folds: usize,
+    /// Fraction of the log (at its end) sealed away from selection. Default 0.2.
+    pub sealed_fraction: f64,
+    /// Family-wise significance level. Default 0.05.
+    pub alpha: f64,
+    /// At most this many effects are added (greedy forward selection). Default 3.
+    pub max_effects: usize,
+    /// Length of the entry / depth-change / override-step regimes, s. Default 1.0.
+    pub transient_s: f64,
+    /// Segments shorter than this are not bias-tested, s. Default 1.0.
+    pub min_segment_s: f64,
+    /// Smallest held-out MSE reduction that counts, % of the base model's. Default 5.
+    pub min_gain_pct: f64,
+    /// Candidate effects. Default: all.
+    pub candidates: Vec<EffectKind>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            folds: 5,
+            sealed_fraction: 0.2,
+            alpha: 0.05,
+            max_effects: 3,
+            transient_s: 1.0,
+            min_segment_s: 1.0,
+            min_gain_pct: 5.0,
+            candidates: EffectKind::ALL.to_vec(),
+        }
+    }
+}
+
+/// Errors of the workflow.
+#[derive(Debug, thiserror::Error)]
+pub enum WorkflowError {
+    /// Inputs could not be prepared.
+    #[error(transparent)]
+    Replay(#[from] ReplayError),
+    /// The log is too short for the folds and the sealed part.
+    #[error(
+        "the log has {rows} rows; at least {needed} are needed for {folds} folds and a sealed part"
+    )]
+    TooShort {
+        /// Rows in the log.
+        rows: usize,
+        /// Rows needed.
+        needed: usize,
+        /// Folds asked for.
+        folds: usize,
+    },
+    /// An option is out of range.
+    #[error("option `{name}` = {value} is out of range: allowed {allowed}")]
+    BadOption {
+        /// Option name.
+        name: &'static str,
+        /// Value.
+        value: f64,
+        /// Allowed range.
+        allowed: &'static str,
+    },
+}
+
+/// Time series for plots.
+#[derive(Debug, Clone, Default)]
+pub struct Series {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// Measured channel.
+    pub measured: Vec<f64>,
+    /// Nominal model (as given).
+    pub nominal: Vec<f64>,
+    /// Updated model.
+    pub updated: Vec<f64>,
+    /// Name of the signal the nominal residual correlates with most.
+    pub strongest_signal: String,
+    /// That signal.
+    pub signal: Vec<f64>,
+    /// Flagged (significantly biased) stretches of the nominal model, (start, end) s.
+    pub flagged: Vec<(f64, f64)>,
+    /// Start of the sealed part, s.
+    pub sealed_from_s: f64,
+    /// Per-segment sealed-part bias, nominal and updated: (mid time s, nominal, updated).
+    pub sealed_bias: Vec<(f64, f64, f64)>,
+}
+
+/// Result of [`analyse`].
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// The report (`report.json`).
+    pub report: Report,
+    /// The updated model with effects as fitted deltas (use [`Model::folded`] to write it).
+    pub updated: Model,
+    /// Series for plots.
+    pub series: Series,
+}
+
+fn nuisance(inp: &Inputs) -> Vec<Free> {
+    match inp.channel {
+        Channel::Power => vec![Free::KsScale, Free::Noload],
+        Channel::Force => vec![Free::KsScale],
+    }
+}
+
+fn effect_free(kind: EffectKind) -> Vec<Free> {
+    kind.params()
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.fitted)
+        .map(|(i, _)| Free::Effect(kind, i))
+        .collect()
+}
+
+fn effect_grid(kind: EffectKind) -> Vec<Free> {
+    kind.params()
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.fitted && p.grid.is_some())
+        .map(|(i, _)| Free::Effect(kind, i))
+        .collect()
+}
+
+/// Prepare a model for fitting `kind`: switch it on at its null (and set the reference
+/// feed of the feed exponent to the calibration feed so that it folds into `beta`).
+fn with_null(model: &Model, kind: EffectKind) -> Model {
+    let mut m = model.clone();
+    for (i, p) in kind.params().iter().enumerate() {
+        let v = match (kind, i) {
+            (EffectKind::FeedExponent, 1) => model.tool.process.calib_feed_mm_min,
+            (EffectKind::NoloadDrift, 1) => 300.0,
+            _ => p.null,
+        };
+        m.effects.set(kind, i, v);
+    }
+    m
+}
+
+struct Ctx<'a> {
+    inp: &'a Inputs,
+    sel: Vec<usize>,
+    folds: Vec<std::ops::Range<usize>>,
+}
+
+impl Ctx<'_> {
+    /// Held-out residuals over the selection rows: each fold predicted by the model
+    /// refitted (warm start from `start`) on the other folds.
+    fn cv_errors(&self, start: &Model, free: &[Free]) -> Vec<f64> {
+        let mut e = vec![0.0; self.sel.len()];
+        for fold in &self.folds {
+            let train: Vec<usize> = self
+                .sel
+                .iter()
+                .copied()
+                .filter(|i| !fold.contains(i))
+                .collect();
+            let m = fit::refine(start, free, self.inp, &train);
+            let r = replay(&m, self.inp);
+            for i in fold.clone() {
+                e[i] = self.inp.measured[i] - r.predicted[i];
+            }
+        }
+        e
+    }
+
+    fn residual(&self, m: &Model) -> Vec<f64> {
+        let r = replay(m, self.inp);
+        self.sel
+            .iter()
+            .map(|&i| self.inp.measured[i] - r.predicted[i])
+            .collect()
+    }
+}
+
+/// Noise from the detrended air and steady-cut stretches of `residual` (rows `0..n`);
+/// falls back to 50-row chunks of the whole residual if there are none.
+fn noise_of(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
+    use crate::segment::Regime;
+    let stretches: Vec<&[f64]> = segs
+        .iter()
+        .filter(|s| matches!(s.regime, Regime::Air | Regime::SteadyCut) && s.end <= n)
+        .filter(|s| s.end - s.start >= 8)
+        .map(|s| &residual[s.start..s.end])
+        .collect();
+    let nz = stats::pooled_noise(&stretches);
+    if nz.samples >= 30 && nz.sigma > 0.0 {
+        return nz;
+    }
+    let chunks: Vec<&[f64]> = residual[..n].chunks(50).collect();
+    stats::pooled_noise(&chunks)
+}
+
+fn signals(inp: &Inputs, nominal: &crate::replay::Replay) -> Vec<(String, Vec<f64>)> {
+    let n = inp.len();
+    let cmd = inp.feed_cmd_mm_min.as_ref().unwrap_or(&inp.feed_mm_min);
+    let diff = |v: &[f64]| -> Vec<f64> {
+        (0..n)
+            .map(|i| if i == 0 { 0.0 } else { (v[i] - v[i - 1]).abs() })
+            .collect()
+    };
+    let load = match inp.channel {
+        Channel::Power => nominal.cut_power_w.clone(),
+        Channel::Force => nominal.force_n.clone(),
+    };
+    let mut out = vec![
+        ("time".to_string(), inp.t_s.clone()),
+        ("load".to_string(), load),
+        ("cut_volume".to_string(), nominal.volume_mm3.clone()),
+        ("feed".to_string(), nominal.feed_mm_min.clone()),
+        ("feed_change".to_string(), diff(cmd)),
+        ("depth_change".to_string(), diff(&inp.radial_depth_mm)),
+    ];
+    if inp.runout_visibility() >= 0.05 {
+        let a = &nominal.spindle_angle_rad;
+        out.push((
+            "spindle_angle_cos".into(),
+            a.iter().map(|x| x.cos()).collect(),
+        ));
+        out.push((
+            "spindle_angle_sin".into(),
+            a.iter().map(|x| x.sin()).collect(),
+        ));
+    }
+    out
+}
+
+fn correlate(
+    residual: &[f64],
+    sigs: &[(String, Vec<f64>)],
+    rows: &[usize],
+    alpha: f64,
+) -> Vec<SignalCorrelation> {
+    let m = sigs.len().max(1) as f64;
+    sigs.iter()
+        .map(|(name, v)| {
+            let x: Vec<f64> = rows.iter().map(|&i| v[i]).collect();
+            let (r, p) = correlation(&x, residual);
+            SignalCorrelation {
+                signal: name.clone(),
+                r,
+                p,
+                significant: p < alpha / m,
+            }
+        })
+        .collect()
+}
+
+fn metrics(
+    inp: &Inputs,
+    pred: &[f64],
+    rows: std::ops::Range<usize>,
+    segs: &[Segment],
+    noise: Noise,
+    min_len: usize,
+) -> Metrics {
+    let y = &inp.measured[rows.clone()];
+    let e: Vec<f64> = rows.clone().map(|i| inp.measured[i] - pred[i]).collect();
+    let ym = mean(y);
+    let dev = y.iter().map(|v| (v - ym).powi(2)).sum::<f64>().sqrt();
+    let en = e.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let full: Vec<f64> = (0..inp.len()).map(|i| inp.measured[i] - pred[i]).collect();
+    let clipped: Vec<Segment> = segs
+        .iter()
+        .filter(|s| s.end > rows.start)
+        .map(|s| Segment {
+            start: s.start.max(rows.start),
+            ..*s
+        })
+        .collect();
+    Metrics {
+        rms: stats::rms(&e),
+        fit_pct: if dev > 0.0 {
+            100.0 * (1.0 - en / dev)
+        } else {
+            0.0
+        },
+        bias: mean(&e),
+        segments: segment_biases(&full, &clipped, &inp.t_s, noise, min_len),
+    }
+}
+
+/// Run the whole workflow of issue 6 on one log.
+///
+/// Locate (nominal residual, noise, segments, correlations) → for each round of greedy
+/// forward selection, fit every applicable candidate jointly with the nominal parameters
+/// it can be confused with (`Ks`, and the no-load power on the power channel), score it by
+/// contiguous-fold held-out prediction, and accept the best one that (a) improves at least
+/// `folds − 1` folds, (b) is significant after a Bonferroni correction over the
+/// candidates, (c) has a 95 % interval excluding its null, and (d) removes its residual
+/// signature → unexplained check → sealed-part comparison.
+pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
+    if opts.folds < 2 || opts.folds > 20 {
+        return Err(WorkflowError::BadOption {
+            name: "folds",
+            value: opts.folds as f64,
+            allowed: "2 ..= 20",
+        });
+    }
+    if !(0.05..=0.5).contains(&opts.sealed_fraction) {
+        return Err(WorkflowError::BadOption {
+            name: "sealed_fraction",
+            value: opts.sealed_fraction,
+            allowed: "0.05 ..= 0.5",
+        });
+    }
+    let inp = Inputs::from_log(log, model)?;
+    let n = inp.len();
+    let needed = 20 * opts.folds * 2;
+    if n < needed {
+        return Err(WorkflowError::TooShort {
+            rows: n,
+            needed,
+            folds: opts.folds,
+        });
+    }
+    let n_sel = ((1.0 - opts.sealed_fraction) * n as f64).round() as usize;
+    let sel: Vec<usize> = (0..n_sel).collect();
+    let fold_len = n_sel / opts.folds;
+    let folds: Vec<std::ops::Range<usize>> = (0..opts.folds)
+        .map(|k| {
+            let a = k * fold_len;
+            let b = if k + 1 == opts.folds {
+                n_sel
+            } else {
+                a + fold_len
+            };
+            a..b
+        })
+        .collect();
+    let ctx = Ctx {
+        inp: &inp,
+        sel: sel.clone(),
+        folds,
+    };
+    let min_len = ((opts.min_segment_s / inp.period_s.max(1e-9)).round() as usize).max(3);
+
+    // 1. Locate.
+    let labels = label_rows(&inp, opts.transient_s);
+    let segs = segments(&labels);
+    let sel_segs: Vec<Segment> = segs
+        .iter()
+        .filter(|s| s.start < n_sel)
+        .map(|s| Segment {
+            end: s.end.min(n_sel),
+            ..*s
+        })
+        .collect();
+    let nominal_replay = replay(model, &inp);
+    let r0_full: Vec<f64> = (0..n)
+        .map(|i| inp.measured[i] - nominal_replay.predicted[i])
+        .collect();
+    let noise0 = noise_of(&r0_full, &sel_segs, n_sel);
+    let sigs = signals(&inp, &nominal_replay);
+    let locate = Locate {
+        residual_rms: stats::rms(&r0_full[..n_sel]),
+        segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
+        correlations: correlate(&r0_full[..n_sel], &sigs, &sel, opts.alpha),
+    };
+
+    // Nominal parameters refitted (the base of round 1).
+    let nuis = nuisance(&inp);
+    let base_fit = fit::fit(model, &nuis, &[], &inp, &sel);
+    let mut base_model = base_fit.model.clone();
+    // Re-express the refitted model so its free parameters restart at their nulls.
+    let mut base_free = nuis.clone();
+    let mut base_params = base_fit.params.clone();
+    let nominal_refit = base_fit.model.clone();
+    // The model the reported nuisance parameters are relative to.
+    let mut params_start = model.clone();
+
+    // 2–4. Forward selection.
+    let mut rounds = Vec::new();
+    let mut accepted: Vec<EffectKind> = Vec::new();
+    let mut ambiguous: Vec<(EffectKind, EffectKind)> = Vec::new();
+    let candidates: Vec<EffectKind> = opts.candidates.clone();
+    for round in 1..=opts.max_effects {
+        let zero_base = base_model.clone();
+        let base_cv = ctx.cv_errors(&zero_base, &base_free);
+        let base_res = ctx.residual(&base_model);
+        let mse_base = mean(&base_cv.iter().map(|e| e * e).collect::<Vec<_>>());
+        let noise = noise_of(
+            &{
+                let r = replay(&base_model, &inp);
+                (0..n)
+                    .map(|i| inp.measured[i] - r.predicted[i])
+                    .collect::<Vec<_>>()
+            },
+            &sel_segs,
+            n_sel,
+        );
+        let pool: Vec<EffectKind> = candidates
+            .iter()
+            .copied()
+            .filter(|k| !accepted.contains(k))
+            .collect();
+        let applicable: Vec<EffectKind> = pool
+            .iter()
+            .copied()
+            .filter(|k| inp.applicable(*k).is_ok())
+            .collect();
+        let m = applicable.len().max(1) as f64;
+        let mut results: Vec<CandidateResult> = Vec::new();
+        let mut scored: Vec<(EffectKind, Vec<f64>, crate::fit::Fit, f64)> = Vec::new();
+        for &kind in &pool {
+            if let Err(why) = inp.applicable(kind) {
+                results.push(CandidateResult {
+                    effect: kind.name().into(),
+                    applicable: false,
+                    skip_reason: Some(why.into()),
+                    params: Vec::new(),
+                    heldout_mse_base: mse_base,
+                    heldout_mse: mse_base,
+                    heldout_gain_pct: 0.0,
+                    folds_improved: 0,
+                    heldout_chi2: 0.0,
+                    dof: 0,
+                    p_adjusted: 1.0,
+                    ci_excludes_null: false,
+                    signature_r_before: 0.0,
+                    signature_r_after: 0.0,
+                    signature_gone: false,
+                    effect_to_noise: 0.0,
+                    passed: false,
+                });
+                continue;
+            }
+            let start = with_null(&zero_base, kind);
+            let mut free = base_free.clone();
+            free.extend(effect_free(kind));
+            let f = fit::fit(&start, &free, &effect_grid(kind), &inp, &sel);
+            let cv = ctx.cv_errors(&f.model, &free);
+            // Held-out loss reduction per row, and per fold.
+            let delta: Vec<f64> = base_cv
+                .iter()
+                .zip(&cv)
+                .map(|(b, c)| b * b - c * c)
+                .collect();
+            let folds_improved = ctx
+                .folds
+                .iter()
+                .filter(|r| delta[(*r).clone()].iter().sum::<f64>() > 0.0)
+                .count();
+            let dof = effect_free(kind).len();
+            let chi2 = heldout_chi2(&base_cv, &cv);
+            let p_adj = (chi2_sf(chi2, dof) * m).min(1.0);
+            let primary = f
+                .params
+                .iter()
+                .find(|p| p.name == Free::Effect(kind, 0).name());
+            let ci_ok = primary
+                .map(|p| {
+                    (p.ci_low > p.null || p.ci_high < p.null)
+                        && p.std_err.is_finite()
+                        && !p.at_bound
+                })
+                .unwrap_or(false);
+            // Signature: the effect's own contribution at the fitted values.
+            let mut off = f.model.clone();
+            off.effects.remove(kind);
+            let with = replay(&f.model, &inp);
+            let without = replay(&off, &inp);
+            let contrib: Vec<f64> = sel
+                .iter()
+                .map(|&i| with.predicted[i] - without.predicted[i])
+                .collect();
+            let after = ctx.residual(&f.model);
+            let (r_before, _) = correlation(&contrib, &base_res);
+            let (r_after, p_after) = correlation(&contrib, &after);
+            let sig_gone = p_after > 0.01 || r_after.abs() <= 0.5 * r_before.abs();
+            let enr = if noise.sigma > 0.0 {
+                stats::rms(&contrib) / noise.sigma
+            } else {
+                0.0
+            };
+            let mse = mean(&cv.iter().map(|e| e * e).collect::<Vec<_>>());
+            let gain_pct = if mse_base > 0.0 {
+                100.0 * (mse_base - mse) / mse_base
+            } else {
+                0.0
+            };
+            let passed = folds_improved + 1 >= ctx.folds.len()
+                && gain_pct >= opts.min_gain_pct
+                && p_adj < opts.alpha
+                && ci_ok
+                && sig_gone;
+            results.push(CandidateResult {
+                effect: kind.name().into(),
+                applicable: true,
+                skip_reason: None,
+                params: f.params.clone(),
+                heldout_mse_base: mse_base,
+                heldout_mse: mse,
+                heldout_gain_pct: gain_pct,
+                folds_improved,
+                heldout_chi2: chi2,
+                dof,
+                p_adjusted: p_adj,
+                ci_excludes_null: ci_ok,
+                signature_r_before: r_before,
+                signature_r_after: r_after,
+                signature_gone: sig_gone,
+                effect_to_noise: enr,
+                passed,
+            });
+            if passed {
+                scored.push((kind, cv, f, mse));
+            }
+        }
+        scored.sort_by(|a, b| a.3.total_cmp(&b.3));
+        let base_names: Vec<String> = accepted.iter().map(|k| k.name().to_string()).collect();
+        let Some((best, best_cv, best_fit, _)) = scored.first().cloned() else {
+            rounds.push(Round {
+                round,
+                base: base_names,
+                candidates: results,
+                verdict: "none: no candidate passed every criterion".into(),
+                added: None,
+            });
+            break;
+        };
+        let mut verdict = format!("accepted {}", best.name());
+        if let Some((second, second_cv, _, _)) = scored.get(1) {
+            // Non-nested comparison on the same held-out rows, one degree of freedom.
+            if chi2_sf(heldout_chi2(second_cv, &best_cv), 1) > opts.alpha {
+                ambiguous.push((best, *second));
+                verdict = format!(
+                    "ambiguous between {} and {} ({} kept provisionally)",
+                    best.name(),
+                    second.name(),
+                    best.name()
+                );
+            }
+        }
+        accepted.push(best);
+        base_free.extend(effect_free(best));
+        base_model = best_fit.model.clone();
+        base_params = best_fit.params.clone();
+        params_start = with_null(&zero_base, best);
+        rounds.push(Round {
+            round,
+            base: base_names,
+            candidates: results,
+            verdict,
+            added: Some(best.name().into()),
+        });
+    }
+    // An ambiguity is resolved when both members ended up accepted.
+    ambiguous.retain(|(a, b)| !(accepted.contains(a) && accepted.contains(b)));
+    let named: Vec<String> = accepted
+        .iter()
+        .filter(|k| !ambiguous.iter().any(|(a, b)| a == *k || b == *k))
+        .map(|k| k.name().to_string())
+        .collect();
+
+    // Unexplained?
+    let upd_replay = replay(&base_model, &inp);
+    let rf: Vec<f64> = (0..n)
+        .map(|i| inp.measured[i] - upd_replay.predicted[i])
+        .collect();
+    let noise_f = noise_of(&rf, &sel_segs, n_sel);
+    let seg_f = segment_biases(&rf, &sel_segs, &inp.t_s, noise_f, min_len);
+    let flagged: Vec<_> = seg_f.iter().filter(|b| b.significant).cloned().collect();
+    let var_ratio = if noise_f.sigma > 0.0 {
+        (stats::rms(&rf[..n_sel]) / noise_f.sigma).powi(2)
+    } else {
+        1.0
+    };
+    let ne = n_eff(n_sel, noise_f.rho);
+    let var_z = (var_ratio - 1.0) / (2.0 / ne).sqrt();
+    let unexplained =
+        if !flagged.is_empty() || var_z > normal_quantile(1.0 - opts.alpha / 2.0) * 2.0 {
+            Some(Unexplained {
+                segments: flagged,
+                variance_ratio: var_ratio,
+                variance_z: var_z,
+                correlations: correlate(&rf[..n_sel], &sigs, &sel, opts.alpha),
+            })
+        } else {
+            None
+        };
+
+    // 5. Sealed part.
+    let sealed_rows = n_sel..n;
+    let m_nom = metrics(
+        &inp,
+        &nominal_replay.predicted,
+        sealed_rows.clone(),
+        &segs,
+        noise_f,
+        min_len,
+    );
+    let refit_pred = replay(&nominal_refit, &inp).predicted;
+    let m_ref = metrics(
+        &inp,
+        &refit_pred,
+        sealed_rows.clone(),
+        &segs,
+        noise_f,
+        min_len,
+    );
+    let m_upd = metrics(
+        &inp,
+        &upd_replay.predicted,
+        sealed_rows.clone(),
+        &segs,
+        noise_f,
+        min_len,
+    );
+    let red = |a: f64, b: f64| if a > 0.0 { 100.0 * (a - b) / a } else { 0.0 };
+    let sealed = Sealed {
+        from_s: inp.t_s[n_sel],
+        to_s: inp.t_s[n - 1],
+        rows: n - n_sel,
+        rms_reduction_pct: red(m_nom.rms, m_upd.rms),
+        rms_reduction_vs_refit_pct: red(m_ref.rms, m_upd.rms),
+        nominal: m_nom,
+        nominal_refit: m_ref,
+        updated: m_upd,
+    };
+
+    let unit = match inp.channel {
+        Channel::Power => "W",
+        Channel::Force => "N",
+    };
+    let conclusion = conclude(&named, &ambiguous, unexplained.as_ref(), &sealed, unit);
+    let strongest = locate
+        .correlations
+        .iter()
+        .max_by(|a, b| a.r.abs().total_cmp(&b.r.abs()))
+        .map(|c| c.signal.clone())
+        .unwrap_or_else(|| "time".into());
+    let signal = sigs
+        .iter()
+        .find(|(n, _)| *n == strongest)
+        .map(|(_, v)| v.clone())
+        .unwrap_or_default();
+    let sealed_bias = sealed
+        .nominal
+        .segments
+        .iter()
+        .zip(&sealed.updated.segments)
+        .map(|(a, b)| (0.5 * (a.t_start_s + a.t_end_s), a.bias, b.bias))
+        .collect();
+    let series = Series {
+        t_s: inp.t_s.clone(),
+        measured: inp.measured.clone(),
+        nominal: nominal_replay.predicted.clone(),
+        updated: upd_replay.predicted.clone(),
+        strongest_signal: strongest,
+        signal,
+        flagged: locate
+            .segments
+            .iter()
+            .filter(|b| b.significant)
+            .map(|b| (b.t_start_s, b.t_end_s))
+            .collect(),
+        sealed_from_s: sealed.from_s,
+        sealed_bias,
+    };
+    let report = Report {
+        schema_version: SCHEMA_VERSION,
+        input: InputInfo {
+            rows: n,
+            period_s: inp.period_s,
+            channel: match inp.channel {
+                Channel::Power => "power".into(),
+                Channel::Force => "force".into(),
+            },
+            unit: unit.into(),
+            feed_source: if inp.feed_cmd_mm_min.is_some() {
+                "command".into()
+            } else {
+                "recorded".into()
+            },
+            selection_rows: n_sel,
+            sealed_from_s: inp.t_s[n_sel],
+            folds: opts.folds,
+        },
+        noise: noise0,
+        locate,
+        rounds,
+        accepted: named,
+        ambiguous: ambiguous
+            .iter()
+            .map(|(a, b)| Ambiguity {
+                effects: [a.name().into(), b.name().into()],
+                experiment: a.separating_experiment(*b).into(),
+            })
+            .collect(),
+        unexplained,
+        updated_params: absolute(base_params, &params_start, model),
+        sealed,
+        conclusion,
+    };
+    Ok(Analysis {
+        report,
+        updated: base_model,
+        series,
+    })
+}
+
+/// Express the Ks multiplier and the no-load offset relative to the model as given
+/// (they were fitted relative to `start`).
+fn absolute(
+    mut params: Vec<crate::fit::FittedParam>,
+    start: &Model,
+    given: &Model,
+) -> Vec<crate::fit::FittedParam> {
+    let k = start.tool.process.calib_force_n / given.tool.process.calib_force_n;
+    let o = start.machine.spindle.no_load_power_w - given.machine.spindle.no_load_power_w;
+    for p in &mut params {
+        if p.name == Free::KsScale.name() {
+            p.value *= k;
+            p.std_err *= k;
+            p.ci_low *= k;
+            p.ci_high *= k;
+        } else if p.name == Free::Noload.name() {
+            p.value += o;
+            p.ci_low += o;
+            p.ci_high += o;
+        }
+    }
+    params
+}
+
+/// Held-out likelihood-ratio statistic of a candidate against its base:
+/// `(SSE_base − SSE_cand) / (σ̂²·(1 + ρ)/(1 − ρ))` over the held-out rows, with σ̂² and
+/// the AR(1) ρ of the candidate's held-out errors (the variance inflation of an AR(1)
+/// mean, see [`crate::stats`]). Under "no effect" it is ≤ 0 on average (the candidate
+/// only adds estimation noise out of sample); with an effect it grows like χ² with the
+/// effect's degrees of freedom (Wilks 1938).
+fn heldout_chi2(base: &[f64], cand: &[f64]) -> f64 {
+    let n = cand.len().max(1) as f64;
+    let sse_b: f64 = base.iter().map(|e| e * e).sum();
+    let sse_c: f64 = cand.iter().map(|e| e * e).sum();
+    let rho = lag1(cand).clamp(0.0, 0.99);
+    let s2 = sse_c / n * (1.0 + rho) / (1.0 - rho);
+    if s2 <= 0.0 {
+        return 0.0;
+    }
+    (sse_b - sse_c) / s2
+}
+
+/// Upper tail of χ² with `dof` degrees of freedom (1 for a non-positive statistic).
+fn chi2_sf(x: f64, dof: usize) -> f64 {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    if x <= 0.0 {
+        return 1.0;
+    }
+    ChiSquared::new(dof.max(1) as f64)
+        .map(|d| d.sf(x))
+        .unwrap_or(1.0)
+}
+
+fn conclude(
+    named: &[String],
+    ambiguous: &[(EffectKind, EffectKind)],
+    un: Option<&Unexplained>,
+    sealed: &Sealed,
+    unit: &str,
+) -> String {
+    let mut parts = Vec::new();
+    if named.is_empty() && ambiguous.is_empty() {
+        parts.push("No candidate effect is supported by held-out prediction.".to_string());
+    }
+    if !named.is_empty() {
+        parts.push(format!("Named: {}.", named.join(", ")));
+    }
+    for (a, b) in ambiguous {
+        parts.push(format!(
+            "Ambiguous between {} and {}; to separate them run {}.",
+            a.name(),
+            b.name(),
+            a.separating_experiment(*b)
+        ));
+    }
+    if let Some(u) = un {
+        let where_: Vec<String> = u
+            .segments
+            .iter()
+            .take(5)
+            .map(|b| format!("{} {:.1}–{:.1} s", b.regime.name(), b.t_start_s, b.t_end_s))
+            .collect();
+        parts.push(format!(
+            "Unexplained: the remaining residual is {:.2}× the noise variance{}.",
+            u.variance_ratio,
+            if where_.is_empty() {
+                String::new()
+            } else {
+                format!(", biased in {}", where_.join("; "))
+            }
+        ));
+    }
+    parts.push(format!(
+        "Sealed part: RMS {:.3} → {:.3} {unit} (nominal → updated), fit {:.1} % → {:.1} %.",
+        sealed.nominal.rms, sealed.updated.rms, sealed.nominal.fit_pct, sealed.updated.fit_pct
+    ));
+    parts.join(" ")
+}
