@@ -1,0 +1,378 @@
+//! The simulated machine: override path delay, feed drive lag, spindle, cutting process,
+//! all advanced on the machine's own manual clock (`t_s`), never the wall clock.
+
+use std::collections::VecDeque;
+use std::f64::consts::PI;
+
+use crate::config::{MachineSpec, SpindleSpec, ToolSpec};
+use crate::process::{ForceLaw, ToothModel, Wear, WearSpec};
+use crate::workpiece::Workpiece;
+
+/// Which force model the machine integrates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ForceModel {
+    /// Mean force of eq. (1) at the engaged depth (internal rate `sim.mean_rate_hz`).
+    #[default]
+    Mean,
+    /// Mean force times the tooth-pass ripple of a helical end mill (seed 004; internal
+    /// rate `sim.tooth_rate_hz`).
+    Tooth,
+}
+
+/// A spindle drive: turns the load torque into a speed and an electrical input power.
+/// The default is [`ConstantSpeedSpindle`]; an induction-motor model implements the same
+/// trait.
+pub trait SpindleModel {
+    /// Advance `dt_s` under the cutting torque `load_torque_nm`; returns the speed, rpm.
+    fn step(&mut self, load_torque_nm: f64, dt_s: f64) -> f64;
+    /// Electrical input power at the last step, W.
+    fn input_power_w(&self) -> f64;
+    /// Current speed, rpm.
+    fn speed_rpm(&self) -> f64;
+}
+
+/// A stiff speed-controlled spindle: constant speed, input power
+/// `P = P_no_load + T_c·ω / η`.
+#[derive(Debug, Clone)]
+pub struct ConstantSpeedSpindle {
+    spec: SpindleSpec,
+    power_w: f64,
+}
+
+impl ConstantSpeedSpindle {
+    /// At its commanded speed, idling.
+    pub fn new(spec: SpindleSpec) -> Self {
+        ConstantSpeedSpindle {
+            spec,
+            power_w: spec.no_load_power_w,
+        }
+    }
+}
+
+impl SpindleModel for ConstantSpeedSpindle {
+    fn step(&mut self, load_torque_nm: f64, _dt_s: f64) -> f64 {
+        let omega = self.spec.rpm * 2.0 * PI / 60.0;
+        self.power_w = self.spec.no_load_power_w + load_torque_nm * omega / self.spec.efficiency;
+        self.spec.rpm
+    }
+
+    fn input_power_w(&self) -> f64 {
+        self.power_w
+    }
+
+    fn speed_rpm(&self) -> f64 {
+        self.spec.rpm
+    }
+}
+
+/// One internal sample of the machine (rate `sim.mean_rate_hz` or `sim.tooth_rate_hz`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Sample {
+    /// Time at the end of the sample, s.
+    pub t_s: f64,
+    /// Tool centre position along the path, mm.
+    pub x_mm: f64,
+    /// Actual feed, mm/min.
+    pub feed_mm_min: f64,
+    /// Resultant cutting force, N (instantaneous for the tooth model).
+    pub force_n: f64,
+    /// Cutting torque, N·m.
+    pub torque_nm: f64,
+    /// Spindle speed, rpm.
+    pub spindle_rpm: f64,
+    /// Spindle electrical input power, W.
+    pub power_w: f64,
+}
+
+/// What happened during one control period; samples are borrowed from the machine.
+#[derive(Debug, Clone, Copy)]
+pub struct PeriodRecord<'a> {
+    /// Time at the end of the period, s.
+    pub t_end_s: f64,
+    /// Period length T, s.
+    pub period_s: f64,
+    /// Tool centre position at the end, mm.
+    pub x_mm: f64,
+    /// Engaged radial depth at the end, mm.
+    pub radial_depth_mm: f64,
+    /// Axial depth, mm.
+    pub axial_depth_mm: f64,
+    /// Mean spindle speed over the period, rpm.
+    pub spindle_rpm: f64,
+    /// Mean actual feed over the period, mm/min.
+    pub feed_mean_mm_min: f64,
+    /// Mean true cutting force over the whole period, N.
+    pub force_mean_n: f64,
+    /// Mean cutting torque over the period, N·m.
+    pub torque_mean_nm: f64,
+    /// Mean spindle input power over the period, W.
+    pub power_mean_w: f64,
+    /// `Ks` factor of the tool (wear) at the end of the period.
+    pub wear_factor: f64,
+    /// Internal samples of the period, oldest first.
+    pub samples: &'a [Sample],
+    /// Internal sample step, s.
+    pub sample_dt_s: f64,
+}
+
+impl PeriodRecord<'_> {
+    /// Mean force over the last `window_s` of the period (the whole period if `window_s`
+    /// is 0 or longer than it), N.
+    pub fn force_window_mean_n(&self, window_s: f64) -> f64 {
+        let n = self.samples.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let k = if window_s <= 0.0 {
+            n
+        } else {
+            ((window_s / self.sample_dt_s).round() as usize).clamp(1, n)
+        };
+        self.samples[n - k..].iter().map(|s| s.force_n).sum::<f64>() / k as f64
+    }
+}
+
+/// The simulated machine.
+pub struct Machine {
+    law: ForceLaw,
+    wear: Wear,
+    tooth: Option<ToothModel>,
+    workpiece: Workpiece,
+    radius_mm: f64,
+    tau_s: f64,
+    programmed_feed_mm_min: f64,
+    rate_hz: f64,
+    spindle: Box<dyn SpindleModel>,
+    /// Override values in flight on the override path, one per internal step.
+    delay_line: VecDeque<u16>,
+    delay_steps: usize,
+    override_input_pct: u16,
+    feed_hold: bool,
+    t_s: f64,
+    x_mm: f64,
+    feed_mm_min: f64,
+    theta_rad: f64,
+    volume_mm3: f64,
+    depth_mm: f64,
+    samples: Vec<Sample>,
+}
+
+impl std::fmt::Debug for Machine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Machine")
+            .field("t_s", &self.t_s)
+            .field("x_mm", &self.x_mm)
+            .field("feed_mm_min", &self.feed_mm_min)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Machine {
+    /// Build a machine at rest at the start of the path, override input 100 %.
+    pub fn new(
+        machine: &MachineSpec,
+        tool: &ToolSpec,
+        wear: WearSpec,
+        workpiece: Workpiece,
+        model: ForceModel,
+        programmed_feed_mm_min: f64,
+    ) -> Self {
+        let rate_hz = match model {
+            ForceModel::Mean => machine.sim.mean_rate_hz,
+            ForceModel::Tooth => machine.sim.tooth_rate_hz,
+        };
+        let tooth = (model == ForceModel::Tooth).then(|| {
+            ToothModel::new(
+                &tool.tooth,
+                tool.flutes,
+                tool.radius_mm(),
+                workpiece.axial_depth_mm,
+            )
+        });
+        let delay_steps = (machine.override_path.delay_s * rate_hz).round() as usize;
+        Machine {
+            law: ForceLaw::new(tool.process),
+            wear: Wear::new(wear),
+            tooth,
+            radius_mm: tool.radius_mm(),
+            workpiece,
+            tau_s: machine.feed_drive.tau_s,
+            programmed_feed_mm_min,
+            rate_hz,
+            spindle: Box::new(ConstantSpeedSpindle::new(machine.spindle)),
+            delay_line: VecDeque::from(vec![100; delay_steps]),
+            delay_steps,
+            override_input_pct: 100,
+            feed_hold: false,
+            t_s: 0.0,
+            x_mm: 0.0,
+            feed_mm_min: 0.0,
+            theta_rad: 0.0,
+            volume_mm3: 0.0,
+            depth_mm: 0.0,
+            samples: Vec::new(),
+        }
+    }
+
+    /// Replace the spindle model (e.g. an induction motor).
+    pub fn set_spindle(&mut self, spindle: Box<dyn SpindleModel>) {
+        self.spindle = spindle;
+    }
+
+    /// Set the override on the PMC inputs, percent (the board's `OVERRIDE_APPLIED`). It
+    /// reaches the feed after the override-path delay.
+    pub fn set_override_input_pct(&mut self, pct: u16) {
+        self.override_input_pct = pct;
+    }
+
+    /// Assert or release the NC's feed hold (feed target 0 while held).
+    pub fn set_feed_hold(&mut self, hold: bool) {
+        self.feed_hold = hold;
+    }
+
+    /// Programmed feed of the NC block, mm/min.
+    pub fn programmed_feed_mm_min(&self) -> f64 {
+        self.programmed_feed_mm_min
+    }
+
+    /// Machine time, s.
+    pub fn t_s(&self) -> f64 {
+        self.t_s
+    }
+
+    /// Tool centre position, mm.
+    pub fn x_mm(&self) -> f64 {
+        self.x_mm
+    }
+
+    /// Whether the tool centre has passed the end of the workpiece path.
+    pub fn finished(&self) -> bool {
+        self.x_mm >= self.workpiece.length_mm()
+    }
+
+    /// Removed metal so far, mm³.
+    pub fn volume_mm3(&self) -> f64 {
+        self.volume_mm3
+    }
+
+    /// The workpiece.
+    pub fn workpiece(&self) -> &Workpiece {
+        &self.workpiece
+    }
+
+    /// The force law.
+    pub fn force_law(&self) -> &ForceLaw {
+        &self.law
+    }
+
+    /// Current spindle speed, rpm.
+    pub fn spindle_rpm(&self) -> f64 {
+        self.spindle.speed_rpm()
+    }
+
+    /// Current spindle input power, W.
+    pub fn spindle_power_w(&self) -> f64 {
+        self.spindle.input_power_w()
+    }
+
+    /// Internal sample step, s.
+    pub fn sample_dt_s(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+
+    /// Advance one control period `period_s` and return what happened.
+    ///
+    /// Per internal step `dt`: the override input enters the delay line; the feed target
+    /// `f_prog · ov/100` drives the feed drive's first-order lag (exact discretisation,
+    /// `f += (target − f)(1 − e^(−dt/τ))`, seed 002 eq. 5); the tool moves `f·dt`; the
+    /// engaged depth and `Ks` factor come from the workpiece; the mean force follows eq. (1)
+    /// with the tool's wear factor; the tooth model multiplies in the ripple.
+    pub fn advance(&mut self, period_s: f64) -> PeriodRecord<'_> {
+        let n = ((period_s * self.rate_hz).round() as usize).max(1);
+        let dt = period_s / n as f64;
+        let alpha = if self.tau_s > 0.0 {
+            1.0 - (-dt / self.tau_s).exp()
+        } else {
+            1.0
+        };
+        let ap = self.workpiece.axial_depth_mm;
+        let t0 = self.t_s;
+        self.samples.clear();
+        let mut sums = [0.0f64; 5];
+        for k in 0..n {
+            let ov = if self.delay_steps == 0 {
+                self.override_input_pct
+            } else {
+                self.delay_line.push_back(self.override_input_pct);
+                self.delay_line
+                    .pop_front()
+                    .unwrap_or(self.override_input_pct)
+            };
+            let target = if self.feed_hold {
+                0.0
+            } else {
+                self.programmed_feed_mm_min * f64::from(ov) / 100.0
+            };
+            let f_old = self.feed_mm_min;
+            self.feed_mm_min += (target - self.feed_mm_min) * alpha;
+            let dx = 0.5 * (f_old + self.feed_mm_min) * dt / 60.0;
+            self.x_mm += dx;
+            let rpm = self.spindle.speed_rpm();
+            let eng = self.workpiece.engagement(self.x_mm, self.radius_mm);
+            self.depth_mm = eng.depth_mm;
+            let mean = self.law.mean_force_n(
+                eng.depth_mm,
+                ap,
+                self.feed_mm_min,
+                rpm,
+                eng.ks_factor * self.wear.factor(),
+            );
+            let force = match &self.tooth {
+                Some(tooth) => {
+                    self.theta_rad = (self.theta_rad + rpm / 60.0 * 2.0 * PI * dt) % (2.0 * PI);
+                    mean * tooth.ratio(self.theta_rad, self.x_mm, &self.workpiece, eng.depth_mm)
+                }
+                None => mean,
+            };
+            let torque = self.law.torque_nm(force, self.radius_mm);
+            let rpm_new = self.spindle.step(torque, dt);
+            let power = self.spindle.input_power_w();
+            let vol = eng.depth_mm * ap * dx;
+            self.volume_mm3 += vol;
+            self.wear.add(vol, dt);
+            let t = t0 + (k + 1) as f64 * dt;
+            self.samples.push(Sample {
+                t_s: t,
+                x_mm: self.x_mm,
+                feed_mm_min: self.feed_mm_min,
+                force_n: force,
+                torque_nm: torque,
+                spindle_rpm: rpm_new,
+                power_w: power,
+            });
+            for (s, v) in sums
+                .iter_mut()
+                .zip([self.feed_mm_min, force, torque, rpm_new, power])
+            {
+                *s += v;
+            }
+        }
+        self.t_s = t0 + period_s;
+        let nf = n as f64;
+        PeriodRecord {
+            t_end_s: self.t_s,
+            period_s,
+            x_mm: self.x_mm,
+            radial_depth_mm: self.depth_mm,
+            axial_depth_mm: ap,
+            feed_mean_mm_min: sums[0] / nf,
+            force_mean_n: sums[1] / nf,
+            torque_mean_nm: sums[2] / nf,
+            spindle_rpm: sums[3] / nf,
+            power_mean_w: sums[4] / nf,
+            wear_factor: self.wear.factor(),
+            samples: &self.samples,
+            sample_dt_s: dt,
+        }
+    }
+}

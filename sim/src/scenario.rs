@@ -1,0 +1,328 @@
+//! Scenario files (`configs/scenarios/*.toml`): machine, tool, workpiece, controller preset,
+//! measurement channel and seed, with every path relative to the scenario file.
+
+use std::path::{Path, PathBuf};
+
+use acc_config::{check_range, load_toml, resolve_relative, ConfigError};
+use acc_core::{Controller, ControllerConfig, ModeConfig, OverrideLaw, OverrideSpec};
+use serde::Deserialize;
+
+use crate::baselines::{ConstantFeed, Proportional, RateLimited};
+use crate::board::SimBoard;
+use crate::channel::{Dynamometer, MeasurementChannel, WindowedChannel};
+use crate::config::{MachineSpec, ToolSpec};
+use crate::machine::{ForceModel, Machine};
+use crate::process::WearSpec;
+use crate::workpiece::Workpiece;
+use crate::SimError;
+
+/// `[measurement]` table: which channel the controller reads, selected by `kind`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum MeasurementSpec {
+    /// A dynamometer: true mean force over the last `window_s` of each period, plus
+    /// seeded Gaussian noise, optionally low-passed.
+    Dynamometer {
+        /// Noise standard deviation, N (default 5).
+        #[serde(default = "default_noise")]
+        noise_n: f64,
+        /// First-order low-pass corner on the period means, Hz (default 0 = off).
+        #[serde(default)]
+        lowpass_hz: f64,
+        /// Averaging window at the end of each period, s (default 0.05 = two tooth passes
+        /// at 600 rpm with 4 flutes; 0 = the whole period).
+        #[serde(default = "default_window")]
+        window_s: f64,
+    },
+}
+
+fn default_noise() -> f64 {
+    5.0
+}
+
+fn default_window() -> f64 {
+    0.05
+}
+
+impl Default for MeasurementSpec {
+    fn default() -> Self {
+        MeasurementSpec::Dynamometer {
+            noise_n: default_noise(),
+            lowpass_hz: 0.0,
+            window_s: default_window(),
+        }
+    }
+}
+
+impl MeasurementSpec {
+    /// Validate the channel's keys; errors name `measurement.<key>`.
+    pub fn validate(&self, path: &Path) -> Result<(), ConfigError> {
+        match *self {
+            MeasurementSpec::Dynamometer {
+                noise_n,
+                lowpass_hz,
+                window_s,
+            } => {
+                check_range(path, "measurement.noise_n", noise_n, 0.0, 1e5)?;
+                check_range(path, "measurement.lowpass_hz", lowpass_hz, 0.0, 1e4)?;
+                check_range(path, "measurement.window_s", window_s, 0.0, 10.0)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Check keys that depend on the controller period `period_s`.
+    pub fn check_period(&self, path: &Path, period_s: f64) -> Result<(), ConfigError> {
+        match *self {
+            MeasurementSpec::Dynamometer { window_s, .. } => {
+                check_range(path, "measurement.window_s", window_s, 0.0, period_s)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `force_model` key.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ForceModelSpec {
+    /// Mean force (eq. 1).
+    #[default]
+    Mean,
+    /// Tooth-level force (seed 004).
+    Tooth,
+}
+
+/// `[summary]` table.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SummarySpec {
+    /// Time after entering a segment before its statistics count as settled, s
+    /// (default 1.5).
+    #[serde(default = "default_settle")]
+    pub settle_s: f64,
+}
+
+fn default_settle() -> f64 {
+    1.5
+}
+
+impl Default for SummarySpec {
+    fn default() -> Self {
+        SummarySpec {
+            settle_s: default_settle(),
+        }
+    }
+}
+
+/// A scenario file as written.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioFile {
+    /// Name for summaries and plots.
+    pub name: String,
+    /// Machine file, relative to the scenario.
+    pub machine: PathBuf,
+    /// Tool file, relative to the scenario.
+    pub tool: PathBuf,
+    /// Workpiece file, relative to the scenario.
+    pub workpiece: PathBuf,
+    /// Controller preset, relative to the scenario.
+    pub controller: PathBuf,
+    /// RNG seed of the measurement noise.
+    pub seed: u64,
+    /// Programmed feed of the NC block, mm/min (paper: 200).
+    pub programmed_feed_mm_min: f64,
+    /// Force model (default `mean`).
+    #[serde(default)]
+    pub force_model: ForceModelSpec,
+    /// Stop after this much simulated time even if the path is not finished, s
+    /// (default 600).
+    #[serde(default = "default_max_time")]
+    pub max_time_s: f64,
+    /// Measurement channel (default: dynamometer).
+    #[serde(default)]
+    pub measurement: MeasurementSpec,
+    /// Tool wear, replacing the tool file's `[wear]` (default: the tool's).
+    #[serde(default)]
+    pub wear: Option<WearSpec>,
+    /// Summary settings.
+    #[serde(default)]
+    pub summary: SummarySpec,
+}
+
+fn default_max_time() -> f64 {
+    600.0
+}
+
+/// A loaded, validated scenario.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// Scenario file.
+    pub path: PathBuf,
+    /// Name.
+    pub name: String,
+    /// Machine.
+    pub machine: MachineSpec,
+    /// Tool.
+    pub tool: ToolSpec,
+    /// Wear in effect.
+    pub wear: WearSpec,
+    /// Workpiece.
+    pub workpiece: Workpiece,
+    /// Controller configuration (the scenario's "ours").
+    pub controller: ControllerConfig,
+    /// Seed.
+    pub seed: u64,
+    /// Programmed feed, mm/min.
+    pub programmed_feed_mm_min: f64,
+    /// Force model.
+    pub force_model: ForceModel,
+    /// Time limit, s.
+    pub max_time_s: f64,
+    /// Measurement channel.
+    pub measurement: MeasurementSpec,
+    /// Settling time for the summary, s.
+    pub settle_s: f64,
+}
+
+/// The laws `acc compare` runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LawKind {
+    /// The scenario's controller preset.
+    Ours,
+    /// 100 % throughout.
+    ConstantFeed,
+    /// The paper's fixed-gain PI (Ki = 2.5, Kp = 0.05) with the scenario's T, Fr and board.
+    FixedGainPi,
+    /// Haas-Autofeed-like rate-limited law.
+    RateLimited,
+    /// ToolScope-like proportional law.
+    Proportional,
+}
+
+impl LawKind {
+    /// All laws in table order (ours last).
+    pub const ALL: [LawKind; 5] = [
+        LawKind::ConstantFeed,
+        LawKind::FixedGainPi,
+        LawKind::RateLimited,
+        LawKind::Proportional,
+        LawKind::Ours,
+    ];
+}
+
+impl Scenario {
+    /// Load a scenario and everything it names, using `load_preset` for the controller
+    /// preset. Every error names the file and key.
+    pub fn load_with(
+        path: impl AsRef<Path>,
+        load_preset: impl Fn(&Path) -> Result<ControllerConfig, ConfigError>,
+    ) -> Result<Self, ConfigError> {
+        let path = path.as_ref();
+        let file: ScenarioFile = load_toml(path)?;
+        check_range(
+            path,
+            "programmed_feed_mm_min",
+            file.programmed_feed_mm_min,
+            1.0,
+            60_000.0,
+        )?;
+        check_range(path, "max_time_s", file.max_time_s, 0.1, 86_400.0)?;
+        check_range(path, "summary.settle_s", file.summary.settle_s, 0.0, 600.0)?;
+        file.measurement.validate(path)?;
+        let machine = MachineSpec::load(resolve_relative(path, &file.machine))?;
+        let tool_path = resolve_relative(path, &file.tool);
+        let tool = ToolSpec::load(&tool_path)?;
+        let wp_path = resolve_relative(path, &file.workpiece);
+        let workpiece = Workpiece::load(&wp_path)?;
+        workpiece.check_tool(&wp_path, tool.diameter_mm)?;
+        let wear = match file.wear {
+            Some(w) => {
+                w.validate(path, "wear")?;
+                w
+            }
+            None => tool.wear,
+        };
+        let controller = load_preset(&resolve_relative(path, &file.controller))?;
+        let board_step = machine.override_path.step_pct;
+        if controller.override_spec.step_pct % board_step != 0 {
+            return Err(ConfigError::Invalid {
+                file: path.to_path_buf(),
+                key: "controller".into(),
+                message: format!(
+                    "the preset's override step {} % is not a multiple of the machine's board step {} % (override_path.step_pct)",
+                    controller.override_spec.step_pct, board_step
+                ),
+            });
+        }
+        file.measurement.check_period(path, controller.period_s)?;
+        Ok(Scenario {
+            path: path.to_path_buf(),
+            name: file.name,
+            machine,
+            tool,
+            wear,
+            workpiece,
+            controller,
+            seed: file.seed,
+            programmed_feed_mm_min: file.programmed_feed_mm_min,
+            force_model: match file.force_model {
+                ForceModelSpec::Mean => ForceModel::Mean,
+                ForceModelSpec::Tooth => ForceModel::Tooth,
+            },
+            max_time_s: file.max_time_s,
+            measurement: file.measurement,
+            settle_s: file.summary.settle_s,
+        })
+    }
+
+    /// The board's override spec as the controller sees it.
+    pub fn override_spec(&self) -> OverrideSpec {
+        self.controller.override_spec
+    }
+
+    /// A fresh simulated board with the machine behind it.
+    pub fn build_board(&self) -> SimBoard {
+        let machine = Machine::new(
+            &self.machine,
+            &self.tool,
+            self.wear,
+            self.workpiece.clone(),
+            self.force_model,
+            self.programmed_feed_mm_min,
+        );
+        SimBoard::new(machine, self.machine.override_path.step_pct)
+    }
+
+    /// A fresh measurement channel seeded with the scenario's seed.
+    pub fn build_channel(&self) -> Box<dyn MeasurementChannel> {
+        match self.measurement {
+            MeasurementSpec::Dynamometer {
+                noise_n,
+                lowpass_hz,
+                window_s,
+            } => Box::new(WindowedChannel::new(
+                Dynamometer::new(noise_n, lowpass_hz, self.seed),
+                window_s,
+            )),
+        }
+    }
+
+    /// Build one of the laws on this scenario's period, reference and board.
+    pub fn build_law(&self, kind: LawKind) -> Result<Box<dyn OverrideLaw>, SimError> {
+        let c = &self.controller;
+        Ok(match kind {
+            LawKind::Ours => Box::new(Controller::new(*c)?),
+            LawKind::FixedGainPi => Box::new(Controller::new(ControllerConfig {
+                mode: ModeConfig::FixedPi { kp: 0.05, ki: 2.5 },
+                ..*c
+            })?),
+            LawKind::ConstantFeed => Box::new(ConstantFeed::new(c.override_spec, c.force_ref_n)),
+            LawKind::RateLimited => {
+                Box::new(RateLimited::new(c.override_spec, c.force_ref_n, c.period_s))
+            }
+            LawKind::Proportional => Box::new(Proportional::new(c.override_spec, c.force_ref_n)),
+        })
+    }
+}

@@ -1,0 +1,299 @@
+//! Run summaries: per depth segment after settling, and one line per law for `acc compare`.
+
+use std::fmt;
+
+use crate::run::RunResult;
+use crate::runlog::RunLogRow;
+use crate::scenario::Scenario;
+use crate::workpiece::Workpiece;
+
+/// Statistics of one workpiece segment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentStats {
+    /// Segment index in the workpiece.
+    pub index: usize,
+    /// Label, e.g. `"cut 3.0 mm"`.
+    pub label: String,
+    /// Whether the segment has material.
+    pub is_cut: bool,
+    /// Time of the first period attributed to the segment, s.
+    pub t_enter_s: f64,
+    /// Time of the last period attributed to the segment, s.
+    pub t_leave_s: f64,
+    /// Periods attributed to the segment.
+    pub periods: usize,
+    /// Periods after settling (`t ≥ t_enter + settle_s`).
+    pub settled_periods: usize,
+    /// Mean measured force after settling, N.
+    pub mean_force_n: f64,
+    /// Mean force error `F − Fr` after settling, N.
+    pub mean_error_n: f64,
+    /// RMS force error `F − Fr` after settling, N.
+    pub rms_error_n: f64,
+    /// Standard deviation of the force after settling, N.
+    pub std_force_n: f64,
+    /// Oscillation amplitude after settling, N: half of the spread between the 5th and
+    /// 95th percentile of the force (a sinusoid of amplitude A gives ≈ 0.99·A; noise of
+    /// standard deviation σ gives ≈ 1.6·σ).
+    pub osc_amplitude_n: f64,
+    /// RMS force error in the first `settle_s` (entry or depth-change transient), N.
+    pub transient_rms_n: f64,
+    /// Peak force in the first `settle_s`, N (the entry / depth-change peak).
+    pub peak_entry_n: f64,
+    /// Time with force above `1.1·Fr`, s.
+    pub time_above_s: f64,
+    /// Mean applied override after settling, percent.
+    pub mean_override_pct: f64,
+    /// Fraction of settled periods with the override command at its maximum.
+    pub frac_at_max: f64,
+    /// Whether Fr is reachable here (the override was not pinned at its maximum for more
+    /// than half of the settled periods).
+    pub reaches_ref: bool,
+}
+
+/// Whole-run figures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// Law name.
+    pub law: String,
+    /// Force reference, N.
+    pub force_ref_n: f64,
+    /// Settling time used, s.
+    pub settle_s: f64,
+    /// Per-segment statistics.
+    pub segments: Vec<SegmentStats>,
+    /// Cycle time (tool centre from 0 to the end of the path), s; `None` if the run hit
+    /// its time limit first.
+    pub cycle_time_s: Option<f64>,
+    /// Cycle time at the programmed feed (100 % throughout), s.
+    pub programmed_cycle_time_s: f64,
+    /// Metal removed, cm³.
+    pub volume_cm3: f64,
+    /// RMS of `F − Fr` over all periods in cutting segments (transients included), N.
+    pub rms_error_cut_n: f64,
+    /// Largest measured force, N.
+    pub peak_force_n: f64,
+    /// Time with force above `1.1·Fr`, s.
+    pub time_above_s: f64,
+    /// Number of periods in which the override command changed.
+    pub override_switches: usize,
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let idx = (p * (sorted.len() - 1) as f64).round() as usize;
+    sorted[idx.min(sorted.len() - 1)]
+}
+
+fn rms(xs: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        (s / n as f64).sqrt()
+    }
+}
+
+/// Attribute each row to a segment: a segment begins when the front of the cutter's contact
+/// arc reaches it (centre + `√(d·(D − d))` with `d` the larger of the two depths at the
+/// boundary, capped at the radius), because that is where the force starts to change.
+pub fn attribute_rows(rows: &[RunLogRow], workpiece: &Workpiece, diameter_mm: f64) -> Vec<usize> {
+    let r = 0.5 * diameter_mm;
+    let reach: Vec<f64> = workpiece
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let prev = if i == 0 {
+                0.0
+            } else {
+                workpiece.segments[i - 1].depth_end_mm
+            };
+            let d = prev.max(s.depth_start_mm).min(r);
+            (d * (diameter_mm - d)).max(0.0).sqrt()
+        })
+        .collect();
+    rows.iter()
+        .map(|row| {
+            let x = row.x_mm.unwrap_or(0.0);
+            workpiece
+                .segments
+                .iter()
+                .enumerate()
+                .rev()
+                .find(|(i, s)| x + reach[*i] >= s.start_mm)
+                .map_or(0, |(i, _)| i)
+        })
+        .collect()
+}
+
+/// Summarise a run of `scenario`.
+pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
+    let rows = &result.rows;
+    let workpiece = &scenario.workpiece;
+    let period_s = scenario.controller.period_s;
+    let settle_s = scenario.settle_s;
+    let max_pct = scenario.controller.override_spec.max_pct;
+    let programmed_feed_mm_min = scenario.programmed_feed_mm_min;
+    let diameter_mm = scenario.tool.diameter_mm;
+    let fr = rows.first().map_or(0.0, |r| r.force_ref_n);
+    let seg_of = attribute_rows(rows, workpiece, diameter_mm);
+    let mut segments = Vec::new();
+    for (index, seg) in workpiece.segments.iter().enumerate() {
+        let mine: Vec<&RunLogRow> = rows
+            .iter()
+            .zip(&seg_of)
+            .filter(|(_, s)| **s == index)
+            .map(|(r, _)| r)
+            .collect();
+        let (Some(first), Some(last)) = (mine.first(), mine.last()) else {
+            continue;
+        };
+        let t0 = first.t_s - period_s;
+        let (transient, settled): (Vec<&RunLogRow>, Vec<&RunLogRow>) =
+            mine.iter().partition(|r| r.t_s - t0 <= settle_s + 1e-9);
+        let n = settled.len().max(1) as f64;
+        let mean_force = settled.iter().map(|r| r.force_n).sum::<f64>() / n;
+        let mut forces: Vec<f64> = settled.iter().map(|r| r.force_n).collect();
+        forces.sort_by(f64::total_cmp);
+        let at_max = settled
+            .iter()
+            .filter(|r| r.override_cmd_pct >= max_pct)
+            .count() as f64
+            / n;
+        segments.push(SegmentStats {
+            index,
+            label: seg.label(),
+            is_cut: seg.is_cut(),
+            t_enter_s: t0,
+            t_leave_s: last.t_s,
+            periods: mine.len(),
+            settled_periods: settled.len(),
+            mean_force_n: mean_force,
+            mean_error_n: mean_force - fr,
+            rms_error_n: rms(settled.iter().map(|r| r.force_n - fr)),
+            std_force_n: rms(settled.iter().map(|r| r.force_n - mean_force)),
+            osc_amplitude_n: 0.5 * (percentile(&forces, 0.95) - percentile(&forces, 0.05)),
+            transient_rms_n: rms(transient.iter().map(|r| r.force_n - fr)),
+            peak_entry_n: transient.iter().map(|r| r.force_n).fold(0.0, f64::max),
+            time_above_s: mine.iter().filter(|r| r.force_n > 1.1 * fr).count() as f64 * period_s,
+            mean_override_pct: settled
+                .iter()
+                .map(|r| f64::from(r.override_applied_pct))
+                .sum::<f64>()
+                / n,
+            frac_at_max: at_max,
+            reaches_ref: seg.is_cut() && !settled.is_empty() && at_max <= 0.5,
+        });
+    }
+    let cut_rows = rows
+        .iter()
+        .zip(&seg_of)
+        .filter(|(_, s)| workpiece.segments[**s].is_cut())
+        .map(|(r, _)| r);
+    Summary {
+        law: result.law.clone(),
+        force_ref_n: fr,
+        settle_s,
+        segments,
+        cycle_time_s: result.finished.then(|| rows.last().map_or(0.0, |r| r.t_s)),
+        programmed_cycle_time_s: workpiece.length_mm() / programmed_feed_mm_min * 60.0,
+        volume_cm3: result.volume_mm3 * 1e-3,
+        rms_error_cut_n: rms(cut_rows.map(|r| r.force_n - fr)),
+        peak_force_n: rows.iter().map(|r| r.force_n).fold(0.0, f64::max),
+        time_above_s: rows.iter().filter(|r| r.force_n > 1.1 * fr).count() as f64 * period_s,
+        override_switches: rows
+            .windows(2)
+            .filter(|w| w[0].override_cmd_pct != w[1].override_cmd_pct)
+            .count(),
+    }
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "law: {}   Fr = {:.0} N   settled = after {:.1} s in a segment",
+            self.law, self.force_ref_n, self.settle_s
+        )?;
+        writeln!(
+            f,
+            "{:<3} {:<22} {:>7} {:>7} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>7}",
+            "#",
+            "segment",
+            "enter_s",
+            "leave_s",
+            "mean_F_N",
+            "mean_e_N",
+            "rms_e_N",
+            "osc_amp_N",
+            "peak_in_N",
+            "t>1.1Fr",
+            "ovr_%"
+        )?;
+        for s in &self.segments {
+            let note = if s.is_cut && !s.reaches_ref {
+                "  (Fr not reachable: override at max)"
+            } else {
+                ""
+            };
+            writeln!(
+                f,
+                "{:<3} {:<22} {:>7.1} {:>7.1} {:>9.1} {:>9.1} {:>8.1} {:>9.1} {:>9.1} {:>8.1} {:>7.1}{}",
+                s.index,
+                s.label,
+                s.t_enter_s,
+                s.t_leave_s,
+                s.mean_force_n,
+                s.mean_error_n,
+                s.rms_error_n,
+                s.osc_amplitude_n,
+                s.peak_entry_n,
+                s.time_above_s,
+                s.mean_override_pct,
+                note
+            )?;
+        }
+        let cycle = self
+            .cycle_time_s
+            .map_or_else(|| "not finished".to_string(), |c| format!("{c:.1} s"));
+        writeln!(
+            f,
+            "cycle time {cycle} (at the programmed feed: {:.1} s); metal removed {:.2} cm³",
+            self.programmed_cycle_time_s, self.volume_cm3
+        )?;
+        if let Some(c) = self.cycle_time_s {
+            writeln!(
+                f,
+                "mean MRR {:.2} cm³/min (at the programmed feed: {:.2} cm³/min)",
+                self.volume_cm3 / c * 60.0,
+                self.volume_cm3 / self.programmed_cycle_time_s * 60.0
+            )?;
+        }
+        writeln!(
+            f,
+            "force RMS error while cutting {:.1} N; peak {:.1} N; time above 1.1·Fr {:.1} s; override switches {}",
+            self.rms_error_cut_n, self.peak_force_n, self.time_above_s, self.override_switches
+        )
+    }
+}
+
+/// Print the `acc compare` table: one row per law.
+pub fn comparison_table(summaries: &[Summary]) -> String {
+    let mut out = format!(
+        "{:<16} {:>12} {:>12} {:>14} {:>13} {:>10}\n",
+        "law", "rms_err_N", "peak_F_N", "t>1.1Fr_s", "cycle_s", "switches"
+    );
+    for s in summaries {
+        let cycle = s
+            .cycle_time_s
+            .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1}"));
+        out.push_str(&format!(
+            "{:<16} {:>12.1} {:>12.1} {:>14.1} {:>13} {:>10}\n",
+            s.law, s.rms_error_cut_n, s.peak_force_n, s.time_above_s, cycle, s.override_switches
+        ));
+    }
+    out
+}
