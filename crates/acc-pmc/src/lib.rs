@@ -5,6 +5,9 @@
 //! Add, but do not rename.
 #![deny(missing_docs)]
 
+/// The `serialport` crate this crate links against (for `TTYPort`, `SerialPort`).
+pub use serialport;
+
 pub mod board;
 pub mod fault;
 pub mod loopback;
