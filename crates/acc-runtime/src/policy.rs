@@ -415,6 +415,7 @@ pub struct FaultPolicy {
     frozen: bool,
     alarm_reset_pulse: bool,
     acc_request: bool,
+    board_step: u16,
 }
 
 impl FaultPolicy {
@@ -439,6 +440,7 @@ impl FaultPolicy {
             frozen: false,
             alarm_reset_pulse: false,
             acc_request: false,
+            board_step: 10,
         }
     }
 
@@ -509,6 +511,13 @@ impl FaultPolicy {
         }
     }
 
+    /// The last command, floored to the board's step as last reported (never above it).
+    fn held(&mut self) -> Option<FeedOverride> {
+        let step = self.board_step;
+        self.last_cmd = self.last_cmd.map(|c| self.quantize(c, step).min(c));
+        self.last_cmd.map(FeedOverride)
+    }
+
     /// Floor to the board step and clamp to the configured range.
     fn quantize(&self, pct: u16, step: u16) -> u16 {
         let step = if step == 0 { 10 } else { step };
@@ -555,6 +564,9 @@ impl FaultPolicy {
             self.link_failures = 0;
         }
         let status = input.link.ok();
+        if let Some(s) = status.filter(|s| s.override_step_pct > 0) {
+            self.board_step = s.override_step_pct;
+        }
 
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
         let mut stale = matches!(input.link, Err(PmcErrorKind::Stale));
@@ -625,7 +637,10 @@ impl FaultPolicy {
             }
         }
 
-        // 4. State transitions.
+        // 4. State transitions. Arming needs a clean period: link answered, force valid,
+        //    override not locked.
+        let clean =
+            link_fault.is_none() && force_valid && status.is_some_and(|s| !s.override_locked);
         match (self.state, status) {
             (AccState::Active, None) => {
                 // No status this period: hold, or release after the budget.
@@ -636,7 +651,7 @@ impl FaultPolicy {
                 } else if over_power {
                     self.release(Release::PowerInvalid, &mut out, law);
                 } else {
-                    out.write_override = self.last_cmd.map(FeedOverride);
+                    out.write_override = self.held();
                 }
             }
             (AccState::Active, Some(s)) => self.active_step(s, force_valid, input, &mut out, law),
@@ -646,12 +661,12 @@ impl FaultPolicy {
                     self.alarms.watchdog = true;
                     self.state = AccState::Latched(Release::Watchdog);
                     self.switch_seen_off = !s.acc_switch;
-                } else if s.acc_switch && link_fault.is_none() {
+                } else if s.acc_switch && clean {
                     self.arm(s, &mut out, law);
                 }
             }
             (AccState::Latched(_), Some(s)) => {
-                if self.switch_seen_off && s.acc_switch && link_fault.is_none() && !self.feed_hold {
+                if self.switch_seen_off && s.acc_switch && clean && !self.feed_hold {
                     self.arm(s, &mut out, law);
                 }
             }
@@ -712,7 +727,7 @@ impl FaultPolicy {
                 self.frozen = true;
                 out.events.push(Event::Frozen(true));
             }
-            out.write_override = self.last_cmd.map(FeedOverride);
+            out.write_override = self.held();
             return;
         }
         if self.frozen {
@@ -739,9 +754,10 @@ impl FaultPolicy {
         if self.invalid_count > self.cfg.invalid_power_periods {
             return self.release(Release::PowerInvalid, out, law);
         }
-        let last = self
-            .last_cmd
-            .unwrap_or_else(|| self.quantize(s.override_applied_pct, s.override_step_pct));
+        let last = self.held().map_or_else(
+            || self.quantize(s.override_applied_pct, s.override_step_pct),
+            |c| c.0,
+        );
         if self.link_failures > 0 {
             out.write_override = Some(FeedOverride(last));
             return;

@@ -1,0 +1,661 @@
+//! Fault policy and operator priority (issue 5, items 6 and 7), each case against a scripted
+//! board (`ScriptedBoard`: the spec's `BoardLogic` behind a link with scripted faults) and a
+//! scripted law, on board time advanced 100 ms per period.
+
+use acc_core::ForceSample;
+use acc_pmc::{BoardStatus, PmcErrorKind};
+use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Release};
+use acc_runtime::testing::{LinearPowerForce, LinkFault, ScriptedBoard, ScriptedLaw};
+use acc_runtime::{ControlLoop, CycleRecord};
+
+/// 0.5 N per W: 1600 W is the paper's Fr = 800 N.
+const N_PER_W: f64 = 0.5;
+
+struct Rig {
+    lp: ControlLoop<ScriptedLaw, LinearPowerForce>,
+    b: ScriptedBoard,
+    t_s: f64,
+    power_w: u32,
+    freeze_seq: bool,
+}
+
+impl Rig {
+    fn new(cfg: PolicyConfig, script: impl IntoIterator<Item = u16>) -> Self {
+        cfg.validate().expect("valid policy config");
+        Self {
+            lp: ControlLoop::new(
+                FaultPolicy::new(cfg),
+                ScriptedLaw::new(script),
+                LinearPowerForce { n_per_w: N_PER_W },
+                cfg.period_s,
+            ),
+            b: ScriptedBoard::new(),
+            t_s: 0.0,
+            power_w: 1200,
+            freeze_seq: false,
+        }
+    }
+
+    fn step(&mut self) -> CycleRecord {
+        if self.freeze_seq {
+            self.b.board.set_spindle_power_w(self.power_w);
+        } else {
+            self.b.board.push_power_sample(self.power_w);
+        }
+        self.b.now_ms += 100;
+        let r = self.lp.cycle(&mut self.b, self.t_s);
+        self.t_s += 0.1;
+        r
+    }
+
+    fn run(&mut self, n: usize) -> Vec<CycleRecord> {
+        (0..n).map(|_| self.step()).collect()
+    }
+
+    fn status(&self) -> BoardStatus {
+        self.b.board.status()
+    }
+
+    fn state(&self) -> AccState {
+        self.lp.policy().state()
+    }
+
+    /// Operator cycles the ACC switch off then on (one period each).
+    fn cycle_switch(&mut self) -> (CycleRecord, CycleRecord) {
+        self.b.board.set_acc_switch(false);
+        let off = self.step();
+        self.b.board.set_acc_switch(true);
+        let on = self.step();
+        (off, on)
+    }
+}
+
+fn released(r: &CycleRecord, why: Release) -> bool {
+    r.out.events.contains(&Event::Released(why))
+}
+
+fn armed(r: &CycleRecord) -> bool {
+    r.out
+        .events
+        .iter()
+        .any(|e| matches!(e, Event::Armed { .. }))
+}
+
+#[test]
+fn arms_bumpless_only_while_the_switch_is_on() {
+    let mut rig = Rig::new(PolicyConfig::default(), [80, 90]);
+    rig.b.board.set_acc_switch(false);
+    rig.b.board.set_operator_override_pct(70);
+    let idle = rig.run(3);
+    assert!(idle.iter().all(|r| r.out.state == AccState::Idle));
+    assert!(
+        rig.b.override_writes.is_empty(),
+        "nothing written while off"
+    );
+    assert!(!rig.status().acc_active);
+
+    rig.b.board.set_acc_switch(true);
+    let r = rig.step();
+    assert!(r.out.events.contains(&Event::Armed {
+        at_pct: 70,
+        alarm_reset: false
+    }));
+    assert_eq!(
+        rig.lp.law().engaged,
+        vec![70],
+        "bumpless: engaged at the override in force"
+    );
+    rig.run(2);
+    assert!(rig.status().acc_active);
+    assert_eq!(rig.status().override_applied_pct, 90);
+
+    // switch off: released at once, not latched; the board follows the operator again
+    rig.b.board.set_acc_switch(false);
+    let r = rig.step();
+    assert!(released(&r, Release::SwitchOff));
+    assert_eq!(rig.state(), AccState::Idle);
+    assert!(!rig.status().acc_active);
+    assert_eq!(rig.status().override_applied_pct, 70);
+    // on again: re-arms without further ceremony
+    rig.b.board.set_acc_switch(true);
+    assert!(armed(&rig.step()));
+}
+
+#[test]
+fn link_timeout_holds_the_last_override_then_releases_with_alarm() {
+    let cfg = PolicyConfig {
+        link_hold_periods: 5,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [110, 120]);
+    rig.run(4);
+    assert_eq!(rig.status().override_applied_pct, 120);
+    // every transaction times out for a while (requests never reach the board)
+    rig.b
+        .inject(LinkFault::RequestLost(PmcErrorKind::Timeout), 200);
+    let during: Vec<_> = rig.run(5);
+    for r in &during {
+        assert_eq!(r.out.state, AccState::Active);
+        assert_eq!(r.out.write_override.map(|c| c.0), Some(120), "held");
+        assert!(r.out.control.acc_request);
+    }
+    let r = rig.step();
+    assert!(
+        released(&r, Release::LinkLost),
+        "released after 5 held periods"
+    );
+    assert!(r.out.alarms.link_lost);
+    assert!(!r.out.control.acc_request);
+    assert_eq!(r.out.write_override, None);
+    // link back: ACC_REQUEST cleared on the board, the operator has the override
+    rig.b.faults.clear();
+    rig.run(3);
+    assert!(!rig.b.board.control().acc_request);
+    assert_eq!(rig.status().override_applied_pct, 100);
+    assert_eq!(
+        rig.state(),
+        AccState::Latched(Release::LinkLost),
+        "no re-arm by itself"
+    );
+    // the board's own watchdog tripped meanwhile (heartbeat stopped > 500 ms)
+    assert!(rig.status().watchdog_tripped);
+    // operator cycles the switch: re-armed with ALARM_RESET, alarm cleared
+    let (_, on) = rig.cycle_switch();
+    assert!(on.out.events.contains(&Event::Armed {
+        at_pct: 100,
+        alarm_reset: true
+    }));
+    rig.run(2);
+    assert!(!rig.status().watchdog_tripped);
+    assert!(rig.status().acc_active);
+    assert!(!rig.lp.policy().alarms().any());
+}
+
+#[test]
+fn crc_errors_hold_then_release() {
+    let cfg = PolicyConfig {
+        link_hold_periods: 3,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [90]);
+    rig.run(3);
+    // replies are corrupt, but the requests reach the board: the heartbeat keeps it alive
+    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Crc), 100);
+    let recs = rig.run(4);
+    assert!(recs[..3].iter().all(|r| r.out.state == AccState::Active));
+    assert!(recs[..3]
+        .iter()
+        .all(|r| r.out.write_override.map(|c| c.0) == Some(90)));
+    assert!(released(&recs[3], Release::LinkLost));
+    assert!(
+        !rig.status().watchdog_tripped,
+        "heartbeat reached the board while held"
+    );
+    assert!(
+        !rig.b.board.control().acc_request,
+        "release reached the board"
+    );
+    // a single CRC error inside the budget does not release
+    let mut rig = Rig::new(cfg, [90]);
+    rig.run(3);
+    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Crc), 1);
+    rig.run(5);
+    assert_eq!(rig.state(), AccState::Active);
+}
+
+#[test]
+fn invalid_power_never_raises_the_feed_and_releases_after_n() {
+    let cfg = PolicyConfig {
+        invalid_power_periods: 4,
+        ..PolicyConfig::default()
+    };
+    // the law asks for more and more
+    let mut rig = Rig::new(cfg, [80, 90, 100, 110, 120, 130, 140, 150]);
+    rig.run(3);
+    let before = rig.status().override_applied_pct;
+    assert_eq!(before, 90);
+    rig.power_w = u32::MAX; // "negative" power on the wire (−1 as i32): implausible
+    let recs = rig.run(5);
+    for r in &recs[..4] {
+        assert!(!r.out.force_valid);
+        assert!(r.out.write_override.is_some_and(|c| c.0 <= before));
+        assert_eq!(r.out.state, AccState::Active);
+    }
+    assert!(released(&recs[4], Release::PowerInvalid));
+    assert!(recs[4].out.alarms.power_invalid);
+    // the law saw the samples flagged invalid
+    assert!(rig.lp.law().seen.iter().rev().take(4).all(|m| !m.valid));
+    assert!(rig.lp.law().seen.iter().all(|m| m.force_n.is_finite()));
+}
+
+#[test]
+fn nan_or_negative_force_is_invalid() {
+    let mut p = FaultPolicy::new(PolicyConfig::default());
+    let mut law = ScriptedLaw::new([150]);
+    let mut st = BoardStatus {
+        acc_switch: true,
+        override_applied_pct: 60,
+        operator_override_pct: 100,
+        override_step_pct: 10,
+        programmed_feed_mm_min: 200,
+        ..BoardStatus::default()
+    };
+    let good = ForceSample {
+        force_n: 500.0,
+        power_w: Some(1000.0),
+        valid: true,
+    };
+    let input = |t: f64, seq: u16, force: ForceSample, st: &BoardStatus| CycleInput {
+        t_s: t,
+        link: Ok(BoardStatus {
+            sample_seq: seq,
+            ..*st
+        }),
+        write_error: None,
+        force,
+    };
+    let o = p.step(&input(0.0, 1, good, &st), &mut law);
+    assert_eq!(o.write_override.map(|c| c.0), Some(60));
+    st.acc_active = true;
+    for (k, bad) in [
+        ForceSample {
+            force_n: f64::NAN,
+            ..good
+        },
+        ForceSample {
+            force_n: -20.0,
+            ..good
+        },
+        ForceSample {
+            power_w: Some(f64::NAN),
+            ..good
+        },
+        ForceSample {
+            power_w: Some(-5.0),
+            ..good
+        },
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let o = p.step(
+            &input(0.1 * (k + 1) as f64, 2 + k as u16, bad, &st),
+            &mut law,
+        );
+        assert!(!o.force_valid, "case {k}");
+        assert_eq!(
+            o.write_override.map(|c| c.0),
+            Some(60),
+            "case {k}: not raised"
+        );
+    }
+}
+
+#[test]
+fn frozen_sample_seq_is_stale_power() {
+    let cfg = PolicyConfig {
+        stale_seq_periods: 3,
+        invalid_power_periods: 5,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [80, 90, 100, 110, 120, 130, 140, 150]);
+    rig.run(2);
+    rig.freeze_seq = true;
+    let recs = rig.run(10);
+    // seq unchanged for 1, 2 periods: still valid; from the 3rd on stale
+    assert!(recs[0].out.force_valid && recs[1].out.force_valid);
+    assert!(!recs[2].out.force_valid);
+    assert!(recs[2].out.events.contains(&Event::PowerInvalid {
+        stale: true,
+        consecutive: 1
+    }));
+    let at_stale = recs[1].out.write_override.map(|c| c.0).unwrap_or(0);
+    for r in &recs[2..7] {
+        assert!(r.out.write_override.is_some_and(|c| c.0 <= at_stale));
+    }
+    assert!(released(&recs[7], Release::PowerInvalid));
+    // a Stale error kind from the link is treated the same way
+    let mut rig = Rig::new(cfg, [90]);
+    rig.run(2);
+    rig.b.inject(LinkFault::RequestLost(PmcErrorKind::Stale), 1);
+    let r = rig.step();
+    assert!(!r.out.force_valid);
+    assert!(r
+        .out
+        .events
+        .iter()
+        .all(|e| !matches!(e, Event::LinkError { .. })));
+}
+
+#[test]
+fn watchdog_trip_is_detected_and_rearmed_only_by_the_switch() {
+    let mut rig = Rig::new(PolicyConfig::default(), [120]);
+    rig.b.board.set_operator_override_pct(80);
+    rig.run(3);
+    assert_eq!(rig.status().override_applied_pct, 120);
+    // the board saw no heartbeat for 600 ms (e.g. the PC stalled): it trips
+    rig.b.now_ms += 600;
+    let r = rig.step();
+    assert!(r.out.events.contains(&Event::WatchdogTripped));
+    assert!(released(&r, Release::Watchdog));
+    assert!(r.out.alarms.watchdog);
+    assert_eq!(rig.status().override_applied_pct, 80, "operator's override");
+    // switch still on: stays latched
+    rig.run(5);
+    assert_eq!(rig.state(), AccState::Latched(Release::Watchdog));
+    assert!(rig.status().watchdog_tripped);
+    let (_, on) = rig.cycle_switch();
+    assert!(on.out.control.alarm_reset && on.out.control.acc_request);
+    rig.run(2);
+    assert!(!rig.status().watchdog_tripped);
+    assert!(rig.status().acc_active);
+    assert_eq!(rig.state(), AccState::Active);
+}
+
+#[test]
+fn board_reset_mid_cut_is_detected() {
+    let mut rig = Rig::new(PolicyConfig::default(), [70]);
+    rig.run(3);
+    assert!(rig.status().acc_active);
+    rig.b.board.power_cycle();
+    let r = rig.step();
+    assert!(released(&r, Release::BoardReset));
+    assert!(r.out.alarms.board_reset);
+    assert!(r.out.fault);
+    rig.run(3);
+    assert_eq!(rig.state(), AccState::Latched(Release::BoardReset));
+    assert!(!rig.status().acc_active);
+    rig.cycle_switch();
+    rig.run(2);
+    assert!(rig.status().acc_active);
+}
+
+#[test]
+fn a_board_that_never_confirms_acc_is_released() {
+    let cfg = PolicyConfig {
+        ack_periods: 3,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [70]);
+    // control writes get lost on the way, silently (the board never sees ACC_REQUEST)…
+    // modelled by a board that drops CONTROL right after each write: power-cycle every period
+    let mut recs = Vec::new();
+    for _ in 0..6 {
+        rig.b.board.power_cycle();
+        recs.push(rig.step());
+    }
+    assert!(recs.iter().any(|r| released(r, Release::NoBoardAck)));
+}
+
+#[test]
+fn overload_requests_feed_hold_and_alarm() {
+    let cfg = PolicyConfig {
+        overload_force_n: 1600.0,
+        overload_time_s: 0.3,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [100]);
+    rig.run(3);
+    // a 0.2 s spike: no feed hold
+    rig.power_w = 4000; // 2000 N
+    rig.run(3);
+    rig.power_w = 1200;
+    rig.run(2);
+    assert_eq!(rig.state(), AccState::Active);
+    assert!(!rig.status().feed_hold_active);
+    // sustained overload: 0.3 s above the limit
+    rig.power_w = 4000;
+    let recs = rig.run(5);
+    let hold_at = recs
+        .iter()
+        .position(|r| r.out.events.contains(&Event::FeedHold(true)))
+        .expect("feed hold requested");
+    assert_eq!(hold_at, 3, "t − t_first ≥ 0.3 s at the 4th period");
+    assert!(released(&recs[hold_at], Release::Overload));
+    assert!(recs[hold_at].out.alarms.overload);
+    assert!(rig.status().feed_hold_active);
+    // the operator cycles the switch: feed hold cleared, re-armed
+    rig.power_w = 0;
+    let (off, on) = rig.cycle_switch();
+    assert!(off.out.events.contains(&Event::FeedHold(false)));
+    assert!(armed(&on));
+    rig.step();
+    assert!(!rig.status().feed_hold_active);
+}
+
+#[test]
+fn override_locked_freezes_the_law_and_does_not_fight_the_nc() {
+    let mut rig = Rig::new(PolicyConfig::default(), [60]);
+    rig.run(3);
+    let steps_before = rig.lp.law().seen.len();
+    rig.b.board.set_override_locked(true);
+    let recs = rig.run(4);
+    assert_eq!(rig.lp.law().frozen_calls, vec![true]);
+    assert_eq!(
+        rig.lp.law().seen.len(),
+        steps_before,
+        "not stepped while locked"
+    );
+    assert!(recs
+        .iter()
+        .all(|r| r.out.write_override.map(|c| c.0) == Some(60)));
+    assert!(
+        recs.iter().all(|r| r.out.state == AccState::Active),
+        "no fault release"
+    );
+    assert_eq!(
+        rig.status().override_applied_pct,
+        100,
+        "the NC forces 100 %"
+    );
+    rig.b.board.set_override_locked(false);
+    rig.run(2);
+    assert_eq!(rig.lp.law().frozen_calls, vec![true, false]);
+    assert!(rig.lp.law().seen.len() > steps_before);
+    assert_eq!(rig.status().override_applied_pct, 60);
+}
+
+#[test]
+fn operator_knob_down_more_than_handback_hands_control_back() {
+    let mut rig = Rig::new(PolicyConfig::default(), [130]);
+    rig.run(2);
+    rig.b.board.set_operator_override_pct(90); // down by exactly 10: keeps ACC
+    rig.run(2);
+    assert_eq!(rig.state(), AccState::Active);
+    rig.b.board.set_operator_override_pct(120); // up: new reference
+    rig.run(1);
+    rig.b.board.set_operator_override_pct(100); // down 20 from 120
+    let r = rig.step();
+    assert!(released(&r, Release::OperatorHandback));
+    assert!(!r.out.alarms.any(), "a hand-back is not an alarm");
+    rig.run(1);
+    assert_eq!(rig.status().override_applied_pct, 100);
+    rig.run(3);
+    assert_eq!(rig.state(), AccState::Latched(Release::OperatorHandback));
+}
+
+#[test]
+fn never_commands_above_the_configured_maximum() {
+    let cfg = PolicyConfig {
+        max_override_pct: 120,
+        min_override_pct: 15,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [150, 137, 5, 0, 119]);
+    let recs = rig.run(6);
+    let cmds: Vec<u16> = recs
+        .iter()
+        .filter_map(|r| r.out.write_override.map(|c| c.0))
+        .collect();
+    // armed at 100 (in force); then 150→120, 137→130→120 (max), 5→20 (min 15 rounded up
+    // to the 10 % step), 0→20, 119→110 (floored to the step)
+    assert_eq!(cmds, vec![100, 120, 120, 20, 20, 110]);
+    assert!(rig.b.override_writes.iter().all(|&(c, _)| c <= 120));
+}
+
+#[test]
+fn invalid_policy_config_names_the_key() {
+    let e = PolicyConfig {
+        max_override_pct: 160,
+        ..PolicyConfig::default()
+    }
+    .validate()
+    .expect_err("out of range");
+    assert_eq!(e.key, "max_override_pct");
+    assert!(e.to_string().contains("1 ..= 150"));
+    let e = PolicyConfig {
+        overload_time_s: f64::NAN,
+        ..PolicyConfig::default()
+    }
+    .validate()
+    .expect_err("out of range");
+    assert_eq!(e.key, "overload_time_s");
+}
+
+mod invariant {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[derive(Debug, Clone)]
+    struct Period {
+        link: Result<BoardStatus, PmcErrorKind>,
+        write_error: Option<PmcErrorKind>,
+        force: ForceSample,
+        law_cmd: u16,
+    }
+
+    fn kind() -> impl Strategy<Value = PmcErrorKind> {
+        prop_oneof![
+            Just(PmcErrorKind::Timeout),
+            Just(PmcErrorKind::Crc),
+            Just(PmcErrorKind::Exception(3)),
+            Just(PmcErrorKind::Stale),
+            Just(PmcErrorKind::Disconnected),
+            Just(PmcErrorKind::Protocol),
+        ]
+    }
+
+    fn status() -> impl Strategy<Value = BoardStatus> {
+        (
+            proptest::bits::u8::masked(0x7f),
+            0u16..=15,
+            0u16..=15,
+            prop_oneof![Just(10u16), Just(1u16)],
+            0u16..4,
+            any::<u32>(),
+        )
+            .prop_map(|(bits, applied, op, step, seq, power)| BoardStatus {
+                acc_switch: bits & 1 != 0 || bits & 0x40 != 0,
+                acc_active: bits & 2 != 0,
+                cycle_active: bits & 4 != 0,
+                feed_hold_active: bits & 8 != 0,
+                watchdog_tripped: bits & 0x10 != 0 && bits & 0x20 != 0,
+                override_locked: bits & 0x20 != 0 && bits & 1 != 0,
+                cnc_alarm: false,
+                override_applied_pct: applied * 10,
+                operator_override_pct: op * 10,
+                override_step_pct: step,
+                spindle_power_w: power % 5000,
+                spindle_rpm: 600,
+                sample_seq: seq,
+                programmed_feed_mm_min: 200,
+            })
+    }
+
+    fn force() -> impl Strategy<Value = ForceSample> {
+        prop_oneof![
+            4 => (0.0f64..2500.0).prop_map(|f| ForceSample { force_n: f, power_w: Some(2.0 * f), valid: true }),
+            1 => Just(ForceSample::INVALID),
+            1 => Just(ForceSample { force_n: f64::NAN, power_w: Some(1.0), valid: true }),
+            1 => Just(ForceSample { force_n: -1.0, power_w: Some(-2.0), valid: true }),
+            1 => Just(ForceSample { force_n: 700.0, power_w: Some(1e9), valid: true }),
+        ]
+    }
+
+    fn period() -> impl Strategy<Value = Period> {
+        (
+            prop_oneof![4 => status().prop_map(Ok), 1 => kind().prop_map(Err)],
+            prop_oneof![6 => Just(None), 1 => kind().prop_map(Some)],
+            force(),
+            0u16..=200,
+        )
+            .prop_map(|(link, write_error, force, law_cmd)| Period {
+                link,
+                write_error,
+                force,
+                law_cmd,
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1024))]
+        /// No period with a fault input (link error, write error, invalid/NaN/negative/
+        /// implausible force, stale sequence, watchdog tripped, override locked) ever writes an
+        /// override above the last one written; no write ever exceeds the maximum or misses
+        /// the board step.
+        #[test]
+        fn no_fault_input_ever_raises_the_commanded_override(
+            periods in proptest::collection::vec(period(), 1..120),
+            max in 60u16..=150,
+        ) {
+            let cfg = PolicyConfig { max_override_pct: max, stale_seq_periods: 2, ..PolicyConfig::default() };
+            let mut p = FaultPolicy::new(cfg);
+            let mut law = ScriptedLaw::new(periods.iter().map(|x| x.law_cmd));
+            let mut last_written: Option<u16> = None;
+            let mut last_seq: Option<u16> = None;
+            let mut same_seq = 0u32;
+            for (i, x) in periods.iter().enumerate() {
+                let input = CycleInput {
+                    t_s: i as f64 * 0.1,
+                    link: x.link,
+                    write_error: x.write_error,
+                    force: if x.link.is_ok() { x.force } else { ForceSample::INVALID },
+                };
+                let stale = match x.link {
+                    Ok(s) => {
+                        same_seq = if last_seq == Some(s.sample_seq) { same_seq + 1 } else { 0 };
+                        last_seq = Some(s.sample_seq);
+                        same_seq >= 2
+                    }
+                    Err(_) => false,
+                };
+                let f = input.force;
+                let tripped = x.link.is_ok_and(|s| s.watchdog_tripped);
+                let fault = x.link.is_err()
+                    || x.write_error.is_some()
+                    || stale
+                    || !f.valid
+                    || !f.force_n.is_finite()
+                    || f.force_n < 0.0
+                    || f.power_w.is_some_and(|p| !(0.0..=cfg.max_power_w).contains(&p))
+                    || x.link.is_ok_and(|s| s.watchdog_tripped || s.override_locked);
+                let out = p.step(&input, &mut law);
+                let is_arm = out.events.iter().any(|e| matches!(e, Event::Armed { .. }));
+                if let Some(c) = out.write_override {
+                    prop_assert!(c.0 <= max, "period {}: {} above max {}", i, c.0, max);
+                    if let Ok(s) = x.link {
+                        let step = if s.override_step_pct == 0 { 10 } else { s.override_step_pct };
+                        prop_assert_eq!(c.0 % step, 0);
+                    }
+                    if fault && !is_arm {
+                        if let Some(last) = last_written {
+                            prop_assert!(c.0 <= last, "period {}: fault raised {} -> {}", i, last, c.0);
+                        }
+                    }
+                    last_written = Some(c.0);
+                }
+                prop_assert!(!fault || out.fault, "period {}: fault input not flagged", i);
+                if is_arm {
+                    // The operator's switch re-arms a tripped board (with ALARM_RESET); any
+                    // other fault input blocks arming.
+                    let other = fault && !(tripped && !x.link.is_ok_and(|s| s.override_locked)
+                        && x.write_error.is_none() && !stale && f.valid && f.force_n.is_finite()
+                        && f.force_n >= 0.0
+                        && f.power_w.is_none_or(|p| (0.0..=cfg.max_power_w).contains(&p)));
+                    prop_assert!(!other, "period {}: armed on a faulty period", i);
+                    prop_assert!(out.control.alarm_reset == tripped);
+                }
+            }
+        }
+    }
+}
