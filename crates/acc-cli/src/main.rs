@@ -2,6 +2,11 @@
 
 use clap::{Parser, Subcommand};
 
+mod cmd_compare;
+mod cmd_estimate_eval;
+mod cmd_sim;
+mod cmd_stability;
+
 /// Adaptive feedrate-override control for CNC milling.
 #[derive(Parser)]
 #[command(name = "acc", version, about)]
@@ -11,9 +16,28 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Closed-loop poles, damping, Kc ratio margin and fixed-gain stable range of a
+    /// controller preset; `--plot` draws the pole map (SVG + PNG).
+    Stability(cmd_stability::StabilityArgs),
+    /// Accuracy of the spindle force estimators: simulated seed 000 sweep (table + Fig. 8
+    /// plot), real turning data (MAPE vs dynamometer), wax milling (noise floor); or
+    /// estimate from a sample stream (`--stream FILE|-`).
+    EstimateEval(cmd_estimate_eval::EstimateEvalArgs),
+    /// Run a scenario on the simulated machine: run log (CSV), per-segment summary, and the
+    /// paper-style plot (force, override, feed, Kc_hat, Kp, Ki; SVG + PNG).
+    Sim(cmd_sim::SimArgs),
+    /// Run every baseline and our controller on one scenario and seed: one table (force RMS
+    /// error, peak force, time above 1.1·Fr, cycle time, override switches) and an overlay plot.
+    Compare(cmd_compare::CompareArgs),
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {}
+    match cli.command {
+        Command::Stability(args) => cmd_stability::run(&args),
+        Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
+        Command::Sim(args) => cmd_sim::run_cmd(&args),
+        Command::Compare(args) => cmd_compare::run_cmd(&args),
+    }
 }
