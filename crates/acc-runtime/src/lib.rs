@@ -7,12 +7,16 @@
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`cycle`]: one controller cycle against any `Pmc` (read, decide, write);
+//! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
+//! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
 //! - [`testing`]: a scripted board, law and force source for tests.
 #![deny(missing_docs)]
 
 pub mod clock;
 pub mod cycle;
 pub mod policy;
+pub mod runner;
+pub mod shutdown;
 pub mod stats;
 pub mod testing;
 pub mod ticker;
@@ -22,5 +26,6 @@ pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use policy::{
     AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Release,
 };
+pub use runner::{run, LogSink, RunError, RunOptions, RunRecord, RunSummary, VecSink};
 pub use stats::LatencyStats;
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};

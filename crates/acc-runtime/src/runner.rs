@@ -1,0 +1,306 @@
+//! The threaded runtime: link I/O, control and logging on three threads joined by
+//! `crossbeam-channel`.
+//!
+//! - **I/O thread** (owns the [`Pmc`] and the [`Ticker`]): at every deadline it reads the
+//!   status, hands it to the control thread, waits for the write plan (bounded by one
+//!   period), performs the writes and reports their outcome with the next status. It also
+//!   measures the round-trip time of each cycle (read + decide + writes).
+//! - **Control thread** (owns the [`ControlLoop`]: policy, law, force source): pure
+//!   decisions, no I/O; every period it offers a [`RunRecord`] to the logger with
+//!   `try_send` — a full queue is **counted, never waited on**.
+//! - **Logger thread** (owns the [`LogSink`]): writes and flushes each record; drains the
+//!   queue and flushes at the end.
+//!
+//! Shutdown: when the `stop` flag is set (Ctrl-C, see [`crate::shutdown`]) or `max_periods`
+//! is reached, the I/O thread writes `CONTROL` with `ACC_REQUEST` and `FEED_HOLD_REQUEST`
+//! cleared (the board then follows the operator's override), the channels close, the
+//! logger drains and flushes, and [`run`] returns a [`RunSummary`].
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use acc_core::{ForceSource, OverrideLaw};
+use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use crossbeam_channel::{bounded, RecvTimeoutError, TrySendError};
+
+use crate::clock::Clock;
+use crate::cycle::{execute_writes, ControlLoop, CycleRecord, WritePlan, WriteResult};
+use crate::policy::{AccState, Alarms};
+use crate::stats::LatencyStats;
+use crate::ticker::{Ticker, TickerError, TickerStats};
+
+/// One period as the logger sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunRecord {
+    /// The cycle (status, force, decision, writes asked for).
+    pub cycle: CycleRecord,
+    /// Jitter of this period's tick against its deadline.
+    pub lateness: Duration,
+    /// The tick arrived after its deadline.
+    pub overrun: bool,
+}
+
+/// Where the logger thread puts the records (the CLI writes the run-log CSV).
+pub trait LogSink {
+    /// Error of the sink.
+    type Error: std::fmt::Display;
+    /// Write one record (and flush it, for a run log that survives a crash).
+    fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error>;
+    /// Flush everything (called once at the end).
+    fn flush(&mut self) -> Result<(), Self::Error>;
+}
+
+/// A sink that keeps the records in memory (tests).
+#[derive(Debug, Default, Clone)]
+pub struct VecSink(pub Vec<RunRecord>);
+
+impl LogSink for VecSink {
+    type Error = std::convert::Infallible;
+    fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
+        self.0.push(*rec);
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunOptions {
+    /// Control period T.
+    pub period: Duration,
+    /// Stop after this many periods (`None`: until the stop flag).
+    pub max_periods: Option<u64>,
+    /// Capacity of the logger queue, records (default 1024). When full, records are
+    /// dropped and counted.
+    pub log_queue: usize,
+    /// Attempts of the final `CONTROL` write at shutdown (default 5).
+    pub shutdown_attempts: u32,
+}
+
+impl RunOptions {
+    /// Options with period `period` and defaults otherwise.
+    pub fn new(period: Duration) -> Self {
+        Self {
+            period,
+            max_periods: None,
+            log_queue: 1024,
+            shutdown_attempts: 5,
+        }
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Clone)]
+pub struct RunSummary {
+    /// Periods run.
+    pub periods: u64,
+    /// Ticker counters and period jitter.
+    pub ticker: TickerStats,
+    /// Round-trip time of a controller cycle: read, decision, writes.
+    pub cycle_rtt: LatencyStats,
+    /// Records handed to the logger.
+    pub logged: u64,
+    /// Records dropped because the logger queue was full.
+    pub log_dropped: u64,
+    /// Errors the sink reported (records lost).
+    pub log_errors: u64,
+    /// First sink error, if any.
+    pub log_error: Option<String>,
+    /// Policy state at the end (before the shutdown write).
+    pub final_state: AccState,
+    /// Alarms at the end.
+    pub alarms: Alarms,
+    /// The shutdown `CONTROL` write reached the board.
+    pub shutdown_ok: Result<(), PmcErrorKind>,
+    /// The last status read.
+    pub last_status: Option<BoardStatus>,
+}
+
+/// Errors that stop [`run`] before or while it runs.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Bad period.
+    #[error(transparent)]
+    Ticker(#[from] TickerError),
+    /// A thread panicked.
+    #[error("runtime thread `{0}` panicked")]
+    Panicked(&'static str),
+    /// A thread could not be started.
+    #[error("cannot start runtime thread: {0}")]
+    Spawn(#[from] std::io::Error),
+}
+
+struct StatusMsg {
+    index: u64,
+    t_s: f64,
+    link: Result<BoardStatus, PmcErrorKind>,
+    writes: WriteResult,
+    lateness: Duration,
+    overrun: bool,
+}
+
+/// Run the loop until `stop` is set or `opts.max_periods` is reached. See the module docs.
+pub fn run<P, L, F, C, S>(
+    pmc: &mut P,
+    control: &mut ControlLoop<L, F>,
+    clock: C,
+    sink: &mut S,
+    stop: &AtomicBool,
+    opts: RunOptions,
+) -> Result<RunSummary, RunError>
+where
+    P: Pmc + Send,
+    L: OverrideLaw + Send,
+    F: ForceSource + Send,
+    C: Clock + Clone,
+    S: LogSink + Send,
+{
+    let mut ticker = Ticker::new(clock.clone(), opts.period)?;
+    let (status_tx, status_rx) = bounded::<StatusMsg>(1);
+    let (plan_tx, plan_rx) = bounded::<WritePlan>(1);
+    let (log_tx, log_rx) = bounded::<RunRecord>(opts.log_queue.max(1));
+
+    std::thread::scope(|scope| {
+        // ---------------------------------------------------------------- logger
+        let logger = std::thread::Builder::new()
+            .name("acc-log".into())
+            .spawn_scoped(scope, move || {
+                let _span = tracing::info_span!("logger").entered();
+                let (mut errors, mut first) = (0u64, None::<String>);
+                for rec in log_rx.iter() {
+                    if let Err(e) = sink.write(&rec) {
+                        errors += 1;
+                        if first.is_none() {
+                            tracing::error!(error = %e, "run log write failed");
+                            first = Some(e.to_string());
+                        }
+                    }
+                }
+                if let Err(e) = sink.flush() {
+                    errors += 1;
+                    first.get_or_insert(e.to_string());
+                }
+                (errors, first)
+            })?;
+
+        // ---------------------------------------------------------------- control
+        let ctl = std::thread::Builder::new()
+            .name("acc-control".into())
+            .spawn_scoped(scope, move || {
+                let _span = tracing::info_span!("control").entered();
+                let (mut logged, mut dropped) = (0u64, 0u64);
+                for msg in status_rx.iter() {
+                    control.writes_done(&msg.writes);
+                    let rec = control.decide(msg.t_s, msg.link);
+                    debug_assert_eq!(rec.index, msg.index);
+                    for e in rec.out.events.iter() {
+                        tracing::info!(period = msg.index, event = ?e, "policy event");
+                    }
+                    if plan_tx.send(rec.plan).is_err() {
+                        break;
+                    }
+                    let r = RunRecord {
+                        cycle: rec,
+                        lateness: msg.lateness,
+                        overrun: msg.overrun,
+                    };
+                    match log_tx.try_send(r) {
+                        Ok(()) => logged += 1,
+                        Err(TrySendError::Full(_)) => dropped += 1,
+                        Err(TrySendError::Disconnected(_)) => dropped += 1,
+                    }
+                }
+                drop(log_tx);
+                (
+                    logged,
+                    dropped,
+                    control.policy().state(),
+                    control.policy().alarms(),
+                )
+            })?;
+
+        // ---------------------------------------------------------------- link I/O (here)
+        let io_span = tracing::info_span!("io").entered();
+        let mut rtt = LatencyStats::new();
+        let mut writes = WriteResult::default();
+        let mut periods = 0u64;
+        let mut last_status = None;
+        let origin = clock.now();
+        while !stop.load(Ordering::SeqCst) && opts.max_periods.is_none_or(|m| periods < m) {
+            let tick = ticker.wait();
+            if tick.overrun {
+                tracing::warn!(
+                    period = tick.index,
+                    late_us = tick.lateness.as_micros() as u64,
+                    skipped = tick.skipped,
+                    "period overrun"
+                );
+            }
+            let t0 = clock.now();
+            let link = pmc.read_status().map_err(|e| P::kind(&e));
+            if let Ok(s) = link {
+                last_status = Some(s);
+            }
+            let msg = StatusMsg {
+                index: periods,
+                t_s: (tick.deadline.saturating_sub(origin)).as_secs_f64(),
+                link,
+                writes,
+                lateness: tick.lateness,
+                overrun: tick.overrun,
+            };
+            if status_tx.send(msg).is_err() {
+                break;
+            }
+            let plan = match plan_rx.recv_timeout(opts.period) {
+                Ok(p) => p,
+                Err(RecvTimeoutError::Timeout) => {
+                    tracing::error!(period = periods, "control thread missed its period");
+                    WritePlan::default()
+                }
+                Err(RecvTimeoutError::Disconnected) => break,
+            };
+            writes = execute_writes(pmc, &plan);
+            rtt.record(clock.now().saturating_sub(t0));
+            periods += 1;
+        }
+        // Orderly stop: ACC request and feed hold cleared; the operator has the override.
+        drop(status_tx);
+        let bits = ControlBits::default();
+        let mut shutdown_ok = Err(PmcErrorKind::Disconnected);
+        for _ in 0..opts.shutdown_attempts.max(1) {
+            match pmc.write_control(bits) {
+                Ok(()) => {
+                    shutdown_ok = Ok(());
+                    break;
+                }
+                Err(e) => shutdown_ok = Err(P::kind(&e)),
+            }
+        }
+        match shutdown_ok {
+            Ok(()) => tracing::info!("ACC_REQUEST cleared; the operator has the override"),
+            Err(k) => {
+                tracing::error!(kind = ?k, "could not clear ACC_REQUEST; the board watchdog will release")
+            }
+        }
+        drop(io_span);
+        let (logged, log_dropped, final_state, alarms) =
+            ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
+        let (log_errors, log_error) = logger.join().map_err(|_| RunError::Panicked("acc-log"))?;
+        Ok(RunSummary {
+            periods,
+            ticker: ticker.stats().clone(),
+            cycle_rtt: rtt,
+            logged,
+            log_dropped,
+            log_errors,
+            log_error,
+            final_state,
+            alarms,
+            shutdown_ok,
+            last_status,
+        })
+    })
+}

@@ -1,0 +1,175 @@
+//! The threaded runtime on a manual clock: every period logged, orderly shutdown on the stop
+//! flag, and a logger that is too slow never blocks control (drops are counted).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use acc_runtime::policy::{AccState, FaultPolicy, PolicyConfig};
+use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
+use acc_runtime::{run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, VecSink};
+
+fn control() -> ControlLoop<ScriptedLaw, LinearPowerForce> {
+    ControlLoop::new(
+        FaultPolicy::new(PolicyConfig::default()),
+        ScriptedLaw::new([90, 80, 70]),
+        LinearPowerForce { n_per_w: 0.5 },
+        0.1,
+    )
+}
+
+/// A board whose power sample advances on every read (a live sensor).
+struct LiveBoard(ScriptedBoard);
+
+impl acc_pmc::Pmc for LiveBoard {
+    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
+    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
+        ScriptedBoard::kind(e)
+    }
+    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        self.0.board.push_power_sample(1500);
+        self.0.now_ms += 100;
+        self.0.read_status()
+    }
+    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+        self.0.write_override(o, hb)
+    }
+    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+        self.0.write_control(c)
+    }
+}
+
+#[test]
+fn runs_max_periods_logs_each_and_clears_acc_request() {
+    let mut board = LiveBoard(ScriptedBoard::new());
+    let mut ctl = control();
+    let clock = ManualClock::new();
+    let mut sink = VecSink::default();
+    let stop = AtomicBool::new(false);
+    let opts = RunOptions {
+        max_periods: Some(50),
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let s = run(&mut board, &mut ctl, clock.clone(), &mut sink, &stop, opts).expect("runs");
+    assert_eq!(s.periods, 50);
+    assert_eq!(s.logged, 50);
+    assert_eq!(s.log_dropped, 0);
+    assert_eq!(sink.0.len(), 50);
+    // absolute deadlines on the manual clock: period k at (k+1)·T
+    assert_eq!(clock.now(), Duration::from_millis(5000));
+    assert_eq!(s.ticker.overruns, 0);
+    for (k, r) in sink.0.iter().enumerate() {
+        assert_eq!(r.cycle.index, k as u64);
+        assert!((r.cycle.t_s - 0.1 * (k + 1) as f64).abs() < 1e-9);
+    }
+    assert_eq!(s.final_state, AccState::Active);
+    assert_eq!(
+        board.0.board.status().override_applied_pct,
+        100,
+        "operator's"
+    );
+    assert!(!board.0.board.control().acc_request, "ACC_REQUEST cleared");
+    assert!(s.shutdown_ok.is_ok());
+    // the law's commands reached the board while running
+    assert!(board.0.override_writes.iter().any(|&(c, _)| c == 70));
+}
+
+/// A sink that raises the stop flag after `n` records (Ctrl-C in the middle of a cut).
+struct StopAfter {
+    n: usize,
+    stop: Arc<AtomicBool>,
+    rows: Vec<RunRecord>,
+    flushed: bool,
+}
+
+impl LogSink for StopAfter {
+    type Error = std::convert::Infallible;
+    fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
+        self.rows.push(*rec);
+        if self.rows.len() == self.n {
+            self.stop.store(true, Ordering::SeqCst);
+        }
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        self.flushed = true;
+        Ok(())
+    }
+}
+
+#[test]
+fn stop_flag_mid_run_logs_to_the_last_period_and_flushes() {
+    let mut board = LiveBoard(ScriptedBoard::new());
+    let mut ctl = control();
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut sink = StopAfter {
+        n: 20,
+        stop: Arc::clone(&stop),
+        rows: Vec::new(),
+        flushed: false,
+    };
+    let opts = RunOptions {
+        max_periods: Some(100_000),
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let s = run(
+        &mut board,
+        &mut ctl,
+        ManualClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+    )
+    .expect("runs");
+    assert!(s.periods >= 20 && s.periods < 100_000);
+    assert_eq!(
+        sink.rows.len() as u64,
+        s.periods,
+        "every period up to the last is logged"
+    );
+    assert_eq!(s.log_dropped, 0);
+    assert!(sink.flushed);
+    assert!(!board.0.board.control().acc_request);
+    assert!(!board.0.board.status().acc_active);
+}
+
+/// A logger that takes 2 ms per record.
+struct SlowSink(u64);
+
+impl LogSink for SlowSink {
+    type Error = std::convert::Infallible;
+    fn write(&mut self, _: &RunRecord) -> Result<(), Self::Error> {
+        std::thread::sleep(Duration::from_millis(2));
+        self.0 += 1;
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_slow_logger_never_blocks_control() {
+    let mut board = LiveBoard(ScriptedBoard::new());
+    let mut ctl = control();
+    let mut sink = SlowSink(0);
+    let stop = AtomicBool::new(false);
+    let opts = RunOptions {
+        max_periods: Some(300),
+        log_queue: 4,
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let s = run(
+        &mut board,
+        &mut ctl,
+        ManualClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+    )
+    .expect("runs");
+    assert_eq!(s.periods, 300, "control ran every period");
+    assert!(s.log_dropped > 0, "full queue counted");
+    assert_eq!(s.logged + s.log_dropped, 300);
+    assert_eq!(sink.0, s.logged, "everything queued was written");
+}
