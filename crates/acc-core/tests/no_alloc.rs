@@ -1,0 +1,68 @@
+//! `Controller::step` does not allocate: a counting global allocator (this test binary
+//! only) sees zero allocations on the thread while it steps through cutting, air cut,
+//! invalid samples and saturation.
+// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
+#![allow(unsafe_code)]
+#![allow(clippy::unwrap_used)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
+
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards every call unchanged to `System`; the counter is a thread-local `Cell`
+// that never allocates.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn step_does_not_allocate() {
+    // The counter sees allocations on this thread (so a zero below means something).
+    let probe = COUNT.with(Cell::get);
+    let v = std::hint::black_box(vec![1u8; 16]);
+    assert!(COUNT.with(Cell::get) > probe && v.len() == 16);
+    for case in [PaperCase::FixedGain, PaperCase::I, PaperCase::III] {
+        let mut ctl = Controller::new(ControllerConfig::paper_case(case)).unwrap();
+        ctl.engage(FeedOverride(100));
+        let before = COUNT.with(Cell::get);
+        let mut feed = 200.0;
+        let mut sum = 0u32;
+        for i in 0..1000 {
+            let kc = match i % 300 {
+                0..=49 => 0.0, // air cut
+                50..=199 => 4.0,
+                _ => 6.0,
+            };
+            let m = Measurement {
+                force_n: if i % 97 == 0 { f64::NAN } else { kc * feed },
+                feed_mm_min: feed,
+                programmed_feed_mm_min: 200.0,
+                valid: i % 89 != 0,
+            };
+            let o = ctl.step(&m);
+            feed = o.command.feed_mm_min(200.0);
+            sum += u32::from(o.command.pct());
+        }
+        let after = COUNT.with(Cell::get);
+        assert!(sum > 0);
+        assert_eq!(after - before, 0, "{case:?}: Controller::step allocated");
+    }
+}
