@@ -1,6 +1,8 @@
 //! Comparison baselines, each an [`OverrideLaw`] like the adaptive controller.
 //!
-//! - [`ConstantFeed`]: no control, the programmed feed (100 %) throughout.
+//! - [`ConstantFeed`]: no control, a fixed override throughout: 100 % (the programmed
+//!   feed), or the "safe" override an NC programmer without ACC would choose so that the
+//!   deepest, hardest section stays at Fr (see `Scenario::safe_override_pct`).
 //! - the paper's fixed-gain PI is the core's `Controller` in `FixedPi` mode (built by the
 //!   scenario from the `fixed_gain` preset), not a copy here;
 //! - [`RateLimited`]: like Haas Autofeed — the override moves down at 20 %/s while the force
@@ -77,32 +79,42 @@ impl Core {
     }
 }
 
-/// No control: 100 % of the programmed feed.
+/// No control: a constant override.
 #[derive(Debug, Clone)]
 pub struct ConstantFeed {
     core: Core,
+    pct: f64,
+    name: String,
 }
 
 impl ConstantFeed {
-    /// With the board's override spec and the force reference (for the trace only).
+    /// 100 % of the programmed feed, with the board's override spec and the force
+    /// reference (for the trace only).
     pub fn new(spec: OverrideSpec, force_ref_n: f64) -> Self {
+        Self::at(spec, force_ref_n, 100, "constant-feed")
+    }
+
+    /// A constant `pct` (clamped to the spec) under the table name `name`.
+    pub fn at(spec: OverrideSpec, force_ref_n: f64, pct: u16, name: &str) -> Self {
         ConstantFeed {
             core: Core::new(spec, force_ref_n),
+            pct: spec.clamp_pct(f64::from(pct)),
+            name: name.to_string(),
         }
     }
 }
 
 impl OverrideLaw for ConstantFeed {
     fn name(&self) -> &str {
-        "constant-feed"
+        &self.name
     }
 
     fn engage(&mut self, _current: FeedOverride) {
-        self.core.ov_pct = 100.0;
+        self.core.ov_pct = self.pct;
     }
 
     fn step(&mut self, m: &Measurement) -> StepOutput {
-        self.core.ov_pct = 100.0;
+        self.core.ov_pct = self.pct;
         self.core.apply(m, 0.0)
     }
 

@@ -193,6 +193,9 @@ pub enum LawKind {
     Ours,
     /// 100 % throughout.
     ConstantFeed,
+    /// The constant override that keeps the deepest, hardest section at Fr with the tool
+    /// as it starts ([`Scenario::safe_override_pct`]): what a programmer without ACC runs.
+    ConstantSafeFeed,
     /// The paper's fixed-gain PI (Ki = 2.5, Kp = 0.05) with the scenario's T, Fr and board.
     FixedGainPi,
     /// Haas-Autofeed-like rate-limited law.
@@ -203,8 +206,9 @@ pub enum LawKind {
 
 impl LawKind {
     /// All laws in table order (ours last).
-    pub const ALL: [LawKind; 5] = [
+    pub const ALL: [LawKind; 6] = [
         LawKind::ConstantFeed,
+        LawKind::ConstantSafeFeed,
         LawKind::FixedGainPi,
         LawKind::RateLimited,
         LawKind::Proportional,
@@ -213,6 +217,12 @@ impl LawKind {
 }
 
 impl Scenario {
+    /// Load a scenario and everything it names (controller presets through
+    /// `acc_config::load_controller`). Every error names the file and key.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ConfigError> {
+        Self::load_with(path, |p| acc_config::load_controller(p))
+    }
+
     /// Load a scenario and everything it names, using `load_preset` for the controller
     /// preset. Every error names the file and key.
     pub fn load_with(
@@ -277,6 +287,37 @@ impl Scenario {
         })
     }
 
+    /// The largest override (a multiple of the board step, at least one step) at which the
+    /// mean force (eq. 1) stays at or below Fr in the deepest, hardest section, with the
+    /// tool's initial wear factor and the commanded spindle speed: the feed an NC
+    /// programmer without ACC would choose from the same cutting data.
+    pub fn safe_override_pct(&self) -> u16 {
+        let law = crate::process::ForceLaw::new(self.tool.process);
+        let ks_max = self
+            .workpiece
+            .segments
+            .iter()
+            .filter(|s| s.is_cut())
+            .map(|s| s.ks_factor)
+            .fold(0.0, f64::max);
+        let spec = self.controller.override_spec;
+        let step = spec.step_pct.max(1);
+        let force_at = |pct: u16| {
+            law.mean_force_n(
+                self.workpiece.max_depth_mm().min(self.tool.diameter_mm),
+                self.workpiece.axial_depth_mm,
+                self.programmed_feed_mm_min * f64::from(pct) / 100.0,
+                self.machine.spindle.rpm,
+                ks_max * self.wear.initial_factor,
+            )
+        };
+        let mut pct = spec.max_pct - spec.max_pct % step;
+        while pct > step && force_at(pct) > self.controller.force_ref_n {
+            pct -= step;
+        }
+        pct.max(step)
+    }
+
     /// The board's override spec as the controller sees it.
     pub fn override_spec(&self) -> OverrideSpec {
         self.controller.override_spec
@@ -319,6 +360,12 @@ impl Scenario {
                 ..*c
             })?),
             LawKind::ConstantFeed => Box::new(ConstantFeed::new(c.override_spec, c.force_ref_n)),
+            LawKind::ConstantSafeFeed => Box::new(ConstantFeed::at(
+                c.override_spec,
+                c.force_ref_n,
+                self.safe_override_pct(),
+                "constant-safe",
+            )),
             LawKind::RateLimited => {
                 Box::new(RateLimited::new(c.override_spec, c.force_ref_n, c.period_s))
             }

@@ -1,0 +1,120 @@
+//! `acc compare <scenario>`: run every baseline and our controller on the same scenario and
+//! seed; print one table (force RMS error while cutting, peak force, time above 1.1·Fr,
+//! cycle time, override switches) and draw an overlay plot of force and override.
+
+use std::path::{Path, PathBuf};
+
+use acc_plot::{time_series, Figure, HLine, Panel, Series, Written};
+use acc_sim::summary::comparison_table;
+use acc_sim::{run, summarize, LawKind, RunResult, Scenario, Summary};
+use anyhow::Context as _;
+
+use crate::cmd_sim::{air_shades, default_out, load_scenario};
+
+/// Arguments of `acc compare`.
+#[derive(Debug, clap::Args)]
+pub struct CompareArgs {
+    /// Scenario: a file, or a name in configs/scenarios (e.g. `paper_case3`).
+    pub scenario: String,
+    /// Output directory for the overlay plot (default `out/<scenario name>`).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Override the scenario's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Do not draw the overlay plot.
+    #[arg(long)]
+    pub no_plot: bool,
+}
+
+/// Run every law of [`LawKind::ALL`] on `sc`.
+pub fn compare(sc: &Scenario) -> anyhow::Result<Vec<(RunResult, Summary)>> {
+    LawKind::ALL
+        .iter()
+        .map(|&k| {
+            let mut law = sc.build_law(k)?;
+            let r = run::<std::io::Sink>(sc, law.as_mut(), None)?;
+            let s = summarize(&r, sc);
+            Ok((r, s))
+        })
+        .collect()
+}
+
+/// Run `acc compare`.
+pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
+    let sc = load_scenario(&args.scenario, args.seed)?;
+    let results = compare(&sc)?;
+    println!(
+        "scenario: {} ({}), seed {}",
+        sc.name,
+        sc.path.display(),
+        sc.seed
+    );
+    println!(
+        "constant-safe = {} % (the constant override keeping the deepest section at Fr)",
+        sc.safe_override_pct()
+    );
+    let summaries: Vec<Summary> = results.iter().map(|(_, s)| s.clone()).collect();
+    print!("{}", comparison_table(&summaries));
+    if !args.no_plot {
+        let out = args.out.clone().unwrap_or_else(|| default_out(&sc));
+        std::fs::create_dir_all(&out)
+            .with_context(|| format!("{}: cannot create", out.display()))?;
+        let w = plot_overlay(&sc, &results, &out.join("compare.svg"))?;
+        println!("plot: {} and {}", w.svg.display(), w.png.display());
+    }
+    Ok(())
+}
+
+/// Force and override of every law over time, one colour per law.
+pub fn plot_overlay(
+    sc: &Scenario,
+    results: &[(RunResult, Summary)],
+    out: &Path,
+) -> anyhow::Result<Written> {
+    let longest = results
+        .iter()
+        .max_by_key(|(r, _)| r.rows.len())
+        .map(|(r, _)| r.rows.as_slice())
+        .unwrap_or(&[]);
+    let shades = air_shades(sc, longest);
+    let force = results
+        .iter()
+        .map(|(r, _)| Series::line(&r.law, r.rows.iter().map(|x| (x.t_s, x.force_n)).collect()))
+        .collect();
+    let ov = results
+        .iter()
+        .map(|(r, _)| {
+            Series::line(
+                &r.law,
+                r.rows
+                    .iter()
+                    .map(|x| (x.t_s, f64::from(x.override_cmd_pct)))
+                    .collect(),
+            )
+        })
+        .collect();
+    let fig = Figure {
+        title: format!("{} — all laws, seed {}", sc.name, sc.seed),
+        x_label: "time [s]".into(),
+        panels: vec![
+            Panel {
+                y_label: "force [N]".into(),
+                series: force,
+                hlines: vec![HLine::new("Fr", sc.controller.force_ref_n)],
+                shades: vec![],
+                y_range: None,
+            },
+            Panel {
+                y_label: "override [%]".into(),
+                series: ov,
+                hlines: vec![],
+                shades,
+                y_range: None,
+            },
+        ],
+        panel_height_px: 320,
+        ..Figure::default()
+    };
+    Ok(time_series(&fig, out)?)
+}

@@ -1,0 +1,212 @@
+//! `acc sim <scenario>`: run a scenario on the simulated machine; write the run log (CSV,
+//! one row per period), print the per-segment summary, and draw the paper-style figure
+//! (force with Fr, override, feed, Kc_hat, Kp, Ki over time; seed 002 figs. 8–12).
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use acc_plot::{time_series, Figure, HLine, Panel, Series, Shade, Style, Written};
+use acc_sim::runlog::{RunLogRow, RunLogWriter};
+use acc_sim::summary::attribute_rows;
+use acc_sim::{run, summarize, LawKind, RunResult, Scenario};
+use anyhow::Context as _;
+
+/// Arguments of `acc sim`.
+#[derive(Debug, clap::Args)]
+pub struct SimArgs {
+    /// Scenario: a file, or a name in configs/scenarios (e.g. `paper_case3`).
+    pub scenario: String,
+    /// Output directory for the run log and plots (default `out/<scenario name>`).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Override the scenario's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Which law to run: ours (the scenario's preset), constant, constant-safe, fixed-pi,
+    /// rate-limited, proportional.
+    #[arg(long, default_value = "ours", value_parser = parse_law)]
+    pub law: LawKind,
+    /// Do not draw plots.
+    #[arg(long)]
+    pub no_plot: bool,
+}
+
+/// Parse a law name of `--law`.
+pub fn parse_law(s: &str) -> Result<LawKind, String> {
+    Ok(match s {
+        "ours" => LawKind::Ours,
+        "constant" => LawKind::ConstantFeed,
+        "constant-safe" => LawKind::ConstantSafeFeed,
+        "fixed-pi" => LawKind::FixedGainPi,
+        "rate-limited" => LawKind::RateLimited,
+        "proportional" => LawKind::Proportional,
+        _ => {
+            return Err(format!(
+                "unknown law `{s}`: allowed ours, constant, constant-safe, fixed-pi, rate-limited, proportional"
+            ))
+        }
+    })
+}
+
+/// A scenario argument: an existing file, else `configs/scenarios/<name>.toml` (relative to
+/// the working directory, then to the source tree).
+pub fn resolve_scenario(arg: &str) -> PathBuf {
+    let p = Path::new(arg);
+    if p.is_file() {
+        return p.to_path_buf();
+    }
+    let file = if arg.ends_with(".toml") {
+        arg.to_string()
+    } else {
+        format!("{arg}.toml")
+    };
+    let here = Path::new("configs/scenarios").join(&file);
+    if here.is_file() {
+        return here;
+    }
+    let tree = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../configs/scenarios")
+        .join(&file);
+    if tree.is_file() {
+        tree
+    } else {
+        p.to_path_buf()
+    }
+}
+
+/// Load the scenario named by `arg`, with an optional seed override.
+pub fn load_scenario(arg: &str, seed: Option<u64>) -> anyhow::Result<Scenario> {
+    let path = resolve_scenario(arg);
+    let mut sc = Scenario::load(&path)?;
+    if let Some(s) = seed {
+        sc.seed = s;
+    }
+    Ok(sc)
+}
+
+/// Default output directory: `out/<scenario file stem>`.
+pub fn default_out(sc: &Scenario) -> PathBuf {
+    let stem = sc
+        .path
+        .file_stem()
+        .map_or_else(|| "run".into(), |s| s.to_string_lossy().into_owned());
+    Path::new("out").join(stem)
+}
+
+/// Run `acc sim`.
+pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
+    let sc = load_scenario(&args.scenario, args.seed)?;
+    let out = args.out.clone().unwrap_or_else(|| default_out(&sc));
+    std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let log_path = out.join("run.csv");
+    let file = File::create(&log_path)
+        .with_context(|| format!("{}: cannot create", log_path.display()))?;
+    let mut writer = RunLogWriter::new(BufWriter::new(file))?;
+    let mut law = sc.build_law(args.law)?;
+    let result = run(&sc, law.as_mut(), Some(&mut writer))?;
+    let summary = summarize(&result, &sc);
+    println!("scenario: {} ({})", sc.name, sc.path.display());
+    println!(
+        "seed {}; {} periods of {} s",
+        sc.seed,
+        result.rows.len(),
+        sc.controller.period_s
+    );
+    print!("{summary}");
+    println!("run log: {}", log_path.display());
+    if !args.no_plot {
+        let w = plot_run(&sc, &result, &out.join("run.svg"))?;
+        println!("plot: {} and {}", w.svg.display(), w.png.display());
+    }
+    Ok(())
+}
+
+/// x-intervals (time) of air cuts, for shading.
+pub fn air_shades(sc: &Scenario, rows: &[RunLogRow]) -> Vec<Shade> {
+    let seg = attribute_rows(rows, &sc.workpiece, sc.tool.diameter_mm);
+    let mut shades = Vec::new();
+    let mut start: Option<f64> = None;
+    let dt = sc.controller.period_s;
+    for (row, s) in rows.iter().zip(&seg) {
+        let air = !sc.workpiece.segments[*s].is_cut();
+        match (air, start) {
+            (true, None) => start = Some(row.t_s - dt),
+            (false, Some(t0)) => {
+                shades.push(Shade::new("air cut", t0, row.t_s - dt));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let (Some(t0), Some(last)) = (start, rows.last()) {
+        shades.push(Shade::new("air cut", t0, last.t_s));
+    }
+    shades
+}
+
+fn pts(rows: &[RunLogRow], f: impl Fn(&RunLogRow) -> f64) -> Vec<(f64, f64)> {
+    rows.iter().map(|r| (r.t_s, f(r))).collect()
+}
+
+/// The paper-style figure of one run (seed 002 figs. 8–12): force with Fr, override,
+/// feed, Kc_hat, Kp and Ki over time, air cuts shaded.
+pub fn plot_run(sc: &Scenario, result: &RunResult, out: &Path) -> anyhow::Result<Written> {
+    let rows = &result.rows;
+    let shades = air_shades(sc, rows);
+    let fr = sc.controller.force_ref_n;
+    let panel = |y_label: &str, series: Vec<Series>, hlines: Vec<HLine>| Panel {
+        y_label: y_label.into(),
+        series,
+        hlines,
+        shades: shades.clone(),
+        y_range: None,
+    };
+    let fig = Figure {
+        title: format!("{} — {}", sc.name, result.law),
+        x_label: "time [s]".into(),
+        panels: vec![
+            panel(
+                "force [N]",
+                vec![
+                    Series::line("measured Fc", pts(rows, |r| r.force_n)),
+                    Series::line("true", pts(rows, |r| r.force_true_n.unwrap_or(f64::NAN)))
+                        .with_style(Style::Dashed),
+                ],
+                vec![HLine::new("Fr", fr), HLine::new("1.1·Fr", 1.1 * fr)],
+            ),
+            panel(
+                "override [%]",
+                vec![
+                    Series::line("commanded", pts(rows, |r| f64::from(r.override_cmd_pct))),
+                    Series::line("applied", pts(rows, |r| f64::from(r.override_applied_pct)))
+                        .with_style(Style::Dashed),
+                ],
+                vec![],
+            ),
+            panel(
+                "feed [mm/min]",
+                vec![Series::line("feed", pts(rows, |r| r.feed_mm_min))],
+                vec![HLine::new("programmed", sc.programmed_feed_mm_min)],
+            ),
+            panel(
+                "Kc_hat [N/(mm/min)]",
+                vec![Series::line("Kc_hat", pts(rows, |r| r.kc_hat))],
+                vec![],
+            ),
+            panel(
+                "Kp [(mm/min)/N]",
+                vec![Series::line("Kp", pts(rows, |r| r.kp))],
+                vec![],
+            ),
+            panel(
+                "Ki [(mm/min)/(N·s)]",
+                vec![Series::line("Ki", pts(rows, |r| r.ki))],
+                vec![],
+            ),
+        ],
+        panel_height_px: 200,
+        ..Figure::default()
+    };
+    Ok(time_series(&fig, out)?)
+}
