@@ -51,12 +51,8 @@ pub struct ParamInfo {
     pub fitted: bool,
 }
 
-const TAU_GRID: &[f64] = &[
-    0.0, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0, 1.3, 1.6, 2.0,
-];
-const DELAY_GRID: &[f64] = &[
-    0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.25, 1.5,
-];
+const TAU_GRID: &[f64] = &[0.0, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85];
+const DELAY_GRID: &[f64] = &[0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8];
 const PHASE_GRID: &[f64] = &[0.0, 0.785, 1.571, 2.356, 3.142, 3.927, 4.712, 5.498];
 const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
@@ -82,9 +78,9 @@ const fn p(
 
 const P_TOOL_WEAR: [ParamInfo; 1] = [p("ks_growth_per_cm3", "1/cm³", -0.5, 10.0, 0.002, None)];
 const P_MOTOR: [ParamInfo; 1] = [p("copper_loss_per_kw", "1/kW", -0.5, 5.0, 0.02, None)];
-const P_LAG: [ParamInfo; 1] = [p("extra_tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
+const P_LAG: [ParamInfo; 1] = [p("extra_tau_s", "s", 0.0, 0.99, 0.05, Some(TAU_GRID))];
 const P_LOWPASS: [ParamInfo; 1] = [p("tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
-const P_DEAD: [ParamInfo; 1] = [p("extra_delay_s", "s", 0.0, 3.0, 0.05, Some(DELAY_GRID))];
+const P_DEAD: [ParamInfo; 1] = [p("extra_delay_s", "s", 0.0, 0.99, 0.05, Some(DELAY_GRID))];
 const P_BETA: [ParamInfo; 2] = [
     p("delta_beta", "1", -0.7, 0.5, 0.02, None),
     ParamInfo {
@@ -217,7 +213,7 @@ pub struct MotorEfficiency {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FeedDriveLag {
-    /// Extra time constant, s. Range 0 ..= 3.
+    /// Extra time constant, s. Range 0 ..= 0.99 (the simulator allows τ ≤ 1 s).
     pub extra_tau_s: f64,
 }
 
@@ -233,7 +229,7 @@ pub struct SensorLowpass {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OverrideDeadTime {
-    /// Extra delay, s. Range 0 ..= 3.
+    /// Extra delay, s. Range 0 ..= 0.99 (the simulator allows ≤ 1 s).
     pub extra_delay_s: f64,
 }
 

@@ -19,6 +19,9 @@ pub enum Free {
     KsScale,
     /// Offset added to `spindle.noload_power_w`, W (nominal, power channel).
     Noload,
+    /// Offset added to the speed exponent `process.gamma` (nominal, when the log's spindle
+    /// speed varies); `Ks` stays anchored at the calibration point.
+    SpeedExponent,
     /// Parameter `i` of an effect.
     Effect(EffectKind, usize),
 }
@@ -29,6 +32,7 @@ impl Free {
         match self {
             Free::KsScale => "process.ks_scale".into(),
             Free::Noload => "spindle.noload_offset_w".into(),
+            Free::SpeedExponent => "process.gamma_offset".into(),
             Free::Effect(k, i) => format!("{}.{}", k.name(), k.params()[i].key),
         }
     }
@@ -37,6 +41,7 @@ impl Free {
         match self {
             Free::KsScale => (0.02, 50.0),
             Free::Noload => (-1e5, 1e5),
+            Free::SpeedExponent => (-2.0, 2.0),
             Free::Effect(k, i) => (k.params()[i].lo, k.params()[i].hi),
         }
     }
@@ -45,6 +50,7 @@ impl Free {
         match self {
             Free::KsScale => 0.01,
             Free::Noload => 1.0,
+            Free::SpeedExponent => 0.02,
             Free::Effect(k, i) => k.params()[i].scale,
         }
     }
@@ -53,7 +59,7 @@ impl Free {
     pub fn null(self) -> f64 {
         match self {
             Free::KsScale => 1.0,
-            Free::Noload => 0.0,
+            Free::Noload | Free::SpeedExponent => 0.0,
             Free::Effect(k, i) => k.params()[i].null,
         }
     }
@@ -68,6 +74,7 @@ pub fn apply(base: &Model, free: &[Free], theta: &[f64]) -> Model {
             Free::Noload => {
                 m.machine.spindle.no_load_power_w = base.machine.spindle.no_load_power_w + v
             }
+            Free::SpeedExponent => m.tool.process.gamma = base.tool.process.gamma + v,
             Free::Effect(k, i) => m.effects.set(k, i, v),
         }
     }
@@ -79,7 +86,7 @@ pub fn current(base: &Model, free: &[Free]) -> Vec<f64> {
     free.iter()
         .map(|f| match *f {
             Free::KsScale => 1.0,
-            Free::Noload => 0.0,
+            Free::Noload | Free::SpeedExponent => 0.0,
             Free::Effect(k, i) => base.effects.get(k, i),
         })
         .collect()

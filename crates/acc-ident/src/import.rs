@@ -14,7 +14,9 @@
 //! | `radial_depth_mm`, `axial_depth_mm` | not recorded: 1 (placeholder: every row is cutting) | mm |
 //! | `wear_vb_um` | `Vb` (flank wear, interpolated) — never read by the workflow | µm |
 //!
-//! Rows with zero programmed feed are skipped (one row of tool 3).
+//! Rows with zero programmed feed are skipped (one row of tool 3), and so are rows whose
+//! feed per spindle unit is more than 20 % off the tool's median (1 s segments straddling
+//! a pass change, e.g. tool 10 row 26 with a feed of 29 290).
 //!
 //! **UMich CNC mill** (`umich-cnc-mill/experiment_NN.csv`, CC0, University of Michigan
 //! SMART lab 2018): wax, one row every 100 ms.
@@ -32,6 +34,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use crate::model::{
+    Channel, FeedDrive, FeedInput, Machine, Measurement, Model, OverridePath, Process, Spindle,
+    Tool, Wear,
+};
 use crate::runlog::{RunLog, RunLogError};
 
 fn open(path: &Path) -> Result<csv::Reader<std::fs::File>, RunLogError> {
@@ -126,13 +132,52 @@ pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogErr
         push(&mut log.power_w, cols.num(&rec, c_p)?);
         push(&mut log.wear_vb_um, cols.num(&rec, c_vb)?);
     }
-    for log in out.values() {
+    for log in out.values_mut() {
+        let ratio: Vec<f64> = (0..log.len())
+            .map(|i| log.feed_mm_min[i] / log.spindle_rpm[i].max(1e-9))
+            .collect();
+        let mut sorted = ratio.clone();
+        sorted.sort_by(f64::total_cmp);
+        let med = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+        let keep: Vec<usize> = (0..log.len())
+            .filter(|&i| (ratio[i] - med).abs() <= 0.2 * med)
+            .collect();
+        *log = select_rows(log, &keep);
         log.validate(path)?;
     }
     Ok(out)
 }
 
+/// The rows `keep` of `log` (time kept as recorded).
+fn select_rows(log: &RunLog, keep: &[usize]) -> RunLog {
+    let pick = |v: &Vec<f64>| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+    let pick_o = |v: &Option<Vec<f64>>| v.as_ref().map(pick);
+    RunLog {
+        t_s: pick(&log.t_s),
+        x_mm: pick_o(&log.x_mm),
+        radial_depth_mm: pick(&log.radial_depth_mm),
+        axial_depth_mm: pick(&log.axial_depth_mm),
+        spindle_rpm: pick(&log.spindle_rpm),
+        programmed_feed_mm_min: pick_o(&log.programmed_feed_mm_min),
+        override_cmd_pct: pick_o(&log.override_cmd_pct),
+        override_applied_pct: pick_o(&log.override_applied_pct),
+        feed_mm_min: pick(&log.feed_mm_min),
+        force_n: pick_o(&log.force_n),
+        power_w: pick_o(&log.power_w),
+        wear_vb_um: pick_o(&log.wear_vb_um),
+        phase: log
+            .phase
+            .as_ref()
+            .map(|v| keep.iter().map(|&i| v[i].clone()).collect()),
+    }
+}
+
 /// Import one UMich CNC-mill experiment file.
+///
+/// Only rows with the spindle at its running speed (within 2 % of the median of the
+/// turning rows, and the rows before and after too) are kept: spindle run-up and
+/// run-down power (inertia) is outside the model, and rows with the spindle stopped carry
+/// no information. Time keeps the original 0.1 s grid (with gaps).
 pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
     let mut rdr = open(path)?;
     let csv_err = |e: csv::Error| RunLogError::Csv {
@@ -152,12 +197,7 @@ pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
         cols.idx("M1_CURRENT_FEEDRATE")?,
         cols.idx("Machining_Process")?,
     );
-    let mut log = RunLog {
-        power_w: Some(Vec::new()),
-        programmed_feed_mm_min: Some(Vec::new()),
-        phase: Some(Vec::new()),
-        ..RunLog::default()
-    };
+    let mut log = RunLog::default();
     let mut power = Vec::new();
     let mut prog = Vec::new();
     let mut phases = Vec::new();
@@ -180,6 +220,139 @@ pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
     log.power_w = Some(power);
     log.programmed_feed_mm_min = Some(prog);
     log.phase = Some(phases);
+    let mut turning: Vec<f64> = log
+        .spindle_rpm
+        .iter()
+        .copied()
+        .filter(|&s| s > 60.0)
+        .collect();
+    turning.sort_by(f64::total_cmp);
+    let run = turning.get(turning.len() / 2).copied().unwrap_or(0.0);
+    let steady = |i: usize| (log.spindle_rpm[i] - run).abs() <= 0.02 * run;
+    let n = log.len();
+    let keep: Vec<usize> = (1..n.saturating_sub(1))
+        .filter(|&i| steady(i - 1) && steady(i) && steady(i + 1))
+        .collect();
+    let mut log = select_rows(&log, &keep);
+    // Cutting needs the tool moving as well as a cutting phase.
+    for i in 0..log.len() {
+        if log.feed_mm_min[i] <= 0.0 {
+            log.radial_depth_mm[i] = 0.0;
+            log.axial_depth_mm[i] = 0.0;
+        }
+    }
     log.validate(path)?;
     Ok(log)
+}
+
+/// A constant-`Ks` turning model for one tool's log, calibrated on its first
+/// `early_fraction` of rows: force channel, `F = Ks·f/n` (α = 1 on the placeholder depth,
+/// β = 1, γ = −1: force proportional to the feed per revolution, as in turning), no wear.
+pub fn turning_model(log: &RunLog, early_fraction: f64) -> Model {
+    let n_early = ((log.len() as f64 * early_fraction).round() as usize).clamp(1, log.len());
+    let med = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    };
+    let feed_ref = med(&log.feed_mm_min);
+    let rpm_ref = med(&log.spindle_rpm);
+    let force = log.force_n.as_deref().unwrap_or(&[]);
+    let calib = (0..n_early.min(force.len()))
+        .map(|i| force[i] * (feed_ref / log.feed_mm_min[i]) * (log.spindle_rpm[i] / rpm_ref))
+        .sum::<f64>()
+        / n_early.min(force.len()).max(1) as f64;
+    Model {
+        name: "turning, constant Ks (calibrated on the early part)".into(),
+        measurement: Measurement {
+            channel: Channel::Force,
+            feed_input: FeedInput::Recorded,
+        },
+        machine: Machine {
+            name: "Vicomtech/Mondragon lathe".into(),
+            spindle: Spindle {
+                rpm: rpm_ref.max(1.0),
+                no_load_power_w: 0.0,
+                efficiency: 1.0,
+            },
+            feed_drive: FeedDrive { tau_s: 0.0 },
+            override_path: OverridePath {
+                delay_s: 0.0,
+                step_pct: 1,
+            },
+            sim: None,
+        },
+        tool: Tool {
+            name: "turning insert".into(),
+            diameter_mm: 1.0,
+            flutes: 1,
+            process: Process {
+                calib_force_n: calib.max(1e-3),
+                calib_radial_mm: 1.0,
+                calib_feed_mm_min: feed_ref,
+                calib_rpm: rpm_ref,
+                calib_axial_mm: 1.0,
+                alpha: 1.0,
+                beta: 1.0,
+                gamma: -1.0,
+                radial_ratio: 0.0,
+            },
+            wear: Wear::default(),
+            tooth: Default::default(),
+        },
+        effects: Default::default(),
+    }
+}
+
+/// A nominal model for the UMich wax logs: power channel, no-load power from the median
+/// of the air rows, a nominal (small) wax cutting force on the placeholder depth, feed as
+/// recorded.
+pub fn umich_model(log: &RunLog) -> Model {
+    let power = log.power_w.as_deref().unwrap_or(&[]);
+    let mut air: Vec<f64> = (0..log.len())
+        .filter(|&i| log.radial_depth_mm[i] <= 0.0 && log.spindle_rpm[i] > 100.0)
+        .filter_map(|i| power.get(i).copied())
+        .collect();
+    air.sort_by(f64::total_cmp);
+    let p_air = air.get(air.len() / 2).copied().unwrap_or(0.0);
+    Model {
+        name: "UMich wax mill, nominal".into(),
+        measurement: Measurement {
+            channel: Channel::Power,
+            feed_input: FeedInput::Recorded,
+        },
+        machine: Machine {
+            name: "UMich SMART lab mill".into(),
+            spindle: Spindle {
+                rpm: 3200.0,
+                no_load_power_w: p_air.max(0.0),
+                efficiency: 1.0,
+            },
+            feed_drive: FeedDrive { tau_s: 0.0 },
+            override_path: OverridePath {
+                delay_s: 0.0,
+                step_pct: 1,
+            },
+            sim: None,
+        },
+        tool: Tool {
+            name: "end mill (wax)".into(),
+            diameter_mm: 6.35,
+            flutes: 2,
+            process: Process {
+                calib_force_n: 5.0,
+                calib_radial_mm: 1.0,
+                calib_feed_mm_min: 360.0,
+                calib_rpm: 3200.0,
+                calib_axial_mm: 1.0,
+                alpha: 1.0,
+                beta: 1.0,
+                gamma: 0.0,
+                radial_ratio: 0.0,
+            },
+            wear: Wear::default(),
+            tooth: Default::default(),
+        },
+        effects: Default::default(),
+    }
 }

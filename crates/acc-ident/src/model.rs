@@ -157,9 +157,33 @@ pub struct Tool {
     /// Wear law.
     #[serde(default)]
     pub wear: Wear,
-    /// Tooth-level geometry, passed through unchanged.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub tooth: Option<toml::Table>,
+    /// Tooth-level geometry (used by the simulator's tooth model only).
+    #[serde(default)]
+    pub tooth: Tooth,
+}
+
+/// `[tool.tooth]`: helical end-mill geometry for the simulator's tooth-level force.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tooth {
+    /// Helix angle, degrees (default 30).
+    pub helix_deg: f64,
+    /// Axial slices (default 16).
+    #[serde(default = "sixteen")]
+    pub axial_slices: usize,
+}
+
+impl Default for Tooth {
+    fn default() -> Self {
+        Tooth {
+            helix_deg: 30.0,
+            axial_slices: 16,
+        }
+    }
+}
+
+fn sixteen() -> usize {
+    16
 }
 
 /// `[measurement]`.
@@ -322,5 +346,26 @@ impl Model {
     /// The `[tool]` section as a stand-alone simulator tool file.
     pub fn tool_toml(&self) -> Result<String, toml::ser::Error> {
         toml::to_string_pretty(&self.tool)
+    }
+
+    /// The machine and tool sections as the simulator reads them (its own parser and
+    /// range checks), so a model file is checked against `acc sim`'s format. `path` names
+    /// the model file in errors.
+    pub fn sim_specs(
+        &self,
+        path: &Path,
+    ) -> Result<(acc_sim::config::MachineSpec, acc_sim::config::ToolSpec), ConfigError> {
+        let ser = |e: toml::ser::Error| ConfigError::Invalid {
+            file: path.to_path_buf(),
+            key: "machine/tool".into(),
+            message: e.to_string(),
+        };
+        let machine: acc_sim::config::MachineSpec =
+            acc_config::parse_toml(path, &self.machine_toml().map_err(ser)?)?;
+        machine.validate(path)?;
+        let tool: acc_sim::config::ToolSpec =
+            acc_config::parse_toml(path, &self.tool_toml().map_err(ser)?)?;
+        tool.validate(path)?;
+        Ok((machine, tool))
     }
 }

@@ -1,56 +1,72 @@
-//! The nominal physics the replay uses, taken from the simulator (`acc-sim`) so that the
-//! discrepancy workflow compares against the simulated machine, not a second copy.
-//!
-//! Seed 002 eq. (1): `F = Ks·ks_factor·a_p·d^α·f^β·s^γ`, `Ks` from the calibration point;
-//! seed 004: cutting torque `T = R·F/√(1 + r1²)`; seed 000 (physics.md §2): spindle input
-//! power `P = P_air + ω·T / η`.
+//! The nominal physics of the replay, taken from the simulator (`acc-sim`) so that the
+//! discrepancy workflow compares against the simulated machine, not a second copy:
+//! [`acc_sim::process::ForceLaw`] (seed 002 eq. (1), `F = Ks·ks_factor·a_p·d^α·f^β·s^γ`
+//! with `Ks` from the calibration point; seed 004 torque `T = R·F/√(1 + r1²)`) and
+//! [`acc_sim::machine::ConstantSpeedSpindle`] (input power `P = P_air + T·ω/η`,
+//! physics.md §2).
+
+use acc_sim::config::SpindleSpec;
+use acc_sim::machine::{ConstantSpeedSpindle, SpindleModel};
+use acc_sim::process::{ForceLaw, ProcessSpec};
 
 use crate::model::{Process, Spindle};
 
-/// `Ks` solved from the calibration point (seed 002 eq. 1), N / (mm·mm^α·(mm/min)^β·rpm^γ).
-pub fn ks(p: &Process) -> f64 {
-    p.calib_force_n
-        / (p.calib_axial_mm
-            * p.calib_radial_mm.powf(p.alpha)
-            * p.calib_feed_mm_min.powf(p.beta)
-            * p.calib_rpm.powf(p.gamma))
+/// The simulator's force law for a model's `[tool.process]`.
+pub fn force_law(p: &Process) -> ForceLaw {
+    ForceLaw::new(ProcessSpec {
+        calib_force_n: p.calib_force_n,
+        calib_radial_mm: p.calib_radial_mm,
+        calib_feed_mm_min: p.calib_feed_mm_min,
+        calib_rpm: p.calib_rpm,
+        calib_axial_mm: p.calib_axial_mm,
+        alpha: p.alpha,
+        beta: p.beta,
+        gamma: p.gamma,
+        radial_ratio: p.radial_ratio,
+    })
 }
 
-/// Mean resultant cutting force, N (seed 002 eq. 1); 0 without engagement, feed or speed.
-pub fn mean_force_n(
-    p: &Process,
-    ks: f64,
-    radial_mm: f64,
-    axial_mm: f64,
-    feed_mm_min: f64,
-    rpm: f64,
-    ks_factor: f64,
-) -> f64 {
-    if radial_mm <= 0.0 || axial_mm <= 0.0 || feed_mm_min <= 0.0 || rpm <= 0.0 {
+/// Spindle input power, W, for a cutting torque at a logged speed: the simulator's
+/// constant-speed spindle run at that speed (`P_air + T·ω/η`); 0 with the spindle stopped.
+pub fn input_power_w(s: &Spindle, torque_nm: f64, rpm: f64) -> f64 {
+    if rpm <= 0.0 {
         return 0.0;
     }
-    ks * ks_factor
-        * axial_mm
-        * radial_mm.powf(p.alpha)
-        * feed_mm_min.powf(p.beta)
-        * rpm.powf(p.gamma)
+    let mut spindle = ConstantSpeedSpindle::new(SpindleSpec {
+        rpm,
+        no_load_power_w: s.no_load_power_w,
+        efficiency: s.efficiency,
+    });
+    spindle.step(torque_nm, 0.0);
+    spindle.input_power_w()
 }
 
-/// Cutting torque, N·m (seed 004): `T = R·F/√(1 + r1²)`.
-pub fn torque_nm(p: &Process, force_n: f64, radius_mm: f64) -> f64 {
-    radius_mm * 1e-3 * force_n / (1.0 + p.radial_ratio.powi(2)).sqrt()
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// Cutting power at the spindle shaft, W: `ω·T`.
-pub fn cut_power_w(p: &Process, force_n: f64, radius_mm: f64, rpm: f64) -> f64 {
-    rpm * 2.0 * std::f64::consts::PI / 60.0 * torque_nm(p, force_n, radius_mm)
-}
-
-/// Spindle input power, W (physics.md §2): `P_air + P_cut / η` while the spindle turns.
-pub fn input_power_w(s: &Spindle, cut_power_w: f64, rpm: f64) -> f64 {
-    if rpm > 0.0 {
-        s.no_load_power_w + cut_power_w / s.efficiency
-    } else {
-        0.0
+    #[test]
+    fn calibration_point_gives_the_calibration_force() {
+        let p = Process {
+            calib_force_n: 800.0,
+            calib_radial_mm: 2.0,
+            calib_feed_mm_min: 200.0,
+            calib_rpm: 600.0,
+            calib_axial_mm: 16.0,
+            alpha: 1.0,
+            beta: 1.0,
+            gamma: -1.0,
+            radial_ratio: 0.4,
+        };
+        let law = force_law(&p);
+        assert!((law.mean_force_n(2.0, 16.0, 200.0, 600.0, 1.0) - 800.0).abs() < 1e-9);
+        let s = Spindle {
+            rpm: 600.0,
+            no_load_power_w: 700.0,
+            efficiency: 0.8,
+        };
+        // 1 N·m at 600 rpm: 62.83 W of cutting power, 78.54 W of input at η = 0.8.
+        assert!((input_power_w(&s, 1.0, 600.0) - 700.0 - 78.539_816).abs() < 1e-5);
+        assert_eq!(input_power_w(&s, 1.0, 0.0), 0.0);
     }
 }

@@ -201,8 +201,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         _ => out.feed_mm_min.copy_from_slice(&inp.feed_mm_min),
     }
     // Process force, volume and wear (the simulator's wear law, extra growth added).
-    let p = &model.tool.process;
-    let ks = physics::ks(p);
+    let law = physics::force_law(&model.tool.process);
     let w = &model.tool.wear;
     let growth = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
     let dbeta = fx.get(EffectKind::FeedExponent, 0);
@@ -221,7 +220,11 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         let f = out.feed_mm_min[i];
         let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
         let factor = w.initial_factor * (1.0 + growth * vol / 1000.0 + w.growth_per_min * cut_min);
-        let mut force = physics::mean_force_n(p, ks, d, a, f, s, factor);
+        let mut force = if a > 0.0 {
+            law.mean_force_n(d, a, f, s, factor)
+        } else {
+            0.0
+        };
         if force > 0.0 {
             vol += d * a * f / 60.0 * inp.dt_s[i];
             cut_min += inp.dt_s[i] / 60.0;
@@ -248,13 +251,14 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let radius = 0.5 * model.tool.diameter_mm;
     for i in 0..n {
         let s = inp.spindle_rpm[i];
-        let pc = physics::cut_power_w(p, out.force_n[i], radius, s);
+        let torque = law.torque_nm(out.force_n[i], radius);
+        let pc = torque * s * 2.0 * std::f64::consts::PI / 60.0;
         out.cut_power_w[i] = pc;
         out.predicted[i] = match inp.channel {
             Channel::Force => out.force_n[i],
             Channel::Power if s > 0.0 => {
                 let drift = drift_w * (1.0 - (-(inp.t_s[i] - t0) / drift_tau).exp());
-                physics::input_power_w(&model.machine.spindle, pc, s)
+                physics::input_power_w(&model.machine.spindle, torque, s)
                     + drift
                     + cu * pc * pc / 1000.0
             }

@@ -121,7 +121,7 @@ pub fn nominal_model(case: &Case) -> Model {
                 radial_ratio: 0.4,
             },
             wear: Wear::default(),
-            tooth: None,
+            tooth: Default::default(),
         },
         effects: Default::default(),
     }

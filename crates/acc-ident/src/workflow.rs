@@ -30,6 +30,9 @@ pub struct Options {
     pub min_segment_s: f64,
     /// Smallest held-out MSE reduction that counts, % of the base model's. Default 5.
     pub min_gain_pct: f64,
+    /// Fit the speed exponent γ with every candidate when the cutting speed varies.
+    /// Default false.
+    pub fit_speed_exponent: bool,
     /// Candidate effects. Default: all.
     pub candidates: Vec<EffectKind>,
 }
@@ -44,6 +47,7 @@ impl Default for Options {
             transient_s: 1.0,
             min_segment_s: 1.0,
             min_gain_pct: 5.0,
+            fit_speed_exponent: false,
             candidates: EffectKind::ALL.to_vec(),
         }
     }
@@ -113,11 +117,26 @@ pub struct Analysis {
     pub series: Series,
 }
 
-fn nuisance(inp: &Inputs) -> Vec<Free> {
-    match inp.channel {
-        Channel::Power => vec![Free::KsScale, Free::Noload],
-        Channel::Force => vec![Free::KsScale],
+/// The nominal parameters every candidate is fitted with: `Ks` always, the no-load power
+/// on the power channel, the speed exponent γ when the cutting speed varies by more than
+/// 5 % (coefficient of variation over the cutting rows).
+fn nuisance(inp: &Inputs, speed_exponent: bool) -> Vec<Free> {
+    let mut v = vec![Free::KsScale];
+    if inp.channel == Channel::Power {
+        v.push(Free::Noload);
     }
+    let s: Vec<f64> = (0..inp.len())
+        .filter(|&i| inp.is_cut(i))
+        .map(|i| inp.spindle_rpm[i])
+        .collect();
+    let m = mean(&s);
+    if speed_exponent
+        && m > 0.0
+        && stats::rms(&s.iter().map(|x| x - m).collect::<Vec<_>>()) > 0.05 * m
+    {
+        v.push(Free::SpeedExponent);
+    }
+    v
 }
 
 fn effect_free(kind: EffectKind) -> Vec<Free> {
@@ -322,7 +341,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     }
     let inp = Inputs::from_log(log, model)?;
     let n = inp.len();
-    let needed = 20 * opts.folds * 2;
+    let needed = 12 * opts.folds + 20;
     if n < needed {
         return Err(WorkflowError::TooShort {
             rows: n,
@@ -375,7 +394,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     };
 
     // Nominal parameters refitted (the base of round 1).
-    let nuis = nuisance(&inp);
+    let nuis = nuisance(&inp, opts.fit_speed_exponent);
     let base_fit = fit::fit(model, &nuis, &[], &inp, &sel);
     let mut base_model = base_fit.model.clone();
     // Re-express the refitted model so its free parameters restart at their nulls.
