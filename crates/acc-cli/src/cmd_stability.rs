@@ -147,6 +147,15 @@ fn fmt_pole(p: &PoleInfo) -> String {
     )
 }
 
+/// Six significant digits, in exponent form below 1e-3.
+fn sig(v: f64) -> String {
+    if v != 0.0 && v.abs() < 1e-3 {
+        format!("{v:.5e}")
+    } else {
+        format!("{v:.6}")
+    }
+}
+
 fn mode_text(mode: ModeConfig) -> String {
     match mode {
         ModeConfig::AdaptivePi {
@@ -187,8 +196,9 @@ pub fn render(a: &Analysis) -> String {
     );
     let _ = writeln!(
         s,
-        "gains       Kp = {:.6} (mm/min)/N, Ki = {:.6} (mm/min)/(N·s) at Kc_hat = {kc0}",
-        a.gains.kp, a.gains.ki
+        "gains       Kp = {} (mm/min)/N, Ki = {} (mm/min)/(N·s) at Kc_hat = {kc0}",
+        sig(a.gains.kp),
+        sig(a.gains.ki)
     );
     let _ = writeln!(s, "\nclosed-loop poles at Kc = Kc_hat = {kc0}:");
     for pole in &a.poles {

@@ -356,6 +356,8 @@ impl OverrideLaw for Controller {
         }
     }
 
+    /// Frozen: the integrator holds (the P term still acts on the error); the estimator
+    /// keeps learning because it compares the force with the applied feed.
     fn set_frozen(&mut self, frozen: bool) {
         self.frozen = frozen;
     }

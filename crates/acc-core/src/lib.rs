@@ -1,8 +1,47 @@
 //! `acc-core`: the pure control core of `acc`.
 //!
 //! Everything here is a function of its inputs: no I/O, no clock, no logging and no
-//! allocation on the step path. The sampling period `T` is data (`period_s` in
-//! [`ControllerConfig`]); equations cite `../shared/docs/physics.md` (seed 002).
+//! allocation on the step path (checked by `tests/no_alloc.rs`). The sampling period `T` is
+//! data (`period_s` in [`ControllerConfig`]); equations cite the seed papers as restated in
+//! `physics.md` §1 (seed 002: eqs. 2, 4, 6, 11, 12, 14 and conclusion 5).
+//!
+//! | module | what |
+//! | --- | --- |
+//! | [`controller`] | [`Controller::step`]: one period — error (eq. 2), estimator, gains, PI, quantizer |
+//! | [`estimator`] | integral Kc estimator (eqs. 11–12), thresholds, bounds, normalized gain, health |
+//! | [`poles`] | pole assignment (eq. 14) and the integral-only pole (conclusion 5) |
+//! | [`pi`] | PI law (eq. 4) with anti-windup against the clamped output and bumpless start |
+//! | [`override_spec`] | [`FeedOverride`], board step (10 % or 1 %) and range 0 … 150 % |
+//! | [`stability`] | companion-matrix poles (nalgebra), Jury test, stable Kc ranges and margins |
+//! | [`source`] | the [`ForceSource`] measurement-channel trait |
+//!
+//! ```
+//! use acc_core::stability::{kc_ratio_margin, pi_poles, spectral_radius};
+//! use acc_core::{Controller, ControllerConfig, DesiredPoles, FeedOverride, Measurement,
+//!                OverrideLaw, PaperCase};
+//!
+//! // Paper case I: poles 0.2 / −0.05, T = 0.1 s, Fr = 800 N, Km = 1, 10 % board.
+//! let mut ctl = Controller::new(ControllerConfig::paper_case(PaperCase::I)).unwrap();
+//! ctl.engage(FeedOverride(100));
+//! let m = Measurement { force_n: 1200.0, feed_mm_min: 200.0,
+//!                       programmed_feed_mm_min: 200.0, valid: true };
+//! let out = ctl.step(&m);
+//! // Kc_hat moved halfway (μ = 0.5) from 4 toward 1200/200 = 6 N/(mm/min) ...
+//! assert!((out.trace.kc_hat - 5.0).abs() < 1e-12);
+//! // ... the gains follow eq. 14 at Kc_hat = 5 ...
+//! assert!((out.trace.kp - 0.01 / 5.0).abs() < 1e-15);
+//! assert!((out.trace.ki - 0.84 / 0.5).abs() < 1e-12);
+//! // ... and the feed drops: U = 200 + (Kp + Ki·T)·(800 − 1200) = 132 mm/min → 66 % → 70 %.
+//! assert!((out.trace.feed_cmd_mm_min - 132.0).abs() < 1e-9);
+//! assert_eq!(out.command, FeedOverride(70));
+//!
+//! // With Kc_hat = Kc the closed loop has exactly the desired poles ...
+//! let p = pi_poles(out.trace.kp, out.trace.ki, 5.0, 0.1);
+//! assert!(spectral_radius(&p) < 0.2 + 1e-12);
+//! // ... and stays stable while the true Kc is below 2/0.86 = 2.33 times the estimate.
+//! let margin = kc_ratio_margin(DesiredPoles::PAPER_CASE_I).unwrap();
+//! assert!((margin.analytic_max - 2.0 / 0.86).abs() < 1e-12);
+//! ```
 
 #![deny(missing_docs)]
 #![cfg_attr(test, allow(clippy::unwrap_used))]
