@@ -689,20 +689,29 @@ fn xy_ranges(c: &XyChart) -> ((f64, f64), (f64, f64)) {
     (x, y)
 }
 
+/// A chart builder for a single-chart figure with the house margins and optional title.
+fn single_chart<'a, 'b, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .margin(MARGIN)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA);
+    if !title.is_empty() {
+        builder.caption(title, (FONT, TITLE_PX));
+    }
+    builder
+}
+
 fn xy_on<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     c: &XyChart,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     root.fill(&WHITE)?;
     let (x, y) = xy_ranges(c);
-    let mut builder = ChartBuilder::on(&root);
-    builder
-        .margin(MARGIN)
-        .x_label_area_size(X_LABEL_AREA)
-        .y_label_area_size(Y_LABEL_AREA);
-    if !c.title.is_empty() {
-        builder.caption(&c.title, (FONT, TITLE_PX));
-    }
+    let mut builder = single_chart(&root, &c.title);
     let mut chart = builder.build_cartesian_2d(x.0..x.1, y.0..y.1)?;
     let (xs, ys) = (x.1 - x.0, y.1 - y.0);
     chart
@@ -742,14 +751,7 @@ fn bars_on<DB: DrawingBackend>(
         },
         hi,
     );
-    let mut builder = ChartBuilder::on(&root);
-    builder
-        .margin(MARGIN)
-        .x_label_area_size(X_LABEL_AREA)
-        .y_label_area_size(Y_LABEL_AREA);
-    if !c.title.is_empty() {
-        builder.caption(&c.title, (FONT, TITLE_PX));
-    }
+    let mut builder = single_chart(&root, &c.title);
     let mut chart = builder.build_cartesian_2d(0.0..n as f64, y.0..y.1)?;
     let names = c.categories.clone();
     let label = move |v: &f64| -> String {
