@@ -27,7 +27,25 @@
 //! assert_eq!(board.status().override_applied_pct, 80);
 //! ```
 
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+
 use crate::BoardStatus;
+
+/// A board shared between a server thread (RTU or CAN emulator) and the machine side (the
+/// simulator sets the switch, power, rpm… through the same mutex).
+pub type SharedBoard = Arc<Mutex<BoardLogic>>;
+
+/// Lock a [`SharedBoard`]; a poisoned lock (a panicking holder) still yields the board.
+pub fn lock_board(board: &SharedBoard) -> MutexGuard<'_, BoardLogic> {
+    board.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+impl BoardLogic {
+    /// Wrap in a [`SharedBoard`].
+    pub fn shared(self) -> SharedBoard {
+        Arc::new(Mutex::new(self))
+    }
+}
 
 /// Holding register addresses (0-based protocol addresses; read with FC03, write FC06/FC16).
 pub mod holding {

@@ -9,10 +9,13 @@
 pub use serialport;
 
 pub mod board;
+pub mod can;
+pub mod clock;
 pub mod fault;
 pub mod loopback;
 pub mod rtu;
 pub mod serial;
+pub mod stale;
 
 /// Status read from the board once per cycle (input registers 0…8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -6,6 +6,7 @@ use std::time::Duration;
 use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
 use super::{is_idle, LinkClock, MonotonicClock};
 use crate::board::{holding, input};
+use crate::stale::SeqWatch;
 use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
 
 /// Link parameters of [`RtuBoard`] (validated from the `[board]` config by
@@ -152,8 +153,7 @@ pub struct RtuBoard<T: Read + Write> {
     clock: Box<dyn LinkClock>,
     stats: LinkStats,
     resync: bool,
-    last_seq: Option<u16>,
-    unchanged_reads: u32,
+    seq: SeqWatch,
 }
 
 impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
@@ -179,8 +179,7 @@ impl<T: Read + Write> RtuBoard<T> {
             clock,
             stats: LinkStats::default(),
             resync: false,
-            last_seq: None,
-            unchanged_reads: 0,
+            seq: SeqWatch::new(cfg.stale_after_reads),
         }
     }
 
@@ -206,8 +205,7 @@ impl<T: Read + Write> RtuBoard<T> {
 
     /// Forget the `SAMPLE_SEQ` history (after a board restart or a long pause).
     pub fn reset_staleness(&mut self) {
-        self.last_seq = None;
-        self.unchanged_reads = 0;
+        self.seq.reset();
     }
 
     /// FC03: read holding registers 0…3 (`OVERRIDE_CMD`, `HEARTBEAT`, `CONTROL`,
@@ -349,23 +347,6 @@ impl<T: Read + Write> RtuBoard<T> {
         self.resync = false;
         Ok(())
     }
-
-    fn check_staleness(&mut self, status: BoardStatus) -> Result<BoardStatus, RtuError> {
-        if self.last_seq == Some(status.sample_seq) {
-            self.unchanged_reads = self.unchanged_reads.saturating_add(1);
-        } else {
-            self.unchanged_reads = 0;
-        }
-        self.last_seq = Some(status.sample_seq);
-        let limit = u32::from(self.cfg.stale_after_reads);
-        if limit > 0 && self.unchanged_reads >= limit {
-            return Err(RtuError::Stale {
-                unchanged_reads: self.unchanged_reads,
-                status,
-            });
-        }
-        Ok(status)
-    }
 }
 
 impl<T: Read + Write> Pmc for RtuBoard<T> {
@@ -378,7 +359,13 @@ impl<T: Read + Write> Pmc for RtuBoard<T> {
     /// FC04 registers 0…8, then the `SAMPLE_SEQ` staleness check.
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
         let status = self.read_status_raw()?;
-        self.check_staleness(status)
+        match self.seq.observe(status.sample_seq) {
+            Some(unchanged_reads) => Err(RtuError::Stale {
+                unchanged_reads,
+                status,
+            }),
+            None => Ok(status),
+        }
     }
 
     /// FC16 registers 0…1 (`OVERRIDE_CMD`, `HEARTBEAT`).

@@ -17,29 +17,7 @@ pub mod server;
 pub use client::{LinkStats, RtuBoard, RtuError, RtuLinkConfig};
 pub use server::{RtuServer, ServerStats, SharedBoard};
 
-use std::time::{Duration, Instant};
-
-/// A monotonic time source for link deadlines, handed to each link (not global).
-pub trait LinkClock: Send {
-    /// Time since an arbitrary fixed origin.
-    fn now(&self) -> Duration;
-}
-
-/// The system's monotonic clock (`std::time::Instant`), origin at construction.
-#[derive(Debug, Clone, Copy)]
-pub struct MonotonicClock(Instant);
-
-impl Default for MonotonicClock {
-    fn default() -> Self {
-        Self(Instant::now())
-    }
-}
-
-impl LinkClock for MonotonicClock {
-    fn now(&self) -> Duration {
-        self.0.elapsed()
-    }
-}
+pub use crate::clock::{LinkClock, MonotonicClock};
 
 /// Whether an I/O error only means "no byte yet" (the stream's read timeout).
 pub(crate) fn is_idle(err: &std::io::Error) -> bool {

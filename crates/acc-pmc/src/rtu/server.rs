@@ -1,4 +1,4 @@
-//! The board side of the RTU link: [`RtuServer`] serves a [`BoardLogic`] over any byte
+//! The board side of the RTU link: [`RtuServer`] serves a [`BoardLogic`](crate::board::BoardLogic) over any byte
 //! stream. Used by `acc board-sim`, the tests and the `mbpoll` interop test.
 //!
 //! Framing is robust to what a real line delivers: a frame arriving in pieces is
@@ -9,7 +9,7 @@
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::sync::Arc;
 
 use rmodbus::consts::ModbusFunction;
 use rmodbus::server::{ModbusFrame, Read as ExtRead};
@@ -17,16 +17,8 @@ use rmodbus::{ErrorKind, ModbusProto};
 
 use super::codec::crc_ok;
 use super::{is_idle, LinkClock, MonotonicClock};
-use crate::board::{BoardLogic, Exception, Reply, Request};
-
-/// The board shared between the server thread and the machine side (the simulator sets the
-/// switch, power, rpm… through the same mutex).
-pub type SharedBoard = Arc<Mutex<BoardLogic>>;
-
-/// Lock a [`SharedBoard`]; a poisoned lock (a panicking holder) still yields the board.
-pub fn lock_board(board: &SharedBoard) -> MutexGuard<'_, BoardLogic> {
-    board.lock().unwrap_or_else(PoisonError::into_inner)
-}
+pub use crate::board::{lock_board, SharedBoard};
+use crate::board::{Exception, Reply, Request};
 
 /// Counters of the server since it was created.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -43,7 +35,7 @@ pub struct ServerStats {
     pub bytes_discarded: u64,
 }
 
-/// A Modbus RTU slave serving a [`BoardLogic`] on the byte stream `P`.
+/// A Modbus RTU slave serving a [`BoardLogic`](crate::board::BoardLogic) on the byte stream `P`.
 pub struct RtuServer<P: Read + Write> {
     port: P,
     slave: u8,

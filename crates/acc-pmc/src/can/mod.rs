@@ -1,0 +1,312 @@
+//! The board's CAN variant: [`CanBoard`] over any bus implementing the standard
+//! [`embedded_can::blocking::Can`] trait (a `socketcan::CanSocket` in production, the
+//! in-memory [`emulator::CanBoardEmulator`] in tests and simulations).
+//!
+//! The board broadcasts its status (`0x180+n`, then `0x280+n`) with every new power sample;
+//! the PC sends one command frame (`0x200+n`) per cycle. There are no replies and no
+//! exceptions on CAN, so [`CanBoard`] refuses an override the board would refuse (above
+//! 150 % or not a multiple of the last reported step) locally, with the same
+//! [`PmcErrorKind::Exception`]`(3)` the RTU board answers.
+//!
+//! The bus's `receive` must return after a short time when no frame arrives, with an error
+//! for which [`ReceiveTimeout::is_receive_timeout`] is true (socketcan: set a read timeout
+//! on the socket; it reports `io::ErrorKind::WouldBlock`/`TimedOut`).
+
+pub mod codec;
+pub mod emulator;
+
+use std::time::Duration;
+
+use embedded_can::{Frame, Id, StandardId};
+
+use crate::board::OVERRIDE_MAX_PCT;
+use crate::clock::{LinkClock, MonotonicClock};
+use crate::stale::SeqWatch;
+use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use codec::{decode_status, encode_command, CanCodecError, Command, NodeIds};
+
+/// Tells a receive timeout (no frame yet) apart from a real bus error.
+pub trait ReceiveTimeout {
+    /// `true` if the error only means that no frame arrived within the bus's timeout.
+    fn is_receive_timeout(&self) -> bool;
+}
+
+impl ReceiveTimeout for std::io::Error {
+    fn is_receive_timeout(&self) -> bool {
+        matches!(
+            self.kind(),
+            std::io::ErrorKind::WouldBlock
+                | std::io::ErrorKind::TimedOut
+                | std::io::ErrorKind::Interrupted
+        )
+    }
+}
+
+#[cfg(feature = "vcan")]
+impl ReceiveTimeout for socketcan::Error {
+    fn is_receive_timeout(&self) -> bool {
+        match self {
+            socketcan::Error::Io(e) => e.is_receive_timeout(),
+            _ => false,
+        }
+    }
+}
+
+/// Link parameters of [`CanBoard`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CanLinkConfig {
+    /// Node id `n`, 1…127. Default 1.
+    pub node: u8,
+    /// Time `read_status` waits for a fresh status pair. Default 40 ms.
+    pub timeout: Duration,
+    /// Status pairs in a row with an unchanged `SAMPLE_SEQ` that make the power stale;
+    /// 0 disables the check. Default 3.
+    pub stale_after_reads: u16,
+}
+
+impl Default for CanLinkConfig {
+    fn default() -> Self {
+        Self {
+            node: 1,
+            timeout: Duration::from_millis(40),
+            stale_after_reads: 3,
+        }
+    }
+}
+
+/// Errors of the CAN link.
+#[derive(Debug, thiserror::Error)]
+pub enum CanError<E: std::error::Error + 'static> {
+    /// The bus reported an error (from the driver, see [`CanError::kind`] for the mapping).
+    #[error("CAN bus error: {0}")]
+    Bus(#[source] E),
+    /// No complete status pair within the timeout.
+    #[error("node {node}: no status frames 0x{:03x}/0x{:03x} within {timeout_ms} ms", 0x180 + u16::from(*node), 0x280 + u16::from(*node))]
+    Timeout {
+        /// Node id.
+        node: u8,
+        /// The timeout, ms.
+        timeout_ms: u64,
+    },
+    /// A status frame with a payload that does not fit the layout.
+    #[error(transparent)]
+    Codec(#[from] CanCodecError),
+    /// An override the board would refuse (above 150 % or not a multiple of its step).
+    #[error("override {value} % refused: must be 0..=150 and a multiple of the board's step {step} % (as exception 03)")]
+    InvalidOverride {
+        /// Requested override, percent.
+        value: u16,
+        /// The board's step, percent.
+        step: u16,
+    },
+    /// `SAMPLE_SEQ` did not change for `unchanged_reads` status pairs.
+    #[error("SAMPLE_SEQ stuck at {} for {unchanged_reads} reads: spindle power is stale", status.sample_seq)]
+    Stale {
+        /// Reads in a row with the same `SAMPLE_SEQ`.
+        unchanged_reads: u32,
+        /// The status received.
+        status: BoardStatus,
+    },
+    /// The node id is outside 1…127.
+    #[error("CAN node id {0} is out of range: allowed 1 ..= 127")]
+    BadNode(u8),
+}
+
+impl<E: std::error::Error + embedded_can::Error + 'static> CanError<E> {
+    /// The [`PmcErrorKind`] the runtime acts on. Bus errors: `Bit`, `Stuff`, `Crc`, `Form`
+    /// → `Crc` (corrupted frames); `Acknowledge` (nobody acknowledged) and `Other` (driver
+    /// or interface failure) → `Disconnected`; `Overrun` → `Protocol`.
+    pub fn kind(&self) -> PmcErrorKind {
+        use embedded_can::ErrorKind as K;
+        match self {
+            CanError::Bus(e) => match e.kind() {
+                K::Bit | K::Stuff | K::Crc | K::Form => PmcErrorKind::Crc,
+                K::Acknowledge | K::Other => PmcErrorKind::Disconnected,
+                _ => PmcErrorKind::Protocol,
+            },
+            CanError::Timeout { .. } => PmcErrorKind::Timeout,
+            CanError::Codec(_) | CanError::BadNode(_) => PmcErrorKind::Protocol,
+            CanError::InvalidOverride { .. } => PmcErrorKind::Exception(3),
+            CanError::Stale { .. } => PmcErrorKind::Stale,
+        }
+    }
+}
+
+/// The board over CAN on bus `B`.
+pub struct CanBoard<B: embedded_can::blocking::Can> {
+    bus: B,
+    cfg: CanLinkConfig,
+    ids: NodeIds,
+    clock: Box<dyn LinkClock>,
+    seq: SeqWatch,
+    pending_a: Option<[u8; 8]>,
+    last: Option<BoardStatus>,
+    command: Command,
+}
+
+impl<B: embedded_can::blocking::Can> std::fmt::Debug for CanBoard<B> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CanBoard")
+            .field("cfg", &self.cfg)
+            .field("command", &self.command)
+            .finish()
+    }
+}
+
+impl<B> CanBoard<B>
+where
+    B: embedded_can::blocking::Can,
+    B::Error: std::error::Error + ReceiveTimeout + Send + Sync + 'static,
+{
+    /// A link to node `cfg.node` on `bus`, deadlines on the system monotonic clock. The
+    /// first command frame carries `OVERRIDE_CMD` = 100, `CONTROL` = 0, `HEARTBEAT` = 0.
+    pub fn new(bus: B, cfg: CanLinkConfig) -> Result<Self, CanError<B::Error>> {
+        Self::with_clock(bus, cfg, Box::new(MonotonicClock::default()))
+    }
+
+    /// As [`CanBoard::new`] with an injected clock.
+    pub fn with_clock(
+        bus: B,
+        cfg: CanLinkConfig,
+        clock: Box<dyn LinkClock>,
+    ) -> Result<Self, CanError<B::Error>> {
+        let ids = NodeIds::new(cfg.node).ok_or(CanError::BadNode(cfg.node))?;
+        Ok(Self {
+            bus,
+            cfg,
+            ids,
+            clock,
+            seq: SeqWatch::new(cfg.stale_after_reads),
+            pending_a: None,
+            last: None,
+            command: Command {
+                override_pct: 100,
+                control: ControlBits::default(),
+                heartbeat: 0,
+            },
+        })
+    }
+
+    /// The bus.
+    pub fn get_mut(&mut self) -> &mut B {
+        &mut self.bus
+    }
+
+    /// The last complete status received, if any.
+    pub fn last_status(&self) -> Option<BoardStatus> {
+        self.last
+    }
+
+    /// Forget the `SAMPLE_SEQ` history.
+    pub fn reset_staleness(&mut self) {
+        self.seq.reset();
+    }
+
+    fn standard_id(frame: &B::Frame) -> Option<u16> {
+        match frame.id() {
+            Id::Standard(id) if frame.is_data_frame() => Some(id.as_raw()),
+            _ => None,
+        }
+    }
+
+    /// Receive until a fresh status pair has arrived and the bus is quiet (the newest pair
+    /// wins), or the timeout passes.
+    fn receive_status(&mut self) -> Result<BoardStatus, CanError<B::Error>> {
+        let deadline = self.clock.now() + self.cfg.timeout;
+        let mut fresh: Option<BoardStatus> = None;
+        loop {
+            match self.bus.receive() {
+                Ok(frame) => match Self::standard_id(&frame) {
+                    Some(id) if id == self.ids.status_a => {
+                        let data = frame.data();
+                        let a: [u8; 8] = data.try_into().map_err(|_| CanCodecError::Length {
+                            id,
+                            expected: 8,
+                            received: data.len(),
+                        })?;
+                        self.pending_a = Some(a);
+                    }
+                    Some(id) if id == self.ids.status_b => {
+                        if let Some(a) = self.pending_a.take() {
+                            fresh = Some(decode_status(self.ids, &a, frame.data())?);
+                        }
+                    }
+                    _ => {} // other nodes, our own command frames, remote/extended frames
+                },
+                Err(e) if e.is_receive_timeout() => {
+                    if let Some(s) = fresh {
+                        return Ok(s);
+                    }
+                }
+                Err(e) => return Err(CanError::Bus(e)),
+            }
+            if self.clock.now() >= deadline {
+                return fresh.ok_or(CanError::Timeout {
+                    node: self.cfg.node,
+                    timeout_ms: u64::try_from(self.cfg.timeout.as_millis()).unwrap_or(u64::MAX),
+                });
+            }
+        }
+    }
+
+    fn send_command(&mut self) -> Result<(), CanError<B::Error>> {
+        let id = StandardId::new(self.ids.command).ok_or(CanError::BadNode(self.cfg.node))?;
+        let payload = encode_command(&self.command);
+        // Frame::new only fails for more than 8 data bytes.
+        let frame = B::Frame::new(id, &payload).ok_or(CanError::BadNode(self.cfg.node))?;
+        let result = self.bus.transmit(&frame).map_err(CanError::Bus);
+        // ALARM_RESET is a one-shot request: later frames must not keep resetting.
+        self.command.control.alarm_reset = false;
+        result
+    }
+}
+
+impl<B> Pmc for CanBoard<B>
+where
+    B: embedded_can::blocking::Can,
+    B::Error: std::error::Error + embedded_can::Error + ReceiveTimeout + Send + Sync + 'static,
+{
+    type Error = CanError<B::Error>;
+
+    fn kind(err: &Self::Error) -> PmcErrorKind {
+        err.kind()
+    }
+
+    /// The newest status pair (`0x180+n`, `0x280+n`), then the `SAMPLE_SEQ` check.
+    fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
+        let status = self.receive_status()?;
+        self.last = Some(status);
+        match self.seq.observe(status.sample_seq) {
+            Some(unchanged_reads) => Err(CanError::Stale {
+                unchanged_reads,
+                status,
+            }),
+            None => Ok(status),
+        }
+    }
+
+    /// One command frame with the new override and heartbeat and the current `CONTROL`.
+    fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Self::Error> {
+        let step = self
+            .last
+            .map(|s| s.override_step_pct)
+            .filter(|s| *s > 0)
+            .unwrap_or(1);
+        if override_pct > OVERRIDE_MAX_PCT || override_pct % step != 0 {
+            return Err(CanError::InvalidOverride {
+                value: override_pct,
+                step,
+            });
+        }
+        self.command.override_pct = override_pct as u8;
+        self.command.heartbeat = heartbeat;
+        self.send_command()
+    }
+
+    /// One command frame with the new `CONTROL` and the last override and heartbeat.
+    /// `ALARM_RESET` is sent in this frame only.
+    fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error> {
+        self.command.control = control;
+        self.send_command()
+    }
+}
