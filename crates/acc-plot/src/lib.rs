@@ -431,18 +431,34 @@ fn padded(range: Option<(f64, f64)>, pad: f64) -> (f64, f64) {
     }
 }
 
-/// Tick label with as many decimals as the axis span needs, and no "-0".
+/// Tick label with as many decimals as the axis span needs, and no "-0"; axes with a span
+/// below 1e-3 or values above 1e6 use the exponent form (`1.5e-6`) to stay narrow.
 fn tick(v: f64, span: f64) -> String {
+    let is_zero = |s: &str| {
+        s.trim_start_matches('-')
+            .chars()
+            .all(|c| c == '0' || c == '.')
+    };
+    if span.is_finite() && span > 0.0 && (span < 1e-3 || v.abs() >= 1e6) {
+        // Mantissa digits for ticks about span/10 apart.
+        let digits = (v.abs().max(span) / (span / 10.0))
+            .log10()
+            .floor()
+            .clamp(0.0, 6.0) as usize;
+        let s = format!("{v:.digits$e}");
+        return if is_zero(s.split('e').next().unwrap_or("")) {
+            "0".into()
+        } else {
+            s
+        };
+    }
     let decimals = if span > 0.0 && span.is_finite() {
         (-(span / 10.0).log10().floor()).clamp(0.0, 9.0) as usize
     } else {
         2
     };
     let s = format!("{v:.decimals$}");
-    if s.trim_start_matches('-')
-        .chars()
-        .all(|c| c == '0' || c == '.')
-    {
+    if is_zero(&s) {
         s.trim_start_matches('-').to_string()
     } else {
         s
@@ -847,4 +863,19 @@ pub fn xy_chart(chart: &XyChart, out: impl AsRef<Path>) -> Result<Written, PlotE
 pub fn grouped_bars(chart: &GroupedBars, out: impl AsRef<Path>) -> Result<Written, PlotError> {
     let size = (chart.width_px, chart.height_px);
     both!(out.as_ref(), size, bars_on, chart)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tick;
+
+    #[test]
+    fn tick_labels_are_short_and_never_negative_zero() {
+        assert_eq!(tick(-0.0001, 2.4), "0.0");
+        assert_eq!(tick(0.5, 2.4), "0.5");
+        assert_eq!(tick(800.0, 300.0), "800");
+        assert_eq!(tick(1.5e-6, 1.6e-6), "1.5e-6");
+        assert_eq!(tick(0.0, 1.6e-6), "0");
+        assert_eq!(tick(2.5e6, 1e6), "2.5e6");
+    }
 }
