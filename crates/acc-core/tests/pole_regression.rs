@@ -8,7 +8,8 @@ mod common;
 
 use acc_core::poles::{assign, assign_integral, DesiredPoles, PoleError};
 use acc_core::stability::{
-    fixed_gain_stable_range, integral_pole, jury, pi_coefficients, pi_poles, spectral_radius, Pole,
+    fixed_gain_stable_range, integral_pole, jury, kc_ratio_margin, pi_coefficients, pi_poles,
+    quadratic_roots, spectral_radius, Pole,
 };
 use acc_core::{
     Controller, ControllerConfig, CoreError, EstimatorConfig, FeedOverride, ModeConfig,
@@ -95,6 +96,34 @@ proptest! {
         let refused = matches!(assign_integral(if th < 1.5 { r } else { -r }, 1.0, 4.0, 0.1),
             Err(PoleError::NotInsideUnitCircle { .. }));
         prop_assert!(refused);
+    }
+}
+
+proptest! {
+    /// The Kc-ratio margin of adaptive gains: the Jury bound equals the numerically found
+    /// boundary, the loop is stable just inside it and unstable just outside.
+    #[test]
+    fn kc_ratio_margin_is_the_stability_boundary(poles in any_poles()) {
+        let m = kc_ratio_margin(poles).unwrap();
+        prop_assert!(m.analytic_max > 1.0, "Kc_hat = Kc must be stable");
+        prop_assert!((m.numeric_max - m.analytic_max).abs() <= 1e-9 * m.analytic_max);
+        let (s, p) = (poles.sum(), poles.product());
+        let radius = |r: f64| spectral_radius(&quadratic_roots(r * (1.0 - s) - 1.0, r * p));
+        prop_assert!(radius(m.analytic_max * (1.0 - 1e-6)) < 1.0);
+        prop_assert!(radius(m.analytic_max * (1.0 + 1e-6)) > 1.0);
+        // And through the real gain path: eq. 14 at Kc_hat, true Kc = r·Kc_hat.
+        let g = assign(poles, 1.0, 4.0, 0.1).unwrap();
+        let inside = pi_poles(g.kp, g.ki, 4.0 * m.analytic_max * (1.0 - 1e-6), 0.1);
+        prop_assert!(spectral_radius(&inside) < 1.0);
+    }
+
+    /// Fixed gains: analytic Jury range equals the numeric boundary for any Kp, Ki, T.
+    #[test]
+    fn fixed_gain_range_is_the_stability_boundary(kp in 0.0f64..1.0, ki in 0.01f64..10.0, t in 0.001f64..1.0) {
+        let r = fixed_gain_stable_range(kp, ki, t).unwrap();
+        prop_assert!((r.numeric_max - r.analytic_max).abs() <= 1e-9 * r.analytic_max, "{r:?}");
+        prop_assert!(spectral_radius(&pi_poles(kp, ki, r.analytic_max * (1.0 - 1e-6), t)) < 1.0);
+        prop_assert!(spectral_radius(&pi_poles(kp, ki, r.analytic_max * (1.0 + 1e-6), t)) > 1.0);
     }
 }
 
