@@ -32,6 +32,15 @@
 //! nominal_feed_mm_min = 200.0
 //! kc_sweep = [0.5, 10.0]
 //! ```
+//!
+//! ```
+//! use acc_config::load_preset;
+//! use acc_core::{ControllerConfig, PaperCase};
+//! let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../configs/presets");
+//! let p = load_preset(format!("{dir}/case1.toml")).unwrap();
+//! assert_eq!(p.controller, ControllerConfig::paper_case(PaperCase::I));
+//! assert_eq!(p.plant.kc_sweep, [0.5, 10.0]);
+//! ```
 
 use std::path::{Path, PathBuf};
 
