@@ -450,6 +450,21 @@ mod tests {
     }
 
     #[test]
+    fn complex_pair_with_negative_kp_is_analysed() {
+        let mut p = preset("case1");
+        let poles = DesiredPoles::Complex { re: 0.5, im: 0.4 };
+        p.controller.mode = ModeConfig::AdaptivePi { poles };
+        let a = analyse(p).unwrap();
+        assert!(a.gains.kp < 0.0, "eq. 14 gives Kp = -0.41/4");
+        let m = a.ratio_margin.unwrap();
+        // 1 − s − p = 1 − 1 − 0.41 < 0: only |a0| < 1 binds, r < 1/0.41.
+        assert!((m.analytic_max - 1.0 / 0.41).abs() < 1e-9);
+        assert!((a.frozen_range.analytic_max - 4.0 / 0.41).abs() < 1e-9);
+        let text = render(&a);
+        assert!(text.contains("+0.5000 + 0.4000j"), "{text}");
+    }
+
+    #[test]
     fn pole_map_writes_svg_and_png() {
         let dir = std::env::temp_dir().join(format!("acc-stability-{}", std::process::id()));
         let a = analyse(preset("case2")).unwrap();

@@ -10,7 +10,7 @@
 //! Its roots are computed numerically as the eigenvalues of the companion matrix
 //! `[[−a1, −a0], [1, 0]]` (nalgebra's Schur decomposition). The Jury conditions for a
 //! second-order polynomial are `P(1) > 0`, `P(−1) > 0`, `|a0| < 1`; for fixed gains they give
-//! `0 < g < 2/(2·Kp + Ki·T)` (the paper's bound, from `P(−1) > 0`) and `g < 1/Kp` (from
+//! `0 < g < 2/(2·Kp + Ki·T)` (the paper's bound, from `P(−1) > 0`) and `g < 1/|Kp|` (from
 //! `|a0| < 1`, never the binding one for the paper's gains).
 //!
 //! For adaptive gains computed at `Kc_hat` by eq. 14 while the true gain is
@@ -157,18 +157,24 @@ fn check(name: &'static str, value: f64, ok: bool, allowed: &'static str) -> Res
     }
 }
 
-/// The stable range of the process gain `g = Km·Kc` for a fixed-gain PI controller:
-/// analytic `min(2/(2·Kp + Ki·T), 1/Kp)` and numeric (bisection on the eigenvalues).
+/// The stable range of the process gain `g = Km·Kc` for a PI controller with fixed gains:
+/// analytic (Jury) `min(2/(2·Kp + Ki·T), 1/|Kp|)` — the first term only where
+/// `2·Kp + Ki·T > 0`, the second only where `Kp ≠ 0` — and numeric (bisection on the
+/// eigenvalues). `Kp` may be negative: pole assignment gives `Kp < 0` whenever
+/// `z1·z2 > 0` (e.g. a complex pair), and such gains frozen at `Kc_hat` are analysed here.
 pub fn fixed_gain_stable_range(kp: f64, ki: f64, period_s: f64) -> Result<StableRange, CoreError> {
-    check("kp", kp, kp >= 0.0, ">= 0")?;
+    check("kp", kp, true, "finite")?;
     check("ki", ki, ki > 0.0, "> 0")?;
     check("period_s", period_s, period_s > 0.0, "> 0")?;
-    let jury_bound = 2.0 / (2.0 * kp + ki * period_s);
-    let analytic_max = if kp > 0.0 {
-        jury_bound.min(1.0 / kp)
+    let d = 2.0 * kp + ki * period_s;
+    let from_p_minus_1 = if d > 0.0 { 2.0 / d } else { f64::INFINITY };
+    let from_a0 = if kp != 0.0 {
+        1.0 / kp.abs()
     } else {
-        jury_bound
+        f64::INFINITY
     };
+    // Finite: with Kp = 0 the first term is 2/(Ki·T).
+    let analytic_max = from_p_minus_1.min(from_a0);
     let radius = |g: f64| spectral_radius(&pi_poles(kp, ki, g, period_s));
     let numeric_max =
         numeric_upper(radius, analytic_max * 1e-3, analytic_max * 1e3).unwrap_or(f64::INFINITY);

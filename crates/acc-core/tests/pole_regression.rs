@@ -115,11 +115,14 @@ proptest! {
         let g = assign(poles, 1.0, 4.0, 0.1).unwrap();
         let inside = pi_poles(g.kp, g.ki, 4.0 * m.analytic_max * (1.0 - 1e-6), 0.1);
         prop_assert!(spectral_radius(&inside) < 1.0);
+        // The same gains seen as fixed gains (Kp < 0 when z1·z2 > 0): range = 4 × margin.
+        let frozen = fixed_gain_stable_range(g.kp, g.ki, 0.1).unwrap();
+        prop_assert!((frozen.analytic_max - 4.0 * m.analytic_max).abs() <= 1e-9 * frozen.analytic_max);
     }
 
     /// Fixed gains: analytic Jury range equals the numeric boundary for any Kp, Ki, T.
     #[test]
-    fn fixed_gain_range_is_the_stability_boundary(kp in 0.0f64..1.0, ki in 0.01f64..10.0, t in 0.001f64..1.0) {
+    fn fixed_gain_range_is_the_stability_boundary(kp in -1.0f64..1.0, ki in 0.01f64..10.0, t in 0.001f64..1.0) {
         let r = fixed_gain_stable_range(kp, ki, t).unwrap();
         prop_assert!((r.numeric_max - r.analytic_max).abs() <= 1e-9 * r.analytic_max, "{r:?}");
         prop_assert!(spectral_radius(&pi_poles(kp, ki, r.analytic_max * (1.0 - 1e-6), t)) < 1.0);
