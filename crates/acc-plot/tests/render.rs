@@ -29,6 +29,13 @@ fn png_dimensions(path: &Path) -> (u32, u32) {
     (w, h)
 }
 
+/// With `ACC_PLOT_KEEP=<dir>` the PNG is copied there for a look.
+fn keep(png: &Path, name: &str) {
+    if let Ok(dir) = std::env::var("ACC_PLOT_KEEP") {
+        std::fs::copy(png, Path::new(&dir).join(name)).unwrap();
+    }
+}
+
 fn size(path: &Path) -> u64 {
     std::fs::metadata(path).unwrap().len()
 }
@@ -87,9 +94,7 @@ fn time_series_writes_svg_and_png_with_labels() {
     ] {
         assert!(svg.contains(label), "svg lacks {label:?}");
     }
-    if let Ok(keep) = std::env::var("ACC_PLOT_KEEP") {
-        std::fs::copy(&w.png, Path::new(&keep).join("ts.png")).unwrap();
-    }
+    keep(&w.png, "ts.png");
 }
 
 #[test]
@@ -116,9 +121,7 @@ fn pole_map_has_equal_aspect_and_markers() {
     assert_eq!(png_dimensions(&w.png), (700, 600));
     assert!(size(&w.svg) > 3_000 && size(&w.png) > 8_000);
     assert!(std::fs::read_to_string(&w.svg).unwrap().contains("desired"));
-    if let Ok(keep) = std::env::var("ACC_PLOT_KEEP") {
-        std::fs::copy(&w.png, Path::new(&keep).join("poles.png")).unwrap();
-    }
+    keep(&w.png, "poles.png");
 }
 
 #[test]
@@ -140,9 +143,7 @@ fn grouped_bars_render_category_names() {
     for label in ["steps", "ramp", "air", "adaptive", "fixed"] {
         assert!(svg.contains(label), "svg lacks {label:?}");
     }
-    if let Ok(keep) = std::env::var("ACC_PLOT_KEEP") {
-        std::fs::copy(&w.png, Path::new(&keep).join("bars.png")).unwrap();
-    }
+    keep(&w.png, "bars.png");
 }
 
 #[test]
