@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod cmd_board_sim;
+mod cmd_run;
 mod cmd_compare;
 mod cmd_estimate_eval;
 mod cmd_sim;
@@ -30,6 +32,12 @@ enum Command {
     /// Run every baseline and our controller on one scenario and seed: one table (force RMS
     /// error, peak force, time above 1.1·Fr, cycle time, override switches) and an overlay plot.
     Compare(cmd_compare::CompareArgs),
+    /// The production loop against the PMC interface board (Modbus RTU): fault policy,
+    /// operator priority, run log (CSV, same schema as `acc sim`); Ctrl-C stops in order.
+    Run(cmd_run::RunArgs),
+    /// Serve the board protocol on a new pty (prints its path) or a given port, backed by
+    /// the simulated machine running in step with real time.
+    BoardSim(cmd_board_sim::BoardSimArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -39,5 +47,7 @@ fn main() -> anyhow::Result<()> {
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
         Command::Sim(args) => cmd_sim::run_cmd(&args),
         Command::Compare(args) => cmd_compare::run_cmd(&args),
+        Command::Run(args) => cmd_run::run_cmd(&args),
+        Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
     }
 }

@@ -2,10 +2,12 @@
 //! priority, the threads that join link I/O, control and logging, and shutdown.
 //!
 //! Layers (copper-rs habit: pure algorithm, thin runtime adapter):
+//! - [`config`]: the typed, validated run config of `acc run`;
 //! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]);
 //! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
+//! - [`link`]: the Modbus RTU board as the runtime reads it;
 //! - [`cycle`]: one controller cycle against any `Pmc` (read, decide, write);
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
@@ -13,7 +15,9 @@
 #![deny(missing_docs)]
 
 pub mod clock;
+pub mod config;
 pub mod cycle;
+pub mod link;
 pub mod policy;
 pub mod runner;
 pub mod shutdown;

@@ -1,0 +1,303 @@
+//! `acc run --config <run.toml> --port <device>`: the production loop against the PMC
+//! interface board (Modbus RTU), with the run log written continuously.
+//!
+//! Order of events: the whole config is loaded and validated (no port touched); the port is
+//! opened and its framing verified (nothing sent); the first transaction writes
+//! `WATCHDOG_MS`; the status is read and printed with the board's resolution; the threaded
+//! loop runs until Ctrl-C (or `--duration-s`); then `ACC_REQUEST` is cleared, the run log
+//! flushed, a summary printed, and the exit code is 0.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::PathBuf;
+
+use acc_core::{Controller, Mode, OverrideSpec, Saturation};
+use acc_pmc::rtu::RtuBoard;
+use acc_pmc::BoardStatus;
+use acc_runtime::config::RunConfig;
+use acc_runtime::link::RtuPmc;
+use acc_runtime::policy::FaultPolicy;
+use acc_runtime::shutdown::{init_tracing, install_stop_flag, LogFormat};
+use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord, SystemClock};
+use acc_sim::runlog::{RunLogError, RunLogRow, RunLogWriter};
+use anyhow::{bail, Context};
+
+/// Arguments of `acc run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// Run config (TOML), e.g. `configs/runtime/paper_vmc_run.toml`.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Serial device of the board (replaces `board.port`), e.g. `/dev/ttyUSB0` or the pty
+    /// `acc board-sim` prints.
+    #[arg(long, conflicts_with = "can")]
+    pub port: Option<String>,
+    /// CAN interface of a CAN board, e.g. `can0`.
+    #[arg(long)]
+    pub can: Option<String>,
+    /// Run-log CSV (same schema as `acc sim`), flushed every period.
+    #[arg(long, default_value = "out/run.csv")]
+    pub log: PathBuf,
+    /// Stop after this much machine time, s (default: run until Ctrl-C).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Events as JSON lines on stderr (filter: `ACC_LOG`, e.g. `ACC_LOG=debug`).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One-line description of a status block.
+pub fn describe_status(s: &BoardStatus) -> String {
+    let on = |b: bool| if b { "on" } else { "off" };
+    format!(
+        "ACC switch {}, ACC active {}, cycle {}, feed hold {}, watchdog {}, override locked {}, CNC alarm {}; override applied {} %, operator {} %; spindle {} rpm, {} W (seq {}); programmed feed {} mm/min",
+        on(s.acc_switch),
+        on(s.acc_active),
+        on(s.cycle_active),
+        on(s.feed_hold_active),
+        if s.watchdog_tripped { "TRIPPED" } else { "ok" },
+        on(s.override_locked),
+        on(s.cnc_alarm),
+        s.override_applied_pct,
+        s.operator_override_pct,
+        s.spindle_rpm,
+        s.spindle_power_w,
+        s.sample_seq,
+        s.programmed_feed_mm_min,
+    )
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    acc_sim::run::mode_name(m)
+}
+
+fn saturation_name(s: Saturation) -> &'static str {
+    match s {
+        Saturation::None => "none",
+        Saturation::Low => "low",
+        Saturation::High => "high",
+    }
+}
+
+/// Writes [`RunRecord`]s as run-log rows (the simulator's writer and schema). Periods
+/// without a status (link down) repeat the last known machine values with `valid = 0`; the
+/// `mode` column carries the policy state when the controller was not stepped (`idle`,
+/// `link_lost`, `watchdog`, …).
+pub struct RunLogSink {
+    writer: RunLogWriter<BufWriter<File>>,
+    force_ref_n: f64,
+    time_scale: f64,
+    last: BoardStatus,
+}
+
+impl RunLogSink {
+    /// A sink writing to `writer`.
+    pub fn new(writer: RunLogWriter<BufWriter<File>>, force_ref_n: f64, time_scale: f64) -> Self {
+        Self {
+            writer,
+            force_ref_n,
+            time_scale,
+            last: BoardStatus::default(),
+        }
+    }
+}
+
+impl LogSink for RunLogSink {
+    type Error = RunLogError;
+
+    fn write(&mut self, rec: &RunRecord) -> Result<(), RunLogError> {
+        let c = &rec.cycle;
+        if let Ok(s) = c.link {
+            self.last = s;
+        }
+        let s = self.last;
+        let programmed = f64::from(s.programmed_feed_mm_min);
+        let step = c.out.step;
+        let nan = f64::NAN;
+        let row = RunLogRow {
+            t_s: c.t_s * self.time_scale,
+            x_mm: None,
+            radial_depth_mm: None,
+            axial_depth_mm: None,
+            spindle_rpm: f64::from(s.spindle_rpm),
+            programmed_feed_mm_min: programmed,
+            override_cmd_pct: c.out.write_override.map_or(s.override_applied_pct, |o| o.0),
+            override_applied_pct: s.override_applied_pct,
+            feed_mm_min: programmed * f64::from(s.override_applied_pct) / 100.0,
+            force_n: c.force.force_n,
+            force_true_n: None,
+            force_ref_n: self.force_ref_n,
+            power_w: c.link.ok().map(|s| f64::from(s.spindle_power_w)),
+            kc_hat: step.map_or(nan, |o| o.trace.kc_hat),
+            kp: step.map_or(nan, |o| o.trace.kp),
+            ki: step.map_or(nan, |o| o.trace.ki),
+            mode: step.map_or_else(
+                || c.out.state.name().to_string(),
+                |o| mode_name(o.trace.mode).to_string(),
+            ),
+            error_n: step.map_or(nan, |o| o.trace.error_n),
+            valid: c.out.force_valid,
+            saturation: step
+                .map_or("none", |o| saturation_name(o.trace.saturation))
+                .to_string(),
+        };
+        self.writer.write(&row)
+    }
+
+    fn flush(&mut self) -> Result<(), RunLogError> {
+        Ok(())
+    }
+}
+
+/// The controller's override resolution on this board: the preset's step if it is a
+/// multiple of the board's, otherwise the board's (commands must be multiples of
+/// `OVERRIDE_STEP` or the board answers exception 03).
+fn spec_for_board(spec: OverrideSpec, board_step: u16) -> OverrideSpec {
+    if board_step == 0 || spec.step_pct.is_multiple_of(board_step) {
+        spec
+    } else {
+        OverrideSpec {
+            step_pct: board_step,
+            ..spec
+        }
+    }
+}
+
+/// `acc run`.
+pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
+    init_tracing(
+        if args.json {
+            LogFormat::Json
+        } else {
+            LogFormat::Text
+        },
+        "info",
+    );
+    if let Some(iface) = &args.can {
+        bail!(
+            "--can {iface}: this build has no CAN link for `acc run` yet; use --port with the Modbus RTU board"
+        );
+    }
+    // 1. Everything validated before the port is touched.
+    let cfg = RunConfig::load(&args.config, args.port.as_deref())?;
+    let source = cfg.force_source()?;
+    if let Some(d) = args.duration_s {
+        if !(d.is_finite() && d > 0.0) {
+            bail!("--duration-s {d}: must be a positive number of seconds");
+        }
+    }
+    // 2. Open the port (framing verified, nothing sent).
+    let port = acc_pmc::serial::open_port(&cfg.board)?;
+    let mut rtu = RtuBoard::new(port, cfg.board.link);
+    // 3. First transaction: the watchdog time; then the status.
+    rtu.write_watchdog_ms(cfg.board.watchdog_ms)
+        .with_context(|| {
+            format!(
+                "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
+                cfg.path.display(),
+                cfg.board.watchdog_ms,
+                cfg.board.link.slave,
+                cfg.board.port
+            )
+        })?;
+    let status = rtu
+        .read_status_raw()
+        .with_context(|| format!("reading the board status on {}", cfg.board.port))?;
+    let step = status.override_step_pct;
+    println!(
+        "board: slave {} on {} at {} baud; resolution OVERRIDE_STEP = {} % ({}); watchdog {} ms",
+        cfg.board.link.slave,
+        cfg.board.port,
+        cfg.board.serial.baud,
+        step,
+        match step {
+            10 => "4-bit board, 16 positions 0..150 %",
+            1 => "byte board, 1 % steps",
+            _ => "non-standard step",
+        },
+        cfg.board.watchdog_ms
+    );
+    println!("status: {}", describe_status(&status));
+    if !(step == 1 || step == 10) {
+        bail!(
+            "board reports OVERRIDE_STEP = {step} %: the spec allows 10 or 1; refusing to drive it"
+        );
+    }
+    let mut ccfg = cfg.controller;
+    ccfg.override_spec = spec_for_board(ccfg.override_spec, step);
+    let law = Controller::new(ccfg).map_err(|e| anyhow::anyhow!("controller: {e:?}"))?;
+    let period_s = ccfg.period_s;
+    let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s);
+    let mut pmc = RtuPmc(rtu);
+
+    // 4. Run log and stop flag.
+    if let Some(dir) = args.log.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("creating the run-log folder {}", dir.display()))?;
+    }
+    let file = File::create(&args.log)
+        .with_context(|| format!("creating the run log {}", args.log.display()))?;
+    let writer = RunLogWriter::new(BufWriter::new(file))?;
+    let mut sink = RunLogSink::new(writer, ccfg.force_ref_n, cfg.runtime.time_scale);
+    let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
+    let opts = RunOptions {
+        max_periods: args
+            .duration_s
+            .map(|d| (d / period_s).round().max(1.0) as u64),
+        log_queue: cfg.runtime.log_queue,
+        ..RunOptions::new(cfg.tick_period())
+    };
+    println!(
+        "running `{}`: T = {} s (tick every {:.1} ms of wall time), Fr = {} N; run log {}; Ctrl-C stops",
+        cfg.name,
+        period_s,
+        cfg.tick_period().as_secs_f64() * 1e3,
+        ccfg.force_ref_n,
+        args.log.display()
+    );
+    let s = run(
+        &mut pmc,
+        &mut control,
+        SystemClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+    )?;
+
+    // 5. Summary.
+    println!("periods: {}", s.periods);
+    println!(
+        "period jitter: {} ; overruns {} ; skipped {}",
+        s.ticker.jitter.summary(),
+        s.ticker.overruns,
+        s.ticker.skipped
+    );
+    println!("cycle round trip: {}", s.cycle_rtt.summary());
+    println!(
+        "run log: {} rows written to {}, {} dropped (queue full), {} write errors",
+        s.logged - s.log_errors.min(s.logged),
+        args.log.display(),
+        s.log_dropped,
+        s.log_errors
+    );
+    let st = pmc.0.stats();
+    println!(
+        "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
+        st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
+    );
+    println!(
+        "final state: {}; alarms: {:?}",
+        s.final_state.name(),
+        s.alarms
+    );
+    match s.shutdown_ok {
+        Ok(()) => {
+            println!("shutdown: ACC_REQUEST cleared, the operator has the override");
+            Ok(())
+        }
+        Err(k) => bail!(
+            "shutdown: could not clear ACC_REQUEST ({k:?}); the board's watchdog ({} ms) releases the override",
+            cfg.board.watchdog_ms
+        ),
+    }
+}

@@ -1,0 +1,234 @@
+//! The run configuration of `acc run` (`configs/runtime/*.toml`): board link, controller
+//! preset, force source, fault policy and runtime options, read once and validated before
+//! anything is opened or sent. Every error names the file, the key and the allowed range.
+
+use std::path::{Path, PathBuf};
+
+use acc_config::{check_range, load_toml, resolve_relative, ConfigError};
+use acc_core::ControllerConfig;
+use acc_pmc::serial::{RtuConfig, RtuSettings};
+use acc_spindle::calibrate::SpindleCalibration;
+use acc_spindle::estimate::{EstimatorConfig, SpindleEstimator};
+use acc_spindle::source::{SpindleInput, SpindleSource};
+use serde::Deserialize;
+
+use crate::policy::PolicyConfig;
+
+/// `[force]`: spindle power from the board → cutting force (acc-spindle's estimator on
+/// `POWER_HI:POWER_LO`).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ForceSection {
+    /// Spindle calibration file (no-load model and constants), relative to the run config.
+    pub calibration: PathBuf,
+    /// Estimator settings (`method`, `tool_radius_mm`, `no_load`, …; acc-spindle's
+    /// `EstimatorConfig`, defaults there).
+    #[serde(default)]
+    pub estimator: EstimatorConfig,
+}
+
+/// `[policy]`: fault policy and operator priority; every key optional (defaults in
+/// [`PolicyConfig`]).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct PolicySection {
+    /// See [`PolicyConfig::min_override_pct`].
+    pub min_override_pct: Option<u16>,
+    /// See [`PolicyConfig::max_override_pct`].
+    pub max_override_pct: Option<u16>,
+    /// See [`PolicyConfig::link_hold_periods`].
+    pub link_hold_periods: Option<u32>,
+    /// See [`PolicyConfig::invalid_power_periods`].
+    pub invalid_power_periods: Option<u32>,
+    /// See [`PolicyConfig::stale_seq_periods`].
+    pub stale_seq_periods: Option<u32>,
+    /// See [`PolicyConfig::ack_periods`].
+    pub ack_periods: Option<u32>,
+    /// See [`PolicyConfig::overload_force_n`].
+    pub overload_force_n: Option<f64>,
+    /// See [`PolicyConfig::overload_time_s`].
+    pub overload_time_s: Option<f64>,
+    /// See [`PolicyConfig::operator_handback_pct`].
+    pub operator_handback_pct: Option<u16>,
+    /// See [`PolicyConfig::max_power_w`].
+    pub max_power_w: Option<f64>,
+    /// See [`PolicyConfig::nominal_feed_mm_min`].
+    pub nominal_feed_mm_min: Option<f64>,
+}
+
+/// `[runtime]`: loop options.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct RuntimeSection {
+    /// Machine seconds per wall second, 0.1 ..= 100 (default 1). Above 1 only against an
+    /// emulator running at the same scale (`acc board-sim --time-scale`): the ticker runs
+    /// at `T / time_scale` while the controller keeps its `T`.
+    pub time_scale: f64,
+    /// Logger queue capacity, records, 1 ..= 1 000 000 (default 1024).
+    pub log_queue: usize,
+}
+
+impl Default for RuntimeSection {
+    fn default() -> Self {
+        Self {
+            time_scale: 1.0,
+            log_queue: 1024,
+        }
+    }
+}
+
+/// The run config as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunFile {
+    /// Name for logs.
+    pub name: String,
+    /// Controller preset, relative to this file.
+    pub controller: PathBuf,
+    /// Serial link to the board (acc-pmc's `RtuConfig` keys); `port` may come from `--port`.
+    pub board: Option<toml::Table>,
+    /// Force source.
+    pub force: ForceSection,
+    /// Fault policy.
+    #[serde(default)]
+    pub policy: PolicySection,
+    /// Loop options.
+    #[serde(default)]
+    pub runtime: RuntimeSection,
+}
+
+/// A loaded, validated run config.
+#[derive(Debug, Clone)]
+pub struct RunConfig {
+    /// The file.
+    pub path: PathBuf,
+    /// Name.
+    pub name: String,
+    /// Controller parameters (from the preset).
+    pub controller: ControllerConfig,
+    /// Serial link settings (validated, not opened).
+    pub board: RtuSettings,
+    /// Spindle calibration.
+    pub calibration: SpindleCalibration,
+    /// Estimator settings.
+    pub estimator: EstimatorConfig,
+    /// Fault policy (period from the controller preset).
+    pub policy: PolicyConfig,
+    /// Loop options.
+    pub runtime: RuntimeSection,
+}
+
+impl RunConfig {
+    /// Load and validate `path`; `port` (from `--port`) replaces `board.port`.
+    pub fn load(path: impl AsRef<Path>, port: Option<&str>) -> Result<Self, ConfigError> {
+        let path = path.as_ref();
+        let file: RunFile = load_toml(path)?;
+        Self::from_file(path, file, port)
+    }
+
+    /// Validate a parsed run file that came from `path`.
+    pub fn from_file(path: &Path, file: RunFile, port: Option<&str>) -> Result<Self, ConfigError> {
+        let invalid = |key: &str, message: String| ConfigError::Invalid {
+            file: path.to_path_buf(),
+            key: key.to_string(),
+            message,
+        };
+        let controller = acc_config::load_controller(resolve_relative(path, &file.controller))?;
+
+        // [board]
+        let mut table = file.board.unwrap_or_default();
+        if let Some(p) = port {
+            table.insert("port".into(), toml::Value::String(p.to_string()));
+        }
+        if !table.contains_key("port") {
+            return Err(invalid(
+                "board.port",
+                "missing: give --port <device> or set board.port".into(),
+            ));
+        }
+        let rtu: RtuConfig = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e| invalid("board", e.to_string().trim_end().to_string()))?;
+        let board = rtu.validate(path, "board")?;
+
+        // [force]
+        let cal_path = resolve_relative(path, &file.force.calibration);
+        let calibration = SpindleCalibration::load(&cal_path)?;
+        let estimator = file.force.estimator;
+        build_source(&calibration, estimator)
+            .map_err(|e| invalid("force.estimator", e.to_string()))?;
+
+        // [policy]
+        let p = file.policy;
+        let d = PolicyConfig::default();
+        let policy = PolicyConfig {
+            period_s: controller.period_s,
+            min_override_pct: p
+                .min_override_pct
+                .unwrap_or(controller.override_spec.min_pct),
+            max_override_pct: p
+                .max_override_pct
+                .unwrap_or(controller.override_spec.max_pct),
+            link_hold_periods: p.link_hold_periods.unwrap_or(d.link_hold_periods),
+            invalid_power_periods: p.invalid_power_periods.unwrap_or(d.invalid_power_periods),
+            stale_seq_periods: p.stale_seq_periods.unwrap_or(d.stale_seq_periods),
+            ack_periods: p.ack_periods.unwrap_or(d.ack_periods),
+            overload_force_n: p.overload_force_n.unwrap_or(2.0 * controller.force_ref_n),
+            overload_time_s: p.overload_time_s.unwrap_or(d.overload_time_s),
+            operator_handback_pct: p.operator_handback_pct.unwrap_or(d.operator_handback_pct),
+            max_power_w: p.max_power_w.unwrap_or(d.max_power_w),
+            nominal_feed_mm_min: p.nominal_feed_mm_min.unwrap_or(d.nominal_feed_mm_min),
+        };
+        policy.validate().map_err(|e| ConfigError::OutOfRange {
+            file: path.to_path_buf(),
+            key: format!("policy.{}", e.key),
+            value: e.value,
+            allowed: e.allowed.to_string(),
+        })?;
+
+        // [runtime]
+        let rt = file.runtime;
+        check_range(path, "runtime.time_scale", rt.time_scale, 0.1, 100.0)?;
+        check_range(
+            path,
+            "runtime.log_queue",
+            rt.log_queue as f64,
+            1.0,
+            1_000_000.0,
+        )?;
+
+        Ok(Self {
+            path: path.to_path_buf(),
+            name: file.name,
+            controller,
+            board,
+            calibration,
+            estimator,
+            policy,
+            runtime: rt,
+        })
+    }
+
+    /// The force source: the spindle estimator on the board's power register.
+    pub fn force_source(&self) -> Result<SpindleSource, ConfigError> {
+        build_source(&self.calibration, self.estimator).map_err(|e| ConfigError::Invalid {
+            file: self.path.clone(),
+            key: "force.estimator".into(),
+            message: e.to_string(),
+        })
+    }
+
+    /// Wall-clock period of the ticker: `T / time_scale`.
+    pub fn tick_period(&self) -> std::time::Duration {
+        std::time::Duration::from_secs_f64(self.controller.period_s / self.runtime.time_scale)
+    }
+}
+
+fn build_source(
+    cal: &SpindleCalibration,
+    est: EstimatorConfig,
+) -> Result<SpindleSource, acc_spindle::SpindleError> {
+    let no_load = cal.no_load_model()?;
+    let e = SpindleEstimator::new(est, cal.constants, no_load)?;
+    SpindleSource::new(SpindleInput::BoardPower, e)
+}

@@ -1,0 +1,35 @@
+//! Adapters between the links of `acc-pmc` and the runtime.
+
+use std::io::{Read, Write};
+
+use acc_pmc::rtu::{RtuBoard, RtuError};
+use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+
+/// The Modbus RTU board for the runtime: a `SAMPLE_SEQ`-stale read is passed on as the
+/// status it carries (the policy judges staleness itself on the full status, so it still
+/// sees the operator's switch, the watchdog and the lock while the power sensor is frozen).
+#[derive(Debug)]
+pub struct RtuPmc<T: Read + Write>(pub RtuBoard<T>);
+
+impl<T: Read + Write> Pmc for RtuPmc<T> {
+    type Error = RtuError;
+
+    fn kind(err: &RtuError) -> PmcErrorKind {
+        err.kind()
+    }
+
+    fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
+        match self.0.read_status() {
+            Err(RtuError::Stale { status, .. }) => Ok(status),
+            other => other,
+        }
+    }
+
+    fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), RtuError> {
+        self.0.write_override(override_pct, heartbeat)
+    }
+
+    fn write_control(&mut self, control: ControlBits) -> Result<(), RtuError> {
+        self.0.write_control(control)
+    }
+}
