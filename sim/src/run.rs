@@ -18,7 +18,8 @@ use acc_core::{FeedOverride, Measurement, Mode, OverrideLaw, Saturation};
 use acc_pmc::{ControlBits, Pmc};
 
 use crate::runlog::{RunLogRow, RunLogWriter};
-use crate::scenario::Scenario;
+use crate::scenario::{LawKind, Scenario};
+use crate::summary::{summarize, Summary};
 use crate::SimError;
 
 /// What a run produced.
@@ -139,4 +140,19 @@ pub fn run<W: Write>(
         finished,
         volume_mm3: board.machine().volume_mm3(),
     })
+}
+
+impl Scenario {
+    /// Build law `kind`, run it without a log file, and summarise the run.
+    pub fn run_law(&self, kind: LawKind) -> Result<(RunResult, Summary), SimError> {
+        let mut law = self.build_law(kind)?;
+        let result = run::<std::io::Sink>(self, law.as_mut(), None)?;
+        let summary = summarize(&result, self);
+        Ok((result, summary))
+    }
+}
+
+/// The repository's `configs/` directory (for tests, benches and the CLI's fallbacks).
+pub fn configs_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs")
 }

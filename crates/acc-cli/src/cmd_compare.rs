@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use acc_plot::{time_series, Figure, HLine, Panel, Series, Written};
 use acc_sim::summary::comparison_table;
-use acc_sim::{run, summarize, LawKind, RunResult, Scenario, Summary};
+use acc_sim::{LawKind, RunResult, Scenario, Summary};
 use anyhow::Context as _;
 
 use crate::cmd_sim::{air_shades, default_out, load_scenario};
@@ -29,15 +29,7 @@ pub struct CompareArgs {
 
 /// Run every law of [`LawKind::ALL`] on `sc`.
 pub fn compare(sc: &Scenario) -> anyhow::Result<Vec<(RunResult, Summary)>> {
-    LawKind::ALL
-        .iter()
-        .map(|&k| {
-            let mut law = sc.build_law(k)?;
-            let r = run::<std::io::Sink>(sc, law.as_mut(), None)?;
-            let s = summarize(&r, sc);
-            Ok((r, s))
-        })
-        .collect()
+    LawKind::ALL.iter().map(|&k| Ok(sc.run_law(k)?)).collect()
 }
 
 /// Run `acc compare`.
