@@ -3,9 +3,10 @@
 use clap::{Parser, Subcommand};
 
 mod cmd_board_sim;
-mod cmd_run;
 mod cmd_compare;
+mod cmd_discrepancy;
 mod cmd_estimate_eval;
+mod cmd_run;
 mod cmd_sim;
 mod cmd_stability;
 
@@ -32,6 +33,9 @@ enum Command {
     /// Run every baseline and our controller on one scenario and seed: one table (force RMS
     /// error, peak force, time above 1.1·Fr, cycle time, override switches) and an overlay plot.
     Compare(cmd_compare::CompareArgs),
+    /// Compare a model with a measured run log (open-loop replay), name the missing
+    /// effect, write report.json/.md, plots and model.updated.toml.
+    Discrepancy(cmd_discrepancy::DiscrepancyArgs),
     /// The production loop against the PMC interface board (Modbus RTU): fault policy,
     /// operator priority, run log (CSV, same schema as `acc sim`); Ctrl-C stops in order.
     Run(cmd_run::RunArgs),
@@ -49,5 +53,6 @@ fn main() -> anyhow::Result<()> {
         Command::Compare(args) => cmd_compare::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
+        Command::Discrepancy(args) => cmd_discrepancy::run(&args),
     }
 }

@@ -267,6 +267,7 @@ pub fn turning_model(log: &RunLog, early_fraction: f64) -> Model {
         measurement: Measurement {
             channel: Channel::Force,
             feed_input: FeedInput::Recorded,
+            force_window_s: 0.0,
         },
         machine: Machine {
             name: "Vicomtech/Mondragon lathe".into(),
@@ -320,6 +321,7 @@ pub fn umich_model(log: &RunLog) -> Model {
         measurement: Measurement {
             channel: Channel::Power,
             feed_input: FeedInput::Recorded,
+            force_window_s: 0.0,
         },
         machine: Machine {
             name: "UMich SMART lab mill".into(),
@@ -352,6 +354,85 @@ pub fn umich_model(log: &RunLog) -> Model {
             },
             wear: Wear::default(),
             tooth: Default::default(),
+        },
+        effects: Default::default(),
+    }
+}
+
+/// A simulator run log (rows as `acc sim` writes them) as a [`RunLog`], in memory.
+pub fn from_sim_rows(rows: &[acc_sim::runlog::RunLogRow]) -> RunLog {
+    let col = |f: &dyn Fn(&acc_sim::runlog::RunLogRow) -> f64| rows.iter().map(f).collect();
+    RunLog {
+        t_s: col(&|r| r.t_s),
+        x_mm: Some(col(&|r| r.x_mm.unwrap_or(0.0))),
+        radial_depth_mm: col(&|r| r.radial_depth_mm.unwrap_or(0.0)),
+        axial_depth_mm: col(&|r| r.axial_depth_mm.unwrap_or(0.0)),
+        spindle_rpm: col(&|r| r.spindle_rpm),
+        programmed_feed_mm_min: Some(col(&|r| r.programmed_feed_mm_min)),
+        override_cmd_pct: Some(col(&|r| f64::from(r.override_cmd_pct))),
+        override_applied_pct: Some(col(&|r| f64::from(r.override_applied_pct))),
+        feed_mm_min: col(&|r| r.feed_mm_min),
+        force_n: Some(col(&|r| r.force_n)),
+        power_w: rows.iter().map(|r| r.power_w).collect::<Option<Vec<f64>>>(),
+        wear_vb_um: None,
+        phase: None,
+    }
+}
+
+/// A model built from the simulator's machine and tool files (`channel` compared).
+pub fn model_from_sim(
+    machine: &acc_sim::config::MachineSpec,
+    tool: &acc_sim::config::ToolSpec,
+    channel: Channel,
+) -> Model {
+    let p = tool.process;
+    Model {
+        name: format!("{} + {}", machine.name, tool.name),
+        measurement: Measurement {
+            channel,
+            feed_input: FeedInput::Auto,
+            force_window_s: 0.0,
+        },
+        machine: Machine {
+            name: machine.name.clone(),
+            spindle: Spindle {
+                rpm: machine.spindle.rpm,
+                no_load_power_w: machine.spindle.no_load_power_w,
+                efficiency: machine.spindle.efficiency,
+            },
+            feed_drive: FeedDrive {
+                tau_s: machine.feed_drive.tau_s,
+            },
+            override_path: OverridePath {
+                delay_s: machine.override_path.delay_s,
+                step_pct: machine.override_path.step_pct,
+            },
+            sim: None,
+        },
+        tool: Tool {
+            name: tool.name.clone(),
+            diameter_mm: tool.diameter_mm,
+            flutes: tool.flutes,
+            process: Process {
+                calib_force_n: p.calib_force_n,
+                calib_radial_mm: p.calib_radial_mm,
+                calib_feed_mm_min: p.calib_feed_mm_min,
+                calib_rpm: p.calib_rpm,
+                calib_axial_mm: p.calib_axial_mm,
+                alpha: p.alpha,
+                beta: p.beta,
+                gamma: p.gamma,
+                radial_ratio: p.radial_ratio,
+            },
+            wear: Wear {
+                initial_factor: tool.wear.initial_factor,
+                growth_per_cm3: tool.wear.growth_per_cm3,
+                growth_per_min: tool.wear.growth_per_min,
+            },
+            tooth: crate::model::Tooth {
+                helix_deg: tool.tooth.helix_deg,
+                axial_slices: tool.tooth.axial_slices,
+            },
         },
         effects: Default::default(),
     }

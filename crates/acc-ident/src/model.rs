@@ -196,6 +196,10 @@ pub struct Measurement {
     /// Source of the replayed feed. Default `auto`.
     #[serde(default)]
     pub feed_input: FeedInput,
+    /// Averaging window of the force channel at the end of each period, s (default 0 =
+    /// the whole period; the simulator's dynamometer averages the last 0.05 s).
+    #[serde(default)]
+    pub force_window_s: f64,
 }
 
 /// A complete model file.
@@ -255,6 +259,13 @@ impl Model {
             f,
             "machine.override_path.delay_s",
             self.machine.override_path.delay_s,
+            0.0,
+            10.0,
+        )?;
+        check_range(
+            f,
+            "measurement.force_window_s",
+            self.measurement.force_window_s,
             0.0,
             10.0,
         )?;

@@ -138,13 +138,18 @@ impl Inputs {
     }
 }
 
+/// Sub-steps per period of the replayed feed path.
+const SUBSTEPS: usize = 10;
+
 /// One replay: the predicted channel and the internal signals that explain it.
 #[derive(Debug, Clone, Default)]
 pub struct Replay {
     /// Predicted measured channel (W or N).
     pub predicted: Vec<f64>,
-    /// Replayed feed, mm/min.
+    /// Replayed feed, mean over each period, mm/min.
     pub feed_mm_min: Vec<f64>,
+    /// Replayed feed, mean over the force channel's averaging window, mm/min.
+    pub window_feed_mm_min: Vec<f64>,
     /// Replayed mean cutting force, N.
     pub force_n: Vec<f64>,
     /// Removed volume since the start of the log, mm³.
@@ -169,36 +174,53 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let mut out = Replay {
         predicted: vec![0.0; n],
         feed_mm_min: vec![0.0; n],
+        window_feed_mm_min: vec![0.0; n],
         force_n: vec![0.0; n],
         volume_mm3: vec![0.0; n],
         cut_power_w: vec![0.0; n],
         spindle_angle_rad: vec![0.0; n],
     };
-    // Feed path.
+    // Feed path, integrated in SUBSTEPS sub-steps per period: the command logged in row
+    // k (issued at the end of its period, t_k) acts from t_k + delay; the drive lag is
+    // discretised exactly per sub-step (physics.md eq. (5), as the simulator does).
     match &inp.feed_cmd_mm_min {
         Some(cmd) if n > 0 => {
             let delay_s = model.machine.override_path.delay_s
                 + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0);
             let tau = model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0);
-            let shift = 1.0 + delay_s / inp.period_s.max(1e-9);
-            let m = shift.floor();
-            let w = shift - m;
-            let m = m as isize;
-            let at = |k: isize| cmd[k.clamp(0, n as isize - 1) as usize];
-            let mut f = at(-m);
+            let window = model.measurement.force_window_s;
+            let mut f = cmd[0];
+            let mut k = 0usize;
             for i in 0..n {
-                let ii = i as isize - m;
-                let u = (1.0 - w) * at(ii) + w * at(ii - 1);
-                let a = if tau > 1e-9 {
-                    (-inp.dt_s[i] / tau).exp()
+                let h = inp.dt_s[i] / SUBSTEPS as f64;
+                let a = if tau > 1e-9 { (-h / tau).exp() } else { 0.0 };
+                let t_start = inp.t_s[i] - inp.dt_s[i];
+                let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
+                for j in 0..SUBSTEPS {
+                    let tm = t_start + (j as f64 + 0.5) * h - delay_s;
+                    while k + 1 < n && inp.t_s[k + 1] <= tm {
+                        k += 1;
+                    }
+                    let u = if inp.t_s[k] <= tm { cmd[k] } else { cmd[0] };
+                    f = a * f + (1.0 - a) * u;
+                    sum += f;
+                    if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {
+                        sum_w += f;
+                        n_w += 1;
+                    }
+                }
+                out.feed_mm_min[i] = sum / SUBSTEPS as f64;
+                out.window_feed_mm_min[i] = if n_w > 0 {
+                    sum_w / n_w as f64
                 } else {
-                    0.0
+                    out.feed_mm_min[i]
                 };
-                f = a * f + (1.0 - a) * u;
-                out.feed_mm_min[i] = f;
             }
         }
-        _ => out.feed_mm_min.copy_from_slice(&inp.feed_mm_min),
+        _ => {
+            out.feed_mm_min.copy_from_slice(&inp.feed_mm_min);
+            out.window_feed_mm_min.copy_from_slice(&inp.feed_mm_min);
+        }
     }
     // Process force, volume and wear (the simulator's wear law, extra growth added).
     let law = physics::force_law(&model.tool.process);
@@ -208,6 +230,8 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
     let amp = fx.get(EffectKind::Runout, 0);
     let phase = fx.get(EffectKind::Runout, 1);
+    let windowed = inp.channel == Channel::Force && model.measurement.force_window_s > 0.0;
+    let mut chan_force = vec![0.0; n];
     let mut vol = 0.0;
     let mut cut_min = 0.0;
     let mut theta = 0.0;
@@ -220,27 +244,38 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         let f = out.feed_mm_min[i];
         let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
         let factor = w.initial_factor * (1.0 + growth * vol / 1000.0 + w.growth_per_min * cut_min);
-        let mut force = if a > 0.0 {
-            law.mean_force_n(d, a, f, s, factor)
-        } else {
-            0.0
+        let force_at = |f: f64| -> f64 {
+            let mut force = if a > 0.0 {
+                law.mean_force_n(d, a, f, s, factor)
+            } else {
+                0.0
+            };
+            if force > 0.0 {
+                if dbeta != 0.0 {
+                    force *= (f / fref).powf(dbeta);
+                }
+                if amp != 0.0 {
+                    let mean_cos = if dth.abs() < 1e-9 {
+                        (theta + phase).cos()
+                    } else {
+                        ((theta + phase).sin() - (th0 + phase).sin()) / dth
+                    };
+                    force *= 1.0 + amp * mean_cos;
+                }
+            }
+            force
         };
+        let force = force_at(f);
         if force > 0.0 {
             vol += d * a * f / 60.0 * inp.dt_s[i];
             cut_min += inp.dt_s[i] / 60.0;
-            if dbeta != 0.0 {
-                force *= (f / fref).powf(dbeta);
-            }
-            if amp != 0.0 {
-                let mean_cos = if dth.abs() < 1e-9 {
-                    (theta + phase).cos()
-                } else {
-                    ((theta + phase).sin() - (th0 + phase).sin()) / dth
-                };
-                force *= 1.0 + amp * mean_cos;
-            }
-            out.force_n[i] = force;
         }
+        out.force_n[i] = force;
+        chan_force[i] = if windowed {
+            force_at(out.window_feed_mm_min[i])
+        } else {
+            force
+        };
         out.volume_mm3[i] = vol;
     }
     // Channel.
@@ -255,7 +290,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         let pc = torque * s * 2.0 * std::f64::consts::PI / 60.0;
         out.cut_power_w[i] = pc;
         out.predicted[i] = match inp.channel {
-            Channel::Force => out.force_n[i],
+            Channel::Force => chan_force[i],
             Channel::Power if s > 0.0 => {
                 let drift = drift_w * (1.0 - (-(inp.t_s[i] - t0) / drift_tau).exp());
                 physics::input_power_w(&model.machine.spindle, torque, s)

@@ -198,6 +198,11 @@ pub struct Report {
 }
 
 impl Report {
+    /// `report.json` text (pretty-printed).
+    pub fn to_json(&self) -> Result<String, serde_json::Error> {
+        serde_json::to_string_pretty(self)
+    }
+
     /// Render `report.md`.
     pub fn to_markdown(&self) -> String {
         let mut s = String::new();

@@ -90,6 +90,7 @@ pub fn nominal_model(case: &Case) -> Model {
         measurement: Measurement {
             channel: case.channel,
             feed_input: FeedInput::Auto,
+            force_window_s: 0.0,
         },
         machine: Machine {
             name: "paper VMC".into(),

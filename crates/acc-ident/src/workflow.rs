@@ -210,7 +210,32 @@ impl Ctx<'_> {
 
 /// Noise from the detrended air and steady-cut stretches of `residual` (rows `0..n`);
 /// falls back to 50-row chunks of the whole residual if there are none.
-fn noise_of(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
+///
+/// The result is floored at the resolution of the measured data (`floor`, the σ of
+/// uniform quantization `q/√12`), so a quantized noise-free channel is not taken as
+/// perfectly known.
+fn noise_of(residual: &[f64], segs: &[Segment], n: usize, floor: f64) -> Noise {
+    let mut nz = noise_raw(residual, segs, n);
+    nz.sigma = nz.sigma.max(floor);
+    nz
+}
+
+/// σ of the quantization of `y`: the smallest non-zero step between consecutive values
+/// over √12.
+fn quantization_sigma(y: &[f64]) -> f64 {
+    let q = y
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-12)
+        .fold(f64::INFINITY, f64::min);
+    if q.is_finite() {
+        q / 12f64.sqrt()
+    } else {
+        0.0
+    }
+}
+
+fn noise_raw(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
     use crate::segment::Regime;
     let stretches: Vec<&[f64]> = segs
         .iter()
@@ -385,7 +410,8 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let r0_full: Vec<f64> = (0..n)
         .map(|i| inp.measured[i] - nominal_replay.predicted[i])
         .collect();
-    let noise0 = noise_of(&r0_full, &sel_segs, n_sel);
+    let q_floor = quantization_sigma(&inp.measured);
+    let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
     let sigs = signals(&inp, &nominal_replay);
     let locate = Locate {
         residual_rms: stats::rms(&r0_full[..n_sel]),
@@ -423,6 +449,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             },
             &sel_segs,
             n_sel,
+            q_floor,
         );
         let pool: Vec<EffectKind> = candidates
             .iter()
@@ -593,7 +620,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let rf: Vec<f64> = (0..n)
         .map(|i| inp.measured[i] - upd_replay.predicted[i])
         .collect();
-    let noise_f = noise_of(&rf, &sel_segs, n_sel);
+    let noise_f = noise_of(&rf, &sel_segs, n_sel, q_floor);
     let seg_f = segment_biases(&rf, &sel_segs, &inp.t_s, noise_f, min_len);
     let flagged: Vec<_> = seg_f.iter().filter(|b| b.significant).cloned().collect();
     let var_ratio = if noise_f.sigma > 0.0 {

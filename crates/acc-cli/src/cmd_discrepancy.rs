@@ -1,0 +1,227 @@
+//! `acc discrepancy`: compare a model with a measured run log, name the missing effect,
+//! write the updated model and show the gap shrink on a sealed part of the log.
+
+use std::path::{Path, PathBuf};
+
+use acc_ident::model::Channel;
+use acc_ident::{import, workflow, EffectKind, Model, RunLog};
+use acc_plot::{
+    grouped_bars, time_series, xy_chart, Figure, GroupedBars, Panel, Series, Shade, XyChart,
+};
+use anyhow::{bail, Context};
+
+/// Arguments of `acc discrepancy`.
+#[derive(clap::Args, Debug)]
+pub struct DiscrepancyArgs {
+    /// Model file (machine + tool sections of the simulator, `[measurement]`, `[effects]`).
+    /// Optional with `--import`: the importer's nominal model is used (turning: constant
+    /// Ks calibrated on the first 20 % of the tool's rows).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Measured run log (CSV in the run-log schema), or a file for `--import`.
+    #[arg(long)]
+    pub measured: PathBuf,
+    /// Output directory (created): report.json, report.md, model.updated.toml,
+    /// machine.updated.toml, tool.updated.toml, plots (SVG + PNG).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Read `--measured` with an importer: `vicomtech-turning` or `umich-mill`.
+    #[arg(long)]
+    pub import: Option<String>,
+    /// Tool id for `--import vicomtech-turning` (3, 4, 5, 6, 7, 9, 10).
+    #[arg(long)]
+    pub tool: Option<u32>,
+    /// Compared channel, overriding the model's `measurement.channel`: `power` or `force`.
+    #[arg(long)]
+    pub channel: Option<String>,
+    /// Contiguous cross-validation folds (2..=20).
+    #[arg(long, default_value_t = 5)]
+    pub folds: usize,
+    /// Fraction of the log sealed at its end (0.05..=0.5).
+    #[arg(long, default_value_t = 0.2)]
+    pub sealed: f64,
+    /// At most this many effects are added (0..=8).
+    #[arg(long, default_value_t = 3)]
+    pub max_effects: usize,
+    /// Comma-separated candidate effects (default: all): tool_wear, motor_efficiency,
+    /// feed_drive_lag, sensor_lowpass, override_dead_time, feed_exponent, runout,
+    /// noload_drift.
+    #[arg(long)]
+    pub effects: Option<String>,
+    /// Also fit the speed exponent γ with every candidate when the speed varies.
+    #[arg(long)]
+    pub fit_speed_exponent: bool,
+}
+
+fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
+    let (log, default_model) = match args.import.as_deref() {
+        None => (acc_ident::runlog::read_csv(&args.measured)?, None),
+        Some("vicomtech-turning") => {
+            let tools = import::vicomtech_turning(&args.measured)?;
+            let ids: Vec<u32> = tools.keys().copied().collect();
+            let Some(id) = args.tool else {
+                bail!("--import vicomtech-turning needs --tool <id>; tools in the file: {ids:?}");
+            };
+            let Some(mut log) = tools.get(&id).cloned() else {
+                bail!(
+                    "{}: no tool {id}; tools in the file: {ids:?}",
+                    args.measured.display()
+                );
+            };
+            log.wear_vb_um = None; // withheld: the workflow must find the wear itself
+            let m = import::turning_model(&log, 0.2);
+            (log, Some(m))
+        }
+        Some("umich-mill") => {
+            let log = import::umich_mill(&args.measured)?;
+            let m = import::umich_model(&log);
+            (log, Some(m))
+        }
+        Some(other) => bail!("--import `{other}`: allowed `vicomtech-turning`, `umich-mill`"),
+    };
+    let mut model = match (&args.model, default_model) {
+        (Some(p), _) => Model::load(p)?,
+        (None, Some(m)) => m,
+        (None, None) => bail!("--model is required unless --import gives a nominal model"),
+    };
+    match args.channel.as_deref() {
+        None => {}
+        Some("power") => model.measurement.channel = Channel::Power,
+        Some("force") => model.measurement.channel = Channel::Force,
+        Some(other) => bail!("--channel `{other}`: allowed `power`, `force`"),
+    }
+    Ok((model, log))
+}
+
+fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
+    let mut o = workflow::Options {
+        folds: args.folds,
+        sealed_fraction: args.sealed,
+        max_effects: args.max_effects.min(EffectKind::ALL.len()),
+        fit_speed_exponent: args.fit_speed_exponent,
+        ..workflow::Options::default()
+    };
+    if let Some(list) = &args.effects {
+        o.candidates = list
+            .split(',')
+            .map(|s| {
+                EffectKind::from_name(s.trim()).with_context(|| {
+                    format!(
+                        "--effects: unknown effect `{}`; allowed: {}",
+                        s.trim(),
+                        EffectKind::ALL.map(|k| k.name()).join(", ")
+                    )
+                })
+            })
+            .collect::<anyhow::Result<_>>()?;
+    }
+    Ok(o)
+}
+
+/// Run `acc discrepancy`.
+pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
+    let (model, log) = load_inputs(args)?;
+    let opts = options(args)?;
+    let analysis = workflow::analyse(&model, &log, &opts)
+        .with_context(|| format!("analysing {}", args.measured.display()))?;
+    let out = &args.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let write = |name: &str, text: &str| -> anyhow::Result<()> {
+        let p = out.join(name);
+        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
+    };
+    write("report.json", &analysis.report.to_json()?)?;
+    write("report.md", &analysis.report.to_markdown())?;
+    let updated = analysis.updated.folded();
+    write(
+        "model.updated.toml",
+        &format!(
+            "# Written by `acc discrepancy`: the model with the accepted effects and refitted\n# nominal parameters. [machine] and [tool] are the simulator's machine and tool files\n# (also written alone as machine.updated.toml and tool.updated.toml).\n{}",
+            updated.to_toml()?
+        ),
+    )?;
+    write("machine.updated.toml", &updated.machine_toml()?)?;
+    write("tool.updated.toml", &updated.tool_toml()?)?;
+    plots(&analysis, out, &analysis.report.input.unit)?;
+    println!("{}", analysis.report.conclusion);
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+fn plots(a: &workflow::Analysis, out: &Path, unit: &str) -> anyhow::Result<()> {
+    let s = &a.series;
+    let pts =
+        |y: &[f64]| -> Vec<(f64, f64)> { s.t_s.iter().copied().zip(y.iter().copied()).collect() };
+    let mut shades: Vec<Shade> = s
+        .flagged
+        .iter()
+        .map(|&(a, b)| Shade::new("nominal biased (significant)", a, b))
+        .collect();
+    if let Some(&t_end) = s.t_s.last() {
+        shades.push(Shade::new("sealed part", s.sealed_from_s, t_end));
+    }
+    let resid = |y: &[f64]| -> Vec<f64> { s.measured.iter().zip(y).map(|(m, p)| m - p).collect() };
+    let fig = Figure {
+        title: "Measured, nominal and updated model (open-loop replay)".into(),
+        x_label: "time [s]".into(),
+        panels: vec![
+            Panel {
+                y_label: format!("channel [{unit}]"),
+                series: vec![
+                    Series::line("measured", pts(&s.measured)),
+                    Series::line("nominal", pts(&s.nominal)),
+                    Series::line("updated", pts(&s.updated)),
+                ],
+                shades: shades.clone(),
+                ..Panel::default()
+            },
+            Panel {
+                y_label: format!("residual [{unit}]"),
+                series: vec![
+                    Series::line("measured − nominal", pts(&resid(&s.nominal))),
+                    Series::line("measured − updated", pts(&resid(&s.updated))),
+                ],
+                shades,
+                ..Panel::default()
+            },
+        ],
+        ..Figure::default()
+    };
+    time_series(&fig, out.join("overlay.svg"))?;
+    let r = resid(&s.nominal);
+    let chart = XyChart {
+        title: format!("Nominal residual against `{}`", s.strongest_signal),
+        x_label: s.strongest_signal.clone(),
+        y_label: format!("measured − nominal [{unit}]"),
+        series: vec![Series::markers(
+            "rows",
+            s.signal.iter().copied().zip(r.iter().copied()).collect(),
+        )],
+        width_px: 900,
+        height_px: 600,
+        ..XyChart::default()
+    };
+    xy_chart(&chart, out.join("residual_vs_signal.svg"))?;
+    let bars = GroupedBars {
+        title: "Sealed part: bias per segment, nominal vs updated".into(),
+        y_label: format!("mean residual [{unit}]"),
+        categories: s
+            .sealed_bias
+            .iter()
+            .map(|b| format!("{:.0} s", b.0))
+            .collect(),
+        groups: vec![
+            (
+                "nominal".into(),
+                s.sealed_bias.iter().map(|b| b.1).collect(),
+            ),
+            (
+                "updated".into(),
+                s.sealed_bias.iter().map(|b| b.2).collect(),
+            ),
+        ],
+        ..GroupedBars::default()
+    };
+    grouped_bars(&bars, out.join("sealed_bias.svg"))?;
+    Ok(())
+}
