@@ -231,8 +231,8 @@ fn default_slices() -> usize {
 /// Tooth-level force shape of a helical end mill in down milling (seed 004).
 ///
 /// Each flute `j` and axial slice `k` (height `z_k`) sits at immersion angle
-/// `ψ = θ_j − z_k·tan(β_helix)/R` (θ_j the flute's angle at the tool end, measured from the
-/// finished wall), cuts a chip `h = f_z·sin ψ` when it is in material, and adds
+/// `ψ = θ + 2πj/N − z_k·tan(β_helix)/R` (θ the cutter angle at the tool end, ψ measured
+/// from the finished wall), cuts a chip `h = f_z·sin ψ` when it is in material, and adds
 /// `f_t ∝ h·Δz`. The sum `S(θ)` over flutes and slices has the revolution mean
 /// `N·a_p·d_eff/(2πR)` (with `d_eff` the engaged depth of
 /// [`Workpiece::engagement`]), so `F(θ) = F_mean · S(θ)·2πR/(N·a_p·d_eff)` has the mean
@@ -241,8 +241,9 @@ fn default_slices() -> usize {
 pub struct ToothModel {
     flutes: usize,
     radius_mm: f64,
-    /// Angle lag per slice, rad, and slice height, mm.
-    lag: Vec<f64>,
+    /// `(sin o, cos o)` of every flute/slice angle offset `o = 2πj/N − z_k·tan β/R`, so
+    /// that `ψ = θ + o` needs no trigonometry per point.
+    offsets: Vec<(f64, f64)>,
     dz_mm: f64,
     axial_mm: f64,
 }
@@ -251,15 +252,22 @@ impl ToothModel {
     /// Build for a tool and an axial depth.
     pub fn new(spec: &ToothSpec, flutes: usize, radius_mm: f64, axial_mm: f64) -> Self {
         let n = spec.axial_slices.max(1);
+        let flutes = flutes.max(1);
         let dz = axial_mm / n as f64;
         let tan_h = spec.helix_deg.to_radians().tan();
-        let lag = (0..n)
-            .map(|k| (k as f64 + 0.5) * dz * tan_h / radius_mm)
+        let pitch = 2.0 * PI / flutes as f64;
+        let offsets = (0..flutes)
+            .flat_map(|j| {
+                (0..n).map(move |k| {
+                    let lag = (k as f64 + 0.5) * dz * tan_h / radius_mm;
+                    (j as f64 * pitch - lag).sin_cos()
+                })
+            })
             .collect();
         ToothModel {
-            flutes: flutes.max(1),
+            flutes,
             radius_mm,
-            lag,
+            offsets,
             dz_mm: dz,
             axial_mm,
         }
@@ -273,24 +281,22 @@ impl ToothModel {
         }
         let r = self.radius_mm;
         let uniform = workpiece.uniform_over(x, r);
-        let pitch = 2.0 * PI / self.flutes as f64;
+        let (st, ct) = theta.sin_cos();
         let mut s = 0.0;
-        for j in 0..self.flutes {
-            let base = theta + j as f64 * pitch;
-            for lag in &self.lag {
-                let psi = (base - lag).rem_euclid(2.0 * PI);
-                if psi > PI {
-                    continue;
-                }
-                let (sin, cos) = psi.sin_cos();
-                let y = r * (1.0 - cos);
-                let depth = match uniform {
-                    Some((d, _)) => d,
-                    None => workpiece.depth_at(x + r * sin),
-                };
-                if y < depth {
-                    s += sin * self.dz_mm;
-                }
+        for &(so, co) in &self.offsets {
+            // ψ = θ + o; the cutting half is 0 ≤ ψ ≤ π, i.e. sin ψ ≥ 0.
+            let sin = st * co + ct * so;
+            if sin < 0.0 {
+                continue;
+            }
+            let cos = ct * co - st * so;
+            let y = r * (1.0 - cos);
+            let depth = match uniform {
+                Some((d, _)) => d,
+                None => workpiece.depth_at(x + r * sin),
+            };
+            if y < depth {
+                s += sin * self.dz_mm;
             }
         }
         s * 2.0 * PI * r / (self.flutes as f64 * self.axial_mm * depth_eff_mm)
