@@ -134,7 +134,13 @@ pub struct RtuSettings {
     pub watchdog_ms: u16,
 }
 
-fn int_in(file: &Path, key: &str, value: i64, lo: i64, hi: i64) -> Result<i64, ConfigError> {
+pub(crate) fn int_in(
+    file: &Path,
+    key: &str,
+    value: i64,
+    lo: i64,
+    hi: i64,
+) -> Result<i64, ConfigError> {
     if (lo..=hi).contains(&value) {
         Ok(value)
     } else {
@@ -478,6 +484,25 @@ mod tests {
             err.to_string()
                 .starts_with("b.toml: key `port`: must name a serial device"),
             "{err}"
+        );
+    }
+
+    #[test]
+    fn shipped_board_configs_are_valid() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/boards");
+        let rtu = RtuConfig::load(dir.join("pmc-rtu.toml")).expect("pmc-rtu.toml");
+        assert_eq!(
+            (rtu.serial.baud, rtu.serial.parity, rtu.link.slave),
+            (19_200, Parity::Even, 1)
+        );
+        assert_eq!(
+            (rtu.link.timeout, rtu.link.budget),
+            (Duration::from_millis(40), Duration::from_millis(90))
+        );
+        let sim = RtuConfig::load(dir.join("pmc-sim-pty.toml")).expect("pmc-sim-pty.toml");
+        assert_eq!(
+            (sim.serial.baud, sim.serial.parity),
+            (115_200, Parity::None)
         );
     }
 

@@ -1,5 +1,5 @@
 //! An in-memory CAN bus with the board on it: [`CanBoardEmulator`] implements
-//! [`embedded_can::blocking::Can`] with [`MemFrame`]s and serves a [`BoardLogic`] per the
+//! [`embedded_can::blocking::Can`] with [`MemFrame`]s and serves a [`BoardLogic`](crate::board::BoardLogic) per the
 //! spec's CAN variant. Used as the mock bus of the CAN link's tests and as a simulated CAN
 //! board.
 //!

@@ -42,7 +42,7 @@ impl ReceiveTimeout for std::io::Error {
     }
 }
 
-#[cfg(feature = "vcan")]
+#[cfg(feature = "socketcan")]
 impl ReceiveTimeout for socketcan::Error {
     fn is_receive_timeout(&self) -> bool {
         match self {
@@ -308,5 +308,120 @@ where
     fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error> {
         self.command.control = control;
         self.send_command()
+    }
+}
+
+/// CAN settings as written in a config (`[board]` table with `can_iface` etc.), numbers
+/// read wide so that out-of-range values get a range error.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CanConfig {
+    /// SocketCAN interface, e.g. `can0` or `vcan0`.
+    pub iface: String,
+    /// Node id `n`, 1…127. Default 1.
+    #[serde(default = "default_node")]
+    pub node: i64,
+    /// Status wait per read, ms, 5…2000. Default 40.
+    #[serde(default = "default_can_timeout_ms")]
+    pub timeout_ms: i64,
+    /// Unchanged `SAMPLE_SEQ` reads that make the power stale, 0 (off)…1000. Default 3.
+    #[serde(default = "default_can_stale")]
+    pub stale_after_reads: i64,
+}
+
+fn default_node() -> i64 {
+    1
+}
+fn default_can_timeout_ms() -> i64 {
+    40
+}
+fn default_can_stale() -> i64 {
+    3
+}
+
+impl CanConfig {
+    /// A config for `iface` with defaults (node 1, 40 ms, stale after 3).
+    pub fn for_iface(iface: impl Into<String>) -> Self {
+        Self {
+            iface: iface.into(),
+            node: default_node(),
+            timeout_ms: default_can_timeout_ms(),
+            stale_after_reads: default_can_stale(),
+        }
+    }
+
+    /// Check every key; errors name `file`, `prefix.key` and the allowed range.
+    pub fn validate(
+        &self,
+        file: impl AsRef<std::path::Path>,
+        prefix: &str,
+    ) -> Result<CanLinkConfig, acc_config::ConfigError> {
+        let file = file.as_ref();
+        let key = |k: &str| {
+            if prefix.is_empty() {
+                k.to_string()
+            } else {
+                format!("{prefix}.{k}")
+            }
+        };
+        if self.iface.trim().is_empty() {
+            return Err(acc_config::ConfigError::Invalid {
+                file: file.to_path_buf(),
+                key: key("iface"),
+                message: "must name a CAN interface, e.g. \"can0\"".into(),
+            });
+        }
+        let node = crate::serial::int_in(file, &key("node"), self.node, 1, 127)? as u8;
+        let timeout_ms =
+            crate::serial::int_in(file, &key("timeout_ms"), self.timeout_ms, 5, 2000)? as u64;
+        let stale = crate::serial::int_in(
+            file,
+            &key("stale_after_reads"),
+            self.stale_after_reads,
+            0,
+            1000,
+        )? as u16;
+        Ok(CanLinkConfig {
+            node,
+            timeout: Duration::from_millis(timeout_ms),
+            stale_after_reads: stale,
+        })
+    }
+}
+
+/// Open SocketCAN interface `iface` (read timeout 5 ms, so `receive` returns when the bus
+/// is quiet) and put a [`CanBoard`] on it. Nothing is sent.
+#[cfg(feature = "socketcan")]
+pub fn open_socketcan(
+    iface: &str,
+    cfg: CanLinkConfig,
+) -> Result<CanBoard<socketcan::CanSocket>, CanError<socketcan::Error>> {
+    use socketcan::Socket;
+    let sock =
+        socketcan::CanSocket::open(iface).map_err(|e| CanError::Bus(socketcan::Error::Io(e)))?;
+    sock.set_read_timeout(crate::serial::POLL_SLICE)
+        .map_err(|e| CanError::Bus(socketcan::Error::Io(e)))?;
+    CanBoard::new(sock, cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn can_config_validation_names_key_and_range() {
+        let ok = CanConfig::for_iface("can0")
+            .validate("m.toml", "board")
+            .expect("valid");
+        assert_eq!(ok, CanLinkConfig::default());
+        let mut bad = CanConfig::for_iface("can0");
+        bad.node = 0;
+        let err = bad.validate("m.toml", "board").expect_err("node 0");
+        assert_eq!(
+            err.to_string(),
+            "m.toml: key `board.node` = 0 is out of range: allowed 1 ..= 127"
+        );
+        bad = CanConfig::for_iface(" ");
+        assert!(bad.validate("m.toml", "board").is_err());
     }
 }
