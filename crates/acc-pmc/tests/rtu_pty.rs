@@ -62,7 +62,7 @@ fn cfg(timeout_ms: u64, retries: u8, budget_ms: u64) -> RtuLinkConfig {
 #[test]
 fn controller_cycle_drives_the_override() {
     let mut pty = spawn_board();
-    let mut b = link(&mut pty, RtuLinkConfig::default());
+    let mut b = link(&mut pty, cfg(200, 1, 1000));
     let s = b.read_status().expect("status");
     assert!(s.acc_switch && !s.acc_active && s.cycle_active);
     assert_eq!(
@@ -99,7 +99,7 @@ fn controller_cycle_drives_the_override() {
 #[test]
 fn exception_03_is_reported_as_exception_and_not_retried() {
     let mut pty = spawn_board();
-    let mut b = link(&mut pty, cfg(40, 3, 200));
+    let mut b = link(&mut pty, cfg(200, 3, 1000));
     b.write_override(90, 1).expect("90 is fine");
     for bad in [155u16, 35] {
         let err = b.write_override(bad, 2).expect_err("must be refused");
@@ -124,10 +124,10 @@ fn exception_03_is_reported_as_exception_and_not_retried() {
 #[test]
 fn watchdog_trips_without_heartbeat_and_alarm_reset_clears_it() {
     let mut pty = spawn_board();
-    let mut b = link(&mut pty, cfg(40, 1, 90));
-    b.write_watchdog_ms(100).expect("watchdog 100 ms");
+    let mut b = link(&mut pty, cfg(200, 1, 1000));
+    b.write_watchdog_ms(300).expect("watchdog 300 ms");
     b.write_control(ARM).expect("arm");
-    // Heartbeat changing every 30 ms keeps the board active for 6 × the watchdog time.
+    // Heartbeat changing every 30 ms keeps the board active for 2 × the watchdog time.
     for hb in 1..=20u16 {
         b.write_override(130, hb).expect("cycle");
         std::thread::sleep(Duration::from_millis(30));
@@ -135,8 +135,8 @@ fn watchdog_trips_without_heartbeat_and_alarm_reset_clears_it() {
     let s = b.read_status().expect("status");
     assert!(s.acc_active && !s.watchdog_tripped);
     assert_eq!(s.override_applied_pct, 130);
-    // No heartbeat change for > 100 ms: tripped, back to the operator's 70 %.
-    std::thread::sleep(Duration::from_millis(150));
+    // No heartbeat change for > 300 ms: tripped, back to the operator's 70 %.
+    std::thread::sleep(Duration::from_millis(450));
     let s = b.read_status().expect("status");
     assert!(s.watchdog_tripped && !s.acc_active);
     assert_eq!(s.override_applied_pct, 70);
@@ -160,7 +160,7 @@ fn frozen_sample_seq_is_stale_after_the_configured_reads() {
         &mut pty,
         RtuLinkConfig {
             stale_after_reads: 3,
-            ..RtuLinkConfig::default()
+            ..cfg(200, 1, 1000)
         },
     );
     for _ in 0..3 {
@@ -191,7 +191,7 @@ fn frozen_sample_seq_is_stale_after_the_configured_reads() {
 #[test]
 fn corrupted_crc_is_retried_then_reported() {
     let mut pty = spawn_board();
-    let (mut b, faults) = faulty_link(&mut pty, cfg(40, 1, 200));
+    let (mut b, faults) = faulty_link(&mut pty, cfg(200, 1, 1000));
     faults.push(Fault::CorruptCrc);
     assert_eq!(
         b.read_status().expect("retry succeeds").spindle_power_w,
@@ -210,12 +210,12 @@ fn corrupted_crc_is_retried_then_reported() {
 #[test]
 fn dropped_reply_times_out_and_retry_recovers() {
     let mut pty = spawn_board();
-    let (mut b, faults) = faulty_link(&mut pty, cfg(30, 1, 200));
+    let (mut b, faults) = faulty_link(&mut pty, cfg(100, 1, 500));
     faults.push(Fault::DropReply);
     let t0 = Instant::now();
     b.write_override(110, 3).expect("retry succeeds");
     assert!(
-        t0.elapsed() >= Duration::from_millis(30),
+        t0.elapsed() >= Duration::from_millis(100),
         "waited for the timeout"
     );
     assert_eq!((b.stats().timeouts, b.stats().retries), (1, 1));
@@ -233,13 +233,13 @@ fn dropped_reply_times_out_and_retry_recovers() {
 #[test]
 fn late_reply_is_a_timeout_and_is_not_taken_for_the_next_one() {
     let mut pty = spawn_board();
-    let (mut b, faults) = faulty_link(&mut pty, cfg(30, 0, 100));
+    let (mut b, faults) = faulty_link(&mut pty, cfg(60, 0, 200));
     pty.with_board(|l| l.push_power_sample(7_777));
-    // The FC16 acknowledgement arrives 80 ms late (timeout 30 ms).
-    faults.push(Fault::DelayReply(Duration::from_millis(80)));
+    // The FC16 acknowledgement arrives 150 ms late (timeout 60 ms).
+    faults.push(Fault::DelayReply(Duration::from_millis(150)));
     let err = b.write_override(120, 1).expect_err("late");
     assert_eq!(err.kind(), PmcErrorKind::Timeout);
-    std::thread::sleep(Duration::from_millis(100));
+    std::thread::sleep(Duration::from_millis(200));
     // The late FC16 ack is on the line now; the next FC04 must not be confused by it.
     let s = b.read_status().expect("status after resync");
     assert_eq!(s.spindle_power_w, 7_777);
@@ -252,21 +252,24 @@ fn late_reply_is_a_timeout_and_is_not_taken_for_the_next_one() {
 #[test]
 fn retries_stay_within_the_budget() {
     let mut pty = spawn_board();
-    let (mut b, faults) = faulty_link(&mut pty, cfg(20, 5, 50));
+    let (mut b, faults) = faulty_link(&mut pty, cfg(100, 5, 250));
     faults.push_n(Fault::DropReply, 10);
     let t0 = Instant::now();
     let err = b.read_status().expect_err("all dropped");
     let took = t0.elapsed();
     assert_eq!(err.kind(), PmcErrorKind::Timeout);
-    // 20 ms + 20 ms fit in 50 ms, a third attempt would not.
+    // 100 ms + 100 ms fit in 250 ms, a third attempt would not (5 retries allowed).
     assert_eq!(b.stats().retries, 1);
-    assert!(took < Duration::from_millis(50 + 20), "took {took:?}");
+    assert!(
+        took >= Duration::from_millis(200) && took < Duration::from_millis(250 + 100),
+        "took {took:?}"
+    );
 }
 
 #[test]
 fn garbage_before_the_reply_is_survived() {
     let mut pty = spawn_board();
-    let (mut b, faults) = faulty_link(&mut pty, cfg(40, 1, 200));
+    let (mut b, faults) = faulty_link(&mut pty, cfg(200, 1, 1000));
     faults.push(Fault::Garbage(vec![0xFF, 0x00, 0x42]));
     assert_eq!(b.read_status().expect("retry").override_applied_pct, 70);
     assert_eq!(b.stats().retries, 1);
@@ -275,7 +278,7 @@ fn garbage_before_the_reply_is_survived() {
 #[test]
 fn board_restart_is_visible_in_the_holding_registers() {
     let mut pty = spawn_board();
-    let mut b = link(&mut pty, RtuLinkConfig::default());
+    let mut b = link(&mut pty, cfg(200, 1, 1000));
     b.write_watchdog_ms(1000).expect("wd");
     b.write_control(ARM).expect("arm");
     b.write_override(140, 5).expect("cycle");
