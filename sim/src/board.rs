@@ -130,3 +130,82 @@ impl Pmc for SimBoard {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run::configs_dir;
+    use crate::scenario::Scenario;
+
+    fn board() -> SimBoard {
+        let sc =
+            Scenario::load(configs_dir().join("scenarios/paper_case1.toml")).expect("scenario");
+        sc.build_board()
+    }
+
+    #[test]
+    fn status_reports_the_machine_through_the_registers() {
+        let mut b = board();
+        let s = b.read_status().expect("status");
+        assert!(s.acc_switch && s.cycle_active && !s.acc_active);
+        assert_eq!(s.programmed_feed_mm_min, 200);
+        assert_eq!(s.override_step_pct, 10);
+        b.write_control(ControlBits {
+            acc_request: true,
+            ..ControlBits::default()
+        })
+        .expect("control");
+        b.write_override(150, 1).expect("override");
+        let s = b.read_status().expect("status");
+        assert!(s.acc_active);
+        assert_eq!(s.override_applied_pct, 150);
+        let rec = b.advance_period(0.1);
+        // The override path still carries the power-up 100 % for its 16 ms dead time (target
+        // 200 mm/min), then 150 % (300 mm/min); the 8 ms lag from standstill loses about
+        // τ·target: mean ≈ 300 − 0.16·100 − 0.08·250 = 264 mm/min.
+        assert!(
+            (rec.feed_mean_mm_min - 264.0).abs() < 5.0,
+            "{}",
+            rec.feed_mean_mm_min
+        );
+        let s = b.read_status().expect("status");
+        assert_eq!(s.spindle_rpm, 600);
+        // Air cut: the spindle draws its no-load power, 700 W.
+        assert_eq!(s.spindle_power_w, 700);
+        assert_eq!(s.sample_seq, 1);
+    }
+
+    #[test]
+    fn the_board_refuses_an_override_off_its_step() {
+        let mut b = board();
+        let err = b.write_override(125, 1).expect_err("not a multiple of 10");
+        assert_eq!(SimBoard::kind(&err), PmcErrorKind::Exception(3));
+        assert_eq!(b.read_status().expect("status").override_applied_pct, 100);
+    }
+
+    #[test]
+    fn a_silent_controller_trips_the_watchdog_and_the_operator_takes_over() {
+        let mut b = board();
+        b.logic_mut().set_operator_override_pct(70);
+        b.write_control(ControlBits {
+            acc_request: true,
+            ..ControlBits::default()
+        })
+        .expect("control");
+        b.write_override(150, 1).expect("override");
+        // No heartbeat for 0.6 s > WATCHDOG_MS = 500 ms.
+        for _ in 0..6 {
+            b.advance_period(0.1);
+        }
+        let s = b.read_status().expect("status");
+        assert!(s.watchdog_tripped && !s.acc_active);
+        assert_eq!(s.override_applied_pct, 70);
+        // The machine follows the operator's 70 % after the dead time and lag.
+        let rec = b.advance_period(0.1);
+        assert!(
+            (rec.feed_mean_mm_min - 140.0).abs() < 1.0,
+            "{}",
+            rec.feed_mean_mm_min
+        );
+    }
+}

@@ -502,7 +502,7 @@ mod tests {
                 ks_factor: None,
             }],
         };
-        let err = Workpiece::from_file(Path::new("w.toml"), &file).unwrap_err();
+        let err = Workpiece::from_file(Path::new("w.toml"), &file).expect_err("negative depth");
         assert!(err.to_string().contains("segment[0].depth_mm"), "{err}");
         assert!(err.to_string().contains("w.toml"), "{err}");
     }
