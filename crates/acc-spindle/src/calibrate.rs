@@ -28,8 +28,8 @@
 //! periods = 20
 //!
 //! [constants.power_efficiency]
-//! gain = 0.97
-//! quad_per_w = -1.0e-6
+//! gain = 1.002
+//! loss_w_per_nm2 = 0.55
 //!
 //! [constants.current]
 //! kt_nm_per_a = 2.4
@@ -49,14 +49,28 @@ use crate::estimate::Method;
 use crate::noload::{AdaptRule, NoLoadModel, NoLoadPoint};
 use crate::SpindleError;
 
-/// Load-dependent efficiency of the power method: `P_c = g·ΔP + q·ΔP·|ΔP|`.
+/// Load-dependent efficiency of the power method: the extra input power of a cut is
+/// `ΔP = a·ω·T_c + c·T_c²` — the cutting power over a light-load efficiency `1/a`, plus the
+/// load losses that grow with the square of the torque (stator and rotor copper ∝ I² ∝ T²
+/// at constant flux), independent of speed. The efficiency `ω·T_c/ΔP = 1/(a + c·T_c/ω)`
+/// therefore changes with load (seed 000 §2.2, Fig. 4).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PowerEfficiency {
-    /// `g`: efficiency at light load, −.
+    /// `a`: input power per unit of cutting power at light load, − (≈ 1).
     pub gain: f64,
-    /// `q`: change of efficiency per watt of load, 1/W (negative: copper losses ∝ I²).
-    pub quad_per_w: f64,
+    /// `c`: load losses per squared cutting torque, W/(N·m)².
+    pub loss_w_per_nm2: f64,
+}
+
+impl PowerEfficiency {
+    /// Cutting torque from `ΔP` (W) at `ω` (rad/s): the root of `c·T² + a·ω·T − ΔP = 0`
+    /// that is 0 at `ΔP = 0`, `T = 2ΔP / (a·ω + √((a·ω)² + 4c·ΔP))`.
+    pub fn torque_nm(&self, dp_w: f64, omega: f64) -> f64 {
+        let aw = self.gain * omega;
+        let disc = (aw * aw + 4.0 * self.loss_w_per_nm2 * dp_w).max(0.0);
+        2.0 * dp_w / (aw + disc.sqrt())
+    }
 }
 
 /// Conventional torque constant (seed 000 eq. 6).
@@ -190,7 +204,7 @@ pub(crate) fn least_squares<const K: usize>(
         .fold((0.0f64, f64::INFINITY), |(hi, lo), &s| {
             (hi.max(s), lo.min(s))
         });
-    if !(smin > 1e-9 * smax) {
+    if smin.is_nan() || smin <= 1e-9 * smax {
         return Err(SpindleError::Fit {
             method,
             reason: "the calibration loads do not vary enough (degenerate fit)".into(),
@@ -216,16 +230,19 @@ pub fn fit_power_efficiency(
     const M: &str = "power-efficiency";
     let rows: Vec<([f64; 2], f64)> = prepare(points, no_load, tool_radius_mm, M)?
         .iter()
-        .map(|p| ([p.dp, p.dp * p.dp.abs()], p.cut_power))
+        .map(|p| ([p.cut_power, p.torque * p.torque], p.dp))
         .collect();
-    let [gain, quad_per_w] = least_squares(&rows, M)?;
-    if !(gain > 0.0 && gain < 2.0) {
+    let [gain, loss_w_per_nm2] = least_squares(&rows, M)?;
+    if !(gain > 0.5 && gain < 2.0) {
         return Err(SpindleError::Fit {
             method: M,
-            reason: format!("fitted gain {gain} is not a plausible efficiency (0, 2)"),
+            reason: format!("fitted gain {gain} is not a plausible 1/efficiency (0.5, 2)"),
         });
     }
-    Ok(PowerEfficiency { gain, quad_per_w })
+    Ok(PowerEfficiency {
+        gain,
+        loss_w_per_nm2,
+    })
 }
 
 /// Fit the conventional torque constant `Kt`.
@@ -240,7 +257,7 @@ pub fn fit_current(
         .map(|p| ([p.di], p.torque))
         .collect();
     let [kt_nm_per_a] = least_squares(&rows, M)?;
-    if !(kt_nm_per_a > 0.0) {
+    if kt_nm_per_a.is_nan() || kt_nm_per_a <= 0.0 {
         return Err(SpindleError::Fit {
             method: M,
             reason: format!("fitted Kt {kt_nm_per_a} N·m/A is not positive"),
@@ -261,7 +278,7 @@ pub fn fit_motor_characteristics(
         .map(|p| ([p.torque, p.torque * p.torque], p.di2))
         .collect();
     let [a, b] = least_squares(&rows, M)?;
-    if !(a > 0.0) {
+    if a.is_nan() || a <= 0.0 {
         return Err(SpindleError::Fit {
             method: M,
             reason: format!("fitted a = {a} A²/(N·m) is not positive"),
@@ -363,13 +380,13 @@ impl SpindleCalibration {
         }
         let c = &self.constants;
         if let Some(pe) = c.power_efficiency {
-            check_range(file, "constants.power_efficiency.gain", pe.gain, 0.01, 2.0)?;
+            check_range(file, "constants.power_efficiency.gain", pe.gain, 0.5, 2.0)?;
             check_range(
                 file,
-                "constants.power_efficiency.quad_per_w",
-                pe.quad_per_w,
-                -1.0,
-                1.0,
+                "constants.power_efficiency.loss_w_per_nm2",
+                pe.loss_w_per_nm2,
+                -1e6,
+                1e6,
             )?;
         }
         if let Some(cc) = c.current {
@@ -434,9 +451,8 @@ mod tests {
             .iter()
             .map(|&f: &f64| {
                 let t = f * r;
-                let pc = t * omega;
-                // ΔP = pc/g with g from the quadratic: choose q such that P_c = 0.95ΔP − 2e-5ΔP².
-                let dp = (0.95 - (0.95f64.powi(2) - 4.0 * 2e-5 * pc).sqrt()) / (2.0 * 2e-5);
+                // ΔP = 1.02·ω·T + 3·T² (copper losses ∝ T²).
+                let dp = 1.02 * omega * t + 3.0 * t * t;
                 let i = (400.0 + 3.0 * t + 0.5 * t * t).sqrt();
                 CalPoint {
                     rpm: 1100.0,
@@ -454,7 +470,10 @@ mod tests {
         let (pts, nl) = synthetic();
         let c = calibrate(&pts, &nl, 40.0).unwrap();
         let pe = c.power_efficiency.unwrap();
-        assert!((pe.gain - 0.95).abs() < 1e-9 && (pe.quad_per_w + 2e-5).abs() < 1e-12);
+        assert!((pe.gain - 1.02).abs() < 1e-9 && (pe.loss_w_per_nm2 - 3.0).abs() < 1e-9);
+        let omega = 2.0 * std::f64::consts::PI * 1500.0 / 60.0;
+        let dp = 1.02 * omega * 6.0 + 3.0 * 36.0;
+        assert!((pe.torque_nm(dp, omega) - 6.0).abs() < 1e-9);
         let m = c.motor_characteristics.unwrap();
         assert!((m.a_a2_per_nm - 3.0).abs() < 1e-9 && (m.b_a2_per_nm2 - 0.5).abs() < 1e-9);
         assert!((m.torque_nm(3.0 * 4.0 + 0.5 * 16.0) - 4.0).abs() < 1e-12);

@@ -6,7 +6,7 @@
 //! | [`Method`] | equation |
 //! | --- | --- |
 //! | `Power` | `F = (P − P_air) / (ω·r)` — seed 000 eq. 14, no fitted constant |
-//! | `PowerEfficiency` | `F = (g·ΔP + q·ΔP·abs(ΔP)) / (ω·r)`, `ΔP = P − P_air`: eq. 14 with a load-dependent efficiency `η(ΔP) = g + q·ΔP` (seed 000 §2.2, Fig. 4: η changes with load) |
+//! | `PowerEfficiency` | `ΔP = P − P_air = a·ω·T_c + c·T_c²`, solved for `T_c`; `F = T_c / r`: eq. 14 with a load-dependent efficiency `η = 1/(a + c·T_c/ω)` (seed 000 §2.2, Fig. 4: η changes with load; the `c·T²` term is the copper loss ∝ I²) |
 //! | `Current` | `F = Kt·(I − I_air) / r` — seed 000 eq. 6, conventional |
 //! | `MotorCharacteristics` | `I² − I_air² = a·T_c + b·T_c²`, solved for `T_c`; `F = T_c / r` — seed 000 method 2 *(reconstructed, see below)* |
 //!
@@ -352,14 +352,15 @@ impl SpindleEstimator {
                 if dp < -limit {
                     return Err(Invalid::ImplausibleLoad);
                 }
-                let (g, q) = if method == Method::Power {
-                    (1.0, 0.0)
+                if method == Method::Power {
+                    (dp / omega, k * nl.sigma_power_w / omega)
                 } else {
                     let pe = c.power_efficiency.ok_or(Invalid::NotCalibrated)?;
-                    (pe.gain, pe.quad_per_w)
-                };
-                let pc = g * dp + q * dp * dp.abs();
-                (pc / omega, k * g * nl.sigma_power_w / omega)
+                    (
+                        pe.torque_nm(dp, omega),
+                        k * nl.sigma_power_w / (pe.gain * omega),
+                    )
+                }
             }
             Method::Current => {
                 let i = i.ok_or(Invalid::MissingCurrent)?;
@@ -412,8 +413,8 @@ mod tests {
         nl.learn(1500.0, 610.0, 25.1).unwrap();
         let c = Constants {
             power_efficiency: Some(PowerEfficiency {
-                gain: 0.9,
-                quad_per_w: 0.0,
+                gain: 1.0 / 0.9,
+                loss_w_per_nm2: 0.0,
             }),
             current: Some(CurrentConstant { kt_nm_per_a: 2.0 }),
             motor_characteristics: Some(MotorCharacteristic {

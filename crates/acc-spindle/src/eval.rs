@@ -244,23 +244,29 @@ pub struct WaxResult {
 }
 
 /// The power estimator on the wax logs: learn the no-load model from the rows where the
-/// spindle runs steadily outside the cutting layers, then estimate every cutting row.
+/// spindle runs steadily outside the cutting layers (`Prep`, `Repositioning`, `End`),
+/// then estimate every cutting row as the board-power source would (power and speed only).
 pub fn wax_check(experiments: &[Vec<MillRow>], setup: WaxSetup) -> Result<WaxResult, SpindleError> {
     let mut nl = NoLoadModel::new(AdaptRule {
         speed_tolerance: 0.02,
         ..AdaptRule::default()
     });
-    let steady =
-        |r: &MillRow| r.spindle_velocity > setup.min_velocity && r.spindle_accel.abs() < 0.5;
     let mut air = 0;
     for exp in experiments {
-        for r in exp.iter().filter(|r| !r.is_cutting() && steady(r)) {
-            nl.learn(
-                r.spindle_velocity * setup.rpm_per_unit,
-                r.spindle_power_w,
-                0.0,
-            )?;
-            air += 1;
+        // Steady spindle: running and within 1 % of the previous row's speed (the logged
+        // acceleration is too noisy to use).
+        for w in exp.windows(2) {
+            let (prev, r) = (&w[0], &w[1]);
+            let steady = r.spindle_velocity > setup.min_velocity
+                && (r.spindle_velocity - prev.spindle_velocity).abs() <= 0.01 * r.spindle_velocity;
+            if steady && !r.is_cutting() && !prev.is_cutting() {
+                nl.learn(
+                    r.spindle_velocity * setup.rpm_per_unit,
+                    r.spindle_power_w,
+                    0.0,
+                )?;
+                air += 1;
+            }
         }
     }
     let cfg = EstimatorConfig {

@@ -189,7 +189,7 @@ mod tests {
             ..Default::default()
         };
         let mut fu = Fusion::new(cfg).unwrap();
-        let mut spindle_lp = Biquad::lowpass(fs, 5.0, 0.7071);
+        let mut spindle_lp = Biquad::lowpass(fs, 5.0, std::f64::consts::FRAC_1_SQRT_2);
         spindle_lp.settle(400.0);
         let (mut e_fused, mut e_spindle) = (0.0, 0.0);
         for k in 0..4000 {

@@ -35,6 +35,9 @@
 //! assert!((e.force_n - 159.15).abs() < 0.01);
 //! ```
 
+#![cfg_attr(test, allow(clippy::unwrap_used))]
+#![deny(missing_docs)]
+
 pub mod calibrate;
 pub mod datasets;
 pub mod estimate;

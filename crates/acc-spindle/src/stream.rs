@@ -400,7 +400,7 @@ impl<R: Read> ForceSource for StreamForceSource<R> {
             return ForceSample::INVALID;
         }
         let needed = (input.period_s * self.sample_rate_hz).round();
-        if !(needed >= 1.0 && needed <= 1e8) {
+        if !(1.0..=1e8).contains(&needed) {
             return ForceSample::INVALID;
         }
         if let Err(e) = self.fill(needed as usize) {

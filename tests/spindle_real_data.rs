@@ -1,0 +1,108 @@
+//! The estimators on real data from `../shared/data` (skipped with a message when the
+//! folder is absent):
+//! * Vicomtech turning (CC BY-SA 4.0, Ferrando Chacón et al. 2023): calibrate on one tool,
+//!   validate on the others, MAPE against the dynamometer `F_c`;
+//! * University of Michigan wax milling (CC0): no cutting force above the noise floor.
+
+#![allow(clippy::unwrap_used)]
+
+use std::path::PathBuf;
+
+use acc_spindle::datasets::{read_mill, read_turning};
+use acc_spindle::eval::{cross_tool, min_median_max, wax_check, TurningModel, WaxSetup};
+
+fn data() -> Option<PathBuf> {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    if d.is_dir() {
+        Some(d)
+    } else {
+        println!("skip: {} not found (real data sets absent)", d.display());
+        None
+    }
+}
+
+fn medians(model: TurningModel) -> Option<(f64, f64, f64)> {
+    let path = data()?.join("vicomtech-turning/tool_wear_tools_3-10.csv");
+    if !path.exists() {
+        println!("skip: {} not found", path.display());
+        return None;
+    }
+    let (rows, skipped) = read_turning(&path).unwrap();
+    assert_eq!(rows.len() + skipped, 1058);
+    let r = cross_tool(&rows, model).unwrap();
+    assert_eq!(r.len(), 7);
+    let means: Vec<f64> = r.iter().map(|x| x.mean_mape_pct).collect();
+    println!("{}: {:?}", model.label(), means);
+    Some(min_median_max(&means))
+}
+
+#[test]
+fn turning_plain_power_fit_matches_the_known_baseline() {
+    let Some((lo, med, hi)) = medians(TurningModel::Plain) else {
+        return;
+    };
+    // The data README / issue: 5.3–11 %, median about 5.9 %.
+    assert!((5.0..5.6).contains(&lo), "min {lo}");
+    assert!((5.6..6.3).contains(&med), "median {med}");
+    assert!((10.5..11.5).contains(&hi), "max {hi}");
+}
+
+#[test]
+fn turning_power_plus_feed_current_is_below_5_percent() {
+    let Some((_, plain, _)) = medians(TurningModel::Plain) else {
+        return;
+    };
+    let Some((lo, med, hi)) = medians(TurningModel::FeedCurrent) else {
+        return;
+    };
+    assert!(med < 5.0, "median MAPE {med} %");
+    assert!(med < 0.7 * plain, "fusion {med} % vs plain {plain} %");
+    assert!(hi < 5.5 && lo > 2.0, "range {lo}..{hi}");
+}
+
+#[test]
+fn wax_gives_no_force_above_the_noise_floor() {
+    let Some(d) = data() else {
+        return;
+    };
+    let dir = d.join("umich-cnc-mill");
+    let mut exps = Vec::new();
+    for k in 1..=12 {
+        let p = dir.join(format!("experiment_{k:02}.csv"));
+        if p.exists() {
+            exps.push(read_mill(&p).unwrap());
+        }
+    }
+    if exps.is_empty() {
+        println!("skip: no wax experiments in {}", dir.display());
+        return;
+    }
+    let w = wax_check(&exps, WaxSetup::default()).unwrap();
+    println!("{w:?}");
+    // About 175 W of no-load loss and ≈ 19 W of period-to-period noise (data README).
+    assert!(
+        (160.0..195.0).contains(&w.no_load_power_w),
+        "{}",
+        w.no_load_power_w
+    );
+    assert!(
+        (10.0..30.0).contains(&w.sigma_power_w),
+        "{}",
+        w.sigma_power_w
+    );
+    assert!(w.valid_cut_periods > 3000);
+    // A 3σ floor: at most ~1 % of the cutting periods may cross it (noise tails), and the
+    // mean over the cut stays far below it.
+    let share = w.above_floor as f64 / w.valid_cut_periods as f64;
+    assert!(
+        share < 0.01,
+        "{} of {} above the floor",
+        w.above_floor,
+        w.valid_cut_periods
+    );
+    assert!(
+        w.mean_force_n.abs() < 0.2 * w.noise_floor_n,
+        "mean {} N",
+        w.mean_force_n
+    );
+}
