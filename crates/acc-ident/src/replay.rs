@@ -197,11 +197,30 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
                 let t_start = inp.t_s[i] - inp.dt_s[i];
                 let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
                 for j in 0..SUBSTEPS {
-                    let tm = t_start + (j as f64 + 0.5) * h - delay_s;
-                    while k + 1 < n && inp.t_s[k + 1] <= tm {
+                    // Mean command over the sub-step, in delayed time [lo, hi): the command
+                    // is piecewise constant, switching at the logged row times.
+                    let lo = t_start + j as f64 * h - delay_s;
+                    let hi = lo + h;
+                    while k + 1 < n && inp.t_s[k + 1] <= lo {
                         k += 1;
                     }
-                    let u = if inp.t_s[k] <= tm { cmd[k] } else { cmd[0] };
+                    let mut u = 0.0;
+                    let mut from = lo;
+                    let mut kk = k;
+                    while from < hi {
+                        let val = if inp.t_s[kk] <= from { cmd[kk] } else { cmd[0] };
+                        let (to, next) = if inp.t_s[kk] > from {
+                            (inp.t_s[kk].min(hi), kk)
+                        } else if kk + 1 < n {
+                            (inp.t_s[kk + 1].min(hi), kk + 1)
+                        } else {
+                            (hi, kk)
+                        };
+                        u += val * (to - from);
+                        from = to;
+                        kk = next;
+                    }
+                    let u = u / h;
                     f = a * f + (1.0 - a) * u;
                     sum += f;
                     if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {

@@ -176,7 +176,7 @@ pub struct Report {
     pub schema_version: u32,
     /// Input description.
     pub input: InputInfo,
-    /// Noise of the channel (detrended air and steady-cut stretches).
+    /// Noise of the channel (differenced air and steady-cut stretches, AR(1)).
     pub noise: Noise,
     /// Locate step.
     pub locate: Locate,
@@ -222,7 +222,7 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "Noise (detrended air and steady-cut stretches): σ = {:.4} {u}, AR(1) ρ = {:.3}, {} samples.\n",
+            "Noise (differenced air and steady-cut stretches, AR(1)): σ = {:.4} {u}, AR(1) ρ = {:.3}, {} samples.\n",
             self.noise.sigma, self.noise.rho, self.noise.samples
         );
         let _ = writeln!(s, "## Sealed final part (never seen by selection)\n");

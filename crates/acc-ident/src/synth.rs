@@ -326,3 +326,94 @@ pub fn value_for_enr(case: &Case, kind: EffectKind, enr: f64, seed: u64) -> f64 
     }
     sgn * 0.5 * (lo + hi)
 }
+
+/// What one synthetic run gave, judged against its hidden truth.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// Effects named (accepted, not ambiguous).
+    pub named: Vec<EffectKind>,
+    /// Ambiguous pairs.
+    pub ambiguous: Vec<(EffectKind, EffectKind)>,
+    /// An unexplained residual was reported.
+    pub unexplained: bool,
+    /// Exactly the hidden effects were named, nothing else, no ambiguity.
+    pub exact: bool,
+    /// For each hidden effect: its 95 % interval covers the true value (None: not named).
+    pub covered: Vec<Option<bool>>,
+    /// Sealed-part RMS of the nominal model, the updated model and the true model.
+    pub rms_nominal: f64,
+    /// Updated model's sealed RMS.
+    pub rms_updated: f64,
+    /// True model's sealed RMS (the noise).
+    pub rms_true: f64,
+    /// `(nominal − updated)/(nominal − true)` on the sealed part (1 = as good as the truth).
+    pub gap_closed: f64,
+}
+
+/// Generate a log with `hidden`, run the workflow, judge the result.
+pub fn evaluate(
+    case: &Case,
+    hidden: &[Hidden],
+    seed: u64,
+    opts: &crate::workflow::Options,
+) -> Result<Outcome, crate::workflow::WorkflowError> {
+    let (model, log, clean) = generate(case, hidden, seed);
+    let a = crate::workflow::analyse(&model, &log, opts)?;
+    let r = &a.report;
+    let named: Vec<EffectKind> = r
+        .accepted
+        .iter()
+        .filter_map(|n| EffectKind::from_name(n))
+        .collect();
+    let ambiguous: Vec<(EffectKind, EffectKind)> = r
+        .ambiguous
+        .iter()
+        .filter_map(|p| {
+            Some((
+                EffectKind::from_name(&p.effects[0])?,
+                EffectKind::from_name(&p.effects[1])?,
+            ))
+        })
+        .collect();
+    let mut want: Vec<EffectKind> = hidden.iter().map(|h| h.kind).collect();
+    want.sort();
+    let mut got = named.clone();
+    got.sort();
+    let exact = got == want && ambiguous.is_empty();
+    let covered = hidden
+        .iter()
+        .map(|h| {
+            let key = format!("{}.{}", h.kind.name(), h.kind.params()[0].key);
+            r.updated_params
+                .iter()
+                .find(|p| p.name == key && named.contains(&h.kind))
+                .map(|p| p.ci_low <= h.value && h.value <= p.ci_high)
+        })
+        .collect();
+    let measured = match case.channel {
+        Channel::Power => log.power_w.unwrap_or_default(),
+        Channel::Force => log.force_n.unwrap_or_default(),
+    };
+    let from = r.input.selection_rows;
+    let e: Vec<f64> = (from..measured.len())
+        .map(|i| measured[i] - clean[i])
+        .collect();
+    let rms_true = crate::stats::rms(&e);
+    let (rn, ru) = (r.sealed.nominal.rms, r.sealed.updated.rms);
+    let gap_closed = if rn - rms_true > 1e-12 {
+        (rn - ru) / (rn - rms_true)
+    } else {
+        1.0
+    };
+    Ok(Outcome {
+        named,
+        ambiguous,
+        unexplained: r.unexplained.is_some(),
+        exact,
+        covered,
+        rms_nominal: rn,
+        rms_updated: ru,
+        rms_true,
+        gap_closed,
+    })
+}

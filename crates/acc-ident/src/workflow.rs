@@ -208,7 +208,7 @@ impl Ctx<'_> {
     }
 }
 
-/// Noise from the detrended air and steady-cut stretches of `residual` (rows `0..n`);
+/// Noise from the differenced air and steady-cut stretches of `residual` (rows `0..n`);
 /// falls back to 50-row chunks of the whole residual if there are none.
 ///
 /// The result is floored at the resolution of the measured data (`floor`, the σ of
@@ -243,12 +243,12 @@ fn noise_raw(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
         .filter(|s| s.end - s.start >= 8)
         .map(|s| &residual[s.start..s.end])
         .collect();
-    let nz = stats::pooled_noise(&stretches);
+    let nz = stats::pooled_noise_diff(&stretches);
     if nz.samples >= 30 && nz.sigma > 0.0 {
         return nz;
     }
     let chunks: Vec<&[f64]> = residual[..n].chunks(50).collect();
-    stats::pooled_noise(&chunks)
+    stats::pooled_noise_diff(&chunks)
 }
 
 fn signals(inp: &Inputs, nominal: &crate::replay::Replay) -> Vec<(String, Vec<f64>)> {
