@@ -205,32 +205,15 @@ fn frozen_sample_seq_of_the_standin_is_stale() {
 
 // ------------------------------------------------------------------ mbpoll
 
-/// Run mbpoll on `path` (RTU, slave 1, 19 200 8N1, PDU addressing, one poll, 1 s timeout).
-fn mbpoll(path: &str, args: &[&str]) -> (bool, String) {
+/// Run mbpoll on `path` (RTU, slave 1, 19 200 8N1, PDU addressing, one poll, 1 s timeout)
+/// with `args`; `values` (if any) are written.
+fn mbpoll_run(path: &str, args: &[&str], values: &[&str]) -> (bool, String) {
     let out = Command::new("mbpoll")
         .args([
-            "-m", "rtu", "-a", "1", "-b", "19200", "-P", "none", "-d", "8", "-s", "1", "-0", "-1",
-            "-o", "1",
+            "-m", "rtu", "-a", "1", "-b", "19200", "-P", "none", "-d", "8", "-s", "1",
         ])
+        .args(["-0", "-1", "-o", "1"])
         .args(args)
-        .arg(path)
-        .output()
-        .expect("run mbpoll");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    (out.status.success(), text)
-}
-
-fn mbpoll_write(path: &str, reg: &str, values: &[&str]) -> (bool, String) {
-    let out = Command::new("mbpoll")
-        .args([
-            "-m", "rtu", "-a", "1", "-b", "19200", "-P", "none", "-d", "8", "-s", "1", "-0", "-1",
-            "-o", "1",
-        ])
-        .args(["-t", "4", "-r", reg])
         .arg(path)
         .args(values)
         .output()
@@ -241,6 +224,15 @@ fn mbpoll_write(path: &str, reg: &str, values: &[&str]) -> (bool, String) {
         String::from_utf8_lossy(&out.stderr)
     );
     (out.status.success(), text)
+}
+
+fn mbpoll(path: &str, args: &[&str]) -> (bool, String) {
+    mbpoll_run(path, args, &[])
+}
+
+/// Write holding registers from `reg` (one value: FC06, several: FC16).
+fn mbpoll_write(path: &str, reg: &str, values: &[&str]) -> (bool, String) {
+    mbpoll_run(path, &["-t", "4", "-r", reg], values)
 }
 
 /// Values of mbpoll's `[ref]: value` lines, in order.

@@ -134,6 +134,16 @@ pub struct RtuSettings {
     pub watchdog_ms: u16,
 }
 
+/// `prefix.key`, or `key` without a prefix.
+pub(crate) fn dotted(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_string()
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
+/// Check `lo <= value <= hi` for an integer key; the error names file, key and range.
 pub(crate) fn int_in(
     file: &Path,
     key: &str,
@@ -186,13 +196,7 @@ impl RtuConfig {
         prefix: &str,
     ) -> Result<RtuSettings, ConfigError> {
         let file = file.as_ref();
-        let key = |k: &str| {
-            if prefix.is_empty() {
-                k.to_string()
-            } else {
-                format!("{prefix}.{k}")
-            }
-        };
+        let key = |k: &str| dotted(prefix, k);
         let invalid = |k: &str, message: String| ConfigError::Invalid {
             file: file.to_path_buf(),
             key: key(k),

@@ -7,7 +7,6 @@
 //! | `0x280 + n` | board → PC, with the frame above | `SPINDLE_RPM` u16, `SAMPLE_SEQ` u16, `PROGRAMMED_FEED` u16, reserved u16 |
 //! | `0x200 + n` | PC → board, every cycle | `OVERRIDE_CMD` u8, `CONTROL` u8, `HEARTBEAT` u16 |
 
-use crate::board::status_bits;
 use crate::{BoardStatus, ControlBits};
 
 /// Base id of the first status frame (`0x180 + n`).
@@ -100,23 +99,19 @@ pub fn decode_status(ids: NodeIds, a: &[u8], b: &[u8]) -> Result<BoardStatus, Ca
         expected: 8,
         received: b.len(),
     })?;
-    let st = u16::from(a[0]);
-    Ok(BoardStatus {
-        acc_switch: st & status_bits::ACC_SWITCH != 0,
-        acc_active: st & status_bits::ACC_ACTIVE != 0,
-        cycle_active: st & status_bits::CYCLE_ACTIVE != 0,
-        feed_hold_active: st & status_bits::FEED_HOLD_ACTIVE != 0,
-        watchdog_tripped: st & status_bits::WATCHDOG_TRIPPED != 0,
-        override_locked: st & status_bits::OVERRIDE_LOCKED != 0,
-        cnc_alarm: st & status_bits::CNC_ALARM != 0,
-        override_applied_pct: u16::from(a[1]),
-        operator_override_pct: u16::from(a[2]),
-        override_step_pct: u16::from(a[3]),
-        spindle_power_w: u32::from_le_bytes([a[4], a[5], a[6], a[7]]),
-        spindle_rpm: u16::from_le_bytes([b[0], b[1]]),
-        sample_seq: u16::from_le_bytes([b[2], b[3]]),
-        programmed_feed_mm_min: u16::from_le_bytes([b[4], b[5]]),
-    })
+    let power = u32::from_le_bytes([a[4], a[5], a[6], a[7]]);
+    let regs = [
+        u16::from(a[0]),
+        u16::from(a[1]),
+        u16::from(a[2]),
+        u16::from(a[3]),
+        (power >> 16) as u16,
+        (power & 0xFFFF) as u16,
+        u16::from_le_bytes([b[0], b[1]]),
+        u16::from_le_bytes([b[2], b[3]]),
+        u16::from_le_bytes([b[4], b[5]]),
+    ];
+    Ok(BoardStatus::from_input_registers(&regs))
 }
 
 /// The PC → board command (`0x200+n`).

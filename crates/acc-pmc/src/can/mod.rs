@@ -357,13 +357,7 @@ impl CanConfig {
         prefix: &str,
     ) -> Result<CanLinkConfig, acc_config::ConfigError> {
         let file = file.as_ref();
-        let key = |k: &str| {
-            if prefix.is_empty() {
-                k.to_string()
-            } else {
-                format!("{prefix}.{k}")
-            }
-        };
+        let key = |k: &str| crate::serial::dotted(prefix, k);
         if self.iface.trim().is_empty() {
             return Err(acc_config::ConfigError::Invalid {
                 file: file.to_path_buf(),
