@@ -1,6 +1,38 @@
 //! `acc-pmc`: the PMC interface trait, the board register map (`../shared/docs/pmc-board.md`),
 //! and the Modbus RTU and CAN links.
 //!
+//! | module | what |
+//! | --- | --- |
+//! | [`board`] | the board as a pure state machine ([`board::BoardLogic`]): registers, `ACC_ACTIVE`, watchdog (time passed in), exceptions; [`BoardStatus`] ⇄ registers |
+//! | [`rtu`] | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]), client [`rtu::RtuBoard`] (implements [`Pmc`]), server [`rtu::RtuServer`] |
+//! | [`serial`] | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
+//! | [`can`] | CAN variant: pure frame codec, [`can::CanBoard`] over any `embedded_can::blocking::Can`, in-memory board bus |
+//! | [`fault`] | fault injection on a client's byte stream (corrupt CRC, drop, delay, garbage) |
+//! | [`loopback`] | an emulated board on a pty pair ([`loopback::PtyBoard`]), UART pacing |
+//! | [`stale`], [`clock`] | `SAMPLE_SEQ` staleness; injected clocks |
+//!
+//! One controller cycle, here on the in-memory CAN bus (the RTU link reads the same):
+//!
+//! ```
+//! use acc_pmc::board::{lock_board, BoardLogic};
+//! use acc_pmc::can::{emulator::CanBoardEmulator, CanBoard, CanLinkConfig};
+//! use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+//! let mut logic = BoardLogic::default();
+//! logic.set_acc_switch(true);
+//! logic.push_power_sample(3_000);
+//! let board = logic.shared();
+//! let bus = CanBoardEmulator::new(board.clone(), 1).unwrap();
+//! let mut link = CanBoard::new(bus, CanLinkConfig::default()).unwrap();
+//! let status = link.read_status().unwrap();
+//! assert_eq!(status.spindle_power_w, 3_000);
+//! link.write_control(ControlBits { acc_request: true, ..Default::default() }).unwrap();
+//! link.write_override(120, 1).unwrap();
+//! assert_eq!(lock_board(&board).override_applied_pct(), 120);
+//! // The board's step is 10 %: 125 % is refused like exception 03.
+//! let err = link.write_override(125, 2).unwrap_err();
+//! assert_eq!(CanBoard::<CanBoardEmulator>::kind(&err), PmcErrorKind::Exception(3));
+//! ```
+//!
 //! CONTRACT NOTE: the names in this file are shared with the simulator and runtime crates.
 //! Add, but do not rename.
 #![deny(missing_docs)]
