@@ -29,7 +29,18 @@ pub struct CompareArgs {
 
 /// Run every law of [`LawKind::ALL`] on `sc`.
 pub fn compare(sc: &Scenario) -> anyhow::Result<Vec<(RunResult, Summary)>> {
-    LawKind::ALL.iter().map(|&k| Ok(sc.run_law(k)?)).collect()
+    LawKind::ALL
+        .iter()
+        .map(|&k| {
+            let (mut r, mut s) = sc.run_law(k)?;
+            if k == LawKind::Ours {
+                // The scenario's own preset may itself be a baseline (the paper's fixed gains).
+                r.law = format!("ours:{}", r.law);
+                s.law.clone_from(&r.law);
+            }
+            Ok((r, s))
+        })
+        .collect()
 }
 
 /// Run `acc compare`.
