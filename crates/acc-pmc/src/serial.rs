@@ -540,7 +540,10 @@ mod tests {
 
     #[test]
     fn pty_refusing_even_parity_is_a_clear_error() {
-        let (_master, slave) = TTYPort::pair().expect("pty pair");
+        let (mut master, slave) = TTYPort::pair().expect("pty pair");
+        master
+            .set_timeout(Duration::from_millis(20))
+            .expect("timeout");
         let path = slave.name().expect("pty name");
         let mut cfg = RtuConfig::for_port(&path);
         cfg.parity = "even".into();
@@ -556,6 +559,12 @@ mod tests {
             // A kernel whose ptys keep PARENB passes verification: then it really is even.
             Ok(port) => assert_eq!(port.parity().ok(), Some(Parity::Even)),
         }
+        // Nothing reached the board's end of the line.
+        let mut buf = [0u8; 16];
+        assert!(
+            std::io::Read::read(&mut master, &mut buf).is_err(),
+            "no byte may be sent"
+        );
         cfg.parity = "none".into();
         let s = cfg.validate("m.toml", "board").expect("valid");
         assert!(open_port(&s).is_ok());

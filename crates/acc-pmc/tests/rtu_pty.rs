@@ -9,7 +9,7 @@ use acc_pmc::fault::{Fault, FaultInjector, FaultyStream};
 use acc_pmc::loopback::PtyBoard;
 use acc_pmc::rtu::codec::append_crc;
 use acc_pmc::rtu::{RtuBoard, RtuError, RtuLinkConfig};
-use acc_pmc::serial::POLL_SLICE;
+use acc_pmc::serial::{open_rtu_board, RtuConfig, POLL_SLICE};
 use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
 use serialport::TTYPort;
 
@@ -94,6 +94,19 @@ fn controller_cycle_drives_the_override() {
     .expect("hold");
     assert!(b.read_status().expect("status").feed_hold_active);
     assert_eq!(b.stats().retries, 0);
+}
+
+#[test]
+fn production_open_path_talks_to_the_emulator_on_its_pty() {
+    let pty = spawn_board();
+    let mut cfg = RtuConfig::for_port(pty.path());
+    cfg.parity = "none".into();
+    cfg.baud = 115_200;
+    let settings = cfg.validate("sim.toml", "board").expect("valid");
+    let mut b = open_rtu_board(&settings).expect("open the pty by path");
+    b.write_watchdog_ms(settings.watchdog_ms).expect("watchdog");
+    let s = b.read_status().expect("status");
+    assert_eq!((s.override_step_pct, s.spindle_power_w), (10, 5_000));
 }
 
 #[test]
