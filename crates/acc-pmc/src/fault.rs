@@ -13,6 +13,11 @@
 //!   discard);
 //! * [`Fault::Garbage`] puts noise bytes in front of the reply.
 //!
+//! The same faults can be applied on the board's side instead, to every reply an
+//! [`crate::rtu::RtuServer`] sends ([`crate::rtu::RtuServer::set_faults`],
+//! [`crate::loopback::PtyBoard::faults`]): that reaches a client in another process
+//! (`acc run --port <pty>` against `acc board-sim`).
+//!
 //! The injector is `Clone + Send`: keep one handle in the test while the stream is owned
 //! by an [`crate::rtu::RtuBoard`] running in another thread.
 //!
@@ -83,7 +88,7 @@ impl FaultInjector {
         self.with(|s| s.queue.clear());
     }
 
-    fn next(&self) -> Option<Fault> {
+    pub(crate) fn next(&self) -> Option<Fault> {
         self.with(|s| {
             let f = s.queue.pop_front();
             if f.is_some() {

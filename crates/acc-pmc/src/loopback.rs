@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 use crate::board::BoardLogic;
+use crate::fault::FaultInjector;
 use crate::rtu::server::{lock_board, RtuServer, ServerStats, SharedBoard};
 use crate::serial::configure_pty;
 
@@ -36,6 +37,7 @@ pub struct PtyBoard {
     thread: Option<JoinHandle<std::io::Result<ServerStats>>>,
     client: Option<TTYPort>,
     path: String,
+    faults: FaultInjector,
 }
 
 impl PtyBoard {
@@ -64,14 +66,17 @@ impl PtyBoard {
             .name()
             .ok_or_else(|| std::io::Error::other("pty slave has no device path"))?;
         let stop = Arc::new(AtomicBool::new(false));
+        let faults = FaultInjector::default();
         let stream = wrap(master);
         let thread = {
             let board = Arc::clone(&board);
             let stop = Arc::clone(&stop);
+            let faults = faults.clone();
             std::thread::Builder::new()
                 .name("pty-board".into())
                 .spawn(move || {
                     let mut server = RtuServer::new(stream, slave, board);
+                    server.set_faults(faults);
                     server.run(&stop)?;
                     Ok(server.stats())
                 })?
@@ -82,6 +87,7 @@ impl PtyBoard {
             thread: Some(thread),
             client: Some(client),
             path,
+            faults,
         })
     }
 
@@ -95,6 +101,11 @@ impl PtyBoard {
     /// `None` after the first call.
     pub fn take_client_port(&mut self) -> Option<TTYPort> {
         self.client.take()
+    }
+
+    /// Faults applied to the board's replies (see [`crate::fault`]); empty by default.
+    pub fn faults(&self) -> &FaultInjector {
+        &self.faults
     }
 
     /// The served board (shared with the server thread).

@@ -280,6 +280,30 @@ fn retries_stay_within_the_budget() {
 }
 
 #[test]
+fn board_side_faults_reach_a_client_that_only_has_the_device_path() {
+    let mut pty = spawn_board();
+    let mut b = link(&mut pty, cfg(60, 0, 200));
+    pty.faults().push(Fault::CorruptCrc);
+    assert_eq!(b.read_status().expect_err("crc").kind(), PmcErrorKind::Crc);
+    pty.faults().push(Fault::DropReply);
+    assert_eq!(
+        b.write_override(100, 1).expect_err("dropped").kind(),
+        PmcErrorKind::Timeout
+    );
+    pty.faults()
+        .push(Fault::DelayReply(Duration::from_millis(150)));
+    assert_eq!(
+        b.read_status().expect_err("late").kind(),
+        PmcErrorKind::Timeout
+    );
+    std::thread::sleep(Duration::from_millis(200));
+    b.write_override(110, 2)
+        .expect("late reply drained, link clean");
+    assert_eq!(pty.with_board(|l| l.override_cmd_pct()), 110);
+    assert_eq!(pty.faults().applied(), 3);
+}
+
+#[test]
 fn garbage_before_the_reply_is_survived() {
     let mut pty = spawn_board();
     let (mut b, faults) = faulty_link(&mut pty, cfg(200, 1, 1000));

@@ -19,6 +19,7 @@ use super::codec::crc_ok;
 use super::{is_idle, LinkClock, MonotonicClock};
 pub use crate::board::{lock_board, SharedBoard};
 use crate::board::{Exception, Reply, Request};
+use crate::fault::{Fault, FaultInjector};
 
 /// Counters of the server since it was created.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -43,6 +44,7 @@ pub struct RtuServer<P: Read + Write> {
     clock: Box<dyn LinkClock>,
     buf: Vec<u8>,
     stats: ServerStats,
+    faults: Option<FaultInjector>,
 }
 
 impl<P: Read + Write> std::fmt::Debug for RtuServer<P> {
@@ -70,7 +72,14 @@ impl<P: Read + Write> RtuServer<P> {
             clock,
             buf: Vec::with_capacity(512),
             stats: ServerStats::default(),
+            faults: None,
         }
+    }
+
+    /// Apply queued [`Fault`]s to the replies this server sends (one fault per reply:
+    /// corrupt a CRC byte, drop the reply, send it late, or send garbage before it).
+    pub fn set_faults(&mut self, faults: FaultInjector) {
+        self.faults = Some(faults);
     }
 
     /// The served board (lock it with [`lock_board`]).
@@ -231,9 +240,20 @@ impl<P: Read + Write> RtuServer<P> {
         if mf.finalize_response().is_err() {
             return Ok(0);
         }
+        self.stats.requests += 1;
+        match self.faults.as_ref().and_then(FaultInjector::next) {
+            Some(Fault::DropReply) => return Ok(0),
+            Some(Fault::CorruptCrc) => {
+                if let Some(b) = response.get_mut(3) {
+                    *b ^= 0x01;
+                }
+            }
+            Some(Fault::DelayReply(d)) => std::thread::sleep(d),
+            Some(Fault::Garbage(g)) => self.port.write_all(&g)?,
+            None => {}
+        }
         self.port.write_all(&response)?;
         self.port.flush()?;
-        self.stats.requests += 1;
         if is_exception {
             self.stats.exceptions += 1;
         }
