@@ -46,6 +46,9 @@ pub enum SimError {
     /// The simulated board answered with a Modbus exception.
     #[error("board: {0}")]
     Board(#[from] acc_pmc::board::Exception),
+    /// The measurement channel could not be built (e.g. its calibration cut failed).
+    #[error("measurement channel: {0}")]
+    Channel(String),
     /// Writing the run log failed.
     #[error(transparent)]
     Log(#[from] runlog::RunLogError),

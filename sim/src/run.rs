@@ -61,7 +61,7 @@ pub fn run<W: Write>(
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let mut board = scenario.build_board();
-    let mut channel = scenario.build_channel();
+    let mut channel = scenario.build_channel()?;
     board.write_control(ControlBits {
         acc_request: true,
         ..ControlBits::default()

@@ -34,6 +34,10 @@ pub enum MeasurementSpec {
         #[serde(default = "default_window")]
         window_s: f64,
     },
+    /// Spindle power: the induction-motor model's three-phase signals (or the board's power
+    /// value) read by a spindle force estimator calibrated against a simulated dynamometer
+    /// cut at start-up (`crate::motor::SpindlePowerChannel::calibrated`).
+    SpindlePower(crate::motor::SpindlePowerSpec),
 }
 
 fn default_noise() -> f64 {
@@ -67,6 +71,18 @@ impl MeasurementSpec {
                 check_range(path, "measurement.lowpass_hz", lowpass_hz, 0.0, 1e4)?;
                 check_range(path, "measurement.window_s", window_s, 0.0, 10.0)?;
             }
+            MeasurementSpec::SpindlePower(spec) => {
+                check_range(path, "measurement.window_s", spec.window_s, 0.0, 10.0)?;
+                for (i, l) in spec.calibration_levels.iter().enumerate() {
+                    check_range(
+                        path,
+                        &format!("measurement.calibration_levels[{i}]"),
+                        *l,
+                        0.01,
+                        10.0,
+                    )?;
+                }
+            }
         }
         Ok(())
     }
@@ -76,6 +92,9 @@ impl MeasurementSpec {
         match *self {
             MeasurementSpec::Dynamometer { window_s, .. } => {
                 check_range(path, "measurement.window_s", window_s, 0.0, period_s)?;
+            }
+            MeasurementSpec::SpindlePower(spec) => {
+                check_range(path, "measurement.window_s", spec.window_s, 0.0, period_s)?;
             }
         }
         Ok(())
@@ -153,6 +172,19 @@ pub struct ScenarioFile {
 
 fn default_max_time() -> f64 {
     600.0
+}
+
+/// A file named by scenario key `key` could not be read: say which key named it. Errors
+/// inside the named file already name that file and its key, and pass through unchanged.
+fn named(scenario: &Path, key: &str, e: ConfigError) -> ConfigError {
+    match e {
+        ConfigError::Io { .. } => ConfigError::Invalid {
+            file: scenario.to_path_buf(),
+            key: key.to_string(),
+            message: e.to_string(),
+        },
+        other => other,
+    }
 }
 
 /// A loaded, validated scenario.
@@ -241,11 +273,12 @@ impl Scenario {
         check_range(path, "max_time_s", file.max_time_s, 0.1, 86_400.0)?;
         check_range(path, "summary.settle_s", file.summary.settle_s, 0.0, 600.0)?;
         file.measurement.validate(path)?;
-        let machine = MachineSpec::load(resolve_relative(path, &file.machine))?;
+        let machine = MachineSpec::load(resolve_relative(path, &file.machine))
+            .map_err(|e| named(path, "machine", e))?;
         let tool_path = resolve_relative(path, &file.tool);
-        let tool = ToolSpec::load(&tool_path)?;
+        let tool = ToolSpec::load(&tool_path).map_err(|e| named(path, "tool", e))?;
         let wp_path = resolve_relative(path, &file.workpiece);
-        let workpiece = Workpiece::load(&wp_path)?;
+        let workpiece = Workpiece::load(&wp_path).map_err(|e| named(path, "workpiece", e))?;
         workpiece.check_tool(&wp_path, tool.diameter_mm)?;
         let wear = match file.wear {
             Some(w) => {
@@ -254,7 +287,8 @@ impl Scenario {
             }
             None => tool.wear,
         };
-        let controller = load_preset(&resolve_relative(path, &file.controller))?;
+        let controller = load_preset(&resolve_relative(path, &file.controller))
+            .map_err(|e| named(path, "controller", e))?;
         let board_step = machine.override_path.step_pct;
         if controller.override_spec.step_pct % board_step != 0 {
             return Err(ConfigError::Invalid {
@@ -336,9 +370,10 @@ impl Scenario {
         SimBoard::new(machine, self.machine.override_path.step_pct)
     }
 
-    /// A fresh measurement channel seeded with the scenario's seed.
-    pub fn build_channel(&self) -> Box<dyn MeasurementChannel> {
-        match self.measurement {
+    /// A fresh measurement channel seeded with the scenario's seed (a spindle-power
+    /// channel is calibrated here, as it would be commissioned).
+    pub fn build_channel(&self) -> Result<Box<dyn MeasurementChannel>, SimError> {
+        Ok(match self.measurement {
             MeasurementSpec::Dynamometer {
                 noise_n,
                 lowpass_hz,
@@ -347,7 +382,21 @@ impl Scenario {
                 Dynamometer::new(noise_n, lowpass_hz, self.seed),
                 window_s,
             )),
-        }
+            MeasurementSpec::SpindlePower(spec) => {
+                let law = crate::process::ForceLaw::new(self.tool.process);
+                let channel = crate::motor::SpindlePowerChannel::calibrated(
+                    &spec,
+                    self.seed,
+                    self.machine.spindle.rpm,
+                    law.torque_nm(1.0, self.tool.radius_mm()),
+                    self.controller.force_ref_n,
+                    self.tool.radius_mm(),
+                    self.controller.period_s,
+                )
+                .map_err(|e| SimError::Channel(e.to_string()))?;
+                Box::new(channel)
+            }
+        })
     }
 
     /// Build one of the laws on this scenario's period, reference and board.
