@@ -80,6 +80,10 @@ pub struct BoardSimArgs {
     /// Time to keep serving after the workpiece is finished with `--exit-when-done`, s.
     #[arg(long, default_value_t = 0.5)]
     pub linger_s: f64,
+    /// Hold the machine at t = 0 until the controller sets `ACC_REQUEST` (so that machine
+    /// time and the controller's time share their origin).
+    #[arg(long)]
+    pub wait_for_controller: bool,
 }
 
 /// A fault on the replies the board sends.
@@ -332,6 +336,12 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         None => None,
     };
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
+    if args.wait_for_controller {
+        while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        eprintln!("board-sim: controller connected (ACC_REQUEST set); machine time starts");
+    }
     let mut ticker = Ticker::new(
         SystemClock::new(),
         Duration::from_secs_f64(period_s / args.time_scale),
@@ -430,6 +440,17 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         st.jitter.summary(),
         st.overruns
     );
+    {
+        let b = lock_board(&board);
+        let st = b.status();
+        eprintln!(
+            "board-sim: final ACC_REQUEST={} ACC_ACTIVE={} OVERRIDE_APPLIED={} WATCHDOG_TRIPPED={}",
+            u8::from(b.control().acc_request),
+            u8::from(st.acc_active),
+            st.override_applied_pct,
+            u8::from(st.watchdog_tripped)
+        );
+    }
     stop_server.store(true, Ordering::SeqCst);
     if let Some(p) = pty {
         let s = p.stop()?;

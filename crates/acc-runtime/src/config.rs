@@ -54,6 +54,8 @@ pub struct PolicySection {
     pub max_power_w: Option<f64>,
     /// See [`PolicyConfig::nominal_feed_mm_min`].
     pub nominal_feed_mm_min: Option<f64>,
+    /// See [`PolicyConfig::hold_on_raising_release`].
+    pub hold_on_raising_release: Option<bool>,
 }
 
 /// `[runtime]`: loop options.
@@ -178,6 +180,9 @@ impl RunConfig {
             operator_handback_pct: p.operator_handback_pct.unwrap_or(d.operator_handback_pct),
             max_power_w: p.max_power_w.unwrap_or(d.max_power_w),
             nominal_feed_mm_min: p.nominal_feed_mm_min.unwrap_or(d.nominal_feed_mm_min),
+            hold_on_raising_release: p
+                .hold_on_raising_release
+                .unwrap_or(d.hold_on_raising_release),
         };
         policy.validate().map_err(|e| ConfigError::OutOfRange {
             file: path.to_path_buf(),

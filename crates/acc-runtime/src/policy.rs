@@ -23,8 +23,11 @@
 //!   alarm, latch. A latched policy re-arms only after the operator's switch has been seen
 //!   off and then on again; re-arming writes `ALARM_RESET` if the watchdog is still tripped.
 //! - **Overload**: force above `overload_force_n` for at least `overload_time_s` → feed-hold
-//!   request and alarm, release and latch (tool-breakage protection). The feed-hold request
-//!   stays until the operator's switch changes position.
+//!   request and alarm, release and latch (tool-breakage protection).
+//! - **A fault release never raises the feed**: handing the override back to the operator
+//!   moves the board to `OPERATOR_OVERRIDE`; if that knob is above ACC's last command, the
+//!   release also requests feed hold (`hold_on_raising_release`, default on). Every feed-hold
+//!   request stays until the operator re-arms ACC (switch off, then on).
 //! - **`OVERRIDE_LOCKED`** (tapping, threading, override cancel): the law is frozen
 //!   ([`OverrideLaw::set_frozen`]) and not stepped; the last command is held, never fought.
 //! - **Operator knob down** by more than `operator_handback_pct` from its highest position
@@ -67,6 +70,9 @@ pub struct PolicyConfig {
     /// Feed assumed when the board reports `PROGRAMMED_FEED` = 0 (unknown), mm/min
     /// (default 200, the paper's nominal feed).
     pub nominal_feed_mm_min: f64,
+    /// On a fault release, request feed hold if the operator's knob is above the last
+    /// command, so that handing the override back never raises the feed (default true).
+    pub hold_on_raising_release: bool,
 }
 
 impl Default for PolicyConfig {
@@ -84,6 +90,7 @@ impl Default for PolicyConfig {
             operator_handback_pct: 10,
             max_power_w: 30_000.0,
             nominal_feed_mm_min: 200.0,
+            hold_on_raising_release: true,
         }
     }
 }
@@ -401,7 +408,7 @@ pub struct FaultPolicy {
     state: AccState,
     alarms: Alarms,
     feed_hold: bool,
-    feed_hold_switch: bool,
+    last_operator_pct: Option<u16>,
     last_cmd: Option<u16>,
     link_failures: u32,
     invalid_count: u32,
@@ -426,7 +433,7 @@ impl FaultPolicy {
             state: AccState::Idle,
             alarms: Alarms::default(),
             feed_hold: false,
-            feed_hold_switch: false,
+            last_operator_pct: None,
             last_cmd: None,
             link_failures: 0,
             invalid_count: 0,
@@ -501,6 +508,22 @@ impl FaultPolicy {
         } else {
             AccState::Idle
         };
+        let fault = !matches!(
+            why,
+            Release::SwitchOff | Release::OperatorHandback | Release::Shutdown | Release::Overload
+        );
+        let raising = match (self.last_operator_pct, self.last_cmd) {
+            (Some(op), Some(cmd)) => op > cmd,
+            _ => true,
+        };
+        if fault && raising && self.cfg.hold_on_raising_release && !self.feed_hold {
+            self.feed_hold = true;
+            out.events.push(Event::FeedHold(true));
+            tracing::warn!(
+                reason = why.as_str(),
+                "feed hold: the operator's override is above ACC's last command"
+            );
+        }
         match why {
             Release::LinkLost => self.alarms.link_lost = true,
             Release::PowerInvalid => self.alarms.power_invalid = true,
@@ -583,7 +606,10 @@ impl FaultPolicy {
         let power_ok = f
             .power_w
             .is_none_or(|p| p.is_finite() && p >= 0.0 && p <= self.cfg.max_power_w);
+        let board_power_ok =
+            status.is_none_or(|s| f64::from(s.spindle_power_w) <= self.cfg.max_power_w);
         let force_valid = status.is_some()
+            && board_power_ok
             && !stale
             && f.valid
             && f.force_n.is_finite()
@@ -608,10 +634,7 @@ impl FaultPolicy {
             if !s.acc_switch {
                 self.switch_seen_off = true;
             }
-            if self.feed_hold && s.acc_switch != self.feed_hold_switch {
-                self.feed_hold = false;
-                out.events.push(Event::FeedHold(false));
-            }
+            self.last_operator_pct = Some(s.operator_override_pct);
             if s.watchdog_tripped || s.override_locked {
                 out.fault = true;
             }
@@ -620,7 +643,6 @@ impl FaultPolicy {
                 let since = *self.overload_since_s.get_or_insert(input.t_s);
                 if input.t_s - since + 1e-9 >= self.cfg.overload_time_s && !self.feed_hold {
                     self.feed_hold = true;
-                    self.feed_hold_switch = s.acc_switch;
                     out.events.push(Event::FeedHold(true));
                     tracing::warn!(force_n = f.force_n, "overload: feed hold requested");
                     out.fault = true;
@@ -666,7 +688,7 @@ impl FaultPolicy {
                 }
             }
             (AccState::Latched(_), Some(s)) => {
-                if self.switch_seen_off && s.acc_switch && clean && !self.feed_hold {
+                if self.switch_seen_off && s.acc_switch && clean {
                     self.arm(s, &mut out, law);
                 }
             }
@@ -681,6 +703,10 @@ impl FaultPolicy {
 
     fn arm<L: OverrideLaw + ?Sized>(&mut self, s: BoardStatus, out: &mut CycleOutput, law: &mut L) {
         let at = self.quantize(s.override_applied_pct, s.override_step_pct);
+        if self.feed_hold {
+            self.feed_hold = false;
+            out.events.push(Event::FeedHold(false));
+        }
         law.engage(FeedOverride(at));
         self.alarm_reset_pulse = s.watchdog_tripped;
         self.alarms = Alarms::default();

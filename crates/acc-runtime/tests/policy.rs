@@ -223,9 +223,69 @@ fn invalid_power_never_raises_the_feed_and_releases_after_n() {
     }
     assert!(released(&recs[4], Release::PowerInvalid));
     assert!(recs[4].out.alarms.power_invalid);
+    // the operator's knob (100 %) is above ACC's last command (90 %): handing back would
+    // raise the feed, so the release requests feed hold
+    assert!(recs[4].out.events.contains(&Event::FeedHold(true)));
+    rig.step();
+    assert!(rig.status().feed_hold_active);
     // the law saw the samples flagged invalid
     assert!(rig.lp.law().seen.iter().rev().take(4).all(|m| !m.valid));
     assert!(rig.lp.law().seen.iter().all(|m| m.force_n.is_finite()));
+}
+
+#[test]
+fn a_fault_release_below_the_operator_knob_does_not_hold() {
+    // ACC at 120 %, operator knob at 100 %: releasing lowers the feed, no hold needed
+    let cfg = PolicyConfig {
+        link_hold_periods: 2,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [120]);
+    rig.run(3);
+    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Timeout), 6);
+    let recs = rig.run(3);
+    assert!(released(&recs[2], Release::LinkLost));
+    assert!(!recs[2].out.control.feed_hold_request);
+    // …and with the hold disabled, a raising release does not hold either
+    let cfg = PolicyConfig {
+        link_hold_periods: 2,
+        hold_on_raising_release: false,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [60]);
+    rig.run(3);
+    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Timeout), 6);
+    let recs = rig.run(3);
+    assert!(released(&recs[2], Release::LinkLost));
+    assert!(!recs[2].out.control.feed_hold_request);
+}
+
+#[test]
+fn implausible_board_power_is_invalid_even_if_the_source_accepts_it() {
+    let mut p = FaultPolicy::new(PolicyConfig::default());
+    let mut law = ScriptedLaw::new([150]);
+    let st = BoardStatus {
+        acc_switch: true,
+        override_applied_pct: 60,
+        operator_override_pct: 100,
+        override_step_pct: 10,
+        spindle_power_w: u32::MAX,
+        ..BoardStatus::default()
+    };
+    let o = p.step(
+        &CycleInput {
+            t_s: 0.0,
+            link: Ok(st),
+            write_error: None,
+            force: ForceSample {
+                force_n: 500.0,
+                power_w: None,
+                valid: true,
+            },
+        },
+        &mut law,
+    );
+    assert!(!o.force_valid);
 }
 
 #[test]
@@ -417,7 +477,8 @@ fn overload_requests_feed_hold_and_alarm() {
     // the operator cycles the switch: feed hold cleared, re-armed
     rig.power_w = 0;
     let (off, on) = rig.cycle_switch();
-    assert!(off.out.events.contains(&Event::FeedHold(false)));
+    assert!(off.out.control.feed_hold_request, "held until re-armed");
+    assert!(on.out.events.contains(&Event::FeedHold(false)));
     assert!(armed(&on));
     rig.step();
     assert!(!rig.status().feed_hold_active);

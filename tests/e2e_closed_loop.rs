@@ -1,0 +1,131 @@
+//! End to end over a real pty pair: `acc run` (production code: config, serial port, RTU
+//! client, threaded runtime, fault policy, controller, spindle-power force source) against
+//! `acc board-sim` (RtuServer + BoardLogic + the simulated machine) on the paper's 2-3-4 mm
+//! workpiece, case III, in closed loop. Both run 4x faster than real time
+//! (`runtime.time_scale = 4`, `--time-scale 4`): T = 0.1 s of machine time every 25 ms,
+//! about 16 s of wall time for the 62 s cut. The simulator's settled-force criterion is
+//! judged on the board-sim's machine-side log with the simulator's own summary.
+
+mod e2e_support;
+
+use std::time::Duration;
+
+use acc_sim::{summarize, RunResult, Scenario};
+use e2e_support::{assert_faults_never_raise, field, read_log, root, Proc};
+
+#[test]
+fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let sim_log = dir.path().join("sim.csv");
+    let run_log = dir.path().join("run.csv");
+    let scenario = root().join("configs/scenarios/paper_case3.toml");
+    let sim_log_s = sim_log.to_string_lossy().to_string();
+    let mut board = Proc::spawn(
+        &[
+            "board-sim",
+            "--scenario",
+            &scenario.to_string_lossy(),
+            "--time-scale",
+            "4",
+            "--baud",
+            "115200",
+            "--wait-for-controller",
+            "--log",
+            &sim_log_s,
+        ],
+        true,
+    );
+    let pty = board
+        .first_line
+        .clone()
+        .expect("board-sim prints the pty path");
+    assert!(pty.starts_with("/dev/"), "pty path, got {pty:?}");
+    let run = Proc::spawn(
+        &[
+            "run",
+            "--config",
+            "configs/runtime/board_sim_fast.toml",
+            "--port",
+            &pty,
+            "--log",
+            &run_log.to_string_lossy(),
+        ],
+        false,
+    );
+    assert!(
+        board.wait_for("workpiece finished", Duration::from_secs(60)),
+        "the workpiece was not finished within 60 s: {:?}",
+        board.err_lines
+    );
+    run.sigint();
+    let (code, out, err) = run.finish(Duration::from_secs(10));
+    assert_eq!(
+        code,
+        Some(0),
+        "acc run exit code; stdout:\n{out}\nstderr:\n{err:?}"
+    );
+    board.sigint();
+    let (bcode, _, berr) = board.finish(Duration::from_secs(10));
+    assert_eq!(bcode, Some(0), "board-sim exit: {berr:?}");
+
+    // The controller's log: complete to the last period, ACC released at the end.
+    let rows = read_log(&run_log);
+    let periods: usize = field(&out, "periods")
+        .and_then(|v| v.parse().ok())
+        .expect("summary line `periods: N`");
+    assert_eq!(rows.len(), periods, "one run-log row per period");
+    assert!(out.contains("shutdown: ACC_REQUEST cleared"), "{out}");
+    assert!(
+        berr.iter()
+            .any(|l| l.contains("final ACC_REQUEST=0 ACC_ACTIVE=0")),
+        "the board saw ACC_REQUEST cleared: {berr:?}"
+    );
+    assert!(rows.iter().filter(|r| r.mode == "adaptive_pi").count() > rows.len() * 9 / 10);
+    assert_faults_never_raise(&rows);
+
+    // The machine's log, judged like `acc sim`.
+    let sc = Scenario::load(&scenario).expect("scenario");
+    let sim_rows = read_log(&sim_log);
+    let result = RunResult {
+        law: "acc run over a pty".into(),
+        finished: true,
+        volume_mm3: 0.0,
+        rows: sim_rows,
+    };
+    let summary = summarize(&result, &sc);
+    let fr = sc.controller.force_ref_n;
+    let mut judged = 0;
+    for seg in summary.segments.iter().filter(|s| s.reaches_ref) {
+        println!(
+            "{}: mean {:.1} N over {} settled periods, osc {:.1} N, override {:.0} %",
+            seg.label,
+            seg.mean_force_n,
+            seg.settled_periods,
+            seg.osc_amplitude_n,
+            seg.mean_override_pct
+        );
+        assert!(
+            (seg.mean_force_n - fr).abs() <= 0.05 * fr,
+            "{}: settled mean force {:.1} N not within ±5 % of {fr} N",
+            seg.label,
+            seg.mean_force_n
+        );
+        assert!(
+            seg.settled_periods >= 20,
+            "{}: too short to judge",
+            seg.label
+        );
+        judged += 1;
+    }
+    assert_eq!(
+        judged, 3,
+        "the 2, 3 and 4 mm segments reach Fr: {summary:?}"
+    );
+    // air cuts run at the maximum override
+    let air = summary
+        .segments
+        .iter()
+        .find(|s| !s.is_cut)
+        .expect("air segment");
+    assert!(air.frac_at_max > 0.5, "air cut at 150 %: {air:?}");
+}

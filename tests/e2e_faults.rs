@@ -1,0 +1,172 @@
+//! Fault injection over a real pty: `acc run` (config `board_sim_faults.toml`: link hold 30
+//! periods) against `acc board-sim` with a schedule of faults on the paper's 2-3-4 mm cut,
+//! 4x faster than real time (T = 0.1 s machine time every 25 ms; ~14 s wall). After each
+//! fault that releases ACC the operator cycles the ACC switch (scheduled on the board).
+//! Then SIGINT mid-cut.
+//!
+//! | machine time | fault | expected |
+//! | --- | --- | --- |
+//! | 6 s | 6 replies with a corrupt CRC | held, no release |
+//! | 9 s | 100 replies dropped (timeouts) | held 30 periods, then `link_lost` |
+//! | 20 s | 10 replies 40 ms late (timeout 15 ms) | held, no release |
+//! | 24 s | `SAMPLE_SEQ` frozen 2 s | stale → `power_invalid` |
+//! | 30 s | power register 0xFFFFFFFF (−1 W) for 1.5 s | `power_invalid` |
+//! | 36 s | board power cycle mid-cut | `board_reset` |
+//! | 41 s | board stalls 0.7 s wall (> WATCHDOG_MS 500) | `watchdog` |
+//! | 49 s | SIGINT to `acc run` | exit 0, ACC_REQUEST cleared, log complete |
+//!
+//! A release whose hand-back would raise the feed (operator knob above ACC's command)
+//! requests feed hold until the operator re-arms; the switch cycles 2–4 s after each fault.
+//!
+//! In every case: in no period with a fault input did the commanded override rise.
+
+mod e2e_support;
+
+use std::time::Duration;
+
+use e2e_support::{assert_faults_never_raise, field, is_active, read_log, root, Proc};
+
+#[test]
+fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run_log = dir.path().join("run.csv");
+    let scenario = root().join("configs/scenarios/paper_case3.toml");
+    let faults = [
+        "crc@6:6",
+        "drop@9:100",
+        "switch@17:off",
+        "switch@17.5:on",
+        "late@20:10",
+        "freeze-seq@24:2",
+        "switch@27:off",
+        "switch@27.5:on",
+        "bad-power@30:1.5",
+        "switch@33:off",
+        "switch@33.5:on",
+        "restart@36",
+        "switch@38:off",
+        "switch@38.5:on",
+        "stall@41:0.7",
+        "switch@45:off",
+        "switch@45.5:on",
+        "operator@49:100",
+    ];
+    let mut args: Vec<String> = [
+        "board-sim",
+        "--scenario",
+        &scenario.to_string_lossy(),
+        "--time-scale",
+        "4",
+        "--baud",
+        "115200",
+        "--late-ms",
+        "40",
+        "--wait-for-controller",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for f in faults {
+        args.push("--fault".into());
+        args.push(f.into());
+    }
+    let argv: Vec<&str> = args.iter().map(String::as_str).collect();
+    let mut board = Proc::spawn(&argv, true);
+    let pty = board.first_line.clone().expect("pty path");
+    let run = Proc::spawn(
+        &[
+            "run",
+            "--config",
+            "configs/runtime/board_sim_faults.toml",
+            "--port",
+            &pty,
+            "--log",
+            &run_log.to_string_lossy(),
+        ],
+        false,
+    );
+    assert!(
+        board.wait_for("fault Operator(100)", Duration::from_secs(60)),
+        "board-sim did not reach t = 49 s: {:?}",
+        board.err_lines
+    );
+    // SIGINT mid-cut (the 3 mm segment).
+    run.sigint();
+    let (code, out, err) = run.finish(Duration::from_secs(10));
+    assert_eq!(
+        code,
+        Some(0),
+        "acc run exit code; stdout:\n{out}\nstderr:\n{err:?}"
+    );
+    board.sigint();
+    let (_, _, berr) = board.finish(Duration::from_secs(10));
+    assert!(
+        berr.iter().any(|l| l.contains("final ACC_REQUEST=0")),
+        "ACC_REQUEST cleared on the board: {berr:?}"
+    );
+    assert!(out.contains("shutdown: ACC_REQUEST cleared"), "{out}");
+
+    let rows = read_log(&run_log);
+    let periods: usize = field(&out, "periods")
+        .and_then(|v| v.parse().ok())
+        .expect("summary line `periods: N`");
+    assert_eq!(rows.len(), periods, "run log complete to the last period");
+    let last = rows.last().expect("rows");
+    assert!(last.t_s > 45.0, "ran to the SIGINT: last t = {}", last.t_s);
+    assert!(
+        is_active(last),
+        "stopped mid-cut while ACC was active: {}",
+        last.mode
+    );
+
+    // The feed was never raised by a fault.
+    let checked = assert_faults_never_raise(&rows);
+    assert!(checked >= 30, "fault periods checked: {checked}");
+
+    // Each releasing fault released with its own reason, in order; the held ones did not.
+    let mut releases: Vec<&str> = Vec::new();
+    for r in &rows {
+        if !is_active(r) && r.mode != "idle" && releases.last() != Some(&r.mode.as_str()) {
+            releases.push(r.mode.as_str());
+        }
+        if is_active(r) {
+            if let Some(l) = releases.last() {
+                if *l != "active" {
+                    releases.push("active");
+                }
+            }
+        }
+    }
+    releases.retain(|m| *m != "active");
+    assert_eq!(
+        releases,
+        vec![
+            "link_lost",
+            "power_invalid",
+            "power_invalid",
+            "board_reset",
+            "watchdog"
+        ],
+        "release reasons in order"
+    );
+    // Re-armed after every switch cycle: ACC active again at the end, and in between.
+    let rearms = rows
+        .windows(2)
+        .filter(|w| !is_active(&w[0]) && is_active(&w[1]))
+        .count();
+    assert!(
+        rearms >= 5,
+        "re-armed by the operator switch after each release: {rearms}"
+    );
+    // Held faults (CRC, late replies) produced invalid periods while ACC stayed active.
+    let held_crc = rows
+        .iter()
+        .filter(|r| (5.0..9.0).contains(&r.t_s) && !r.valid && is_active(r))
+        .count();
+    assert!(held_crc >= 1, "CRC errors held the override");
+    let link = field(&out, "link").unwrap_or("");
+    assert!(
+        !link.contains(" 0 CRC errors"),
+        "CRC errors counted: {link}"
+    );
+}

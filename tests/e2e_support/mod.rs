@@ -1,0 +1,237 @@
+//! Support for the end-to-end tests: the `acc` binary, `acc board-sim` on a pty, `acc run`
+//! against it, SIGINT, and reading the two run logs.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use acc_sim::runlog::{read_run_log, RunLogRow};
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Newest modification time of the files under `dir`.
+fn newest(dir: &Path) -> Option<std::time::SystemTime> {
+    let mut best = None;
+    for e in std::fs::read_dir(dir).ok()?.flatten() {
+        let p = e.path();
+        let t = if p.is_dir() {
+            newest(&p)
+        } else {
+            e.metadata().and_then(|m| m.modified()).ok()
+        };
+        best = best.max(t);
+    }
+    best
+}
+
+/// The `acc` binary next to this test's `deps/` folder (`ACC_BIN` overrides). It is built
+/// with the same cargo only when missing or older than a source file of the workspace
+/// (building it from inside a test run costs a feature re-resolution, so not every time).
+pub fn acc_bin() -> PathBuf {
+    static BIN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    BIN.get_or_init(|| {
+        if let Ok(p) = std::env::var("ACC_BIN") {
+            return PathBuf::from(p);
+        }
+        let exe = std::env::current_exe().expect("test executable path");
+        let dir = exe
+            .parent()
+            .and_then(Path::parent)
+            .expect("target/<profile>/deps/<test>");
+        let bin = dir.join("acc");
+        let built = std::fs::metadata(&bin).and_then(|m| m.modified()).ok();
+        let src = ["crates", "sim/src"]
+            .iter()
+            .filter_map(|d| newest(&root().join(d)))
+            .max();
+        if built.is_none() || src > built {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let status = Command::new(cargo)
+                .args(["build", "--quiet", "-p", "acc-cli", "--bin", "acc"])
+                .current_dir(root())
+                .status()
+                .expect("run cargo build -p acc-cli");
+            assert!(status.success(), "building the acc binary failed");
+        }
+        assert!(bin.exists(), "no acc binary at {}", bin.display());
+        bin
+    })
+    .clone()
+}
+
+/// A child process whose stderr lines are collected on a thread.
+pub struct Proc {
+    /// The process.
+    pub child: Child,
+    /// First stdout line (the pty path for board-sim).
+    pub first_line: Option<String>,
+    stderr: mpsc::Receiver<String>,
+    /// stderr lines seen so far.
+    pub err_lines: Vec<String>,
+}
+
+impl Proc {
+    /// Spawn `acc <args>`; with `read_first_line`, wait for the first stdout line.
+    pub fn spawn(args: &[&str], read_first_line: bool) -> Proc {
+        let mut child = Command::new(acc_bin())
+            .args(args)
+            .current_dir(root())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn acc");
+        let (tx, rx) = mpsc::channel();
+        let err = child.stderr.take().expect("stderr piped");
+        std::thread::spawn(move || {
+            for line in BufReader::new(err).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let first_line = if read_first_line {
+            let out = child.stdout.take().expect("stdout piped");
+            let mut line = String::new();
+            BufReader::new(out)
+                .read_line(&mut line)
+                .expect("first stdout line");
+            Some(line.trim().to_string())
+        } else {
+            None
+        };
+        Proc {
+            child,
+            first_line,
+            stderr: rx,
+            err_lines: Vec::new(),
+        }
+    }
+
+    /// Collect stderr lines received so far.
+    pub fn drain(&mut self) {
+        while let Ok(l) = self.stderr.try_recv() {
+            self.err_lines.push(l);
+        }
+    }
+
+    /// Wait (at most `timeout`) for a stderr line containing `needle`.
+    pub fn wait_for(&mut self, needle: &str, timeout: Duration) -> bool {
+        let end = Instant::now() + timeout;
+        loop {
+            if self.err_lines.iter().any(|l| l.contains(needle)) {
+                return true;
+            }
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return false;
+            }
+            match self
+                .stderr
+                .recv_timeout(left.min(Duration::from_millis(200)))
+            {
+                Ok(l) => self.err_lines.push(l),
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return self.err_lines.iter().any(|l| l.contains(needle))
+                }
+            }
+        }
+    }
+
+    /// Send SIGINT (as Ctrl-C would).
+    pub fn sigint(&self) {
+        let ok = Command::new("kill")
+            .args(["-INT", &self.child.id().to_string()])
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        assert!(ok, "kill -INT {}", self.child.id());
+    }
+
+    /// Wait for the exit (at most `timeout`, then kill); returns (exit code, stdout).
+    pub fn finish(mut self, timeout: Duration) -> (Option<i32>, String, Vec<String>) {
+        let end = Instant::now() + timeout;
+        let code = loop {
+            if let Ok(Some(st)) = self.child.try_wait() {
+                break st.code();
+            }
+            if Instant::now() > end {
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let mut out = String::new();
+        if let Some(mut o) = self.child.stdout.take() {
+            let _ = std::io::Read::read_to_string(&mut o, &mut out);
+        }
+        std::thread::sleep(Duration::from_millis(50));
+        self.drain();
+        (code, out, std::mem::take(&mut self.err_lines))
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// Read a run log.
+pub fn read_log(path: &Path) -> Vec<RunLogRow> {
+    let f = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    read_run_log(f).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A value after `key` in a `key: value` line of `text`.
+pub fn field<'a>(text: &'a str, key: &str) -> Option<&'a str> {
+    text.lines()
+        .find_map(|l| l.strip_prefix(key))
+        .map(|v| v.trim_start_matches(':').trim())
+}
+
+/// Rows where the policy drove the override (armed and writing).
+pub fn is_active(r: &RunLogRow) -> bool {
+    matches!(
+        r.mode.as_str(),
+        "active" | "adaptive_pi" | "fixed_pi" | "adaptive_integral" | "baseline"
+    )
+}
+
+/// The fault invariant on an `acc run` log: in every row where the force sample was not
+/// usable (`valid = 0`: link error, stale or implausible power) and ACC was driving, the
+/// commanded override is not above the previous commanded one. Returns the rows checked.
+pub fn assert_faults_never_raise(rows: &[RunLogRow]) -> usize {
+    let mut prev: Option<u16> = None;
+    let mut checked = 0;
+    for (i, r) in rows.iter().enumerate() {
+        if !is_active(r) {
+            prev = None;
+            continue;
+        }
+        if !r.valid {
+            if let Some(p) = prev {
+                assert!(
+                    r.override_cmd_pct <= p,
+                    "row {i} (t = {:.2} s, mode {}): fault period raised the command {p} -> {}",
+                    r.t_s,
+                    r.mode,
+                    r.override_cmd_pct
+                );
+                checked += 1;
+            }
+        }
+        prev = Some(r.override_cmd_pct);
+    }
+    checked
+}
