@@ -121,3 +121,33 @@ pub fn plot_overlay(
     };
     Ok(time_series(&fig, out)?)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compare_runs_every_law_on_one_seed_and_draws_the_overlay() {
+        let sc = load_scenario("paper_case4", None).expect("scenario");
+        let results = compare(&sc).expect("compare");
+        let names: Vec<&str> = results.iter().map(|(r, _)| r.law.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "constant-feed",
+                "constant-safe",
+                "fixed-pi",
+                "rate-limited",
+                "proportional",
+                "ours:adaptive-pi"
+            ]
+        );
+        let table = comparison_table(&results.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
+        assert_eq!(table.lines().count(), 7);
+        let dir = std::env::temp_dir().join(format!("acc-compare-cmd-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let w = plot_overlay(&sc, &results, &dir.join("compare.svg")).expect("plot");
+        assert!(w.svg.is_file() && w.png.is_file());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -210,3 +210,30 @@ pub fn plot_run(sc: &Scenario, result: &RunResult, out: &Path) -> anyhow::Result
     };
     Ok(time_series(&fig, out)?)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn acc_sim_writes_log_and_plots_and_resolves_names() {
+        let dir = std::env::temp_dir().join(format!("acc-sim-cmd-{}", std::process::id()));
+        let args = SimArgs {
+            scenario: "paper_case1".into(),
+            out: Some(dir.clone()),
+            seed: Some(11),
+            law: LawKind::Ours,
+            no_plot: false,
+        };
+        run_cmd(&args).expect("acc sim");
+        let log = std::fs::read_to_string(dir.join("run.csv")).expect("run log");
+        // Header + one row per period; the 2-3-4 mm part takes about 60 s.
+        let rows = log.lines().count() - 1;
+        assert!((550..=650).contains(&rows), "{rows} rows");
+        assert!(dir.join("run.svg").is_file() && dir.join("run.png").is_file());
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(load_scenario("no_such_scenario", None).is_err());
+        assert_eq!(parse_law("rate-limited"), Ok(LawKind::RateLimited));
+        assert!(parse_law("pid").is_err());
+    }
+}
