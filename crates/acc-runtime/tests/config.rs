@@ -1,0 +1,65 @@
+//! The shipped run configs load and validate; bad values name the file and the key.
+
+use std::path::PathBuf;
+
+use acc_runtime::config::RunConfig;
+
+fn cfg(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../configs/runtime")
+        .join(name)
+}
+
+#[test]
+fn shipped_run_configs_load() {
+    for name in [
+        "paper_vmc_run.toml",
+        "board_sim_fast.toml",
+        "board_sim_faults.toml",
+    ] {
+        let c = RunConfig::load(cfg(name), None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!((c.controller.period_s - 0.1).abs() < 1e-12, "{name}");
+        assert_eq!(c.policy.period_s, c.controller.period_s, "{name}");
+        c.force_source().unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    let fast = RunConfig::load(cfg("board_sim_fast.toml"), Some("/dev/pts/9")).expect("loads");
+    assert_eq!(fast.board.port, "/dev/pts/9", "--port replaces board.port");
+    assert_eq!(fast.tick_period(), std::time::Duration::from_millis(25));
+    assert_eq!(fast.policy.overload_force_n, 1600.0);
+}
+
+#[test]
+fn bad_values_name_file_and_key() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let base = std::fs::read_to_string(cfg("board_sim_fast.toml")).expect("base");
+    let abs = cfg("").canonicalize().expect("configs/runtime");
+    let base = base
+        .replace("\"../presets/", &format!("\"{}/../presets/", abs.display()))
+        .replace(
+            "\"paper_vmc_power.toml\"",
+            &format!("\"{}/paper_vmc_power.toml\"", abs.display()),
+        );
+    for (from, to, key) in [
+        (
+            "time_scale = 4.0",
+            "time_scale = 1000.0",
+            "runtime.time_scale",
+        ),
+        (
+            "max_override_pct = 150",
+            "max_override_pct = 170",
+            "policy.max_override_pct",
+        ),
+        ("slave = 1", "slave = 0", "board.slave"),
+        ("name = ", "bogus_key = 1\nname = ", "bogus_key"),
+    ] {
+        assert!(base.contains(from), "{from}");
+        let p = dir.path().join("run.toml");
+        std::fs::write(&p, base.replacen(from, to, 1)).expect("write");
+        let e = RunConfig::load(&p, None).expect_err(key).to_string();
+        assert!(
+            e.contains(&p.display().to_string()) && e.contains(key),
+            "{key}: {e}"
+        );
+    }
+}
