@@ -15,13 +15,17 @@ use acc_sim::{LawKind, RunResult, Scenario};
 /// Run scenario `name` on spindle power: the run, the summary of what the controller saw
 /// and the summary of the true force.
 fn run_power(name: &str) -> (RunResult, Summary, Summary) {
-    run_power_seed(name, None)
+    run_power_with(name, None, SpindlePowerSpec::default())
 }
 
-fn run_power_seed(name: &str, seed: Option<u64>) -> (RunResult, Summary, Summary) {
+fn run_power_with(
+    name: &str,
+    seed: Option<u64>,
+    spec: SpindlePowerSpec,
+) -> (RunResult, Summary, Summary) {
     let mut sc = Scenario::load(configs_dir().join(format!("scenarios/{name}.toml"))).unwrap();
     sc.seed = seed.unwrap_or(sc.seed);
-    sc.measurement = MeasurementSpec::SpindlePower(SpindlePowerSpec::default());
+    sc.measurement = MeasurementSpec::SpindlePower(spec);
     let (run, measured) = sc.run_law(LawKind::Ours).unwrap();
     assert!(run.finished, "{name}: did not finish");
     let mut truth = run.clone();
@@ -93,7 +97,7 @@ fn case_2_is_more_oscillatory_than_case_3_on_spindle_power() {
     let seed = Scenario::load(configs_dir().join("scenarios/paper_case2.toml"))
         .unwrap()
         .seed;
-    let (_, _, t3) = run_power_seed("paper_case3", Some(seed));
+    let (_, _, t3) = run_power_with("paper_case3", Some(seed), SpindlePowerSpec::default());
     let amp = |s: &Summary| {
         s.segments
             .iter()
@@ -138,4 +142,20 @@ fn fixed_gain_run_is_unstable_at_3_mm_on_spindle_power() {
         segs[2].osc_amplitude_n,
         segs[1].osc_amplitude_n
     );
+}
+
+#[test]
+fn case_3_regulates_on_the_board_power_value() {
+    // Only the power value, as the interface board reports it (whole watts, registers
+    // 4–5): no current, so the power method with efficiency correction.
+    let spec = SpindlePowerSpec {
+        board_power: true,
+        ..SpindlePowerSpec::default()
+    };
+    let (run, _, t) = run_power_with("paper_case3", None, spec);
+    assert!(run.rows.iter().filter(|r| !r.valid).count() <= 2);
+    for g in settled_cuts(&t) {
+        println!("board power {}: true {:.1} N", g.label, g.mean_force_n);
+        assert!((g.mean_force_n - 800.0).abs() < 40.0, "{}", g.label);
+    }
 }

@@ -966,8 +966,11 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
             spindle_rpm: period.spindle_rpm,
             feed_mm_min: period.feed_mean_mm_min,
             true_force_n: Some(truth),
-            // What a power transducer on the same cables reports.
-            power_w: Some(block.truth.input_w),
+            // What a power transducer on the same cables reports over the window, in whole
+            // watts as in the board's input registers 4–5 (`None` if the block is garbage).
+            power_w: acc_spindle::block_stats(&phases)
+                .ok()
+                .map(|s| s.power_w.round().max(0.0)),
             phases: Some(phases),
         };
         crate::channel::Reading {

@@ -1,0 +1,119 @@
+//! The per-block path does not allocate: block statistics, the estimator with the adaptive
+//! no-load model, and the three-phase force source, through cutting, air (adapting),
+//! garbage blocks and speed transients. A counting global allocator (this test binary
+//! only) sees zero allocations on the thread.
+// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
+#![allow(unsafe_code)]
+#![allow(clippy::unwrap_used)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use acc_core::{ForceSource, PeriodInput, PhaseBlock};
+use acc_spindle::calibrate::{Constants, PowerEfficiency};
+use acc_spindle::{
+    EstimatorConfig, Method, NoLoadMode, NoLoadModel, SpindleEstimator, SpindleInput,
+    SpindleSource,
+};
+
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards every call unchanged to `System`; the counter is a thread-local `Cell`
+// that never allocates.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// A balanced 50 Hz block of `power_w`, 1000 samples at 10 kS/s.
+fn block(power_w: f64) -> [Vec<f64>; 4] {
+    let third = 2.0 * std::f64::consts::PI / 3.0;
+    let vph = 200.0 / 3f64.sqrt() * 2f64.sqrt();
+    let i = power_w / (3f64.sqrt() * 200.0) * 2f64.sqrt();
+    let mut ch = [vec![], vec![], vec![], vec![]];
+    for k in 0..1000 {
+        let th = 2.0 * std::f64::consts::PI * 50.0 * k as f64 / 1e4;
+        let (vu, vv, vw) = (
+            vph * th.cos(),
+            vph * (th - third).cos(),
+            vph * (th + third).cos(),
+        );
+        ch[0].push(i * th.cos());
+        ch[1].push(i * (th - third).cos());
+        ch[2].push(vu - vw);
+        ch[3].push(vv - vw);
+    }
+    ch
+}
+
+#[test]
+fn per_block_path_does_not_allocate() {
+    let probe = COUNT.with(Cell::get);
+    let v = std::hint::black_box(vec![1u8; 16]);
+    assert!(COUNT.with(Cell::get) > probe && v.len() == 16);
+
+    let mut nl = NoLoadModel::new(Default::default());
+    nl.learn(1500.0, 600.0, 10.0).unwrap();
+    nl.learn(1500.0, 604.0, 10.0).unwrap();
+    let c = Constants {
+        power_efficiency: Some(PowerEfficiency {
+            gain: 1.0,
+            loss_w_per_nm2: 0.1,
+        }),
+        ..Constants::default()
+    };
+    let cfg = EstimatorConfig {
+        method: Method::PowerEfficiency,
+        no_load: NoLoadMode::Adaptive,
+        ..EstimatorConfig::default()
+    };
+    let mut src =
+        SpindleSource::new(SpindleInput::Phases, SpindleEstimator::new(cfg, c, nl).unwrap())
+            .unwrap();
+    let air = block(601.0);
+    let cut = block(2600.0);
+    let mut bad = block(2600.0);
+    bad[1][500] = f64::NAN;
+    let before = COUNT.with(Cell::get);
+    let mut valid = 0;
+    for i in 0..1000 {
+        let ch = match i % 100 {
+            0..=39 => &air,
+            40..=89 => &cut,
+            _ => &bad,
+        };
+        let rpm = if i % 250 == 0 { 1000.0 } else { 1500.0 };
+        let input = PeriodInput {
+            period_s: 0.1,
+            spindle_rpm: rpm,
+            phases: Some(PhaseBlock {
+                sample_rate_hz: 1e4,
+                i_u: &ch[0],
+                i_v: &ch[1],
+                v_uw: &ch[2],
+                v_vw: &ch[3],
+            }),
+            ..PeriodInput::default()
+        };
+        valid += usize::from(src.estimate(&input).valid);
+    }
+    let after = COUNT.with(Cell::get);
+    assert_eq!(after - before, 0, "allocations on the per-block path");
+    // The run exercised valid, invalid and adapting periods.
+    assert!(valid > 700 && valid < 950, "{valid} valid");
+    assert!(src.estimator().no_load().adaptations() > 0);
+}
