@@ -127,11 +127,9 @@ fn board_power_garbage_is_invalid() {
 
 fn csv_of(ch: &[Vec<f64>; 4], frames: usize) -> String {
     let mut s = String::from("i_u,i_v,v_uw,v_vw\n");
-    for k in 0..frames {
-        s.push_str(&format!(
-            "{},{},{},{}\n",
-            ch[0][k], ch[1][k], ch[2][k], ch[3][k]
-        ));
+    let [a, b, c, d] = ch;
+    for (((iu, iv), vuw), vvw) in a.iter().zip(b).zip(c).zip(d).take(frames) {
+        s.push_str(&format!("{iu},{iv},{vuw},{vvw}\n"));
     }
     s
 }
