@@ -98,3 +98,39 @@ fn air_cuts_run_at_150_percent() {
     assert!(air.settled_periods > 3);
     assert_eq!(air.frac_at_max, 1.0);
 }
+
+#[test]
+fn averaging_the_whole_period_would_hide_the_instability() {
+    // Why the dynamometer averages only the last 0.05 s: a whole-period mean mixes the old
+    // feed into the new one (override dead time 16 ms + feed lag 8 ms: a ≈ 0.24 of the
+    // period), the plant becomes (1 − a)z⁻¹ + a·z⁻², the loop gain at the Nyquist frequency
+    // drops by 1 − 2a, and the fixed-gain limit moves from 5.714 to ≈ 11 > Kc = 6: the
+    // 3 mm cut regulates, unlike the paper's.
+    use acc_sim::scenario::MeasurementSpec;
+    let sc =
+        Scenario::load(configs_dir().join("scenarios/paper_fixed_gain.toml")).expect("scenario");
+    let MeasurementSpec::Dynamometer {
+        noise_n,
+        lowpass_hz,
+        ..
+    } = sc.measurement
+    else {
+        panic!("dynamometer scenario");
+    };
+    let whole = Scenario {
+        measurement: MeasurementSpec::Dynamometer {
+            noise_n,
+            lowpass_hz,
+            window_s: 0.0,
+        },
+        ..sc
+    };
+    let (_, sum) = whole.run_law(LawKind::Ours).expect("run");
+    let s3 = segment(&sum.segments, "cut 3.0 mm");
+    assert!(
+        s3.osc_amplitude_n < 100.0,
+        "3 mm amplitude {}",
+        s3.osc_amplitude_n
+    );
+    assert!((s3.mean_force_n - 800.0).abs() < 40.0);
+}
