@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use acc_sim::motor::sweep::{self, SweepConfig};
 use acc_sim::motor::MotorSim;
 use acc_spindle::block_stats;
-use acc_spindle::calibrate::Constants;
+use acc_spindle::calibrate::{Constants, SpindleCalibration};
 use acc_spindle::estimate::{EstimatorConfig, Method, NoLoadMode, SpindleEstimator};
 use acc_spindle::noload::AdaptOutcome;
 use acc_spindle::noload::{AdaptRule, NoLoadModel};
@@ -48,6 +48,13 @@ fn seed000_ranking_holds_on_the_simulated_sweep() {
     assert!(cur > 3.0 * eff, "current {cur} % vs power-eff {eff} %");
     // Power with efficiency correction within 2 % RMS of the true force.
     assert!(eff < 2.0, "power-efficiency error rate {eff} %");
+    // The committed calibration file is what this run fits
+    // (`acc estimate-eval --sim-only --save-calibration configs/calibration/seed000-dnm4500.toml`).
+    let committed = SpindleCalibration::load(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("configs/calibration/seed000-dnm4500.toml"),
+    )
+    .unwrap();
+    assert_eq!(committed, r.calibration);
 }
 
 /// Learn the no-load model at 1 500 rpm from 30 air periods of the simulated motor.
