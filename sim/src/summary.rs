@@ -297,3 +297,78 @@ pub fn comparison_table(summaries: &[Summary]) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run::configs_dir;
+
+    /// Synthetic rows at 200 mm/min through the 2-3-4 mm part: the force is Fr plus a
+    /// ±100 N square wave while the cutter is fully engaged at 3 mm, and exactly Fr
+    /// elsewhere in the cut.
+    #[test]
+    fn segment_statistics_from_synthetic_rows() {
+        let sc =
+            Scenario::load(configs_dir().join("scenarios/paper_case1.toml")).expect("scenario");
+        let wp = &sc.workpiece;
+        let mut rows = Vec::new();
+        for k in 1..=450 {
+            let t = 0.1 * k as f64;
+            let x = 200.0 / 60.0 * t;
+            let depth = wp.engagement(x, 8.0).depth_mm;
+            let in_cut = wp.depth_at(x) > 0.0;
+            let force = if !in_cut {
+                0.0
+            } else if (depth - 3.0).abs() < 1e-9 {
+                800.0 + if k % 2 == 0 { 100.0 } else { -100.0 }
+            } else {
+                800.0
+            };
+            rows.push(RunLogRow {
+                t_s: t,
+                x_mm: Some(x),
+                force_n: force,
+                force_ref_n: 800.0,
+                override_cmd_pct: if in_cut { 100 } else { 150 },
+                override_applied_pct: 100,
+                ..RunLogRow::default()
+            });
+        }
+        let result = RunResult {
+            law: "synthetic".into(),
+            rows,
+            finished: true,
+            volume_mm3: 5760.0,
+        };
+        let s = summarize(&result, &sc);
+        let three = s
+            .segments
+            .iter()
+            .find(|x| x.label == "cut 3.0 mm")
+            .expect("3 mm");
+        // A ±100 N square wave: mean error 0, RMS 100, 5–95 % half-spread 100.
+        assert!(three.mean_error_n.abs() < 5.0, "{}", three.mean_error_n);
+        assert!((three.rms_error_n - 100.0).abs() < 1e-9);
+        assert!((three.osc_amplitude_n - 100.0).abs() < 1e-9);
+        // Every other period is at 900 N > 1.1·Fr = 880 N (outside the 0.94 mm ramp-in).
+        let half = 0.5 * (three.t_leave_s - three.t_enter_s);
+        assert!(
+            (three.time_above_s - half).abs() < 0.25,
+            "{} vs {half}",
+            three.time_above_s
+        );
+        let two = s
+            .segments
+            .iter()
+            .find(|x| x.label == "cut 2.0 mm")
+            .expect("2 mm");
+        assert_eq!(two.rms_error_n, 0.0);
+        assert!(two.reaches_ref && !s.segments[0].reaches_ref);
+        // The 3 mm segment starts when the contact arc's front (√(3·13) = 6.2 mm ahead of
+        // the centre) reaches x = 55 mm: at t = (55 − 6.2)/(200/60) = 14.6 s.
+        assert!((three.t_enter_s - 14.6).abs() < 0.15, "{}", three.t_enter_s);
+        assert_eq!(s.cycle_time_s, Some(45.0));
+        assert!((s.programmed_cycle_time_s - 45.0).abs() < 1e-9);
+        assert_eq!(s.override_switches, 2);
+    }
+}
