@@ -24,12 +24,17 @@ pub struct Inputs {
     pub feed_mm_min: Vec<f64>,
     /// Feed command `programmed · override_cmd / 100`, mm/min, when both columns exist.
     pub feed_cmd_mm_min: Option<Vec<f64>>,
+    /// Feed command in force before the first logged command, mm/min (from
+    /// `override_applied_pct` of the first row when logged).
+    pub feed_cmd_initial_mm_min: f64,
     /// Measured channel value (W or N).
     pub measured: Vec<f64>,
     /// Channel compared.
     pub channel: Channel,
     /// Median period, s.
     pub period_s: f64,
+    /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
+    cache: std::cell::RefCell<Option<std::rc::Rc<PathCache>>>,
 }
 
 /// Errors preparing replay inputs.
@@ -58,13 +63,27 @@ impl Inputs {
                 .ok_or(ReplayError::MissingChannel("force_n"))?,
         };
         let cmd = match (&log.programmed_feed_mm_min, &log.override_cmd_pct) {
-            (Some(p), Some(o)) => Some(p.iter().zip(o).map(|(p, o)| p * o / 100.0).collect()),
+            (Some(p), Some(o)) => Some(
+                p.iter()
+                    .zip(o)
+                    .map(|(p, o)| p * o / 100.0)
+                    .collect::<Vec<f64>>(),
+            ),
             _ => None,
         };
         let feed_cmd_mm_min = match model.measurement.feed_input {
             FeedInput::Recorded => None,
             FeedInput::Auto => cmd,
             FeedInput::Command => Some(cmd.ok_or(ReplayError::MissingCommand)?),
+        };
+        let feed_cmd_initial_mm_min = match (
+            &log.programmed_feed_mm_min,
+            &log.override_applied_pct,
+            &feed_cmd_mm_min,
+        ) {
+            (Some(p), Some(o), _) if !p.is_empty() => p[0] * o[0] / 100.0,
+            (_, _, Some(c)) if !c.is_empty() => c[0],
+            _ => log.feed_mm_min.first().copied().unwrap_or(0.0),
         };
         let period_s = log.median_period_s();
         let mut dt_s = vec![period_s; log.len()];
@@ -79,9 +98,11 @@ impl Inputs {
             spindle_rpm: log.spindle_rpm.clone(),
             feed_mm_min: log.feed_mm_min.clone(),
             feed_cmd_mm_min,
+            feed_cmd_initial_mm_min,
             measured,
             channel,
             period_s,
+            cache: Default::default(),
         })
     }
 
@@ -160,6 +181,141 @@ pub struct Replay {
     pub spindle_angle_rad: Vec<f64>,
 }
 
+/// The replayed feed (period mean and force-window mean), mm/min.
+fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = inp.len();
+    let mut feed = vec![0.0; n];
+    let mut window_feed = vec![0.0; n];
+    // Feed path, integrated in SUBSTEPS sub-steps per period: the command logged in row
+    // k (issued at the end of its period, t_k) acts from t_k + delay; the drive lag is
+    // discretised exactly per sub-step (physics.md eq. (5), as the simulator does).
+    match &inp.feed_cmd_mm_min {
+        Some(cmd) if n > 0 => {
+            let mut f = inp.feed_cmd_initial_mm_min;
+            let mut k = 0usize;
+            for i in 0..n {
+                let h = inp.dt_s[i] / SUBSTEPS as f64;
+                let a = if tau > 1e-9 { (-h / tau).exp() } else { 0.0 };
+                let t_start = inp.t_s[i] - inp.dt_s[i];
+                let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
+                for j in 0..SUBSTEPS {
+                    // Mean command over the sub-step, in delayed time [lo, hi): the command
+                    // is piecewise constant, switching at the logged row times.
+                    let lo = t_start + j as f64 * h - delay_s;
+                    let hi = lo + h;
+                    while k + 1 < n && inp.t_s[k + 1] <= lo {
+                        k += 1;
+                    }
+                    let mut u = 0.0;
+                    let mut from = lo;
+                    let mut kk = k;
+                    while from < hi {
+                        let val = if inp.t_s[kk] <= from {
+                            cmd[kk]
+                        } else {
+                            inp.feed_cmd_initial_mm_min
+                        };
+                        let (to, next) = if inp.t_s[kk] > from {
+                            (inp.t_s[kk].min(hi), kk)
+                        } else if kk + 1 < n {
+                            (inp.t_s[kk + 1].min(hi), kk + 1)
+                        } else {
+                            (hi, kk)
+                        };
+                        u += val * (to - from);
+                        from = to;
+                        kk = next;
+                    }
+                    let u = u / h;
+                    f = a * f + (1.0 - a) * u;
+                    sum += f;
+                    if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {
+                        sum_w += f;
+                        n_w += 1;
+                    }
+                }
+                feed[i] = sum / SUBSTEPS as f64;
+                window_feed[i] = if n_w > 0 { sum_w / n_w as f64 } else { feed[i] };
+            }
+        }
+        _ => {
+            feed.copy_from_slice(&inp.feed_mm_min);
+            window_feed.copy_from_slice(&inp.feed_mm_min);
+        }
+    }
+    (feed, window_feed)
+}
+
+/// What does not change while only loads, losses and the sensor are fitted: the feed path
+/// and the force per unit calibration force (`Ks·a_p·d^α·f^β·s^γ / calib_force_n`).
+#[derive(Debug, Clone, PartialEq)]
+struct PathKey {
+    delay_s: f64,
+    tau_s: f64,
+    window_s: f64,
+    process: [f64; 8],
+}
+
+/// Cached feed path and unit forces of one [`PathKey`].
+#[derive(Debug, Clone)]
+pub struct PathCache {
+    key: PathKey,
+    feed: Vec<f64>,
+    window_feed: Vec<f64>,
+    unit_force: Vec<f64>,
+    unit_window_force: Vec<f64>,
+}
+
+fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
+    let fx = &model.effects;
+    let p = &model.tool.process;
+    let key = PathKey {
+        delay_s: model.machine.override_path.delay_s
+            + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
+        tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
+        window_s: model.measurement.force_window_s,
+        process: [
+            p.calib_radial_mm,
+            p.calib_feed_mm_min,
+            p.calib_rpm,
+            p.calib_axial_mm,
+            p.alpha,
+            p.beta,
+            p.gamma,
+            p.radial_ratio,
+        ],
+    };
+    if let Some(c) = inp.cache.borrow().as_ref() {
+        if c.key == key {
+            return c.clone();
+        }
+    }
+    let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.window_s);
+    let mut unit = *p;
+    unit.calib_force_n = 1.0;
+    let law = physics::force_law(&unit);
+    let n = inp.len();
+    let force = |i: usize, f: f64| {
+        let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
+        if a > 0.0 {
+            law.mean_force_n(d, a, f, inp.spindle_rpm[i], 1.0)
+        } else {
+            0.0
+        }
+    };
+    let unit_force: Vec<f64> = (0..n).map(|i| force(i, feed[i])).collect();
+    let unit_window_force: Vec<f64> = (0..n).map(|i| force(i, window_feed[i])).collect();
+    let c = std::rc::Rc::new(PathCache {
+        key,
+        feed,
+        window_feed,
+        unit_force,
+        unit_window_force,
+    });
+    *inp.cache.borrow_mut() = Some(c.clone());
+    c
+}
+
 /// Replay `model` on `inp` (open loop).
 ///
 /// Feed: command delayed by the override path (nominal + dead-time effect; the command
@@ -180,69 +336,12 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         cut_power_w: vec![0.0; n],
         spindle_angle_rad: vec![0.0; n],
     };
-    // Feed path, integrated in SUBSTEPS sub-steps per period: the command logged in row
-    // k (issued at the end of its period, t_k) acts from t_k + delay; the drive lag is
-    // discretised exactly per sub-step (physics.md eq. (5), as the simulator does).
-    match &inp.feed_cmd_mm_min {
-        Some(cmd) if n > 0 => {
-            let delay_s = model.machine.override_path.delay_s
-                + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0);
-            let tau = model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0);
-            let window = model.measurement.force_window_s;
-            let mut f = cmd[0];
-            let mut k = 0usize;
-            for i in 0..n {
-                let h = inp.dt_s[i] / SUBSTEPS as f64;
-                let a = if tau > 1e-9 { (-h / tau).exp() } else { 0.0 };
-                let t_start = inp.t_s[i] - inp.dt_s[i];
-                let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
-                for j in 0..SUBSTEPS {
-                    // Mean command over the sub-step, in delayed time [lo, hi): the command
-                    // is piecewise constant, switching at the logged row times.
-                    let lo = t_start + j as f64 * h - delay_s;
-                    let hi = lo + h;
-                    while k + 1 < n && inp.t_s[k + 1] <= lo {
-                        k += 1;
-                    }
-                    let mut u = 0.0;
-                    let mut from = lo;
-                    let mut kk = k;
-                    while from < hi {
-                        let val = if inp.t_s[kk] <= from { cmd[kk] } else { cmd[0] };
-                        let (to, next) = if inp.t_s[kk] > from {
-                            (inp.t_s[kk].min(hi), kk)
-                        } else if kk + 1 < n {
-                            (inp.t_s[kk + 1].min(hi), kk + 1)
-                        } else {
-                            (hi, kk)
-                        };
-                        u += val * (to - from);
-                        from = to;
-                        kk = next;
-                    }
-                    let u = u / h;
-                    f = a * f + (1.0 - a) * u;
-                    sum += f;
-                    if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {
-                        sum_w += f;
-                        n_w += 1;
-                    }
-                }
-                out.feed_mm_min[i] = sum / SUBSTEPS as f64;
-                out.window_feed_mm_min[i] = if n_w > 0 {
-                    sum_w / n_w as f64
-                } else {
-                    out.feed_mm_min[i]
-                };
-            }
-        }
-        _ => {
-            out.feed_mm_min.copy_from_slice(&inp.feed_mm_min);
-            out.window_feed_mm_min.copy_from_slice(&inp.feed_mm_min);
-        }
-    }
+    let cached = path(model, inp);
+    out.feed_mm_min.copy_from_slice(&cached.feed);
+    out.window_feed_mm_min.copy_from_slice(&cached.window_feed);
     // Process force, volume and wear (the simulator's wear law, extra growth added).
     let law = physics::force_law(&model.tool.process);
+    let calib_force = model.tool.process.calib_force_n;
     let w = &model.tool.wear;
     let growth = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
     let dbeta = fx.get(EffectKind::FeedExponent, 0);
@@ -263,12 +362,8 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         let f = out.feed_mm_min[i];
         let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
         let factor = w.initial_factor * (1.0 + growth * vol / 1000.0 + w.growth_per_min * cut_min);
-        let force_at = |f: f64| -> f64 {
-            let mut force = if a > 0.0 {
-                law.mean_force_n(d, a, f, s, factor)
-            } else {
-                0.0
-            };
+        let force_at = |f: f64, unit: f64| -> f64 {
+            let mut force = calib_force * factor * unit;
             if force > 0.0 {
                 if dbeta != 0.0 {
                     force *= (f / fref).powf(dbeta);
@@ -284,14 +379,14 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
             }
             force
         };
-        let force = force_at(f);
+        let force = force_at(f, cached.unit_force[i]);
         if force > 0.0 {
             vol += d * a * f / 60.0 * inp.dt_s[i];
             cut_min += inp.dt_s[i] / 60.0;
         }
         out.force_n[i] = force;
         chan_force[i] = if windowed {
-            force_at(out.window_feed_mm_min[i])
+            force_at(out.window_feed_mm_min[i], cached.unit_window_force[i])
         } else {
             force
         };

@@ -276,9 +276,11 @@ pub fn read_csv_from(reader: impl std::io::Read, path: &Path) -> Result<RunLog, 
     let mut req: [Vec<f64>; 5] = Default::default();
     let mut opt: Vec<Vec<f64>> = vec![Vec::new(); optional.len()];
     let mut phase = Vec::new();
+    let mut rows_line = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(csv_err)?;
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        rows_line.push(line);
         let cell = |col: usize, name: &str| -> Result<f64, RunLogError> {
             let bad = |message: String| RunLogError::BadValue {
                 file: path.to_path_buf(),
@@ -308,28 +310,50 @@ pub fn read_csv_from(reader: impl std::io::Read, path: &Path) -> Result<RunLog, 
         }
         for (k, name) in optional.iter().enumerate() {
             if let Some(c) = idx_opt[k] {
-                opt[k].push(cell(c, name)?);
+                // An optional cell may be empty (e.g. `x_mm` on a real machine); a column
+                // that is empty throughout is treated as absent.
+                if rec.get(c).is_some_and(|t| t.is_empty()) {
+                    opt[k].push(f64::NAN);
+                } else {
+                    opt[k].push(cell(c, name)?);
+                }
             }
         }
         if let Some(c) = idx_phase {
             phase.push(rec.get(c).unwrap_or("").to_string());
         }
     }
-    let take = |k: usize| idx_opt[k].map(|_| opt[k].clone());
+    let take = |k: usize| -> Result<Option<Vec<f64>>, RunLogError> {
+        let Some(c) = idx_opt[k] else { return Ok(None) };
+        let v = &opt[k];
+        if v.iter().all(|x| x.is_nan()) {
+            return Ok(None);
+        }
+        if let Some(i) = v.iter().position(|x| x.is_nan()) {
+            return Err(RunLogError::BadValue {
+                file: path.to_path_buf(),
+                line: rows_line.get(i).copied().unwrap_or(0),
+                col: c + 1,
+                column: optional[k].to_string(),
+                message: "empty cell in a column that has values elsewhere".into(),
+            });
+        }
+        Ok(Some(v.clone()))
+    };
     let [t_s, feed_mm_min, spindle_rpm, radial_depth_mm, axial_depth_mm] = req;
     let log = RunLog {
         t_s,
-        x_mm: take(0),
+        x_mm: take(0)?,
         radial_depth_mm,
         axial_depth_mm,
         spindle_rpm,
-        programmed_feed_mm_min: take(1),
-        override_cmd_pct: take(2),
-        override_applied_pct: take(3),
+        programmed_feed_mm_min: take(1)?,
+        override_cmd_pct: take(2)?,
+        override_applied_pct: take(3)?,
         feed_mm_min,
-        force_n: take(4),
-        power_w: take(5),
-        wear_vb_um: take(6),
+        force_n: take(4)?,
+        power_w: take(5)?,
+        wear_vb_um: take(6)?,
         phase: idx_phase.map(|_| phase),
     };
     log.validate(path)?;
