@@ -15,9 +15,9 @@
 use std::path::{Path, PathBuf};
 
 use acc_core::{ForceSource, PeriodInput};
-use acc_plot::{time_series, Figure, HLine, Panel, Series, PALETTE};
+use acc_plot::{time_series, xy_chart, Figure, HLine, Panel, Series, XyChart, PALETTE};
 use acc_sim::motor::sweep::{self, SweepConfig, SweepResult};
-use acc_spindle::datasets::{read_mill, read_turning};
+use acc_spindle::datasets::{read_mill, read_turning, TurningRow};
 use acc_spindle::eval::{cross_tool, min_median_max, wax_check, TurningModel, WaxSetup};
 use acc_spindle::{
     EstimatorConfig, Method, NoLoadMode, SampleFormat, SampleStream, SpindleCalibration,
@@ -34,9 +34,17 @@ pub struct EstimateEvalArgs {
     /// Folder with the public data sets (`vicomtech-turning/`, `umich-cnc-mill/`).
     #[arg(long, default_value = "../shared/data")]
     pub data: PathBuf,
-    /// Draw the Fig. 8-like plot to this SVG file (a PNG is written next to it).
-    #[arg(long, value_name = "OUT.svg")]
-    pub plot: Option<PathBuf>,
+    /// The Fig. 8-like plot of the sweep (SVG + PNG); `turning.svg/.png` (estimate vs
+    /// dynamometer on the real turning data) is written next to it.
+    #[arg(
+        long,
+        value_name = "OUT.svg",
+        default_value = "out/estimate-eval/fig8.svg"
+    )]
+    pub plot: PathBuf,
+    /// Do not draw plots.
+    #[arg(long)]
+    pub no_plot: bool,
     /// Write the calibration fitted on the simulated calibration cut to this TOML file.
     #[arg(long, value_name = "CAL.toml")]
     pub save_calibration: Option<PathBuf>,
@@ -92,12 +100,17 @@ pub fn run(args: &EstimateEvalArgs) -> anyhow::Result<()> {
         r.calibration.save(path)?;
         println!("calibration written to {}", path.display());
     }
-    if let Some(plot) = &args.plot {
-        let w = plot_fig8(&r, plot)?;
+    let plot_dir = (!args.no_plot).then(|| {
+        args.plot
+            .parent()
+            .map_or_else(PathBuf::new, Path::to_path_buf)
+    });
+    if !args.no_plot {
+        let w = plot_fig8(&r, &args.plot)?;
         println!("plot: {} and {}", w.svg.display(), w.png.display());
     }
     if !args.sim_only {
-        real_data(&locate(&args.data))?;
+        real_data(&locate(&args.data), plot_dir.as_deref())?;
     }
     Ok(())
 }
@@ -192,13 +205,59 @@ fn plot_fig8(r: &SweepResult, out: &Path) -> anyhow::Result<acc_plot::Written> {
         ],
         ..Figure::default()
     };
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
+    create_parent(out)?;
     Ok(time_series(&fig, out)?)
 }
 
-fn real_data(data: &Path) -> anyhow::Result<()> {
+fn create_parent(out: &Path) -> anyhow::Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    Ok(())
+}
+
+/// Calibration tool of the turning plot (its fusion MAPE is the median of the table).
+const PLOT_CAL_TOOL: u32 = 4;
+
+/// Estimate vs dynamometer on the validation tools, calibrated on [`PLOT_CAL_TOOL`].
+fn plot_turning(rows: &[TurningRow], out: &Path) -> anyhow::Result<acc_plot::Written> {
+    let cal: Vec<TurningRow> = rows
+        .iter()
+        .filter(|r| r.tool == PLOT_CAL_TOOL)
+        .copied()
+        .collect();
+    let val: Vec<&TurningRow> = rows.iter().filter(|r| r.tool != PLOT_CAL_TOOL).collect();
+    let mut series = Vec::new();
+    for (j, m) in [TurningModel::Plain, TurningModel::FeedCurrent]
+        .into_iter()
+        .enumerate()
+    {
+        let p = m.fit(&cal)?;
+        let pts = val.iter().map(|r| (r.force_n, m.predict(p, r))).collect();
+        series.push(Series::markers(m.label(), pts).with_color(PALETTE[j + 1]));
+    }
+    let (lo, hi) = val
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
+            (a.min(r.force_n), b.max(r.force_n))
+        });
+    series.push(
+        Series::line("estimate = dynamometer", vec![(lo, lo), (hi, hi)]).with_color(PALETTE[0]),
+    );
+    let chart = XyChart {
+        title: format!(
+            "Turning data (Vicomtech, CC BY-SA 4.0): calibrated on tool {PLOT_CAL_TOOL}, other tools"
+        ),
+        x_label: "dynamometer F_c [N]".into(),
+        y_label: "estimated F_c [N]".into(),
+        series,
+        ..XyChart::default()
+    };
+    create_parent(out)?;
+    Ok(xy_chart(&chart, out)?)
+}
+
+fn real_data(data: &Path, plot_dir: Option<&Path>) -> anyhow::Result<()> {
     let turning = data.join("vicomtech-turning/tool_wear_tools_3-10.csv");
     if turning.exists() {
         let (rows, skipped) = read_turning(&turning)?;
@@ -239,6 +298,11 @@ fn real_data(data: &Path) -> anyhow::Result<()> {
             println!(" {lo:.2} | {med:.2} | {hi:.2} |");
         }
         println!();
+        if let Some(dir) = plot_dir {
+            let w = plot_turning(&rows, &dir.join("turning.svg"))?;
+            println!("plot: {} and {}", w.svg.display(), w.png.display());
+            println!();
+        }
     } else {
         println!("skipping the turning data: {} not found", turning.display());
     }
