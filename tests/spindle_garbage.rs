@@ -3,12 +3,12 @@
 
 #![allow(clippy::unwrap_used)]
 
-use acc_core::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
+use acc_core::{ForceSample, ForceSource, PeriodInput};
 use acc_spindle::calibrate::Constants;
 use acc_spindle::estimate::{EstimatorConfig, Invalid, Method, NoLoadMode, SpindleEstimator};
 use acc_spindle::noload::{AdaptRule, NoLoadModel};
 use acc_spindle::stream::{SampleFormat, SampleStream, StreamError, StreamForceSource};
-use acc_spindle::{SpindleInput, SpindleSource};
+use acc_spindle::{PhaseSamples, SpindleInput, SpindleSource};
 
 fn estimator() -> SpindleEstimator {
     let mut nl = NoLoadModel::new(AdaptRule::default());
@@ -21,39 +21,15 @@ fn estimator() -> SpindleEstimator {
     SpindleEstimator::new(cfg, Constants::default(), nl).unwrap()
 }
 
-/// A balanced 50 Hz block: `power_w` of real power, 10 000 S/s, `n` samples.
-fn block(n: usize, power_w: f64) -> [Vec<f64>; 4] {
-    let third = 2.0 * std::f64::consts::PI / 3.0;
-    let v_line = 200.0;
-    let i = power_w / (3f64.sqrt() * v_line);
-    let vph = v_line / 3f64.sqrt() * 2f64.sqrt();
-    let mut ch = [vec![], vec![], vec![], vec![]];
-    for k in 0..n {
-        let th = 2.0 * std::f64::consts::PI * 50.0 * k as f64 / 1e4;
-        let (vu, vv, vw) = (
-            vph * th.cos(),
-            vph * (th - third).cos(),
-            vph * (th + third).cos(),
-        );
-        ch[0].push(i * 2f64.sqrt() * th.cos());
-        ch[1].push(i * 2f64.sqrt() * (th - third).cos());
-        ch[2].push(vu - vw);
-        ch[3].push(vv - vw);
-    }
-    ch
+fn block(n: usize, power_w: f64) -> PhaseSamples {
+    PhaseSamples::with_power(n, 1e4, power_w)
 }
 
-fn input<'a>(ch: &'a [Vec<f64>; 4]) -> PeriodInput<'a> {
+fn input(ch: &PhaseSamples) -> PeriodInput<'_> {
     PeriodInput {
         period_s: 0.1,
         spindle_rpm: 1500.0,
-        phases: Some(PhaseBlock {
-            sample_rate_hz: 1e4,
-            i_u: &ch[0],
-            i_v: &ch[1],
-            v_uw: &ch[2],
-            v_vw: &ch[3],
-        }),
+        phases: Some(ch.block()),
         ..PeriodInput::default()
     }
 }
@@ -71,7 +47,7 @@ fn phase_blocks_with_garbage_are_invalid() {
     assert!(s.valid && (s.force_n - 159.15).abs() < 0.5, "{s:?}");
     // NaN in one channel.
     let mut nan = good.clone();
-    nan[2][417] = f64::NAN;
+    nan.v_uw[417] = f64::NAN;
     assert_invalid(src.estimate(&input(&nan)));
     assert_eq!(src.last(), Some(&Err(Invalid::NonFinite)));
     assert_eq!(
@@ -80,16 +56,14 @@ fn phase_blocks_with_garbage_are_invalid() {
     );
     // Negative power: current reversed (swapped clamp or regeneration).
     let mut neg = good.clone();
-    for ch in &mut neg[..2] {
-        for x in ch.iter_mut() {
-            *x = -*x;
-        }
+    for x in neg.i_u.iter_mut().chain(neg.i_v.iter_mut()) {
+        *x = -*x;
     }
     assert_invalid(src.estimate(&input(&neg)));
     assert_eq!(src.last(), Some(&Err(Invalid::NegativePower)));
     // Wrong channel layout: one channel shorter than the others.
     let mut short = good.clone();
-    short[3].truncate(990);
+    short.v_vw.truncate(990);
     assert_invalid(src.estimate(&input(&short)));
     assert_eq!(src.last(), Some(&Err(Invalid::BadBlock)));
     // Truncated block: half a period.
@@ -125,10 +99,10 @@ fn board_power_garbage_is_invalid() {
     assert_eq!(src.last(), Some(&Err(Invalid::ImplausibleLoad)));
 }
 
-fn csv_of(ch: &[Vec<f64>; 4], frames: usize) -> String {
+fn csv_of(ch: &PhaseSamples, frames: usize) -> String {
     let mut s = String::from("i_u,i_v,v_uw,v_vw\n");
-    let [a, b, c, d] = ch;
-    for (((iu, iv), vuw), vvw) in a.iter().zip(b).zip(c).zip(d).take(frames) {
+    let it = ch.i_u.iter().zip(&ch.i_v).zip(&ch.v_uw).zip(&ch.v_vw);
+    for (((iu, iv), vuw), vvw) in it.take(frames) {
         s.push_str(&format!("{iu},{iv},{vuw},{vvw}\n"));
     }
     s
@@ -173,7 +147,7 @@ fn truncated_and_malformed_streams_are_invalid_and_named() {
     // Raw f32 stream cut inside a frame.
     let mut bytes = Vec::new();
     for k in 0..1000 {
-        for c in &ch {
+        for c in [&ch.i_u, &ch.i_v, &ch.v_uw, &ch.v_vw] {
             bytes.extend_from_slice(&(c[k] as f32).to_le_bytes());
         }
     }

@@ -51,7 +51,7 @@ pub mod stream;
 pub use calibrate::{CalPoint, Constants, SpindleCalibration};
 pub use estimate::{Estimate, EstimatorConfig, Invalid, Method, NoLoadMode, SpindleEstimator};
 pub use noload::{AdaptRule, NoLoadModel, NoLoadPoint};
-pub use power::{block_stats, BlockStats};
+pub use power::{block_stats, BlockStats, PhaseSamples};
 pub use source::{SpindleInput, SpindleSource};
 pub use stream::{SampleFormat, SampleStream, StreamError, StreamForceSource};
 

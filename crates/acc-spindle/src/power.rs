@@ -66,23 +66,11 @@ impl Sums {
 /// names the channel and the sample index).
 ///
 /// ```
-/// use acc_core::PhaseBlock;
-/// use acc_spindle::power::block_stats;
+/// use acc_spindle::power::{block_stats, PhaseSamples};
 /// // A balanced 50 Hz system sampled at 10 kHz: 100 V line, 10 A phase, current in phase
 /// // with the phase voltage (PF = 1): P = √3 · 100 · 10 = 1732 W.
-/// let n = 1000;
-/// let (mut iu, mut iv, mut vuw, mut vvw) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-/// let third = 2.0 * std::f64::consts::PI / 3.0;
-/// for k in 0..n {
-///     let th = 2.0 * std::f64::consts::PI * 50.0 * k as f64 / 1e4;
-///     let vph = 100.0 / 3f64.sqrt() * 2f64.sqrt();
-///     let (vu, vv, vw) = (vph * th.cos(), vph * (th - third).cos(), vph * (th + third).cos());
-///     iu[k] = 10.0 * 2f64.sqrt() * th.cos();
-///     iv[k] = 10.0 * 2f64.sqrt() * (th - third).cos();
-///     vuw[k] = vu - vw;
-///     vvw[k] = vv - vw;
-/// }
-/// let s = block_stats(&PhaseBlock { sample_rate_hz: 1e4, i_u: &iu, i_v: &iv, v_uw: &vuw, v_vw: &vvw }).unwrap();
+/// let w = PhaseSamples::balanced(1000, 1e4, 100.0, 10.0, 0.0);
+/// let s = block_stats(&w.block()).unwrap();
 /// assert!((s.power_w - 1732.05).abs() < 0.1);
 /// assert!((s.current_rms_a - 10.0).abs() < 1e-6);
 /// assert!((s.voltage_rms_v - 100.0).abs() < 1e-6);
@@ -149,6 +137,66 @@ pub fn block_stats(block: &PhaseBlock<'_>) -> Result<BlockStats, SpindleError> {
     })
 }
 
+/// Owned channels of a three-phase block (`i_U`, `i_V`, `v_UW`, `v_VW`), e.g. a synthetic
+/// test signal or a buffered recording.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PhaseSamples {
+    /// Sampling rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Phase current U, A.
+    pub i_u: Vec<f64>,
+    /// Phase current V, A.
+    pub i_v: Vec<f64>,
+    /// Line voltage U–W, V.
+    pub v_uw: Vec<f64>,
+    /// Line voltage V–W, V.
+    pub v_vw: Vec<f64>,
+}
+
+impl PhaseSamples {
+    /// A balanced sinusoidal three-phase system: `n` samples at `sample_rate_hz`, 50 Hz,
+    /// RMS line voltage `v_line`, RMS phase current `i_a` lagging the phase voltage by
+    /// `phi` rad. Its power is `√3·v_line·i_a·cos φ` (seed 000 eq. 1).
+    pub fn balanced(n: usize, sample_rate_hz: f64, v_line: f64, i_a: f64, phi: f64) -> Self {
+        let third = 2.0 * std::f64::consts::PI / 3.0;
+        let vph = v_line / 3f64.sqrt() * 2f64.sqrt();
+        let ipk = i_a * 2f64.sqrt();
+        let mut s = Self {
+            sample_rate_hz,
+            ..Self::default()
+        };
+        for k in 0..n {
+            let th = 2.0 * std::f64::consts::PI * 50.0 * k as f64 / sample_rate_hz;
+            let (vu, vv, vw) = (
+                vph * th.cos(),
+                vph * (th - third).cos(),
+                vph * (th + third).cos(),
+            );
+            s.i_u.push(ipk * (th - phi).cos());
+            s.i_v.push(ipk * (th - third - phi).cos());
+            s.v_uw.push(vu - vw);
+            s.v_vw.push(vv - vw);
+        }
+        s
+    }
+
+    /// A balanced system at unity power factor drawing `power_w` at 200 V.
+    pub fn with_power(n: usize, sample_rate_hz: f64, power_w: f64) -> Self {
+        Self::balanced(n, sample_rate_hz, 200.0, power_w / (3f64.sqrt() * 200.0), 0.0)
+    }
+
+    /// Borrow as a [`PhaseBlock`].
+    pub fn block(&self) -> PhaseBlock<'_> {
+        PhaseBlock {
+            sample_rate_hz: self.sample_rate_hz,
+            i_u: &self.i_u,
+            i_v: &self.i_v,
+            v_uw: &self.v_uw,
+            v_vw: &self.v_vw,
+        }
+    }
+}
+
 /// The first non-finite sample of a block (error path only), or a product overflow.
 fn first_non_finite(block: &PhaseBlock<'_>) -> SpindleError {
     let channels: [(&'static str, &[f64]); 4] = [
@@ -174,48 +222,9 @@ fn first_non_finite(block: &PhaseBlock<'_>) -> SpindleError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::f64::consts::PI;
 
-    struct Wave {
-        iu: Vec<f64>,
-        iv: Vec<f64>,
-        vuw: Vec<f64>,
-        vvw: Vec<f64>,
-    }
-
-    /// Balanced sinusoidal system, current lagging the phase voltage by `phi`.
-    fn wave(n: usize, v_line: f64, i_a: f64, phi: f64) -> Wave {
-        let third = 2.0 * PI / 3.0;
-        let vph = v_line / 3f64.sqrt() * 2f64.sqrt();
-        let mut w = Wave {
-            iu: vec![],
-            iv: vec![],
-            vuw: vec![],
-            vvw: vec![],
-        };
-        for k in 0..n {
-            let th = 2.0 * PI * 50.0 * k as f64 / 1e4;
-            let (vu, vv, vw) = (
-                vph * th.cos(),
-                vph * (th - third).cos(),
-                vph * (th + third).cos(),
-            );
-            w.iu.push(i_a * 2f64.sqrt() * (th - phi).cos());
-            w.iv.push(i_a * 2f64.sqrt() * (th - third - phi).cos());
-            w.vuw.push(vu - vw);
-            w.vvw.push(vv - vw);
-        }
-        w
-    }
-
-    fn block(w: &Wave) -> PhaseBlock<'_> {
-        PhaseBlock {
-            sample_rate_hz: 1e4,
-            i_u: &w.iu,
-            i_v: &w.iv,
-            v_uw: &w.vuw,
-            v_vw: &w.vvw,
-        }
+    fn wave(n: usize, v_line: f64, i_a: f64, phi: f64) -> PhaseSamples {
+        PhaseSamples::balanced(n, 1e4, v_line, i_a, phi)
     }
 
     #[test]
@@ -223,7 +232,7 @@ mod tests {
         // 0.1 s holds whole 50 Hz cycles: the block mean is exact.
         for phi in [0.0, 0.3, 0.8, 1.2] {
             let w = wave(1000, 200.0, 30.0, phi);
-            let s = block_stats(&block(&w)).unwrap();
+            let s = block_stats(&w.block()).unwrap();
             let p = 3f64.sqrt() * 200.0 * 30.0 * f64::cos(phi);
             assert!((s.power_w - p).abs() < 1e-6 * p.abs().max(1.0), "{phi}");
             assert!((s.power_factor - phi.cos()).abs() < 1e-9);
@@ -234,9 +243,9 @@ mod tests {
     fn remainder_lanes_are_counted() {
         // 1003 is not a multiple of LANES: compare with a plain loop.
         let w = wave(1003, 200.0, 30.0, 0.5);
-        let s = block_stats(&block(&w)).unwrap();
+        let s = block_stats(&w.block()).unwrap();
         let p: f64 = (0..1003)
-            .map(|k| w.iu[k] * w.vuw[k] + w.iv[k] * w.vvw[k])
+            .map(|k| w.i_u[k] * w.v_uw[k] + w.i_v[k] * w.v_vw[k])
             .sum::<f64>()
             / 1003.0;
         assert!((s.power_w - p).abs() < 1e-9 * p);
@@ -246,28 +255,21 @@ mod tests {
     #[test]
     fn garbage_is_named() {
         let mut w = wave(100, 200.0, 30.0, 0.5);
-        w.vvw[57] = f64::NAN;
-        w.iu[80] = f64::INFINITY;
+        w.v_vw[57] = f64::NAN;
+        w.i_u[80] = f64::INFINITY;
         assert_eq!(
-            block_stats(&block(&w)),
+            block_stats(&w.block()),
             Err(SpindleError::NonFinite {
                 channel: "v_vw",
                 index: 57
             })
         );
-        w.iv.pop();
+        w.i_v.pop();
         assert!(matches!(
-            block_stats(&block(&w)),
+            block_stats(&w.block()),
             Err(SpindleError::LengthMismatch { i_v: 99, .. })
         ));
-        let e: [f64; 0] = [];
-        let b = PhaseBlock {
-            sample_rate_hz: 1e4,
-            i_u: &e,
-            i_v: &e,
-            v_uw: &e,
-            v_vw: &e,
-        };
-        assert_eq!(block_stats(&b), Err(SpindleError::EmptyBlock));
+        let e = PhaseSamples::default();
+        assert_eq!(block_stats(&e.block()), Err(SpindleError::EmptyBlock));
     }
 }

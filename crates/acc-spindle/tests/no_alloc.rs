@@ -9,10 +9,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use acc_core::{ForceSource, PeriodInput, PhaseBlock};
+use acc_core::{ForceSource, PeriodInput};
 use acc_spindle::calibrate::{Constants, PowerEfficiency};
 use acc_spindle::{
-    EstimatorConfig, Method, NoLoadMode, NoLoadModel, SpindleEstimator, SpindleInput,
+    EstimatorConfig, Method, NoLoadMode, NoLoadModel, PhaseSamples, SpindleEstimator, SpindleInput,
     SpindleSource,
 };
 
@@ -39,27 +39,6 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// A balanced 50 Hz block of `power_w`, 1000 samples at 10 kS/s.
-fn block(power_w: f64) -> [Vec<f64>; 4] {
-    let third = 2.0 * std::f64::consts::PI / 3.0;
-    let vph = 200.0 / 3f64.sqrt() * 2f64.sqrt();
-    let i = power_w / (3f64.sqrt() * 200.0) * 2f64.sqrt();
-    let mut ch = [vec![], vec![], vec![], vec![]];
-    for k in 0..1000 {
-        let th = 2.0 * std::f64::consts::PI * 50.0 * k as f64 / 1e4;
-        let (vu, vv, vw) = (
-            vph * th.cos(),
-            vph * (th - third).cos(),
-            vph * (th + third).cos(),
-        );
-        ch[0].push(i * th.cos());
-        ch[1].push(i * (th - third).cos());
-        ch[2].push(vu - vw);
-        ch[3].push(vv - vw);
-    }
-    ch
-}
-
 #[test]
 fn per_block_path_does_not_allocate() {
     let probe = COUNT.with(Cell::get);
@@ -81,13 +60,15 @@ fn per_block_path_does_not_allocate() {
         no_load: NoLoadMode::Adaptive,
         ..EstimatorConfig::default()
     };
-    let mut src =
-        SpindleSource::new(SpindleInput::Phases, SpindleEstimator::new(cfg, c, nl).unwrap())
-            .unwrap();
-    let air = block(601.0);
-    let cut = block(2600.0);
-    let mut bad = block(2600.0);
-    bad[1][500] = f64::NAN;
+    let mut src = SpindleSource::new(
+        SpindleInput::Phases,
+        SpindleEstimator::new(cfg, c, nl).unwrap(),
+    )
+    .unwrap();
+    let air = PhaseSamples::with_power(1000, 1e4, 601.0);
+    let cut = PhaseSamples::with_power(1000, 1e4, 2600.0);
+    let mut bad = cut.clone();
+    bad.i_v[500] = f64::NAN;
     let before = COUNT.with(Cell::get);
     let mut valid = 0;
     for i in 0..1000 {
@@ -100,13 +81,7 @@ fn per_block_path_does_not_allocate() {
         let input = PeriodInput {
             period_s: 0.1,
             spindle_rpm: rpm,
-            phases: Some(PhaseBlock {
-                sample_rate_hz: 1e4,
-                i_u: &ch[0],
-                i_v: &ch[1],
-                v_uw: &ch[2],
-                v_vw: &ch[3],
-            }),
+            phases: Some(ch.block()),
             ..PeriodInput::default()
         };
         valid += usize::from(src.estimate(&input).valid);
