@@ -17,6 +17,7 @@ use std::io::Write;
 use acc_core::{FeedOverride, Measurement, Mode, OverrideLaw, Saturation};
 use acc_pmc::{ControlBits, Pmc};
 
+use crate::channel::MeasurementChannel;
 use crate::runlog::{RunLogRow, RunLogWriter};
 use crate::scenario::{LawKind, Scenario};
 use crate::summary::{summarize, Summary};
@@ -53,15 +54,26 @@ fn saturation_name(s: Saturation) -> &'static str {
     }
 }
 
-/// Run `law` on a fresh machine built from `scenario`; write every row to `log` if given.
+/// Run `law` on a fresh machine built from `scenario`, measuring with the scenario's
+/// channel; write every row to `log` if given.
 pub fn run<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
+    log: Option<&mut RunLogWriter<W>>,
+) -> Result<RunResult, SimError> {
+    let mut channel = scenario.build_channel()?;
+    run_with_channel(scenario, law, channel.as_mut(), log)
+}
+
+/// [`run`] with a caller-supplied measurement channel (e.g. one configured in code).
+pub fn run_with_channel<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
     mut log: Option<&mut RunLogWriter<W>>,
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let mut board = scenario.build_board();
-    let mut channel = scenario.build_channel()?;
     board.write_control(ControlBits {
         acc_request: true,
         ..ControlBits::default()
