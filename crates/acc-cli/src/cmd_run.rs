@@ -13,9 +13,9 @@ use std::path::PathBuf;
 
 use acc_core::{Controller, Mode, OverrideSpec, Saturation};
 use acc_pmc::rtu::RtuBoard;
-use acc_pmc::BoardStatus;
-use acc_runtime::config::RunConfig;
-use acc_runtime::link::RtuPmc;
+use acc_pmc::{BoardStatus, Pmc};
+use acc_runtime::config::{LinkSettings, RunConfig};
+use acc_runtime::link::{CanPmc, RtuPmc};
 use acc_runtime::policy::FaultPolicy;
 use acc_runtime::shutdown::{init_tracing, install_stop_flag, LogFormat};
 use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord, SystemClock};
@@ -173,49 +173,81 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         },
         "info",
     );
-    if let Some(iface) = &args.can {
-        bail!(
-            "--can {iface}: this build has no CAN link for `acc run` yet; use --port with the Modbus RTU board"
-        );
-    }
     // 1. Everything validated before the port is touched.
-    let cfg = RunConfig::load(&args.config, args.port.as_deref())?;
-    let source = cfg.force_source()?;
+    let cfg = RunConfig::load_for(&args.config, args.port.as_deref(), args.can.as_deref())?;
     if let Some(d) = args.duration_s {
         if !(d.is_finite() && d > 0.0) {
             bail!("--duration-s {d}: must be a positive number of seconds");
         }
     }
-    // 2. Open the port (framing verified, nothing sent).
-    let port = acc_pmc::serial::open_port(&cfg.board)?;
-    let mut rtu = RtuBoard::new(port, cfg.board.link);
-    // 3. First transaction: the watchdog time; then the status.
-    rtu.write_watchdog_ms(cfg.board.watchdog_ms)
-        .with_context(|| {
-            format!(
-                "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
-                cfg.path.display(),
-                cfg.board.watchdog_ms,
-                cfg.board.link.slave,
-                cfg.board.port
-            )
-        })?;
-    let status = rtu
-        .read_status_raw()
-        .with_context(|| format!("reading the board status on {}", cfg.board.port))?;
+    match &cfg.link {
+        LinkSettings::Rtu(rtu_cfg) => {
+            // 2. Open the port (framing verified, nothing sent).
+            let port = acc_pmc::serial::open_port(rtu_cfg)?;
+            let mut rtu = RtuBoard::new(port, rtu_cfg.link);
+            // 3. First transaction: the watchdog time; then the status.
+            rtu.write_watchdog_ms(rtu_cfg.watchdog_ms)
+                .with_context(|| {
+                    format!(
+                        "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
+                        cfg.path.display(),
+                        rtu_cfg.watchdog_ms,
+                        rtu_cfg.link.slave,
+                        rtu_cfg.port
+                    )
+                })?;
+            let status = rtu
+                .read_status_raw()
+                .with_context(|| format!("reading the board status on {}", rtu_cfg.port))?;
+            println!(
+                "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms",
+                rtu_cfg.link.slave, rtu_cfg.port, rtu_cfg.serial.baud, rtu_cfg.watchdog_ms
+            );
+            let mut pmc = RtuPmc(rtu);
+            drive(args, &cfg, &mut pmc, status)?;
+            let st = pmc.0.stats();
+            println!(
+                "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
+                st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
+            );
+            Ok(())
+        }
+        LinkSettings::Can { iface, link } => {
+            let board = acc_pmc::can::open_socketcan(iface, *link).map_err(|e| {
+                anyhow::anyhow!(
+                    "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
+                    cfg.path.display()
+                )
+            })?;
+            let mut pmc = CanPmc(board);
+            let status = pmc
+                .read_status()
+                .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))?;
+            println!(
+                "board: CAN node {} on {iface} (board watchdog at its own setting)",
+                link.node
+            );
+            drive(args, &cfg, &mut pmc, status)
+        }
+    }
+}
+
+/// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
+fn drive<P: Pmc + Send>(
+    args: &RunArgs,
+    cfg: &RunConfig,
+    pmc: &mut P,
+    status: BoardStatus,
+) -> anyhow::Result<()> {
     let step = status.override_step_pct;
     println!(
-        "board: slave {} on {} at {} baud; resolution OVERRIDE_STEP = {} % ({}); watchdog {} ms",
-        cfg.board.link.slave,
-        cfg.board.port,
-        cfg.board.serial.baud,
+        "resolution: OVERRIDE_STEP = {} % ({})",
         step,
         match step {
             10 => "4-bit board, 16 positions 0..150 %",
             1 => "byte board, 1 % steps",
             _ => "non-standard step",
-        },
-        cfg.board.watchdog_ms
+        }
     );
     println!("status: {}", describe_status(&status));
     if !(step == 1 || step == 10) {
@@ -227,10 +259,10 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     ccfg.override_spec = spec_for_board(ccfg.override_spec, step);
     let law = Controller::new(ccfg).map_err(|e| anyhow::anyhow!("controller: {e:?}"))?;
     let period_s = ccfg.period_s;
+    let source = cfg.force_source()?;
     let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s);
-    let mut pmc = RtuPmc(rtu);
 
-    // 4. Run log and stop flag.
+    // Run log and stop flag.
     if let Some(dir) = args.log.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("creating the run-log folder {}", dir.display()))?;
@@ -256,7 +288,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         args.log.display()
     );
     let s = run(
-        &mut pmc,
+        pmc,
         &mut control,
         SystemClock::new(),
         &mut sink,
@@ -264,7 +296,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         opts,
     )?;
 
-    // 5. Summary.
+    // Summary.
     println!("periods: {}", s.periods);
     println!(
         "period jitter: {} ; overruns {} ; skipped {}",
@@ -280,11 +312,6 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         s.log_dropped,
         s.log_errors
     );
-    let st = pmc.0.stats();
-    println!(
-        "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
-        st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
-    );
     println!(
         "final state: {}; alarms: {:?}",
         s.final_state.name(),
@@ -296,8 +323,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             Ok(())
         }
         Err(k) => bail!(
-            "shutdown: could not clear ACC_REQUEST ({k:?}); the board's watchdog ({} ms) releases the override",
-            cfg.board.watchdog_ms
+            "shutdown: could not clear ACC_REQUEST ({k:?}); the board's watchdog releases the override"
         ),
     }
 }

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use acc_config::{check_range, load_toml, resolve_relative, ConfigError};
 use acc_core::ControllerConfig;
+use acc_pmc::can::{CanConfig, CanLinkConfig};
 use acc_pmc::serial::{RtuConfig, RtuSettings};
 use acc_spindle::calibrate::SpindleCalibration;
 use acc_spindle::estimate::{EstimatorConfig, SpindleEstimator};
@@ -89,6 +90,8 @@ pub struct RunFile {
     pub controller: PathBuf,
     /// Serial link to the board (acc-pmc's `RtuConfig` keys); `port` may come from `--port`.
     pub board: Option<toml::Table>,
+    /// CAN link to a CAN board (acc-pmc's `CanConfig` keys); used with `--can <iface>`.
+    pub can: Option<toml::Table>,
     /// Force source.
     pub force: ForceSection,
     /// Fault policy.
@@ -97,6 +100,20 @@ pub struct RunFile {
     /// Loop options.
     #[serde(default)]
     pub runtime: RuntimeSection,
+}
+
+/// Which link drives the board.
+#[derive(Debug, Clone)]
+pub enum LinkSettings {
+    /// Modbus RTU over a serial port (`[board]`, `--port`).
+    Rtu(RtuSettings),
+    /// CAN over SocketCAN (`[can]`, `--can`).
+    Can {
+        /// Interface, e.g. `can0`.
+        iface: String,
+        /// Link parameters.
+        link: CanLinkConfig,
+    },
 }
 
 /// A loaded, validated run config.
@@ -108,8 +125,8 @@ pub struct RunConfig {
     pub name: String,
     /// Controller parameters (from the preset).
     pub controller: ControllerConfig,
-    /// Serial link settings (validated, not opened).
-    pub board: RtuSettings,
+    /// The link to the board (validated, not opened).
+    pub link: LinkSettings,
     /// Spindle calibration.
     pub calibration: SpindleCalibration,
     /// Estimator settings.
@@ -121,15 +138,32 @@ pub struct RunConfig {
 }
 
 impl RunConfig {
-    /// Load and validate `path`; `port` (from `--port`) replaces `board.port`.
+    /// Load and validate `path` for the serial link; `port` (from `--port`) replaces
+    /// `board.port`.
     pub fn load(path: impl AsRef<Path>, port: Option<&str>) -> Result<Self, ConfigError> {
-        let path = path.as_ref();
-        let file: RunFile = load_toml(path)?;
-        Self::from_file(path, file, port)
+        Self::load_for(path, port, None)
     }
 
-    /// Validate a parsed run file that came from `path`.
-    pub fn from_file(path: &Path, file: RunFile, port: Option<&str>) -> Result<Self, ConfigError> {
+    /// Load and validate `path`; with `can` (from `--can <iface>`) the CAN link (`[can]`
+    /// table, `iface` replaced) is used, otherwise the serial link with `port` replacing
+    /// `board.port`.
+    pub fn load_for(
+        path: impl AsRef<Path>,
+        port: Option<&str>,
+        can: Option<&str>,
+    ) -> Result<Self, ConfigError> {
+        let path = path.as_ref();
+        let file: RunFile = load_toml(path)?;
+        Self::from_file(path, file, port, can)
+    }
+
+    /// Validate a parsed run file that came from `path` (see [`RunConfig::load_for`]).
+    pub fn from_file(
+        path: &Path,
+        file: RunFile,
+        port: Option<&str>,
+        can: Option<&str>,
+    ) -> Result<Self, ConfigError> {
         let invalid = |key: &str, message: String| ConfigError::Invalid {
             file: path.to_path_buf(),
             key: key.to_string(),
@@ -137,21 +171,36 @@ impl RunConfig {
         };
         let controller = acc_config::load_controller(resolve_relative(path, &file.controller))?;
 
-        // [board]
-        let mut table = file.board.unwrap_or_default();
-        if let Some(p) = port {
-            table.insert("port".into(), toml::Value::String(p.to_string()));
-        }
-        if !table.contains_key("port") {
-            return Err(invalid(
-                "board.port",
-                "missing: give --port <device> or set board.port".into(),
-            ));
-        }
-        let rtu: RtuConfig = toml::Value::Table(table)
-            .try_into()
-            .map_err(|e| invalid("board", e.to_string().trim_end().to_string()))?;
-        let board = rtu.validate(path, "board")?;
+        // [board] or [can]
+        let link = match can {
+            Some(iface) => {
+                let mut table = file.can.unwrap_or_default();
+                table.insert("iface".into(), toml::Value::String(iface.to_string()));
+                let c: CanConfig = toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e| invalid("can", e.to_string().trim_end().to_string()))?;
+                LinkSettings::Can {
+                    iface: iface.to_string(),
+                    link: c.validate(path, "can")?,
+                }
+            }
+            None => {
+                let mut table = file.board.unwrap_or_default();
+                if let Some(p) = port {
+                    table.insert("port".into(), toml::Value::String(p.to_string()));
+                }
+                if !table.contains_key("port") {
+                    return Err(invalid(
+                        "board.port",
+                        "missing: give --port <device> or set board.port".into(),
+                    ));
+                }
+                let rtu: RtuConfig = toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e| invalid("board", e.to_string().trim_end().to_string()))?;
+                LinkSettings::Rtu(rtu.validate(path, "board")?)
+            }
+        };
 
         // [force]
         let cal_path = resolve_relative(path, &file.force.calibration);
@@ -206,7 +255,7 @@ impl RunConfig {
             path: path.to_path_buf(),
             name: file.name,
             controller,
-            board,
+            link,
             calibration,
             estimator,
             policy,

@@ -2,6 +2,7 @@
 
 use std::io::{Read, Write};
 
+use acc_pmc::can::{CanBoard, CanError};
 use acc_pmc::rtu::{RtuBoard, RtuError};
 use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
 
@@ -30,6 +31,38 @@ impl<T: Read + Write> Pmc for RtuPmc<T> {
     }
 
     fn write_control(&mut self, control: ControlBits) -> Result<(), RtuError> {
+        self.0.write_control(control)
+    }
+}
+
+/// The CAN board for the runtime, with the same stale-status pass-through as [`RtuPmc`].
+#[derive(Debug)]
+pub struct CanPmc<B: embedded_can::blocking::Can>(pub CanBoard<B>);
+
+impl<B> Pmc for CanPmc<B>
+where
+    B: embedded_can::blocking::Can,
+    CanBoard<B>: Pmc<Error = CanError<B::Error>>,
+    B::Error: std::error::Error + Send + Sync + 'static,
+{
+    type Error = CanError<B::Error>;
+
+    fn kind(err: &Self::Error) -> PmcErrorKind {
+        <CanBoard<B> as Pmc>::kind(err)
+    }
+
+    fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
+        match self.0.read_status() {
+            Err(CanError::Stale { status, .. }) => Ok(status),
+            other => other,
+        }
+    }
+
+    fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Self::Error> {
+        self.0.write_override(override_pct, heartbeat)
+    }
+
+    fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error> {
         self.0.write_control(control)
     }
 }

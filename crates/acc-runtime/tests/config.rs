@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use acc_runtime::config::RunConfig;
+use acc_runtime::config::{LinkSettings, RunConfig};
 
 fn cfg(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -23,7 +23,18 @@ fn shipped_run_configs_load() {
         c.force_source().unwrap_or_else(|e| panic!("{name}: {e}"));
     }
     let fast = RunConfig::load(cfg("board_sim_fast.toml"), Some("/dev/pts/9")).expect("loads");
-    assert_eq!(fast.board.port, "/dev/pts/9", "--port replaces board.port");
+    match &fast.link {
+        LinkSettings::Rtu(r) => assert_eq!(r.port, "/dev/pts/9", "--port replaces board.port"),
+        other => panic!("serial link expected: {other:?}"),
+    }
+    let can = RunConfig::load_for(cfg("paper_vmc_run.toml"), None, Some("vcan0")).expect("can");
+    match &can.link {
+        LinkSettings::Can { iface, link } => {
+            assert_eq!(iface, "vcan0");
+            assert_eq!(link.node, 1);
+        }
+        other => panic!("CAN link expected: {other:?}"),
+    }
     assert_eq!(fast.tick_period(), std::time::Duration::from_millis(25));
     assert_eq!(fast.policy.overload_force_n, 1600.0);
 }

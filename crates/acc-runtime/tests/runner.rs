@@ -173,3 +173,75 @@ fn a_slow_logger_never_blocks_control() {
     assert_eq!(s.logged + s.log_dropped, 300);
     assert_eq!(sink.0, s.logged, "everything queued was written");
 }
+
+/// The same loop drives the CAN board (acc-pmc's CanBoard over its in-memory bus emulator).
+#[test]
+fn drives_the_can_board_through_the_same_loop() {
+    use acc_pmc::board::{lock_board, BoardLogic};
+    use acc_pmc::can::emulator::CanBoardEmulator;
+    use acc_pmc::can::{CanBoard, CanLinkConfig};
+    use acc_runtime::link::CanPmc;
+
+    let mut logic = BoardLogic::default();
+    logic.set_acc_switch(true);
+    logic.set_operator_override_pct(100);
+    logic.set_programmed_feed_mm_min(200);
+    logic.set_spindle_rpm(600);
+    let shared = logic.shared();
+    let bus = CanBoardEmulator::new(std::sync::Arc::clone(&shared), 1).expect("node 1");
+    let can = CanBoard::new(bus, CanLinkConfig::default()).expect("CAN board");
+
+    /// New power sample before every read, as the board's sensor would.
+    struct Live(CanPmc<CanBoardEmulator>, acc_pmc::board::SharedBoard);
+    impl acc_pmc::Pmc for Live {
+        type Error = <CanPmc<CanBoardEmulator> as acc_pmc::Pmc>::Error;
+        fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
+            CanPmc::<CanBoardEmulator>::kind(e)
+        }
+        fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+            lock_board(&self.1).push_power_sample(1500);
+            self.0.read_status()
+        }
+        fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+            self.0.write_override(o, hb)
+        }
+        fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+            self.0.write_control(c)
+        }
+    }
+    let mut pmc = Live(CanPmc(can), std::sync::Arc::clone(&shared));
+    let mut ctl = control();
+    let mut sink = VecSink::default();
+    let stop = AtomicBool::new(false);
+    let opts = RunOptions {
+        max_periods: Some(20),
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let s = run(
+        &mut pmc,
+        &mut ctl,
+        ManualClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+    )
+    .expect("runs");
+    assert_eq!(s.periods, 20);
+    assert!(
+        sink.0.iter().all(|r| r.cycle.link.is_ok()),
+        "every status pair arrived"
+    );
+    assert!(
+        sink.0
+            .iter()
+            .any(|r| r.cycle.plan.override_and_heartbeat.map(|p| p.0) == Some(70)),
+        "the law's command was sent"
+    );
+    let b = lock_board(&shared);
+    assert!(!b.control().acc_request, "ACC_REQUEST cleared at the end");
+    assert_eq!(
+        b.override_cmd_pct(),
+        70,
+        "the last command reached the board"
+    );
+}
