@@ -15,9 +15,9 @@ fn hard_inclusion_is_unexplained_not_misnamed() {
     let r = replay(&model, &inp);
     let spindle = model.machine.spindle;
     if let Some(p) = log.power_w.as_mut() {
-        for i in 0..p.len() {
-            if (48.0..56.0).contains(&log.t_s[i]) {
-                p[i] += 0.4 * r.cut_power_w[i] / spindle.efficiency;
+        for ((p, t), pc) in p.iter_mut().zip(&log.t_s).zip(&r.cut_power_w) {
+            if (48.0..56.0).contains(t) {
+                *p += 0.4 * pc / spindle.efficiency;
             }
         }
     }

@@ -1,4 +1,6 @@
 //! Shared helpers of the `ident_*` tests.
+// Each test binary that includes this module uses a subset of it.
+#![allow(dead_code)]
 
 use acc_ident::synth::{self, Case, Hidden, Outcome};
 use acc_ident::{workflow, EffectKind};

@@ -1,6 +1,8 @@
 //! Criterion benchmark: the whole workflow on a 10-minute log at 10 Hz (6 000 rows) with
 //! a hidden tool wear — `cargo bench -p acc-ident --bench discrepancy`.
 
+#![allow(missing_docs)] // criterion_group! generates undocumented items
+
 use std::hint::black_box;
 
 use acc_ident::synth::{self, Case, Hidden};

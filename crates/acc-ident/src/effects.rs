@@ -53,7 +53,16 @@ pub struct ParamInfo {
 
 const TAU_GRID: &[f64] = &[0.0, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85];
 const DELAY_GRID: &[f64] = &[0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8];
-const PHASE_GRID: &[f64] = &[0.0, 0.785, 1.571, 2.356, 3.142, 3.927, 4.712, 5.498];
+const PHASE_GRID: &[f64] = &[
+    0.0,
+    std::f64::consts::FRAC_PI_4,
+    std::f64::consts::FRAC_PI_2,
+    3.0 * std::f64::consts::FRAC_PI_4,
+    std::f64::consts::PI,
+    5.0 * std::f64::consts::FRAC_PI_4,
+    3.0 * std::f64::consts::FRAC_PI_2,
+    7.0 * std::f64::consts::FRAC_PI_4,
+];
 const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
 const fn p(

@@ -87,8 +87,8 @@ impl Inputs {
         };
         let period_s = log.median_period_s();
         let mut dt_s = vec![period_s; log.len()];
-        for i in 1..log.len() {
-            dt_s[i] = log.t_s[i] - log.t_s[i - 1];
+        for (d, w) in dt_s.iter_mut().skip(1).zip(log.t_s.windows(2)) {
+            *d = w[1] - w[0];
         }
         Ok(Inputs {
             t_s: log.t_s.clone(),
@@ -324,6 +324,8 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
 /// [`crate::physics`] with the simulator's wear factor, times the feed-exponent and runout
 /// effects. Power: `P_air + ω·T/η` plus the effects' losses and drift. Finally the
 /// sensor low-pass.
+// The loops advance several aligned per-row series at once; indexing reads clearer here.
+#[allow(clippy::needless_range_loop)]
 pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let n = inp.len();
     let fx = &model.effects;
