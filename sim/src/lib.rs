@@ -5,7 +5,7 @@
 //! ([`process`]), the feed drive and override path ([`machine`]), the PMC interface board
 //! ([`board`], the PMC crate's `BoardLogic` behind the `Pmc` trait), measurement channels
 //! ([`channel`], `ForceSource`s), comparison baselines ([`baselines`]), scenario files
-//! ([`scenario`]), the closed loop ([`run`]), the run log ([`runlog`], shared with the real
+//! ([`scenario`]), the closed loop ([`mod@run`]), the run log ([`runlog`], shared with the real
 //! runtime) and summaries ([`summary`]).
 //!
 //! Everything runs on the machine's own manual clock and a seeded RNG: the same scenario
