@@ -806,6 +806,62 @@ mod tests {
     }
 }
 
+/// Feed-drive current of the axis along the feed, for the spindle + feed-drive fusion
+/// (seed 004, physics.md §3): at constant speed `Kt·I = C + Kf·F_x`, i.e.
+/// `I = friction_a + a_per_n·F_x`, seen through the drive's current-loop bandwidth
+/// (first order, ≈ 60 Hz in seed 004) plus seeded Gaussian noise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FeedDriveSpec {
+    /// Current at no feed force (`C/Kt`: friction of guides and ball screw), A. Default 3.
+    pub friction_a: f64,
+    /// Current per newton of feed force (`Kf/Kt`), A/N. Default 0.01.
+    pub a_per_n: f64,
+    /// Bandwidth of the current response, Hz. Default 60.
+    pub bandwidth_hz: f64,
+    /// Noise σ per sample, A. Default 0.05.
+    pub noise_a: f64,
+}
+
+impl Default for FeedDriveSpec {
+    fn default() -> Self {
+        Self {
+            friction_a: 3.0,
+            a_per_n: 0.01,
+            bandwidth_hz: 60.0,
+            noise_a: 0.05,
+        }
+    }
+}
+
+/// The feed-drive current model (see [`FeedDriveSpec`]).
+#[derive(Debug, Clone)]
+pub struct FeedDriveCurrent {
+    spec: FeedDriveSpec,
+    state_a: f64,
+    rng: ChaCha8Rng,
+}
+
+impl FeedDriveCurrent {
+    /// At rest (no feed force), RNG `seed`.
+    pub fn new(spec: FeedDriveSpec, seed: u64) -> Self {
+        Self {
+            spec,
+            state_a: spec.friction_a,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+        }
+    }
+
+    /// Advance `dt_s` under the feed force `feed_force_n`; returns the sampled current, A.
+    pub fn step(&mut self, feed_force_n: f64, dt_s: f64) -> f64 {
+        let target = self.spec.friction_a + self.spec.a_per_n * feed_force_n;
+        let a = (-2.0 * PI * self.spec.bandwidth_hz * dt_s).exp();
+        self.state_a = target + (self.state_a - target) * a;
+        let z: f64 = StandardNormal.sample(&mut self.rng);
+        self.state_a + self.spec.noise_a * z
+    }
+}
+
 /// `[measurement] kind = "spindle-power"` keys: the channel's motor, estimator and
 /// calibration.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
