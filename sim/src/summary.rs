@@ -236,19 +236,29 @@ impl fmt::Display for Summary {
         for s in &self.segments {
             let note = if s.is_cut && !s.reaches_ref {
                 "  (Fr not reachable: override at max)"
+            } else if !s.is_cut && s.index > 0 {
+                "  (peak_in: the exit from the previous cut)"
             } else {
                 ""
             };
+            // Errors against Fr mean nothing in air: dashes.
+            let err = |v: f64| {
+                if s.is_cut {
+                    format!("{v:.1}")
+                } else {
+                    "-".to_string()
+                }
+            };
             writeln!(
                 f,
-                "{:<3} {:<22} {:>7.1} {:>7.1} {:>9.1} {:>9.1} {:>8.1} {:>9.1} {:>9.1} {:>8.1} {:>7.1}{}",
+                "{:<3} {:<22} {:>7.1} {:>7.1} {:>9.1} {:>9} {:>8} {:>9.1} {:>9.1} {:>8.1} {:>7.1}{}",
                 s.index,
                 s.label,
                 s.t_enter_s,
                 s.t_leave_s,
                 s.mean_force_n,
-                s.mean_error_n,
-                s.rms_error_n,
+                err(s.mean_error_n),
+                err(s.rms_error_n),
                 s.osc_amplitude_n,
                 s.peak_entry_n,
                 s.time_above_s,
