@@ -291,7 +291,9 @@ mod tests {
         let mut text = COLUMNS.join(",");
         text.push('\n');
         text.push_str("0.1,,,,600,200,100,100,200,abc,,800,,4,0,0,fixed_pi,0,1,none\n");
-        let err = read_run_log(text.as_bytes()).expect_err("bad field").to_string();
+        let err = read_run_log(text.as_bytes())
+            .expect_err("bad field")
+            .to_string();
         assert!(err.contains("line 2") && err.contains("force_n"), "{err}");
     }
 }
