@@ -11,7 +11,10 @@ mod e2e_support;
 use std::time::Duration;
 
 use acc_sim::{summarize, RunResult, Scenario};
-use e2e_support::{assert_faults_never_raise, field, read_log, root, Proc};
+use e2e_support::{
+    assert_faults_never_raise, field, interrupt_expect_clean_exit, read_log, root, spawn_board_sim,
+    spawn_run,
+};
 
 #[test]
 fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
@@ -20,50 +23,14 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
     let run_log = dir.path().join("run.csv");
     let scenario = root().join("configs/scenarios/paper_case3.toml");
     let sim_log_s = sim_log.to_string_lossy().to_string();
-    let mut board = Proc::spawn(
-        &[
-            "board-sim",
-            "--scenario",
-            &scenario.to_string_lossy(),
-            "--time-scale",
-            "4",
-            "--baud",
-            "115200",
-            "--wait-for-controller",
-            "--log",
-            &sim_log_s,
-        ],
-        true,
-    );
-    let pty = board
-        .first_line
-        .clone()
-        .expect("board-sim prints the pty path");
-    assert!(pty.starts_with("/dev/"), "pty path, got {pty:?}");
-    let run = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            "configs/runtime/board_sim_fast.toml",
-            "--port",
-            &pty,
-            "--log",
-            &run_log.to_string_lossy(),
-        ],
-        false,
-    );
+    let (mut board, pty) = spawn_board_sim(&["--log", &sim_log_s]);
+    let run = spawn_run("configs/runtime/board_sim_fast.toml", &pty, &run_log);
     assert!(
         board.wait_for("workpiece finished", Duration::from_secs(60)),
         "the workpiece was not finished within 60 s: {:?}",
         board.err_lines
     );
-    run.sigint();
-    let (code, out, err) = run.finish(Duration::from_secs(10));
-    assert_eq!(
-        code,
-        Some(0),
-        "acc run exit code; stdout:\n{out}\nstderr:\n{err:?}"
-    );
+    let (out, _) = interrupt_expect_clean_exit(run);
     board.sigint();
     let (bcode, _, berr) = board.finish(Duration::from_secs(10));
     assert_eq!(bcode, Some(0), "board-sim exit: {berr:?}");

@@ -24,13 +24,15 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{assert_faults_never_raise, field, is_active, read_log, root, Proc};
+use e2e_support::{
+    assert_faults_never_raise, field, interrupt_expect_clean_exit, is_active, read_log,
+    spawn_board_sim, spawn_run,
+};
 
 #[test]
 fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
     let dir = tempfile::tempdir().expect("temp dir");
     let run_log = dir.path().join("run.csv");
-    let scenario = root().join("configs/scenarios/paper_case3.toml");
     let faults = [
         "crc@6:6",
         "drop@9:100",
@@ -51,53 +53,20 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
         "switch@45.5:on",
         "operator@49:100",
     ];
-    let mut args: Vec<String> = [
-        "board-sim",
-        "--scenario",
-        &scenario.to_string_lossy(),
-        "--time-scale",
-        "4",
-        "--baud",
-        "115200",
-        "--late-ms",
-        "40",
-        "--wait-for-controller",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    for f in faults {
-        args.push("--fault".into());
-        args.push(f.into());
+    let mut args = vec!["--late-ms", "40"];
+    for f in &faults {
+        args.push("--fault");
+        args.push(f);
     }
-    let argv: Vec<&str> = args.iter().map(String::as_str).collect();
-    let mut board = Proc::spawn(&argv, true);
-    let pty = board.first_line.clone().expect("pty path");
-    let run = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            "configs/runtime/board_sim_faults.toml",
-            "--port",
-            &pty,
-            "--log",
-            &run_log.to_string_lossy(),
-        ],
-        false,
-    );
+    let (mut board, pty) = spawn_board_sim(&args);
+    let run = spawn_run("configs/runtime/board_sim_faults.toml", &pty, &run_log);
     assert!(
         board.wait_for("fault Operator(100)", Duration::from_secs(60)),
         "board-sim did not reach t = 49 s: {:?}",
         board.err_lines
     );
     // SIGINT mid-cut (the 3 mm segment).
-    run.sigint();
-    let (code, out, err) = run.finish(Duration::from_secs(10));
-    assert_eq!(
-        code,
-        Some(0),
-        "acc run exit code; stdout:\n{out}\nstderr:\n{err:?}"
-    );
+    let (out, _) = interrupt_expect_clean_exit(run);
     board.sigint();
     let (_, _, berr) = board.finish(Duration::from_secs(10));
     assert!(

@@ -235,3 +235,57 @@ pub fn assert_faults_never_raise(rows: &[RunLogRow]) -> usize {
     }
     checked
 }
+
+/// Start `acc board-sim` on the paper's case III scenario (2-3-4 mm) at 4x time, 115 200
+/// baud, machine time starting with the controller, plus `extra` arguments; returns the
+/// process and the pty path it printed.
+pub fn spawn_board_sim(extra: &[&str]) -> (Proc, String) {
+    let scenario = root().join("configs/scenarios/paper_case3.toml");
+    let scenario = scenario.to_string_lossy();
+    let mut args = vec![
+        "board-sim",
+        "--scenario",
+        &scenario,
+        "--time-scale",
+        "4",
+        "--baud",
+        "115200",
+        "--wait-for-controller",
+    ];
+    args.extend_from_slice(extra);
+    let board = Proc::spawn(&args, true);
+    let pty = board
+        .first_line
+        .clone()
+        .expect("board-sim prints the pty path");
+    assert!(pty.starts_with("/dev/"), "pty path, got {pty:?}");
+    (board, pty)
+}
+
+/// Start `acc run --config <config> --port <pty> --log <log>`.
+pub fn spawn_run(config: &str, pty: &str, log: &Path) -> Proc {
+    Proc::spawn(
+        &[
+            "run",
+            "--config",
+            config,
+            "--port",
+            pty,
+            "--log",
+            &log.to_string_lossy(),
+        ],
+        false,
+    )
+}
+
+/// Ctrl-C to `acc run`; it must exit 0. Returns its stdout and stderr lines.
+pub fn interrupt_expect_clean_exit(run: Proc) -> (String, Vec<String>) {
+    run.sigint();
+    let (code, out, err) = run.finish(Duration::from_secs(10));
+    assert_eq!(
+        code,
+        Some(0),
+        "acc run exit code; stdout:\n{out}\nstderr:\n{err:?}"
+    );
+    (out, err)
+}

@@ -9,6 +9,21 @@ use acc_runtime::policy::{AccState, FaultPolicy, PolicyConfig};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
 use acc_runtime::{run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, VecSink};
 
+/// Run `pmc` with [`control()`] on a fresh manual clock, T = 0.1 s, at most `max` periods.
+fn run_manual<P: acc_pmc::Pmc + Send, S: LogSink + Send>(
+    pmc: &mut P,
+    ctl: &mut ControlLoop<ScriptedLaw, LinearPowerForce>,
+    sink: &mut S,
+    stop: &AtomicBool,
+    max: u64,
+) -> acc_runtime::RunSummary {
+    let opts = RunOptions {
+        max_periods: Some(max),
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    run(pmc, ctl, ManualClock::new(), sink, stop, opts).expect("runs")
+}
+
 fn control() -> ControlLoop<ScriptedLaw, LinearPowerForce> {
     ControlLoop::new(
         FaultPolicy::new(PolicyConfig::default()),
@@ -108,19 +123,7 @@ fn stop_flag_mid_run_logs_to_the_last_period_and_flushes() {
         rows: Vec::new(),
         flushed: false,
     };
-    let opts = RunOptions {
-        max_periods: Some(100_000),
-        ..RunOptions::new(Duration::from_millis(100))
-    };
-    let s = run(
-        &mut board,
-        &mut ctl,
-        ManualClock::new(),
-        &mut sink,
-        &stop,
-        opts,
-    )
-    .expect("runs");
+    let s = run_manual(&mut board, &mut ctl, &mut sink, &stop, 100_000);
     assert!(s.periods >= 20 && s.periods < 100_000);
     assert_eq!(
         sink.rows.len() as u64,
@@ -213,19 +216,7 @@ fn drives_the_can_board_through_the_same_loop() {
     let mut ctl = control();
     let mut sink = VecSink::default();
     let stop = AtomicBool::new(false);
-    let opts = RunOptions {
-        max_periods: Some(20),
-        ..RunOptions::new(Duration::from_millis(100))
-    };
-    let s = run(
-        &mut pmc,
-        &mut ctl,
-        ManualClock::new(),
-        &mut sink,
-        &stop,
-        opts,
-    )
-    .expect("runs");
+    let s = run_manual(&mut pmc, &mut ctl, &mut sink, &stop, 20);
     assert_eq!(s.periods, 20);
     assert!(
         sink.0.iter().all(|r| r.cycle.link.is_ok()),
