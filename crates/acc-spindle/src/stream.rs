@@ -72,6 +72,14 @@ impl std::fmt::Display for Position {
 /// Errors of a sample stream; each names its position.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StreamError {
+    /// The file could not be opened.
+    #[error("{}: cannot open: {reason}", path.display())]
+    Open {
+        /// File path.
+        path: std::path::PathBuf,
+        /// OS error text.
+        reason: String,
+    },
     /// Reading failed.
     #[error("{at}: read error: {reason}")]
     Io {
@@ -164,9 +172,9 @@ impl SampleStream<Box<dyn BufRead>> {
         let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
             Box::new(std::io::stdin().lock())
         } else {
-            let f = File::open(path).map_err(|e| StreamError::Io {
-                at: Position::Byte(0),
-                reason: format!("{}: {e}", path.display()),
+            let f = File::open(path).map_err(|e| StreamError::Open {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
             })?;
             Box::new(BufReader::new(f))
         };
