@@ -48,6 +48,13 @@ fn seed000_ranking_holds_on_the_simulated_sweep() {
     assert!(cur > 3.0 * eff, "current {cur} % vs power-eff {eff} %");
     // Power with efficiency correction within 2 % RMS of the true force.
     assert!(eff < 2.0, "power-efficiency error rate {eff} %");
+    // Without the no-load model the power method is far off (P_air ≈ 0.64 kW ≈ 100 N).
+    println!("power, no-load off: {:?}", r.no_load_off);
+    assert!(
+        r.no_load_off.1 > 10.0 * power,
+        "no-load off {:?}",
+        r.no_load_off
+    );
     // The committed calibration file is what this run fits
     // (`acc estimate-eval --sim-only --save-calibration configs/calibration/seed000-dnm4500.toml`).
     let committed = SpindleCalibration::load(

@@ -1233,6 +1233,8 @@ pub mod sweep {
         pub true_n: f64,
         /// Mean estimate per method, in [`Method::ALL`] order, N.
         pub est_n: [f64; 4],
+        /// Mean estimate of the plain power method with the no-load model off, N.
+        pub power_no_load_off_n: f64,
     }
 
     /// Outcome of the sweep.
@@ -1248,6 +1250,9 @@ pub mod sweep {
         pub rms_n: [f64; 4],
         /// Error rate per method, % (RMS / mean true force).
         pub rate_pct: [f64; 4],
+        /// RMS error (N) and error rate (%) of the plain power method with the no-load
+        /// model off.
+        pub no_load_off: (f64, f64),
     }
 
     /// Sweep errors.
@@ -1361,11 +1366,21 @@ pub mod sweep {
             };
             ests.push(SpindleEstimator::new(c, constants, nl.clone())?);
         }
+        let mut off = SpindleEstimator::new(
+            EstimatorConfig {
+                method: Method::Power,
+                tool_radius_mm: radius,
+                no_load: NoLoadMode::Off,
+                ..EstimatorConfig::default()
+            },
+            constants,
+            nl.clone(),
+        )?;
         let rpm = cfg.sweep.rpm;
         let mut out = Vec::new();
         for &feed in &cfg.sweep.feeds_mm_min {
             let torque = cfg.tangential_force_n(feed, rpm) * radius * 1e-3;
-            let (mut sum_true, mut sums) = (0.0, [0.0; 4]);
+            let (mut sum_true, mut sums, mut sum_off) = (0.0, [0.0; 4], 0.0);
             for k in 0..(t.settle_periods + t.measure_periods) {
                 let b = sim.run_period(rpm, &[torque], t.period_s);
                 let s = block_stats(&b.phase_block())?;
@@ -1380,8 +1395,15 @@ pub mod sweep {
                         sums[j] += f.force_n;
                     }
                 }
+                let f_off = off.estimate(rpm, Some(s.power_w), None).map_err(|reason| {
+                    SweepError::Invalid {
+                        feed_mm_min: feed,
+                        reason,
+                    }
+                })?;
                 if k >= t.settle_periods {
                     sum_true += truth;
+                    sum_off += f_off.force_n;
                 }
             }
             let n = f64::from(t.measure_periods);
@@ -1389,6 +1411,7 @@ pub mod sweep {
                 feed_mm_min: feed,
                 true_n: sum_true / n,
                 est_n: sums.map(|x| x / n),
+                power_no_load_off_n: sum_off / n,
             });
         }
         let truth: Vec<f64> = out.iter().map(|p| p.true_n).collect();
@@ -1399,12 +1422,14 @@ pub mod sweep {
             rms_n[j] = rms_error(&est, &truth);
             rate_pct[j] = error_rate_pct(&est, &truth);
         }
+        let off: Vec<f64> = out.iter().map(|p| p.power_no_load_off_n).collect();
         Ok(SweepResult {
             calibration,
             kt_per_feed,
             points: out,
             rms_n,
             rate_pct,
+            no_load_off: (rms_error(&off, &truth), error_rate_pct(&off, &truth)),
         })
     }
 }

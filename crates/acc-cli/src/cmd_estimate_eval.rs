@@ -163,6 +163,10 @@ fn print_sweep(cfg: &SweepConfig, r: &SweepResult) {
             pp
         );
     }
+    println!(
+        "| power, no-load model off | {:.2} | {:.2} | — | — |",
+        r.no_load_off.0, r.no_load_off.1
+    );
     println!();
     println!("| feed [mm/min] | true [N] | current | motor-char. | power | power-eff. |");
     println!("| ---: | ---: | ---: | ---: | ---: | ---: |");
