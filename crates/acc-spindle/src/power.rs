@@ -182,7 +182,13 @@ impl PhaseSamples {
 
     /// A balanced system at unity power factor drawing `power_w` at 200 V.
     pub fn with_power(n: usize, sample_rate_hz: f64, power_w: f64) -> Self {
-        Self::balanced(n, sample_rate_hz, 200.0, power_w / (3f64.sqrt() * 200.0), 0.0)
+        Self::balanced(
+            n,
+            sample_rate_hz,
+            200.0,
+            power_w / (3f64.sqrt() * 200.0),
+            0.0,
+        )
     }
 
     /// Borrow as a [`PhaseBlock`].
