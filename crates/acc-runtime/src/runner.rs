@@ -159,7 +159,7 @@ where
 {
     let mut ticker = Ticker::new(clock.clone(), opts.period)?;
     let (status_tx, status_rx) = bounded::<StatusMsg>(1);
-    let (plan_tx, plan_rx) = bounded::<WritePlan>(1);
+    let (plan_tx, plan_rx) = bounded::<(u64, WritePlan)>(2);
     let (log_tx, log_rx) = bounded::<RunRecord>(opts.log_queue.max(1));
 
     std::thread::scope(|scope| {
@@ -198,7 +198,7 @@ where
                     for e in rec.out.events.iter() {
                         tracing::info!(period = msg.index, event = ?e, "policy event");
                     }
-                    if plan_tx.send(rec.plan).is_err() {
+                    if plan_tx.send((msg.index, rec.plan)).is_err() {
                         break;
                     }
                     let r = RunRecord {
@@ -254,14 +254,21 @@ where
             if status_tx.send(msg).is_err() {
                 break;
             }
-            let plan = match plan_rx.recv_timeout(opts.period) {
-                Ok(p) => p,
-                Err(RecvTimeoutError::Timeout) => {
-                    tracing::error!(period = periods, "control thread missed its period");
-                    WritePlan::default()
+            // The plan of this period; a late plan of an earlier period is discarded.
+            let deadline = t0 + opts.period;
+            let plan = loop {
+                let left = deadline.saturating_sub(clock.now());
+                match plan_rx.recv_timeout(left) {
+                    Ok((i, p)) if i == periods => break Some(p),
+                    Ok(_) => continue,
+                    Err(RecvTimeoutError::Timeout) => {
+                        tracing::error!(period = periods, "control thread missed its period");
+                        break Some(WritePlan::default());
+                    }
+                    Err(RecvTimeoutError::Disconnected) => break None,
                 }
-                Err(RecvTimeoutError::Disconnected) => break,
             };
+            let Some(plan) = plan else { break };
             writes = execute_writes(pmc, &plan);
             rtt.record(clock.now().saturating_sub(t0));
             periods += 1;

@@ -236,3 +236,100 @@ fn drives_the_can_board_through_the_same_loop() {
         "the last command reached the board"
     );
 }
+
+/// A law that stalls once for far longer than the period.
+struct StallOnce {
+    inner: ScriptedLaw,
+    at: usize,
+    steps: usize,
+}
+
+impl acc_core::OverrideLaw for StallOnce {
+    fn name(&self) -> &str {
+        "stall-once"
+    }
+    fn engage(&mut self, c: acc_core::FeedOverride) {
+        self.inner.engage(c)
+    }
+    fn step(&mut self, m: &acc_core::Measurement) -> acc_core::StepOutput {
+        self.steps += 1;
+        if self.steps == self.at {
+            std::thread::sleep(Duration::from_millis(60));
+        }
+        self.inner.step(m)
+    }
+    fn set_frozen(&mut self, f: bool) {
+        self.inner.set_frozen(f)
+    }
+}
+
+/// Records the board's `HEARTBEAT` at every status read.
+struct HeartbeatSpy(LiveBoard, Vec<u16>);
+
+impl acc_pmc::Pmc for HeartbeatSpy {
+    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
+    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
+        ScriptedBoard::kind(e)
+    }
+    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        self.1.push(self.0 .0.board.heartbeat());
+        self.0.read_status()
+    }
+    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+        self.0.write_override(o, hb)
+    }
+    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+        self.0.write_control(c)
+    }
+}
+
+#[test]
+fn a_late_control_decision_is_dropped_not_applied_a_period_late() {
+    let mut board = HeartbeatSpy(LiveBoard(ScriptedBoard::new()), Vec::new());
+    let mut ctl = ControlLoop::new(
+        FaultPolicy::new(PolicyConfig::default()),
+        StallOnce {
+            inner: ScriptedLaw::new([90, 80, 70]),
+            at: 5,
+            steps: 0,
+        },
+        LinearPowerForce { n_per_w: 0.5 },
+        0.1,
+    );
+    let mut sink = VecSink::default();
+    let stop = AtomicBool::new(false);
+    let opts = RunOptions {
+        max_periods: Some(20),
+        // 5 ms of wall time to wait for a plan; the stalled step takes 60 ms
+        ..RunOptions::new(Duration::from_millis(5))
+    };
+    let s = run(
+        &mut board,
+        &mut ctl,
+        ManualClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+    )
+    .expect("runs");
+    assert_eq!(s.periods, 20);
+    let hb_at_read = &board.1;
+    let mut skipped = 0;
+    for (p, rec) in sink.0.iter().enumerate().take(19) {
+        let Some((_, hb)) = rec.cycle.plan.override_and_heartbeat else {
+            continue;
+        };
+        // the board shows this period's heartbeat at the next read, unless the plan was late
+        if hb_at_read[p + 1] != hb {
+            skipped += 1;
+            assert!(
+                hb_at_read[p + 1] < hb,
+                "period {p}: an older plan was applied late"
+            );
+            assert!((4..8).contains(&p), "period {p}: only around the stall");
+        }
+    }
+    // The stalled decision (and the one queued behind it) missed their periods and were
+    // dropped; afterwards every period's plan is applied in its own period again.
+    assert!((1..=3).contains(&skipped), "dropped plans: {skipped}");
+}
