@@ -219,6 +219,35 @@ mod tests {
         assert_eq!(t.stats().overruns, 1);
     }
 
+    proptest::proptest! {
+        /// For any sequence of work durations: every deadline lies on the grid start + k·T,
+        /// the index counts skipped deadlines, an overrun is counted exactly when the work
+        /// ran past the deadline, and the clock never waits past the deadline it asked for.
+        #[test]
+        fn grid_and_overruns_for_any_work(work_us in proptest::collection::vec(0u64..350_000, 1..200)) {
+            let clock = ManualClock::new();
+            let mut t = Ticker::new(clock.clone(), T).expect("period > 0");
+            let mut overruns = 0;
+            let mut last_index = None;
+            for w in work_us {
+                let next = t.next_deadline();
+                clock.advance(Duration::from_micros(w));
+                let late = clock.now() > next;
+                let tick = t.wait();
+                overruns += u64::from(late);
+                proptest::prop_assert_eq!(tick.overrun, late);
+                proptest::prop_assert_eq!(tick.deadline, T * u32::try_from(tick.index + 1).expect("small"));
+                proptest::prop_assert!(tick.woke >= tick.deadline);
+                proptest::prop_assert!(tick.lateness < T, "a tick is never a whole period late");
+                if let Some(i) = last_index {
+                    proptest::prop_assert_eq!(tick.index, i + 1 + tick.skipped);
+                }
+                last_index = Some(tick.index);
+            }
+            proptest::prop_assert_eq!(t.stats().overruns, overruns);
+        }
+    }
+
     #[test]
     fn jitter_statistics_from_late_wakeups() {
         // A clock that wakes a scripted amount after each deadline.
