@@ -171,3 +171,84 @@ fn no_load_adaptation_tracks_drift_but_not_cuts() {
     assert_eq!(adaptive.no_load().lookup(1500.0).unwrap().power_w, p_before);
     assert!((last - 200.0).abs() < 10.0, "cut still measured: {last} N");
 }
+
+/// A calibration recording (CSV of periods, as a DAQ program would log it next to the
+/// dynamometer) gives the same constants as the in-process calibration cut.
+#[test]
+fn calibration_from_a_recorded_csv() {
+    let (cfg, motor) = SweepConfig::load(sweep_file()).unwrap();
+    let r = cfg.radius_mm() * 1e-3;
+    let mut sim = MotorSim::new(motor, 21);
+    let mut csv = String::from("rpm,power_w,current_a,force_ref_n,air\n");
+    let mut period = |rpm: f64, force: f64, air: u8, csv: &mut String| {
+        let b = sim.run_period(rpm, &[force * r], 0.1);
+        let s = block_stats(&b.phase_block()).unwrap();
+        csv.push_str(&format!(
+            "{rpm},{},{},{force},{air}\n",
+            s.power_w, s.current_rms_a
+        ));
+    };
+    for rpm in [1100.0, 1500.0] {
+        for _ in 0..20 {
+            period(rpm, 0.0, 1, &mut csv);
+        }
+    }
+    for feed in [400.0, 500.0, 600.0, 700.0] {
+        let f = cfg.tangential_force_n(feed, 1100.0);
+        for _ in 0..20 {
+            period(1100.0, f, 0, &mut csv);
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("periods.csv");
+    std::fs::write(&path, &csv).unwrap();
+    let rows = acc_spindle::datasets::read_calibration_periods(&path).unwrap();
+    assert_eq!(rows.len(), 120);
+    let air: Vec<_> = rows
+        .iter()
+        .filter(|x| x.air)
+        .map(|x| (x.rpm, x.power_w, x.current_a))
+        .collect();
+    let cut: Vec<_> = rows
+        .iter()
+        .filter(|x| !x.air)
+        .map(|x| acc_spindle::CalPoint {
+            rpm: x.rpm,
+            power_w: x.power_w,
+            current_a: x.current_a,
+            force_ref_n: x.force_ref_n,
+        })
+        .collect();
+    let cal = acc_spindle::calibrate::calibrate_recording(
+        &air,
+        &cut,
+        cfg.radius_mm(),
+        AdaptRule::default(),
+        "test",
+    )
+    .unwrap();
+    let reference = SpindleCalibration::load(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("configs/calibration/seed000-dnm4500.toml"),
+    )
+    .unwrap();
+    let (a, b) = (cal.constants, reference.constants);
+    let close = |x: f64, y: f64, tol: f64| (x - y).abs() <= tol * y.abs();
+    let (pa, pb) = (a.power_efficiency.unwrap(), b.power_efficiency.unwrap());
+    assert!(close(pa.gain, pb.gain, 0.01), "{pa:?} {pb:?}");
+    assert!(close(
+        a.current.unwrap().kt_nm_per_a,
+        b.current.unwrap().kt_nm_per_a,
+        0.05
+    ));
+    let (ma, mb) = (
+        a.motor_characteristics.unwrap(),
+        b.motor_characteristics.unwrap(),
+    );
+    assert!(close(ma.a_a2_per_nm, mb.a_a2_per_nm, 0.05), "{ma:?} {mb:?}");
+    // A bad `air` flag names the line.
+    std::fs::write(&path, csv.replacen(",1\n", ",2\n", 1)).unwrap();
+    let e = acc_spindle::datasets::read_calibration_periods(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line 2") && e.contains("`air`"), "{e}");
+}

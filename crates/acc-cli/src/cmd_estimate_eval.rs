@@ -17,8 +17,10 @@ use std::path::{Path, PathBuf};
 use acc_core::{ForceSource, PeriodInput};
 use acc_plot::{time_series, xy_chart, Figure, HLine, Panel, Series, XyChart, PALETTE};
 use acc_sim::motor::sweep::{self, SweepConfig, SweepResult};
-use acc_spindle::datasets::{read_mill, read_turning, TurningRow};
+use acc_spindle::calibrate::{calibrate_recording, CalPoint};
+use acc_spindle::datasets::{read_calibration_periods, read_mill, read_turning, TurningRow};
 use acc_spindle::eval::{cross_tool, min_median_max, wax_check, TurningModel, WaxSetup};
+use acc_spindle::AdaptRule;
 use acc_spindle::{
     EstimatorConfig, Method, NoLoadMode, SampleFormat, SampleStream, SpindleCalibration,
     SpindleEstimator, StreamForceSource,
@@ -48,6 +50,10 @@ pub struct EstimateEvalArgs {
     /// Write the calibration fitted on the simulated calibration cut to this TOML file.
     #[arg(long, value_name = "CAL.toml")]
     pub save_calibration: Option<PathBuf>,
+    /// Calibrate from a recording of periods instead (CSV `rpm,power_w,current_a,
+    /// force_ref_n,air`) and write the calibration to `--save-calibration`.
+    #[arg(long, value_name = "PERIODS.csv")]
+    pub calibrate_from: Option<PathBuf>,
     /// Only the simulated sweep (skip the real data).
     #[arg(long)]
     pub sim_only: bool,
@@ -91,6 +97,9 @@ const PAPER: [Option<(f64, f64)>; 4] = [
 pub fn run(args: &EstimateEvalArgs) -> anyhow::Result<()> {
     if let Some(stream) = &args.stream {
         return run_stream(args, stream);
+    }
+    if let Some(rec) = &args.calibrate_from {
+        return run_calibrate(args, rec);
     }
     let sweep_path = locate(&args.sweep);
     let (cfg, motor) = SweepConfig::load(&sweep_path)?;
@@ -339,6 +348,44 @@ fn real_data(data: &Path, plot_dir: Option<&Path>) -> anyhow::Result<()> {
     } else {
         println!("skipping the wax data: {} not found", mill.display());
     }
+    Ok(())
+}
+
+fn run_calibrate(args: &EstimateEvalArgs, rec: &Path) -> anyhow::Result<()> {
+    let Some(out) = &args.save_calibration else {
+        bail!("--calibrate-from needs --save-calibration <CAL.toml>");
+    };
+    let rows = read_calibration_periods(rec)?;
+    let air: Vec<(f64, f64, f64)> = rows
+        .iter()
+        .filter(|r| r.air)
+        .map(|r| (r.rpm, r.power_w, r.current_a))
+        .collect();
+    let cut: Vec<CalPoint> = rows
+        .iter()
+        .filter(|r| !r.air)
+        .map(|r| CalPoint {
+            rpm: r.rpm,
+            power_w: r.power_w,
+            current_a: r.current_a,
+            force_ref_n: r.force_ref_n,
+        })
+        .collect();
+    let cal = calibrate_recording(
+        &air,
+        &cut,
+        args.tool_radius_mm,
+        AdaptRule::default(),
+        format!("calibrated from {}", rec.display()),
+    )
+    .with_context(|| format!("{}", rec.display()))?;
+    cal.save(out)?;
+    println!(
+        "{} air periods, {} cutting periods -> {}",
+        air.len(),
+        cut.len(),
+        out.display()
+    );
     Ok(())
 }
 

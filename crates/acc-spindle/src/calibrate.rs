@@ -303,6 +303,29 @@ pub fn calibrate(
     })
 }
 
+/// Calibrate from a recording of periods: learn the no-load model from the air-cut
+/// periods `air` (`rpm`, `power_w`, `current_a`), then fit every method on the cutting
+/// periods `cut` (with their reference force).
+pub fn calibrate_recording(
+    air: &[(f64, f64, f64)],
+    cut: &[CalPoint],
+    tool_radius_mm: f64,
+    rule: AdaptRule,
+    description: impl Into<String>,
+) -> Result<SpindleCalibration, SpindleError> {
+    let mut nl = NoLoadModel::new(rule);
+    for &(rpm, p, i) in air {
+        nl.learn(rpm, p, i)?;
+    }
+    let constants = calibrate(cut, &nl, tool_radius_mm)?;
+    Ok(SpindleCalibration::new(
+        description,
+        tool_radius_mm,
+        &nl,
+        constants,
+    ))
+}
+
 /// A calibration file: no-load model, adaptation rule and fitted constants.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

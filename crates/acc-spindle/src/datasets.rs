@@ -176,6 +176,55 @@ pub fn read_mill(path: &Path) -> Result<Vec<MillRow>, DatasetError> {
         .collect())
 }
 
+/// One period of a calibration recording (`acc estimate-eval --calibrate-from`): CSV with
+/// the header `rpm,power_w,current_a,force_ref_n,air` — spindle speed (rpm), mean input
+/// power (W), RMS current (A), reference force from the dynamometer (N) and `air` = 1 for
+/// air-cut periods (they teach the no-load model), 0 for cutting periods.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalRecord {
+    /// Line in the file.
+    pub line: u64,
+    /// Spindle speed, rpm.
+    pub rpm: f64,
+    /// Mean input power, W.
+    pub power_w: f64,
+    /// RMS current, A.
+    pub current_a: f64,
+    /// Reference force, N.
+    pub force_ref_n: f64,
+    /// Air-cut period.
+    pub air: bool,
+}
+
+/// Read a calibration recording (see [`CalRecord`]); `air` must be 0 or 1.
+pub fn read_calibration_periods(path: &Path) -> Result<Vec<CalRecord>, DatasetError> {
+    let names = ["rpm", "power_w", "current_a", "force_ref_n", "air"];
+    read_columns(path, names, None)?
+        .into_iter()
+        .map(|(line, v, _)| {
+            let air = match v[4] {
+                0.0 => false,
+                1.0 => true,
+                x => {
+                    return Err(err(
+                        path,
+                        Some(line),
+                        format!("column `air`: {x} is not 0 or 1"),
+                    ))
+                }
+            };
+            Ok(CalRecord {
+                line,
+                rpm: v[0],
+                power_w: v[1],
+                current_a: v[2],
+                force_ref_n: v[3],
+                air,
+            })
+        })
+        .collect()
+}
+
 /// The shared data folder `../shared/data` next to the workspace root, if it exists.
 pub fn shared_data_dir(workspace_root: &Path) -> Option<PathBuf> {
     let d = workspace_root.join("../shared/data");
