@@ -414,7 +414,7 @@ fn run_stream(args: &EstimateEvalArgs, stream: &Path) -> anyhow::Result<()> {
         no_load: NoLoadMode::Adaptive,
         ..EstimatorConfig::default()
     };
-    let est = SpindleEstimator::new(cfg, cal.constants, cal.no_load_model()?)?;
+    let est = SpindleEstimator::from_calibration(cfg, &cal)?;
     let reader = SampleStream::open(stream, format)?;
     let mut src = StreamForceSource::new(reader, args.rate_hz, est)?;
     println!("t_s,force_n,power_w,valid,reason");

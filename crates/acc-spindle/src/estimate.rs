@@ -275,6 +275,14 @@ impl SpindleEstimator {
         })
     }
 
+    /// Build from a calibration file's content (no-load model, its rule, constants).
+    pub fn from_calibration(
+        cfg: EstimatorConfig,
+        cal: &crate::calibrate::SpindleCalibration,
+    ) -> Result<Self, SpindleError> {
+        Self::new(cfg, cal.constants, cal.no_load_model()?)
+    }
+
     /// The configuration.
     pub fn config(&self) -> &EstimatorConfig {
         &self.cfg
