@@ -25,8 +25,8 @@
 //!      `max_drift_frac·P_air,cal` from its learned value.
 //!
 //!   A cut that is clearly above the band never adapts the model. A load hidden inside the
-//!   band is at most `band` watts, i.e. below the estimator's noise floor anyway, and the
-//!   drift limit bounds what any sequence of such periods can do.
+//!   band is at most `band` watts (about the estimator's 3σ noise floor), absorbed at `rate`
+//!   per period, and the drift limit bounds what any sequence of such periods can do.
 
 use serde::{Deserialize, Serialize};
 
