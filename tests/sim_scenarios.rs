@@ -75,3 +75,47 @@ fn interrupted_cut_catches_every_reentry_and_runs_the_gaps_at_150() {
         );
     }
 }
+
+#[test]
+fn kc_hat_in_the_gaps_is_the_estimate_of_the_block_just_cut() {
+    // The estimator follows the partial engagement down at each tool exit (to ≈ 1 N/(mm/min)
+    // before the force drops below its 100 N threshold), but when the air gap starts it
+    // returns to its last confirmed estimate: Kc_hat stays a tool-wear indicator in the gap
+    // (≈ 6 N/(mm/min) at 3 mm) and the next entry starts with gains for the real cut.
+    let sc = Scenario::load(configs_dir().join("scenarios/interrupted.toml")).expect("scenario");
+    let (run, sum) = sc.run_law(LawKind::Ours).expect("run");
+    let cuts: Vec<_> = sum.segments.iter().filter(|s| s.is_cut).collect();
+    for c in &cuts {
+        let settled: Vec<f64> = run
+            .rows
+            .iter()
+            .filter(|r| r.t_s > c.t_enter_s + 2.0 && r.t_s <= c.t_leave_s)
+            .map(|r| r.kc_hat)
+            .collect();
+        let kc_cut = settled.iter().sum::<f64>() / settled.len() as f64;
+        // The exit: from the end of the block until the force falls below 100 N.
+        let after: Vec<_> = run.rows.iter().filter(|r| r.t_s > c.t_leave_s).collect();
+        let Some(idle) = after.iter().position(|r| r.force_n < 100.0) else {
+            panic!("{}: no air after the block", c.label);
+        };
+        let lowest = after[..idle]
+            .iter()
+            .map(|r| r.kc_hat)
+            .fold(f64::MAX, f64::min);
+        assert!(
+            lowest < 0.5 * kc_cut,
+            "{}: the exit should pull Kc_hat down ({lowest:.2})",
+            c.label
+        );
+        // In the gap: back to the block's estimate, and held.
+        for r in after[idle..].iter().take_while(|r| r.force_n < 100.0) {
+            assert!(
+                (r.kc_hat / kc_cut - 1.0).abs() < 0.03,
+                "{}: Kc_hat {:.3} at {:.1} s in the gap, block {kc_cut:.3}",
+                c.label,
+                r.kc_hat,
+                r.t_s
+            );
+        }
+    }
+}

@@ -27,6 +27,8 @@
 //! mu = 0.5
 //! min_force_n = 100.0
 //! min_feed_mm_min = 5.0
+//! confirm_periods = 10     # optional (default 10; 0 = no air-cut restore)
+//! confirm_tol = 0.03       # optional (default 0.03)
 //! [plant]
 //! kc_nominal = 4.0
 //! nominal_feed_mm_min = 200.0
@@ -87,8 +89,8 @@ pub struct ControllerSection {
 }
 
 /// Desired poles as written: `[z1, z2]` (real pair) or `{ re, im }` (conjugate pair).
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(untagged)]
+/// Anything else is an error that names `mode.poles` and both accepted forms.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PolesToml {
     /// Two real poles.
     Real([f64; 2]),
@@ -99,6 +101,36 @@ pub enum PolesToml {
         /// Imaginary part.
         im: f64,
     },
+}
+
+impl<'de> Deserialize<'de> for PolesToml {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        use toml::Value;
+        let v = Value::deserialize(d)?;
+        let num = |v: &Value| match v {
+            Value::Float(f) => Some(*f),
+            Value::Integer(i) => Some(*i as f64),
+            _ => None,
+        };
+        let parsed = match &v {
+            Value::Array(a) if a.len() == 2 => num(&a[0])
+                .zip(num(&a[1]))
+                .map(|(z1, z2)| PolesToml::Real([z1, z2])),
+            Value::Table(t) if t.len() == 2 => t
+                .get("re")
+                .and_then(num)
+                .zip(t.get("im").and_then(num))
+                .map(|(re, im)| PolesToml::Complex { re, im }),
+            _ => None,
+        };
+        parsed.ok_or_else(|| {
+            D::Error::custom(format!(
+                "key `mode.poles` = {v}: expected a real pair [z1, z2] or a conjugate pair \
+                 {{ re = .., im = .. }} (numbers, each pole strictly inside the unit circle)"
+            ))
+        })
+    }
 }
 
 /// `[mode]`, tagged by `kind`.
@@ -166,6 +198,21 @@ pub struct EstimatorSection {
     pub min_force_n: f64,
     /// Runs only above this applied feed, mm/min (0 ..= 100 000).
     pub min_feed_mm_min: f64,
+    /// Cutting periods within `confirm_tol` before the estimate is confirmed (the value
+    /// restored when an air cut starts), 0 ..= 10 000, 0 = off (default 10).
+    #[serde(default = "default_confirm_periods")]
+    pub confirm_periods: u16,
+    /// Relative spread of such a run, 0 < x < 1 (default 0.03).
+    #[serde(default = "default_confirm_tol")]
+    pub confirm_tol: f64,
+}
+
+fn default_confirm_periods() -> u16 {
+    EstimatorConfig::DEFAULT_CONFIRM_PERIODS
+}
+
+fn default_confirm_tol() -> f64 {
+    EstimatorConfig::DEFAULT_CONFIRM_TOL
 }
 
 /// `[plant]`: the nominal operating point for the stability analysis.
@@ -321,6 +368,14 @@ impl EstimatorSection {
             0.0,
             1e5,
         )?;
+        check_range(
+            file,
+            "estimator.confirm_periods",
+            f64::from(self.confirm_periods),
+            0.0,
+            10_000.0,
+        )?;
+        check_open_range(file, "estimator.confirm_tol", self.confirm_tol, 0.0, 1.0)?;
         Ok(EstimatorConfig {
             kc_initial: self.kc_initial,
             kc_min: self.kc_min,
@@ -328,6 +383,8 @@ impl EstimatorSection {
             gain,
             min_force_n: self.min_force_n,
             min_feed_mm_min: self.min_feed_mm_min,
+            confirm_periods: self.confirm_periods,
+            confirm_tol: self.confirm_tol,
         })
     }
 }

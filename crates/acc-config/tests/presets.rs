@@ -147,6 +147,13 @@ fn invalid_values_name_file_key_and_range() {
             "estimator.min_feed_mm_min",
             "0 ..= 100000",
         ),
+        (
+            "confirm_periods",
+            "20000",
+            "estimator.confirm_periods",
+            "0 ..= 10000",
+        ),
+        ("confirm_tol", "1.5", "estimator.confirm_tol", "0 < x < 1"),
         ("kc_nominal", "0.0", "plant.kc_nominal", "0 < x < 10000"),
         (
             "kc_sweep",
@@ -211,6 +218,29 @@ fn structural_errors_name_the_key() {
             file: "x.toml".into(),
             key: "estimator.g_c".into(),
             message: "required when gain = \"fixed\"".into()
+        }
+    );
+    // Malformed poles: the message names the key and both accepted forms.
+    for bad in [
+        "[0.5]",
+        "[0.5, 0.1, 0.2]",
+        "{ re = 0.5, imm = 0.1 }",
+        "\"0.5\"",
+        "[0.5, \"x\"]",
+    ] {
+        let err = parse_preset("x.toml", &with(&base, "poles", bad)).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains("x.toml") && msg.contains("mode.poles") && msg.contains("[z1, z2]"),
+            "{bad}: {msg}"
+        );
+    }
+    // Integer poles are numbers too.
+    let p = parse_preset("x.toml", &with(&base, "poles", "[0, 0]")).unwrap();
+    assert_eq!(
+        p.controller.mode,
+        acc_core::ModeConfig::AdaptivePi {
+            poles: acc_core::DesiredPoles::Real(0.0, 0.0)
         }
     );
     // Unknown mode kind.

@@ -163,6 +163,99 @@ fn controller_estimator_holds_during_an_air_cut() {
     }
 }
 
+/// Cut at Kc = 8 N/(mm/min) (4 mm) for 6 s, tool exit with the engagement (so Kc) falling
+/// linearly to 0 over `exit` periods, 3 s of air cut, then the next cut at Kc = 8.
+fn exit_then_air(confirm_periods: u16, exit: usize) -> Vec<(acc_core::StepOutput, f64)> {
+    let cfg = ControllerConfig {
+        estimator: EstimatorConfig {
+            confirm_periods,
+            ..EstimatorConfig::paper()
+        },
+        ..ControllerConfig::paper_case(PaperCase::I)
+    };
+    let mut ctl = Controller::new(cfg).unwrap();
+    let (cut, air) = (60, 30);
+    let kc = move |i: usize| match i {
+        i if i < cut => 8.0,
+        i if i < cut + exit => 8.0 * (1.0 - (i - cut) as f64 / exit as f64),
+        i if i < cut + exit + air => 0.0,
+        _ => 8.0,
+    };
+    run(
+        &mut ctl,
+        FeedOverride(100),
+        cut + exit + air + 20,
+        kc,
+        false,
+    )
+}
+
+#[test]
+fn air_cut_after_a_tool_exit_restores_the_confirmed_estimate() {
+    let (cut, air) = (60, 30);
+    for exit in [15, 200] {
+        let out = exit_then_air(EstimatorConfig::DEFAULT_CONFIRM_PERIODS, exit);
+        // During the exit the estimate follows the partial engagement down (the gains must
+        // fit the plant the controller actually has) ...
+        let lowest = out[cut..cut + exit]
+            .iter()
+            .map(|(o, _)| o.trace.kc_hat)
+            .fold(f64::MAX, f64::min);
+        assert!(lowest < 3.0, "exit over {exit}: lowest Kc_hat {lowest}");
+        // ... the air cut brings back the full-engagement estimate and holds it: a tool-wear
+        // indicator, with eq. 14 gains of the cut just finished, not ten times higher.
+        let air_out = &out[cut + exit + 1..cut + exit + air];
+        let first = air_out[0].0.trace;
+        assert!(
+            (first.kc_hat / 8.0 - 1.0).abs() < 0.03,
+            "exit over {exit}: air-cut Kc_hat {}",
+            first.kc_hat
+        );
+        for (o, _) in air_out {
+            assert_eq!(o.trace.kc_hat, first.kc_hat);
+            assert_eq!(o.trace.ki, first.ki);
+            assert!(!o.trace.estimator_active);
+            assert_eq!(o.command, FeedOverride(150));
+        }
+        // The next cut enters with gains for Kc ≈ 8 and regulates to Fr.
+        let tail = &out[out.len() - 5..];
+        assert!(
+            tail.iter().all(|(_, f)| (f - 800.0).abs() <= 80.0),
+            "{:?}",
+            tail.iter().map(|(_, f)| *f).collect::<Vec<_>>()
+        );
+    }
+    // Without the rule (confirm_periods = 0) the air cut keeps the exit's last value.
+    let out = exit_then_air(0, 15);
+    let kept = out[cut + 15 + 1].0.trace.kc_hat;
+    assert!(kept < 3.0, "rule off: air-cut Kc_hat {kept}");
+}
+
+#[test]
+fn invalid_samples_do_not_restore_and_a_short_cut_keeps_the_older_confirmation() {
+    let cfg = EstimatorConfig {
+        kc_initial: 4.0,
+        ..EstimatorConfig::paper()
+    };
+    let mut est = KcEstimator::new(cfg, 1.0).unwrap();
+    for _ in 0..30 {
+        est.update(6.0 * 200.0, 200.0);
+    }
+    assert!((est.kc_confirmed() - 6.0).abs() < 1e-6);
+    // Partial engagement, then an invalid sample: hold, no restore.
+    est.update(600.0, 200.0);
+    let partial = est.kc_hat();
+    assert!(partial < 5.0);
+    est.hold();
+    assert_eq!(est.kc_hat(), partial);
+    // A cut too short to confirm (3 periods at Kc = 2), then air: back to the confirmed 6.
+    for _ in 0..3 {
+        est.update(2.0 * 200.0, 200.0);
+    }
+    assert!(!est.update(0.0, 300.0));
+    assert!((est.kc_hat() - 6.0).abs() < 1e-6);
+}
+
 /// 5 s of air cut at 150 % (50 periods), then a cut whose Kc needs 60 %: 800 N at
 /// 120 mm/min ⇒ Kc = 6.67 N/(mm/min). Returns (periods after entry spent above 1.1·Fr,
 /// first period after entry from which the command stays at 60 %).
