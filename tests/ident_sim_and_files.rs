@@ -13,8 +13,14 @@ use acc_sim::scenario::{LawKind, Scenario};
 /// the simulator's value; with the true model nothing is named.
 #[test]
 fn simulated_tool_wear_is_named_and_sized() {
-    let sc = Scenario::load(acc_sim::run::configs_dir().join("scenarios/tool_wear.toml"))
+    let mut sc = Scenario::load(acc_sim::run::configs_dir().join("scenarios/tool_wear.toml"))
         .expect("scenario loads");
+    // The scenarios measure spindle power by default; this test replays a force channel.
+    sc.measurement = acc_sim::scenario::MeasurementSpec::Dynamometer {
+        noise_n: 5.0,
+        lowpass_hz: 0.0,
+        window_s: 0.05,
+    };
     let (res, _) = sc.run_law(LawKind::Ours).expect("simulates");
     let log = import::from_sim_rows(&res.rows);
     let mut tool = sc.tool.clone();

@@ -107,8 +107,8 @@ fn averaging_the_whole_period_would_hide_the_instability() {
     // drops by 1 − 2a, and the fixed-gain limit moves from 5.714 to ≈ 11 > Kc = 6: the
     // 3 mm cut regulates, unlike the paper's.
     use acc_sim::scenario::MeasurementSpec;
-    let sc =
-        Scenario::load(configs_dir().join("scenarios/paper_fixed_gain.toml")).expect("scenario");
+    let sc = Scenario::load(configs_dir().join("scenarios/paper_fixed_gain_dynamometer.toml"))
+        .expect("scenario");
     let MeasurementSpec::Dynamometer {
         noise_n,
         lowpass_hz,

@@ -8,8 +8,7 @@ use acc_sim::{LawKind, Scenario};
 
 #[test]
 fn spindle_power_scenario_regulates_case_3() {
-    let sc =
-        Scenario::load(configs_dir().join("scenarios/paper_case3_spindle.toml")).expect("scenario");
+    let sc = Scenario::load(configs_dir().join("scenarios/paper_case3.toml")).expect("scenario");
     assert!(matches!(sc.measurement, MeasurementSpec::SpindlePower(_)));
     let (run, sum) = sc.run_law(LawKind::Ours).expect("run");
     assert!(run.finished);

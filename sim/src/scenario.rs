@@ -48,13 +48,11 @@ fn default_window() -> f64 {
     0.05
 }
 
+/// A scenario without a `[measurement]` section measures the force from spindle power
+/// (issue 4: the spindle-power channel is the default; the dynamometer stays for comparison).
 impl Default for MeasurementSpec {
     fn default() -> Self {
-        MeasurementSpec::Dynamometer {
-            noise_n: default_noise(),
-            lowpass_hz: 0.0,
-            window_s: default_window(),
-        }
+        MeasurementSpec::SpindlePower(crate::motor::SpindlePowerSpec::default())
     }
 }
 
