@@ -18,15 +18,18 @@ fn data() -> Option<PathBuf> {
 }
 
 /// Turning, flank-wear column withheld, constant-Ks model calibrated on the first 20 % of
-/// each tool: tool wear is the only effect named, on most tools, and on every tool where
-/// it is named the sealed late part's RMS error shrinks against the refitted nominal.
+/// each tool. Tool wear must come out first on most tools — named, or the better of an
+/// "ambiguous" pair (in this data the feed is proportional to the spindle speed, so a feed
+/// exponent is indistinguishable from a cutting-speed effect, and the workflow says so) —
+/// no other effect may be named, and where wear is in the updated model the sealed late
+/// part's RMS error shrinks against both the model as given and the refitted nominal.
 #[test]
 fn turning_names_tool_wear_and_shrinks_the_late_gap() {
     let Some(root) = data() else { return };
     let tools = import::vicomtech_turning(&root.join("vicomtech-turning/tool_wear_tools_3-10.csv"))
         .expect("imports");
     assert_eq!(tools.len(), 7);
-    let mut wear_named = 0;
+    let (mut named, mut first) = (0, 0);
     let mut shrink = Vec::new();
     for (id, mut log) in tools {
         log.wear_vb_um = None;
@@ -35,14 +38,15 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
         let r = &a.report;
         let others: Vec<&String> = r.accepted.iter().filter(|n| *n != "tool_wear").collect();
         assert!(others.is_empty(), "tool {id}: named {:?}", r.accepted);
+        let wear = EffectKind::ToolWear.name();
+        let is_named = r.accepted.iter().any(|n| n == wear);
+        let is_first = r.ambiguous.iter().any(|amb| amb.effects[0] == wear);
         for amb in &r.ambiguous {
-            assert!(
-                amb.effects.iter().any(|e| e == "tool_wear"),
-                "tool {id}: {amb:?}"
-            );
+            assert!(amb.effects.iter().any(|e| e == wear), "tool {id}: {amb:?}");
         }
-        if r.accepted.iter().any(|n| n == EffectKind::ToolWear.name()) {
-            wear_named += 1;
+        named += usize::from(is_named);
+        first += usize::from(is_named || is_first);
+        if is_named || is_first {
             let s = &r.sealed;
             assert!(
                 s.updated.rms < s.nominal_refit.rms && s.updated.rms < s.nominal.rms,
@@ -54,10 +58,8 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
             shrink.push(s.rms_reduction_pct);
         }
     }
-    assert!(
-        wear_named >= 4,
-        "tool wear named on {wear_named} of 7 tools"
-    );
+    assert!(named >= 3, "tool wear named outright on {named} of 7 tools");
+    assert!(first >= 5, "tool wear first on {first} of 7 tools");
     let mean = shrink.iter().sum::<f64>() / shrink.len() as f64;
     assert!(mean > 50.0, "mean late-part RMS reduction {mean:.1} %");
 }
@@ -66,27 +68,53 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
 #[test]
 fn wax_milling_invents_no_effect() {
     let Some(root) = data() else { return };
+    // The twelve experiments on two threads (the machine has two cores).
+    let results: Vec<(usize, Result<acc_ident::Report, String>)> = std::thread::scope(|s| {
+        let handles: Vec<_> = [(1..=12).step_by(2), (2..=12).step_by(2)]
+            .into_iter()
+            .map(|ks| {
+                let root = &root;
+                s.spawn(move || {
+                    ks.map(|k| {
+                        let path = root.join(format!("umich-cnc-mill/experiment_{k:02}.csv"));
+                        let r = import::umich_mill(&path)
+                            .map_err(|e| e.to_string())
+                            .and_then(|log| {
+                                let model = import::umich_model(&log);
+                                workflow::analyse(&model, &log, &workflow::Options::default())
+                                    .map(|a| a.report)
+                                    .map_err(|e| e.to_string())
+                            });
+                        (k, r)
+                    })
+                    .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("worker"))
+            .collect()
+    });
     let mut analysed = 0;
-    for k in 1..=12 {
-        let log = import::umich_mill(&root.join(format!("umich-cnc-mill/experiment_{k:02}.csv")))
-            .expect("imports");
-        let model = import::umich_model(&log);
-        match workflow::analyse(&model, &log, &workflow::Options::default()) {
-            Ok(a) => {
+    for (k, r) in results {
+        match r {
+            Ok(report) => {
                 analysed += 1;
                 assert!(
-                    a.report.accepted.is_empty() && a.report.ambiguous.is_empty(),
+                    report.accepted.is_empty() && report.ambiguous.is_empty(),
                     "experiment {k}: {}",
-                    a.report.conclusion
+                    report.conclusion
                 );
-                // The noise floor is the README's ≈ 19 W sample-to-sample noise.
+                // The noise floor is the data README's ≈ 19 W sample-to-sample noise.
                 assert!(
-                    (10.0..40.0).contains(&a.report.noise.sigma),
+                    (10.0..40.0).contains(&report.noise.sigma),
                     "σ {}",
-                    a.report.noise.sigma
+                    report.noise.sigma
                 );
             }
-            Err(workflow::WorkflowError::TooShort { .. }) => {}
+            // Experiment 5 keeps only 36 rows at steady spindle speed: too short.
+            Err(e) if e.contains("rows; at least") => {}
             Err(e) => panic!("experiment {k}: {e}"),
         }
     }

@@ -59,8 +59,8 @@ fn main() {
 fn topts() -> workflow::Options {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse().ok());
     workflow::Options {
-        folds: env("FOLDS").unwrap_or(4),
-        fit_speed_exponent: env("GAMMA").unwrap_or(1) == 1,
+        folds: env("FOLDS").unwrap_or(5),
+        fit_speed_exponent: env("GAMMA").unwrap_or(0) == 1,
         ..Default::default()
     }
 }

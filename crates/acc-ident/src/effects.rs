@@ -91,7 +91,7 @@ const P_LAG: [ParamInfo; 1] = [p("extra_tau_s", "s", 0.0, 0.99, 0.05, Some(TAU_G
 const P_LOWPASS: [ParamInfo; 1] = [p("tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
 const P_DEAD: [ParamInfo; 1] = [p("extra_delay_s", "s", 0.0, 0.99, 0.05, Some(DELAY_GRID))];
 const P_BETA: [ParamInfo; 2] = [
-    p("delta_beta", "1", -0.7, 0.5, 0.02, None),
+    p("delta_beta", "1", -0.85, 0.9, 0.02, None),
     ParamInfo {
         fitted: false,
         ..p("feed_ref_mm_min", "mm/min", 1e-3, 1e6, 1.0, None)
@@ -247,7 +247,7 @@ pub struct OverrideDeadTime {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FeedExponent {
-    /// Exponent change Δβ. Range −0.7 ..= 0.5.
+    /// Exponent change Δβ. Range −0.85 ..= 0.9 (β + Δβ stays in the simulator's 0.1 ..= 2).
     pub delta_beta: f64,
     /// Reference feed at which `Ks` is unchanged, mm/min (> 0).
     pub feed_ref_mm_min: f64,

@@ -230,7 +230,37 @@ fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) 
     let (solved, _report) = LevenbergMarquardt::new()
         .with_patience(30)
         .minimize(problem);
-    solved.theta.iter().copied().collect()
+    let theta: Vec<f64> = solved.theta.iter().copied().collect();
+    // The clamp at a bound can stall the trust region; restart once from halfway back.
+    let stuck = free.iter().zip(&theta).zip(start).any(|((f, v), s0)| {
+        let (lo, hi) = f.bounds();
+        (*v == lo || *v == hi) && (v - s0).abs() > 0.0
+    });
+    if !stuck {
+        return theta;
+    }
+    let restart: Vec<f64> = theta
+        .iter()
+        .zip(start)
+        .map(|(v, s0)| 0.5 * (v + s0))
+        .collect();
+    let problem = Problem {
+        base: solved.base,
+        free,
+        inp,
+        rows,
+        theta: DVector::from_vec(restart),
+    };
+    let (again, _) = LevenbergMarquardt::new()
+        .with_patience(30)
+        .minimize(problem);
+    let theta2: Vec<f64> = again.theta.iter().copied().collect();
+    let cost = |t: &[f64]| again.resid(t).norm_squared();
+    if cost(&theta2) < cost(&theta) {
+        theta2
+    } else {
+        theta
+    }
 }
 
 /// Local refinement only (no grid, no intervals): LM from the values in `base`; returns

@@ -89,7 +89,11 @@ pub struct CandidateResult {
     pub signature_r_before: f64,
     /// Same after adding the effect.
     pub signature_r_after: f64,
-    /// The signature is gone (not significant, or at most half the correlation before).
+    /// Regression coefficient of the residual on the effect's contribution, after over
+    /// before (0: the effect took all of its signature; 1: none).
+    pub signature_ratio: f64,
+    /// The signature is gone: its correlation with the residual is not significant
+    /// (p > 0.01) after adding the effect, or the ratio above is at most 0.25.
     pub signature_gone: bool,
     /// Effect-to-noise ratio: RMS of the effect's contribution over σ.
     pub effect_to_noise: f64,

@@ -302,7 +302,8 @@ pub fn effect_to_noise(case: &Case, hidden: &[Hidden], seed: u64) -> f64 {
 pub fn value_for_enr(case: &Case, kind: EffectKind, enr: f64, seed: u64) -> f64 {
     let p = kind.params()[0];
     let sgn = sign(kind);
-    let hi0 = if sgn > 0.0 { p.hi } else { -p.lo };
+    // Stay inside 90 % of the fitting range so the truth is not on a bound.
+    let hi0 = 0.9 * if sgn > 0.0 { p.hi } else { -p.lo };
     let (mut lo, mut hi) = (
         0.0,
         hi0.min(match kind {

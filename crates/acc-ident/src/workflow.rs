@@ -481,6 +481,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
                     ci_excludes_null: false,
                     signature_r_before: 0.0,
                     signature_r_after: 0.0,
+                    signature_ratio: f64::INFINITY,
                     signature_gone: false,
                     effect_to_noise: 0.0,
                     passed: false,
@@ -511,11 +512,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
                 .iter()
                 .find(|p| p.name == Free::Effect(kind, 0).name());
             let ci_ok = primary
-                .map(|p| {
-                    (p.ci_low > p.null || p.ci_high < p.null)
-                        && p.std_err.is_finite()
-                        && !p.at_bound
-                })
+                .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
                 .unwrap_or(false);
             // Signature: the effect's own contribution at the fitted values.
             let mut off = f.model.clone();
@@ -529,7 +526,23 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             let after = ctx.residual(&f.model);
             let (r_before, _) = correlation(&contrib, &base_res);
             let (r_after, p_after) = correlation(&contrib, &after);
-            let sig_gone = p_after > 0.01 || r_after.abs() <= 0.5 * r_before.abs();
+            // Regression coefficient of the residual on the effect's contribution: about 1
+            // before (the residual holds the effect), about 0 after if the effect took it.
+            let coef = |r: &[f64]| {
+                let cc: f64 = contrib.iter().map(|c| c * c).sum();
+                if cc > 0.0 {
+                    r.iter().zip(&contrib).map(|(a, c)| a * c).sum::<f64>() / cc
+                } else {
+                    0.0
+                }
+            };
+            let (b_before, b_after) = (coef(&base_res), coef(&after));
+            let sig_ratio = if b_before.abs() > 1e-12 {
+                (b_after / b_before).abs()
+            } else {
+                f64::INFINITY
+            };
+            let sig_gone = p_after > 0.01 || sig_ratio <= 0.25;
             let enr = if noise.sigma > 0.0 {
                 stats::rms(&contrib) / noise.sigma
             } else {
@@ -561,6 +574,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
                 ci_excludes_null: ci_ok,
                 signature_r_before: r_before,
                 signature_r_after: r_after,
+                signature_ratio: sig_ratio,
                 signature_gone: sig_gone,
                 effect_to_noise: enr,
                 passed,
