@@ -1,14 +1,15 @@
 //! The full hidden-effect sweep of issue 6 (the fast grid runs in `cargo test`):
 //!
 //! ```text
-//! cargo run --release -p acc-ident --example sweep -- [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--threads 2]
+//! cargo run --release -p acc-ident --example sweep -- [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--pairs 10] [--threads 2]
 //! ```
 //!
 //! For every candidate effect, effect-to-noise ratio (ENR, see `synth::effect_to_noise`),
 //! noise kind (white, AR(1) ρ = 0.6) and seed: a synthetic log with the effect hidden,
 //! the nominal model without it, the workflow. Prints the confusion matrix at ENR ≥ 4,
 //! recovery (exactly the right effect named) against ENR, interval coverage and the
-//! sealed-part gap closed, then the false-discovery rate on logs with no hidden effect.
+//! sealed-part gap closed, two hidden effects at once for confusable pairs, then the
+//! false-discovery rate on logs with no hidden effect.
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -19,6 +20,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 struct Job {
     kind: Option<EffectKind>,
+    second: Option<EffectKind>,
     enr: f64,
     rho: f64,
     seed: u64,
@@ -32,6 +34,14 @@ fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
 }
+
+/// Confusable pairs hidden together (each effect sized alone to ENR 6).
+const PAIRS: [(EffectKind, EffectKind); 4] = [
+    (EffectKind::ToolWear, EffectKind::NoloadDrift),
+    (EffectKind::FeedDriveLag, EffectKind::SensorLowpass),
+    (EffectKind::FeedDriveLag, EffectKind::OverrideDeadTime),
+    (EffectKind::MotorEfficiency, EffectKind::FeedExponent),
+];
 
 fn case(rho: f64) -> Case {
     Case {
@@ -57,6 +67,7 @@ fn main() {
                 for seed in 0..seeds {
                     jobs.push(Job {
                         kind: Some(kind),
+                        second: None,
                         enr,
                         rho,
                         seed: 1000 + seed,
@@ -68,10 +79,23 @@ fn main() {
     for seed in 0..fdr {
         jobs.push(Job {
             kind: None,
+            second: None,
             enr: 0.0,
             rho: if seed % 2 == 0 { 0.0 } else { 0.6 },
             seed: 5000 + seed,
         });
+    }
+    let pairs: u64 = arg("--pairs", 10);
+    for (a, b) in PAIRS {
+        for seed in 0..pairs {
+            jobs.push(Job {
+                kind: Some(a),
+                second: Some(b),
+                enr: 6.0,
+                rho: if seed % 2 == 0 { 0.0 } else { 0.6 },
+                seed: 7000 + seed,
+            });
+        }
     }
     let bar = ProgressBar::new(jobs.len() as u64);
     bar.set_style(
@@ -94,13 +118,13 @@ fn main() {
                 let c = case(job.rho);
                 let hidden: Vec<Hidden> = job
                     .kind
-                    .map(|kind| {
-                        vec![Hidden {
-                            kind,
-                            value: synth::value_for_enr(&c, kind, job.enr, job.seed),
-                        }]
+                    .into_iter()
+                    .chain(job.second)
+                    .map(|kind| Hidden {
+                        kind,
+                        value: synth::value_for_enr(&c, kind, job.enr, job.seed),
                     })
-                    .unwrap_or_default();
+                    .collect();
                 let achieved = synth::effect_to_noise(&c, &hidden, job.seed);
                 if let Ok(o) = synth::evaluate(&c, &hidden, job.seed, &opts) {
                     if let Ok(mut r) = results.lock() {
@@ -111,7 +135,7 @@ fn main() {
                 // indicatif hides itself when stderr is not a terminal: print a line then.
                 if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
                     let done = bar.position();
-                    if done % 20 == 0 || done == jobs.len() as u64 {
+                    if done.checked_rem(20) == Some(0) || done == jobs.len() as u64 {
                         eprintln!(
                             "progress {done}/{} ({:.0} s)",
                             jobs.len(),
@@ -135,7 +159,7 @@ fn main() {
     for (i, o, achieved) in &results {
         let j = &jobs[*i];
         let Some(kind) = j.kind else { continue };
-        if *achieved < 4.0 {
+        if *achieved < 4.0 || j.second.is_some() {
             continue;
         }
         let r = kind as usize;
@@ -180,7 +204,11 @@ fn main() {
             .map(|&enr| {
                 let sel: Vec<&(usize, Outcome, f64)> = results
                     .iter()
-                    .filter(|(i, _, _)| jobs[*i].kind == Some(kind) && jobs[*i].enr == enr)
+                    .filter(|(i, _, _)| {
+                        jobs[*i].kind == Some(kind)
+                            && jobs[*i].second.is_none()
+                            && jobs[*i].enr == enr
+                    })
                     .collect();
                 let os: Vec<&Outcome> = sel.iter().map(|(_, o, _)| o).collect();
                 let min_achieved = sel.iter().map(|r| r.2).fold(f64::INFINITY, f64::min);
@@ -201,6 +229,39 @@ fn main() {
             })
             .collect();
         println!("| {} | {} |", kind.name(), cells.join(" | "));
+    }
+    println!("\nTwo hidden effects (each sized alone to ENR 6; % of seeds):\n");
+    println!("| pair | both named | ambiguous, right pair | other |");
+    println!("| --- | ---: | ---: | ---: |");
+    for (a, b) in PAIRS {
+        let os: Vec<&Outcome> = results
+            .iter()
+            .filter(|(i, _, _)| jobs[*i].kind == Some(a) && jobs[*i].second == Some(b))
+            .map(|(_, o, _)| o)
+            .collect();
+        let n = os.len().max(1) as f64;
+        let extra = |o: &Outcome| o.named.iter().any(|k| *k != a && *k != b);
+        let both = os
+            .iter()
+            .filter(|o| o.named.contains(&a) && o.named.contains(&b) && !extra(o))
+            .count();
+        let amb = os
+            .iter()
+            .filter(|o| {
+                !(extra(o) || (o.named.contains(&a) && o.named.contains(&b)))
+                    && o.ambiguous
+                        .iter()
+                        .any(|&(x, y)| (x == a && y == b) || (x == b && y == a))
+            })
+            .count();
+        println!(
+            "| {} + {} | {:.0} | {:.0} | {:.0} |",
+            a.name(),
+            b.name(),
+            100.0 * both as f64 / n,
+            100.0 * amb as f64 / n,
+            100.0 * (os.len() - both - amb) as f64 / n
+        );
     }
     let nulls: Vec<&Outcome> = results
         .iter()
