@@ -81,6 +81,8 @@ fn missing_file_names_the_file() {
         e.contains("no_such_workpiece.toml") && e.contains("cannot read"),
         "{e}"
     );
+    // ... and the scenario file and key that named it.
+    assert!(e.contains("s.toml") && e.contains("`workpiece`"), "{e}");
     let e = err(&dir.path().join("absent.toml"));
     assert!(e.contains("absent.toml"), "{e}");
 }

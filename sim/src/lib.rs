@@ -55,7 +55,7 @@ pub enum SimError {
     #[error(transparent)]
     Config(#[from] acc_config::ConfigError),
     /// The controller refused its parameters.
-    #[error("controller: {0:?}")]
+    #[error("controller: {0}")]
     Core(acc_core::CoreError),
     /// The simulated board answered with a Modbus exception.
     #[error("board: {0}")]
