@@ -16,7 +16,8 @@
 //!   `late@T:N` (deliver N replies `--late-ms` late), `restart@T` (board power cycle),
 //!   `freeze-seq@T:S` (`SAMPLE_SEQ` frozen for S s), `bad-power@T:S` (power register
 //!   0xFFFFFFFF, i.e. −1 W, for S s), `stall@T:S` (the board stops serving for S s of wall
-//!   time: its watchdog trips), `switch@T:on|off` (operator's ACC switch), `operator@T:PCT`
+//!   time: its watchdog trips), `lock@T:S` (`OVERRIDE_LOCKED` for S s: the NC forces 100 %,
+//!   as in tapping), `switch@T:on|off` (operator's ACC switch), `operator@T:PCT`
 //!   (operator's override knob).
 
 use std::collections::VecDeque;
@@ -102,6 +103,7 @@ enum Scheduled {
     Restart,
     FreezeSeq(f64),
     BadPower(f64),
+    Lock(f64),
     Switch(bool),
     Operator(u16),
 }
@@ -109,7 +111,7 @@ enum Scheduled {
 fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
     let err = || {
         anyhow::anyhow!(
-            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, stall, switch, operator (T in machine seconds)"
+            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, lock, stall, switch, operator (T in machine seconds)"
         )
     };
     let (kind, rest) = spec.split_once('@').ok_or_else(err)?;
@@ -141,6 +143,7 @@ fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
         "restart" => Scheduled::Restart,
         "freeze-seq" => Scheduled::FreezeSeq(secs()?),
         "bad-power" => Scheduled::BadPower(secs()?),
+        "lock" => Scheduled::Lock(secs()?),
         "switch" => match arg {
             Some("on") => Scheduled::Switch(true),
             Some("off") => Scheduled::Switch(false),
@@ -348,6 +351,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     )?;
     let path_mm = sc.workpiece.length_mm();
     let (mut freeze_until, mut bad_until) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let mut lock_until: Option<f64> = None;
     let mut done_at: Option<f64> = None;
     while !stop.load(Ordering::SeqCst) {
         ticker.wait();
@@ -366,9 +370,17 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 Scheduled::Restart => b.power_cycle(),
                 Scheduled::FreezeSeq(s) => freeze_until = t + s,
                 Scheduled::BadPower(s) => bad_until = t + s,
+                Scheduled::Lock(s) => {
+                    b.set_override_locked(true);
+                    lock_until = Some(t + s);
+                }
                 Scheduled::Switch(on) => b.set_acc_switch(on),
                 Scheduled::Operator(p) => b.set_operator_override_pct(p),
             }
+        }
+        if lock_until.is_some_and(|u| t >= u) {
+            lock_board(&board).set_override_locked(false);
+            lock_until = None;
         }
         let (applied, cmd, hold) = {
             let b = lock_board(&board);
