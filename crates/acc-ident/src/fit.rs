@@ -136,7 +136,23 @@ struct Problem<'a> {
     theta: DVector<f64>,
 }
 
-impl Problem<'_> {
+impl<'a> Problem<'a> {
+    fn new(
+        base: &'a Model,
+        free: &'a [Free],
+        inp: &'a Inputs,
+        rows: &'a [usize],
+        theta: Vec<f64>,
+    ) -> Self {
+        Problem {
+            base,
+            free,
+            inp,
+            rows,
+            theta: DVector::from_vec(theta),
+        }
+    }
+
     fn resid(&self, theta: &[f64]) -> DVector<f64> {
         let m = apply(self.base, self.free, theta);
         let r = replay(&m, self.inp);
@@ -215,18 +231,9 @@ fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) 
         return Vec::new();
     }
     let mut theta = start.to_vec();
-    let problem = Problem {
-        base,
-        free,
-        inp,
-        rows,
-        theta: DVector::from_vec(start.to_vec()),
-    };
+    let problem = Problem::new(base, free, inp, rows, start.to_vec());
     problem.clamp(&mut theta);
-    let problem = Problem {
-        theta: DVector::from_vec(theta),
-        ..problem
-    };
+    let problem = Problem::new(base, free, inp, rows, theta);
     let (solved, _report) = LevenbergMarquardt::new()
         .with_patience(30)
         .minimize(problem);
@@ -244,13 +251,7 @@ fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) 
         .zip(start)
         .map(|(v, s0)| 0.5 * (v + s0))
         .collect();
-    let problem = Problem {
-        base: solved.base,
-        free,
-        inp,
-        rows,
-        theta: DVector::from_vec(restart),
-    };
+    let problem = Problem::new(solved.base, free, inp, rows, restart);
     let (again, _) = LevenbergMarquardt::new()
         .with_patience(30)
         .minimize(problem);
@@ -341,13 +342,7 @@ pub fn fit(base: &Model, free: &[Free], grid: &[Free], inp: &Inputs, rows: &[usi
 
 fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[usize]) -> Fit {
     let model = apply(base, free, &theta);
-    let problem = Problem {
-        base,
-        free,
-        inp,
-        rows,
-        theta: DVector::from_vec(theta.clone()),
-    };
+    let problem = Problem::new(base, free, inp, rows, theta.clone());
     let r = problem.resid(&theta);
     let sse = r.norm_squared();
     let n = rows.len();

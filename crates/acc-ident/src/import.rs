@@ -40,14 +40,26 @@ use crate::model::{
 };
 use crate::runlog::{RunLog, RunLogError};
 
-fn open(path: &Path) -> Result<csv::Reader<std::fs::File>, RunLogError> {
+/// A CSV-layer error as a [`RunLogError`] naming the file and line.
+fn csv_error(path: &Path, e: csv::Error) -> RunLogError {
+    RunLogError::Csv {
+        file: path.to_path_buf(),
+        line: e.position().map(|p| p.line()).unwrap_or(0),
+        message: e.to_string(),
+    }
+}
+
+/// Open a CSV file and read its header.
+fn open(path: &Path) -> Result<(csv::Reader<std::fs::File>, Cols<'_>), RunLogError> {
     let f = std::fs::File::open(path).map_err(|e| RunLogError::Io {
         file: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    Ok(csv::ReaderBuilder::new()
+    let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_reader(f))
+        .from_reader(f);
+    let header = rdr.headers().map_err(|e| csv_error(path, e))?.clone();
+    Ok((rdr, Cols { path, header }))
 }
 
 struct Cols<'a> {
@@ -85,16 +97,7 @@ impl Cols<'_> {
 
 /// Import the Vicomtech turning file: one run log per tool id, in file order.
 pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogError> {
-    let mut rdr = open(path)?;
-    let csv_err = |e: csv::Error| RunLogError::Csv {
-        file: path.to_path_buf(),
-        line: e.position().map(|p| p.line()).unwrap_or(0),
-        message: e.to_string(),
-    };
-    let cols = Cols {
-        path,
-        header: rdr.headers().map_err(csv_err)?.clone(),
-    };
+    let (mut rdr, cols) = open(path)?;
     let (c_f, c_p, c_s, c_feed, c_tool, c_vb) = (
         cols.idx("F_c_MEAN")?,
         cols.idx("TV50.S_MEAN")?,
@@ -105,7 +108,7 @@ pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogErr
     );
     let mut out: BTreeMap<u32, RunLog> = BTreeMap::new();
     for rec in rdr.records() {
-        let rec = rec.map_err(csv_err)?;
+        let rec = rec.map_err(|e| csv_error(path, e))?;
         let feed = cols.num(&rec, c_feed)?;
         if feed <= 0.0 {
             continue;
@@ -142,34 +145,10 @@ pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogErr
         let keep: Vec<usize> = (0..log.len())
             .filter(|&i| (ratio[i] - med).abs() <= 0.2 * med)
             .collect();
-        *log = select_rows(log, &keep);
+        *log = log.rows(&keep);
         log.validate(path)?;
     }
     Ok(out)
-}
-
-/// The rows `keep` of `log` (time kept as recorded).
-fn select_rows(log: &RunLog, keep: &[usize]) -> RunLog {
-    let pick = |v: &Vec<f64>| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-    let pick_o = |v: &Option<Vec<f64>>| v.as_ref().map(pick);
-    RunLog {
-        t_s: pick(&log.t_s),
-        x_mm: pick_o(&log.x_mm),
-        radial_depth_mm: pick(&log.radial_depth_mm),
-        axial_depth_mm: pick(&log.axial_depth_mm),
-        spindle_rpm: pick(&log.spindle_rpm),
-        programmed_feed_mm_min: pick_o(&log.programmed_feed_mm_min),
-        override_cmd_pct: pick_o(&log.override_cmd_pct),
-        override_applied_pct: pick_o(&log.override_applied_pct),
-        feed_mm_min: pick(&log.feed_mm_min),
-        force_n: pick_o(&log.force_n),
-        power_w: pick_o(&log.power_w),
-        wear_vb_um: pick_o(&log.wear_vb_um),
-        phase: log
-            .phase
-            .as_ref()
-            .map(|v| keep.iter().map(|&i| v[i].clone()).collect()),
-    }
 }
 
 /// Import one UMich CNC-mill experiment file.
@@ -179,16 +158,7 @@ fn select_rows(log: &RunLog, keep: &[usize]) -> RunLog {
 /// run-down power (inertia) is outside the model, and rows with the spindle stopped carry
 /// no information. Time keeps the original 0.1 s grid (with gaps).
 pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
-    let mut rdr = open(path)?;
-    let csv_err = |e: csv::Error| RunLogError::Csv {
-        file: path.to_path_buf(),
-        line: e.position().map(|p| p.line()).unwrap_or(0),
-        message: e.to_string(),
-    };
-    let cols = Cols {
-        path,
-        header: rdr.headers().map_err(csv_err)?.clone(),
-    };
+    let (mut rdr, cols) = open(path)?;
     let (c_p, c_s, c_vx, c_vy, c_feed, c_phase) = (
         cols.idx("S1_OutputPower")?,
         cols.idx("S1_ActualVelocity")?,
@@ -202,7 +172,7 @@ pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
     let mut prog = Vec::new();
     let mut phases = Vec::new();
     for rec in rdr.records() {
-        let rec = rec.map_err(csv_err)?;
+        let rec = rec.map_err(|e| csv_error(path, e))?;
         let phase = rec.get(c_phase).unwrap_or("").to_string();
         let cutting = phase.starts_with("Layer");
         let t = (log.t_s.len() + 1) as f64 * 0.1;
@@ -233,7 +203,7 @@ pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
     let keep: Vec<usize> = (1..n.saturating_sub(1))
         .filter(|&i| steady(i - 1) && steady(i) && steady(i + 1))
         .collect();
-    let mut log = select_rows(&log, &keep);
+    let mut log = log.rows(&keep);
     // Cutting needs the tool moving as well as a cutting phase.
     for i in 0..log.len() {
         if log.feed_mm_min[i] <= 0.0 {
@@ -413,17 +383,7 @@ pub fn model_from_sim(
             name: tool.name.clone(),
             diameter_mm: tool.diameter_mm,
             flutes: tool.flutes,
-            process: Process {
-                calib_force_n: p.calib_force_n,
-                calib_radial_mm: p.calib_radial_mm,
-                calib_feed_mm_min: p.calib_feed_mm_min,
-                calib_rpm: p.calib_rpm,
-                calib_axial_mm: p.calib_axial_mm,
-                alpha: p.alpha,
-                beta: p.beta,
-                gamma: p.gamma,
-                radial_ratio: p.radial_ratio,
-            },
+            process: Process::from(p),
             wear: Wear {
                 initial_factor: tool.wear.initial_factor,
                 growth_per_cm3: tool.wear.growth_per_cm3,

@@ -113,6 +113,60 @@ pub struct Process {
     pub radial_ratio: f64,
 }
 
+impl From<acc_sim::process::ProcessSpec> for Process {
+    fn from(p: acc_sim::process::ProcessSpec) -> Self {
+        let acc_sim::process::ProcessSpec {
+            calib_force_n,
+            calib_radial_mm,
+            calib_feed_mm_min,
+            calib_rpm,
+            calib_axial_mm,
+            alpha,
+            beta,
+            gamma,
+            radial_ratio,
+        } = p;
+        Process {
+            calib_force_n,
+            calib_radial_mm,
+            calib_feed_mm_min,
+            calib_rpm,
+            calib_axial_mm,
+            alpha,
+            beta,
+            gamma,
+            radial_ratio,
+        }
+    }
+}
+
+impl From<Process> for acc_sim::process::ProcessSpec {
+    fn from(p: Process) -> Self {
+        let Process {
+            calib_force_n,
+            calib_radial_mm,
+            calib_feed_mm_min,
+            calib_rpm,
+            calib_axial_mm,
+            alpha,
+            beta,
+            gamma,
+            radial_ratio,
+        } = p;
+        acc_sim::process::ProcessSpec {
+            calib_force_n,
+            calib_radial_mm,
+            calib_feed_mm_min,
+            calib_rpm,
+            calib_axial_mm,
+            alpha,
+            beta,
+            gamma,
+            radial_ratio,
+        }
+    }
+}
+
 /// `[tool.wear]`: `Ks` factor `initial · (1 + g_V·V + g_t·t)`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

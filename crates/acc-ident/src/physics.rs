@@ -13,17 +13,7 @@ use crate::model::{Process, Spindle};
 
 /// The simulator's force law for a model's `[tool.process]`.
 pub fn force_law(p: &Process) -> ForceLaw {
-    ForceLaw::new(ProcessSpec {
-        calib_force_n: p.calib_force_n,
-        calib_radial_mm: p.calib_radial_mm,
-        calib_feed_mm_min: p.calib_feed_mm_min,
-        calib_rpm: p.calib_rpm,
-        calib_axial_mm: p.calib_axial_mm,
-        alpha: p.alpha,
-        beta: p.beta,
-        gamma: p.gamma,
-        radial_ratio: p.radial_ratio,
-    })
+    ForceLaw::new(ProcessSpec::from(*p))
 }
 
 /// Spindle input power, W, for a cutting torque at a logged speed: the simulator's

@@ -125,25 +125,34 @@ impl RunLog {
         d[d.len() / 2]
     }
 
-    /// Rows `range` of the log as a new log (all columns sliced alike).
-    pub fn slice(&self, range: std::ops::Range<usize>) -> RunLog {
-        let s = |v: &Vec<f64>| v[range.clone()].to_vec();
-        let so = |v: &Option<Vec<f64>>| v.as_ref().map(|v| v[range.clone()].to_vec());
+    /// Rows `keep` of the log, in that order, as a new log (all columns alike; time kept as
+    /// recorded).
+    pub fn rows(&self, keep: &[usize]) -> RunLog {
+        let pick = |v: &Vec<f64>| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let pick_o = |v: &Option<Vec<f64>>| v.as_ref().map(pick);
         RunLog {
-            t_s: s(&self.t_s),
-            x_mm: so(&self.x_mm),
-            radial_depth_mm: s(&self.radial_depth_mm),
-            axial_depth_mm: s(&self.axial_depth_mm),
-            spindle_rpm: s(&self.spindle_rpm),
-            programmed_feed_mm_min: so(&self.programmed_feed_mm_min),
-            override_cmd_pct: so(&self.override_cmd_pct),
-            override_applied_pct: so(&self.override_applied_pct),
-            feed_mm_min: s(&self.feed_mm_min),
-            force_n: so(&self.force_n),
-            power_w: so(&self.power_w),
-            wear_vb_um: so(&self.wear_vb_um),
-            phase: self.phase.as_ref().map(|v| v[range.clone()].to_vec()),
+            t_s: pick(&self.t_s),
+            x_mm: pick_o(&self.x_mm),
+            radial_depth_mm: pick(&self.radial_depth_mm),
+            axial_depth_mm: pick(&self.axial_depth_mm),
+            spindle_rpm: pick(&self.spindle_rpm),
+            programmed_feed_mm_min: pick_o(&self.programmed_feed_mm_min),
+            override_cmd_pct: pick_o(&self.override_cmd_pct),
+            override_applied_pct: pick_o(&self.override_applied_pct),
+            feed_mm_min: pick(&self.feed_mm_min),
+            force_n: pick_o(&self.force_n),
+            power_w: pick_o(&self.power_w),
+            wear_vb_um: pick_o(&self.wear_vb_um),
+            phase: self
+                .phase
+                .as_ref()
+                .map(|v| keep.iter().map(|&i| v[i].clone()).collect()),
         }
+    }
+
+    /// Rows `range` of the log as a new log.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> RunLog {
+        self.rows(&range.collect::<Vec<usize>>())
     }
 
     /// Check lengths, time order and value ranges; `file` is used in errors only.
