@@ -14,11 +14,15 @@ fn root() -> std::path::PathBuf {
     std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Per period: the override written (if any), whether the force sample was valid, the
+/// policy state after the period.
+type PeriodTrace = (Option<u16>, bool, AccState);
+
 /// One closed-loop run; `fault(t, board)` may act on the board each period. Returns the
 /// machine-side rows and, per period, (override written, force sample valid, state).
 fn closed_loop(
     mut fault: impl FnMut(f64, &mut acc_sim::SimBoard),
-) -> (Vec<RunLogRow>, Vec<(Option<u16>, bool, AccState)>, Scenario) {
+) -> (Vec<RunLogRow>, Vec<PeriodTrace>, Scenario) {
     let sc = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
     let cfg = RunConfig::load(root().join("configs/runtime/board_sim_fast.toml"), None)
         .expect("run config");
