@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acc_plot::{time_series, Figure, HLine, Panel, Series, Written};
+use acc_plot::{time_series, Figure, HLine, Panel, Series, Shade, Written};
 use acc_sim::summary::comparison_table;
 use acc_sim::{LawKind, RunResult, Scenario, Summary};
 use anyhow::Context as _;
@@ -75,12 +75,19 @@ pub fn plot_overlay(
     results: &[(RunResult, Summary)],
     out: &Path,
 ) -> anyhow::Result<Written> {
-    let longest = results
+    // Each law reaches the air cuts at its own time: shade those of the slowest run and say
+    // whose they are.
+    let (longest, slowest) = results
         .iter()
         .max_by_key(|(r, _)| r.rows.len())
-        .map(|(r, _)| r.rows.as_slice())
-        .unwrap_or(&[]);
-    let shades = air_shades(sc, longest);
+        .map_or((&[][..], ""), |(r, _)| (r.rows.as_slice(), r.law.as_str()));
+    let shades: Vec<_> = air_shades(sc, longest)
+        .into_iter()
+        .map(|s| Shade {
+            name: format!("air cut ({slowest})"),
+            ..s
+        })
+        .collect();
     let force = results
         .iter()
         .map(|(r, _)| Series::line(&r.law, r.rows.iter().map(|x| (x.t_s, x.force_n)).collect()))

@@ -297,7 +297,12 @@ pub fn plot(a: &Analysis, out: &Path) -> anyhow::Result<Written> {
     let mut series = vec![unit_circle(240)];
     let kc0 = p.plant.kc_nominal;
     let ticks = [0.5, 1.0, 1.5, 2.0].map(|f| f * kc0);
-    let mut add_paths = |name: String, gains: PiGains, integral_only: bool, g_max: f64, color| {
+    let mut add_paths = |name: String,
+                         gains: PiGains,
+                         integral_only: bool,
+                         g_max: f64,
+                         color,
+                         label_style: Style| {
         for (k, branch) in sweep(gains, integral_only, km, t, lo, hi)
             .into_iter()
             .enumerate()
@@ -316,6 +321,20 @@ pub fn plot(a: &Analysis, out: &Path) -> anyhow::Result<Written> {
             Series::markers(format!("  at Kc = {}", tick_names.join(", ")), at_ticks)
                 .with_color(color),
         );
+        // Which marker is which Kc: the value written next to each (both paths often lie on
+        // the real axis, one over the other).
+        for (kc, name) in ticks.iter().zip(&tick_names) {
+            let at: Vec<(f64, f64)> = loop_poles(gains, integral_only, km * kc, t)
+                .into_iter()
+                .filter(|z| z.norm() <= 2.5)
+                .map(|z| (z.re, z.im))
+                .collect();
+            series.push(
+                Series::markers(name.clone(), at)
+                    .with_color(color)
+                    .with_style(label_style),
+            );
+        }
         let exits = boundary_points(gains, integral_only, t, g_max);
         if !exits.is_empty() {
             let label = format!("  leaves the circle at Kc = {:.3}", g_max / km);
@@ -333,6 +352,7 @@ pub fn plot(a: &Analysis, out: &Path) -> anyhow::Result<Written> {
             false,
             a.frozen_range.numeric_max,
             (213, 94, 0),
+            Style::Text,
         ),
         _ => {
             add_paths(
@@ -341,6 +361,7 @@ pub fn plot(a: &Analysis, out: &Path) -> anyhow::Result<Written> {
                 false,
                 a.paper_fixed_range.numeric_max,
                 (213, 94, 0),
+                Style::Text,
             );
             add_paths(
                 format!("gains frozen at Kc_hat = {kc0}, Kc {lo} … {hi}"),
@@ -348,6 +369,7 @@ pub fn plot(a: &Analysis, out: &Path) -> anyhow::Result<Written> {
                 integral_only,
                 a.frozen_range.numeric_max,
                 (0, 114, 178),
+                Style::TextBelow,
             );
         }
     }
@@ -480,6 +502,13 @@ mod tests {
             "case II frozen gains exit"
         );
         assert!(svg.contains("at Kc = 2, 4, 6, 8"));
+        // Each marker carries its Kc in the path's colour (paper gains orange, frozen blue).
+        for color in ["#D55E00", "#0072B2"] {
+            for kc in ["2", "4", "6", "8"] {
+                let label = format!("fill=\"{color}\">\n{kc}\n</text>");
+                assert!(svg.contains(&label), "no label {kc} in {color}");
+            }
+        }
         let png = std::fs::read(&w.png).unwrap();
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
         assert!(png.len() > 20_000);

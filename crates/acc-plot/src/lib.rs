@@ -105,6 +105,12 @@ pub enum Style {
     Markers,
     /// Line with a marker on every point.
     LineMarkers,
+    /// Text: the series name written next to every point (up and to the right, in the
+    /// series colour), e.g. the plant gain at markers of a pole path; no legend entry.
+    Text,
+    /// As [`Style::Text`], written down and to the right of every point (for a second set
+    /// of labels along the same line).
+    TextBelow,
 }
 
 /// A named series of (x, y) points.
@@ -534,9 +540,20 @@ fn draw_content<'a, DB: DrawingBackend + 'a>(
             filled: false,
             stroke_width: 2,
         };
+        if matches!(s.style, Style::Text | Style::TextBelow) {
+            let font = (FONT, LABEL_PX - 3).into_font().color(&color);
+            let dy = if s.style == Style::Text { -17 } else { 4 };
+            chart.draw_series(
+                segments(&s.points).into_iter().flatten().map(|p| {
+                    EmptyElement::at(p) + Text::new(s.name.clone(), (5, dy), font.clone())
+                }),
+            )?;
+            continue;
+        }
         let mut labelled = s.name.is_empty();
         for seg in segments(&s.points) {
             let ann = match s.style {
+                Style::Text | Style::TextBelow => continue,
                 Style::Line | Style::LineMarkers => {
                     chart.draw_series(LineSeries::new(seg.clone(), line))?
                 }
@@ -584,7 +601,11 @@ fn legend_entries(series: &[Series], hlines: &[HLine], shades: &[Shade]) -> (usi
     names.extend(
         series
             .iter()
-            .filter(|s| !s.name.is_empty() && s.points.iter().any(finite))
+            .filter(|s| {
+                !s.name.is_empty()
+                    && !matches!(s.style, Style::Text | Style::TextBelow)
+                    && s.points.iter().any(finite)
+            })
             .map(|s| s.name.as_str()),
     );
     let longest = names.iter().map(|n| n.chars().count()).max().unwrap_or(0);
