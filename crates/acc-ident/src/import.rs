@@ -232,20 +232,46 @@ pub fn turning_model(log: &RunLog, early_fraction: f64) -> Model {
         .map(|i| force[i] * (feed_ref / log.feed_mm_min[i]) * (log.spindle_rpm[i] / rpm_ref))
         .sum::<f64>()
         / n_early.min(force.len()).max(1) as f64;
+    let mut m = recorded_feed_model(
+        "turning, constant Ks (calibrated on the early part)",
+        "Vicomtech/Mondragon lathe",
+        Channel::Force,
+        Spindle {
+            rpm: rpm_ref.max(1.0),
+            no_load_power_w: 0.0,
+            efficiency: 1.0,
+        },
+    );
+    m.tool.name = "turning insert".into();
+    m.tool.diameter_mm = 1.0;
+    m.tool.flutes = 1;
+    m.tool.process = Process {
+        calib_force_n: calib.max(1e-3),
+        calib_radial_mm: 1.0,
+        calib_feed_mm_min: feed_ref,
+        calib_rpm: rpm_ref,
+        calib_axial_mm: 1.0,
+        alpha: 1.0,
+        beta: 1.0,
+        gamma: -1.0,
+        radial_ratio: 0.0,
+    };
+    m
+}
+
+/// A model for a real log with the feed as recorded (no override path), unit placeholder
+/// depths and no wear; the caller sets the tool.
+fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spindle) -> Model {
     Model {
-        name: "turning, constant Ks (calibrated on the early part)".into(),
+        name: name.into(),
         measurement: Measurement {
-            channel: Channel::Force,
+            channel,
             feed_input: FeedInput::Recorded,
             force_window_s: 0.0,
         },
         machine: Machine {
-            name: "Vicomtech/Mondragon lathe".into(),
-            spindle: Spindle {
-                rpm: rpm_ref.max(1.0),
-                no_load_power_w: 0.0,
-                efficiency: 1.0,
-            },
+            name: machine.into(),
+            spindle,
             feed_drive: FeedDrive { tau_s: 0.0 },
             override_path: OverridePath {
                 delay_s: 0.0,
@@ -254,18 +280,18 @@ pub fn turning_model(log: &RunLog, early_fraction: f64) -> Model {
             sim: None,
         },
         tool: Tool {
-            name: "turning insert".into(),
+            name: String::new(),
             diameter_mm: 1.0,
             flutes: 1,
             process: Process {
-                calib_force_n: calib.max(1e-3),
+                calib_force_n: 1.0,
                 calib_radial_mm: 1.0,
-                calib_feed_mm_min: feed_ref,
-                calib_rpm: rpm_ref,
+                calib_feed_mm_min: 1.0,
+                calib_rpm: 1.0,
                 calib_axial_mm: 1.0,
                 alpha: 1.0,
                 beta: 1.0,
-                gamma: -1.0,
+                gamma: 0.0,
                 radial_ratio: 0.0,
             },
             wear: Wear::default(),
@@ -286,47 +312,23 @@ pub fn umich_model(log: &RunLog) -> Model {
         .collect();
     air.sort_by(f64::total_cmp);
     let p_air = air.get(air.len() / 2).copied().unwrap_or(0.0);
-    Model {
-        name: "UMich wax mill, nominal".into(),
-        measurement: Measurement {
-            channel: Channel::Power,
-            feed_input: FeedInput::Recorded,
-            force_window_s: 0.0,
+    let mut m = recorded_feed_model(
+        "UMich wax mill, nominal",
+        "UMich SMART lab mill",
+        Channel::Power,
+        Spindle {
+            rpm: 3200.0,
+            no_load_power_w: p_air.max(0.0),
+            efficiency: 1.0,
         },
-        machine: Machine {
-            name: "UMich SMART lab mill".into(),
-            spindle: Spindle {
-                rpm: 3200.0,
-                no_load_power_w: p_air.max(0.0),
-                efficiency: 1.0,
-            },
-            feed_drive: FeedDrive { tau_s: 0.0 },
-            override_path: OverridePath {
-                delay_s: 0.0,
-                step_pct: 1,
-            },
-            sim: None,
-        },
-        tool: Tool {
-            name: "end mill (wax)".into(),
-            diameter_mm: 6.35,
-            flutes: 2,
-            process: Process {
-                calib_force_n: 5.0,
-                calib_radial_mm: 1.0,
-                calib_feed_mm_min: 360.0,
-                calib_rpm: 3200.0,
-                calib_axial_mm: 1.0,
-                alpha: 1.0,
-                beta: 1.0,
-                gamma: 0.0,
-                radial_ratio: 0.0,
-            },
-            wear: Wear::default(),
-            tooth: Default::default(),
-        },
-        effects: Default::default(),
-    }
+    );
+    m.tool.name = "end mill (wax)".into();
+    m.tool.diameter_mm = 6.35;
+    m.tool.flutes = 2;
+    m.tool.process.calib_force_n = 5.0;
+    m.tool.process.calib_feed_mm_min = 360.0;
+    m.tool.process.calib_rpm = 3200.0;
+    m
 }
 
 /// A simulator run log (rows as `acc sim` writes them) as a [`RunLog`], in memory.
