@@ -115,3 +115,33 @@ fn out_of_range_values_name_key_and_range() {
     let e = err(&p);
     assert!(e.contains("laser") && e.contains("dynamometer"), "{e}");
 }
+
+#[test]
+fn depth_beyond_the_tool_diameter_names_the_key_as_written() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let s = write(dir.path(), "s.toml", &scenario_text("w.toml", ""));
+    for (segment, key) in [
+        (
+            "kind = \"cut\"\nlength_mm = 10.0\ndepth_mm = 20.0",
+            "segment[1].depth_mm",
+        ),
+        (
+            "kind = \"ramp\"\nlength_mm = 10.0\nfrom_mm = 2.0\nto_mm = 17.0",
+            "segment[1].to_mm",
+        ),
+    ] {
+        write(
+            dir.path(),
+            "w.toml",
+            &format!(
+                "name = \"w\"\naxial_depth_mm = 16.0\n[[segment]]\nkind = \"air\"\n\
+                 length_mm = 10.0\n[[segment]]\n{segment}\n"
+            ),
+        );
+        let e = err(&s);
+        assert!(
+            e.contains("w.toml") && e.contains(key) && e.contains("tool diameter"),
+            "{e}"
+        );
+    }
+}

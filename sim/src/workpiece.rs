@@ -259,7 +259,12 @@ impl Workpiece {
     /// Check that no depth exceeds the tool diameter (slotting is the limit).
     pub fn check_tool(&self, path: &Path, diameter_mm: f64) -> Result<(), ConfigError> {
         for (i, s) in self.segments.iter().enumerate() {
-            for (k, d) in [("depth", s.depth_start_mm), ("depth", s.depth_end_mm)] {
+            // The key as written in the file: `depth_mm` of a cut, `from_mm`/`to_mm` of a ramp.
+            let keys = match s.kind {
+                SegmentKind::Ramp => ["from_mm", "to_mm"],
+                SegmentKind::Cut | SegmentKind::Air => ["depth_mm", "depth_mm"],
+            };
+            for (k, d) in keys.into_iter().zip([s.depth_start_mm, s.depth_end_mm]) {
                 if d > diameter_mm {
                     return Err(ConfigError::OutOfRange {
                         file: path.to_path_buf(),
