@@ -150,3 +150,52 @@ fn model_file_errors_name_file_key_and_range() {
     let e = Model::parse(Path::new("m.toml"), &text).expect_err("unknown key");
     assert!(e.to_string().contains("bogus"), "{e}");
 }
+
+/// `report.json` keeps its documented top-level and nested keys (schema version 1).
+#[test]
+fn report_json_has_the_stable_schema() {
+    let case = acc_ident::synth::Case {
+        duration_s: 120.0,
+        ..Default::default()
+    };
+    let (model, log, _) = acc_ident::synth::generate(&case, &[], 5);
+    let a = workflow::analyse(&model, &log, &workflow::Options::default()).expect("runs");
+    let v: serde_json::Value =
+        serde_json::from_str(&a.report.to_json().expect("serializes")).expect("parses");
+    assert_eq!(v["schema_version"], 1);
+    for key in [
+        "input",
+        "noise",
+        "locate",
+        "rounds",
+        "accepted",
+        "ambiguous",
+        "updated_params",
+        "sealed",
+        "conclusion",
+    ] {
+        assert!(v.get(key).is_some(), "missing `{key}`");
+    }
+    for key in ["rms", "fit_pct", "bias", "segments"] {
+        assert!(
+            v["sealed"]["updated"].get(key).is_some(),
+            "missing sealed.updated.{key}"
+        );
+    }
+    let c = &v["rounds"][0]["candidates"][0];
+    for key in [
+        "effect",
+        "applicable",
+        "params",
+        "heldout_gain_pct",
+        "folds_improved",
+        "heldout_chi2",
+        "p_adjusted",
+        "ci_excludes_null",
+        "signature_gone",
+        "passed",
+    ] {
+        assert!(c.get(key).is_some(), "missing candidate `{key}`");
+    }
+    assert!(a.report.to_markdown().contains("## Sealed final part"));
+}

@@ -430,6 +430,17 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     // The model the reported nuisance parameters are relative to.
     let mut params_start = model.clone();
 
+    let check = ResidualCheck {
+        inp: &inp,
+        segs: &sel_segs,
+        n_sel,
+        q_floor,
+        min_len,
+        alpha: opts.alpha,
+        sigs: &sigs,
+        sel: &sel,
+    };
+
     // 2–4. Forward selection.
     let mut rounds = Vec::new();
     let mut accepted: Vec<EffectKind> = Vec::new();
@@ -631,30 +642,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
 
     // Unexplained?
     let upd_replay = replay(&base_model, &inp);
-    let rf: Vec<f64> = (0..n)
-        .map(|i| inp.measured[i] - upd_replay.predicted[i])
-        .collect();
-    let noise_f = noise_of(&rf, &sel_segs, n_sel, q_floor);
-    let seg_f = segment_biases(&rf, &sel_segs, &inp.t_s, noise_f, min_len);
-    let flagged: Vec<_> = seg_f.iter().filter(|b| b.significant).cloned().collect();
-    let var_ratio = if noise_f.sigma > 0.0 {
-        (stats::rms(&rf[..n_sel]) / noise_f.sigma).powi(2)
-    } else {
-        1.0
-    };
-    let ne = n_eff(n_sel, noise_f.rho);
-    let var_z = (var_ratio - 1.0) / (2.0 / ne).sqrt();
-    let unexplained =
-        if !flagged.is_empty() || var_z > normal_quantile(1.0 - opts.alpha / 2.0) * 2.0 {
-            Some(Unexplained {
-                segments: flagged,
-                variance_ratio: var_ratio,
-                variance_z: var_z,
-                correlations: correlate(&rf[..n_sel], &sigs, &sel, opts.alpha),
-            })
-        } else {
-            None
-        };
+    let (noise_f, unexplained) = check.run(&base_model);
 
     // 5. Sealed part.
     let sealed_rows = n_sel..n;
@@ -774,6 +762,49 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         updated: base_model,
         series,
     })
+}
+
+/// The "unexplained" test of a model's residual over the selection part: segments whose
+/// bias is significant (Bonferroni over segments, AR(1) standard error), or a residual
+/// variance significantly above the noise (z > 2·z_{1−α/2} and more than 10 % above).
+struct ResidualCheck<'a> {
+    inp: &'a Inputs,
+    segs: &'a [Segment],
+    n_sel: usize,
+    q_floor: f64,
+    min_len: usize,
+    alpha: f64,
+    sigs: &'a [(String, Vec<f64>)],
+    sel: &'a [usize],
+}
+
+impl ResidualCheck<'_> {
+    fn run(&self, model: &Model) -> (Noise, Option<Unexplained>) {
+        let r = replay(model, self.inp);
+        let rf: Vec<f64> = (0..self.inp.len())
+            .map(|i| self.inp.measured[i] - r.predicted[i])
+            .collect();
+        let noise = noise_of(&rf, self.segs, self.n_sel, self.q_floor);
+        let flagged: Vec<_> = segment_biases(&rf, self.segs, &self.inp.t_s, noise, self.min_len)
+            .into_iter()
+            .filter(|b| b.significant)
+            .collect();
+        let var_ratio = if noise.sigma > 0.0 {
+            (stats::rms(&rf[..self.n_sel]) / noise.sigma).powi(2)
+        } else {
+            1.0
+        };
+        let ne = n_eff(self.n_sel, noise.rho);
+        let var_z = (var_ratio - 1.0) / (2.0 / ne).sqrt();
+        let too_big = var_z > 2.0 * normal_quantile(1.0 - self.alpha / 2.0) && var_ratio > 1.1;
+        let un = (!flagged.is_empty() || too_big).then(|| Unexplained {
+            segments: flagged,
+            variance_ratio: var_ratio,
+            variance_z: var_z,
+            correlations: correlate(&rf[..self.n_sel], self.sigs, self.sel, self.alpha),
+        });
+        (noise, un)
+    }
 }
 
 /// Express the Ks multiplier and the no-load offset relative to the model as given
