@@ -16,9 +16,29 @@ lint:
     cargo fmt --all -- --check
     cargo clippy --workspace --all-targets -- -D warnings
 
-# The main job on the built-in simulated machine.
+# The main job on the built-in simulated machine (the README's first command).
 demo:
-    cargo run --release -p acc-cli -- stability configs/presets/case3.toml --plot out/case3-poles.svg
+    cargo run --release -p acc-cli -- sim configs/scenarios/paper_case3.toml --out out/case3
+
+# One scenario on the simulated machine: `just sim configs/scenarios/paper_case1.toml`.
+sim scenario:
+    cargo run --release -p acc-cli -- sim {{scenario}} --out out/sim
+
+# All baselines and ours on one scenario.
+compare scenario:
+    cargo run --release -p acc-cli -- compare {{scenario}} --out out/compare
+
+# Pole map and stability figures of a controller preset.
+stability preset="case3":
+    cargo run --release -p acc-cli -- stability {{preset}} --plot out/{{preset}}-poles.svg
+
+# Spindle force estimator accuracy (simulated sweep, real data).
+estimate-eval:
+    cargo run --release -p acc-cli -- estimate-eval
+
+# Golden runs: determinism and paper reproductions only.
+golden:
+    cargo test -p acc-tests --test sim_determinism --test paper_cases --test paper_fixed_gain
 
 # Benchmarks (criterion); figures go in the README.
 bench:
