@@ -33,8 +33,9 @@ fn control() -> ControlLoop<ScriptedLaw, LinearPowerForce> {
     )
 }
 
-/// A board whose power sample advances on every read (a live sensor).
-struct LiveBoard(ScriptedBoard);
+/// A board whose power sample advances on every read (a live sensor); records the board's
+/// `HEARTBEAT` at every read.
+struct LiveBoard(ScriptedBoard, Vec<u16>);
 
 impl acc_pmc::Pmc for LiveBoard {
     type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
@@ -42,6 +43,7 @@ impl acc_pmc::Pmc for LiveBoard {
         ScriptedBoard::kind(e)
     }
     fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        self.1.push(self.0.board.heartbeat());
         self.0.board.push_power_sample(1500);
         self.0.now_ms += 100;
         self.0.read_status()
@@ -56,7 +58,7 @@ impl acc_pmc::Pmc for LiveBoard {
 
 #[test]
 fn runs_max_periods_logs_each_and_clears_acc_request() {
-    let mut board = LiveBoard(ScriptedBoard::new());
+    let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
     let mut ctl = control();
     let clock = ManualClock::new();
     let mut sink = VecSink::default();
@@ -114,7 +116,7 @@ impl LogSink for StopAfter {
 
 #[test]
 fn stop_flag_mid_run_logs_to_the_last_period_and_flushes() {
-    let mut board = LiveBoard(ScriptedBoard::new());
+    let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
     let mut ctl = control();
     let stop = Arc::new(AtomicBool::new(false));
     let mut sink = StopAfter {
@@ -153,7 +155,7 @@ impl LogSink for SlowSink {
 
 #[test]
 fn a_slow_logger_never_blocks_control() {
-    let mut board = LiveBoard(ScriptedBoard::new());
+    let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
     let mut ctl = control();
     let mut sink = SlowSink(0);
     let stop = AtomicBool::new(false);
@@ -263,29 +265,9 @@ impl acc_core::OverrideLaw for StallOnce {
     }
 }
 
-/// Records the board's `HEARTBEAT` at every status read.
-struct HeartbeatSpy(LiveBoard, Vec<u16>);
-
-impl acc_pmc::Pmc for HeartbeatSpy {
-    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
-    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
-        ScriptedBoard::kind(e)
-    }
-    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
-        self.1.push(self.0 .0.board.heartbeat());
-        self.0.read_status()
-    }
-    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
-        self.0.write_override(o, hb)
-    }
-    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
-        self.0.write_control(c)
-    }
-}
-
 #[test]
 fn a_late_control_decision_is_dropped_not_applied_a_period_late() {
-    let mut board = HeartbeatSpy(LiveBoard(ScriptedBoard::new()), Vec::new());
+    let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
     let mut ctl = ControlLoop::new(
         FaultPolicy::new(PolicyConfig::default()),
         StallOnce {
