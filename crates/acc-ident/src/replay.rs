@@ -258,7 +258,7 @@ struct PathKey {
 
 /// Cached feed path and unit forces of one [`PathKey`].
 #[derive(Debug, Clone)]
-pub struct PathCache {
+struct PathCache {
     key: PathKey,
     feed: Vec<f64>,
     window_feed: Vec<f64>,
