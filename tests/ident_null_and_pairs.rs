@@ -73,3 +73,38 @@ fn feed_drive_lag_with_sensor_lowpass() {
 fn motor_efficiency_with_feed_exponent() {
     pair(EffectKind::MotorEfficiency, EffectKind::FeedExponent, 23);
 }
+
+/// A poorly exciting run (one continuous cut, override fixed at 100 %, no air pauses):
+/// a feed-drive lag is invisible there and must not be named (nor anything else), while
+/// tool wear is still named alone. Here `Ks` and the no-load power are collinear on every
+/// fold without air cutting; the weak prior on the nominal parameters keeps the held-out
+/// predictions sane.
+#[test]
+fn poorly_exciting_run_names_only_what_it_can_see() {
+    let c = acc_ident::synth::Case {
+        continuous: true,
+        ..ident_common::case(0.0)
+    };
+    let lag = Hidden {
+        kind: EffectKind::FeedDriveLag,
+        value: 0.5,
+    };
+    let o = synth::evaluate(&c, &[lag], 41, &workflow::Options::default()).expect("runs");
+    assert!(
+        o.named.is_empty() && o.ambiguous.is_empty(),
+        "lag: {:?} {:?}",
+        o.named,
+        o.ambiguous
+    );
+    let wear = Hidden {
+        kind: EffectKind::ToolWear,
+        value: synth::value_for_enr(&c, EffectKind::ToolWear, 4.0, 42),
+    };
+    let o = synth::evaluate(&c, &[wear], 42, &workflow::Options::default()).expect("runs");
+    assert_eq!(
+        o.named,
+        vec![EffectKind::ToolWear],
+        "ambiguous {:?}",
+        o.ambiguous
+    );
+}

@@ -14,6 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         duration_s: 120.0,
         rpm: 450.0,
         noise_rho: rho,
+        continuous: std::env::var("CONT").is_ok(),
         ..Case::default()
     };
     let h = Hidden {

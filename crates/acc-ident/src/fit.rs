@@ -65,6 +65,48 @@ impl Free {
     }
 }
 
+/// A weak Gaussian prior on the nominal parameters, centred on the model as given, so
+/// that they stay put where a training subset cannot identify them (e.g. `Ks` and the
+/// no-load power on a fold without air cutting). Standard deviations: 30 % of `Ks`,
+/// 20 % of the no-load power (at least 50 W), 0.5 on γ. Pseudo-residuals are scaled by
+/// `scale` (the channel's noise σ) so they weigh like data rows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prior {
+    /// Channel noise σ, channel unit.
+    pub scale: f64,
+    /// Centre of `tool.process.calib_force_n`, N.
+    pub calib_force_n: f64,
+    /// Centre of `machine.spindle.no_load_power_w`, W.
+    pub no_load_power_w: f64,
+    /// Centre of `tool.process.gamma`.
+    pub gamma: f64,
+}
+
+impl Prior {
+    /// The prior centred on `model`, scaled by `sigma`.
+    pub fn around(model: &Model, sigma: f64) -> Prior {
+        Prior {
+            scale: sigma,
+            calib_force_n: model.tool.process.calib_force_n,
+            no_load_power_w: model.machine.spindle.no_load_power_w,
+            gamma: model.tool.process.gamma,
+        }
+    }
+
+    fn residual(&self, f: Free, m: &Model) -> Option<f64> {
+        let z = match f {
+            Free::KsScale => (m.tool.process.calib_force_n / self.calib_force_n - 1.0) / 0.3,
+            Free::Noload => {
+                (m.machine.spindle.no_load_power_w - self.no_load_power_w)
+                    / (0.2 * self.no_load_power_w).max(50.0)
+            }
+            Free::SpeedExponent => (m.tool.process.gamma - self.gamma) / 0.5,
+            Free::Effect(..) => return None,
+        };
+        Some(self.scale * z)
+    }
+}
+
 /// `base` with the free parameters set to `theta`.
 pub fn apply(base: &Model, free: &[Free], theta: &[f64]) -> Model {
     let mut m = base.clone();
@@ -153,15 +195,24 @@ impl<'a> Problem<'a> {
         }
     }
 
+    /// Data residuals over `rows`, then one pseudo-residual per nominal parameter when
+    /// the inputs carry a [`Prior`].
     fn resid(&self, theta: &[f64]) -> DVector<f64> {
         let m = apply(self.base, self.free, theta);
         let r = replay(&m, self.inp);
-        DVector::from_iterator(
-            self.rows.len(),
-            self.rows
+        let data = self
+            .rows
+            .iter()
+            .map(|&i| self.inp.measured[i] - r.predicted[i]);
+        let prior: Vec<f64> = match &self.inp.prior {
+            Some(p) => self
+                .free
                 .iter()
-                .map(|&i| self.inp.measured[i] - r.predicted[i]),
-        )
+                .filter_map(|f| p.residual(*f, &m))
+                .collect(),
+            None => Vec::new(),
+        };
+        DVector::from_iterator(self.rows.len() + prior.len(), data.chain(prior))
     }
 
     fn clamp(&self, theta: &mut [f64]) {
@@ -180,7 +231,7 @@ impl<'a> Problem<'a> {
     fn jac(&self, theta: &[f64]) -> DMatrix<f64> {
         let p = theta.len();
         let r0 = self.resid(theta);
-        let mut j = DMatrix::zeros(self.rows.len(), p);
+        let mut j = DMatrix::zeros(r0.len(), p);
         for k in 0..p {
             let (lo, hi) = self.free[k].bounds();
             let h = self.free[k].scale() * 1e-2;
@@ -343,9 +394,10 @@ pub fn fit(base: &Model, free: &[Free], grid: &[Free], inp: &Inputs, rows: &[usi
 fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[usize]) -> Fit {
     let model = apply(base, free, &theta);
     let problem = Problem::new(base, free, inp, rows, theta.clone());
-    let r = problem.resid(&theta);
-    let sse = r.norm_squared();
     let n = rows.len();
+    let r_all = problem.resid(&theta);
+    let r = r_all.rows(0, n);
+    let sse = r.norm_squared();
     let p = free.len();
     let rho = lag1(r.as_slice()).max(0.0);
     let ne = n_eff(n, rho);

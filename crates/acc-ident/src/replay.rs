@@ -33,6 +33,9 @@ pub struct Inputs {
     pub channel: Channel,
     /// Median period, s.
     pub period_s: f64,
+    /// Weak prior on the nominal parameters used by [`crate::fit`] (None: plain least
+    /// squares).
+    pub prior: Option<crate::fit::Prior>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
     cache: std::cell::RefCell<Option<std::rc::Rc<PathCache>>>,
 }
@@ -102,6 +105,7 @@ impl Inputs {
             measured,
             channel,
             period_s,
+            prior: None,
             cache: Default::default(),
         })
     }

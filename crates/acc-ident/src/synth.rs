@@ -38,6 +38,9 @@ pub struct Case {
     pub noise_sigma: f64,
     /// AR(1) correlation of the noise (0 = white). Default 0.
     pub noise_rho: f64,
+    /// A poorly exciting run instead: one continuous 3 mm cut after 3 s of air, override
+    /// fixed at 100 % (no pauses, no steps). Default false.
+    pub continuous: bool,
 }
 
 impl Default for Case {
@@ -50,6 +53,7 @@ impl Default for Case {
             channel: Channel::Power,
             noise_sigma: 8.0,
             noise_rho: 0.0,
+            continuous: false,
         }
     }
 }
@@ -139,7 +143,11 @@ pub fn inputs(case: &Case, seed: u64) -> RunLog {
         ..RunLog::default()
     };
     let block = 40.0;
+    let continuous = case.continuous;
     let depth_at = |t: f64| -> f64 {
+        if continuous {
+            return if t < 3.0 { 0.0 } else { 3.0 };
+        }
         let tb = t % block;
         if tb < 3.0 {
             0.0
@@ -155,7 +163,7 @@ pub fn inputs(case: &Case, seed: u64) -> RunLog {
     let mut next_change = 2.0;
     for i in 0..n {
         let t = (i + 1) as f64 * case.period_s;
-        if t >= next_change {
+        if t >= next_change && !continuous {
             // Hold the override 1.5 s around depth changes (they then happen at constant feed).
             let tb = t % block;
             let near = [0.0, 3.0, 15.0, 27.0, 40.0]

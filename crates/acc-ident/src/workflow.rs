@@ -364,7 +364,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             allowed: "0.05 ..= 0.5",
         });
     }
-    let inp = Inputs::from_log(log, model)?;
+    let mut inp = Inputs::from_log(log, model)?;
     let n = inp.len();
     let needed = 12 * opts.folds + 20;
     if n < needed {
@@ -388,11 +388,6 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             a..b
         })
         .collect();
-    let ctx = Ctx {
-        inp: &inp,
-        sel: sel.clone(),
-        folds,
-    };
     let min_len = ((opts.min_segment_s / inp.period_s.max(1e-9)).round() as usize).max(3);
 
     // 1. Locate.
@@ -413,6 +408,12 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let q_floor = quantization_sigma(&inp.measured);
     let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
     let sigs = signals(&inp, &nominal_replay);
+    inp.prior = Some(crate::fit::Prior::around(model, noise0.sigma.max(1e-9)));
+    let ctx = Ctx {
+        inp: &inp,
+        sel: sel.clone(),
+        folds,
+    };
     let locate = Locate {
         residual_rms: stats::rms(&r0_full[..n_sel]),
         segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
