@@ -139,8 +139,35 @@ impl Inputs {
             EffectKind::Runout if self.runout_visibility() < 0.05 => {
                 Err("not observable: the sampling averages whole spindle revolutions")
             }
+            EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime if !self.command_steps() => {
+                Err("not excited: the feed command never changes")
+            }
+            EffectKind::FeedExponent if self.cut_feed_cv() < 0.02 => {
+                Err("not excited: the feed hardly varies while cutting")
+            }
             _ => Ok(()),
         }
+    }
+
+    /// Whether the feed command steps by more than 1 % anywhere.
+    fn command_steps(&self) -> bool {
+        self.feed_cmd_mm_min.as_ref().is_some_and(|c| {
+            c.windows(2)
+                .any(|w| (w[1] - w[0]).abs() > 0.01 * w[0].abs().max(w[1].abs()))
+        })
+    }
+
+    /// Coefficient of variation of the recorded feed over the cutting rows.
+    fn cut_feed_cv(&self) -> f64 {
+        let f: Vec<f64> = (0..self.len())
+            .filter(|&i| self.is_cut(i))
+            .map(|i| self.feed_mm_min[i])
+            .collect();
+        let m = crate::stats::mean(&f);
+        if m <= 0.0 {
+            return 0.0;
+        }
+        crate::stats::rms(&f.iter().map(|x| x - m).collect::<Vec<_>>()) / m
     }
 
     /// Mean gain of a period-averaging channel for a once-per-revolution ripple,
