@@ -44,8 +44,39 @@ enum Command {
     BoardSim(cmd_board_sim::BoardSimArgs),
 }
 
-fn main() -> anyhow::Result<()> {
+/// Exit code for a failed command (bad config, bad file, link error, ...).
+const EXIT_FAILURE: i32 = 2;
+
+fn main() {
+    quiet_broken_pipe();
     let cli = Cli::parse();
+    if let Err(e) = dispatch(cli) {
+        // `{:#}` prints the whole cause chain on one line: the file, key and allowed range
+        // that the config layers put into their errors.
+        eprintln!("error: {e:#}");
+        std::process::exit(EXIT_FAILURE);
+    }
+}
+
+/// Output piped into a program that stops reading (`acc sim … | head`) is not an error:
+/// exit quietly instead of panicking on the failed write to stdout.
+fn quiet_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.contains("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
+fn dispatch(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Stability(args) => cmd_stability::run(&args),
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
