@@ -83,13 +83,21 @@ fn updated_model_round_trips_and_loads_in_the_simulator() {
     let text = updated.to_toml().expect("serializes");
     let back = Model::parse(Path::new("model.updated.toml"), &text).expect("reads back");
     assert_eq!(back, updated);
-    assert!(back.effects.noload_drift.is_some());
+    // The drift is a simulator machine key now, not an `[effects.*]` entry.
+    assert!(back.machine.spindle.noload_drift.is_some());
+    assert!(back.effects.noload_drift.is_none());
+    assert!(text.contains("[machine.spindle.noload_drift]"), "{text}");
     let dir = tempfile::tempdir().expect("tempdir");
     let m = dir.path().join("machine.updated.toml");
     let t = dir.path().join("tool.updated.toml");
     std::fs::write(&m, updated.machine_toml().expect("machine")).expect("write");
     std::fs::write(&t, updated.tool_toml().expect("tool")).expect("write");
-    acc_sim::config::MachineSpec::load(&m).expect("the simulator loads the machine file");
+    let spec =
+        acc_sim::config::MachineSpec::load(&m).expect("the simulator loads the machine file");
+    assert_eq!(
+        spec.spindle.noload_drift,
+        updated.machine.spindle.noload_drift
+    );
     acc_sim::config::ToolSpec::load(&t).expect("the simulator loads the tool file");
     updated
         .sim_specs(Path::new("model.updated.toml"))

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use acc_config::{check_range, load_toml, ConfigError};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::process::{ProcessSpec, ToothSpec, WearSpec};
 
@@ -17,6 +17,128 @@ pub struct SpindleSpec {
     pub no_load_power_w: f64,
     /// Efficiency from electrical input to cutting power, 0…1.
     pub efficiency: f64,
+    /// `[spindle.noload_drift]`: thermal drift of the no-load power (default: off).
+    #[serde(default)]
+    pub noload_drift: Option<NoloadDrift>,
+    /// `[spindle.motor_efficiency]`: load-dependent copper losses (default: off).
+    #[serde(default)]
+    pub motor_efficiency: Option<MotorEfficiency>,
+}
+
+impl SpindleSpec {
+    /// A spindle without drift or load-dependent losses.
+    pub fn new(rpm: f64, no_load_power_w: f64, efficiency: f64) -> Self {
+        SpindleSpec {
+            rpm,
+            no_load_power_w,
+            efficiency,
+            noload_drift: None,
+            motor_efficiency: None,
+        }
+    }
+
+    /// Electrical input power at speed `rpm` under the cutting torque `torque_nm`, `t_s`
+    /// seconds after the spindle started, W:
+    /// `P = P_air(t) + P_c/η + c·P_c²/1000` with `P_c = T·ω` the cutting power
+    /// (physics.md §2: input power = no-load power + cutting power over the efficiency;
+    /// copper loss ∝ I² ∝ torque², seed 000), `P_air(t)` from [`NoloadDrift::power_w`] and
+    /// `c` from [`MotorEfficiency`]. 0 with the spindle stopped (`rpm ≤ 0`).
+    pub fn input_power_w(&self, torque_nm: f64, rpm: f64, t_s: f64) -> f64 {
+        if rpm <= 0.0 {
+            return 0.0;
+        }
+        let cut_w = torque_nm * rpm * 2.0 * std::f64::consts::PI / 60.0;
+        self.no_load_power_w
+            + self.noload_drift.map_or(0.0, |d| d.power_w(t_s))
+            + cut_w / self.efficiency
+            + self.motor_efficiency.map_or(0.0, |m| m.loss_w(cut_w))
+    }
+
+    /// Validate the optional effect tables; `prefix` is the spindle table's key path in
+    /// `f` (`spindle` in a machine file).
+    pub fn validate_effects(&self, f: &Path, prefix: &str) -> Result<(), ConfigError> {
+        if let Some(d) = self.noload_drift {
+            d.validate(f, &format!("{prefix}.noload_drift"))?;
+        }
+        if let Some(m) = self.motor_efficiency {
+            m.validate(f, &format!("{prefix}.motor_efficiency"))?;
+        }
+        Ok(())
+    }
+}
+
+/// Thermal drift of the no-load power after spindle start (bearings and motor warming up):
+/// `P_air(t) = P_air + ΔP · (1 − e^(−t/τ))`. Null (off): `ΔP = 0`. The same parameters
+/// and bounds as the discrepancy workflow's `noload_drift` effect (`acc-ident`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoloadDrift {
+    /// Final drift ΔP, W. Range [`NoloadDrift::DELTA_W_RANGE`].
+    pub delta_w: f64,
+    /// Thermal time constant τ, s. Range [`NoloadDrift::TAU_S_RANGE`].
+    pub tau_s: f64,
+}
+
+impl NoloadDrift {
+    /// Allowed ΔP, W.
+    pub const DELTA_W_RANGE: (f64, f64) = (-2000.0, 2000.0);
+    /// Allowed τ, s.
+    pub const TAU_S_RANGE: (f64, f64) = (5.0, 1e4);
+
+    /// Drift `ΔP · (1 − e^(−t/τ))` at `t_s` after spindle start, W (0 for `t ≤ 0`; a
+    /// step for `τ ≤ 0`).
+    pub fn power_w(&self, t_s: f64) -> f64 {
+        if t_s <= 0.0 {
+            0.0
+        } else if self.tau_s <= 0.0 {
+            self.delta_w
+        } else {
+            self.delta_w * (1.0 - (-t_s / self.tau_s).exp())
+        }
+    }
+
+    /// Range checks; errors name `<prefix>.delta_w` / `<prefix>.tau_s`.
+    pub fn validate(&self, f: &Path, prefix: &str) -> Result<(), ConfigError> {
+        let (lo, hi) = Self::DELTA_W_RANGE;
+        check_range(f, &format!("{prefix}.delta_w"), self.delta_w, lo, hi)?;
+        let (lo, hi) = Self::TAU_S_RANGE;
+        check_range(f, &format!("{prefix}.tau_s"), self.tau_s, lo, hi)?;
+        Ok(())
+    }
+}
+
+/// Load-dependent motor losses (copper loss ∝ I² ∝ torque², seed 000 and physics.md §2):
+/// extra input power `c · P_c² / 1000` W for a cutting power `P_c` W, so the efficiency of
+/// the cutting share falls with load. Null (off): `c = 0`. The same parameter and bounds as
+/// the discrepancy workflow's `motor_efficiency` effect (`acc-ident`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorEfficiency {
+    /// Loss coefficient `c`, 1/kW. Range [`MotorEfficiency::COPPER_LOSS_RANGE`].
+    pub copper_loss_per_kw: f64,
+}
+
+impl MotorEfficiency {
+    /// Allowed `c`, 1/kW.
+    pub const COPPER_LOSS_RANGE: (f64, f64) = (-0.5, 5.0);
+
+    /// Extra loss `c · P_c² / 1000` at the cutting power `cut_power_w`, W.
+    pub fn loss_w(&self, cut_power_w: f64) -> f64 {
+        self.copper_loss_per_kw * cut_power_w * cut_power_w / 1000.0
+    }
+
+    /// Range check; errors name `<prefix>.copper_loss_per_kw`.
+    pub fn validate(&self, f: &Path, prefix: &str) -> Result<(), ConfigError> {
+        let (lo, hi) = Self::COPPER_LOSS_RANGE;
+        check_range(
+            f,
+            &format!("{prefix}.copper_loss_per_kw"),
+            self.copper_loss_per_kw,
+            lo,
+            hi,
+        )?;
+        Ok(())
+    }
 }
 
 /// `[feed_drive]` table.
@@ -106,6 +228,7 @@ impl MachineSpec {
             1e6,
         )?;
         check_range(f, "spindle.efficiency", self.spindle.efficiency, 0.05, 1.0)?;
+        self.spindle.validate_effects(f, "spindle")?;
         check_range(f, "feed_drive.tau_s", self.feed_drive.tau_s, 0.0, 1.0)?;
         check_range(
             f,
@@ -176,5 +299,129 @@ impl ToolSpec {
     /// Tool radius R, mm.
     pub fn radius_mm(&self) -> f64 {
         0.5 * self.diameter_mm
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Cutting power of 1 N·m at 600 rpm, W (`T·ω`).
+    const CUT_W: f64 = 1.0 * 600.0 * 2.0 * std::f64::consts::PI / 60.0;
+
+    #[test]
+    fn noload_drift_adds_the_thermal_rise_and_is_off_at_null() {
+        let base = SpindleSpec::new(600.0, 700.0, 0.8);
+        let nominal = 700.0 + CUT_W / 0.8;
+        assert!((base.input_power_w(1.0, 600.0, 300.0) - nominal).abs() < 1e-9);
+        let drift = NoloadDrift {
+            delta_w: 120.0,
+            tau_s: 300.0,
+        };
+        let spec = SpindleSpec {
+            noload_drift: Some(drift),
+            ..base
+        };
+        // One time constant after start: ΔP·(1 − 1/e).
+        let want = nominal + 120.0 * (1.0 - (-1.0f64).exp());
+        assert!((spec.input_power_w(1.0, 600.0, 300.0) - want).abs() < 1e-9);
+        // Settled after many time constants, none at start.
+        assert!((spec.input_power_w(1.0, 600.0, 1e5) - nominal - 120.0).abs() < 1e-6);
+        assert!((spec.input_power_w(1.0, 600.0, 0.0) - nominal).abs() < 1e-9);
+        let null = SpindleSpec {
+            noload_drift: Some(NoloadDrift {
+                delta_w: 0.0,
+                ..drift
+            }),
+            ..base
+        };
+        assert_eq!(
+            null.input_power_w(1.0, 600.0, 300.0),
+            base.input_power_w(1.0, 600.0, 300.0)
+        );
+    }
+
+    #[test]
+    fn motor_efficiency_adds_copper_loss_and_is_off_at_null() {
+        let base = SpindleSpec::new(600.0, 700.0, 0.8);
+        let spec = SpindleSpec {
+            motor_efficiency: Some(MotorEfficiency {
+                copper_loss_per_kw: 0.5,
+            }),
+            ..base
+        };
+        // 30 N·m: P_c = 1885 W, loss 0.5·1.885 kW·1885 W = 1777 W.
+        let pc = 30.0 * CUT_W;
+        let want = 700.0 + pc / 0.8 + 0.5 * pc * pc / 1000.0;
+        assert!((spec.input_power_w(30.0, 600.0, 0.0) - want).abs() < 1e-9);
+        // The loss grows with load²: the effective efficiency of the cutting share falls.
+        let eta = |t: f64| t * CUT_W / (spec.input_power_w(t, 600.0, 0.0) - 700.0);
+        assert!(eta(30.0) < eta(3.0) && eta(3.0) < 0.8);
+        // Air cut: no loss.
+        assert_eq!(spec.input_power_w(0.0, 600.0, 0.0), 700.0);
+        let null = SpindleSpec {
+            motor_efficiency: Some(MotorEfficiency {
+                copper_loss_per_kw: 0.0,
+            }),
+            ..base
+        };
+        assert_eq!(
+            null.input_power_w(30.0, 600.0, 0.0),
+            base.input_power_w(30.0, 600.0, 0.0)
+        );
+        assert_eq!(spec.input_power_w(30.0, 0.0, 0.0), 0.0);
+    }
+
+    fn machine_text(spindle_extra: &str) -> String {
+        format!(
+            "name = \"m\"\n[spindle]\nrpm = 600.0\nno_load_power_w = 700.0\nefficiency = 0.8\n\
+             {spindle_extra}\n[feed_drive]\ntau_s = 0.008\n[override_path]\ndelay_s = 0.016\n\
+             step_pct = 10\n"
+        )
+    }
+
+    fn parse(text: &str) -> Result<MachineSpec, ConfigError> {
+        let f = Path::new("m.toml");
+        let spec: MachineSpec = acc_config::parse_toml(f, text)?;
+        spec.validate(f)?;
+        Ok(spec)
+    }
+
+    #[test]
+    fn machine_file_effect_keys_default_off_and_are_range_checked() {
+        let spec = parse(&machine_text("")).expect("nominal file");
+        assert_eq!(spec.spindle.noload_drift, None);
+        assert_eq!(spec.spindle.motor_efficiency, None);
+        let spec = parse(&machine_text(
+            "[spindle.noload_drift]\ndelta_w = 120.0\ntau_s = 300.0\n\
+             [spindle.motor_efficiency]\ncopper_loss_per_kw = 0.2\n",
+        ))
+        .expect("effects in range");
+        assert_eq!(
+            spec.spindle.noload_drift,
+            Some(NoloadDrift {
+                delta_w: 120.0,
+                tau_s: 300.0
+            })
+        );
+        for (extra, key) in [
+            (
+                "[spindle.noload_drift]\ndelta_w = 120.0\ntau_s = 1.0\n",
+                "spindle.noload_drift.tau_s",
+            ),
+            (
+                "[spindle.noload_drift]\ndelta_w = 5000.0\ntau_s = 300.0\n",
+                "spindle.noload_drift.delta_w",
+            ),
+            (
+                "[spindle.motor_efficiency]\ncopper_loss_per_kw = 9.0\n",
+                "spindle.motor_efficiency.copper_loss_per_kw",
+            ),
+        ] {
+            let e = parse(&machine_text(extra))
+                .expect_err("out of range")
+                .to_string();
+            assert!(e.contains(key) && e.contains("m.toml"), "{e}");
+        }
     }
 }

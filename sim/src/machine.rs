@@ -32,11 +32,14 @@ pub trait SpindleModel {
 }
 
 /// A stiff speed-controlled spindle: constant speed, input power
-/// `P = P_no_load + T_c·ω / η`.
+/// `P = P_air(t) + T_c·ω/η + c·(T_c·ω)²/1000` ([`SpindleSpec::input_power_w`]; the drift
+/// and load-dependent losses only when the machine file sets them).
 #[derive(Debug, Clone)]
 pub struct ConstantSpeedSpindle {
     spec: SpindleSpec,
     power_w: f64,
+    /// Time since spindle start, s.
+    t_s: f64,
 }
 
 impl ConstantSpeedSpindle {
@@ -44,15 +47,18 @@ impl ConstantSpeedSpindle {
     pub fn new(spec: SpindleSpec) -> Self {
         ConstantSpeedSpindle {
             spec,
-            power_w: spec.no_load_power_w,
+            power_w: spec.input_power_w(0.0, spec.rpm, 0.0),
+            t_s: 0.0,
         }
     }
 }
 
 impl SpindleModel for ConstantSpeedSpindle {
-    fn step(&mut self, load_torque_nm: f64, _dt_s: f64) -> f64 {
-        let omega = self.spec.rpm * 2.0 * PI / 60.0;
-        self.power_w = self.spec.no_load_power_w + load_torque_nm * omega / self.spec.efficiency;
+    fn step(&mut self, load_torque_nm: f64, dt_s: f64) -> f64 {
+        self.t_s += dt_s;
+        self.power_w = self
+            .spec
+            .input_power_w(load_torque_nm, self.spec.rpm, self.t_s);
         self.spec.rpm
     }
 
@@ -374,5 +380,34 @@ impl Machine {
             samples: &self.samples,
             sample_dt_s: dt,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::NoloadDrift;
+
+    #[test]
+    fn constant_speed_spindle_drifts_with_its_own_running_time() {
+        let spec = SpindleSpec {
+            noload_drift: Some(NoloadDrift {
+                delta_w: 200.0,
+                tau_s: 50.0,
+            }),
+            ..SpindleSpec::new(600.0, 700.0, 0.8)
+        };
+        let mut s = ConstantSpeedSpindle::new(spec);
+        assert_eq!(s.input_power_w(), 700.0);
+        for _ in 0..100 {
+            s.step(0.0, 0.5);
+        }
+        // 50 s = one time constant.
+        let want = 700.0 + 200.0 * (1.0 - (-1.0f64).exp());
+        assert!(
+            (s.input_power_w() - want).abs() < 1e-9,
+            "{}",
+            s.input_power_w()
+        );
     }
 }

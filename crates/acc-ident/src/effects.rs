@@ -8,6 +8,11 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
+/// Load-dependent motor losses and no-load drift are the simulator's own machine-file
+/// types (`spindle.motor_efficiency`, `spindle.noload_drift`): one parameterization, one
+/// set of bounds, one power law ([`acc_sim::config::SpindleSpec::input_power_w`]).
+pub use acc_sim::config::{MotorEfficiency, NoloadDrift};
+
 /// The effect library.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -86,7 +91,14 @@ const fn p(
 }
 
 const P_TOOL_WEAR: [ParamInfo; 1] = [p("ks_growth_per_cm3", "1/cm³", -0.5, 10.0, 0.002, None)];
-const P_MOTOR: [ParamInfo; 1] = [p("copper_loss_per_kw", "1/kW", -0.5, 5.0, 0.02, None)];
+const P_MOTOR: [ParamInfo; 1] = [p(
+    "copper_loss_per_kw",
+    "1/kW",
+    MotorEfficiency::COPPER_LOSS_RANGE.0,
+    MotorEfficiency::COPPER_LOSS_RANGE.1,
+    0.02,
+    None,
+)];
 const P_LAG: [ParamInfo; 1] = [p("extra_tau_s", "s", 0.0, 0.99, 0.05, Some(TAU_GRID))];
 const P_LOWPASS: [ParamInfo; 1] = [p("tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
 const P_DEAD: [ParamInfo; 1] = [p("extra_delay_s", "s", 0.0, 0.99, 0.05, Some(DELAY_GRID))];
@@ -102,8 +114,22 @@ const P_RUNOUT: [ParamInfo; 2] = [
     p("phase_rad", "rad", -10.0, 10.0, 0.1, Some(PHASE_GRID)),
 ];
 const P_DRIFT: [ParamInfo; 2] = [
-    p("delta_w", "W", -2000.0, 2000.0, 5.0, None),
-    p("tau_s", "s", 5.0, 1e4, 10.0, Some(THERMAL_GRID)),
+    p(
+        "delta_w",
+        "W",
+        NoloadDrift::DELTA_W_RANGE.0,
+        NoloadDrift::DELTA_W_RANGE.1,
+        5.0,
+        None,
+    ),
+    p(
+        "tau_s",
+        "s",
+        NoloadDrift::TAU_S_RANGE.0,
+        NoloadDrift::TAU_S_RANGE.1,
+        10.0,
+        Some(THERMAL_GRID),
+    ),
 ];
 
 impl EffectKind {
@@ -208,16 +234,6 @@ pub struct ToolWear {
     pub ks_growth_per_cm3: f64,
 }
 
-/// Load-dependent motor losses: `P_in = P_air + P_c + c · P_c² / 1000`, so the efficiency
-/// of the cutting share is `1 / (1 + c · P_c / 1000)` (copper loss ∝ I² ∝ torque², seed 000
-/// and physics.md §2). Null: `c = 0`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MotorEfficiency {
-    /// Loss coefficient `c`, 1/kW. Range −0.5 ..= 5.
-    pub copper_loss_per_kw: f64,
-}
-
 /// Extra feed-drive lag added to `feed_drive.tau_s` (physics.md eq. (5)). Null: 0 s.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -262,17 +278,6 @@ pub struct Runout {
     pub amplitude: f64,
     /// Phase φ at t = 0, rad.
     pub phase_rad: f64,
-}
-
-/// Thermal drift of the no-load power: `P_air(t) = P_air + ΔP · (1 − e^(−t/τ))`.
-/// Null: `ΔP = 0`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NoloadDrift {
-    /// Final drift ΔP, W. Range −2000 ..= 2000.
-    pub delta_w: f64,
-    /// Thermal time constant τ, s. Range 5 ..= 10000.
-    pub tau_s: f64,
 }
 
 /// The `[effects]` section: each effect absent (off) or present with its parameters.

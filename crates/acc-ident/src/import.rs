@@ -236,11 +236,7 @@ pub fn turning_model(log: &RunLog, early_fraction: f64) -> Model {
         "turning, constant Ks (calibrated on the early part)",
         "Vicomtech/Mondragon lathe",
         Channel::Force,
-        Spindle {
-            rpm: rpm_ref.max(1.0),
-            no_load_power_w: 0.0,
-            efficiency: 1.0,
-        },
+        Spindle::new(rpm_ref.max(1.0), 0.0, 1.0),
     );
     m.tool.name = "turning insert".into();
     m.tool.diameter_mm = 1.0;
@@ -316,11 +312,7 @@ pub fn umich_model(log: &RunLog) -> Model {
         "UMich wax mill, nominal",
         "UMich SMART lab mill",
         Channel::Power,
-        Spindle {
-            rpm: 3200.0,
-            no_load_power_w: p_air.max(0.0),
-            efficiency: 1.0,
-        },
+        Spindle::new(3200.0, p_air.max(0.0), 1.0),
     );
     m.tool.name = "end mill (wax)".into();
     m.tool.diameter_mm = 6.35;
@@ -367,11 +359,7 @@ pub fn model_from_sim(
         },
         machine: Machine {
             name: machine.name.clone(),
-            spindle: Spindle {
-                rpm: machine.spindle.rpm,
-                no_load_power_w: machine.spindle.no_load_power_w,
-                efficiency: machine.spindle.efficiency,
-            },
+            spindle: Spindle::from(machine.spindle),
             feed_drive: FeedDrive {
                 tau_s: machine.feed_drive.tau_s,
             },

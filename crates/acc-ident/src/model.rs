@@ -3,8 +3,9 @@
 //! It is the simulator's machine file under `[machine]` and its tool file under `[tool]`
 //! (same keys: `machine.spindle.no_load_power_w`, `machine.feed_drive.tau_s`,
 //! `machine.override_path.delay_s`, `tool.process.calib_force_n`, `tool.wear.growth_per_cm3`
-//! …), plus `[measurement]` (which channel to compare) and `[effects.*]` for the candidate
-//! effects the simulator does not have yet. [`Model::machine_toml`] and
+//! `machine.spindle.noload_drift.*`, `machine.spindle.motor_efficiency.*` …), plus
+//! `[measurement]` (which channel to compare) and `[effects.*]` for the candidate effects
+//! while they are fitted and for those the simulator does not have yet. [`Model::machine_toml`] and
 //! [`Model::tool_toml`] give the two sections as stand-alone simulator files.
 
 use std::path::Path;
@@ -12,7 +13,7 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
-use crate::effects::{EffectKind, Effects};
+use crate::effects::{EffectKind, Effects, MotorEfficiency, NoloadDrift};
 
 /// Which measured channel the model predicts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -51,6 +52,61 @@ pub struct Spindle {
     pub no_load_power_w: f64,
     /// Efficiency from electrical input to cutting power, 0.05 … 1.
     pub efficiency: f64,
+    /// Thermal drift of the no-load power (`[machine.spindle.noload_drift]`, default off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noload_drift: Option<NoloadDrift>,
+    /// Load-dependent copper losses (`[machine.spindle.motor_efficiency]`, default off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motor_efficiency: Option<MotorEfficiency>,
+}
+
+impl Spindle {
+    /// A spindle without drift or load-dependent losses.
+    pub fn new(rpm: f64, no_load_power_w: f64, efficiency: f64) -> Self {
+        Spindle::from(acc_sim::config::SpindleSpec::new(
+            rpm,
+            no_load_power_w,
+            efficiency,
+        ))
+    }
+}
+
+impl From<acc_sim::config::SpindleSpec> for Spindle {
+    fn from(s: acc_sim::config::SpindleSpec) -> Self {
+        let acc_sim::config::SpindleSpec {
+            rpm,
+            no_load_power_w,
+            efficiency,
+            noload_drift,
+            motor_efficiency,
+        } = s;
+        Spindle {
+            rpm,
+            no_load_power_w,
+            efficiency,
+            noload_drift,
+            motor_efficiency,
+        }
+    }
+}
+
+impl From<Spindle> for acc_sim::config::SpindleSpec {
+    fn from(s: Spindle) -> Self {
+        let Spindle {
+            rpm,
+            no_load_power_w,
+            efficiency,
+            noload_drift,
+            motor_efficiency,
+        } = s;
+        acc_sim::config::SpindleSpec {
+            rpm,
+            no_load_power_w,
+            efficiency,
+            noload_drift,
+            motor_efficiency,
+        }
+    }
 }
 
 /// `[machine.feed_drive]`.
@@ -302,6 +358,7 @@ impl Model {
             1e6,
         )?;
         check_range(f, "machine.spindle.efficiency", s.efficiency, 0.05, 1.0)?;
+        acc_sim::config::SpindleSpec::from(*s).validate_effects(f, "machine.spindle")?;
         check_range(
             f,
             "machine.feed_drive.tau_s",
@@ -364,8 +421,9 @@ impl Model {
     /// The effects that the simulator already has a key for are folded into the
     /// machine and tool sections (extra lag into `feed_drive.tau_s`, extra dead time into
     /// `override_path.delay_s`, wear into `wear.growth_per_cm3`, feed exponent into
-    /// `process.beta` with `Ks` kept at the calibration point); the others stay in
-    /// `[effects]`.
+    /// `process.beta` with `Ks` kept at the calibration point, losses added to
+    /// `spindle.motor_efficiency.copper_loss_per_kw`, drift into `spindle.noload_drift`
+    /// when the machine has none yet); the others stay in `[effects]`.
     pub fn folded(&self) -> Model {
         let mut m = self.clone();
         let fx = &self.effects;
@@ -386,6 +444,29 @@ impl Model {
             if (e.feed_ref_mm_min - m.tool.process.calib_feed_mm_min).abs() < 1e-9 {
                 m.tool.process.beta += e.delta_beta;
                 m.effects.feed_exponent = None;
+            }
+        }
+        if let Some(e) = fx.motor_efficiency {
+            // The loss c·P_c²/1000 is linear in c: the two coefficients add.
+            let c = m
+                .machine
+                .spindle
+                .motor_efficiency
+                .map_or(0.0, |m| m.copper_loss_per_kw);
+            let (lo, hi) = MotorEfficiency::COPPER_LOSS_RANGE;
+            let sum = c + e.copper_loss_per_kw;
+            if (lo..=hi).contains(&sum) {
+                m.machine.spindle.motor_efficiency = Some(MotorEfficiency {
+                    copper_loss_per_kw: sum,
+                });
+                m.effects.motor_efficiency = None;
+            }
+        }
+        if let Some(e) = fx.noload_drift {
+            // Two drifts with different τ are not one: fold only into a machine without one.
+            if m.machine.spindle.noload_drift.is_none() {
+                m.machine.spindle.noload_drift = Some(e);
+                m.effects.noload_drift = None;
             }
         }
         for k in [

@@ -425,10 +425,8 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         };
         out.volume_mm3[i] = vol;
     }
-    // Channel.
-    let drift_w = fx.get(EffectKind::NoloadDrift, 0);
-    let drift_tau = fx.get(EffectKind::NoloadDrift, 1).max(1e-9);
-    let cu = fx.get(EffectKind::MotorEfficiency, 0);
+    // Channel: the simulator's spindle power law (with the machine's own drift and
+    // losses), plus the candidate drift and losses through the simulator's same functions.
     let t0 = inp.t_s.first().copied().unwrap_or(0.0);
     let radius = 0.5 * model.tool.diameter_mm;
     for i in 0..n {
@@ -439,10 +437,10 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         out.predicted[i] = match inp.channel {
             Channel::Force => chan_force[i],
             Channel::Power if s > 0.0 => {
-                let drift = drift_w * (1.0 - (-(inp.t_s[i] - t0) / drift_tau).exp());
-                physics::input_power_w(&model.machine.spindle, torque, s)
-                    + drift
-                    + cu * pc * pc / 1000.0
+                let t = inp.t_s[i] - t0;
+                physics::input_power_w(&model.machine.spindle, torque, s, t)
+                    + fx.noload_drift.map_or(0.0, |d| d.power_w(t))
+                    + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
             }
             Channel::Power => 0.0,
         };

@@ -98,11 +98,7 @@ pub fn nominal_model(case: &Case) -> Model {
         },
         machine: Machine {
             name: "paper VMC".into(),
-            spindle: Spindle {
-                rpm: case.rpm,
-                no_load_power_w: 500.0,
-                efficiency: 0.85,
-            },
+            spindle: Spindle::new(case.rpm, 500.0, 0.85),
             feed_drive: FeedDrive { tau_s: 0.05 },
             override_path: OverridePath {
                 delay_s: 0.1,
