@@ -23,6 +23,10 @@ pub struct SpindleSpec {
     /// `[spindle.motor_efficiency]`: load-dependent copper losses (default: off).
     #[serde(default)]
     pub motor_efficiency: Option<MotorEfficiency>,
+    /// `[spindle.sensor_lowpass]`: first-order low-pass of the reported spindle power
+    /// (default: off).
+    #[serde(default)]
+    pub sensor_lowpass: Option<SensorLowpass>,
 }
 
 impl SpindleSpec {
@@ -34,6 +38,7 @@ impl SpindleSpec {
             efficiency,
             noload_drift: None,
             motor_efficiency: None,
+            sensor_lowpass: None,
         }
     }
 
@@ -62,6 +67,9 @@ impl SpindleSpec {
         }
         if let Some(m) = self.motor_efficiency {
             m.validate(f, &format!("{prefix}.motor_efficiency"))?;
+        }
+        if let Some(l) = self.sensor_lowpass {
+            l.validate(f, &format!("{prefix}.sensor_lowpass"))?;
         }
         Ok(())
     }
@@ -302,6 +310,53 @@ impl ToolSpec {
     }
 }
 
+/// First-order low-pass of a measured channel, applied to its period means:
+/// `y_k = a·y_(k−1) + (1 − a)·x_k`, `a = e^(−T_k/τ)` (exact discretisation of
+/// `y' = (x − y)/τ` for a piecewise-constant input), starting at `y_0 = x_0`. In a machine
+/// file it filters the reported spindle power (`power_w` of the board and the run log, and
+/// what a power-based force source sees). Null (off): `τ = 0`. The same parameter and bounds
+/// as the discrepancy workflow's `sensor_lowpass` effect (`acc-ident`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorLowpass {
+    /// Time constant τ, s. Range [`SensorLowpass::TAU_S_RANGE`].
+    pub tau_s: f64,
+}
+
+impl SensorLowpass {
+    /// Allowed τ, s.
+    pub const TAU_S_RANGE: (f64, f64) = (0.0, 3.0);
+
+    /// One period of length `dt_s` with mean input `x`; `state` holds the last output
+    /// (`None` before the first period). Returns the filtered value.
+    pub fn step(&self, state: &mut Option<f64>, x: f64, dt_s: f64) -> f64 {
+        let y = match *state {
+            Some(prev) if self.tau_s > 1e-9 => {
+                let a = (-dt_s / self.tau_s).exp();
+                a * prev + (1.0 - a) * x
+            }
+            _ => x,
+        };
+        *state = Some(y);
+        y
+    }
+
+    /// Filter a series of period means in place; `dt_s[k]` is the length of period `k`.
+    pub fn filter(&self, values: &mut [f64], dt_s: &[f64]) {
+        let mut state = None;
+        for (v, dt) in values.iter_mut().zip(dt_s) {
+            *v = self.step(&mut state, *v, *dt);
+        }
+    }
+
+    /// Range check; errors name `<prefix>.tau_s`.
+    pub fn validate(&self, f: &Path, prefix: &str) -> Result<(), ConfigError> {
+        let (lo, hi) = Self::TAU_S_RANGE;
+        check_range(f, &format!("{prefix}.tau_s"), self.tau_s, lo, hi)?;
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -372,6 +427,21 @@ mod tests {
         assert_eq!(spec.input_power_w(30.0, 0.0, 0.0), 0.0);
     }
 
+    #[test]
+    fn sensor_lowpass_is_a_first_order_lag_and_off_at_null() {
+        let l = SensorLowpass { tau_s: 0.3 };
+        let mut v = vec![0.0, 1.0, 1.0, 1.0];
+        l.filter(&mut v, &[0.1; 4]);
+        // Step response of y' = (x − y)/τ sampled at the period ends: 1 − e^(−kT/τ).
+        for (k, y) in v.iter().enumerate().skip(1) {
+            let want = 1.0 - (-(k as f64) * 0.1 / 0.3).exp();
+            assert!((y - want).abs() < 1e-12, "{k}: {y} vs {want}");
+        }
+        let mut w = vec![0.0, 1.0, 1.0];
+        SensorLowpass { tau_s: 0.0 }.filter(&mut w, &[0.1; 3]);
+        assert_eq!(w, vec![0.0, 1.0, 1.0]);
+    }
+
     fn machine_text(spindle_extra: &str) -> String {
         format!(
             "name = \"m\"\n[spindle]\nrpm = 600.0\nno_load_power_w = 700.0\nefficiency = 0.8\n\
@@ -416,6 +486,10 @@ mod tests {
             (
                 "[spindle.motor_efficiency]\ncopper_loss_per_kw = 9.0\n",
                 "spindle.motor_efficiency.copper_loss_per_kw",
+            ),
+            (
+                "[spindle.sensor_lowpass]\ntau_s = 4.0\n",
+                "spindle.sensor_lowpass.tau_s",
             ),
         ] {
             let e = parse(&machine_text(extra))

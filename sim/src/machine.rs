@@ -4,7 +4,7 @@
 use std::collections::VecDeque;
 use std::f64::consts::PI;
 
-use crate::config::{MachineSpec, SpindleSpec, ToolSpec};
+use crate::config::{MachineSpec, SensorLowpass, SpindleSpec, ToolSpec};
 use crate::process::{ForceLaw, ToothModel, Wear, WearSpec};
 use crate::workpiece::Workpiece;
 
@@ -111,7 +111,8 @@ pub struct PeriodRecord<'a> {
     pub force_mean_n: f64,
     /// Mean cutting torque over the period, N·m.
     pub torque_mean_nm: f64,
-    /// Mean spindle input power over the period, W.
+    /// Mean spindle input power over the period as the power sensor reports it, W (through
+    /// the machine file's `spindle.sensor_lowpass` when set, else the true mean).
     pub power_mean_w: f64,
     /// `Ks` factor of the tool (wear) at the end of the period.
     pub wear_factor: f64,
@@ -149,6 +150,9 @@ pub struct Machine {
     programmed_feed_mm_min: f64,
     rate_hz: f64,
     spindle: Box<dyn SpindleModel>,
+    /// Low-pass of the reported spindle power and its state (last output, W).
+    power_lowpass: Option<SensorLowpass>,
+    power_reported_w: Option<f64>,
     /// Override values in flight on the override path, one per internal step.
     delay_line: VecDeque<u16>,
     delay_steps: usize,
@@ -206,6 +210,8 @@ impl Machine {
             programmed_feed_mm_min,
             rate_hz,
             spindle: Box::new(ConstantSpeedSpindle::new(machine.spindle)),
+            power_lowpass: machine.spindle.sensor_lowpass,
+            power_reported_w: None,
             delay_line: VecDeque::from(vec![100; delay_steps]),
             delay_steps,
             override_input_pct: 100,
@@ -365,6 +371,10 @@ impl Machine {
         }
         self.t_s = t0 + period_s;
         let nf = n as f64;
+        let power_mean_w = match self.power_lowpass {
+            Some(l) => l.step(&mut self.power_reported_w, sums[4] / nf, period_s),
+            None => sums[4] / nf,
+        };
         PeriodRecord {
             t_end_s: self.t_s,
             period_s,
@@ -375,7 +385,7 @@ impl Machine {
             force_mean_n: sums[1] / nf,
             torque_mean_nm: sums[2] / nf,
             spindle_rpm: sums[3] / nf,
-            power_mean_w: sums[4] / nf,
+            power_mean_w,
             wear_factor: self.wear.factor(),
             samples: &self.samples,
             sample_dt_s: dt,
@@ -387,6 +397,46 @@ impl Machine {
 mod tests {
     use super::*;
     use crate::config::NoloadDrift;
+    use crate::run::configs_dir;
+
+    /// Reported period-mean power of the paper machine over `periods` 0.1 s periods of
+    /// `workpieces/steps_1_2_3.toml` (air, then cutting), with the given spindle low-pass.
+    fn reported_power(lowpass: Option<SensorLowpass>, periods: usize) -> Vec<f64> {
+        let dir = configs_dir();
+        let mut spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        spec.spindle.sensor_lowpass = lowpass;
+        let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+        let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
+        let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
+        (0..periods).map(|_| m.advance(0.1).power_mean_w).collect()
+    }
+
+    #[test]
+    fn power_sensor_lowpass_filters_the_reported_period_means() {
+        let n = 400;
+        let truth = reported_power(None, n);
+        let tau = 1.0;
+        let lp = reported_power(Some(SensorLowpass { tau_s: tau }), n);
+        // The reported series is the truth through y_k = a·y_(k−1) + (1 − a)·x_k.
+        let a = (-0.1f64 / tau).exp();
+        let mut y = truth[0];
+        for (x, got) in truth.iter().zip(&lp) {
+            y = a * y + (1.0 - a) * x;
+            assert!((got - y).abs() < 1e-9, "{got} vs {y}");
+        }
+        // The path reaches the cut within the run: the filter had something to smooth.
+        let jump = truth
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
+        let jump_lp = lp
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(jump > 50.0 && jump_lp < 0.5 * jump, "{jump} {jump_lp}");
+        // Null τ = 0: the true means.
+        assert_eq!(reported_power(Some(SensorLowpass { tau_s: 0.0 }), n), truth);
+    }
 
     #[test]
     fn constant_speed_spindle_drifts_with_its_own_running_time() {

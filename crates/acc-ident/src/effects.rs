@@ -8,10 +8,11 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
-/// Load-dependent motor losses and no-load drift are the simulator's own machine-file
-/// types (`spindle.motor_efficiency`, `spindle.noload_drift`): one parameterization, one
-/// set of bounds, one power law ([`acc_sim::config::SpindleSpec::input_power_w`]).
-pub use acc_sim::config::{MotorEfficiency, NoloadDrift};
+/// Load-dependent motor losses, no-load drift and the sensor low-pass are the simulator's
+/// own machine-file types (`spindle.motor_efficiency`, `spindle.noload_drift`,
+/// `spindle.sensor_lowpass`): one parameterization, one set of bounds, one implementation
+/// ([`acc_sim::config::SpindleSpec::input_power_w`], [`SensorLowpass::filter`]).
+pub use acc_sim::config::{MotorEfficiency, NoloadDrift, SensorLowpass};
 
 /// The effect library.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -100,7 +101,14 @@ const P_MOTOR: [ParamInfo; 1] = [p(
     None,
 )];
 const P_LAG: [ParamInfo; 1] = [p("extra_tau_s", "s", 0.0, 0.99, 0.05, Some(TAU_GRID))];
-const P_LOWPASS: [ParamInfo; 1] = [p("tau_s", "s", 0.0, 3.0, 0.05, Some(TAU_GRID))];
+const P_LOWPASS: [ParamInfo; 1] = [p(
+    "tau_s",
+    "s",
+    SensorLowpass::TAU_S_RANGE.0,
+    SensorLowpass::TAU_S_RANGE.1,
+    0.05,
+    Some(TAU_GRID),
+)];
 const P_DEAD: [ParamInfo; 1] = [p("extra_delay_s", "s", 0.0, 0.99, 0.05, Some(DELAY_GRID))];
 const P_BETA: [ParamInfo; 2] = [
     p("delta_beta", "1", -0.85, 0.9, 0.02, None),
@@ -240,14 +248,6 @@ pub struct ToolWear {
 pub struct FeedDriveLag {
     /// Extra time constant, s. Range 0 ..= 0.99 (the simulator allows τ ≤ 1 s).
     pub extra_tau_s: f64,
-}
-
-/// First-order low-pass of the measured channel: `y' = (x − y)/τ`. Null: 0 s.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorLowpass {
-    /// Time constant, s. Range 0 ..= 3.
-    pub tau_s: f64,
 }
 
 /// Extra dead time in the override path, added to `feed_drive.override_delay_s`. Null: 0 s.

@@ -13,7 +13,7 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
-use crate::effects::{EffectKind, Effects, MotorEfficiency, NoloadDrift};
+use crate::effects::{EffectKind, Effects, MotorEfficiency, NoloadDrift, SensorLowpass};
 
 /// Which measured channel the model predicts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -58,6 +58,10 @@ pub struct Spindle {
     /// Load-dependent copper losses (`[machine.spindle.motor_efficiency]`, default off).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motor_efficiency: Option<MotorEfficiency>,
+    /// Low-pass of the reported spindle power (`[machine.spindle.sensor_lowpass]`, default
+    /// off; acts on the power channel only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_lowpass: Option<SensorLowpass>,
 }
 
 impl Spindle {
@@ -79,6 +83,7 @@ impl From<acc_sim::config::SpindleSpec> for Spindle {
             efficiency,
             noload_drift,
             motor_efficiency,
+            sensor_lowpass,
         } = s;
         Spindle {
             rpm,
@@ -86,6 +91,7 @@ impl From<acc_sim::config::SpindleSpec> for Spindle {
             efficiency,
             noload_drift,
             motor_efficiency,
+            sensor_lowpass,
         }
     }
 }
@@ -98,6 +104,7 @@ impl From<Spindle> for acc_sim::config::SpindleSpec {
             efficiency,
             noload_drift,
             motor_efficiency,
+            sensor_lowpass,
         } = s;
         acc_sim::config::SpindleSpec {
             rpm,
@@ -105,6 +112,7 @@ impl From<Spindle> for acc_sim::config::SpindleSpec {
             efficiency,
             noload_drift,
             motor_efficiency,
+            sensor_lowpass,
         }
     }
 }
@@ -423,7 +431,8 @@ impl Model {
     /// `override_path.delay_s`, wear into `wear.growth_per_cm3`, feed exponent into
     /// `process.beta` with `Ks` kept at the calibration point, losses added to
     /// `spindle.motor_efficiency.copper_loss_per_kw`, drift into `spindle.noload_drift`
-    /// when the machine has none yet); the others stay in `[effects]`.
+    /// and a power-channel low-pass into `spindle.sensor_lowpass` when the machine has none
+    /// yet); the others stay in `[effects]`.
     pub fn folded(&self) -> Model {
         let mut m = self.clone();
         let fx = &self.effects;
@@ -467,6 +476,16 @@ impl Model {
             if m.machine.spindle.noload_drift.is_none() {
                 m.machine.spindle.noload_drift = Some(e);
                 m.effects.noload_drift = None;
+            }
+        }
+        if let Some(e) = fx.sensor_lowpass {
+            // The machine key filters the reported spindle power only; two low-passes in
+            // series are not one.
+            if self.measurement.channel == Channel::Power
+                && m.machine.spindle.sensor_lowpass.is_none()
+            {
+                m.machine.spindle.sensor_lowpass = Some(e);
+                m.effects.sensor_lowpass = None;
             }
         }
         for k in [
@@ -513,5 +532,69 @@ impl Model {
             acc_config::parse_toml(path, &self.tool_toml().map_err(ser)?)?;
         tool.validate(path)?;
         Ok((machine, tool))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::{MotorEfficiency, NoloadDrift, SensorLowpass};
+    use crate::replay::{replay, Inputs};
+    use crate::synth;
+
+    /// Drift, losses and the power low-pass fold into simulator machine keys, and the
+    /// folded model predicts exactly what the model with the effects predicted.
+    #[test]
+    fn spindle_effects_fold_into_machine_keys_without_changing_the_prediction() {
+        let case = synth::Case {
+            duration_s: 60.0,
+            ..Default::default()
+        };
+        let (nominal, log, _) = synth::generate(&case, &[], 1);
+        let mut m = nominal.clone();
+        m.effects.noload_drift = Some(NoloadDrift {
+            delta_w: 150.0,
+            tau_s: 40.0,
+        });
+        m.effects.motor_efficiency = Some(MotorEfficiency {
+            copper_loss_per_kw: 0.3,
+        });
+        m.effects.sensor_lowpass = Some(SensorLowpass { tau_s: 0.4 });
+        let folded = m.folded();
+        assert!(folded.effects.is_empty(), "{:?}", folded.effects);
+        let s = &folded.machine.spindle;
+        assert_eq!(s.noload_drift, m.effects.noload_drift);
+        assert_eq!(s.motor_efficiency, m.effects.motor_efficiency);
+        assert_eq!(s.sensor_lowpass, m.effects.sensor_lowpass);
+        let inp = Inputs::from_log(&log, &m).expect("inputs");
+        let (a, b) = (replay(&m, &inp), replay(&folded, &inp));
+        let base = replay(&nominal, &inp);
+        let moved = a
+            .predicted
+            .iter()
+            .zip(&base.predicted)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(moved > 50.0, "the effects change the power: {moved} W");
+        for (x, y) in a.predicted.iter().zip(&b.predicted) {
+            assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+        }
+        // A machine that already has a drift keeps the candidate in [effects].
+        let mut twice = m.clone();
+        twice.machine.spindle.noload_drift = Some(NoloadDrift {
+            delta_w: 10.0,
+            tau_s: 500.0,
+        });
+        assert!(twice.folded().effects.noload_drift.is_some());
+        // The keys round-trip through the file and are range-checked by name.
+        let text = folded.to_toml().expect("toml");
+        let back = Model::parse(Path::new("m.toml"), &text).expect("reads back");
+        assert_eq!(back, folded);
+        let bad = text.replace("tau_s = 40.0", "tau_s = 1.0");
+        let e = Model::parse(Path::new("m.toml"), &bad).expect_err("τ below 5 s");
+        assert!(
+            e.to_string().contains("machine.spindle.noload_drift.tau_s"),
+            "{e}"
+        );
     }
 }

@@ -353,8 +353,9 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
 /// of row i acts from row i+1, physics.md eq. (5) `z⁻¹`) then a first-order drive lag
 /// `f_i = a·f_{i−1} + (1−a)·u_i`, `a = e^(−T/τ)` (eq. (5)). Force: eq. (1) through
 /// [`crate::physics`] with the simulator's wear factor, times the feed-exponent and runout
-/// effects. Power: `P_air + ω·T/η` plus the effects' losses and drift. Finally the
-/// sensor low-pass.
+/// effects. Power: the simulator's spindle law `P_air(t) + ω·T/η + c·(ω·T)²/1000`
+/// (machine keys) plus the candidate drift and losses. Finally the machine's power-sensor
+/// low-pass and the candidate sensor low-pass.
 // The loops advance several aligned per-row series at once; indexing reads clearer here.
 #[allow(clippy::needless_range_loop)]
 pub fn replay(model: &Model, inp: &Inputs) -> Replay {
@@ -445,14 +446,13 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
             Channel::Power => 0.0,
         };
     }
-    let tau_m = fx.get(EffectKind::SensorLowpass, 0);
-    if tau_m > 1e-9 && n > 0 {
-        let mut y = out.predicted[0];
-        for i in 0..n {
-            let a = (-inp.dt_s[i] / tau_m).exp();
-            y = a * y + (1.0 - a) * out.predicted[i];
-            out.predicted[i] = y;
-        }
+    // Sensor: the machine's power-sensor low-pass (power channel only), then the
+    // candidate low-pass, both the simulator's filter.
+    if let (Channel::Power, Some(l)) = (inp.channel, model.machine.spindle.sensor_lowpass) {
+        l.filter(&mut out.predicted, &inp.dt_s);
+    }
+    if let Some(l) = fx.sensor_lowpass {
+        l.filter(&mut out.predicted, &inp.dt_s);
     }
     out
 }
