@@ -138,10 +138,16 @@ impl Default for SummarySpec {
 pub struct ScenarioFile {
     /// Name for summaries and plots.
     pub name: String,
-    /// Machine file, relative to the scenario.
-    pub machine: PathBuf,
-    /// Tool file, relative to the scenario.
-    pub tool: PathBuf,
+    /// Machine file, relative to the scenario (with `tool`; or `model` instead of both).
+    #[serde(default)]
+    pub machine: Option<PathBuf>,
+    /// Tool file, relative to the scenario (with `machine`).
+    #[serde(default)]
+    pub tool: Option<PathBuf>,
+    /// Model file (`acc discrepancy`'s `model.updated.toml`), relative to the scenario: its
+    /// `[machine]` and `[tool]` tables stand for the machine and tool files.
+    #[serde(default)]
+    pub model: Option<PathBuf>,
     /// Workpiece file, relative to the scenario.
     pub workpiece: PathBuf,
     /// Controller preset, relative to the scenario.
@@ -182,6 +188,93 @@ fn named(scenario: &Path, key: &str, e: ConfigError) -> ConfigError {
             message: e.to_string(),
         },
         other => other,
+    }
+}
+
+/// The `[machine]` and `[tool]` tables of a model file (`configs/models/*.toml`,
+/// `model.updated.toml`), which are the simulator's machine and tool files key for key.
+/// Its other tables (`name`, `[measurement]`, `[effects.*]`) belong to `acc discrepancy`
+/// and are ignored here: effects the simulator has no key for are not simulated.
+#[derive(Debug, Clone, Deserialize)]
+struct ModelTables {
+    machine: MachineSpec,
+    tool: ToolSpec,
+}
+
+/// Prefix the key of a validation error with the model-file table it came from.
+fn in_table(table: &str, e: ConfigError) -> ConfigError {
+    match e {
+        ConfigError::OutOfRange {
+            file,
+            key,
+            value,
+            allowed,
+        } => ConfigError::OutOfRange {
+            file,
+            key: format!("{table}.{key}"),
+            value,
+            allowed,
+        },
+        ConfigError::Invalid { file, key, message } => ConfigError::Invalid {
+            file,
+            key: format!("{table}.{key}"),
+            message,
+        },
+        other => other,
+    }
+}
+
+/// Load the machine (`[machine]`) and tool (`[tool]`) of a model file and validate them
+/// as the simulator's machine and tool files; errors name the model file and the dotted
+/// key (`machine.spindle.rpm`, `tool.wear.growth_per_cm3`, ...). The model's other tables
+/// are not read.
+pub fn load_model(path: impl AsRef<Path>) -> Result<(MachineSpec, ToolSpec), ConfigError> {
+    let path = path.as_ref();
+    let m: ModelTables = load_toml(path)?;
+    m.machine
+        .validate(path)
+        .map_err(|e| in_table("machine", e))?;
+    m.tool.validate(path).map_err(|e| in_table("tool", e))?;
+    Ok((m.machine, m.tool))
+}
+
+/// The machine and tool of a scenario file: from `machine` + `tool`, or from `model`
+/// (exactly one of the two forms).
+fn machine_and_tool(
+    path: &Path,
+    file: &ScenarioFile,
+) -> Result<(MachineSpec, ToolSpec), ConfigError> {
+    let invalid = |key: &str, message: &str| ConfigError::Invalid {
+        file: path.to_path_buf(),
+        key: key.to_string(),
+        message: message.to_string(),
+    };
+    match (&file.machine, &file.tool, &file.model) {
+        (Some(m), Some(t), None) => {
+            let machine =
+                MachineSpec::load(resolve_relative(path, m)).map_err(|e| named(path, "machine", e))?;
+            let tool = ToolSpec::load(resolve_relative(path, t)).map_err(|e| named(path, "tool", e))?;
+            Ok((machine, tool))
+        }
+        (None, None, Some(model)) => {
+            load_model(resolve_relative(path, model)).map_err(|e| named(path, "model", e))
+        }
+        (_, _, Some(_)) => Err(invalid(
+            "model",
+            "give either `model` (a model file with [machine] and [tool]) or `machine` and `tool`, not both",
+        )),
+        (None, None, None) => Err(invalid(
+            "machine",
+            "missing: give `machine` and `tool` (machine and tool files) or `model` (a model file with [machine] and [tool])",
+        )),
+        (None, Some(_), None) => Err(invalid(
+            "machine",
+            "missing: `tool` needs `machine` (or give `model` instead of both)",
+        )),
+        (Some(_), None, None) => Err(invalid(
+            "tool",
+            "missing: `machine` needs `tool` (or give `model` instead of both)",
+        )),
     }
 }
 
@@ -246,6 +339,28 @@ impl LawKind {
     ];
 }
 
+/// The preset's override step must be a multiple of the machine's board step; the error
+/// names `file` and `key`.
+fn check_board_step(
+    file: &Path,
+    key: &str,
+    controller: &ControllerConfig,
+    machine: &MachineSpec,
+) -> Result<(), ConfigError> {
+    let board_step = machine.override_path.step_pct;
+    if !controller.override_spec.step_pct.is_multiple_of(board_step) {
+        return Err(ConfigError::Invalid {
+            file: file.to_path_buf(),
+            key: key.into(),
+            message: format!(
+                "the preset's override step {} % is not a multiple of the machine's board step {} % (override_path.step_pct)",
+                controller.override_spec.step_pct, board_step
+            ),
+        });
+    }
+    Ok(())
+}
+
 impl Scenario {
     /// Load a scenario and everything it names (controller presets through
     /// `acc_config::load_controller`). Every error names the file and key.
@@ -271,10 +386,7 @@ impl Scenario {
         check_range(path, "max_time_s", file.max_time_s, 0.1, 86_400.0)?;
         check_range(path, "summary.settle_s", file.summary.settle_s, 0.0, 600.0)?;
         file.measurement.validate(path)?;
-        let machine = MachineSpec::load(resolve_relative(path, &file.machine))
-            .map_err(|e| named(path, "machine", e))?;
-        let tool_path = resolve_relative(path, &file.tool);
-        let tool = ToolSpec::load(&tool_path).map_err(|e| named(path, "tool", e))?;
+        let (machine, tool) = machine_and_tool(path, &file)?;
         let wp_path = resolve_relative(path, &file.workpiece);
         let workpiece = Workpiece::load(&wp_path).map_err(|e| named(path, "workpiece", e))?;
         workpiece.check_tool(&wp_path, tool.diameter_mm)?;
@@ -287,17 +399,7 @@ impl Scenario {
         };
         let controller = load_preset(&resolve_relative(path, &file.controller))
             .map_err(|e| named(path, "controller", e))?;
-        let board_step = machine.override_path.step_pct;
-        if controller.override_spec.step_pct % board_step != 0 {
-            return Err(ConfigError::Invalid {
-                file: path.to_path_buf(),
-                key: "controller".into(),
-                message: format!(
-                    "the preset's override step {} % is not a multiple of the machine's board step {} % (override_path.step_pct)",
-                    controller.override_spec.step_pct, board_step
-                ),
-            });
-        }
+        check_board_step(path, "controller", &controller, &machine)?;
         file.measurement.check_period(path, controller.period_s)?;
         Ok(Scenario {
             path: path.to_path_buf(),
@@ -317,6 +419,31 @@ impl Scenario {
             measurement: file.measurement,
             settle_s: file.summary.settle_s,
         })
+    }
+
+    /// Replace the machine and tool by those of the model file `model` (`acc sim --model`):
+    /// the model's tool wear replaces the scenario's `[wear]` too, so an updated model runs
+    /// as identified. Errors name the model file and key.
+    pub fn use_model(&mut self, model: impl AsRef<Path>) -> Result<(), ConfigError> {
+        let model = model.as_ref();
+        let (machine, tool) = load_model(model)?;
+        if let Err(e) = self.workpiece.check_tool(&self.path, tool.diameter_mm) {
+            return Err(ConfigError::Invalid {
+                file: model.to_path_buf(),
+                key: "tool.diameter_mm".into(),
+                message: format!("too small for the scenario's workpiece: {e}"),
+            });
+        }
+        check_board_step(
+            model,
+            "machine.override_path.step_pct",
+            &self.controller,
+            &machine,
+        )?;
+        self.wear = tool.wear;
+        self.machine = machine;
+        self.tool = tool;
+        Ok(())
     }
 
     /// The largest override (a multiple of the board step, at least one step) at which the
@@ -418,5 +545,128 @@ impl Scenario {
             }
             LawKind::Proportional => Box::new(Proportional::new(c.override_spec, c.force_ref_n)),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Write `tool_wear.toml` with its `machine`/`tool` lines replaced by `keys` into a temp
+    /// dir next to absolute paths of the other files; returns the dir and the scenario path.
+    fn scenario_with(keys: &str) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let cfg = crate::run::configs_dir();
+        let c = |rel: &str| cfg.join(rel).display().to_string();
+        let text = format!(
+            "name = \"t\"\n{keys}\nworkpiece = '{}'\ncontroller = '{}'\nseed = 1\nprogrammed_feed_mm_min = 200.0\n",
+            c("workpieces/long_cut.toml"),
+            c("presets/case3.toml")
+        );
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, text).expect("write scenario");
+        (dir, path)
+    }
+
+    fn key_of(e: &ConfigError) -> &str {
+        match e {
+            ConfigError::Invalid { key, .. } | ConfigError::OutOfRange { key, .. } => key,
+            other => panic!("expected a keyed error, got {other}"),
+        }
+    }
+
+    #[test]
+    fn model_key_gives_the_same_machine_and_tool_as_the_two_files() {
+        let cfg = crate::run::configs_dir();
+        let (_d1, files) = scenario_with(&format!(
+            "machine = '{}'\ntool = '{}'",
+            cfg.join("machines/paper_vmc.toml").display(),
+            cfg.join("machines/tools/hss_endmill_16_4f.toml").display()
+        ));
+        let (_d2, model) = scenario_with(&format!(
+            "model = '{}'",
+            cfg.join("models/paper_vmc.toml").display()
+        ));
+        let a = Scenario::load(&files).expect("machine + tool load");
+        let b = Scenario::load(&model).expect("model loads");
+        assert_eq!(a.machine.spindle, b.machine.spindle);
+        assert_eq!(a.machine.feed_drive, b.machine.feed_drive);
+        assert_eq!(a.machine.override_path, b.machine.override_path);
+        assert_eq!(a.tool.process, b.tool.process);
+        assert_eq!(a.tool.diameter_mm, b.tool.diameter_mm);
+        assert_eq!(b.wear, b.tool.wear);
+    }
+
+    #[test]
+    fn both_forms_neither_or_half_are_errors_naming_the_key() {
+        let cfg = crate::run::configs_dir();
+        let m = cfg.join("machines/paper_vmc.toml").display().to_string();
+        let t = cfg
+            .join("machines/tools/hss_endmill_16_4f.toml")
+            .display()
+            .to_string();
+        let md = cfg.join("models/paper_vmc.toml").display().to_string();
+        let cases = [
+            (
+                format!("machine = '{m}'\ntool = '{t}'\nmodel = '{md}'"),
+                "model",
+                "not both",
+            ),
+            (format!("model = '{md}'\ntool = '{t}'"), "model", "not both"),
+            (String::new(), "machine", "`model`"),
+            (format!("tool = '{t}'"), "machine", "missing"),
+            (format!("machine = '{m}'"), "tool", "missing"),
+        ];
+        for (keys, key, words) in cases {
+            let (_d, path) = scenario_with(&keys);
+            let e = Scenario::load(&path).expect_err(&keys);
+            assert_eq!(key_of(&e), key, "{keys}: {e}");
+            let text = e.to_string();
+            assert!(
+                text.contains("s.toml") && text.contains(words),
+                "{keys}: {text}"
+            );
+        }
+    }
+
+    #[test]
+    fn missing_or_bad_model_file_names_the_file_and_key() {
+        let (dir, path) = scenario_with("model = 'no_such_model.toml'");
+        let e = Scenario::load(&path).expect_err("missing model file");
+        assert_eq!(key_of(&e), "model");
+        assert!(e.to_string().contains("no_such_model.toml"), "{e}");
+
+        // A value out of range inside the model file: the model file and the dotted key.
+        let good = std::fs::read_to_string(crate::run::configs_dir().join("models/paper_vmc.toml"))
+            .expect("model file");
+        let bad = good.replace("tau_s = 0.008", "tau_s = 5.0");
+        assert_ne!(bad, good);
+        std::fs::write(dir.path().join("no_such_model.toml"), bad).expect("write model");
+        let e = Scenario::load(&path).expect_err("bad model file");
+        assert_eq!(key_of(&e), "machine.feed_drive.tau_s", "{e}");
+        assert!(e.to_string().contains("no_such_model.toml"), "{e}");
+    }
+
+    #[test]
+    fn use_model_replaces_machine_tool_and_wear() {
+        let cfg = crate::run::configs_dir();
+        let mut sc = Scenario::load(cfg.join("scenarios/tool_wear.toml")).expect("scenario");
+        assert!(sc.wear.growth_per_cm3 > 0.0, "the scenario's [wear] is on");
+        let model = cfg.join("models/paper_vmc.toml");
+        sc.use_model(&model).expect("model applies");
+        assert_eq!(
+            sc.wear.growth_per_cm3, 0.0,
+            "the model's (wear-free) tool wins"
+        );
+        assert_eq!(sc.machine.feed_drive.tau_s, 0.008);
+
+        let dir = tempfile::tempdir().expect("temp dir");
+        let small = dir.path().join("m.toml");
+        let text = std::fs::read_to_string(&model)
+            .expect("model file")
+            .replace("diameter_mm = 16.0", "diameter_mm = 2.0");
+        std::fs::write(&small, text).expect("write model");
+        let e = sc.use_model(&small).expect_err("tool smaller than the cut");
+        assert_eq!(key_of(&e), "tool.diameter_mm", "{e}");
     }
 }

@@ -23,6 +23,11 @@ pub struct SimArgs {
     /// Override the scenario's seed.
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Model file (e.g. `acc discrepancy`'s `model.updated.toml`) whose `[machine]` and
+    /// `[tool]` replace the scenario's machine and tool; the model's tool wear also replaces
+    /// the scenario's `[wear]`.
+    #[arg(long, value_name = "MODEL.toml")]
+    pub model: Option<PathBuf>,
     /// Which law to run: ours (the scenario's preset), constant, constant-safe, fixed-pi,
     /// rate-limited, proportional.
     #[arg(long, default_value = "ours", value_parser = parse_law)]
@@ -96,7 +101,10 @@ pub fn default_out(sc: &Scenario) -> PathBuf {
 
 /// Run `acc sim`.
 pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
-    let sc = load_scenario(&args.scenario, args.seed)?;
+    let mut sc = load_scenario(&args.scenario, args.seed)?;
+    if let Some(model) = &args.model {
+        sc.use_model(model)?;
+    }
     let out = args.out.clone().unwrap_or_else(|| default_out(&sc));
     std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
     let log_path = out.join("run.csv");
@@ -107,6 +115,9 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     let result = run(&sc, law.as_mut(), Some(&mut writer))?;
     let summary = summarize(&result, &sc);
     println!("scenario: {} ({})", sc.name, sc.path.display());
+    if let Some(model) = &args.model {
+        println!("model: {} (machine, tool and wear)", model.display());
+    }
     println!(
         "seed {}; {} periods of {} s",
         sc.seed,
@@ -222,6 +233,7 @@ mod tests {
             scenario: "paper_case1".into(),
             out: Some(dir.clone()),
             seed: Some(11),
+            model: None,
             law: LawKind::Ours,
             no_plot: false,
         };
