@@ -276,6 +276,50 @@ pub struct ToolSpec {
     pub wear: WearSpec,
     /// Tooth-level geometry.
     pub tooth: ToothSpec,
+    /// `[runout]`: once-per-revolution force ripple (default: off).
+    #[serde(default)]
+    pub runout: Option<Runout>,
+}
+
+/// Runout of the tool in its holder: the force is multiplied by `1 + A · cos(θ + φ)`, θ the
+/// spindle angle since the start of the run; over an interval the factor is its mean,
+/// `1 + A · (sin(θ₁ + φ) − sin(θ₀ + φ)) / (θ₁ − θ₀)`. Null (off): `A = 0`. The same
+/// parameters and bounds as the discrepancy workflow's `runout` effect (`acc-ident`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Runout {
+    /// Relative amplitude A. Range [`Runout::AMPLITUDE_RANGE`].
+    pub amplitude: f64,
+    /// Phase φ at θ = 0, rad. Range [`Runout::PHASE_RAD_RANGE`].
+    pub phase_rad: f64,
+}
+
+impl Runout {
+    /// Allowed A.
+    pub const AMPLITUDE_RANGE: (f64, f64) = (0.0, 0.5);
+    /// Allowed φ, rad.
+    pub const PHASE_RAD_RANGE: (f64, f64) = (-10.0, 10.0);
+
+    /// Mean force factor while the spindle turns from `theta0_rad` to `theta1_rad`
+    /// (the instantaneous factor when they coincide).
+    pub fn mean_factor(&self, theta0_rad: f64, theta1_rad: f64) -> f64 {
+        let d = theta1_rad - theta0_rad;
+        let mean_cos = if d.abs() < 1e-9 {
+            (theta1_rad + self.phase_rad).cos()
+        } else {
+            ((theta1_rad + self.phase_rad).sin() - (theta0_rad + self.phase_rad).sin()) / d
+        };
+        1.0 + self.amplitude * mean_cos
+    }
+
+    /// Range checks; errors name `<prefix>.amplitude` / `<prefix>.phase_rad`.
+    pub fn validate(&self, f: &Path, prefix: &str) -> Result<(), ConfigError> {
+        let (lo, hi) = Self::AMPLITUDE_RANGE;
+        check_range(f, &format!("{prefix}.amplitude"), self.amplitude, lo, hi)?;
+        let (lo, hi) = Self::PHASE_RAD_RANGE;
+        check_range(f, &format!("{prefix}.phase_rad"), self.phase_rad, lo, hi)?;
+        Ok(())
+    }
 }
 
 impl ToolSpec {
@@ -301,6 +345,9 @@ impl ToolSpec {
             1.0,
             256.0,
         )?;
+        if let Some(r) = self.runout {
+            r.validate(f, "runout")?;
+        }
         Ok(())
     }
 
@@ -440,6 +487,28 @@ mod tests {
         let mut w = vec![0.0, 1.0, 1.0];
         SensorLowpass { tau_s: 0.0 }.filter(&mut w, &[0.1; 3]);
         assert_eq!(w, vec![0.0, 1.0, 1.0]);
+    }
+
+    #[test]
+    fn tool_file_runout_is_range_checked_by_key() {
+        let dir = crate::run::configs_dir().join("machines/tools/hss_endmill_16_4f.toml");
+        let text = std::fs::read_to_string(&dir).expect("tool file");
+        let f = Path::new("t.toml");
+        let parse = |extra: &str| -> Result<ToolSpec, ConfigError> {
+            let spec: ToolSpec = acc_config::parse_toml(f, &format!("{text}\n{extra}"))?;
+            spec.validate(f)?;
+            Ok(spec)
+        };
+        assert_eq!(parse("").expect("nominal").runout, None);
+        let ok = parse("[runout]\namplitude = 0.1\nphase_rad = 1.0\n").expect("in range");
+        assert_eq!(ok.runout.map(|r| r.amplitude), Some(0.1));
+        let e = parse("[runout]\namplitude = 0.9\nphase_rad = 1.0\n")
+            .expect_err("A > 0.5")
+            .to_string();
+        assert!(
+            e.contains("runout.amplitude") && e.contains("t.toml"),
+            "{e}"
+        );
     }
 
     fn machine_text(spindle_extra: &str) -> String {

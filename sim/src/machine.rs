@@ -4,7 +4,7 @@
 use std::collections::VecDeque;
 use std::f64::consts::PI;
 
-use crate::config::{MachineSpec, SensorLowpass, SpindleSpec, ToolSpec};
+use crate::config::{MachineSpec, Runout, SensorLowpass, SpindleSpec, ToolSpec};
 use crate::process::{ForceLaw, ToothModel, Wear, WearSpec};
 use crate::workpiece::Workpiece;
 
@@ -144,6 +144,9 @@ pub struct Machine {
     law: ForceLaw,
     wear: Wear,
     tooth: Option<ToothModel>,
+    runout: Option<Runout>,
+    /// Spindle angle since the start of the run, modulo 2π, rad (for the runout).
+    spindle_angle_rad: f64,
     workpiece: Workpiece,
     radius_mm: f64,
     tau_s: f64,
@@ -204,6 +207,8 @@ impl Machine {
             law: ForceLaw::new(tool.process),
             wear: Wear::new(wear),
             tooth,
+            runout: tool.runout,
+            spindle_angle_rad: 0.0,
             radius_mm: tool.radius_mm(),
             workpiece,
             tau_s: machine.feed_drive.tau_s,
@@ -298,7 +303,8 @@ impl Machine {
     /// `f_prog · ov/100` drives the feed drive's first-order lag (exact discretisation,
     /// `f += (target − f)(1 − e^(−dt/τ))`, seed 002 eq. 5); the tool moves `f·dt`; the
     /// engaged depth and `Ks` factor come from the workpiece; the mean force follows eq. (1)
-    /// with the tool's wear factor; the tooth model multiplies in the ripple.
+    /// with the tool's wear factor, times the tool's runout factor (its mean over the step);
+    /// the tooth model multiplies in the ripple.
     pub fn advance(&mut self, period_s: f64) -> PeriodRecord<'_> {
         let n = ((period_s * self.rate_hz).round() as usize).max(1);
         let dt = period_s / n as f64;
@@ -339,6 +345,13 @@ impl Machine {
                 rpm,
                 eng.ks_factor * self.wear.factor(),
             );
+            let th0 = self.spindle_angle_rad;
+            let th1 = th0 + rpm / 60.0 * 2.0 * PI * dt;
+            self.spindle_angle_rad = th1 % (2.0 * PI);
+            let mean = match self.runout {
+                Some(r) => mean * r.mean_factor(th0, th1),
+                None => mean,
+            };
             let force = match &self.tooth {
                 Some(tooth) => {
                     self.theta_rad = (self.theta_rad + rpm / 60.0 * 2.0 * PI * dt) % (2.0 * PI);
@@ -409,6 +422,57 @@ mod tests {
         let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
         let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
         (0..periods).map(|_| m.advance(0.1).power_mean_w).collect()
+    }
+
+    /// Internal samples (t, force) of the paper machine cutting `steps_1_2_3.toml` for 10 s.
+    fn force_samples(runout: Option<Runout>) -> Vec<(f64, f64)> {
+        let dir = configs_dir();
+        let spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        let mut tool =
+            ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+        tool.runout = runout;
+        let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
+        let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
+        let mut out = Vec::new();
+        for _ in 0..100 {
+            let rec = m.advance(0.1);
+            out.extend(rec.samples.iter().map(|s| (s.t_s, s.force_n)));
+        }
+        out
+    }
+
+    #[test]
+    fn runout_multiplies_the_force_by_its_step_mean_and_is_off_at_null() {
+        let truth = force_samples(None);
+        let r = Runout {
+            amplitude: 0.2,
+            phase_rad: 0.5,
+        };
+        let rip = force_samples(Some(r));
+        // 600 rpm: θ(t) = 20π·t; each 1 ms step sees the mean of 1 + A·cos(θ + φ).
+        let w = 600.0 / 60.0 * 2.0 * PI;
+        let dt = 1e-3;
+        let mut cut = 0;
+        let mut spread = (f64::MAX, f64::MIN);
+        for ((t, f0), (_, f1)) in truth.iter().zip(&rip) {
+            if *f0 > 1.0 {
+                let (a, b) = (w * (t - dt) + 0.5, w * t + 0.5);
+                let want = 1.0 + 0.2 * (b.sin() - a.sin()) / (b - a);
+                let ratio = f1 / f0;
+                assert!((ratio - want).abs() < 1e-6, "t {t}: {ratio} vs {want}");
+                spread = (spread.0.min(ratio), spread.1.max(ratio));
+                cut += 1;
+            }
+        }
+        assert!(
+            cut > 1000 && spread.0 < 0.81 && spread.1 > 1.19,
+            "{cut} {spread:?}"
+        );
+        let null = force_samples(Some(Runout {
+            amplitude: 0.0,
+            ..r
+        }));
+        assert_eq!(null, truth);
     }
 
     #[test]

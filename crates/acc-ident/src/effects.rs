@@ -8,11 +8,13 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
-/// Load-dependent motor losses, no-load drift and the sensor low-pass are the simulator's
-/// own machine-file types (`spindle.motor_efficiency`, `spindle.noload_drift`,
-/// `spindle.sensor_lowpass`): one parameterization, one set of bounds, one implementation
-/// ([`acc_sim::config::SpindleSpec::input_power_w`], [`SensorLowpass::filter`]).
-pub use acc_sim::config::{MotorEfficiency, NoloadDrift, SensorLowpass};
+/// Load-dependent motor losses, no-load drift, the sensor low-pass and runout are the
+/// simulator's own machine- and tool-file types (`spindle.motor_efficiency`,
+/// `spindle.noload_drift`, `spindle.sensor_lowpass`, tool `runout`): one
+/// parameterization, one set of bounds, one implementation
+/// ([`acc_sim::config::SpindleSpec::input_power_w`], [`SensorLowpass::filter`],
+/// [`Runout::mean_factor`]).
+pub use acc_sim::config::{MotorEfficiency, NoloadDrift, Runout, SensorLowpass};
 
 /// The effect library.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -118,8 +120,22 @@ const P_BETA: [ParamInfo; 2] = [
     },
 ];
 const P_RUNOUT: [ParamInfo; 2] = [
-    p("amplitude", "1", 0.0, 0.5, 0.01, None),
-    p("phase_rad", "rad", -10.0, 10.0, 0.1, Some(PHASE_GRID)),
+    p(
+        "amplitude",
+        "1",
+        Runout::AMPLITUDE_RANGE.0,
+        Runout::AMPLITUDE_RANGE.1,
+        0.01,
+        None,
+    ),
+    p(
+        "phase_rad",
+        "rad",
+        Runout::PHASE_RAD_RANGE.0,
+        Runout::PHASE_RAD_RANGE.1,
+        0.1,
+        Some(PHASE_GRID),
+    ),
 ];
 const P_DRIFT: [ParamInfo; 2] = [
     p(
@@ -267,17 +283,6 @@ pub struct FeedExponent {
     pub delta_beta: f64,
     /// Reference feed at which `Ks` is unchanged, mm/min (> 0).
     pub feed_ref_mm_min: f64,
-}
-
-/// Runout: force multiplied by `1 + A · cos(θ + φ)`, θ the spindle angle; a mean-per-period
-/// channel sees its period average. Null: `A = 0`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Runout {
-    /// Relative amplitude A. Range 0 ..= 0.5.
-    pub amplitude: f64,
-    /// Phase φ at t = 0, rad.
-    pub phase_rad: f64,
 }
 
 /// The `[effects]` section: each effect absent (off) or present with its parameters.

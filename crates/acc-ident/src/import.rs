@@ -292,6 +292,7 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
             },
             wear: Wear::default(),
             tooth: Default::default(),
+            runout: None,
         },
         effects: Default::default(),
     }
@@ -383,6 +384,7 @@ pub fn model_from_sim(
                 helix_deg: tool.tooth.helix_deg,
                 axial_slices: tool.tooth.axial_slices,
             },
+            runout: tool.runout,
         },
         effects: Default::default(),
     }

@@ -13,7 +13,7 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
-use crate::effects::{EffectKind, Effects, MotorEfficiency, NoloadDrift, SensorLowpass};
+use crate::effects::{EffectKind, Effects, MotorEfficiency, NoloadDrift, Runout, SensorLowpass};
 
 /// Which measured channel the model predicts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -278,6 +278,9 @@ pub struct Tool {
     /// Tooth-level geometry (used by the simulator's tooth model only).
     #[serde(default)]
     pub tooth: Tooth,
+    /// Once-per-revolution force ripple (`[tool.runout]`, default off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runout: Option<Runout>,
 }
 
 /// `[tool.tooth]`: helical end-mill geometry for the simulator's tooth-level force.
@@ -423,6 +426,9 @@ impl Model {
         check_range(f, "tool.wear.initial_factor", w.initial_factor, 0.1, 10.0)?;
         check_range(f, "tool.wear.growth_per_cm3", w.growth_per_cm3, 0.0, 10.0)?;
         check_range(f, "tool.wear.growth_per_min", w.growth_per_min, 0.0, 10.0)?;
+        if let Some(r) = t.runout {
+            r.validate(f, "tool.runout")?;
+        }
         self.effects.validate(f)
     }
 
@@ -488,6 +494,13 @@ impl Model {
                 m.effects.sensor_lowpass = None;
             }
         }
+        if let Some(e) = fx.runout {
+            // Two ripples multiply; fold only into a tool without one.
+            if m.tool.runout.is_none() {
+                m.tool.runout = Some(e);
+                m.effects.runout = None;
+            }
+        }
         for k in [
             EffectKind::FeedDriveLag,
             EffectKind::OverrideDeadTime,
@@ -538,16 +551,19 @@ impl Model {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::{MotorEfficiency, NoloadDrift, SensorLowpass};
+    use crate::effects::{MotorEfficiency, NoloadDrift, Runout, SensorLowpass};
     use crate::replay::{replay, Inputs};
     use crate::synth;
 
-    /// Drift, losses and the power low-pass fold into simulator machine keys, and the
-    /// folded model predicts exactly what the model with the effects predicted.
+    /// Drift, losses, the power low-pass and runout fold into simulator machine and tool
+    /// keys, and the folded model predicts exactly what the model with the effects
+    /// predicted.
     #[test]
     fn spindle_effects_fold_into_machine_keys_without_changing_the_prediction() {
+        // 500 rpm at 10 Hz: a period is 5/6 of a revolution, so runout shows in the means.
         let case = synth::Case {
             duration_s: 60.0,
+            rpm: 500.0,
             ..Default::default()
         };
         let (nominal, log, _) = synth::generate(&case, &[], 1);
@@ -560,12 +576,17 @@ mod tests {
             copper_loss_per_kw: 0.3,
         });
         m.effects.sensor_lowpass = Some(SensorLowpass { tau_s: 0.4 });
+        m.effects.runout = Some(Runout {
+            amplitude: 0.2,
+            phase_rad: 1.0,
+        });
         let folded = m.folded();
         assert!(folded.effects.is_empty(), "{:?}", folded.effects);
         let s = &folded.machine.spindle;
         assert_eq!(s.noload_drift, m.effects.noload_drift);
         assert_eq!(s.motor_efficiency, m.effects.motor_efficiency);
         assert_eq!(s.sensor_lowpass, m.effects.sensor_lowpass);
+        assert_eq!(folded.tool.runout, m.effects.runout);
         let inp = Inputs::from_log(&log, &m).expect("inputs");
         let (a, b) = (replay(&m, &inp), replay(&folded, &inp));
         let base = replay(&nominal, &inp);

@@ -380,8 +380,6 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let growth = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
     let dbeta = fx.get(EffectKind::FeedExponent, 0);
     let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
-    let amp = fx.get(EffectKind::Runout, 0);
-    let phase = fx.get(EffectKind::Runout, 1);
     let windowed = inp.channel == Channel::Force && model.measurement.force_window_s > 0.0;
     let mut chan_force = vec![0.0; n];
     let mut vol = 0.0;
@@ -402,13 +400,9 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
                 if dbeta != 0.0 {
                     force *= (f / fref).powf(dbeta);
                 }
-                if amp != 0.0 {
-                    let mean_cos = if dth.abs() < 1e-9 {
-                        (theta + phase).cos()
-                    } else {
-                        ((theta + phase).sin() - (th0 + phase).sin()) / dth
-                    };
-                    force *= 1.0 + amp * mean_cos;
+                // The tool's runout and the candidate's, both the simulator's mean factor.
+                for r in [model.tool.runout, fx.runout].into_iter().flatten() {
+                    force *= r.mean_factor(th0, theta);
                 }
             }
             force

@@ -123,6 +123,7 @@ pub fn nominal_model(case: &Case) -> Model {
             },
             wear: Wear::default(),
             tooth: Default::default(),
+            runout: None,
         },
         effects: Default::default(),
     }
