@@ -37,8 +37,9 @@ pub struct ProcessSpec {
     pub radial_ratio: f64,
 }
 
-/// `[wear]` table: `Ks` grows with the removed volume and with cutting time.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Default)]
+/// `[wear]` table: `Ks` grows with the removed volume and with cutting time. The default
+/// (also for a tool file without `[wear]`) is a new tool that does not wear.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WearSpec {
     /// `Ks` factor of the tool at the start of the run (1 = new tool; default 1).
@@ -54,6 +55,16 @@ pub struct WearSpec {
 
 fn one() -> f64 {
     1.0
+}
+
+impl Default for WearSpec {
+    fn default() -> Self {
+        WearSpec {
+            initial_factor: one(),
+            growth_per_cm3: 0.0,
+            growth_per_min: 0.0,
+        }
+    }
 }
 
 impl WearSpec {
@@ -307,6 +318,16 @@ impl ToothModel {
 mod tests {
     use super::*;
     use crate::workpiece::{SegmentSpec, WorkpieceFile};
+
+    #[test]
+    fn default_wear_is_a_new_tool_that_does_not_wear() {
+        // A tool file without `[wear]` must cut with the calibrated Ks, not with Ks × 0.
+        let d = WearSpec::default();
+        assert_eq!(d.initial_factor, 1.0);
+        assert_eq!((d.growth_per_cm3, d.growth_per_min), (0.0, 0.0));
+        let empty: WearSpec = toml::from_str("").expect("empty [wear] table");
+        assert_eq!(empty, d);
+    }
 
     pub(crate) fn paper_spec() -> ProcessSpec {
         ProcessSpec {
