@@ -54,7 +54,7 @@ fn fusion_follows_the_tooth_ripple() {
         let forces: Vec<f64> = rec.samples.iter().map(|s| s.force_n).collect();
         let dt = rec.sample_dt_s;
         let cutting = rec.force_mean_n > 300.0;
-        let b = motor.run_period(rpm, &torques, 0.1);
+        let b = &motor.run_period(rpm, &torques, 0.1).samples;
         assert_eq!(b.i_u.len(), forces.len());
         for j in 0..forces.len() / DECIM {
             let r = j * DECIM..(j + 1) * DECIM;

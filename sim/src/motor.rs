@@ -37,6 +37,7 @@ use std::path::Path;
 
 use acc_config::{check_range, ConfigError};
 use acc_core::PhaseBlock;
+use acc_spindle::power::PhaseSamples;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -550,16 +551,8 @@ pub struct PeriodTruth {
 /// One period of sampled signals.
 #[derive(Debug, Clone, Default)]
 pub struct MotorBlock {
-    /// Sampling rate, Hz.
-    pub sample_rate_hz: f64,
-    /// Phase current U, A.
-    pub i_u: Vec<f64>,
-    /// Phase current V, A.
-    pub i_v: Vec<f64>,
-    /// Line voltage U–W, V.
-    pub v_uw: Vec<f64>,
-    /// Line voltage V–W, V.
-    pub v_vw: Vec<f64>,
+    /// The sampled channels `i_U`, `i_V` (A), `v_UW`, `v_VW` (V) at the DAQ rate.
+    pub samples: PhaseSamples,
     /// Noise-free means of the period.
     pub truth: PeriodTruth,
 }
@@ -567,13 +560,7 @@ pub struct MotorBlock {
 impl MotorBlock {
     /// The block as the force sources take it.
     pub fn phase_block(&self) -> PhaseBlock<'_> {
-        PhaseBlock {
-            sample_rate_hz: self.sample_rate_hz,
-            i_u: &self.i_u,
-            i_v: &self.i_v,
-            v_uw: &self.v_uw,
-            v_vw: &self.v_vw,
-        }
+        self.samples.block()
     }
 }
 
@@ -616,10 +603,10 @@ impl MotorSim {
         let s = self.motor.cfg.sensors;
         let fs = s.sample_rate_hz;
         let n = (period_s * fs).round().max(0.0) as usize;
-        let b = &mut self.block;
+        let b = &mut self.block.samples;
         b.sample_rate_hz = fs;
+        b.clear();
         for ch in [&mut b.i_u, &mut b.i_v, &mut b.v_uw, &mut b.v_vw] {
-            ch.clear();
             ch.reserve(n);
         }
         let slices = torque_nm.len().clamp(1, n.max(1));
@@ -718,7 +705,7 @@ impl MotorSim {
             }
         }
         truth.current_a = current_sq.sqrt();
-        b.truth = truth;
+        self.block.truth = truth;
         &self.block
     }
 }
@@ -770,9 +757,10 @@ mod tests {
         let mut sim = MotorSim::new(seed000(), 1);
         sim.run_period(1500.0, &[40.0], 1.0);
         let b = sim.run_period(1500.0, &[40.0], 0.1);
-        assert_eq!(b.i_u.len(), 1000);
+        let s = &b.samples;
+        assert_eq!(s.i_u.len(), 1000);
         let p: f64 = (0..1000)
-            .map(|k| b.i_u[k] * b.v_uw[k] + b.i_v[k] * b.v_vw[k])
+            .map(|k| s.i_u[k] * s.v_uw[k] + s.i_v[k] * s.v_vw[k])
             .sum::<f64>()
             / 1000.0;
         let t = b.truth;
@@ -783,9 +771,10 @@ mod tests {
         );
         let again = MotorSim::new(seed000(), 1)
             .run_period(1500.0, &[40.0], 1.0)
+            .samples
             .i_u[5];
         let mut s2 = MotorSim::new(seed000(), 1);
-        assert_eq!(s2.run_period(1500.0, &[40.0], 1.0).i_u[5], again);
+        assert_eq!(s2.run_period(1500.0, &[40.0], 1.0).samples.i_u[5], again);
     }
 
     #[test]
@@ -1001,24 +990,17 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
             .motor
             .run_period(period.spindle_rpm, &self.torques, period.period_s);
         self.last = block.truth;
-        let n = block.i_u.len();
+        let n = block.samples.len();
         let w = if self.window_s > 0.0 && self.window_s < period.period_s {
-            ((self.window_s * block.sample_rate_hz).round() as usize).clamp(1, n.max(1))
+            ((self.window_s * block.samples.sample_rate_hz).round() as usize).clamp(1, n.max(1))
         } else {
             n
         };
-        let k = n - w.min(n);
-        let phases = acc_core::PhaseBlock {
-            sample_rate_hz: block.sample_rate_hz,
-            i_u: &block.i_u[k..],
-            i_v: &block.i_v[k..],
-            v_uw: &block.v_uw[k..],
-            v_vw: &block.v_vw[k..],
-        };
+        let phases = block.samples.tail_block(w);
         let truth = period.force_window_mean_n(self.window_s);
         let input = acc_core::PeriodInput {
             // The block handed over covers the window.
-            period_s: w as f64 / block.sample_rate_hz,
+            period_s: w as f64 / block.samples.sample_rate_hz,
             spindle_rpm: period.spindle_rpm,
             feed_mm_min: period.feed_mean_mm_min,
             true_force_n: Some(truth),

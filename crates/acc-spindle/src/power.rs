@@ -191,7 +191,8 @@ impl PhaseSamples {
         )
     }
 
-    /// Borrow as a [`PhaseBlock`].
+    /// Borrow as a [`PhaseBlock`], every channel as it is (channels of unequal length stay
+    /// unequal, so [`block_stats`] reports them instead of silently truncating).
     pub fn block(&self) -> PhaseBlock<'_> {
         PhaseBlock {
             sample_rate_hz: self.sample_rate_hz,
@@ -199,6 +200,40 @@ impl PhaseSamples {
             i_v: &self.i_v,
             v_uw: &self.v_uw,
             v_vw: &self.v_vw,
+        }
+    }
+
+    /// Samples per channel (the shortest channel's length).
+    pub fn len(&self) -> usize {
+        [&self.i_u, &self.i_v, &self.v_uw, &self.v_vw]
+            .iter()
+            .map(|c| c.len())
+            .min()
+            .unwrap_or(0)
+    }
+
+    /// `true` when no channel holds a sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Borrow the last `n` samples of every channel (a channel shorter than `n` whole) as a
+    /// [`PhaseBlock`], e.g. a measurement window at the end of a control period.
+    pub fn tail_block(&self, n: usize) -> PhaseBlock<'_> {
+        let tail = |c: &'_ Vec<f64>| -> usize { c.len() - n.min(c.len()) };
+        PhaseBlock {
+            sample_rate_hz: self.sample_rate_hz,
+            i_u: &self.i_u[tail(&self.i_u)..],
+            i_v: &self.i_v[tail(&self.i_v)..],
+            v_uw: &self.v_uw[tail(&self.v_uw)..],
+            v_vw: &self.v_vw[tail(&self.v_vw)..],
+        }
+    }
+
+    /// Empty every channel, keeping the allocations (per-block reuse).
+    pub fn clear(&mut self) {
+        for c in [&mut self.i_u, &mut self.i_v, &mut self.v_uw, &mut self.v_vw] {
+            c.clear();
         }
     }
 }
@@ -228,6 +263,25 @@ fn first_non_finite(block: &PhaseBlock<'_>) -> SpindleError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tail_block_is_the_end_of_every_channel() {
+        let s = PhaseSamples {
+            sample_rate_hz: 1000.0,
+            i_u: vec![1.0, 2.0, 3.0, 4.0],
+            i_v: vec![5.0, 6.0, 7.0, 8.0],
+            v_uw: vec![9.0, 10.0, 11.0, 12.0],
+            v_vw: vec![13.0, 14.0, 15.0, 16.0],
+        };
+        assert_eq!(s.len(), 4);
+        let t = s.tail_block(2);
+        assert_eq!((t.i_u, t.i_v), (&[3.0, 4.0][..], &[7.0, 8.0][..]));
+        assert_eq!((t.v_uw, t.v_vw), (&[11.0, 12.0][..], &[15.0, 16.0][..]));
+        assert_eq!(s.tail_block(10).i_u.len(), 4);
+        let mut c = s.clone();
+        c.clear();
+        assert!(c.is_empty());
+    }
 
     fn wave(n: usize, v_line: f64, i_a: f64, phi: f64) -> PhaseSamples {
         PhaseSamples::balanced(n, 1e4, v_line, i_a, phi)
