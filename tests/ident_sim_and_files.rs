@@ -220,11 +220,7 @@ fn simulated_feed_path_effects_are_named() {
             .expect("scenario loads");
         let nominal_model = {
             let mut m = import::model_from_sim(&sc.machine, &sc.tool, Channel::Force);
-            m.tool.wear = acc_ident::model::Wear {
-                initial_factor: sc.wear.initial_factor,
-                growth_per_cm3: sc.wear.growth_per_cm3,
-                growth_per_min: sc.wear.growth_per_min,
-            };
+            m.tool.wear = sc.wear;
             m.measurement.force_window_s = 0.05;
             m
         };

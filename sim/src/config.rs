@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::process::{ProcessSpec, ToothSpec, WearSpec};
 
 /// `[spindle]` table of a machine file.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SpindleSpec {
     /// Commanded spindle speed, rpm (paper: 600).
@@ -18,14 +18,14 @@ pub struct SpindleSpec {
     /// Efficiency from electrical input to cutting power, 0…1.
     pub efficiency: f64,
     /// `[spindle.noload_drift]`: thermal drift of the no-load power (default: off).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noload_drift: Option<NoloadDrift>,
     /// `[spindle.motor_efficiency]`: load-dependent copper losses (default: off).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motor_efficiency: Option<MotorEfficiency>,
     /// `[spindle.sensor_lowpass]`: first-order low-pass of the reported spindle power
     /// (default: off).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_lowpass: Option<SensorLowpass>,
 }
 
@@ -150,7 +150,7 @@ impl MotorEfficiency {
 }
 
 /// `[feed_drive]` table.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FeedDriveSpec {
     /// Time constant τ of the feed drive's first-order lag, s (seed 002, eq. 5; the paper
@@ -159,7 +159,7 @@ pub struct FeedDriveSpec {
 }
 
 /// `[override_path]` table: from the board's register to the interpolator.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct OverridePathSpec {
     /// Dead time from writing `OVERRIDE_CMD` to the feed starting to change, s (PMC ladder
@@ -170,7 +170,7 @@ pub struct OverridePathSpec {
 }
 
 /// `[sim]` table: internal integration rates.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SimRates {
     /// Internal rate of the mean-force model, Hz (default 1000).
@@ -191,6 +191,13 @@ impl Default for SimRates {
     }
 }
 
+impl SimRates {
+    /// Whether both rates are the defaults (the `[sim]` table can then be left out).
+    pub fn is_default(&self) -> bool {
+        *self == SimRates::default()
+    }
+}
+
 fn default_mean_rate() -> f64 {
     1000.0
 }
@@ -200,7 +207,7 @@ fn default_tooth_rate() -> f64 {
 }
 
 /// A machine file.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MachineSpec {
     /// Name.
@@ -211,8 +218,8 @@ pub struct MachineSpec {
     pub feed_drive: FeedDriveSpec,
     /// Override path.
     pub override_path: OverridePathSpec,
-    /// Internal rates.
-    #[serde(default)]
+    /// Internal rates (written only when they differ from the defaults).
+    #[serde(default, skip_serializing_if = "SimRates::is_default")]
     pub sim: SimRates,
 }
 
@@ -260,7 +267,7 @@ impl MachineSpec {
 }
 
 /// A tool file: geometry, the calibrated force law, wear and tooth-level geometry.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ToolSpec {
     /// Name.
@@ -274,10 +281,11 @@ pub struct ToolSpec {
     /// Wear law (default: no wear).
     #[serde(default)]
     pub wear: WearSpec,
-    /// Tooth-level geometry.
+    /// Tooth-level geometry (default: [`ToothSpec::default`], the paper tool's 30° helix).
+    #[serde(default)]
     pub tooth: ToothSpec,
     /// `[runout]`: once-per-revolution force ripple (default: off).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub runout: Option<Runout>,
 }
 
@@ -509,6 +517,42 @@ mod tests {
             e.contains("runout.amplitude") && e.contains("t.toml"),
             "{e}"
         );
+    }
+
+    /// Machine and tool files written by `toml` (as `acc discrepancy` writes them) read
+    /// back equal; default `[sim]` rates and absent effects are left out; a tool file
+    /// without `[tooth]` gets the paper tool's 30° helix.
+    #[test]
+    fn specs_round_trip_through_toml_and_tooth_defaults() {
+        let dir = crate::run::configs_dir().join("machines");
+        let f = Path::new("x.toml");
+        let machine = MachineSpec::load(dir.join("paper_vmc.toml")).expect("machine file");
+        let text = toml::to_string_pretty(&machine).expect("serializes");
+        assert!(
+            !text.contains("[sim]") && !text.contains("noload_drift"),
+            "{text}"
+        );
+        let back: MachineSpec = acc_config::parse_toml(f, &text).expect("reads back");
+        assert_eq!(back, machine);
+        let fast = MachineSpec {
+            sim: SimRates {
+                mean_rate_hz: 500.0,
+                ..SimRates::default()
+            },
+            ..machine
+        };
+        let text = toml::to_string_pretty(&fast).expect("serializes");
+        let back: MachineSpec = acc_config::parse_toml(f, &text).expect("reads back");
+        assert_eq!(back.sim.mean_rate_hz, 500.0);
+        let tool = ToolSpec::load(dir.join("tools/hss_endmill_16_4f.toml")).expect("tool file");
+        let text = toml::to_string_pretty(&tool).expect("serializes");
+        let back: ToolSpec = acc_config::parse_toml(f, &text).expect("reads back");
+        assert_eq!(back, tool);
+        let cut = text.find("[tooth]").expect("tooth table written");
+        let no_tooth: ToolSpec =
+            acc_config::parse_toml(f, &text[..cut]).expect("[tooth] is optional");
+        assert_eq!(no_tooth.tooth.helix_deg, 30.0);
+        assert_eq!(no_tooth.tooth.axial_slices, 16);
     }
 
     fn machine_text(spindle_extra: &str) -> String {

@@ -5,14 +5,14 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use acc_config::{check_range, ConfigError};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::workpiece::Workpiece;
 
 /// `[process]` table of a tool file: the mean-force law (seed 002, eq. 1)
 /// `F = Ks · a_p · d^α · f^β · s^γ`, with `Ks` fixed by one calibration point so that the
 /// file says what force the tool makes where.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ProcessSpec {
     /// Mean resultant cutting force at the calibration point, N (paper: 800 N at 2 mm,
@@ -39,7 +39,7 @@ pub struct ProcessSpec {
 
 /// `[wear]` table: `Ks` grows with the removed volume and with cutting time. The default
 /// (also for a tool file without `[wear]`) is a new tool that does not wear.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WearSpec {
     /// `Ks` factor of the tool at the start of the run (1 = new tool; default 1).
@@ -225,7 +225,7 @@ impl Wear {
 }
 
 /// `[tooth]` table of a tool file: geometry for the tooth-level force.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ToothSpec {
     /// Helix angle, degrees (paper tool: HSS end mill, 30°).
@@ -237,6 +237,16 @@ pub struct ToothSpec {
 
 fn default_slices() -> usize {
     16
+}
+
+impl Default for ToothSpec {
+    /// The paper tool: 30° helix, 16 axial slices.
+    fn default() -> Self {
+        ToothSpec {
+            helix_deg: 30.0,
+            axial_slices: default_slices(),
+        }
+    }
 }
 
 /// Tooth-level force shape of a helical end mill in down milling (seed 004).

@@ -273,7 +273,7 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
                 delay_s: 0.0,
                 step_pct: 1,
             },
-            sim: None,
+            sim: Default::default(),
         },
         tool: Tool {
             name: String::new(),
@@ -350,7 +350,6 @@ pub fn model_from_sim(
     tool: &acc_sim::config::ToolSpec,
     channel: Channel,
 ) -> Model {
-    let p = tool.process;
     Model {
         name: format!("{} + {}", machine.name, tool.name),
         measurement: Measurement {
@@ -358,34 +357,8 @@ pub fn model_from_sim(
             feed_input: FeedInput::Auto,
             force_window_s: 0.0,
         },
-        machine: Machine {
-            name: machine.name.clone(),
-            spindle: Spindle::from(machine.spindle),
-            feed_drive: FeedDrive {
-                tau_s: machine.feed_drive.tau_s,
-            },
-            override_path: OverridePath {
-                delay_s: machine.override_path.delay_s,
-                step_pct: machine.override_path.step_pct,
-            },
-            sim: None,
-        },
-        tool: Tool {
-            name: tool.name.clone(),
-            diameter_mm: tool.diameter_mm,
-            flutes: tool.flutes,
-            process: Process::from(p),
-            wear: Wear {
-                initial_factor: tool.wear.initial_factor,
-                growth_per_cm3: tool.wear.growth_per_cm3,
-                growth_per_min: tool.wear.growth_per_min,
-            },
-            tooth: crate::model::Tooth {
-                helix_deg: tool.tooth.helix_deg,
-                axial_slices: tool.tooth.axial_slices,
-            },
-            runout: tool.runout,
-        },
+        machine: machine.clone(),
+        tool: tool.clone(),
         effects: Default::default(),
     }
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
-use crate::effects::{EffectKind, Effects, MotorEfficiency, NoloadDrift, Runout, SensorLowpass};
+use crate::effects::{EffectKind, Effects, MotorEfficiency};
 
 /// Which measured channel the model predicts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -42,270 +42,25 @@ pub enum FeedInput {
     Recorded,
 }
 
-/// `[machine.spindle]` (simulator machine file `[spindle]`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Spindle {
-    /// Commanded spindle speed, rpm (the simulator's; the replay uses the logged speed).
-    pub rpm: f64,
-    /// Spindle input power while turning in air, W.
-    pub no_load_power_w: f64,
-    /// Efficiency from electrical input to cutting power, 0.05 … 1.
-    pub efficiency: f64,
-    /// Thermal drift of the no-load power (`[machine.spindle.noload_drift]`, default off).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noload_drift: Option<NoloadDrift>,
-    /// Load-dependent copper losses (`[machine.spindle.motor_efficiency]`, default off).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub motor_efficiency: Option<MotorEfficiency>,
-    /// Low-pass of the reported spindle power (`[machine.spindle.sensor_lowpass]`, default
-    /// off; acts on the power channel only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sensor_lowpass: Option<SensorLowpass>,
-}
-
-impl Spindle {
-    /// A spindle without drift or load-dependent losses.
-    pub fn new(rpm: f64, no_load_power_w: f64, efficiency: f64) -> Self {
-        Spindle::from(acc_sim::config::SpindleSpec::new(
-            rpm,
-            no_load_power_w,
-            efficiency,
-        ))
-    }
-}
-
-impl From<acc_sim::config::SpindleSpec> for Spindle {
-    fn from(s: acc_sim::config::SpindleSpec) -> Self {
-        let acc_sim::config::SpindleSpec {
-            rpm,
-            no_load_power_w,
-            efficiency,
-            noload_drift,
-            motor_efficiency,
-            sensor_lowpass,
-        } = s;
-        Spindle {
-            rpm,
-            no_load_power_w,
-            efficiency,
-            noload_drift,
-            motor_efficiency,
-            sensor_lowpass,
-        }
-    }
-}
-
-impl From<Spindle> for acc_sim::config::SpindleSpec {
-    fn from(s: Spindle) -> Self {
-        let Spindle {
-            rpm,
-            no_load_power_w,
-            efficiency,
-            noload_drift,
-            motor_efficiency,
-            sensor_lowpass,
-        } = s;
-        acc_sim::config::SpindleSpec {
-            rpm,
-            no_load_power_w,
-            efficiency,
-            noload_drift,
-            motor_efficiency,
-            sensor_lowpass,
-        }
-    }
-}
-
-/// `[machine.feed_drive]`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FeedDrive {
-    /// First-order lag τ of the feed drive, s (seed 002 eq. 5).
-    pub tau_s: f64,
-}
-
-/// `[machine.override_path]`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OverridePath {
-    /// Dead time from the override command to the feed starting to change, s.
-    pub delay_s: f64,
-    /// Override resolution, % (1 or 10).
-    pub step_pct: u16,
-}
-
+/// `[machine.spindle]`: the simulator machine file's `[spindle]`.
+pub type Spindle = acc_sim::config::SpindleSpec;
+/// `[machine.feed_drive]`: the simulator machine file's `[feed_drive]`.
+pub type FeedDrive = acc_sim::config::FeedDriveSpec;
+/// `[machine.override_path]`: the simulator machine file's `[override_path]`.
+pub type OverridePath = acc_sim::config::OverridePathSpec;
 /// `[machine]`: the simulator's machine file.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Machine {
-    /// Name.
-    pub name: String,
-    /// Spindle.
-    pub spindle: Spindle,
-    /// Feed drive.
-    pub feed_drive: FeedDrive,
-    /// Override path.
-    pub override_path: OverridePath,
-    /// Simulator integration rates, passed through unchanged.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sim: Option<toml::Table>,
-}
-
-/// `[tool.process]`: the mean-force law of seed 002 eq. (1),
-/// `F = Ks·a_p·d^α·f^β·s^γ`, with `Ks` fixed by one calibration point.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Process {
-    /// Mean resultant force at the calibration point, N.
-    pub calib_force_n: f64,
-    /// Radial depth of the calibration point, mm.
-    pub calib_radial_mm: f64,
-    /// Feed of the calibration point, mm/min.
-    pub calib_feed_mm_min: f64,
-    /// Spindle speed of the calibration point, rpm.
-    pub calib_rpm: f64,
-    /// Axial depth of the calibration point, mm.
-    pub calib_axial_mm: f64,
-    /// Radial-depth exponent α.
-    pub alpha: f64,
-    /// Feed exponent β.
-    pub beta: f64,
-    /// Speed exponent γ.
-    pub gamma: f64,
-    /// Radial-to-tangential force ratio r1 (seed 004): torque `R·F/√(1 + r1²)`.
-    pub radial_ratio: f64,
-}
-
-impl From<acc_sim::process::ProcessSpec> for Process {
-    fn from(p: acc_sim::process::ProcessSpec) -> Self {
-        let acc_sim::process::ProcessSpec {
-            calib_force_n,
-            calib_radial_mm,
-            calib_feed_mm_min,
-            calib_rpm,
-            calib_axial_mm,
-            alpha,
-            beta,
-            gamma,
-            radial_ratio,
-        } = p;
-        Process {
-            calib_force_n,
-            calib_radial_mm,
-            calib_feed_mm_min,
-            calib_rpm,
-            calib_axial_mm,
-            alpha,
-            beta,
-            gamma,
-            radial_ratio,
-        }
-    }
-}
-
-impl From<Process> for acc_sim::process::ProcessSpec {
-    fn from(p: Process) -> Self {
-        let Process {
-            calib_force_n,
-            calib_radial_mm,
-            calib_feed_mm_min,
-            calib_rpm,
-            calib_axial_mm,
-            alpha,
-            beta,
-            gamma,
-            radial_ratio,
-        } = p;
-        acc_sim::process::ProcessSpec {
-            calib_force_n,
-            calib_radial_mm,
-            calib_feed_mm_min,
-            calib_rpm,
-            calib_axial_mm,
-            alpha,
-            beta,
-            gamma,
-            radial_ratio,
-        }
-    }
-}
-
-/// `[tool.wear]`: `Ks` factor `initial · (1 + g_V·V + g_t·t)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Wear {
-    /// `Ks` factor at the start of the log. Default 1.
-    #[serde(default = "one")]
-    pub initial_factor: f64,
-    /// Relative `Ks` growth per cm³ removed, 1/cm³. Default 0.
-    #[serde(default)]
-    pub growth_per_cm3: f64,
-    /// Relative `Ks` growth per minute of cutting, 1/min. Default 0.
-    #[serde(default)]
-    pub growth_per_min: f64,
-}
-
-impl Default for Wear {
-    fn default() -> Self {
-        Wear {
-            initial_factor: 1.0,
-            growth_per_cm3: 0.0,
-            growth_per_min: 0.0,
-        }
-    }
-}
-
-fn one() -> f64 {
-    1.0
-}
-
+pub type Machine = acc_sim::config::MachineSpec;
+/// `[tool.process]`: the mean-force law of seed 002 eq. (1), `F = Ks·a_p·d^α·f^β·s^γ`,
+/// with `Ks` fixed by one calibration point (the simulator tool file's `[process]`).
+pub type Process = acc_sim::process::ProcessSpec;
+/// `[tool.wear]`: `Ks` factor `initial · (1 + g_V·V + g_t·t)` (the simulator tool file's
+/// `[wear]`; default a new tool that does not wear).
+pub type Wear = acc_sim::process::WearSpec;
 /// `[tool]`: the simulator's tool file.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Tool {
-    /// Name.
-    pub name: String,
-    /// Diameter D, mm (in turning: the workpiece diameter, for the cutting speed).
-    pub diameter_mm: f64,
-    /// Number of flutes.
-    pub flutes: usize,
-    /// Force law.
-    pub process: Process,
-    /// Wear law.
-    #[serde(default)]
-    pub wear: Wear,
-    /// Tooth-level geometry (used by the simulator's tooth model only).
-    #[serde(default)]
-    pub tooth: Tooth,
-    /// Once-per-revolution force ripple (`[tool.runout]`, default off).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub runout: Option<Runout>,
-}
-
-/// `[tool.tooth]`: helical end-mill geometry for the simulator's tooth-level force.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Tooth {
-    /// Helix angle, degrees (default 30).
-    pub helix_deg: f64,
-    /// Axial slices (default 16).
-    #[serde(default = "sixteen")]
-    pub axial_slices: usize,
-}
-
-impl Default for Tooth {
-    fn default() -> Self {
-        Tooth {
-            helix_deg: 30.0,
-            axial_slices: 16,
-        }
-    }
-}
-
-fn sixteen() -> usize {
-    16
-}
+pub type Tool = acc_sim::config::ToolSpec;
+/// `[tool.tooth]`: helical end-mill geometry for the simulator's tooth-level force
+/// (default 30° helix, 16 axial slices).
+pub type Tooth = acc_sim::process::ToothSpec;
 
 /// `[measurement]`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
@@ -369,7 +124,7 @@ impl Model {
             1e6,
         )?;
         check_range(f, "machine.spindle.efficiency", s.efficiency, 0.05, 1.0)?;
-        acc_sim::config::SpindleSpec::from(*s).validate_effects(f, "machine.spindle")?;
+        s.validate_effects(f, "machine.spindle")?;
         check_range(
             f,
             "machine.feed_drive.tau_s",
@@ -526,25 +281,16 @@ impl Model {
         toml::to_string_pretty(&self.tool)
     }
 
-    /// The machine and tool sections as the simulator reads them (its own parser and
-    /// range checks), so a model file is checked against `acc sim`'s format. `path` names
+    /// The machine and tool sections checked against the simulator's own ranges (the
+    /// sections are the simulator's types, so this is what `acc sim` reads). `path` names
     /// the model file in errors.
     pub fn sim_specs(
         &self,
         path: &Path,
     ) -> Result<(acc_sim::config::MachineSpec, acc_sim::config::ToolSpec), ConfigError> {
-        let ser = |e: toml::ser::Error| ConfigError::Invalid {
-            file: path.to_path_buf(),
-            key: "machine/tool".into(),
-            message: e.to_string(),
-        };
-        let machine: acc_sim::config::MachineSpec =
-            acc_config::parse_toml(path, &self.machine_toml().map_err(ser)?)?;
-        machine.validate(path)?;
-        let tool: acc_sim::config::ToolSpec =
-            acc_config::parse_toml(path, &self.tool_toml().map_err(ser)?)?;
-        tool.validate(path)?;
-        Ok((machine, tool))
+        self.machine.validate(path)?;
+        self.tool.validate(path)?;
+        Ok((self.machine.clone(), self.tool.clone()))
     }
 }
 

@@ -9,18 +9,16 @@
 use acc_sim::config::SpindleSpec;
 use acc_sim::process::{ForceLaw, ProcessSpec};
 
-use crate::model::{Process, Spindle};
-
 /// The simulator's force law for a model's `[tool.process]`.
-pub fn force_law(p: &Process) -> ForceLaw {
-    ForceLaw::new(ProcessSpec::from(*p))
+pub fn force_law(p: &ProcessSpec) -> ForceLaw {
+    ForceLaw::new(*p)
 }
 
 /// Spindle input power, W, for a cutting torque at a logged speed, `t_s` after spindle
 /// start: the simulator's spindle power law ([`SpindleSpec::input_power_w`]); 0 with the
 /// spindle stopped.
-pub fn input_power_w(s: &Spindle, torque_nm: f64, rpm: f64, t_s: f64) -> f64 {
-    SpindleSpec::from(*s).input_power_w(torque_nm, rpm, t_s)
+pub fn input_power_w(s: &SpindleSpec, torque_nm: f64, rpm: f64, t_s: f64) -> f64 {
+    s.input_power_w(torque_nm, rpm, t_s)
 }
 
 #[cfg(test)]
@@ -29,7 +27,7 @@ mod tests {
 
     #[test]
     fn calibration_point_gives_the_calibration_force() {
-        let p = Process {
+        let p = ProcessSpec {
             calib_force_n: 800.0,
             calib_radial_mm: 2.0,
             calib_feed_mm_min: 200.0,
@@ -42,7 +40,7 @@ mod tests {
         };
         let law = force_law(&p);
         assert!((law.mean_force_n(2.0, 16.0, 200.0, 600.0, 1.0) - 800.0).abs() < 1e-9);
-        let s = Spindle::new(600.0, 700.0, 0.8);
+        let s = SpindleSpec::new(600.0, 700.0, 0.8);
         // 1 N·m at 600 rpm: 62.83 W of cutting power, 78.54 W of input at η = 0.8.
         assert!((input_power_w(&s, 1.0, 600.0, 10.0) - 700.0 - 78.539_816).abs() < 1e-5);
         assert_eq!(input_power_w(&s, 1.0, 0.0, 10.0), 0.0);

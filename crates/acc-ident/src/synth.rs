@@ -104,7 +104,7 @@ pub fn nominal_model(case: &Case) -> Model {
                 delay_s: 0.1,
                 step_pct: 10,
             },
-            sim: None,
+            sim: Default::default(),
         },
         tool: Tool {
             name: "HSS end mill D16 z4".into(),
