@@ -23,21 +23,10 @@ use acc_pmc::Pmc;
 use e2e_support::{field, read_log, root, Proc};
 
 fn pymodbus_ready() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import pymodbus, serial"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
-    if !ok {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "python3 with pymodbus is not installed but CI is set: run `bash .ci/deps`"
-        );
-        eprintln!("SKIP: python3 with pymodbus is not installed (run `bash .ci/deps`)");
-    }
-    ok
+    e2e_support::peer_ready(
+        "python3 with pymodbus",
+        Command::new("python3").args(["-c", "import pymodbus, serial"]),
+    )
 }
 
 /// A pty pair whose slave path a process opens; returns (master, slave kept open, path).

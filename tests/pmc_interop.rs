@@ -18,28 +18,14 @@ use acc_pmc::serial::configure_pty;
 use acc_pmc::serialport::{SerialPort, TTYPort};
 use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
 
+mod e2e_support;
+use e2e_support::peer_ready;
+
 const ARM: ControlBits = ControlBits {
     acc_request: true,
     feed_hold_request: false,
     alarm_reset: false,
 };
-
-/// `true` if the peer is usable; otherwise print the skip reason (or panic under `CI`).
-fn peer_ready(what: &str, check: &mut Command) -> bool {
-    let ok = check
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
-    if !ok {
-        if std::env::var_os("CI").is_some() {
-            panic!("{what} is not installed but CI is set: run `bash .ci/deps`");
-        }
-        eprintln!("SKIP: {what} is not installed (run `bash .ci/deps`); interop test not run");
-    }
-    ok
-}
 
 fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -96,6 +96,23 @@ impl WearSpec {
 }
 
 impl ProcessSpec {
+    /// The seed 002 calibration (as in `configs/machines/tools/hss_endmill_16_4f.toml`):
+    /// 800 N at 2 mm radial depth, 200 mm/min, 600 rpm, 16 mm axial depth; α = β = 1,
+    /// γ = −1, r1 = 0.4. For examples and tests.
+    pub fn paper() -> Self {
+        ProcessSpec {
+            calib_force_n: 800.0,
+            calib_radial_mm: 2.0,
+            calib_feed_mm_min: 200.0,
+            calib_rpm: 600.0,
+            calib_axial_mm: 16.0,
+            alpha: 1.0,
+            beta: 1.0,
+            gamma: -1.0,
+            radial_ratio: 0.4,
+        }
+    }
+
     /// Validate every value; errors name `file` and `process.<key>`.
     pub fn validate(&self, file: &Path) -> Result<(), ConfigError> {
         check_range(file, "process.calib_force_n", self.calib_force_n, 1e-3, 1e6)?;
@@ -340,17 +357,7 @@ mod tests {
     }
 
     pub(crate) fn paper_spec() -> ProcessSpec {
-        ProcessSpec {
-            calib_force_n: 800.0,
-            calib_radial_mm: 2.0,
-            calib_feed_mm_min: 200.0,
-            calib_rpm: 600.0,
-            calib_axial_mm: 16.0,
-            alpha: 1.0,
-            beta: 1.0,
-            gamma: -1.0,
-            radial_ratio: 0.4,
-        }
+        ProcessSpec::paper()
     }
 
     #[test]

@@ -289,3 +289,20 @@ pub fn interrupt_expect_clean_exit(run: Proc) -> (String, Vec<String>) {
     );
     (out, err)
 }
+
+/// `true` if the peer is usable; otherwise print the skip reason (or panic under `CI`).
+pub fn peer_ready(what: &str, check: &mut Command) -> bool {
+    let ok = check
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !ok {
+        if std::env::var_os("CI").is_some() {
+            panic!("{what} is not installed but CI is set: run `bash .ci/deps`");
+        }
+        eprintln!("SKIP: {what} is not installed (run `bash .ci/deps`); interop test not run");
+    }
+    ok
+}

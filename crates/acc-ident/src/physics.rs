@@ -27,17 +27,7 @@ mod tests {
 
     #[test]
     fn calibration_point_gives_the_calibration_force() {
-        let p = ProcessSpec {
-            calib_force_n: 800.0,
-            calib_radial_mm: 2.0,
-            calib_feed_mm_min: 200.0,
-            calib_rpm: 600.0,
-            calib_axial_mm: 16.0,
-            alpha: 1.0,
-            beta: 1.0,
-            gamma: -1.0,
-            radial_ratio: 0.4,
-        };
+        let p = ProcessSpec::paper();
         let law = force_law(&p);
         assert!((law.mean_force_n(2.0, 16.0, 200.0, 600.0, 1.0) - 800.0).abs() < 1e-9);
         let s = SpindleSpec::new(600.0, 700.0, 0.8);

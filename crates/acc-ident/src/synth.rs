@@ -111,15 +111,9 @@ pub fn nominal_model(case: &Case) -> Model {
             diameter_mm: 16.0,
             flutes: 4,
             process: Process {
-                calib_force_n: 800.0,
-                calib_radial_mm: 2.0,
-                calib_feed_mm_min: 200.0,
-                calib_rpm: 600.0,
-                calib_axial_mm: 16.0,
                 alpha: 0.8,
-                beta: 1.0,
                 gamma: 0.0,
-                radial_ratio: 0.4,
+                ..Process::paper()
             },
             wear: Wear::default(),
             tooth: Default::default(),
