@@ -18,35 +18,49 @@ fn data() -> Option<PathBuf> {
 }
 
 /// Turning, flank-wear column withheld, constant-Ks model calibrated on the first 20 % of
-/// each tool. Tool wear must come out first on most tools — named, or the better of an
-/// "ambiguous" pair (in this data the feed is proportional to the spindle speed, so a feed
-/// exponent is indistinguishable from a cutting-speed effect, and the workflow says so) —
-/// no other effect may be named, and where wear is in the updated model the sealed late
-/// part's RMS error shrinks against both the model as given and the refitted nominal.
+/// each tool. Tool wear must be named outright on at least 5 of the 7 tools. The only
+/// other effect allowed is the feed exponent, and only next to tool wear: in this data the
+/// feed per revolution is constant, so a feed exponent is the force's dependence on cutting
+/// speed, which the constant-Ks nominal lacks. Any ambiguity must involve tool wear, and
+/// where wear is in the updated model the sealed late part's RMS error shrinks against
+/// both the model as given and the refitted nominal.
 #[test]
 fn turning_names_tool_wear_and_shrinks_the_late_gap() {
     let Some(root) = data() else { return };
     let tools = import::vicomtech_turning(&root.join("vicomtech-turning/tool_wear_tools_3-10.csv"))
         .expect("imports");
     assert_eq!(tools.len(), 7);
-    let (mut named, mut first) = (0, 0);
+    let wear = EffectKind::ToolWear.name();
+    let speed_alias = EffectKind::FeedExponent.name();
+    let (mut named, mut encompassed) = (0, 0);
     let mut shrink = Vec::new();
     for (id, mut log) in tools {
         log.wear_vb_um = None;
         let model = import::turning_model(&log, 0.2);
         let a = workflow::analyse(&model, &log, &workflow::Options::default()).expect("runs");
         let r = &a.report;
-        let others: Vec<&String> = r.accepted.iter().filter(|n| *n != "tool_wear").collect();
-        assert!(others.is_empty(), "tool {id}: named {:?}", r.accepted);
-        let wear = EffectKind::ToolWear.name();
         let is_named = r.accepted.iter().any(|n| n == wear);
-        let is_first = r.ambiguous.iter().any(|amb| amb.effects[0] == wear);
+        for other in r.accepted.iter().filter(|n| *n != wear) {
+            assert!(
+                other == speed_alias && is_named,
+                "tool {id}: named {:?}",
+                r.accepted
+            );
+        }
         for amb in &r.ambiguous {
             assert!(amb.effects.iter().any(|e| e == wear), "tool {id}: {amb:?}");
         }
-        named += usize::from(is_named);
-        first += usize::from(is_named || is_first);
-        if is_named || is_first {
+        // Where two candidates tied, the encompassing test's outcome is what was reported.
+        for e in r.rounds.iter().filter_map(|x| x.encompassing.as_ref()) {
+            let listed = r
+                .ambiguous
+                .iter()
+                .any(|amb| amb.effects == [e.a.clone(), e.b.clone()]);
+            assert_eq!(e.outcome == "ambiguous", listed, "tool {id}: {e:?}");
+            encompassed += 1;
+        }
+        if is_named {
+            named += 1;
             let s = &r.sealed;
             assert!(
                 s.updated.rms < s.nominal_refit.rms && s.updated.rms < s.nominal.rms,
@@ -58,10 +72,14 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
             shrink.push(s.rms_reduction_pct);
         }
     }
-    assert!(named >= 3, "tool wear named outright on {named} of 7 tools");
-    assert!(first >= 5, "tool wear first on {first} of 7 tools");
+    assert!(named >= 5, "tool wear named outright on {named} of 7 tools");
+    // Tool 6: tool wear and the speed-alias feed exponent tie alone and each adds to the other.
+    assert!(
+        encompassed >= 1,
+        "no tie went through the encompassing test"
+    );
     let mean = shrink.iter().sum::<f64>() / shrink.len() as f64;
-    assert!(mean > 50.0, "mean late-part RMS reduction {mean:.1} %");
+    assert!(mean > 75.0, "mean late-part RMS reduction {mean:.1} %");
 }
 
 /// Wax milling: spindle power is no-load loss plus noise; no effect may be named.

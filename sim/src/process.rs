@@ -37,17 +37,26 @@ pub struct ProcessSpec {
     pub radial_ratio: f64,
 }
 
-/// `[wear]` table: `Ks` grows with the removed volume and with cutting time. The default
-/// (also for a tool file without `[wear]`) is a new tool that does not wear.
+/// `[wear]` table: `Ks` grows with the removed volume and with cutting time,
+/// `Ks factor = initial · (1 + g_V·(V/1 cm³)^p + g_t·t)`. The exponent `p` shapes the wear
+/// curve: 1 is linear in removed volume, `p < 1` a fast break-in that slows down,
+/// `p > 1` wear that accelerates towards the end of the tool's life (the power-law
+/// flank-wear curve `VB ∝ t^p`, with `Ks` about linear in `VB`). The default (also for a
+/// tool file without `[wear]`) is a new tool that does not wear.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WearSpec {
     /// `Ks` factor of the tool at the start of the run (1 = new tool; default 1).
     #[serde(default = "one")]
     pub initial_factor: f64,
-    /// Relative `Ks` growth per cm³ of removed metal, 1/cm³ (default 0).
+    /// Relative `Ks` growth per cm³ of removed metal, 1/cm³ at `volume_exponent` = 1
+    /// (in general `Ks` grows by `growth_per_cm3 · (V/1 cm³)^volume_exponent`; default 0).
     #[serde(default)]
     pub growth_per_cm3: f64,
+    /// Exponent `p` of the removed volume in the wear law, 1 (default 1: linear; range
+    /// [`WearSpec::VOLUME_EXPONENT_RANGE`]).
+    #[serde(default = "one")]
+    pub volume_exponent: f64,
     /// Relative `Ks` growth per minute of cutting, 1/min (default 0).
     #[serde(default)]
     pub growth_per_min: f64,
@@ -62,12 +71,28 @@ impl Default for WearSpec {
         WearSpec {
             initial_factor: one(),
             growth_per_cm3: 0.0,
+            volume_exponent: one(),
             growth_per_min: 0.0,
         }
     }
 }
 
 impl WearSpec {
+    /// Allowed range of [`WearSpec::volume_exponent`].
+    pub const VOLUME_EXPONENT_RANGE: (f64, f64) = (0.3, 3.0);
+
+    /// `Ks` factor after `volume_cm3` of removed metal and `cut_time_min` of cutting:
+    /// `initial · (1 + g_V·V^p + g_t·t)`.
+    pub fn factor(&self, volume_cm3: f64, cut_time_min: f64) -> f64 {
+        let v = volume_cm3.max(0.0);
+        let vp = if self.volume_exponent == 1.0 {
+            v
+        } else {
+            v.powf(self.volume_exponent)
+        };
+        self.initial_factor * (1.0 + self.growth_per_cm3 * vp + self.growth_per_min * cut_time_min)
+    }
+
     /// Validate; errors name `file` and `prefix.key`.
     pub fn validate(&self, file: &Path, prefix: &str) -> Result<(), ConfigError> {
         check_range(
@@ -83,6 +108,14 @@ impl WearSpec {
             self.growth_per_cm3,
             0.0,
             10.0,
+        )?;
+        let (lo, hi) = Self::VOLUME_EXPONENT_RANGE;
+        check_range(
+            file,
+            &format!("{prefix}.volume_exponent"),
+            self.volume_exponent,
+            lo,
+            hi,
         )?;
         check_range(
             file,
@@ -203,7 +236,7 @@ impl ForceLaw {
     }
 }
 
-/// Tool wear state: `Ks` factor `= initial · (1 + g_V·V + g_t·t)`.
+/// Tool wear state: `Ks` factor `= initial · (1 + g_V·V^p + g_t·t)` ([`WearSpec::factor`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Wear {
     /// Parameters.
@@ -226,10 +259,7 @@ impl Wear {
 
     /// Current `Ks` factor of the tool.
     pub fn factor(&self) -> f64 {
-        self.spec.initial_factor
-            * (1.0
-                + self.spec.growth_per_cm3 * self.volume_cm3
-                + self.spec.growth_per_min * self.cut_time_min)
+        self.spec.factor(self.volume_cm3, self.cut_time_min)
     }
 
     /// Account for `dt_s` of cutting that removed `volume_mm3`.
@@ -374,12 +404,39 @@ mod tests {
         let mut w = Wear::new(WearSpec {
             initial_factor: 1.0,
             growth_per_cm3: 0.01,
+            volume_exponent: 1.0,
             growth_per_min: 0.0,
         });
         w.add(10_000.0, 1.0); // 10 cm³
         assert!((w.factor() - 1.1).abs() < 1e-12);
         w.add(0.0, 60.0); // air: no wear
         assert!((w.cut_time_min - 1.0 / 60.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn wear_exponent_bends_the_curve() {
+        let spec = |p: f64| WearSpec {
+            growth_per_cm3: 0.01,
+            volume_exponent: p,
+            ..WearSpec::default()
+        };
+        // At 1 cm³ every exponent gives the same growth; at 4 cm³ a break-in law (p = ½)
+        // has grown 2×, the linear law 4×, an accelerating law (p = 2) 16×.
+        for p in [0.5, 1.0, 2.0] {
+            assert!((spec(p).factor(1.0, 0.0) - 1.01).abs() < 1e-12);
+        }
+        assert!((spec(0.5).factor(4.0, 0.0) - 1.02).abs() < 1e-12);
+        assert!((spec(1.0).factor(4.0, 0.0) - 1.04).abs() < 1e-12);
+        assert!((spec(2.0).factor(4.0, 0.0) - 1.16).abs() < 1e-12);
+        let f = std::path::Path::new("tool.toml");
+        let err = spec(5.0)
+            .validate(f, "wear")
+            .expect_err("out of range")
+            .to_string();
+        assert!(
+            err.contains("wear.volume_exponent") && err.contains("tool.toml"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -24,9 +24,12 @@ fn main() {
                 if std::env::var("VERBOSE").is_ok() {
                     if let Ok(a) = workflow::analyse(&model, &log, &topts()) {
                         for r in &a.report.rounds {
+                            if let Some(e) = &r.encompassing {
+                                println!("    r{} encompassing {e:?}", r.round);
+                            }
                             for c in &r.candidates {
                                 if c.applicable {
-                                    println!("    r{} {:>20} gain {:6.2}% folds {} chi2 {:6.2} p {:.2e} ci {} sig {:.2}->{:.2} {} pass {} {:?}", r.round, c.effect, c.heldout_gain_pct, c.folds_improved, c.heldout_chi2, c.p_adjusted, c.ci_excludes_null, c.signature_r_before, c.signature_r_after, c.signature_gone, c.passed, c.params.last().map(|p| (p.value, p.ci_low, p.ci_high)));
+                                    println!("    r{} {:>20} gain {:6.2}% folds {} chi2 {:6.2} p {:.2e} ci {} sig {:.2}->{:.2} {} pass {} {:?}", r.round, c.effect, c.heldout_gain_pct, c.folds_improved, c.heldout_chi2, c.p_adjusted, c.ci_excludes_null, c.signature_r_before, c.signature_r_after, c.signature_gone, c.passed, c.params.iter().skip(1).map(|p| (p.name.as_str(), p.value, p.ci_low, p.ci_high)).collect::<Vec<_>>());
                                 }
                             }
                         }

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 /// ([`acc_sim::config::SpindleSpec::input_power_w`], [`SensorLowpass::filter`],
 /// [`Runout::mean_factor`]).
 pub use acc_sim::config::{MotorEfficiency, NoloadDrift, Runout, SensorLowpass};
+use acc_sim::process::WearSpec;
 
 /// The effect library.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -93,7 +94,21 @@ const fn p(
     }
 }
 
-const P_TOOL_WEAR: [ParamInfo; 1] = [p("ks_growth_per_cm3", "1/cm³", -0.5, 10.0, 0.002, None)];
+const WEAR_EXPONENT_GRID: &[f64] = &[0.5, 1.0, 2.0];
+const P_TOOL_WEAR: [ParamInfo; 2] = [
+    p("ks_growth_per_cm3", "1/cm³", -0.5, 10.0, 0.002, None),
+    ParamInfo {
+        null: 1.0,
+        ..p(
+            "volume_exponent",
+            "1",
+            WearSpec::VOLUME_EXPONENT_RANGE.0,
+            WearSpec::VOLUME_EXPONENT_RANGE.1,
+            0.05,
+            Some(WEAR_EXPONENT_GRID),
+        )
+    },
+];
 const P_MOTOR: [ParamInfo; 1] = [p(
     "copper_loss_per_kw",
     "1/kW",
@@ -248,14 +263,24 @@ impl EffectKind {
     }
 }
 
-/// Tool wear: extra growth `g` added to the simulator's `tool.wear.growth_per_cm3`, so the
-/// `Ks` factor is `initial · (1 + (g_V + g)·V + g_t·t)` with `V` the removed volume in cm³
-/// (Ks grows with wear, physics.md §1 case I). Null: `g = 0`.
+/// Tool wear: extra growth `g` added to the simulator's `tool.wear.growth_per_cm3`, with
+/// the wear curve's exponent `p` in place of `tool.wear.volume_exponent`, so the `Ks`
+/// factor is `initial · (1 + (g_V + g)·V^p + g_t·t)` with `V` the removed volume in cm³
+/// (Ks grows with wear, physics.md §1 case I; the simulator's [`WearSpec::factor`]).
+/// `p < 1` is a break-in that slows down, `p > 1` wear that accelerates at the end of the
+/// tool's life. Null: `g = 0` (and `p` = the tool's own exponent).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ToolWear {
-    /// Relative growth of Ks per cm³ removed, 1/cm³. Range −0.5 ..= 50.
+    /// Relative growth of Ks per cm³ removed (at `p` = 1), 1/cm³. Range −0.5 ..= 10.
     pub ks_growth_per_cm3: f64,
+    /// Exponent `p` of the removed volume, 1. Range 0.3 ..= 3 (default 1).
+    #[serde(default = "one")]
+    pub volume_exponent: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// Extra feed-drive lag added to `feed_drive.tau_s` (physics.md eq. (5)). Null: 0 s.
@@ -362,6 +387,7 @@ impl Effects {
         let null = kind.params().get(i).map(|p| p.null).unwrap_or(0.0);
         match (kind, i) {
             (EffectKind::ToolWear, 0) => self.tool_wear.map(|e| e.ks_growth_per_cm3),
+            (EffectKind::ToolWear, 1) => self.tool_wear.map(|e| e.volume_exponent),
             (EffectKind::MotorEfficiency, 0) => self.motor_efficiency.map(|e| e.copper_loss_per_kw),
             (EffectKind::FeedDriveLag, 0) => self.feed_drive_lag.map(|e| e.extra_tau_s),
             (EffectKind::SensorLowpass, 0) => self.sensor_lowpass.map(|e| e.tau_s),
@@ -381,9 +407,16 @@ impl Effects {
     pub fn set(&mut self, kind: EffectKind, i: usize, v: f64) {
         match kind {
             EffectKind::ToolWear => {
-                self.tool_wear = Some(ToolWear {
-                    ks_growth_per_cm3: v,
-                })
+                let mut e = self.tool_wear.unwrap_or(ToolWear {
+                    ks_growth_per_cm3: 0.0,
+                    volume_exponent: 1.0,
+                });
+                if i == 0 {
+                    e.ks_growth_per_cm3 = v;
+                } else {
+                    e.volume_exponent = v;
+                }
+                self.tool_wear = Some(e);
             }
             EffectKind::MotorEfficiency => {
                 self.motor_efficiency = Some(MotorEfficiency {

@@ -153,6 +153,30 @@ pub struct FittedParam {
     pub at_bound: bool,
 }
 
+impl Fit {
+    /// A derived quantity `h(θ)` with gradient `grad` (over `free`) as a [`FittedParam`]
+    /// named `name` with null `null`: delta-method standard error `√(gᵀ·C·g)` and the fit's
+    /// 95 % t-interval.
+    pub fn derived(&self, name: String, value: f64, grad: &[f64], null: f64) -> FittedParam {
+        let g = DVector::from_column_slice(grad);
+        let var = (g.transpose() * &self.cov * &g)[(0, 0)];
+        let se = if var.is_finite() {
+            var.max(0.0).sqrt()
+        } else {
+            f64::INFINITY
+        };
+        FittedParam {
+            name,
+            value,
+            std_err: se,
+            ci_low: value - self.t_crit * se,
+            ci_high: value + self.t_crit * se,
+            null,
+            at_bound: false,
+        }
+    }
+}
+
 /// A fit result.
 #[derive(Debug, Clone)]
 pub struct Fit {
@@ -164,6 +188,11 @@ pub struct Fit {
     pub theta: Vec<f64>,
     /// Parameter table with intervals.
     pub params: Vec<FittedParam>,
+    /// Covariance of the estimates (same order as `free`; AR(1)-inflated), NaN where the
+    /// Jacobian is singular.
+    pub cov: DMatrix<f64>,
+    /// Student-t factor of the 95 % intervals (effective degrees of freedom).
+    pub t_crit: f64,
     /// Sum of squared residuals over the fitted rows.
     pub sse: f64,
     /// Number of fitted rows.
@@ -434,6 +463,8 @@ fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[us
         free: free.to_vec(),
         theta,
         params,
+        cov: cov * (s2 * infl),
+        t_crit: tc,
         sse,
         n,
     }

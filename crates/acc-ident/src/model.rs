@@ -205,8 +205,10 @@ impl Model {
         }
         if let Some(e) = fx.tool_wear {
             // Clamp at the simulator's lower bound: a negative growth is not a wear law.
+            // The candidate's exponent replaces the tool's (the replay's law exactly).
             m.tool.wear.growth_per_cm3 =
                 (m.tool.wear.growth_per_cm3 + e.ks_growth_per_cm3).max(0.0);
+            m.tool.wear.volume_exponent = e.volume_exponent;
         }
         if let Some(e) = fx.feed_exponent {
             // F = Ks f^β (f/f_ref)^Δβ with f_ref = calib feed ⇔ β' = β + Δβ at the same

@@ -377,7 +377,14 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let law = physics::force_law(&model.tool.process);
     let calib_force = model.tool.process.calib_force_n;
     let w = &model.tool.wear;
-    let growth = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
+    // The candidate adds growth and replaces the curve's exponent (null: the tool's own).
+    let wear = acc_sim::process::WearSpec {
+        growth_per_cm3: w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0),
+        volume_exponent: fx
+            .tool_wear
+            .map_or(w.volume_exponent, |e| e.volume_exponent),
+        ..*w
+    };
     let dbeta = fx.get(EffectKind::FeedExponent, 0);
     let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
     let windowed = inp.channel == Channel::Force && model.measurement.force_window_s > 0.0;
@@ -393,7 +400,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         out.spindle_angle_rad[i] = theta;
         let f = out.feed_mm_min[i];
         let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
-        let factor = w.initial_factor * (1.0 + growth * vol / 1000.0 + w.growth_per_min * cut_min);
+        let factor = wear.factor(vol / 1000.0, cut_min);
         let force_at = |f: f64, unit: f64| -> f64 {
             let mut force = calib_force * factor * unit;
             if force > 0.0 {

@@ -115,6 +115,34 @@ pub struct Round {
     /// The effect added in this round, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub added: Option<String>,
+    /// The encompassing test between the two best candidates when their held-out
+    /// predictions could not be told apart (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub encompassing: Option<Encompassing>,
+}
+
+/// Encompassing test between two candidates `a` and `b` whose held-out predictions are
+/// statistically equal: both are fitted together, and each is asked whether it still
+/// improves held-out prediction when the other is already in the model (held-out χ²
+/// with the added effect's degrees of freedom). An effect that adds to its rival while
+/// the rival adds nothing to it explains the rival's signature and is preferred (Mizon and
+/// Richard 1986; Davidson and MacKinnon 1981).
+#[derive(Debug, Clone, Serialize)]
+pub struct Encompassing {
+    /// The better-scoring candidate alone.
+    pub a: String,
+    /// The runner-up.
+    pub b: String,
+    /// p-value of adding `a` to a model that has `b` (small: `a` carries information `b` lacks).
+    pub p_a_adds_to_b: f64,
+    /// p-value of adding `b` to a model that has `a`.
+    pub p_b_adds_to_a: f64,
+    /// Held-out MSE gain of `a + b` over `b` alone, %.
+    pub gain_a_over_b_pct: f64,
+    /// Held-out MSE gain of `a + b` over `a` alone, %.
+    pub gain_b_over_a_pct: f64,
+    /// `a`, `b`, `both` (each adds to the other) or `ambiguous` (neither does).
+    pub outcome: String,
 }
 
 /// Two effects the data cannot tell apart.
@@ -327,6 +355,19 @@ impl Report {
                     c.signature_r_after,
                     c.effect_to_noise,
                     if c.passed { "**yes**" } else { "no" }
+                );
+            }
+            if let Some(e) = &r.encompassing {
+                let _ = writeln!(
+                    s,
+                    "\nEncompassing test (`{a}` and `{b}` predict equally well alone): adding `{a}` to `{b}` gains {:.1} % (p {:.2e}); adding `{b}` to `{a}` gains {:.1} % (p {:.2e}) → {}.",
+                    e.gain_a_over_b_pct,
+                    e.p_a_adds_to_b,
+                    e.gain_b_over_a_pct,
+                    e.p_b_adds_to_a,
+                    e.outcome,
+                    a = e.a,
+                    b = e.b,
                 );
             }
             let _ = writeln!(s, "\nVerdict: {}.", r.verdict);

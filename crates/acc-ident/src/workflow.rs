@@ -6,7 +6,7 @@ use crate::fit::{self, Free};
 use crate::model::{Channel, Model};
 use crate::replay::{replay, Inputs, ReplayError};
 use crate::report::{
-    Ambiguity, CandidateResult, InputInfo, Locate, Metrics, Report, Round, Sealed,
+    Ambiguity, CandidateResult, Encompassing, InputInfo, Locate, Metrics, Report, Round, Sealed,
     SignalCorrelation, Unexplained, SCHEMA_VERSION,
 };
 use crate::runlog::RunLog;
@@ -157,6 +157,46 @@ fn effect_grid(kind: EffectKind) -> Vec<Free> {
         .collect()
 }
 
+/// Name of the tool-wear size in reports.
+pub const WEAR_SIZE: &str = "tool_wear.ks_growth_over_selection";
+
+/// The size of a fitted tool-wear candidate: the extra relative `Ks` growth it puts on the
+/// tool by the end of the selection part, `Δ = (g₀+g)·V_e^p − g₀·V_e^p₀` (`V_e` the removed
+/// volume there, cm³; `g₀`, `p₀` the model's own wear law), with a delta-method interval.
+/// Growth `g` and exponent `p` trade off against each other (the growth per cm³ is poorly
+/// determined far from 1 cm³), while `Δ` is what the data measure; its interval is the one
+/// the acceptance test (c) uses for tool wear. `None` for other effects.
+fn wear_size(
+    kind: EffectKind,
+    f: &fit::Fit,
+    inp: &Inputs,
+    n_sel: usize,
+) -> Option<fit::FittedParam> {
+    if kind != EffectKind::ToolWear {
+        return None;
+    }
+    let kg = f.free.iter().position(|x| *x == Free::Effect(kind, 0))?;
+    let kp = f.free.iter().position(|x| *x == Free::Effect(kind, 1));
+    let w = &f.model.tool.wear;
+    let (g0, p0) = (w.growth_per_cm3, w.volume_exponent);
+    let g = f.theta[kg];
+    let p = kp.map_or(p0, |k| f.theta[k]);
+    let ve = replay(&f.model, inp)
+        .volume_mm3
+        .get(n_sel.saturating_sub(1))
+        .copied()
+        .unwrap_or(0.0)
+        / 1000.0;
+    let vp = ve.max(1e-12).powf(p);
+    let value = (g0 + g) * vp - g0 * ve.max(1e-12).powf(p0);
+    let mut grad = vec![0.0; f.free.len()];
+    grad[kg] = vp;
+    if let Some(k) = kp {
+        grad[k] = (g0 + g) * vp * ve.max(1e-12).ln();
+    }
+    Some(f.derived(WEAR_SIZE.into(), value, &grad, 0.0))
+}
+
 /// Prepare a model for fitting `kind`: switch it on at its null (and set the reference
 /// feed of the feed exponent to the calibration feed so that it folds into `beta`).
 fn with_null(model: &Model, kind: EffectKind) -> Model {
@@ -165,6 +205,7 @@ fn with_null(model: &Model, kind: EffectKind) -> Model {
         let v = match (kind, i) {
             (EffectKind::FeedExponent, 1) => model.tool.process.calib_feed_mm_min,
             (EffectKind::NoloadDrift, 1) => 300.0,
+            (EffectKind::ToolWear, 1) => model.tool.wear.volume_exponent,
             _ => p.null,
         };
         m.effects.set(kind, i, v);
@@ -197,6 +238,53 @@ impl Ctx<'_> {
             }
         }
         e
+    }
+
+    /// The encompassing test of [`Encompassing`] between `a` (fitted model `a_model`, the
+    /// better-scoring one) and `b`, each with its held-out errors alone: `b` is added to
+    /// `a`'s fit (grid over `b`'s delays and time constants, then LM on everything), and
+    /// the pair's held-out errors are compared with each alone.
+    fn encompass(
+        &self,
+        base_free: &[Free],
+        a: (EffectKind, &[f64], &Model),
+        b: (EffectKind, &[f64]),
+        opts: &Options,
+    ) -> Encompassing {
+        let start = with_null(a.2, b.0);
+        let mut free = base_free.to_vec();
+        free.extend(effect_free(a.0));
+        free.extend(effect_free(b.0));
+        let f = fit::fit(&start, &free, &effect_grid(b.0), self.inp, &self.sel);
+        let cv = self.cv_errors(&f.model, &free);
+        let mse = |e: &[f64]| mean(&e.iter().map(|x| x * x).collect::<Vec<_>>());
+        let gain = |alone: &[f64]| {
+            let m0 = mse(alone);
+            if m0 > 0.0 {
+                100.0 * (m0 - mse(&cv)) / m0
+            } else {
+                0.0
+            }
+        };
+        let p_a = chi2_sf(heldout_chi2(b.1, &cv), effect_free(a.0).len());
+        let p_b = chi2_sf(heldout_chi2(a.1, &cv), effect_free(b.0).len());
+        let (g_a, g_b) = (gain(b.1), gain(a.1));
+        let adds = |p: f64, g: f64| p < opts.alpha && g >= opts.min_gain_pct;
+        let outcome = match (adds(p_a, g_a), adds(p_b, g_b)) {
+            (true, false) => "a",
+            (false, true) => "b",
+            (true, true) => "both",
+            (false, false) => "ambiguous",
+        };
+        Encompassing {
+            a: a.0.name().into(),
+            b: b.0.name().into(),
+            p_a_adds_to_b: p_a,
+            p_b_adds_to_a: p_b,
+            gain_a_over_b_pct: g_a,
+            gain_b_over_a_pct: g_b,
+            outcome: outcome.into(),
+        }
     }
 
     fn residual(&self, m: &Model) -> Vec<f64> {
@@ -519,10 +607,15 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             let dof = effect_free(kind).len();
             let chi2 = heldout_chi2(&base_cv, &cv);
             let p_adj = (chi2_sf(chi2, dof) * m).min(1.0);
-            let primary = f
-                .params
-                .iter()
-                .find(|p| p.name == Free::Effect(kind, 0).name());
+            let mut f = f;
+            if let Some(size) = wear_size(kind, &f, &inp, n_sel) {
+                f.params.push(size);
+            }
+            let primary_name = match kind {
+                EffectKind::ToolWear => WEAR_SIZE.to_string(),
+                _ => Free::Effect(kind, 0).name(),
+            };
+            let primary = f.params.iter().find(|p| p.name == primary_name);
             let ci_ok = primary
                 .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
                 .unwrap_or(false);
@@ -604,20 +697,49 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
                 candidates: results,
                 verdict: "none: no candidate passed every criterion".into(),
                 added: None,
+                encompassing: None,
             });
             break;
         };
+        let (mut best, mut best_fit) = (best, best_fit);
         let mut verdict = format!("accepted {}", best.name());
-        if let Some((second, second_cv, _, _)) = scored.get(1) {
+        let mut encompassing = None;
+        if let Some((second, second_cv, second_fit, _)) = scored.get(1).cloned() {
             // Non-nested comparison on the same held-out rows, one degree of freedom.
-            if chi2_sf(heldout_chi2(second_cv, &best_cv), 1) > opts.alpha {
-                ambiguous.push((best, *second));
-                verdict = format!(
-                    "ambiguous between {} and {} ({} kept provisionally)",
-                    best.name(),
-                    second.name(),
-                    best.name()
+            if chi2_sf(heldout_chi2(&second_cv, &best_cv), 1) > opts.alpha {
+                let e = ctx.encompass(
+                    &base_free,
+                    (best, &best_cv, &best_fit.model),
+                    (second, &second_cv),
+                    opts,
                 );
+                let (a, b) = (best.name(), second.name());
+                match e.outcome.as_str() {
+                    "a" => {
+                        verdict = format!(
+                            "accepted {a} ({b} predicts as well alone but adds nothing once {a} is in, while {a} adds to {b})"
+                        )
+                    }
+                    "b" => {
+                        verdict = format!(
+                            "accepted {b} ({a} predicts as well alone but adds nothing once {b} is in, while {b} adds to {a})"
+                        );
+                        best = second;
+                        best_fit = second_fit;
+                    }
+                    "both" => {
+                        verdict = format!(
+                            "accepted {a} ({b} predicts as well alone; each adds to the other, so {b} is tested again next round)"
+                        )
+                    }
+                    _ => {
+                        ambiguous.push((best, second));
+                        verdict = format!(
+                            "ambiguous between {a} and {b} (neither adds to the other; {a} kept provisionally)"
+                        );
+                    }
+                }
+                encompassing = Some(e);
             }
         }
         accepted.push(best);
@@ -631,6 +753,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             candidates: results,
             verdict,
             added: Some(best.name().into()),
+            encompassing,
         });
     }
     // An ambiguity is resolved when both members ended up accepted.
