@@ -43,6 +43,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
+use crate::config::{MotorEfficiency, NoloadDrift, SpindleSpec};
+
 /// `[rated]` table: nameplate data.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -370,7 +372,7 @@ pub struct OperatingPoint {
     pub rpm: f64,
     /// Cutting torque, N·m.
     pub cut_torque_nm: f64,
-    /// Friction and windage torque, N·m.
+    /// Friction and windage torque (including the drift torque), N·m.
     pub friction_torque_nm: f64,
     /// Slip `s = (N_s − N)/N_s` (seed 000 eq. 2).
     pub slip: f64,
@@ -390,8 +392,13 @@ pub struct OperatingPoint {
     pub iron_w: f64,
     /// Rotor copper loss, W.
     pub rotor_copper_w: f64,
-    /// Friction and windage loss, W.
+    /// Friction and windage loss, W (including the drift [`OperatingPoint::drift_w`]).
     pub friction_w: f64,
+    /// Share of `friction_w` from the thermal no-load drift (`[spindle.noload_drift]`), W.
+    pub drift_w: f64,
+    /// Load-dependent copper loss of the extra stator resistance
+    /// (`[spindle.motor_efficiency]`), W; included in `input_w`, not in `stator_copper_w`.
+    pub load_loss_w: f64,
     /// Cutting power `T_c·ω`, W.
     pub cut_w: f64,
     /// Shaft efficiency `T_em·ω / P_in`, −.
@@ -402,6 +409,75 @@ pub struct OperatingPoint {
     voltage_angle: f64,
     /// Angle of the phase current relative to the EMF, rad.
     current_angle: f64,
+}
+
+/// Losses of one operating point beyond the motor file, W: what the machine file's
+/// `[spindle.noload_drift]` and `[spindle.motor_efficiency]` add (see [`MotorEffects`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ExtraLosses {
+    /// Thermal drift of the no-load power, W: loads the shaft as bearing friction
+    /// `T_d = P_drift/ω` (none at rest).
+    pub drift_w: f64,
+    /// Load-dependent loss, W: an extra stator series resistance `R_x = P_x/(3|I_s|²)` at
+    /// the same currents, so the input power rises by exactly this much.
+    pub load_loss_w: f64,
+}
+
+impl ExtraLosses {
+    /// No extra losses: the motor file alone.
+    pub const NONE: Self = Self {
+        drift_w: 0.0,
+        load_loss_w: 0.0,
+    };
+}
+
+/// The machine file's spindle effects as the induction motor honours them (the same keys
+/// and laws as [`SpindleSpec::input_power_w`] of the constant-speed spindle; physics.md §2:
+/// input power = no-load power + cutting power over the efficiency, copper loss ∝ I²).
+///
+/// * `[spindle.noload_drift]`: `P_drift(t) = ΔP·(1 − e^(−t/τ))` ([`NoloadDrift::power_w`],
+///   `t` since the motor simulation started) is a **bearing friction torque**
+///   `T_d = P_drift/ω` added to the friction and windage of the motor file — the spindle
+///   bearings' preload and grease change as they warm up, which is what drifts a spindle's
+///   air-cut power. The motor must deliver it through the air gap, so the measured input
+///   rises by `P_drift` times the motor's marginal input per shaft watt
+///   `∂P_in/∂P_shaft = 1 + ∂(stator + rotor copper)/∂P_shaft` (≈ 1.01 in air at 600 rpm on
+///   `seed002-small-mill`, ≈ 1.05 at 1 kW of cutting: see docs/sim.md).
+/// * `[spindle.motor_efficiency]`: the load loss `P_x = c·P_c²/1000`
+///   ([`MotorEfficiency::loss_w`], `P_c = T_c·ω` of the lagged cutting torque the motor
+///   carries) is **copper loss** (∝ I² ∝ torque², seed 000) of an extra stator series
+///   resistance `R_x = P_x/(3|I_s|²)` — a winding hotter (more resistive) the harder it
+///   works. The drive holds the currents (flux and torque as before, same slip) and supplies
+///   the extra drop `I_s·R_x`: the two-wattmeter power rises by exactly `c·P_c²/1000`, the
+///   terminal voltage and power factor with it, and the phase currents — what the
+///   current-based estimators read — are unchanged.
+///
+/// Null: both absent, `ΔP = 0` or `c = 0` leave every sample bit-identical to the motor
+/// file alone (no extra arithmetic on the signal path, no extra random draws).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotorEffects {
+    /// `[spindle.noload_drift]` (default: off).
+    pub noload_drift: Option<NoloadDrift>,
+    /// `[spindle.motor_efficiency]` (default: off).
+    pub motor_efficiency: Option<MotorEfficiency>,
+}
+
+impl MotorEffects {
+    /// The effects a machine file's `[spindle]` table sets.
+    pub fn from_spindle(spindle: &SpindleSpec) -> Self {
+        Self {
+            noload_drift: spindle.noload_drift,
+            motor_efficiency: spindle.motor_efficiency,
+        }
+    }
+
+    /// Extra losses `t_s` seconds after start at the cutting power `cut_w` W.
+    pub fn losses(&self, t_s: f64, cut_w: f64) -> ExtraLosses {
+        ExtraLosses {
+            drift_w: self.noload_drift.map_or(0.0, |d| d.power_w(t_s)),
+            load_loss_w: self.motor_efficiency.map_or(0.0, |m| m.loss_w(cut_w)),
+        }
+    }
 }
 
 /// The motor's physics (no signals): operating points.
@@ -459,15 +535,40 @@ impl Motor {
         3.0 * e * e * s * rr / ((rr * rr + s * s * xr * xr) * w_sync)
     }
 
-    /// Steady state at `rpm` (≥ 0) with cutting torque `cut_torque_nm`.
+    /// Steady state at `rpm` (≥ 0) with cutting torque `cut_torque_nm` and no extra losses
+    /// ([`Motor::operating_point_with`] with [`ExtraLosses::NONE`]).
     pub fn operating_point(&self, rpm: f64, cut_torque_nm: f64) -> OperatingPoint {
+        self.operating_point_with(rpm, cut_torque_nm, ExtraLosses::NONE)
+    }
+
+    /// Steady state at `rpm` (≥ 0) with cutting torque `cut_torque_nm` and the machine
+    /// file's extra losses `extra` (see [`ExtraLosses`]): the drift power loads the shaft
+    /// as bearing friction `P_drift/ω`, the load loss is the copper loss of an extra stator
+    /// series resistance at the same currents. With `ExtraLosses::NONE` the arithmetic is
+    /// that of the motor file alone (bit for bit).
+    pub fn operating_point_with(
+        &self,
+        rpm: f64,
+        cut_torque_nm: f64,
+        extra: ExtraLosses,
+    ) -> OperatingPoint {
         let rpm = if rpm.is_finite() { rpm.abs() } else { 0.0 };
         let cut = if cut_torque_nm.is_finite() {
             cut_torque_nm
         } else {
             0.0
         };
-        let t_f = self.friction_torque_nm(rpm);
+        let omega = 2.0 * PI * rpm / 60.0;
+        let mut t_f = self.friction_torque_nm(rpm);
+        // Thermal drift as bearing friction: T_d = P_drift/ω (none with the spindle at rest).
+        let drift_nm = if extra.drift_w != 0.0 && extra.drift_w.is_finite() && omega > 1e-6 {
+            extra.drift_w / omega
+        } else {
+            0.0
+        };
+        if drift_nm != 0.0 {
+            t_f += drift_nm;
+        }
         let load = cut + t_f;
         // Slip at breakdown ≈ R_r / X_r: search the stable region on both sides of 0.
         let (_, _, xr_b, _, _) = self.circuit_at(self.freq(rpm, 0.0));
@@ -492,11 +593,23 @@ impl Motor {
         let i_r = emf.scale(s).div(Cx::new(c.r_r_ohm, s * xr));
         let i_0 = Cx::new(e / rfe, -e / xm);
         let i_s = i_0.add(i_r);
-        let v = emf.add(i_s.mul(Cx::new(c.r_s_ohm, xs)));
+        let i_sq = i_s.re * i_s.re + i_s.im * i_s.im;
+        // Load loss as an extra series resistance R_x = P_x/(3|I_s|²) in the stator: the
+        // drive holds the currents (same flux, same torque, same slip) and supplies the
+        // extra drop I_s·R_x, so the input rises by exactly 3|I_s|²R_x = P_x.
+        let r_x = if extra.load_loss_w != 0.0 && extra.load_loss_w.is_finite() && i_sq > 0.0 {
+            extra.load_loss_w / (3.0 * i_sq)
+        } else {
+            0.0
+        };
+        let v = if r_x != 0.0 {
+            emf.add(i_s.mul(Cx::new(c.r_s_ohm + r_x, xs)))
+        } else {
+            emf.add(i_s.mul(Cx::new(c.r_s_ohm, xs)))
+        };
         let i_mag = i_s.norm();
         let input_w = 3.0 * (v.re * i_s.re + v.im * i_s.im);
         let p_ag = 3.0 * e * e * s * c.r_r_ohm / (c.r_r_ohm.powi(2) + (s * xr).powi(2));
-        let omega = 2.0 * PI * rpm / 60.0;
         let w_sync = 2.0 * PI * f / f64::from(self.cfg.rated.pole_pairs);
         let t_em = p_ag / w_sync;
         let apparent = 3.0 * v.norm() * i_mag;
@@ -518,6 +631,8 @@ impl Motor {
             iron_w: 3.0 * e * e / rfe,
             rotor_copper_w: s * p_ag,
             friction_w: t_f * omega,
+            drift_w: drift_nm * omega,
+            load_loss_w: 3.0 * i_sq * r_x,
             cut_w: cut * omega,
             efficiency: if input_w > 0.0 {
                 t_em * omega / input_w
@@ -572,6 +687,9 @@ pub struct MotorSim {
     theta: f64,
     lagged_torque_nm: f64,
     block: MotorBlock,
+    effects: MotorEffects,
+    /// Time since the simulation started (the spindle start of the drift), s.
+    t_s: f64,
 }
 
 /// Quantise to the ADC grid and clip to the range.
@@ -588,7 +706,26 @@ impl MotorSim {
             theta: 0.0,
             lagged_torque_nm: 0.0,
             block: MotorBlock::default(),
+            effects: MotorEffects::default(),
+            t_s: 0.0,
         }
+    }
+
+    /// The same motor with the machine file's extra losses `effects` (see
+    /// [`MotorEffects`]).
+    pub fn with_effects(mut self, effects: MotorEffects) -> Self {
+        self.effects = effects;
+        self
+    }
+
+    /// The extra losses it honours.
+    pub fn effects(&self) -> &MotorEffects {
+        &self.effects
+    }
+
+    /// Time since the simulation started, s.
+    pub fn elapsed_s(&self) -> f64 {
+        self.t_s
     }
 
     /// The motor physics.
@@ -635,9 +772,16 @@ impl MotorSim {
             } else {
                 0.0
             };
-            let mut op = self
-                .motor
-                .operating_point(rpm, self.lagged_torque_nm + disturbance);
+            self.t_s += dt;
+            let omega = if rpm.is_finite() {
+                2.0 * PI * rpm.abs() / 60.0
+            } else {
+                0.0
+            };
+            let extra = self.effects.losses(self.t_s, self.lagged_torque_nm * omega);
+            let mut op =
+                self.motor
+                    .operating_point_with(rpm, self.lagged_torque_nm + disturbance, extra);
             // The disturbance is drive-side: the cutting truth is the lagged cutting torque.
             op.cut_torque_nm = self.lagged_torque_nm;
             op.cut_w = self.lagged_torque_nm * 2.0 * PI * op.rpm / 60.0;
@@ -750,6 +894,67 @@ mod tests {
         let s1 = m.operating_point(1500.0, 30.0).slip;
         let s2 = m.operating_point(1500.0, 60.0).slip;
         assert!((s2 / s1 - 2.0).abs() < 0.2, "{s1} {s2}");
+    }
+
+    /// The extra losses keep the power balance: the drift is friction (shaft), the load
+    /// loss is stator copper at the same currents (input rises by exactly it; slip and
+    /// current unchanged, voltage and power factor up).
+    #[test]
+    fn extra_losses_keep_the_power_balance() {
+        let m = Motor::new(seed000());
+        for (t, drift_w, load_loss_w) in
+            [(0.0, 150.0, 0.0), (40.0, 150.0, 300.0), (40.0, -80.0, 0.0)]
+        {
+            let base = m.operating_point(1500.0, t);
+            let op = m.operating_point_with(
+                1500.0,
+                t,
+                ExtraLosses {
+                    drift_w,
+                    load_loss_w,
+                },
+            );
+            let out = op.stator_copper_w
+                + op.iron_w
+                + op.rotor_copper_w
+                + op.friction_w
+                + op.cut_w
+                + op.load_loss_w;
+            assert!((op.input_w - out).abs() < 1e-6 * op.input_w, "{op:?}");
+            assert!((op.drift_w - drift_w).abs() < 1e-9);
+            assert!((op.friction_w - base.friction_w - drift_w).abs() < 1e-9);
+            // The drift rises the input by itself plus the extra copper loss of its current.
+            let rise = op.input_w - base.input_w - load_loss_w;
+            assert!(
+                rise / drift_w > 0.99 && rise / drift_w < 1.1,
+                "{rise} for {drift_w}"
+            );
+            if load_loss_w > 0.0 {
+                let no_ll = m.operating_point_with(
+                    1500.0,
+                    t,
+                    ExtraLosses {
+                        drift_w,
+                        load_loss_w: 0.0,
+                    },
+                );
+                assert!((op.input_w - no_ll.input_w - load_loss_w).abs() < 1e-9);
+                assert_eq!(op.slip, no_ll.slip);
+                assert_eq!(op.current_a, no_ll.current_a);
+                assert!(op.line_voltage_v > no_ll.line_voltage_v);
+                assert!(op.power_factor > no_ll.power_factor);
+            }
+        }
+        // At rest there is no drift torque.
+        let rest = m.operating_point_with(
+            0.0,
+            0.0,
+            ExtraLosses {
+                drift_w: 100.0,
+                load_loss_w: 0.0,
+            },
+        );
+        assert_eq!(rest, m.operating_point(0.0, 0.0));
     }
 
     #[test]
@@ -892,6 +1097,8 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
     /// force the controller regulates; `torque_per_n` converts it to spindle torque, e.g.
     /// `ForceLaw::torque_nm(1.0, R)`), then the estimator of `spec`. The motor's noise
     /// is seeded with `seed`; the calibration uses a different stream (`seed ^ 0xCA1`).
+    /// The motor has no extra losses; [`SpindlePowerChannel::calibrated_for`] takes them
+    /// from the machine file.
     pub fn calibrated(
         spec: &SpindlePowerSpec,
         seed: u64,
@@ -901,8 +1108,37 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
         tool_radius_mm: f64,
         period_s: f64,
     ) -> Result<Self, sweep::SweepError> {
+        // Only the speed of the spindle table is read; the motor file has its own losses.
+        let spindle = SpindleSpec::new(rpm, 0.0, 1.0);
+        Self::calibrated_for(
+            spec,
+            &spindle,
+            seed,
+            torque_per_n,
+            force_ref_n,
+            tool_radius_mm,
+            period_s,
+        )
+    }
+
+    /// [`SpindlePowerChannel::calibrated`] at the speed `spindle.rpm` of a machine file's
+    /// `[spindle]` table, on a motor that honours its `[spindle.noload_drift]` and
+    /// `[spindle.motor_efficiency]` ([`MotorEffects`]). The calibration cut runs on the
+    /// same lossy motor (a machine is commissioned as it is), from its own start, so the
+    /// drift has barely begun there when `τ` is long; the run's motor starts at `t = 0`.
+    pub fn calibrated_for(
+        spec: &SpindlePowerSpec,
+        spindle: &SpindleSpec,
+        seed: u64,
+        torque_per_n: f64,
+        force_ref_n: f64,
+        tool_radius_mm: f64,
+        period_s: f64,
+    ) -> Result<Self, sweep::SweepError> {
+        let rpm = spindle.rpm;
+        let effects = MotorEffects::from_spindle(spindle);
         let cfg = spec.motor.config()?;
-        let mut cal_sim = MotorSim::new(cfg.clone(), seed ^ 0xCA1);
+        let mut cal_sim = MotorSim::new(cfg.clone(), seed ^ 0xCA1).with_effects(effects);
         let torques: Vec<f64> = spec
             .calibration_levels
             .iter()
@@ -935,7 +1171,8 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
             acc_spindle::SpindleInput::Phases
         };
         let source = acc_spindle::SpindleSource::new(input, est)?;
-        Ok(Self::new(MotorSim::new(cfg, seed), source, spec.window_s))
+        let motor = MotorSim::new(cfg, seed).with_effects(effects);
+        Ok(Self::new(motor, source, spec.window_s))
     }
 }
 

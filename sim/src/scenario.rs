@@ -36,7 +36,8 @@ pub enum MeasurementSpec {
     },
     /// Spindle power: the induction-motor model's three-phase signals (or the board's power
     /// value) read by a spindle force estimator calibrated against a simulated dynamometer
-    /// cut at start-up (`crate::motor::SpindlePowerChannel::calibrated`).
+    /// cut at start-up (`crate::motor::SpindlePowerChannel::calibrated_for`, on a motor that
+    /// honours the machine file's `[spindle.noload_drift]` and `[spindle.motor_efficiency]`).
     SpindlePower(crate::motor::SpindlePowerSpec),
 }
 
@@ -509,10 +510,10 @@ impl Scenario {
             )),
             MeasurementSpec::SpindlePower(spec) => {
                 let law = crate::process::ForceLaw::new(self.tool.process);
-                let channel = crate::motor::SpindlePowerChannel::calibrated(
+                let channel = crate::motor::SpindlePowerChannel::calibrated_for(
                     &spec,
+                    &self.machine.spindle,
                     self.seed,
-                    self.machine.spindle.rpm,
                     law.torque_nm(1.0, self.tool.radius_mm()),
                     self.controller.force_ref_n,
                     self.tool.radius_mm(),
