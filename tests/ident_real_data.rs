@@ -34,8 +34,9 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
     let speed_alias = EffectKind::FeedExponent.name();
     let (mut named, mut encompassed) = (0, 0);
     let mut shrink = Vec::new();
+    let mut tracks = Vec::new();
     for (id, mut log) in tools {
-        log.wear_vb_um = None;
+        let vb = log.wear_vb_um.take().expect("the importer reads Vb"); // withheld
         let model = import::turning_model(&log, 0.2);
         let a = workflow::analyse(&model, &log, &workflow::Options::default()).expect("runs");
         let r = &a.report;
@@ -45,6 +46,12 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
                 other == speed_alias && is_named,
                 "tool {id}: named {:?}",
                 r.accepted
+            );
+            // … and the report says what it stands for here.
+            assert!(
+                r.conclusion.contains("dependence on cutting speed"),
+                "tool {id}: {}",
+                r.conclusion
             );
         }
         for amb in &r.ambiguous {
@@ -61,6 +68,17 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
         }
         if is_named {
             named += 1;
+            // The fitted wear curve against the withheld flank wear, over the whole tool
+            // life (the sealed part included).
+            let m = a.updated.folded();
+            let inp = acc_ident::replay::Inputs::from_log(&log, &m).expect("inputs");
+            let vol = acc_ident::replay::replay(&m, &inp).volume_mm3;
+            let ks: Vec<f64> = vol
+                .iter()
+                .map(|v| m.tool.wear.factor(v / 1000.0, 0.0))
+                .collect();
+            let (r_vb, _) = acc_ident::stats::correlation(&ks, &vb);
+            tracks.push((id, r_vb));
             let s = &r.sealed;
             assert!(
                 s.updated.rms < s.nominal_refit.rms && s.updated.rms < s.nominal.rms,
@@ -80,6 +98,14 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
     );
     let mean = shrink.iter().sum::<f64>() / shrink.len() as f64;
     assert!(mean > 75.0, "mean late-part RMS reduction {mean:.1} %");
+    // Where named, the Ks growth follows the flank wear the workflow never saw.
+    for (id, r) in &tracks {
+        assert!(
+            *r > 0.9,
+            "tool {id}: fitted Ks growth vs withheld Vb r = {r:.3}"
+        );
+    }
+    eprintln!("fitted Ks growth vs withheld Vb: {tracks:?}");
 }
 
 /// Wax milling: spindle power is no-load loss plus noise; no effect may be named.

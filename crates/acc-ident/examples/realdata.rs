@@ -21,6 +21,16 @@ fn main() {
                     ),
                     Err(e) => println!("tool {id}: {e}"),
                 }
+                if let Ok(a) = workflow::analyse(&model, &log, &topts()) {
+                    for p in a.report.updated_params.iter().filter(|p| {
+                        p.name.starts_with("tool_wear") || p.name.starts_with("feed_exp")
+                    }) {
+                        println!(
+                            "    {} = {:.4} [{:.4}, {:.4}]",
+                            p.name, p.value, p.ci_low, p.ci_high
+                        );
+                    }
+                }
                 if std::env::var("VERBOSE").is_ok() {
                     if let Ok(a) = workflow::analyse(&model, &log, &topts()) {
                         for r in &a.report.rounds {

@@ -811,7 +811,18 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         Channel::Power => "W",
         Channel::Force => "N",
     };
-    let conclusion = conclude(&named, &ambiguous, unexplained.as_ref(), &sealed, unit);
+    let mut conclusion = conclude(&named, &ambiguous, unexplained.as_ref(), &sealed, unit);
+    let beta_involved = accepted.contains(&EffectKind::FeedExponent)
+        || ambiguous
+            .iter()
+            .any(|(a, b)| *a == EffectKind::FeedExponent || *b == EffectKind::FeedExponent);
+    if let (true, Some((cv_rev, cv_feed))) = (beta_involved, feed_per_rev_spread(&inp)) {
+        conclusion.push_str(&format!(
+            " Note: the feed per revolution is constant in this log (spread {:.1} % while the feed varies {:.1} %), so what `feed_exponent` measures here is the force's dependence on cutting speed.",
+            100.0 * cv_rev,
+            100.0 * cv_feed
+        ));
+    }
     let strongest = locate
         .correlations
         .iter()
@@ -886,6 +897,29 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         updated: base_model,
         series,
     })
+}
+
+/// `Some((spread of feed/rpm, spread of feed))` (coefficients of variation over the cutting
+/// rows) when the feed varies by more than 5 % but the feed per revolution by less than
+/// 2 %: a feed exponent then cannot be told from a cutting-speed exponent.
+fn feed_per_rev_spread(inp: &Inputs) -> Option<(f64, f64)> {
+    let rows: Vec<usize> = (0..inp.len())
+        .filter(|&i| inp.is_cut(i) && inp.spindle_rpm[i] > 0.0)
+        .collect();
+    let cv = |v: Vec<f64>| {
+        let m = mean(&v);
+        if m > 0.0 {
+            stats::rms(&v.iter().map(|x| x - m).collect::<Vec<_>>()) / m
+        } else {
+            0.0
+        }
+    };
+    let feed = cv(rows.iter().map(|&i| inp.feed_mm_min[i]).collect());
+    let per_rev = cv(rows
+        .iter()
+        .map(|&i| inp.feed_mm_min[i] / inp.spindle_rpm[i])
+        .collect());
+    (rows.len() > 10 && feed > 0.05 && per_rev < 0.02).then_some((per_rev, feed))
 }
 
 /// The "unexplained" test of a model's residual over the selection part: segments whose

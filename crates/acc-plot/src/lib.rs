@@ -492,12 +492,25 @@ fn draw_content<'a, DB: DrawingBackend + 'a>(
     y: (f64, f64),
 ) -> Result<bool, DrawingAreaErrorKind<DB::ErrorType>> {
     let mut legend = false;
-    let shade_color = RGBColor(120, 120, 120);
+    // One tint per distinct shade name, in order of first appearance (grey, blue, amber).
+    const SHADE_COLORS: [RGBColor; 3] = [
+        RGBColor(120, 120, 120),
+        RGBColor(60, 120, 220),
+        RGBColor(230, 160, 20),
+    ];
+    let mut order: Vec<&str> = Vec::new();
+    for s in shades {
+        if !order.contains(&s.name.as_str()) {
+            order.push(&s.name);
+        }
+    }
     let mut shade_names: Vec<&str> = Vec::new();
     for s in shades {
         if !(s.x0.is_finite() && s.x1.is_finite()) {
             continue;
         }
+        let k = order.iter().position(|n| *n == s.name).unwrap_or(0);
+        let shade_color = SHADE_COLORS[k % SHADE_COLORS.len()];
         let rect = Rectangle::new([(s.x0, y.0), (s.x1, y.1)], shade_color.mix(0.15).filled());
         let ann = chart.draw_series(std::iter::once(rect))?;
         if !s.name.is_empty() && !shade_names.contains(&s.name.as_str()) {
