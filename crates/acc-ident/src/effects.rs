@@ -406,18 +406,17 @@ impl Effects {
     /// Switch `kind` on (with null parameters if it was off) and set parameter `i`.
     pub fn set(&mut self, kind: EffectKind, i: usize, v: f64) {
         match kind {
-            EffectKind::ToolWear => {
-                let mut e = self.tool_wear.unwrap_or(ToolWear {
+            EffectKind::ToolWear => set_pair(
+                &mut self.tool_wear,
+                ToolWear {
                     ks_growth_per_cm3: 0.0,
                     volume_exponent: 1.0,
-                });
-                if i == 0 {
-                    e.ks_growth_per_cm3 = v;
-                } else {
-                    e.volume_exponent = v;
-                }
-                self.tool_wear = Some(e);
-            }
+                },
+                i,
+                v,
+                |e| &mut e.ks_growth_per_cm3,
+                |e| &mut e.volume_exponent,
+            ),
             EffectKind::MotorEfficiency => {
                 self.motor_efficiency = Some(MotorEfficiency {
                     copper_loss_per_kw: v,
@@ -428,42 +427,39 @@ impl Effects {
             EffectKind::OverrideDeadTime => {
                 self.override_dead_time = Some(OverrideDeadTime { extra_delay_s: v })
             }
-            EffectKind::FeedExponent => {
-                let mut e = self.feed_exponent.unwrap_or(FeedExponent {
+            EffectKind::FeedExponent => set_pair(
+                &mut self.feed_exponent,
+                FeedExponent {
                     delta_beta: 0.0,
                     feed_ref_mm_min: 200.0,
-                });
-                if i == 0 {
-                    e.delta_beta = v;
-                } else {
-                    e.feed_ref_mm_min = v;
-                }
-                self.feed_exponent = Some(e);
-            }
-            EffectKind::Runout => {
-                let mut e = self.runout.unwrap_or(Runout {
+                },
+                i,
+                v,
+                |e| &mut e.delta_beta,
+                |e| &mut e.feed_ref_mm_min,
+            ),
+            EffectKind::Runout => set_pair(
+                &mut self.runout,
+                Runout {
                     amplitude: 0.0,
                     phase_rad: 0.0,
-                });
-                if i == 0 {
-                    e.amplitude = v;
-                } else {
-                    e.phase_rad = v;
-                }
-                self.runout = Some(e);
-            }
-            EffectKind::NoloadDrift => {
-                let mut e = self.noload_drift.unwrap_or(NoloadDrift {
+                },
+                i,
+                v,
+                |e| &mut e.amplitude,
+                |e| &mut e.phase_rad,
+            ),
+            EffectKind::NoloadDrift => set_pair(
+                &mut self.noload_drift,
+                NoloadDrift {
                     delta_w: 0.0,
                     tau_s: 300.0,
-                });
-                if i == 0 {
-                    e.delta_w = v;
-                } else {
-                    e.tau_s = v;
-                }
-                self.noload_drift = Some(e);
-            }
+                },
+                i,
+                v,
+                |e| &mut e.delta_w,
+                |e| &mut e.tau_s,
+            ),
         }
     }
 
@@ -487,4 +483,23 @@ impl Effects {
         }
         Ok(())
     }
+}
+
+/// Set parameter `i` (0: `first`, else `second`) of a two-parameter effect in `slot`,
+/// switching it on with `off` (its null values) if it was off.
+fn set_pair<T: Copy>(
+    slot: &mut Option<T>,
+    off: T,
+    i: usize,
+    v: f64,
+    first: fn(&mut T) -> &mut f64,
+    second: fn(&mut T) -> &mut f64,
+) {
+    let mut e = slot.unwrap_or(off);
+    *if i == 0 {
+        first(&mut e)
+    } else {
+        second(&mut e)
+    } = v;
+    *slot = Some(e);
 }
