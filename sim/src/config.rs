@@ -28,7 +28,8 @@ pub struct SpindleSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motor_efficiency: Option<MotorEfficiency>,
     /// `[spindle.sensor_lowpass]`: first-order low-pass of the reported spindle power
-    /// (default: off).
+    /// (default: off). Acts on the constant-speed spindle's power and on the
+    /// induction-motor channel (`crate::motor::SpindlePowerChannel::with_sensor_lowpass`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_lowpass: Option<SensorLowpass>,
 }
@@ -387,6 +388,15 @@ impl ToolSpec {
 /// file it filters the reported spindle power (`power_w` of the board and the run log, and
 /// what a power-based force source sees). Null (off): `τ = 0`. The same parameter and bounds
 /// as the discrepancy workflow's `sensor_lowpass` effect (`acc-ident`).
+///
+/// Both spindle models use this one discretisation ([`SensorLowpass::step`], once per
+/// control period): the constant-speed spindle on its period-mean input power, the
+/// induction-motor channel (`crate::motor::SpindlePowerChannel::with_sensor_lowpass`) on the
+/// two-wattmeter power of each period's measurement window — the `power_w` it logs and
+/// the power its force estimate is made from (the phase currents are not filtered). The
+/// channel's start-up calibration cut reads through it too, settling each level for
+/// `≥ τ·ln 1000`, so its constants are those of the unfiltered cut within the cut's own
+/// noise (measured in `tests/sim_motor_effects.rs`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorLowpass {

@@ -43,7 +43,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{MotorEfficiency, NoloadDrift, SpindleSpec};
+use crate::config::{MotorEfficiency, NoloadDrift, SensorLowpass, SpindleSpec};
 
 /// `[rated]` table: nameplate data.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -998,6 +998,77 @@ mod tests {
         assert!(e.contains("circuit.r_r_ohm") && e.contains("m.toml"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
+
+    /// Records what the channel hands a force source: the block's two-wattmeter power and
+    /// RMS current, and the board's power value.
+    #[derive(Default)]
+    struct Recorder(Vec<(f64, f64, Option<f64>)>);
+
+    impl acc_core::ForceSource for Recorder {
+        fn name(&self) -> &str {
+            "recorder"
+        }
+
+        fn estimate(&mut self, input: &acc_core::PeriodInput<'_>) -> acc_core::ForceSample {
+            let s = acc_spindle::block_stats(&input.phases.unwrap()).unwrap();
+            self.0.push((s.power_w, s.current_rms_a, input.power_w));
+            acc_core::ForceSample::INVALID
+        }
+    }
+
+    /// The sensor low-pass reaches the source both ways: the block's two-wattmeter power
+    /// and the board value are the filtered power (`SensorLowpass::step` of the unfiltered
+    /// channel's power), the block's currents are those of the unfiltered channel.
+    #[test]
+    fn sensor_lowpass_rescales_the_block_power_and_keeps_the_currents() {
+        use crate::channel::MeasurementChannel;
+        let lp = SensorLowpass { tau_s: 0.3 };
+        let run = |lowpass: Option<SensorLowpass>| {
+            let mut ch =
+                SpindlePowerChannel::new(MotorSim::new(seed000(), 3), Recorder::default(), 0.05)
+                    .with_sensor_lowpass(lowpass);
+            for k in 0..12 {
+                let torque = if k < 4 { 0.0 } else { 40.0 };
+                let samples = [crate::machine::Sample {
+                    torque_nm: torque,
+                    ..Default::default()
+                }];
+                let rec = crate::machine::PeriodRecord {
+                    t_end_s: 0.1 * f64::from(k + 1),
+                    period_s: 0.1,
+                    x_mm: 0.0,
+                    radial_depth_mm: 0.0,
+                    axial_depth_mm: 0.0,
+                    spindle_rpm: 1500.0,
+                    feed_mean_mm_min: 0.0,
+                    force_mean_n: 0.0,
+                    torque_mean_nm: torque,
+                    power_mean_w: 0.0,
+                    wear_factor: 1.0,
+                    samples: &samples,
+                    sample_dt_s: 0.1,
+                };
+                ch.measure(&rec);
+            }
+            ch.source.0
+        };
+        let raw = run(None);
+        let filt = run(Some(lp));
+        let mut state = None;
+        for (k, (a, b)) in raw.iter().zip(&filt).enumerate() {
+            let want = lp.step(&mut state, a.0, 0.1);
+            assert!(
+                (b.0 - want).abs() < 1e-9 * want,
+                "period {k}: {} vs {want}",
+                b.0
+            );
+            assert_eq!(b.2, Some(want.round()));
+            assert_eq!(b.1, a.1, "period {k}: current");
+        }
+        // The step is there and the filter lags it.
+        assert!(raw[11].0 > raw[3].0 + 1000.0);
+        assert!(filt[4].0 < raw[3].0 + 0.5 * (raw[4].0 - raw[3].0));
+    }
 }
 
 /// Feed-drive current of the axis along the feed, for the spindle + feed-drive fusion
@@ -1123,9 +1194,22 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
 
     /// [`SpindlePowerChannel::calibrated`] at the speed `spindle.rpm` of a machine file's
     /// `[spindle]` table, on a motor that honours its `[spindle.noload_drift]` and
-    /// `[spindle.motor_efficiency]` ([`MotorEffects`]). The calibration cut runs on the
-    /// same lossy motor (a machine is commissioned as it is), from its own start, so the
-    /// drift has barely begun there when `τ` is long; the run's motor starts at `t = 0`.
+    /// `[spindle.motor_efficiency]` ([`MotorEffects`]), read through its
+    /// `[spindle.sensor_lowpass]` ([`SpindlePowerChannel::with_sensor_lowpass`]). The
+    /// calibration cut runs on the same lossy motor (a machine is commissioned as it is),
+    /// from its own start, so the drift has barely begun there when `τ` is long; the run's
+    /// motor starts at `t = 0`.
+    ///
+    /// The calibration cut reads the power through the same low-pass (the transducer is on
+    /// the cables during commissioning too), and each air speed and torque level settles
+    /// for `max(10, ⌈τ·ln 1000 / T⌉)` periods, until the remainder `e^(−t/τ)` of the step
+    /// from the previous level is below 0.1 %: the levels it measures are the steady
+    /// ones, so the calibrated force curve and the learned no-load power are those of the
+    /// unfiltered cut within its own seed-to-seed noise (≤ 0.7 % of force for τ ≤ 3 s
+    /// against a 0.9 % spread; with only the 10 default settle periods τ = 1.5 s would
+    /// bias it by 18 %: `tests/sim_motor_effects.rs`); only the learned σ of the air-cut
+    /// power is smaller, as the filtered sensor's is. With the key absent or `τ = 0` the
+    /// cut is that of the unfiltered channel, bit for bit.
     pub fn calibrated_for(
         spec: &SpindlePowerSpec,
         spindle: &SpindleSpec,
@@ -1144,9 +1228,14 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
             .iter()
             .map(|k| k * force_ref_n * torque_per_n)
             .collect();
+        // Through the low-pass, settle until the previous level's remainder is < 0.1 %.
+        let lowpass_settle = match spindle.sensor_lowpass {
+            Some(l) if period_s > 0.0 => (l.tau_s * 1e3f64.ln() / period_s).ceil().min(1e5),
+            _ => 0.0,
+        };
         let timing = sweep::Timing {
             period_s,
-            settle_periods: 10,
+            settle_periods: 10.max(lowpass_settle as u32),
             measure_periods: 20,
         };
         let (nl, groups) = sweep::calibration_cut(
@@ -1156,6 +1245,7 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
             &torques,
             1.0 / torque_per_n,
             timing,
+            spindle.sensor_lowpass,
         )?;
         let constants = acc_spindle::calibrate::calibrate(&groups.concat(), &nl, tool_radius_mm)?;
         let est_cfg = acc_spindle::EstimatorConfig {
@@ -1172,9 +1262,42 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
         };
         let source = acc_spindle::SpindleSource::new(input, est)?;
         let motor = MotorSim::new(cfg, seed).with_effects(effects);
-        Ok(Self::new(motor, source, spec.window_s))
+        Ok(Self::new(motor, source, spec.window_s).with_sensor_lowpass(spindle.sensor_lowpass))
     }
 }
+
+/// The power transducer on the spindle cables: it reports each period's two-wattmeter
+/// power through the machine file's `[spindle.sensor_lowpass]` — the same first-order
+/// low-pass, discretised per control period, as the constant-speed spindle's reported
+/// power ([`SensorLowpass::step`]: `y_k = a·y_(k−1) + (1 − a)·x_k`, `a = e^(−T/τ)`,
+/// `y_0 = x_0`) — or as measured without it.
+#[derive(Debug, Clone, Copy, Default)]
+struct PowerSensor {
+    lowpass: Option<SensorLowpass>,
+    /// Last reported power, W (`None` before the first period).
+    state: Option<f64>,
+}
+
+impl PowerSensor {
+    fn new(lowpass: Option<SensorLowpass>) -> Self {
+        Self {
+            lowpass,
+            state: None,
+        }
+    }
+
+    /// The power reported for a period of `period_s` s whose measured power is `power_w` W.
+    fn read(&mut self, power_w: f64, period_s: f64) -> f64 {
+        match self.lowpass {
+            Some(l) => l.step(&mut self.state, power_w, period_s),
+            None => power_w,
+        }
+    }
+}
+
+/// Below this measured power, W (the board's resolution), the block is not rescaled to the
+/// filtered power: the ratio would be meaningless (spindle stopped).
+const MIN_RESCALE_POWER_W: f64 = 1.0;
 
 /// The spindle-power measurement channel of the simulated machine: the period's cutting
 /// torque (the machine's internal samples) drives [`MotorSim`], and a force source —
@@ -1188,6 +1311,10 @@ pub struct SpindlePowerChannel<S> {
     torques: Vec<f64>,
     last: PeriodTruth,
     window_s: f64,
+    sensor: PowerSensor,
+    /// The window's line voltages rescaled to the filtered power, V (scratch).
+    scaled_v_uw: Vec<f64>,
+    scaled_v_vw: Vec<f64>,
 }
 
 impl<S: acc_core::ForceSource> SpindlePowerChannel<S> {
@@ -1200,7 +1327,27 @@ impl<S: acc_core::ForceSource> SpindlePowerChannel<S> {
             torques: Vec::new(),
             last: PeriodTruth::default(),
             window_s,
+            sensor: PowerSensor::default(),
+            scaled_v_uw: Vec::new(),
+            scaled_v_vw: Vec::new(),
         }
+    }
+
+    /// The same channel with the power transducer's first-order low-pass `lowpass`
+    /// (`[spindle.sensor_lowpass]`; `None` or `τ = 0`: off, every output bit-identical).
+    ///
+    /// Each period the window's two-wattmeter power `P` (seed 000 eqs. 12–13) passes
+    /// through it ([`SensorLowpass::step`] with the period length, as the constant-speed
+    /// spindle's reported power does) to `P_lp`. The force source gets `P_lp` both ways:
+    /// as `PeriodInput::power_w` (whole watts, the board's value) and in the three-phase
+    /// block, whose line voltages are scaled by `P_lp/P` so that the block's
+    /// two-wattmeter power is `P_lp` while the phase currents — what current-based
+    /// methods read — are untouched (the low-pass is the power channel's). The run log's
+    /// `power_w` is therefore the filtered power. The block is passed unscaled when
+    /// `|P| < 1 W` (spindle stopped).
+    pub fn with_sensor_lowpass(mut self, lowpass: Option<SensorLowpass>) -> Self {
+        self.sensor = PowerSensor::new(lowpass);
+        self
     }
 
     /// The force source (e.g. to read its last estimate).
@@ -1233,7 +1380,21 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
         } else {
             n
         };
-        let phases = block.samples.tail_block(w);
+        let mut phases = block.samples.tail_block(w);
+        let measured_w = acc_spindle::block_stats(&phases).ok().map(|s| s.power_w);
+        let reported_w = measured_w.map(|p| self.sensor.read(p, period.period_s));
+        if let (Some(p), Some(p_lp)) = (measured_w, reported_w) {
+            if p_lp != p && p.abs() >= MIN_RESCALE_POWER_W {
+                // The block's two-wattmeter power becomes the filtered one, currents stay.
+                let r = p_lp / p;
+                self.scaled_v_uw.clear();
+                self.scaled_v_uw.extend(phases.v_uw.iter().map(|v| v * r));
+                self.scaled_v_vw.clear();
+                self.scaled_v_vw.extend(phases.v_vw.iter().map(|v| v * r));
+                phases.v_uw = &self.scaled_v_uw;
+                phases.v_vw = &self.scaled_v_vw;
+            }
+        }
         let truth = period.force_window_mean_n(self.window_s);
         let input = acc_core::PeriodInput {
             // The block handed over covers the window.
@@ -1241,11 +1402,10 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
             spindle_rpm: period.spindle_rpm,
             feed_mm_min: period.feed_mean_mm_min,
             true_force_n: Some(truth),
-            // What a power transducer on the same cables reports over the window, in whole
-            // watts as in the board's input registers 4–5 (`None` if the block is garbage).
-            power_w: acc_spindle::block_stats(&phases)
-                .ok()
-                .map(|s| s.power_w.round().max(0.0)),
+            // What a power transducer on the same cables reports over the window (through
+            // its low-pass when set), in whole watts as in the board's input registers 4–5
+            // (`None` if the block is garbage).
+            power_w: reported_w.map(|p| p.round().max(0.0)),
             phases: Some(phases),
         };
         crate::channel::Reading {
@@ -1271,7 +1431,7 @@ pub mod sweep {
     use acc_spindle::{block_stats, SpindleError};
     use serde::Deserialize;
 
-    use super::{MotorConfig, MotorSim};
+    use super::{MotorConfig, MotorSim, PowerSensor, SensorLowpass};
 
     /// `[tool]`: the face cutter.
     #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -1499,6 +1659,13 @@ pub mod sweep {
     /// `torques_nm` at `rpm` gives one [`CalPoint`] per period with the reference force
     /// `torque · force_per_nm` (for a tangential reference, `1/r`). Points are grouped per
     /// torque.
+    ///
+    /// `lowpass`: the power transducer's low-pass (`[spindle.sensor_lowpass]`), present
+    /// during commissioning as in the run: every period's two-wattmeter power passes
+    /// through it before it is learned or becomes a point (the current does not; `None`:
+    /// the power as measured). Its state runs on across speeds and levels; the caller
+    /// settles long enough for the steady levels (see
+    /// [`super::SpindlePowerChannel::calibrated_for`]).
     pub fn calibration_cut(
         sim: &mut MotorSim,
         air_rpm: &[f64],
@@ -1506,14 +1673,17 @@ pub mod sweep {
         torques_nm: &[f64],
         force_per_nm: f64,
         t: Timing,
+        lowpass: Option<SensorLowpass>,
     ) -> Result<(NoLoadModel, Vec<Vec<CalPoint>>), SweepError> {
+        let mut sensor = PowerSensor::new(lowpass);
         let mut nl = NoLoadModel::new(AdaptRule::default());
         for &n in air_rpm {
             for k in 0..(t.settle_periods + t.measure_periods) {
                 let b = sim.run_period(n, &[0.0], t.period_s);
+                let s = block_stats(&b.phase_block())?;
+                let power_w = sensor.read(s.power_w, t.period_s);
                 if k >= t.settle_periods {
-                    let s = block_stats(&b.phase_block())?;
-                    nl.learn(n, s.power_w, s.current_rms_a)?;
+                    nl.learn(n, power_w, s.current_rms_a)?;
                 }
             }
         }
@@ -1522,11 +1692,12 @@ pub mod sweep {
             let mut these = Vec::new();
             for k in 0..(t.settle_periods + t.measure_periods) {
                 let b = sim.run_period(rpm, &[torque], t.period_s);
+                let s = block_stats(&b.phase_block())?;
+                let power_w = sensor.read(s.power_w, t.period_s);
                 if k >= t.settle_periods {
-                    let s = block_stats(&b.phase_block())?;
                     these.push(CalPoint {
                         rpm,
-                        power_w: s.power_w,
+                        power_w,
                         current_a: s.current_rms_a,
                         force_ref_n: torque * force_per_nm,
                     });
@@ -1557,6 +1728,7 @@ pub mod sweep {
             &torques,
             1.0 / (radius * 1e-3),
             t,
+            None,
         )?;
         let mut kt_per_feed = Vec::new();
         for (feed, g) in cfg.calibration.feeds_mm_min.iter().zip(&groups) {

@@ -37,7 +37,8 @@ pub enum MeasurementSpec {
     /// Spindle power: the induction-motor model's three-phase signals (or the board's power
     /// value) read by a spindle force estimator calibrated against a simulated dynamometer
     /// cut at start-up (`crate::motor::SpindlePowerChannel::calibrated_for`, on a motor that
-    /// honours the machine file's `[spindle.noload_drift]` and `[spindle.motor_efficiency]`).
+    /// honours the machine file's `[spindle.noload_drift]` and `[spindle.motor_efficiency]`,
+    /// its power read through `[spindle.sensor_lowpass]`).
     SpindlePower(crate::motor::SpindlePowerSpec),
 }
 
