@@ -76,7 +76,8 @@ fn motor_efficiency_with_feed_exponent() {
 
 /// A poorly exciting run (one continuous cut, override fixed at 100 %, no air pauses):
 /// a feed-drive lag is invisible there and must not be named (nor anything else), while
-/// tool wear is still named alone. Here `Ks` and the no-load power are collinear on every
+/// tool wear is still found (alone, or tied with the no-load drift it cannot be told from
+/// there). Here `Ks` and the no-load power are collinear on every
 /// fold without air cutting; the weak prior on the nominal parameters keeps the held-out
 /// predictions sane.
 #[test]
@@ -101,10 +102,21 @@ fn poorly_exciting_run_names_only_what_it_can_see() {
         value: synth::value_for_enr(&c, EffectKind::ToolWear, 4.0, 42),
     };
     let o = synth::evaluate(&c, &[wear], 42, &workflow::Options::default()).expect("runs");
-    assert_eq!(
+    // On a continuous cut at constant conditions the rise of power with time is wear
+    // (cutting power × (1 + g·V)) or a no-load drift (ΔP·(1 − e^(−t/τ))) alike: tool wear
+    // named alone, or "ambiguous" between exactly these two (an air-cut pause separates
+    // them), and nothing else.
+    let wear_alone = o.named == vec![EffectKind::ToolWear] && o.ambiguous.is_empty();
+    let honest_tie = o.named.is_empty()
+        && matches!(
+            o.ambiguous.as_slice(),
+            [(EffectKind::ToolWear, EffectKind::NoloadDrift)]
+                | [(EffectKind::NoloadDrift, EffectKind::ToolWear)]
+        );
+    assert!(
+        wear_alone || honest_tie,
+        "named {:?}, ambiguous {:?}",
         o.named,
-        vec![EffectKind::ToolWear],
-        "ambiguous {:?}",
         o.ambiguous
     );
 }

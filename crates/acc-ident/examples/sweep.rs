@@ -1,7 +1,7 @@
 //! The full hidden-effect sweep of issue 6 (the fast grid runs in `cargo test`):
 //!
 //! ```text
-//! cargo run --release -p acc-ident --example sweep -- [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--pairs 10] [--threads 2]
+//! cargo run --release -p acc-ident --example sweep -- [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--pairs 10] [--threads 2] [--effects a,b] [--out out/sweep]
 //! ```
 //!
 //! For every candidate effect, effect-to-noise ratio (ENR, see `synth::effect_to_noise`),
@@ -9,7 +9,8 @@
 //! the nominal model without it, the workflow. Prints the confusion matrix at ENR ≥ 4,
 //! recovery (exactly the right effect named) against ENR, interval coverage and the
 //! sealed-part gap closed, two hidden effects at once for confusable pairs, then the
-//! false-discovery rate on logs with no hidden effect.
+//! false-discovery rate on logs with no hidden effect. The same tables go to
+//! `<out>/sweep.md`, the recovery-versus-size curves to `<out>/recovery.svg` / `.png`.
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -17,6 +18,16 @@ use std::sync::Mutex;
 use acc_ident::synth::{self, Case, Hidden, Outcome};
 use acc_ident::{workflow, EffectKind};
 use indicatif::{ProgressBar, ProgressStyle};
+
+/// Print a line and keep it for `sweep.md`.
+macro_rules! out {
+    ($md:expr, $($t:tt)*) => {{
+        let line = format!($($t)*);
+        println!("{line}");
+        $md.push_str(&line);
+        $md.push('\n');
+    }};
+}
 
 struct Job {
     kind: Option<EffectKind>,
@@ -60,8 +71,16 @@ fn main() {
         .split(',')
         .filter_map(|s| s.parse().ok())
         .collect();
+    // `--effects a,b`: only these hidden effects (default: all eight).
+    let only: Vec<EffectKind> = arg("--effects", String::new())
+        .split(',')
+        .filter_map(EffectKind::from_name)
+        .collect();
     let mut jobs = Vec::new();
     for kind in EffectKind::ALL {
+        if !only.is_empty() && !only.contains(&kind) {
+            continue;
+        }
         for &enr in &enrs {
             for rho in [0.0, 0.6] {
                 for seed in 0..seeds {
@@ -148,6 +167,9 @@ fn main() {
     });
     bar.finish();
     let results = results.into_inner().unwrap_or_default();
+    let mut md = String::new();
+    // (effect, ENR, % exactly right, % interval covers, median gap closed)
+    let mut curves: Vec<(EffectKind, f64, f64, f64, f64)> = Vec::new();
     // Confusion matrix at ENR >= 4.
     let cols: Vec<String> = EffectKind::ALL
         .iter()
@@ -175,9 +197,12 @@ fn main() {
         *conf.entry((r, col)).or_default() += 1;
         *rows_total.entry(r).or_default() += 1;
     }
-    println!("\nConfusion matrix at achieved ENR >= 4 (rows: hidden effect, % of runs):\n");
-    println!("| hidden \\ named | {} |", cols.join(" | "));
-    println!("| --- |{}", " ---: |".repeat(cols.len()));
+    out!(
+        md,
+        "\nConfusion matrix at achieved ENR >= 4 (rows: hidden effect, % of runs):\n"
+    );
+    out!(md, "| hidden \\ named | {} |", cols.join(" | "));
+    out!(md, "| --- |{}", " ---: |".repeat(cols.len()));
     for kind in EffectKind::ALL {
         let r = kind as usize;
         let tot = rows_total.get(&r).copied().unwrap_or(0).max(1) as f64;
@@ -192,12 +217,12 @@ fn main() {
                 }
             })
             .collect();
-        println!("| {} | {} |", kind.name(), cells.join(" | "));
+        out!(md, "| {} | {} |", kind.name(), cells.join(" | "));
     }
-    println!("\nRecovery vs effect-to-noise ratio (% exactly right / % interval covers truth / median sealed-part gap closed; `max x` when the effect's bound caps the ENR at x):\n");
+    out!(md, "\nRecovery vs effect-to-noise ratio (% exactly right / % interval covers truth / median sealed-part gap closed; `max x` when the effect's bound caps the ENR at x):\n");
     let hdr: Vec<String> = enrs.iter().map(|e| format!("ENR {e}")).collect();
-    println!("| effect | {} |", hdr.join(" | "));
-    println!("| --- |{}", " --- |".repeat(enrs.len()));
+    out!(md, "| effect | {} |", hdr.join(" | "));
+    out!(md, "| --- |{}", " --- |".repeat(enrs.len()));
     for kind in EffectKind::ALL {
         let cells: Vec<String> = enrs
             .iter()
@@ -225,14 +250,18 @@ fn main() {
                 } else {
                     String::new()
                 };
+                curves.push((kind, enr, 100.0 * exact / n, covp, med));
                 format!("{:.0} / {:.0} / {:.2}{cap}", 100.0 * exact / n, covp, med)
             })
             .collect();
-        println!("| {} | {} |", kind.name(), cells.join(" | "));
+        out!(md, "| {} | {} |", kind.name(), cells.join(" | "));
     }
-    println!("\nTwo hidden effects (each sized alone to ENR 6; % of seeds):\n");
-    println!("| pair | both named | ambiguous, right pair | other |");
-    println!("| --- | ---: | ---: | ---: |");
+    out!(
+        md,
+        "\nTwo hidden effects (each sized alone to ENR 6; % of seeds):\n"
+    );
+    out!(md, "| pair | both named | ambiguous, right pair | other |");
+    out!(md, "| --- | ---: | ---: | ---: |");
     for (a, b) in PAIRS {
         let os: Vec<&Outcome> = results
             .iter()
@@ -254,7 +283,8 @@ fn main() {
                         .any(|&(x, y)| (x == a && y == b) || (x == b && y == a))
             })
             .count();
-        println!(
+        out!(
+            md,
             "| {} + {} | {:.0} | {:.0} | {:.0} |",
             a.name(),
             b.name(),
@@ -272,10 +302,73 @@ fn main() {
         .iter()
         .filter(|o| !o.named.is_empty() || !o.ambiguous.is_empty())
         .count();
-    println!(
+    out!(
+        md,
         "\nNo hidden effect: an effect named in {fp} of {} seeds ({:.1} %), unexplained in {}.",
         nulls.len(),
         100.0 * fp as f64 / nulls.len().max(1) as f64,
         nulls.iter().filter(|o| o.unexplained).count()
     );
+    let dir = std::path::PathBuf::from(arg("--out", "out/sweep".to_string()));
+    if let Err(e) = write_outputs(&dir, &md, &curves) {
+        eprintln!("error: writing {}: {e}", dir.display());
+        std::process::exit(2);
+    }
+    println!("\nwrote {}/sweep.md and recovery.svg/.png", dir.display());
+}
+
+/// `sweep.md` and the recovery-versus-size curves (x: log₂ ENR).
+fn write_outputs(
+    dir: &std::path::Path,
+    md: &str,
+    curves: &[(EffectKind, f64, f64, f64, f64)],
+) -> Result<(), Box<dyn std::error::Error>> {
+    use acc_plot::{Figure, HLine, Panel, Series};
+    std::fs::create_dir_all(dir)?;
+    std::fs::write(dir.join("sweep.md"), md)?;
+    let series = |pick: fn(&(EffectKind, f64, f64, f64, f64)) -> f64| -> Vec<Series> {
+        EffectKind::ALL
+            .iter()
+            .map(|k| {
+                let pts = curves
+                    .iter()
+                    .filter(|c| c.0 == *k && c.1 > 0.0)
+                    .map(|c| (c.1.log2(), pick(c)))
+                    .filter(|p| p.1.is_finite())
+                    .collect();
+                Series::line(k.name(), pts)
+            })
+            .collect()
+    };
+    let fig = Figure {
+        title: "Hidden-effect recovery against effect size".into(),
+        x_label: "effect-to-noise ratio, log₂ (−2 = 0.25, 0 = 1, 2 = 4, 3 = 8)".into(),
+        panels: vec![
+            Panel {
+                y_label: "exactly right [%]".into(),
+                series: series(|c| c.2),
+                hlines: vec![HLine::new("target 90 % at ENR ≥ 4", 90.0)],
+                y_range: Some((0.0, 105.0)),
+                ..Panel::default()
+            },
+            Panel {
+                y_label: "interval covers truth [%]".into(),
+                series: series(|c| c.3),
+                hlines: vec![HLine::new("95 %", 95.0)],
+                y_range: Some((0.0, 105.0)),
+                ..Panel::default()
+            },
+            Panel {
+                y_label: "sealed gap closed (median)".into(),
+                series: series(|c| c.4),
+                hlines: vec![HLine::new("target 0.8", 0.8)],
+                y_range: Some((0.0, 1.1)),
+                ..Panel::default()
+            },
+        ],
+        panel_height_px: 300,
+        ..Figure::default()
+    };
+    acc_plot::time_series(&fig, dir.join("recovery.svg"))?;
+    Ok(())
 }

@@ -177,6 +177,82 @@ impl Fit {
     }
 }
 
+impl Fit {
+    /// 95 % profile-likelihood interval of effect parameter `k` (an index into `free`;
+    /// Venzon and Moolgavkar 1988): the values `v` for which the data SSE, minimized over
+    /// the other free parameters with `k` held at `v`, rises above the fit's minimum by at
+    /// most `t²·s²·(1+ρ)/(1−ρ)`. Unlike the Jacobian interval it follows a curved ridge
+    /// between parameters that trade off (a no-load drift's ΔP against its τ when the log
+    /// is shorter than τ). Searched outward from the estimate in steps of the linearized
+    /// standard error (doubling), then bisected; clipped at the fitting bounds. Replaces
+    /// `params[k]`'s interval and standard error (half the width over `t`); returns
+    /// `false` (nothing changed) when `k` is not an effect parameter.
+    pub fn profile(&mut self, k: usize, inp: &Inputs, rows: &[usize]) -> bool {
+        let Some(&Free::Effect(kind, i)) = self.free.get(k) else {
+            return false;
+        };
+        let others: Vec<Free> = self
+            .free
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != k)
+            .map(|(_, f)| *f)
+            .collect();
+        let (lo, hi) = self.free[k].bounds();
+        let v0 = self.theta[k];
+        let limit = self.sse + self.t_crit.powi(2) * self.s2_inflated;
+        let at = |v: f64| -> f64 {
+            let mut m = self.model.clone();
+            m.effects.set(kind, i, v);
+            let m = refine(&m, &others, inp, rows);
+            sse(&m, inp, rows)
+        };
+        let se = self.params[k].std_err;
+        let step0 = if se.is_finite() && se > 0.0 {
+            se
+        } else {
+            self.free[k].scale()
+        };
+        let mut ends = [lo, hi];
+        for (e, dir) in ends.iter_mut().zip([-1.0, 1.0]) {
+            let bound = *e;
+            // Bracket: `inside` within the limit, `outside` beyond it (or the bound).
+            let (mut inside, mut outside) = (v0, None);
+            let mut step = step0;
+            for _ in 0..12 {
+                let v = (v0 + dir * step).clamp(lo, hi);
+                if at(v) > limit {
+                    outside = Some(v);
+                    break;
+                }
+                inside = v;
+                if v == bound {
+                    break;
+                }
+                step *= 2.0;
+            }
+            let Some(mut out) = outside else {
+                *e = inside;
+                continue;
+            };
+            for _ in 0..8 {
+                let mid = 0.5 * (inside + out);
+                if at(mid) > limit {
+                    out = mid;
+                } else {
+                    inside = mid;
+                }
+            }
+            *e = 0.5 * (inside + out);
+        }
+        let p = &mut self.params[k];
+        p.ci_low = ends[0].min(v0);
+        p.ci_high = ends[1].max(v0);
+        p.std_err = (p.ci_high - p.ci_low) / (2.0 * self.t_crit);
+        true
+    }
+}
+
 /// A fit result.
 #[derive(Debug, Clone)]
 pub struct Fit {
@@ -193,6 +269,9 @@ pub struct Fit {
     pub cov: DMatrix<f64>,
     /// Student-t factor of the 95 % intervals (effective degrees of freedom).
     pub t_crit: f64,
+    /// Residual variance per row inflated for AR(1) residuals, `s²·(1+ρ)/(1−ρ)`, channel
+    /// unit².
+    pub s2_inflated: f64,
     /// Sum of squared residuals over the fitted rows.
     pub sse: f64,
     /// Number of fitted rows.
@@ -465,6 +544,7 @@ fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[us
         params,
         cov: cov * (s2 * infl),
         t_crit: tc,
+        s2_inflated: s2 * infl,
         sse,
         n,
     }

@@ -157,6 +157,17 @@ fn effect_grid(kind: EffectKind) -> Vec<Free> {
         .collect()
 }
 
+/// Effects whose primary parameter gets a profile-likelihood interval
+/// ([`fit::Fit::profile`]) instead of the Jacobian one: the no-load drift (ΔP trades off
+/// against τ), runout (amplitude against phase) and the delays and time constants.
+const PROFILED: [EffectKind; 5] = [
+    EffectKind::NoloadDrift,
+    EffectKind::Runout,
+    EffectKind::FeedDriveLag,
+    EffectKind::SensorLowpass,
+    EffectKind::OverrideDeadTime,
+];
+
 /// Name of the tool-wear size in reports.
 pub const WEAR_SIZE: &str = "tool_wear.ks_growth_over_selection";
 
@@ -615,10 +626,6 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
                 EffectKind::ToolWear => WEAR_SIZE.to_string(),
                 _ => Free::Effect(kind, 0).name(),
             };
-            let primary = f.params.iter().find(|p| p.name == primary_name);
-            let ci_ok = primary
-                .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
-                .unwrap_or(false);
             // Signature: the effect's own contribution at the fitted values.
             let mut off = f.model.clone();
             off.effects.remove(kind);
@@ -659,11 +666,25 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             } else {
                 0.0
             };
-            let passed = folds_improved + 1 >= ctx.folds.len()
+            let others_pass = folds_improved + 1 >= ctx.folds.len()
                 && gain_pct >= opts.min_gain_pct
                 && p_adj < opts.alpha
-                && ci_ok
                 && sig_gone;
+            // The primary parameter's interval: profile likelihood for the parameters that
+            // sit on a curved ridge with a partner or enter through a delay / time
+            // constant (computed only when the other criteria pass: it costs ~20 fits).
+            if others_pass && PROFILED.contains(&kind) {
+                if let Some(k) = f.free.iter().position(|x| *x == Free::Effect(kind, 0)) {
+                    f.profile(k, &inp, &sel);
+                }
+            }
+            let ci_ok = f
+                .params
+                .iter()
+                .find(|p| p.name == primary_name)
+                .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
+                .unwrap_or(false);
+            let passed = others_pass && ci_ok;
             results.push(CandidateResult {
                 effect: kind.name().into(),
                 applicable: true,
