@@ -157,10 +157,13 @@ fn effect_grid(kind: EffectKind) -> Vec<Free> {
         .collect()
 }
 
-/// Effects whose primary parameter gets a profile-likelihood interval
-/// ([`fit::Fit::profile`]) instead of the Jacobian one: the no-load drift (ΔP trades off
-/// against τ), runout (amplitude against phase) and the delays and time constants.
-const PROFILED: [EffectKind; 5] = [
+/// Effects whose first parameter gets a profile-likelihood interval
+/// ([`fit::Fit::profile`]) instead of the Jacobian one: tool wear (the growth per cm³
+/// trades off against the curve's exponent; acceptance uses the delta-method interval of
+/// [`WEAR_SIZE`]), the no-load drift (ΔP against τ), runout (amplitude against phase) and
+/// the delays and time constants.
+const PROFILED: [EffectKind; 6] = [
+    EffectKind::ToolWear,
     EffectKind::NoloadDrift,
     EffectKind::Runout,
     EffectKind::FeedDriveLag,
