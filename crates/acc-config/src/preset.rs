@@ -19,6 +19,7 @@
 //! step_pct = 10
 //! min_pct = 0
 //! max_pct = 150
+//! hysteresis_pct = 0.0     # optional (default 0 = round-to-nearest; 0 ..= step_pct/2)
 //! [estimator]
 //! kc_initial = 4.0
 //! kc_min = 0.05
@@ -166,6 +167,10 @@ pub struct OverrideSection {
     pub min_pct: u16,
     /// Maximum override, percent (multiple of the step, <= 150).
     pub max_pct: u16,
+    /// Quantizer hysteresis, percent of the override (0 ..= step_pct/2; default 0 = plain
+    /// round-to-nearest), see [`OverrideSpec::quantize_hysteresis`].
+    #[serde(default)]
+    pub hysteresis_pct: f64,
 }
 
 /// Estimator gain kind.
@@ -316,10 +321,18 @@ impl OverrideSection {
                 ),
             ));
         }
+        check_range(
+            file,
+            "override.hysteresis_pct",
+            self.hysteresis_pct,
+            0.0,
+            f64::from(step) / 2.0,
+        )?;
         Ok(OverrideSpec {
             step_pct: step,
             min_pct: self.min_pct,
             max_pct: self.max_pct,
+            hysteresis_pct: self.hysteresis_pct,
         })
     }
 }

@@ -122,6 +122,18 @@ fn invalid_values_name_file_key_and_range() {
             "a multiple of step_pct = 10, <= max_pct = 150",
         ),
         (
+            "hysteresis_pct",
+            "5.5",
+            "override.hysteresis_pct",
+            "0 ..= 5",
+        ),
+        (
+            "hysteresis_pct",
+            "-1.0",
+            "override.hysteresis_pct",
+            "0 ..= 5",
+        ),
+        (
             "kc_initial",
             "200.0",
             "estimator.kc_initial",
@@ -260,5 +272,31 @@ fn preset_names_resolve_in_the_presets_dir() {
     assert_eq!(
         resolve_preset("my/own.toml", "configs/presets"),
         PathBuf::from("my/own.toml")
+    );
+}
+
+#[test]
+fn override_hysteresis_is_optional_and_read() {
+    let base = case1_text();
+    let p = parse_preset("h.toml", &with(&base, "hysteresis_pct", "4.0")).unwrap();
+    assert_eq!(p.controller.override_spec.hysteresis_pct, 4.0);
+    let without: String = base
+        .lines()
+        .filter(|l| !l.starts_with("hysteresis_pct"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert_ne!(without, base);
+    let p = parse_preset("h.toml", &without).unwrap();
+    assert_eq!(p.controller, ControllerConfig::paper_case(PaperCase::I));
+    // Half of a 1 % step is the largest accepted value on a byte board.
+    let byte = with(
+        &with(&with(&base, "step_pct", "1"), "hysteresis_pct", "0.6"),
+        "min_pct",
+        "0",
+    );
+    let (key, allowed, value) = out_of_range(&byte);
+    assert_eq!(
+        (key.as_str(), allowed.as_str(), value.as_str()),
+        ("override.hysteresis_pct", "0 ..= 0.5", "0.6")
     );
 }

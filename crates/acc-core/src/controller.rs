@@ -10,6 +10,14 @@
 //! 4. The PI law (eq. 4) gives the feed command `U(i)` in mm/min; the override is
 //!    `100·U/F_programmed`, quantized to the board step and clamped, with anti-windup
 //!    (see [`crate::pi`]).
+//! 5. Optional quantizer hysteresis (`override_spec.hysteresis_pct`, default 0 = off): in a
+//!    normal step inside the range the written position moves only when the command is
+//!    beyond a midpoint by more than `h` ([`OverrideSpec::quantize_hysteresis`], relative to
+//!    [`Controller::last_command`]). A step whose demand is beyond a limit
+//!    ([`Saturation`] not `None`) writes the clamped value at once, and held steps (invalid
+//!    sample, no programmed feed) only ever hold, so no lowering is delayed by it. The
+//!    anti-windup acts only at the limits, where the written value *is* the limit; inside
+//!    the range a held position is bounded to one step, like the quantization itself.
 //!
 //! ```
 //! use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
@@ -335,10 +343,18 @@ impl OverrideLaw for Controller {
             self.cfg.anti_windup,
             !self.frozen,
         ); // eq. 4
-        self.last_command = s.command;
+           // Saturated: the limit is written at once (never held back by the deadband).
+        let command = match s.saturation {
+            Saturation::None => self
+                .cfg
+                .override_spec
+                .quantize_hysteresis(s.unquantized_pct, self.last_command),
+            Saturation::Low | Saturation::High => s.command,
+        };
+        self.last_command = command;
         self.last_saturation = s.saturation;
         StepOutput {
-            command: s.command,
+            command,
             trace: Trace {
                 force_ref_n: self.cfg.force_ref_n,
                 error_n,

@@ -2,7 +2,10 @@
 //!
 //! The paper's FANUC 0-MC takes the override from 0 % to 150 % in 10 % steps (a 4-bit PMC
 //! code, physics.md §1); a byte board takes 1 % steps. [`OverrideSpec::quantize`] turns the
-//! controller's continuous override into what the board can actually apply.
+//! controller's continuous override into what the board can actually apply;
+//! [`OverrideSpec::quantize_hysteresis`] does the same with an optional deadband around the
+//! midpoints (`hysteresis_pct`, default 0 = plain round-to-nearest) so that a command sitting
+//! between two positions does not dither between them.
 
 use crate::CoreError;
 
@@ -41,8 +44,8 @@ impl Default for FeedOverride {
     }
 }
 
-/// Override resolution and range of the PMC board.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Override resolution and range of the PMC board, and the quantizer's deadband.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OverrideSpec {
     /// Step in percent: 10 for a 4-bit PMC board, 1 for a byte board.
     pub step_pct: u16,
@@ -50,6 +53,9 @@ pub struct OverrideSpec {
     pub min_pct: u16,
     /// Maximum override, percent (default 150; never above 150).
     pub max_pct: u16,
+    /// Quantizer hysteresis `h`, percent of the override (0 ..= `step_pct`/2; default 0 =
+    /// plain round-to-nearest). See [`OverrideSpec::quantize_hysteresis`].
+    pub hysteresis_pct: f64,
 }
 
 impl OverrideSpec {
@@ -62,6 +68,7 @@ impl OverrideSpec {
             step_pct: 10,
             min_pct: 0,
             max_pct: 150,
+            hysteresis_pct: 0.0,
         }
     }
 
@@ -71,11 +78,22 @@ impl OverrideSpec {
             step_pct: 1,
             min_pct: 0,
             max_pct: 150,
+            hysteresis_pct: 0.0,
         }
     }
 
-    /// Check the spec: `step_pct` in 1 ..= 50, `min_pct <= max_pct <= 150`, and both
-    /// limits on the step grid (so that the limits are reachable positions).
+    /// The same board with quantizer hysteresis `hysteresis_pct`, percent (checked by
+    /// [`OverrideSpec::validate`]).
+    pub const fn with_hysteresis(self, hysteresis_pct: f64) -> Self {
+        Self {
+            hysteresis_pct,
+            ..self
+        }
+    }
+
+    /// Check the spec: `step_pct` in 1 ..= 50, `min_pct <= max_pct <= 150`, both limits on
+    /// the step grid (so that the limits are reachable positions), and `hysteresis_pct`
+    /// finite in 0 ..= `step_pct`/2.
     pub fn validate(&self) -> Result<(), CoreError> {
         if self.step_pct == 0 || self.step_pct > 50 {
             return Err(CoreError::OutOfRange {
@@ -96,6 +114,14 @@ impl OverrideSpec {
                 name: "override.min_pct",
                 value: f64::from(self.min_pct),
                 allowed: "a multiple of step_pct, <= max_pct",
+            });
+        }
+        let h = self.hysteresis_pct;
+        if !(h.is_finite() && h >= 0.0 && h <= f64::from(self.step_pct) / 2.0) {
+            return Err(CoreError::OutOfRange {
+                name: "override.hysteresis_pct",
+                value: h,
+                allowed: "0 ..= step_pct/2",
             });
         }
         Ok(())
@@ -123,6 +149,67 @@ impl OverrideSpec {
         // `q` is inside [min_pct, max_pct] <= 150, so the cast cannot truncate.
         let q = q.clamp(f64::from(self.min_pct), f64::from(self.max_pct));
         FeedOverride(q as u16)
+    }
+
+    /// [`OverrideSpec::quantize`] with a deadband of `h = hysteresis_pct` around the
+    /// midpoints, relative to the position `prev` written last (`q_prev`). With `h = 0` it
+    /// *is* `quantize(pct)` for every input (today's behaviour, bit for bit).
+    ///
+    /// With step `s`, continuous command `u = pct` clamped to `[min_pct, max_pct]`:
+    ///
+    /// ```text
+    ///            q_prev − s      midpoint        q_prev        midpoint       q_prev + s
+    /// u:  ───────────┼──────────┼─┬─┬─────────────┼─────────────┬─┬─┼──────────────┼──────
+    ///                         −h│ │+h                        −h│ │+h
+    ///                ◄─ down ──┘ └──────────── hold q_prev ────┘ └─── up ─►
+    /// ```
+    ///
+    /// | condition (d = u − q_prev)                                 | output                |
+    /// |------------------------------------------------------------|-----------------------|
+    /// | `h = 0`, or NaN, or `q_prev` not a valid position          | `quantize(pct)`       |
+    /// | `u` at or beyond a limit (`u <= min_pct` or `u >= max_pct`) | that limit (never held) |
+    /// | `d ≥ s/2 + h`  or  `d < −(s/2 + h)` (incl. `abs(d) ≥ s`)   | `quantize(pct)`       |
+    /// | otherwise (inside the deadband)                            | `q_prev`              |
+    ///
+    /// So the output is always a board position in `[min_pct, max_pct]`, differs from
+    /// round-to-nearest by at most one step, never switches while `u` stays within `±h` of a
+    /// midpoint, and equals round-to-nearest whenever `abs(u − q_prev) ≥ s`. A command at a
+    /// limit (saturation, e.g. an overload clamping to `min_pct`) is written at once. Pure
+    /// and allocation-free.
+    ///
+    /// ```
+    /// use acc_core::{FeedOverride, OverrideSpec};
+    /// let spec = OverrideSpec::paper().with_hysteresis(3.0);
+    /// let at60 = FeedOverride(60);
+    /// assert_eq!(spec.quantize_hysteresis(67.9, at60), FeedOverride(60)); // < 65 + 3: hold
+    /// assert_eq!(spec.quantize_hysteresis(68.0, at60), FeedOverride(70)); // up
+    /// assert_eq!(spec.quantize_hysteresis(52.5, at60), FeedOverride(60)); // >= 55 − 3: hold
+    /// assert_eq!(spec.quantize_hysteresis(51.9, at60), FeedOverride(50)); // down
+    /// assert_eq!(spec.quantize_hysteresis(93.0, at60), FeedOverride(90)); // far: nearest
+    /// assert_eq!(spec.quantize_hysteresis(-1.0, FeedOverride(10)), FeedOverride(0)); // limit
+    /// ```
+    pub fn quantize_hysteresis(&self, pct: f64, prev: FeedOverride) -> FeedOverride {
+        let nearest = self.quantize(pct);
+        let h = self.hysteresis_pct;
+        let step_pct = self.step_pct.max(1);
+        let q_prev = prev.pct();
+        let prev_valid = (self.min_pct..=self.max_pct).contains(&q_prev)
+            && (q_prev - self.min_pct).is_multiple_of(step_pct);
+        // A non-finite `h` (refused by `validate`) also gets plain rounding.
+        if !h.is_finite() || h <= 0.0 || pct.is_nan() || !prev_valid {
+            return nearest;
+        }
+        let u = self.clamp_pct(pct);
+        if u <= f64::from(self.min_pct) || u >= f64::from(self.max_pct) {
+            return nearest;
+        }
+        let d = u - f64::from(q_prev);
+        let band = f64::from(step_pct) / 2.0 + h;
+        if d >= band || d < -band {
+            nearest
+        } else {
+            prev
+        }
     }
 
     /// Clamp a continuous override to `[min_pct, max_pct]`, percent (NaN stays NaN).
@@ -167,22 +254,30 @@ mod tests {
                 step_pct: 0,
                 min_pct: 0,
                 max_pct: 150,
+                hysteresis_pct: 0.0,
             },
             OverrideSpec {
                 step_pct: 10,
                 min_pct: 0,
                 max_pct: 160,
+                hysteresis_pct: 0.0,
             },
             OverrideSpec {
                 step_pct: 10,
                 min_pct: 0,
                 max_pct: 145,
+                hysteresis_pct: 0.0,
             },
             OverrideSpec {
                 step_pct: 10,
                 min_pct: 100,
                 max_pct: 50,
+                hysteresis_pct: 0.0,
             },
+            OverrideSpec::paper().with_hysteresis(5.5),
+            OverrideSpec::paper().with_hysteresis(-0.1),
+            OverrideSpec::paper().with_hysteresis(f64::NAN),
+            OverrideSpec::byte_board().with_hysteresis(0.6),
         ];
         for s in bad {
             assert!(s.validate().is_err(), "{s:?} accepted");
@@ -195,8 +290,49 @@ mod tests {
             step_pct: 10,
             min_pct: 20,
             max_pct: 120,
+            hysteresis_pct: 0.0,
         };
         assert_eq!(s.quantize(0.0), FeedOverride(20));
         assert_eq!(s.quantize(500.0), FeedOverride(120));
+    }
+
+    #[test]
+    fn hysteresis_limits_are_accepted_at_half_a_step() {
+        assert!(OverrideSpec::paper()
+            .with_hysteresis(5.0)
+            .validate()
+            .is_ok());
+        assert!(OverrideSpec::byte_board()
+            .with_hysteresis(0.5)
+            .validate()
+            .is_ok());
+    }
+
+    #[test]
+    fn hysteresis_writes_a_limit_at_once_even_at_half_a_step() {
+        let s = OverrideSpec {
+            step_pct: 10,
+            min_pct: 20,
+            max_pct: 120,
+            hysteresis_pct: 5.0,
+        };
+        // u exactly at the lower limit: the band edge would be 30 − 5 − 5 = 20 (not < 20).
+        assert_eq!(
+            s.quantize_hysteresis(20.0, FeedOverride(30)),
+            FeedOverride(20)
+        );
+        assert_eq!(
+            s.quantize_hysteresis(120.0, FeedOverride(110)),
+            FeedOverride(120)
+        );
+        // An off-grid last position (e.g. engaged at 95 %) falls back to rounding.
+        assert_eq!(
+            s.quantize_hysteresis(99.0, FeedOverride(95)),
+            FeedOverride(100)
+        );
+        assert_eq!(
+            s.quantize_hysteresis(f64::NAN, FeedOverride(60)),
+            FeedOverride(20)
+        );
     }
 }

@@ -39,8 +39,19 @@ fn step_does_not_allocate() {
     let probe = COUNT.with(Cell::get);
     let v = std::hint::black_box(vec![1u8; 16]);
     assert!(COUNT.with(Cell::get) > probe && v.len() == 16);
-    for case in [PaperCase::FixedGain, PaperCase::I, PaperCase::III] {
-        let mut ctl = Controller::new(ControllerConfig::paper_case(case)).unwrap();
+    // (case, quantizer hysteresis in percent)
+    for (case, h) in [
+        (PaperCase::FixedGain, 0.0),
+        (PaperCase::I, 0.0),
+        (PaperCase::III, 0.0),
+        (PaperCase::III, 4.0),
+    ] {
+        let cfg = ControllerConfig::paper_case(case);
+        let cfg = ControllerConfig {
+            override_spec: cfg.override_spec.with_hysteresis(h),
+            ..cfg
+        };
+        let mut ctl = Controller::new(cfg).unwrap();
         ctl.engage(FeedOverride(100));
         let before = COUNT.with(Cell::get);
         let mut feed = 200.0;
@@ -63,6 +74,10 @@ fn step_does_not_allocate() {
         }
         let after = COUNT.with(Cell::get);
         assert!(sum > 0);
-        assert_eq!(after - before, 0, "{case:?}: Controller::step allocated");
+        assert_eq!(
+            after - before,
+            0,
+            "{case:?}, h = {h}: Controller::step allocated"
+        );
     }
 }
