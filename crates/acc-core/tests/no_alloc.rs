@@ -1,44 +1,22 @@
 //! `Controller::step` does not allocate: a counting global allocator (this test binary
 //! only) sees zero allocations on the thread while it steps through cutting, air cut,
 //! invalid samples and saturation.
-// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
-#![allow(unsafe_code)]
 #![allow(clippy::unwrap_used)]
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 
 use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards every call unchanged to `System`; the counter is a thread-local `Cell`
-// that never allocates.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
+#[allow(unsafe_code)]
+#[path = "support/counting_alloc.rs"]
+mod counting_alloc;
+use counting_alloc::allocations;
 
 #[test]
 fn step_does_not_allocate() {
     // The counter sees allocations on this thread (so a zero below means something).
-    let probe = COUNT.with(Cell::get);
+    let probe = allocations();
     let v = std::hint::black_box(vec![1u8; 16]);
-    assert!(COUNT.with(Cell::get) > probe && v.len() == 16);
+    assert!(allocations() > probe && v.len() == 16);
     // (case, quantizer hysteresis in percent)
     for (case, h) in [
         (PaperCase::FixedGain, 0.0),
@@ -53,7 +31,7 @@ fn step_does_not_allocate() {
         };
         let mut ctl = Controller::new(cfg).unwrap();
         ctl.engage(FeedOverride(100));
-        let before = COUNT.with(Cell::get);
+        let before = allocations();
         let mut feed = 200.0;
         let mut sum = 0u32;
         for i in 0..1000 {
@@ -72,7 +50,7 @@ fn step_does_not_allocate() {
             feed = o.command.feed_mm_min(200.0);
             sum += u32::from(o.command.pct());
         }
-        let after = COUNT.with(Cell::get);
+        let after = allocations();
         assert!(sum > 0);
         assert_eq!(
             after - before,

@@ -2,12 +2,7 @@
 //! no-load model, and the three-phase force source, through cutting, air (adapting),
 //! garbage blocks and speed transients. A counting global allocator (this test binary
 //! only) sees zero allocations on the thread.
-// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
-#![allow(unsafe_code)]
 #![allow(clippy::unwrap_used)]
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 
 use acc_core::{ForceSource, PeriodInput};
 use acc_spindle::calibrate::{Constants, PowerEfficiency};
@@ -16,34 +11,17 @@ use acc_spindle::{
     SpindleSource,
 };
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards every call unchanged to `System`; the counter is a thread-local `Cell`
-// that never allocates.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
+#[allow(unsafe_code)]
+#[path = "../../acc-core/tests/support/counting_alloc.rs"]
+mod counting_alloc;
+use counting_alloc::allocations;
 
 #[test]
 fn per_block_path_does_not_allocate() {
-    let probe = COUNT.with(Cell::get);
+    let probe = allocations();
     let v = std::hint::black_box(vec![1u8; 16]);
-    assert!(COUNT.with(Cell::get) > probe && v.len() == 16);
+    assert!(allocations() > probe && v.len() == 16);
 
     let mut nl = NoLoadModel::new(Default::default());
     nl.learn(1500.0, 600.0, 10.0).unwrap();
@@ -69,7 +47,7 @@ fn per_block_path_does_not_allocate() {
     let cut = PhaseSamples::with_power(1000, 1e4, 2600.0);
     let mut bad = cut.clone();
     bad.i_v[500] = f64::NAN;
-    let before = COUNT.with(Cell::get);
+    let before = allocations();
     let mut valid = 0;
     for i in 0..1000 {
         let ch = match i % 100 {
@@ -86,7 +64,7 @@ fn per_block_path_does_not_allocate() {
         };
         valid += usize::from(src.estimate(&input).valid);
     }
-    let after = COUNT.with(Cell::get);
+    let after = allocations();
     assert_eq!(after - before, 0, "allocations on the per-block path");
     // The run exercised valid, invalid and adapting periods.
     assert!(valid > 700 && valid < 950, "{valid} valid");
