@@ -256,7 +256,15 @@ fn drive<P: Pmc + Send>(
         );
     }
     let mut ccfg = cfg.controller;
+    let preset_step = ccfg.override_spec.step_pct;
     ccfg.override_spec = spec_for_board(ccfg.override_spec, step);
+    let h = ccfg.override_spec.hysteresis_pct;
+    if ccfg.override_spec.step_pct != preset_step && h > f64::from(step) / 2.0 {
+        bail!(
+            "preset `[override] hysteresis_pct` = {h} exceeds half the board's override step: the board steps {step} %, which replaces the preset's {preset_step} % (not a multiple of it); allowed 0 ..= {}",
+            f64::from(step) / 2.0
+        );
+    }
     let law = Controller::new(ccfg).map_err(|e| anyhow::anyhow!("controller: {e:?}"))?;
     let period_s = ccfg.period_s;
     let source = cfg.force_source()?;
