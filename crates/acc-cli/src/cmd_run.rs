@@ -151,16 +151,24 @@ impl LogSink for RunLogSink {
 
 /// The controller's override resolution on this board: the preset's step if it is a
 /// multiple of the board's, otherwise the board's (commands must be multiples of
-/// `OVERRIDE_STEP` or the board answers exception 03).
-fn spec_for_board(spec: OverrideSpec, board_step: u16) -> OverrideSpec {
+/// `OVERRIDE_STEP` or the board answers exception 03). A preset hysteresis larger than half
+/// the replacing step is refused with a message naming both steps.
+fn spec_for_board(spec: OverrideSpec, board_step: u16) -> anyhow::Result<OverrideSpec> {
     if board_step == 0 || spec.step_pct.is_multiple_of(board_step) {
-        spec
-    } else {
-        OverrideSpec {
-            step_pct: board_step,
-            ..spec
-        }
+        return Ok(spec);
     }
+    let half = f64::from(board_step) / 2.0;
+    if spec.hysteresis_pct > half {
+        bail!(
+            "preset `[override] hysteresis_pct` = {} exceeds half the board's override step: the board steps {board_step} %, which replaces the preset's {} % (not a multiple of it); allowed 0 ..= {half}",
+            spec.hysteresis_pct,
+            spec.step_pct
+        );
+    }
+    Ok(OverrideSpec {
+        step_pct: board_step,
+        ..spec
+    })
 }
 
 /// `acc run`.
@@ -256,15 +264,7 @@ fn drive<P: Pmc + Send>(
         );
     }
     let mut ccfg = cfg.controller;
-    let preset_step = ccfg.override_spec.step_pct;
-    ccfg.override_spec = spec_for_board(ccfg.override_spec, step);
-    let h = ccfg.override_spec.hysteresis_pct;
-    if ccfg.override_spec.step_pct != preset_step && h > f64::from(step) / 2.0 {
-        bail!(
-            "preset `[override] hysteresis_pct` = {h} exceeds half the board's override step: the board steps {step} %, which replaces the preset's {preset_step} % (not a multiple of it); allowed 0 ..= {}",
-            f64::from(step) / 2.0
-        );
-    }
+    ccfg.override_spec = spec_for_board(ccfg.override_spec, step)?;
     let law = Controller::new(ccfg).map_err(|e| anyhow::anyhow!("controller: {e:?}"))?;
     let period_s = ccfg.period_s;
     let source = cfg.force_source()?;
@@ -333,5 +333,36 @@ fn drive<P: Pmc + Send>(
         Err(k) => bail!(
             "shutdown: could not clear ACC_REQUEST ({k:?}); the board's watchdog releases the override"
         ),
+    }
+}
+
+#[cfg(test)]
+mod board_step_tests {
+    use super::*;
+
+    #[test]
+    fn board_step_replaces_a_preset_step_it_does_not_divide() {
+        let ten = OverrideSpec::paper();
+        // 10 % is a multiple of a byte board's 1 %: the preset's step stays.
+        assert_eq!(spec_for_board(ten, 1).map(|s| s.step_pct).ok(), Some(10));
+        let fifteen = OverrideSpec {
+            step_pct: 15,
+            max_pct: 150,
+            ..ten
+        };
+        assert_eq!(
+            spec_for_board(fifteen, 10).map(|s| s.step_pct).ok(),
+            Some(10)
+        );
+        // A hysteresis valid for 15 % (≤ 7.5) but not for the board's 10 % (≤ 5) is refused,
+        // and the message says why.
+        let err = spec_for_board(fifteen.with_hysteresis(6.0), 10)
+            .expect_err("6 % > 10/2")
+            .to_string();
+        assert!(
+            err.contains("hysteresis_pct") && err.contains("replaces the preset's 15 %"),
+            "{err}"
+        );
+        assert!(spec_for_board(fifteen.with_hysteresis(5.0), 10).is_ok());
     }
 }
