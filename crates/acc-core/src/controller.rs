@@ -343,12 +343,12 @@ impl OverrideLaw for Controller {
             self.cfg.anti_windup,
             !self.frozen,
         ); // eq. 4
-           // Saturated: the limit is written at once (never held back by the deadband).
         let command = match s.saturation {
             Saturation::None => self
                 .cfg
                 .override_spec
                 .quantize_hysteresis(s.unquantized_pct, self.last_command),
+            // Saturated: the limit is written at once (never held back by the deadband).
             Saturation::Low | Saturation::High => s.command,
         };
         self.last_command = command;
