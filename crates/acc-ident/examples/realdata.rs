@@ -12,36 +12,36 @@ fn main() {
             for (id, mut log) in tools {
                 log.wear_vb_um = None; // withheld
                 let model = import::turning_model(&log, 0.2);
-                match workflow::analyse(&model, &log, &topts()) {
-                    Ok(a) => println!(
-                        "tool {id:>2}: rows {:>3} accepted {:?} amb {:?} unexpl {} sealed RMS {:.1} -> {:.1} N (refit {:.1}) fit {:.1}% -> {:.1}%",
-                        log.len(), a.report.accepted, a.report.ambiguous.iter().map(|x| x.effects.clone()).collect::<Vec<_>>(),
-                        a.report.unexplained.is_some(), a.report.sealed.nominal.rms, a.report.sealed.updated.rms,
-                        a.report.sealed.nominal_refit.rms, a.report.sealed.nominal.fit_pct, a.report.sealed.updated.fit_pct
-                    ),
-                    Err(e) => println!("tool {id}: {e}"),
-                }
-                if let Ok(a) = workflow::analyse(&model, &log, &topts()) {
-                    for p in a.report.updated_params.iter().filter(|p| {
-                        p.name.starts_with("tool_wear") || p.name.starts_with("feed_exp")
-                    }) {
-                        println!(
-                            "    {} = {:.4} [{:.4}, {:.4}]",
-                            p.name, p.value, p.ci_low, p.ci_high
-                        );
+                let a = match workflow::analyse(&model, &log, &topts()) {
+                    Ok(a) => a,
+                    Err(e) => {
+                        println!("tool {id}: {e}");
+                        continue;
                     }
+                };
+                println!(
+                    "tool {id:>2}: rows {:>3} accepted {:?} amb {:?} unexpl {} sealed RMS {:.1} -> {:.1} N (refit {:.1}) fit {:.1}% -> {:.1}%",
+                    log.len(), a.report.accepted, a.report.ambiguous.iter().map(|x| x.effects.clone()).collect::<Vec<_>>(),
+                    a.report.unexplained.is_some(), a.report.sealed.nominal.rms, a.report.sealed.updated.rms,
+                    a.report.sealed.nominal_refit.rms, a.report.sealed.nominal.fit_pct, a.report.sealed.updated.fit_pct
+                );
+                for p in
+                    a.report.updated_params.iter().filter(|p| {
+                        p.name.starts_with("tool_wear") || p.name.starts_with("feed_exp")
+                    })
+                {
+                    println!(
+                        "    {} = {:.4} [{:.4}, {:.4}]",
+                        p.name, p.value, p.ci_low, p.ci_high
+                    );
                 }
                 if std::env::var("VERBOSE").is_ok() {
-                    if let Ok(a) = workflow::analyse(&model, &log, &topts()) {
-                        for r in &a.report.rounds {
-                            if let Some(e) = &r.encompassing {
-                                println!("    r{} encompassing {e:?}", r.round);
-                            }
-                            for c in &r.candidates {
-                                if c.applicable {
-                                    println!("    r{} {:>20} gain {:6.2}% folds {} chi2 {:6.2} p {:.2e} ci {} sig {:.2}->{:.2} {} pass {} {:?}", r.round, c.effect, c.heldout_gain_pct, c.folds_improved, c.heldout_chi2, c.p_adjusted, c.ci_excludes_null, c.signature_r_before, c.signature_r_after, c.signature_gone, c.passed, c.params.iter().skip(1).map(|p| (p.name.as_str(), p.value, p.ci_low, p.ci_high)).collect::<Vec<_>>());
-                                }
-                            }
+                    for r in &a.report.rounds {
+                        if let Some(e) = &r.encompassing {
+                            println!("    r{} encompassing {e:?}", r.round);
+                        }
+                        for c in r.candidates.iter().filter(|c| c.applicable) {
+                            println!("    r{} {:>20} gain {:6.2}% folds {} chi2 {:6.2} p {:.2e} ci {} sig {:.2}->{:.2} {} pass {} {:?}", r.round, c.effect, c.heldout_gain_pct, c.folds_improved, c.heldout_chi2, c.p_adjusted, c.ci_excludes_null, c.signature_r_before, c.signature_r_after, c.signature_gone, c.passed, c.params.iter().skip(1).map(|p| (p.name.as_str(), p.value, p.ci_low, p.ci_high)).collect::<Vec<_>>());
                         }
                     }
                 }

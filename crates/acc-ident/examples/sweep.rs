@@ -340,31 +340,38 @@ fn write_outputs(
             })
             .collect()
     };
+    let panel = |y_label: &str,
+                 pick: fn(&(EffectKind, f64, f64, f64, f64)) -> f64,
+                 target: HLine,
+                 top: f64| Panel {
+        y_label: y_label.into(),
+        series: series(pick),
+        hlines: vec![target],
+        y_range: Some((0.0, top)),
+        ..Panel::default()
+    };
     let fig = Figure {
         title: "Hidden-effect recovery against effect size".into(),
         x_label: "effect-to-noise ratio, log₂ (−2 = 0.25, 0 = 1, 2 = 4, 3 = 8)".into(),
         panels: vec![
-            Panel {
-                y_label: "exactly right [%]".into(),
-                series: series(|c| c.2),
-                hlines: vec![HLine::new("target 90 % at ENR ≥ 4", 90.0)],
-                y_range: Some((0.0, 105.0)),
-                ..Panel::default()
-            },
-            Panel {
-                y_label: "interval covers truth [%]".into(),
-                series: series(|c| c.3),
-                hlines: vec![HLine::new("95 %", 95.0)],
-                y_range: Some((0.0, 105.0)),
-                ..Panel::default()
-            },
-            Panel {
-                y_label: "sealed gap closed (median)".into(),
-                series: series(|c| c.4),
-                hlines: vec![HLine::new("target 0.8", 0.8)],
-                y_range: Some((0.0, 1.1)),
-                ..Panel::default()
-            },
+            panel(
+                "exactly right [%]",
+                |c| c.2,
+                HLine::new("target 90 % at ENR ≥ 4", 90.0),
+                105.0,
+            ),
+            panel(
+                "interval covers truth [%]",
+                |c| c.3,
+                HLine::new("95 %", 95.0),
+                105.0,
+            ),
+            panel(
+                "sealed gap closed (median)",
+                |c| c.4,
+                HLine::new("target 0.8", 0.8),
+                1.1,
+            ),
         ],
         panel_height_px: 300,
         ..Figure::default()
