@@ -58,6 +58,7 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
         finished: true,
         volume_mm3: 0.0,
         rows: sim_rows,
+        ended_in_feed_hold: false,
     };
     let summary = summarize(&result, &sc);
     let fr = sc.controller.force_ref_n;

@@ -27,7 +27,7 @@ mod e2e_support;
 use std::time::Duration;
 
 use e2e_support::{
-    assert_faults_never_raise, field, interrupt_expect_clean_exit, is_active, read_log,
+    assert_faults_never_raise, cmd, field, interrupt_expect_clean_exit, is_active, read_log,
     spawn_board_sim, spawn_run,
 };
 
@@ -94,7 +94,7 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
     assert!(
         is_active(last),
         "stopped mid-cut while ACC was active: {}",
-        last.mode
+        last.state
     );
 
     // The feed was never raised by a fault.
@@ -104,8 +104,8 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
     // Each releasing fault released with its own reason, in order; the held ones did not.
     let mut releases: Vec<&str> = Vec::new();
     for r in &rows {
-        if !is_active(r) && r.mode != "idle" && releases.last() != Some(&r.mode.as_str()) {
-            releases.push(r.mode.as_str());
+        if !is_active(r) && r.state != "idle" && releases.last() != Some(&r.state.as_str()) {
+            releases.push(r.state.as_str());
         }
         if is_active(r) {
             if let Some(l) = releases.last() {
@@ -142,10 +142,11 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
     let mut best = 0;
     let mut run = 0;
     for w in rows.windows(2) {
-        let held = w[1].mode == "active"
-            && w[1].valid
-            && w[1].override_cmd_pct == w[0].override_cmd_pct
-            && w[1].override_applied_pct == 100;
+        let held = w[1].state == "active"
+            && w[1].mode.is_empty()
+            && w[1].force_valid
+            && cmd(&w[1]) == cmd(&w[0])
+            && w[1].override_applied_pct == Some(100);
         run = if held { run + 1 } else { 0 };
         best = best.max(run);
     }
@@ -153,7 +154,7 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
     // Held faults (CRC, late replies) produced invalid periods while ACC stayed active.
     let held_crc = rows
         .iter()
-        .filter(|r| (5.0..9.0).contains(&r.t_s) && !r.valid && is_active(r))
+        .filter(|r| (5.0..9.0).contains(&r.t_s) && !r.force_valid && is_active(r))
         .count();
     assert!(held_crc >= 1, "CRC errors held the override");
     let link = field(&out, "link").unwrap_or("");

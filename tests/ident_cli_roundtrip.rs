@@ -10,7 +10,7 @@ use std::io::BufWriter;
 use std::path::Path;
 use std::process::Command;
 
-use acc_sim::runlog::{read_run_log, RunLogRow, RunLogWriter};
+use acc_runtime::record::{read_run_log, RunLogWriter, RunRecord};
 use acc_sim::scenario::{LawKind, MeasurementSpec, Scenario};
 use e2e_support::{acc_bin, root};
 
@@ -33,11 +33,11 @@ fn acc_ok(args: &[&str]) -> String {
 
 /// Median Kc_hat of the valid cutting rows in the last fifth of the cut over that in the
 /// first fifth (after the first fifth, to skip the estimator's start-up).
-fn kc_growth(rows: &[RunLogRow]) -> f64 {
+fn kc_growth(rows: &[RunRecord]) -> f64 {
     let cut: Vec<f64> = rows
         .iter()
-        .filter(|r| r.valid && r.radial_depth_mm.is_some_and(|d| d > 0.0))
-        .map(|r| r.kc_hat)
+        .filter(|r| r.force_valid && r.radial_depth_mm.is_some_and(|d| d > 0.0))
+        .filter_map(|r| r.kc_hat)
         .collect();
     assert!(cut.len() > 100, "{} valid cutting rows", cut.len());
     let n = cut.len() / 5;
@@ -49,7 +49,7 @@ fn kc_growth(rows: &[RunLogRow]) -> f64 {
     median(&cut[cut.len() - n..]) / median(&cut[n..2 * n])
 }
 
-fn read_log(path: &Path) -> Vec<RunLogRow> {
+fn read_log(path: &Path) -> Vec<RunRecord> {
     read_run_log(File::open(path).expect("run log exists")).expect("run log parses")
 }
 

@@ -22,7 +22,7 @@ fn simulated_tool_wear_is_named_and_sized() {
         window_s: 0.05,
     };
     let (res, _) = sc.run_law(LawKind::Ours).expect("simulates");
-    let log = import::from_sim_rows(&res.rows);
+    let log = import::from_sim_rows(&res.rows).expect("simulator log");
     let mut tool = sc.tool.clone();
     tool.wear = sc.wear;
     let mut truth = import::model_from_sim(&sc.machine, &tool, Channel::Force);
@@ -257,13 +257,16 @@ fn simulated_feed_path_effects_are_named() {
             m.measurement.force_window_s = 0.05;
             m
         };
+        // This test isolates the feed path: the production policy's overload protection
+        // (feed hold at 2 Fr) would end the run when the slower path lets the force overshoot.
+        sc.policy.overload_force_n = 1e5;
         if kind == "feed_drive_lag" {
             sc.machine.feed_drive.tau_s += extra;
         } else {
             sc.machine.override_path.delay_s += extra;
         }
         let (res, _) = sc.run_law(LawKind::Ours).expect("simulates");
-        let log = import::from_sim_rows(&res.rows);
+        let log = import::from_sim_rows(&res.rows).expect("simulator log");
         let a =
             workflow::analyse(&nominal_model, &log, &workflow::Options::default()).expect("runs");
         assert!(

@@ -65,7 +65,12 @@ fn check_regulated(name: &str) -> Summary {
             s.label
         );
     }
-    assert!(run.rows.iter().all(|r| r.mode == "adaptive_pi"));
+    // The production loop arms ACC in its first period (bumpless, at the override in force)
+    // and steps the law in every period after it; no fault policy release in between.
+    assert_eq!(run.rows[0].state, "active");
+    assert!(run.rows[1..]
+        .iter()
+        .all(|r| r.mode == "adaptive_pi" && r.state == "active"));
     sum
 }
 
@@ -130,7 +135,7 @@ fn case_1_kc_hat_tracks_each_depth() {
             .rows
             .iter()
             .filter(|r| r.t_s > s.t_enter_s + 2.0 && r.t_s <= s.t_leave_s - 0.5)
-            .map(|r| r.kc_hat)
+            .filter_map(|r| r.kc_hat)
             .collect();
         let mean = settled.iter().sum::<f64>() / settled.len() as f64;
         assert!(

@@ -19,7 +19,12 @@ fn fixed_gain_on_steps_1_2_3() {
         Scenario::load(configs_dir().join("scenarios/paper_fixed_gain.toml")).expect("scenario");
     let (run, sum) = sc.run_law(LawKind::Ours).expect("run");
     assert!(run.finished, "the tool must reach the end of the path");
-    assert!(run.rows.iter().all(|r| r.mode == "fixed_pi"));
+    // The production loop arms ACC in its first period (bumpless, at the override in force)
+    // and steps the law in every period after it; no fault policy release in between.
+    assert_eq!(run.rows[0].state, "active");
+    assert!(run.rows[1..]
+        .iter()
+        .all(|r| r.mode == "fixed_pi" && r.state == "active"));
     let segs = &sum.segments;
 
     // 1 mm: Kc = 2, so even 150 % (300 mm/min) gives 600 N < 800 N: the override sits at
@@ -42,7 +47,7 @@ fn fixed_gain_on_steps_1_2_3() {
         .rows
         .iter()
         .filter(|r| r.t_s > s1.t_enter_s && r.t_s <= s1.t_leave_s)
-        .map(|r| r.force_n)
+        .filter_map(|r| r.force_n)
         .fold(f64::MIN, f64::max);
     assert!(max_1mm < 800.0, "1 mm: force reached {max_1mm:.0} N");
 
@@ -78,7 +83,7 @@ fn fixed_gain_on_steps_1_2_3() {
         .filter(|r| {
             r.t_s > s3.t_leave_s - 0.25 * (s3.t_leave_s - s3.t_enter_s) && r.t_s <= s3.t_leave_s
         })
-        .map(|r| r.force_n)
+        .filter_map(|r| r.force_n)
         .collect();
     let (lo, hi) = last
         .iter()

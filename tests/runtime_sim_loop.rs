@@ -7,7 +7,7 @@ use acc_core::Controller;
 use acc_runtime::config::RunConfig;
 use acc_runtime::policy::{AccState, FaultPolicy};
 use acc_runtime::ControlLoop;
-use acc_sim::runlog::RunLogRow;
+use acc_runtime::RunRecord;
 use acc_sim::{summarize, RunResult, Scenario};
 
 fn root() -> std::path::PathBuf {
@@ -22,7 +22,7 @@ type PeriodTrace = (Option<u16>, bool, AccState);
 /// machine-side rows and, per period, (override written, force sample valid, state).
 fn closed_loop(
     mut fault: impl FnMut(f64, &mut acc_sim::SimBoard),
-) -> (Vec<RunLogRow>, Vec<PeriodTrace>, Scenario) {
+) -> (Vec<RunRecord>, Vec<PeriodTrace>, Scenario) {
     let sc = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
     let cfg = RunConfig::load(root().join("configs/runtime/board_sim_fast.toml"), None)
         .expect("run config");
@@ -34,28 +34,20 @@ fn closed_loop(
     let (mut rows, mut trace) = (Vec::new(), Vec::new());
     let max = (sc.max_time_s / period_s) as usize;
     for _ in 0..max {
-        let row = {
+        let (t_s, truth) = {
             let rec = board.advance_period(period_s);
-            RunLogRow {
-                t_s: rec.t_end_s,
-                x_mm: Some(rec.x_mm),
-                radial_depth_mm: Some(rec.radial_depth_mm),
-                axial_depth_mm: Some(rec.axial_depth_mm),
-                force_n: rec.force_mean_n,
-                force_true_n: Some(rec.force_mean_n),
-                force_ref_n: sc.controller.force_ref_n,
-                feed_mm_min: rec.feed_mean_mm_min,
-                ..RunLogRow::default()
-            }
+            let mut truth = RunRecord::default();
+            acc_sim::board::add_truth(&mut truth, &rec, rec.force_mean_n);
+            (rec.t_end_s, truth)
         };
-        fault(row.t_s, &mut board);
-        let c = lp.cycle(&mut board, row.t_s);
-        let applied = c.link.map(|s| s.override_applied_pct).unwrap_or(0);
-        rows.push(RunLogRow {
-            override_cmd_pct: c.out.write_override.map_or(applied, |o| o.0),
-            override_applied_pct: applied,
-            ..row
-        });
+        fault(t_s, &mut board);
+        let c = lp.cycle(&mut board, t_s);
+        let mut row = c
+            .record(Some(sc.controller.force_ref_n))
+            .with_truth_of(&truth);
+        // The machine-side summary judges the true force.
+        row.force_n = truth.force_true_n;
+        rows.push(row);
         trace.push((
             c.out.write_override.map(|o| o.0),
             c.out.force_valid,
@@ -80,6 +72,7 @@ fn runtime_cycle_on_the_sim_board_meets_the_settled_force_criterion() {
         rows: rows.clone(),
         finished: true,
         volume_mm3: 0.0,
+        ended_in_feed_hold: false,
     };
     let summary = summarize(&result, &sc);
     let fr = sc.controller.force_ref_n;

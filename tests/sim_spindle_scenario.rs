@@ -29,7 +29,8 @@ fn spindle_power_scenario_regulates_case_3() {
         .filter_map(|r| {
             r.force_true_n
                 .filter(|t| *t > 300.0)
-                .map(|t| (r.force_n, t))
+                .zip(r.force_n)
+                .map(|(t, f)| (f, t))
         })
         .collect();
     assert!(cut.len() > 400);

@@ -2,11 +2,11 @@
 //! 1.5 %/cm³ over 28.8 cm³, i.e. ×1.43): Kc_hat rises with the wear while the force stays
 //! regulated at Fr = 800 N.
 
+use acc_runtime::record::RunRecord;
 use acc_sim::run::configs_dir;
-use acc_sim::runlog::RunLogRow;
 use acc_sim::{LawKind, Scenario};
 
-fn window(rows: &[RunLogRow], t0: f64, t1: f64) -> Vec<&RunLogRow> {
+fn window(rows: &[RunRecord], t0: f64, t1: f64) -> Vec<&RunRecord> {
     rows.iter().filter(|r| r.t_s >= t0 && r.t_s < t1).collect()
 }
 
@@ -26,13 +26,13 @@ fn kc_hat_rises_with_wear_while_force_stays_regulated() {
     let late = window(&run.rows, cut.t_leave_s - 0.15 * span, cut.t_leave_s - 1.0);
 
     // True process gain in each window: F_true / feed (β = 1, so Kc = F/f exactly).
-    let kc_true = |w: &[&RunLogRow]| {
+    let kc_true = |w: &[&RunRecord]| {
         mean(
             w.iter()
-                .map(|r| r.force_true_n.unwrap_or(0.0) / r.feed_mm_min),
+                .filter_map(|r| Some(r.force_true_n? / r.feed_true_mm_min?)),
         )
     };
-    let kc_hat = |w: &[&RunLogRow]| mean(w.iter().map(|r| r.kc_hat));
+    let kc_hat = |w: &[&RunRecord]| mean(w.iter().filter_map(|r| r.kc_hat));
     let (t0, t1) = (kc_true(&early), kc_true(&late));
     let (h0, h1) = (kc_hat(&early), kc_hat(&late));
     // Wear grew Kc by about 30 % between the windows (0.15 → 0.85 of 28.8 cm³ at 1.5 %/cm³
@@ -50,10 +50,10 @@ fn kc_hat_rises_with_wear_while_force_stays_regulated() {
 
     // The force stays at Fr: the mean of each window within ±5 %.
     for w in [&early, &late] {
-        let f = mean(w.iter().map(|r| r.force_n));
+        let f = mean(w.iter().filter_map(|r| r.force_n));
         assert!((f - 800.0).abs() < 40.0, "mean force {f:.1}");
     }
     // ... and the feed had to come down to hold it.
-    let feed = |w: &[&RunLogRow]| mean(w.iter().map(|r| r.feed_mm_min));
+    let feed = |w: &[&RunRecord]| mean(w.iter().filter_map(|r| r.feed_true_mm_min));
     assert!(feed(&late) < 0.85 * feed(&early));
 }

@@ -30,7 +30,7 @@ fn run_power_with(
     assert!(run.finished, "{name}: did not finish");
     let mut truth = run.clone();
     for row in &mut truth.rows {
-        row.force_n = row.force_true_n.unwrap();
+        row.force_n = row.force_true_n;
     }
     let true_sum = summarize(&truth, &sc);
     (run, measured, true_sum)
@@ -47,7 +47,7 @@ fn settled_cuts(s: &Summary) -> Vec<&SegmentStats> {
 fn cases_1_3_4_regulate_to_800_n_on_spindle_power() {
     for name in ["paper_case1", "paper_case3", "paper_case4"] {
         let (run, m, t) = run_power(name);
-        let invalid = run.rows.iter().filter(|r| !r.valid).count();
+        let invalid = run.rows.iter().filter(|r| !r.force_valid).count();
         assert!(invalid <= 2, "{name}: {invalid} invalid periods");
         for (gm, gt) in settled_cuts(&m).into_iter().zip(settled_cuts(&t)) {
             println!(
@@ -153,7 +153,7 @@ fn case_3_regulates_on_the_board_power_value() {
         ..SpindlePowerSpec::default()
     };
     let (run, _, t) = run_power_with("paper_case3", None, spec);
-    assert!(run.rows.iter().filter(|r| !r.valid).count() <= 2);
+    assert!(run.rows.iter().filter(|r| !r.force_valid).count() <= 2);
     for g in settled_cuts(&t) {
         println!("board power {}: true {:.1} N", g.label, g.mean_force_n);
         assert!((g.mean_force_n - 800.0).abs() < 40.0, "{}", g.label);

@@ -5,17 +5,36 @@
 //! side of the board (operator switch, NC state, spindle power, rpm, programmed feed) is
 //! driven by the simulated [`Machine`]. The loop sees only the [`Pmc`] trait.
 
-use acc_pmc::board::{holding, input, BoardLogic, Exception, OverrideResolution, Reply, Request};
+use acc_pmc::board::{
+    holding, input, lock_board, BoardLogic, Exception, OverrideResolution, Reply, Request,
+    SharedBoard,
+};
 use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_runtime::RunRecord;
 
 use crate::machine::{Machine, PeriodRecord};
 
+/// A fault of the board's power transducer input (for fault scenarios and `acc board-sim`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PowerFault {
+    /// The power register follows the machine but `SAMPLE_SEQ` stops (a stale sensor).
+    FrozenSeq,
+    /// The power register reads `0xFFFF_FFFF` (−1 W as a signed value: a broken input).
+    Garbage,
+}
+
 /// The simulated board plus the machine behind it, on a manual clock.
+///
+/// The register logic is shared ([`SharedBoard`]): `acc sim` talks to it in process through
+/// the [`Pmc`] trait, `acc board-sim` serves the same logic over Modbus RTU to `acc run`;
+/// both step the machine with [`SimBoard::advance_period`].
 #[derive(Debug)]
 pub struct SimBoard {
-    logic: BoardLogic,
+    logic: SharedBoard,
     machine: Machine,
     now_ms: u64,
+    power_fault: Option<PowerFault>,
+    external_clock: bool,
 }
 
 impl SimBoard {
@@ -28,9 +47,11 @@ impl SimBoard {
         logic.set_operator_override_pct(100);
         logic.set_cycle_active(true);
         let mut board = SimBoard {
-            logic,
+            logic: logic.shared(),
             machine,
             now_ms: 0,
+            power_fault: None,
+            external_clock: false,
         };
         board.publish_machine_inputs();
         board
@@ -46,37 +67,76 @@ impl SimBoard {
         &mut self.machine
     }
 
-    /// The board logic (machine-side switches for fault scenarios).
-    pub fn logic_mut(&mut self) -> &mut BoardLogic {
-        &mut self.logic
+    /// The board logic (machine-side switches for fault scenarios), locked.
+    pub fn logic_mut(&mut self) -> std::sync::MutexGuard<'_, BoardLogic> {
+        lock_board(&self.logic)
+    }
+
+    /// The shared register logic, to serve it over a link (an RTU server on a pty). The
+    /// server then runs the logic's clock (its watchdog on the server's time): this board
+    /// stops ticking it with the simulator's stepped time.
+    pub fn serve(&mut self) -> SharedBoard {
+        self.external_clock = true;
+        self.logic.clone()
+    }
+
+    /// Set or clear a fault of the power input (applies from the next period).
+    pub fn set_power_fault(&mut self, fault: Option<PowerFault>) {
+        self.power_fault = fault;
     }
 
     /// Advance the manual clock and the machine by one control period: the machine runs
     /// with the override now on the PMC inputs (`OVERRIDE_APPLIED`) and the feed hold, then
     /// the board publishes the new spindle power sample, speed and programmed feed.
     pub fn advance_period(&mut self, period_s: f64) -> PeriodRecord<'_> {
-        self.logic.tick(self.now_ms);
-        self.machine
-            .set_override_input_pct(self.logic.override_applied_pct());
-        self.machine.set_feed_hold(self.logic.feed_hold_active());
+        let (applied, hold) = {
+            let mut b = lock_board(&self.logic);
+            if !self.external_clock {
+                b.tick(self.now_ms);
+            }
+            (b.override_applied_pct(), b.feed_hold_active())
+        };
+        self.machine.set_override_input_pct(applied);
+        self.machine.set_feed_hold(hold);
         self.now_ms += (period_s * 1000.0).round() as u64;
-        // Disjoint borrows: the record borrows the machine, the board is updated alongside.
         let path_mm = self.machine.workpiece().length_mm();
         let rec = self.machine.advance(period_s);
-        self.logic
-            .push_power_sample(rec.power_mean_w.clamp(0.0, f64::from(u32::MAX)).round() as u32);
-        self.logic
-            .set_spindle_rpm(rec.spindle_rpm.clamp(0.0, f64::from(u16::MAX)).round() as u16);
-        self.logic.set_cycle_active(rec.x_mm < path_mm);
+        {
+            let mut b = lock_board(&self.logic);
+            let power = rec.power_mean_w.clamp(0.0, f64::from(u32::MAX)).round() as u32;
+            match self.power_fault {
+                None => b.push_power_sample(power),
+                Some(PowerFault::FrozenSeq) => b.set_spindle_power_w(power),
+                Some(PowerFault::Garbage) => b.push_power_sample(u32::MAX),
+            }
+            b.set_spindle_rpm(rec.spindle_rpm.clamp(0.0, f64::from(u16::MAX)).round() as u16);
+            b.set_cycle_active(rec.x_mm < path_mm);
+        }
         rec
     }
 
     fn publish_machine_inputs(&mut self) {
         let fp = self.machine.programmed_feed_mm_min();
-        self.logic
-            .set_programmed_feed_mm_min(fp.clamp(0.0, f64::from(u16::MAX)).round() as u16);
-        self.logic.set_cycle_active(!self.machine.finished());
+        let rpm = self.machine.spindle_rpm();
+        let power = self.machine.spindle_power_w();
+        let finished = self.machine.finished();
+        let mut b = lock_board(&self.logic);
+        b.set_programmed_feed_mm_min(fp.clamp(0.0, f64::from(u16::MAX)).round() as u16);
+        b.set_spindle_rpm(rpm.clamp(0.0, f64::from(u16::MAX)).round() as u16);
+        b.push_power_sample(power.clamp(0.0, f64::from(u32::MAX)).round() as u32);
+        b.set_cycle_active(!finished);
     }
+}
+
+/// Fill the simulator-only columns of a run-log record with the plant's truth for the period
+/// `rec` (true position, depths, true mean force over `true_force_n`'s window, the drive's
+/// actual feed).
+pub fn add_truth(row: &mut RunRecord, rec: &PeriodRecord<'_>, true_force_n: f64) {
+    row.x_true_mm = Some(rec.x_mm);
+    row.radial_depth_mm = Some(rec.radial_depth_mm);
+    row.axial_depth_mm = Some(rec.axial_depth_mm);
+    row.force_true_n = Some(true_force_n);
+    row.feed_true_mm_min = Some(rec.feed_mean_mm_min);
 }
 
 impl Pmc for SimBoard {
@@ -87,7 +147,7 @@ impl Pmc for SimBoard {
     }
 
     fn read_status(&mut self) -> Result<BoardStatus, Exception> {
-        let reply = self.logic.handle(
+        let reply = lock_board(&self.logic).handle(
             Request::ReadInput {
                 addr: 0,
                 count: input::COUNT,
@@ -109,7 +169,7 @@ impl Pmc for SimBoard {
     }
 
     fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Exception> {
-        self.logic.handle(
+        lock_board(&self.logic).handle(
             Request::WriteMultiple {
                 addr: holding::OVERRIDE_CMD,
                 values: vec![override_pct, heartbeat],
@@ -120,7 +180,7 @@ impl Pmc for SimBoard {
     }
 
     fn write_control(&mut self, control: ControlBits) -> Result<(), Exception> {
-        self.logic.handle(
+        lock_board(&self.logic).handle(
             Request::WriteSingle {
                 addr: holding::CONTROL,
                 value: control.to_register(),
@@ -172,7 +232,9 @@ mod tests {
         assert_eq!(s.spindle_rpm, 600);
         // Air cut: the spindle draws its no-load power, 700 W.
         assert_eq!(s.spindle_power_w, 700);
-        assert_eq!(s.sample_seq, 1);
+        // One sample at power-up (the board has a reading before the first period), one per
+        // period since.
+        assert_eq!(s.sample_seq, 2);
     }
 
     #[test]

@@ -5,8 +5,8 @@
 //! ([`process`]), the feed drive and override path ([`machine`]), the PMC interface board
 //! ([`board`], the PMC crate's `BoardLogic` behind the `Pmc` trait), measurement channels
 //! ([`channel`], `ForceSource`s), comparison baselines ([`baselines`]), scenario files
-//! ([`scenario`]), the closed loop ([`mod@run`]), the run log ([`runlog`], shared with the real
-//! runtime) and summaries ([`summary`]).
+//! ([`scenario`]), the closed loop ([`mod@run`]: the production `ControlLoop` on a stepped clock, logging acc-runtime's
+//! `RunRecord`) and summaries ([`summary`]).
 //!
 //! Everything runs on the machine's own manual clock and a seeded RNG: the same scenario
 //! and seed give a byte-identical run log, many times faster than real time.
@@ -36,7 +36,6 @@ pub mod machine;
 pub mod motor;
 pub mod process;
 pub mod run;
-pub mod runlog;
 pub mod scenario;
 pub mod summary;
 pub mod workpiece;
@@ -65,7 +64,7 @@ pub enum SimError {
     Channel(String),
     /// Writing the run log failed.
     #[error(transparent)]
-    Log(#[from] runlog::RunLogError),
+    Log(#[from] acc_runtime::record::RunLogError),
 }
 
 impl From<acc_core::CoreError> for SimError {

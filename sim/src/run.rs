@@ -1,24 +1,33 @@
-//! The closed loop on the simulated machine.
+//! The closed loop on the simulated machine: the production loop on a stepped clock.
 //!
-//! Per control period `T` (manual clock, no sleeping):
-//! 1. the machine runs `T` with the override now applied by the board;
-//! 2. the measurement channel turns the period into a force sample (`ForceSource`);
-//! 3. the loop reads the board status through the [`Pmc`] trait (applied override,
-//!    programmed feed, spindle speed and power) — the feed that produced the force is
-//!    `programmed × applied`, as on a real machine;
-//! 4. the law steps and its command is written with a new heartbeat through [`Pmc`];
-//! 5. one run-log row is written (and flushed).
+//! There is one control loop in `acc`: [`acc_runtime::ControlLoop`] with its
+//! [`FaultPolicy`], the loop `acc run` drives on a wall clock against a serial or CAN board.
+//! Here it runs against the simulated board ([`crate::SimBoard`], the emulator's
+//! register logic behind the `Pmc` trait) on a clock the simulator steps. Per control period
+//! `T`:
+//! 1. the plant runs `T` with the override the board now applies (feed drive, process, wear,
+//!    spindle); the board publishes the period's power sample, speed and cycle state;
+//! 2. the scenario's measurement channel (dynamometer or induction-motor spindle power)
+//!    measures the period; the loop's force source ([`PlantSensor`]) hands that sample on;
+//! 3. [`ControlLoop::cycle`] reads the status through the `Pmc` trait, computes the actual
+//!    feed (programmed × applied), lets the fault policy step the law, and writes the
+//!    override with a new heartbeat and the `CONTROL` bits — exactly as under `acc run`;
+//! 4. the period's [`RunRecord`] (the production record plus the plant's truth: position,
+//!    depths, true force and feed) is written and flushed.
 //!
-//! The run ends when the tool centre has passed the end of the workpiece or at
-//! `max_time_s`.
+//! The baselines of `acc compare` are other [`OverrideLaw`]s inside the same loop. The run
+//! ends when the tool centre has passed the end of the workpiece or at `max_time_s`.
 
+use std::cell::Cell;
 use std::io::Write;
+use std::rc::Rc;
 
-use acc_core::{FeedOverride, Measurement, Mode, OverrideLaw, Saturation};
-use acc_pmc::{ControlBits, Pmc};
+use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
+use acc_runtime::record::{RunLogWriter, RunRecord};
+use acc_runtime::{ControlLoop, FaultPolicy};
 
-use crate::channel::MeasurementChannel;
-use crate::runlog::{RunLogRow, RunLogWriter};
+use crate::board::add_truth;
+use crate::channel::{MeasurementChannel, Reading};
 use crate::scenario::{LawKind, Scenario};
 use crate::summary::{summarize, Summary};
 use crate::SimError;
@@ -28,34 +37,47 @@ use crate::SimError;
 pub struct RunResult {
     /// Law name.
     pub law: String,
-    /// One row per period (the run log).
-    pub rows: Vec<RunLogRow>,
+    /// One record per period (the run log).
+    pub rows: Vec<RunRecord>,
     /// Whether the tool reached the end of the path before the time limit.
     pub finished: bool,
     /// Metal removed, mm³.
     pub volume_mm3: f64,
+    /// The fault policy released ACC with a feed hold (overload: tool-breakage protection)
+    /// and the machine stood still for [`FEED_HOLD_END_S`]: the run ended there, as the
+    /// operator would have to intervene on a real machine.
+    pub ended_in_feed_hold: bool,
 }
 
-/// Run-log name of a mode.
-pub fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::AdaptivePi => "adaptive_pi",
-        Mode::FixedPi => "fixed_pi",
-        Mode::AdaptiveIntegral => "adaptive_integral",
-        Mode::Baseline => "baseline",
+/// A run ends after this long in a feed hold requested by a fault release, s.
+pub const FEED_HOLD_END_S: f64 = 2.0;
+
+/// The simulated machine's force sensor as the production loop's [`ForceSource`]: the
+/// simulator puts each period's reading of the measurement channel here before the loop's
+/// cycle, and the loop's `estimate` hands it on (a real installation with a dynamometer
+/// amplifier or a current-signal estimator wires its sensor the same way).
+#[derive(Debug, Clone, Default)]
+pub struct PlantSensor(Rc<Cell<Option<Reading>>>);
+
+impl PlantSensor {
+    /// Set the reading of the period that just ended.
+    pub fn set(&self, reading: Reading) {
+        self.0.set(Some(reading));
     }
 }
 
-fn saturation_name(s: Saturation) -> &'static str {
-    match s {
-        Saturation::None => "none",
-        Saturation::Low => "low",
-        Saturation::High => "high",
+impl ForceSource for PlantSensor {
+    fn name(&self) -> &str {
+        "plant-sensor"
+    }
+
+    fn estimate(&mut self, _input: &PeriodInput<'_>) -> ForceSample {
+        self.0.get().map_or(ForceSample::INVALID, |r| r.sample)
     }
 }
 
 /// Run `law` on a fresh machine built from `scenario`, measuring with the scenario's
-/// channel; write every row to `log` if given.
+/// channel; write every record to `log` if given.
 pub fn run<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
@@ -73,84 +95,59 @@ pub fn run_with_channel<W: Write>(
     mut log: Option<&mut RunLogWriter<W>>,
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
+    let name = law.name().to_string();
+    let sensor = PlantSensor::default();
+    let mut control = ControlLoop::new(
+        FaultPolicy::new(scenario.policy),
+        law,
+        sensor.clone(),
+        period_s,
+    );
     let mut board = scenario.build_board();
-    board.write_control(ControlBits {
-        acc_request: true,
-        ..ControlBits::default()
-    })?;
-    let status = board.read_status()?;
-    law.engage(FeedOverride(status.override_applied_pct));
-    let mut heartbeat: u16 = 0;
     let max_periods = (scenario.max_time_s / period_s).ceil() as usize;
     let mut rows = Vec::with_capacity(max_periods.min(1 << 20));
     let mut finished = false;
+    let mut held_s = 0.0;
+    let mut ended_in_feed_hold = false;
     for _ in 0..max_periods {
-        let (rec_fields, reading) = {
+        let (t_s, truth, sensor_power) = {
             let rec = board.advance_period(period_s);
             let reading = channel.measure(&rec);
-            (
-                (
-                    rec.t_end_s,
-                    rec.x_mm,
-                    rec.radial_depth_mm,
-                    rec.axial_depth_mm,
-                    rec.feed_mean_mm_min,
-                ),
-                reading,
-            )
+            sensor.set(reading);
+            let mut truth = RunRecord::default();
+            add_truth(&mut truth, &rec, reading.true_force_n);
+            (rec.t_end_s, truth, reading.sample.power_w)
         };
-        let (t_s, x_mm, depth, axial, feed_mean) = rec_fields;
-        let status = board.read_status()?;
-        law.set_frozen(status.override_locked);
-        let programmed = f64::from(status.programmed_feed_mm_min);
-        let m = Measurement {
-            force_n: reading.sample.force_n,
-            feed_mm_min: programmed * f64::from(status.override_applied_pct) / 100.0,
-            programmed_feed_mm_min: programmed,
-            valid: reading.sample.valid,
-        };
-        let out = law.step(&m);
-        heartbeat = heartbeat.wrapping_add(1);
-        board.write_override(out.command.pct(), heartbeat)?;
-        let row = RunLogRow {
-            t_s,
-            x_mm: Some(x_mm),
-            radial_depth_mm: Some(depth),
-            axial_depth_mm: Some(axial),
-            spindle_rpm: f64::from(status.spindle_rpm),
-            programmed_feed_mm_min: programmed,
-            override_cmd_pct: out.command.pct(),
-            override_applied_pct: status.override_applied_pct,
-            feed_mm_min: feed_mean,
-            force_n: reading.sample.force_n,
-            force_true_n: Some(reading.true_force_n),
-            force_ref_n: out.trace.force_ref_n,
-            power_w: reading
-                .sample
-                .power_w
-                .or(Some(f64::from(status.spindle_power_w))),
-            kc_hat: out.trace.kc_hat,
-            kp: out.trace.kp,
-            ki: out.trace.ki,
-            mode: mode_name(out.trace.mode).to_string(),
-            error_n: out.trace.error_n,
-            valid: reading.sample.valid,
-            saturation: saturation_name(out.trace.saturation).to_string(),
-        };
+        let cycle = control.cycle(&mut board, t_s);
+        let mut row = cycle
+            .record(Some(scenario.controller.force_ref_n))
+            .with_truth_of(&truth);
+        // A channel that measures power itself (the induction-motor channel's
+        // two-wattmeter reading) logs what it measured; otherwise the board's register.
+        if sensor_power.is_some() {
+            row.power_w = sensor_power;
+        }
         if let Some(w) = log.as_deref_mut() {
             w.write(&row)?;
         }
+        let held = row.feed_hold && row.state != "active";
         rows.push(row);
         if board.machine().finished() {
             finished = true;
             break;
         }
+        held_s = if held { held_s + period_s } else { 0.0 };
+        if held_s >= FEED_HOLD_END_S - 1e-9 {
+            ended_in_feed_hold = true;
+            break;
+        }
     }
     Ok(RunResult {
-        law: law.name().to_string(),
+        law: name,
         rows,
         finished,
         volume_mm3: board.machine().volume_mm3(),
+        ended_in_feed_hold,
     })
 }
 

@@ -174,6 +174,10 @@ pub struct ScenarioFile {
     /// Summary settings.
     #[serde(default)]
     pub summary: SummarySpec,
+    /// Fault policy of the production loop (`acc run`'s `[policy]` keys, all optional; the
+    /// overload limit defaults to 2 × Fr, the override range to the preset's).
+    #[serde(default)]
+    pub policy: acc_runtime::config::PolicySection,
 }
 
 fn default_max_time() -> f64 {
@@ -309,6 +313,8 @@ pub struct Scenario {
     pub measurement: MeasurementSpec,
     /// Settling time for the summary, s.
     pub settle_s: f64,
+    /// Fault policy the production loop runs with (validated).
+    pub policy: acc_runtime::PolicyConfig,
 }
 
 /// The laws `acc compare` runs.
@@ -403,6 +409,7 @@ impl Scenario {
             .map_err(|e| named(path, "controller", e))?;
         check_board_step(path, "controller", &controller, &machine)?;
         file.measurement.check_period(path, controller.period_s)?;
+        let policy = file.policy.resolve_in(path, &controller)?;
         Ok(Scenario {
             path: path.to_path_buf(),
             name: file.name,
@@ -420,6 +427,7 @@ impl Scenario {
             max_time_s: file.max_time_s,
             measurement: file.measurement,
             settle_s: file.summary.settle_s,
+            policy,
         })
     }
 

@@ -3,9 +3,9 @@
 use std::fmt;
 
 use crate::run::RunResult;
-use crate::runlog::RunLogRow;
 use crate::scenario::Scenario;
 use crate::workpiece::Workpiece;
+use acc_runtime::record::RunRecord;
 
 /// Statistics of one workpiece segment.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,10 +96,24 @@ fn rms(xs: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
+/// The force of a record, N: the one the controller saw, else (a machine-side log of
+/// `acc board-sim`) the true force, else 0.
+fn force(r: &RunRecord) -> f64 {
+    r.force_n.or(r.force_true_n).unwrap_or(0.0)
+}
+
+/// The override commanded in a record's period, percent: the one written, else the one in
+/// force (a period without a write holds the previous command).
+fn cmd(r: &RunRecord) -> u16 {
+    r.override_cmd_pct
+        .or(r.override_applied_pct)
+        .unwrap_or_default()
+}
+
 /// Attribute each row to a segment: a segment begins when the front of the cutter's contact
 /// arc reaches it (centre + `√(d·(D − d))` with `d` the larger of the two depths at the
 /// boundary, capped at the radius), because that is where the force starts to change.
-pub fn attribute_rows(rows: &[RunLogRow], workpiece: &Workpiece, diameter_mm: f64) -> Vec<usize> {
+pub fn attribute_rows(rows: &[RunRecord], workpiece: &Workpiece, diameter_mm: f64) -> Vec<usize> {
     let r = 0.5 * diameter_mm;
     let reach: Vec<f64> = workpiece
         .segments
@@ -117,7 +131,7 @@ pub fn attribute_rows(rows: &[RunLogRow], workpiece: &Workpiece, diameter_mm: f6
         .collect();
     rows.iter()
         .map(|row| {
-            let x = row.x_mm.unwrap_or(0.0);
+            let x = row.x_true_mm.or(row.x_mm).unwrap_or(0.0);
             workpiece
                 .segments
                 .iter()
@@ -138,11 +152,14 @@ pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
     let max_pct = scenario.controller.override_spec.max_pct;
     let programmed_feed_mm_min = scenario.programmed_feed_mm_min;
     let diameter_mm = scenario.tool.diameter_mm;
-    let fr = rows.first().map_or(0.0, |r| r.force_ref_n);
+    let fr = rows
+        .iter()
+        .find_map(|r| r.force_ref_n)
+        .unwrap_or(scenario.controller.force_ref_n);
     let seg_of = attribute_rows(rows, workpiece, diameter_mm);
     let mut segments = Vec::new();
     for (index, seg) in workpiece.segments.iter().enumerate() {
-        let mine: Vec<&RunLogRow> = rows
+        let mine: Vec<&RunRecord> = rows
             .iter()
             .zip(&seg_of)
             .filter(|(_, s)| **s == index)
@@ -152,17 +169,13 @@ pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
             continue;
         };
         let t0 = first.t_s - period_s;
-        let (transient, settled): (Vec<&RunLogRow>, Vec<&RunLogRow>) =
+        let (transient, settled): (Vec<&RunRecord>, Vec<&RunRecord>) =
             mine.iter().partition(|r| r.t_s - t0 <= settle_s + 1e-9);
         let n = settled.len().max(1) as f64;
-        let mean_force = settled.iter().map(|r| r.force_n).sum::<f64>() / n;
-        let mut forces: Vec<f64> = settled.iter().map(|r| r.force_n).collect();
+        let mean_force = settled.iter().map(|r| force(r)).sum::<f64>() / n;
+        let mut forces: Vec<f64> = settled.iter().map(|r| force(r)).collect();
         forces.sort_by(f64::total_cmp);
-        let at_max = settled
-            .iter()
-            .filter(|r| r.override_cmd_pct >= max_pct)
-            .count() as f64
-            / n;
+        let at_max = settled.iter().filter(|r| cmd(r) >= max_pct).count() as f64 / n;
         segments.push(SegmentStats {
             index,
             label: seg.label(),
@@ -173,15 +186,15 @@ pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
             settled_periods: settled.len(),
             mean_force_n: mean_force,
             mean_error_n: mean_force - fr,
-            rms_error_n: rms(settled.iter().map(|r| r.force_n - fr)),
-            std_force_n: rms(settled.iter().map(|r| r.force_n - mean_force)),
+            rms_error_n: rms(settled.iter().map(|r| force(r) - fr)),
+            std_force_n: rms(settled.iter().map(|r| force(r) - mean_force)),
             osc_amplitude_n: 0.5 * (percentile(&forces, 0.95) - percentile(&forces, 0.05)),
-            transient_rms_n: rms(transient.iter().map(|r| r.force_n - fr)),
-            peak_entry_n: transient.iter().map(|r| r.force_n).fold(0.0, f64::max),
-            time_above_s: mine.iter().filter(|r| r.force_n > 1.1 * fr).count() as f64 * period_s,
+            transient_rms_n: rms(transient.iter().map(|r| force(r) - fr)),
+            peak_entry_n: transient.iter().map(|r| force(r)).fold(0.0, f64::max),
+            time_above_s: mine.iter().filter(|r| force(r) > 1.1 * fr).count() as f64 * period_s,
             mean_override_pct: settled
                 .iter()
-                .map(|r| f64::from(r.override_applied_pct))
+                .map(|r| f64::from(r.override_applied_pct.unwrap_or(0)))
                 .sum::<f64>()
                 / n,
             frac_at_max: at_max,
@@ -201,13 +214,10 @@ pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
         cycle_time_s: result.finished.then(|| rows.last().map_or(0.0, |r| r.t_s)),
         programmed_cycle_time_s: workpiece.length_mm() / programmed_feed_mm_min * 60.0,
         volume_cm3: result.volume_mm3 * 1e-3,
-        rms_error_cut_n: rms(cut_rows.map(|r| r.force_n - fr)),
-        peak_force_n: rows.iter().map(|r| r.force_n).fold(0.0, f64::max),
-        time_above_s: rows.iter().filter(|r| r.force_n > 1.1 * fr).count() as f64 * period_s,
-        override_switches: rows
-            .windows(2)
-            .filter(|w| w[0].override_cmd_pct != w[1].override_cmd_pct)
-            .count(),
+        rms_error_cut_n: rms(cut_rows.map(|r| force(r) - fr)),
+        peak_force_n: rows.iter().map(force).fold(0.0, f64::max),
+        time_above_s: rows.iter().filter(|r| force(r) > 1.1 * fr).count() as f64 * period_s,
+        override_switches: rows.windows(2).filter(|w| cmd(&w[0]) != cmd(&w[1])).count(),
     }
 }
 
@@ -334,14 +344,14 @@ mod tests {
             } else {
                 800.0
             };
-            rows.push(RunLogRow {
+            rows.push(RunRecord {
                 t_s: t,
                 x_mm: Some(x),
-                force_n: force,
-                force_ref_n: 800.0,
-                override_cmd_pct: if in_cut { 100 } else { 150 },
-                override_applied_pct: 100,
-                ..RunLogRow::default()
+                force_n: Some(force),
+                force_ref_n: Some(800.0),
+                override_cmd_pct: Some(if in_cut { 100 } else { 150 }),
+                override_applied_pct: Some(100),
+                ..RunRecord::default()
             });
         }
         let result = RunResult {
@@ -349,6 +359,7 @@ mod tests {
             rows,
             finished: true,
             volume_mm3: 5760.0,
+            ended_in_feed_hold: false,
         };
         let s = summarize(&result, &sc);
         let three = s

@@ -8,7 +8,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use acc_sim::runlog::{read_run_log, RunLogRow};
+use acc_runtime::record::{read_run_log, RunRecord};
 
 /// The repository root.
 pub fn root() -> PathBuf {
@@ -188,7 +188,7 @@ impl Drop for Proc {
 }
 
 /// Read a run log.
-pub fn read_log(path: &Path) -> Vec<RunLogRow> {
+pub fn read_log(path: &Path) -> Vec<RunRecord> {
     let f = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     read_run_log(f).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
@@ -201,17 +201,21 @@ pub fn field<'a>(text: &'a str, key: &str) -> Option<&'a str> {
 }
 
 /// Rows where the policy drove the override (armed and writing).
-pub fn is_active(r: &RunLogRow) -> bool {
-    matches!(
-        r.mode.as_str(),
-        "active" | "adaptive_pi" | "fixed_pi" | "adaptive_integral" | "baseline"
-    )
+pub fn is_active(r: &RunRecord) -> bool {
+    r.state == "active"
+}
+
+/// The override commanded in a row's period: the one written, else the one in force.
+pub fn cmd(r: &RunRecord) -> u16 {
+    r.override_cmd_pct
+        .or(r.override_applied_pct)
+        .unwrap_or_default()
 }
 
 /// The fault invariant on an `acc run` log: in every row where the force sample was not
-/// usable (`valid = 0`: link error, stale or implausible power) and ACC was driving, the
-/// commanded override is not above the previous commanded one. Returns the rows checked.
-pub fn assert_faults_never_raise(rows: &[RunLogRow]) -> usize {
+/// usable (link error, stale or implausible power) and ACC was driving, the override written
+/// (if any) is not above the last one written. Returns the rows checked.
+pub fn assert_faults_never_raise(rows: &[RunRecord]) -> usize {
     let mut prev: Option<u16> = None;
     let mut checked = 0;
     for (i, r) in rows.iter().enumerate() {
@@ -219,19 +223,21 @@ pub fn assert_faults_never_raise(rows: &[RunLogRow]) -> usize {
             prev = None;
             continue;
         }
-        if !r.valid {
+        let Some(c) = r.override_cmd_pct else {
+            continue;
+        };
+        if !r.force_valid {
             if let Some(p) = prev {
                 assert!(
-                    r.override_cmd_pct <= p,
-                    "row {i} (t = {:.2} s, mode {}): fault period raised the command {p} -> {}",
+                    c <= p,
+                    "row {i} (t = {:.2} s, flags {}): fault period raised the command {p} -> {c}",
                     r.t_s,
-                    r.mode,
-                    r.override_cmd_pct
+                    r.flags,
                 );
                 checked += 1;
             }
         }
-        prev = Some(r.override_cmd_pct);
+        prev = Some(c);
     }
     checked
 }

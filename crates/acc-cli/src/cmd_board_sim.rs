@@ -28,13 +28,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use acc_pmc::board::{BoardLogic, OverrideResolution};
 use acc_pmc::loopback::{Paced, PtyBoard};
 use acc_pmc::rtu::server::{lock_board, spawn_server, SharedBoard};
+use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_runtime::shutdown::install_stop_flag;
 use acc_runtime::{SystemClock, Ticker};
-use acc_sim::runlog::{RunLogRow, RunLogWriter};
-use acc_sim::{Machine, Scenario};
+use acc_sim::board::{add_truth, PowerFault};
+use acc_sim::Scenario;
 use anyhow::{bail, Context};
 
 /// Arguments of `acc board-sim`.
@@ -220,14 +220,6 @@ fn wrap<P: Read + Write + Send + 'static>(
 trait ReadWrite: Read + Write + Send {}
 impl<T: Read + Write + Send> ReadWrite for T {}
 
-fn u32_w(x: f64) -> u32 {
-    x.clamp(0.0, f64::from(u32::MAX)).round() as u32
-}
-
-fn u16_of(x: f64) -> u16 {
-    x.clamp(0.0, f64::from(u16::MAX)).round() as u16
-}
-
 /// `acc board-sim`.
 pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     acc_runtime::shutdown::init_tracing(acc_runtime::shutdown::LogFormat::Text, "warn");
@@ -261,24 +253,11 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let mut schedule: VecDeque<_> = schedule.into();
 
     let period_s = sc.controller.period_s;
-    let mut machine = Machine::new(
-        &sc.machine,
-        &sc.tool,
-        sc.wear,
-        sc.workpiece.clone(),
-        sc.force_model,
-        sc.programmed_feed_mm_min,
-    );
-    let res =
-        OverrideResolution::from_step_pct(sc.machine.override_path.step_pct).unwrap_or_default();
-    let mut logic = BoardLogic::new(res);
-    logic.set_acc_switch(true);
-    logic.set_operator_override_pct(args.operator_override);
-    logic.set_cycle_active(true);
-    logic.set_programmed_feed_mm_min(u16_of(machine.programmed_feed_mm_min()));
-    logic.set_spindle_rpm(u16_of(machine.spindle_rpm()));
-    logic.push_power_sample(u32_w(machine.spindle_power_w()));
-    let board: SharedBoard = Arc::new(Mutex::new(logic));
+    // The same simulated board and plant `acc sim` steps in process, served over the link.
+    let mut sim = sc.build_board();
+    sim.logic_mut()
+        .set_operator_override_pct(args.operator_override);
+    let board: SharedBoard = sim.serve();
     let queue: FaultQueue = Arc::default();
     let paced = args.paced.then_some(args.baud);
 
@@ -349,13 +328,12 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         SystemClock::new(),
         Duration::from_secs_f64(period_s / args.time_scale),
     )?;
-    let path_mm = sc.workpiece.length_mm();
     let (mut freeze_until, mut bad_until) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut lock_until: Option<f64> = None;
     let mut done_at: Option<f64> = None;
     while !stop.load(Ordering::SeqCst) {
-        ticker.wait();
-        let t = machine.t_s();
+        let tick = ticker.wait();
+        let t = sim.machine().t_s();
         while schedule.front().is_some_and(|(at, _)| *at <= t) {
             let Some((at, f)) = schedule.pop_front() else {
                 break;
@@ -382,65 +360,65 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             lock_board(&board).set_override_locked(false);
             lock_until = None;
         }
-        let (applied, cmd, hold) = {
+        sim.set_power_fault(if t < bad_until {
+            Some(PowerFault::Garbage)
+        } else if t < freeze_until {
+            Some(PowerFault::FrozenSeq)
+        } else {
+            None
+        });
+        // The board's side of the period: what the PMC inputs carried while the machine
+        // moved (the controller's side is logged by `acc run`).
+        let (status, cmd) = {
             let b = lock_board(&board);
-            (
-                b.override_applied_pct(),
-                b.override_cmd_pct(),
-                b.feed_hold_active(),
-            )
+            (b.status(), b.override_cmd_pct())
         };
-        machine.set_override_input_pct(applied);
-        machine.set_feed_hold(hold);
-        let programmed = machine.programmed_feed_mm_min();
-        let rec = machine.advance(period_s);
-        let row = RunLogRow {
-            t_s: rec.t_end_s,
-            x_mm: Some(rec.x_mm),
-            radial_depth_mm: Some(rec.radial_depth_mm),
-            axial_depth_mm: Some(rec.axial_depth_mm),
-            spindle_rpm: rec.spindle_rpm,
-            programmed_feed_mm_min: programmed,
-            override_cmd_pct: cmd,
-            override_applied_pct: applied,
-            feed_mm_min: rec.feed_mean_mm_min,
-            force_n: rec.force_mean_n,
-            force_true_n: Some(rec.force_mean_n),
-            force_ref_n: sc.controller.force_ref_n,
-            power_w: Some(rec.power_mean_w),
-            kc_hat: f64::NAN,
-            kp: f64::NAN,
-            ki: f64::NAN,
-            mode: "board-sim".into(),
-            error_n: rec.force_mean_n - sc.controller.force_ref_n,
-            valid: true,
-            saturation: "none".into(),
+        let programmed = sim.machine().programmed_feed_mm_min();
+        let mut row = {
+            let rec = sim.advance_period(period_s);
+            let mut row = RunRecord {
+                t_s: rec.t_end_s,
+                period: tick.index,
+                late_ms: tick.lateness.as_secs_f64() * 1e3,
+                spindle_rpm: Some(rec.spindle_rpm),
+                programmed_feed_mm_min: Some(programmed),
+                feed_mm_min: Some(programmed * f64::from(status.override_applied_pct) / 100.0),
+                power_w: Some(rec.power_mean_w),
+                force_ref_n: Some(sc.controller.force_ref_n),
+                override_cmd_pct: Some(cmd),
+                override_applied_pct: Some(status.override_applied_pct),
+                override_operator_pct: Some(status.operator_override_pct),
+                state: if status.acc_active {
+                    "acc_active"
+                } else {
+                    "operator"
+                }
+                .into(),
+                feed_hold: status.feed_hold_active,
+                x_mm: Some(rec.x_mm),
+                ..RunRecord::default()
+            };
+            add_truth(&mut row, &rec, rec.force_mean_n);
+            row
         };
-        let (x, power, rpm) = (rec.x_mm, rec.power_mean_w, rec.spindle_rpm);
-        {
-            let mut b = lock_board(&board);
-            if t < bad_until {
-                b.push_power_sample(u32::MAX);
-            } else if t < freeze_until {
-                b.set_spindle_power_w(u32_w(power));
-            } else {
-                b.push_power_sample(u32_w(power));
-            }
-            b.set_spindle_rpm(u16_of(rpm));
-            b.set_cycle_active(x < path_mm);
+        if tick.overrun {
+            row.flag("late");
+        }
+        if status.watchdog_tripped {
+            row.flag("watchdog");
         }
         if let Some(w) = log.as_mut() {
             w.write(&row)?;
         }
-        if machine.finished() && done_at.is_none() {
-            done_at = Some(machine.t_s());
+        if sim.machine().finished() && done_at.is_none() {
+            done_at = Some(sim.machine().t_s());
             eprintln!(
                 "board-sim: workpiece finished at t = {:.1} s",
-                machine.t_s()
+                sim.machine().t_s()
             );
         }
         if let (true, Some(d)) = (args.exit_when_done, done_at) {
-            if machine.t_s() - d >= args.linger_s * args.time_scale {
+            if sim.machine().t_s() - d >= args.linger_s * args.time_scale {
                 break;
             }
         }

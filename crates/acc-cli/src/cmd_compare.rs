@@ -9,7 +9,7 @@ use acc_sim::summary::comparison_table;
 use acc_sim::{LawKind, RunResult, Scenario, Summary};
 use anyhow::Context as _;
 
-use crate::cmd_sim::{air_shades, default_out, load_scenario};
+use crate::cmd_sim::{air_shades, default_out, load_scenario, pts};
 
 /// Arguments of `acc compare`.
 #[derive(Debug, clap::Args)]
@@ -90,17 +90,16 @@ pub fn plot_overlay(
         .collect();
     let force = results
         .iter()
-        .map(|(r, _)| Series::line(&r.law, r.rows.iter().map(|x| (x.t_s, x.force_n)).collect()))
+        .map(|(r, _)| Series::line(&r.law, pts(&r.rows, |x| x.force_n)))
         .collect();
     let ov = results
         .iter()
         .map(|(r, _)| {
             Series::line(
                 &r.law,
-                r.rows
-                    .iter()
-                    .map(|x| (x.t_s, f64::from(x.override_cmd_pct)))
-                    .collect(),
+                pts(&r.rows, |x| {
+                    x.override_cmd_pct.or(x.override_applied_pct).map(f64::from)
+                }),
             )
         })
         .collect();

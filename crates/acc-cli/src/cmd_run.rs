@@ -11,15 +11,15 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::PathBuf;
 
-use acc_core::{Controller, Mode, OverrideSpec, Saturation};
+use acc_core::{Controller, OverrideSpec};
 use acc_pmc::rtu::RtuBoard;
 use acc_pmc::{BoardStatus, Pmc};
 use acc_runtime::config::{LinkSettings, RunConfig};
 use acc_runtime::link::{CanPmc, RtuPmc};
 use acc_runtime::policy::FaultPolicy;
+use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_flag, LogFormat};
 use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord, SystemClock};
-use acc_sim::runlog::{RunLogError, RunLogRow, RunLogWriter};
 use anyhow::{bail, Context};
 
 /// Arguments of `acc run`.
@@ -67,38 +67,16 @@ pub fn describe_status(s: &BoardStatus) -> String {
     )
 }
 
-fn mode_name(m: Mode) -> &'static str {
-    acc_sim::run::mode_name(m)
-}
-
-fn saturation_name(s: Saturation) -> &'static str {
-    match s {
-        Saturation::None => "none",
-        Saturation::Low => "low",
-        Saturation::High => "high",
-    }
-}
-
-/// Writes [`RunRecord`]s as run-log rows (the simulator's writer and schema). Periods
-/// without a status (link down) repeat the last known machine values with `valid = 0`; the
-/// `mode` column carries the policy state when the controller was not stepped (`idle`,
-/// `link_lost`, `watchdog`, …).
+/// Writes the runtime's [`RunRecord`]s to the run-log CSV (schema v2, the same writer and
+/// columns as `acc sim`), flushing every row. The simulator-only columns stay empty.
 pub struct RunLogSink {
     writer: RunLogWriter<BufWriter<File>>,
-    force_ref_n: f64,
-    time_scale: f64,
-    last: BoardStatus,
 }
 
 impl RunLogSink {
     /// A sink writing to `writer`.
-    pub fn new(writer: RunLogWriter<BufWriter<File>>, force_ref_n: f64, time_scale: f64) -> Self {
-        Self {
-            writer,
-            force_ref_n,
-            time_scale,
-            last: BoardStatus::default(),
-        }
+    pub fn new(writer: RunLogWriter<BufWriter<File>>) -> Self {
+        Self { writer }
     }
 }
 
@@ -106,42 +84,7 @@ impl LogSink for RunLogSink {
     type Error = RunLogError;
 
     fn write(&mut self, rec: &RunRecord) -> Result<(), RunLogError> {
-        let c = &rec.cycle;
-        if let Ok(s) = c.link {
-            self.last = s;
-        }
-        let s = self.last;
-        let programmed = f64::from(s.programmed_feed_mm_min);
-        let step = c.out.step;
-        let nan = f64::NAN;
-        let row = RunLogRow {
-            t_s: c.t_s * self.time_scale,
-            x_mm: None,
-            radial_depth_mm: None,
-            axial_depth_mm: None,
-            spindle_rpm: f64::from(s.spindle_rpm),
-            programmed_feed_mm_min: programmed,
-            override_cmd_pct: c.out.write_override.map_or(s.override_applied_pct, |o| o.0),
-            override_applied_pct: s.override_applied_pct,
-            feed_mm_min: programmed * f64::from(s.override_applied_pct) / 100.0,
-            force_n: c.force.force_n,
-            force_true_n: None,
-            force_ref_n: self.force_ref_n,
-            power_w: c.link.ok().map(|s| f64::from(s.spindle_power_w)),
-            kc_hat: step.map_or(nan, |o| o.trace.kc_hat),
-            kp: step.map_or(nan, |o| o.trace.kp),
-            ki: step.map_or(nan, |o| o.trace.ki),
-            mode: step.map_or_else(
-                || c.out.state.name().to_string(),
-                |o| mode_name(o.trace.mode).to_string(),
-            ),
-            error_n: step.map_or(nan, |o| o.trace.error_n),
-            valid: c.out.force_valid,
-            saturation: step
-                .map_or("none", |o| saturation_name(o.trace.saturation))
-                .to_string(),
-        };
-        self.writer.write(&row)
+        self.writer.write(rec)
     }
 
     fn flush(&mut self) -> Result<(), RunLogError> {
@@ -278,13 +221,15 @@ fn drive<P: Pmc + Send>(
     let file = File::create(&args.log)
         .with_context(|| format!("creating the run log {}", args.log.display()))?;
     let writer = RunLogWriter::new(BufWriter::new(file))?;
-    let mut sink = RunLogSink::new(writer, ccfg.force_ref_n, cfg.runtime.time_scale);
+    let mut sink = RunLogSink::new(writer);
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
     let opts = RunOptions {
         max_periods: args
             .duration_s
             .map(|d| (d / period_s).round().max(1.0) as u64),
         log_queue: cfg.runtime.log_queue,
+        time_scale: cfg.runtime.time_scale,
+        force_ref_n: Some(ccfg.force_ref_n),
         ..RunOptions::new(cfg.tick_period())
     };
     println!(
@@ -305,7 +250,9 @@ fn drive<P: Pmc + Send>(
     )?;
 
     // Summary.
-    println!("periods: {}", s.periods);
+    // Every period has a run-log row: the cycles run plus the ones the ticker skipped.
+    println!("periods: {}", s.periods + s.skipped);
+    println!("cycles run: {}; skipped periods: {}", s.periods, s.skipped);
     println!(
         "period jitter: {} ; overruns {} ; skipped {}",
         s.ticker.jitter.summary(),

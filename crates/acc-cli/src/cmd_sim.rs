@@ -7,7 +7,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use acc_plot::{time_series, Figure, HLine, Panel, Series, Shade, Style, Written};
-use acc_sim::runlog::{RunLogRow, RunLogWriter};
+use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_sim::summary::attribute_rows;
 use acc_sim::{run, summarize, LawKind, RunResult, Scenario};
 use anyhow::Context as _;
@@ -134,7 +134,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
 }
 
 /// x-intervals (time) of air cuts, for shading.
-pub fn air_shades(sc: &Scenario, rows: &[RunLogRow]) -> Vec<Shade> {
+pub fn air_shades(sc: &Scenario, rows: &[RunRecord]) -> Vec<Shade> {
     let seg = attribute_rows(rows, &sc.workpiece, sc.tool.diameter_mm);
     let mut shades = Vec::new();
     let mut start: Option<f64> = None;
@@ -156,8 +156,11 @@ pub fn air_shades(sc: &Scenario, rows: &[RunLogRow]) -> Vec<Shade> {
     shades
 }
 
-fn pts(rows: &[RunLogRow], f: impl Fn(&RunLogRow) -> f64) -> Vec<(f64, f64)> {
-    rows.iter().map(|r| (r.t_s, f(r))).collect()
+/// `(t, value)` points of the records that have the value (an empty cell is a gap).
+pub fn pts(rows: &[RunRecord], f: impl Fn(&RunRecord) -> Option<f64>) -> Vec<(f64, f64)> {
+    rows.iter()
+        .filter_map(|r| f(r).map(|v| (r.t_s, v)))
+        .collect()
 }
 
 /// The paper-style figure of one run (seed 002 figs. 8–12): force with Fr, override,
@@ -181,23 +184,31 @@ pub fn plot_run(sc: &Scenario, result: &RunResult, out: &Path) -> anyhow::Result
                 "force [N]",
                 vec![
                     Series::line("measured Fc", pts(rows, |r| r.force_n)),
-                    Series::line("true", pts(rows, |r| r.force_true_n.unwrap_or(f64::NAN)))
-                        .with_style(Style::Dashed),
+                    Series::line("true", pts(rows, |r| r.force_true_n)).with_style(Style::Dashed),
                 ],
                 vec![HLine::new("Fr", fr), HLine::new("1.1·Fr", 1.1 * fr)],
             ),
             panel(
                 "override [%]",
                 vec![
-                    Series::line("commanded", pts(rows, |r| f64::from(r.override_cmd_pct))),
-                    Series::line("applied", pts(rows, |r| f64::from(r.override_applied_pct)))
-                        .with_style(Style::Dashed),
+                    Series::line(
+                        "commanded",
+                        pts(rows, |r| r.override_cmd_pct.map(f64::from)),
+                    ),
+                    Series::line(
+                        "applied",
+                        pts(rows, |r| r.override_applied_pct.map(f64::from)),
+                    )
+                    .with_style(Style::Dashed),
                 ],
                 vec![],
             ),
             panel(
                 "feed [mm/min]",
-                vec![Series::line("feed", pts(rows, |r| r.feed_mm_min))],
+                vec![Series::line(
+                    "feed",
+                    pts(rows, |r| r.feed_true_mm_min.or(r.feed_mm_min)),
+                )],
                 vec![HLine::new("programmed", sc.programmed_feed_mm_min)],
             ),
             panel(

@@ -175,6 +175,21 @@ pub trait OverrideLaw {
     fn set_frozen(&mut self, frozen: bool);
 }
 
+impl<T: OverrideLaw + ?Sized> OverrideLaw for &mut T {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn engage(&mut self, current: FeedOverride) {
+        (**self).engage(current)
+    }
+    fn step(&mut self, m: &Measurement) -> StepOutput {
+        (**self).step(m)
+    }
+    fn set_frozen(&mut self, frozen: bool) {
+        (**self).set_frozen(frozen)
+    }
+}
+
 /// The adaptive feedrate-override controller.
 #[derive(Debug, Clone)]
 pub struct Controller {

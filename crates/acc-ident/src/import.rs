@@ -324,24 +324,12 @@ pub fn umich_model(log: &RunLog) -> Model {
     m
 }
 
-/// A simulator run log (rows as `acc sim` writes them) as a [`RunLog`], in memory.
-pub fn from_sim_rows(rows: &[acc_sim::runlog::RunLogRow]) -> RunLog {
-    let col = |f: &dyn Fn(&acc_sim::runlog::RunLogRow) -> f64| rows.iter().map(f).collect();
-    RunLog {
-        t_s: col(&|r| r.t_s),
-        x_mm: Some(col(&|r| r.x_mm.unwrap_or(0.0))),
-        radial_depth_mm: col(&|r| r.radial_depth_mm.unwrap_or(0.0)),
-        axial_depth_mm: col(&|r| r.axial_depth_mm.unwrap_or(0.0)),
-        spindle_rpm: col(&|r| r.spindle_rpm),
-        programmed_feed_mm_min: Some(col(&|r| r.programmed_feed_mm_min)),
-        override_cmd_pct: Some(col(&|r| f64::from(r.override_cmd_pct))),
-        override_applied_pct: Some(col(&|r| f64::from(r.override_applied_pct))),
-        feed_mm_min: col(&|r| r.feed_mm_min),
-        force_n: Some(col(&|r| r.force_n)),
-        power_w: rows.iter().map(|r| r.power_w).collect::<Option<Vec<f64>>>(),
-        wear_vb_um: None,
-        phase: None,
-    }
+/// Run-log records (as `acc sim` writes them) as a [`RunLog`], in memory (see
+/// [`crate::runlog::from_records`]; the records must carry the simulator's engagement).
+pub fn from_sim_rows(
+    rows: &[acc_runtime::RunRecord],
+) -> Result<RunLog, crate::runlog::RunLogError> {
+    crate::runlog::from_records(rows, std::path::Path::new("(simulator run)"))
 }
 
 /// A model built from the simulator's machine and tool files (`channel` compared).

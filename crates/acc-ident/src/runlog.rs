@@ -242,6 +242,58 @@ impl RunLog {
     }
 }
 
+/// Run-log records as a [`RunLog`]. The simulator's truth columns are preferred where
+/// present (true position, the drive's actual feed); the engagement (`radial_depth_mm`,
+/// `axial_depth_mm`) must be in every row — a production log (`acc run`) has none, and the
+/// error says so. A cell a period did not have (the override in an arming period, the force
+/// in a period whose read failed) carries the previous row's value.
+pub fn from_records(rows: &[acc_runtime::RunRecord], path: &Path) -> Result<RunLog, RunLogError> {
+    if let Some(i) = rows
+        .iter()
+        .position(|r| r.radial_depth_mm.is_none() || r.axial_depth_mm.is_none())
+    {
+        return Err(RunLogError::Invalid {
+            file: path.to_path_buf(),
+            message: format!(
+                "line {}: no engagement (`radial_depth_mm`, `axial_depth_mm` empty): a production log from `acc run` does not know its depth of cut; give the workpiece (`--workpiece`) so that the engagement comes from the logged path position `x_mm`",
+                i + 2
+            ),
+        });
+    }
+    type Get = dyn Fn(&acc_runtime::RunRecord) -> Option<f64>;
+    let col = |f: &Get| -> Vec<f64> {
+        let mut last = rows.iter().find_map(f).unwrap_or(0.0);
+        rows.iter()
+            .map(|r| {
+                if let Some(v) = f(r) {
+                    last = v;
+                }
+                last
+            })
+            .collect()
+    };
+    let has = |f: &Get| rows.iter().any(|r| f(r).is_some());
+    let power = |r: &acc_runtime::RunRecord| r.power_w;
+    let force = |r: &acc_runtime::RunRecord| r.force_n;
+    Ok(RunLog {
+        t_s: rows.iter().map(|r| r.t_s).collect(),
+        x_mm: Some(col(&|r| r.x_true_mm.or(r.x_mm))),
+        radial_depth_mm: col(&|r| r.radial_depth_mm),
+        axial_depth_mm: col(&|r| r.axial_depth_mm),
+        spindle_rpm: col(&|r| r.spindle_rpm),
+        programmed_feed_mm_min: Some(col(&|r| r.programmed_feed_mm_min)),
+        override_cmd_pct: Some(col(&|r| {
+            r.override_cmd_pct.or(r.override_applied_pct).map(f64::from)
+        })),
+        override_applied_pct: Some(col(&|r| r.override_applied_pct.map(f64::from))),
+        feed_mm_min: col(&|r| r.feed_true_mm_min.or(r.feed_mm_min)),
+        force_n: has(&force).then(|| col(&force)),
+        power_w: has(&power).then(|| col(&power)),
+        wear_vb_um: None,
+        phase: None,
+    })
+}
+
 /// Read a run log from a CSV file; see the module docs for the columns.
 pub fn read_csv(path: &Path) -> Result<RunLog, RunLogError> {
     let file = std::fs::File::open(path).map_err(|e| RunLogError::Io {
@@ -251,8 +303,29 @@ pub fn read_csv(path: &Path) -> Result<RunLog, RunLogError> {
     read_csv_from(file, path)
 }
 
-/// Read a run log from any reader; `path` is used in errors only.
-pub fn read_csv_from(reader: impl std::io::Read, path: &Path) -> Result<RunLog, RunLogError> {
+/// Read a run log from any reader; `path` is used in errors only. A log written by `acc sim`,
+/// `acc run` or `acc board-sim` (run-log schema v2, or v1) is read as typed records
+/// ([`acc_runtime::record::read_run_log`]) and converted with [`from_records`]; any other CSV
+/// is read column by column (the importers' layout).
+pub fn read_csv_from(mut reader: impl std::io::Read, path: &Path) -> Result<RunLog, RunLogError> {
+    let mut text = String::new();
+    reader
+        .read_to_string(&mut text)
+        .map_err(|e| RunLogError::Io {
+            file: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    let first = text.lines().next().unwrap_or("");
+    if acc_runtime::record::detect_schema(first.split(',').map(str::trim)).is_some() {
+        let rows = acc_runtime::record::read_run_log(text.as_bytes()).map_err(|e| {
+            RunLogError::Invalid {
+                file: path.to_path_buf(),
+                message: e.to_string(),
+            }
+        })?;
+        return from_records(&rows, path);
+    }
+    let reader = text.as_bytes();
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(reader);

@@ -59,6 +59,56 @@ pub struct PolicySection {
     pub hold_on_raising_release: Option<bool>,
 }
 
+impl PolicySection {
+    /// The policy for `controller`: every key not given takes its default, except the
+    /// override range (the preset's `[override]` range), the overload limit (2 × Fr) and the
+    /// period (the preset's T). Validate the result with [`PolicyConfig::validate`].
+    pub fn resolve(&self, controller: &acc_core::ControllerConfig) -> PolicyConfig {
+        let p = self;
+        let d = PolicyConfig::default();
+        PolicyConfig {
+            period_s: controller.period_s,
+            min_override_pct: p
+                .min_override_pct
+                .unwrap_or(controller.override_spec.min_pct),
+            max_override_pct: p
+                .max_override_pct
+                .unwrap_or(controller.override_spec.max_pct),
+            link_hold_periods: p.link_hold_periods.unwrap_or(d.link_hold_periods),
+            invalid_power_periods: p.invalid_power_periods.unwrap_or(d.invalid_power_periods),
+            stale_seq_periods: p.stale_seq_periods.unwrap_or(d.stale_seq_periods),
+            ack_periods: p.ack_periods.unwrap_or(d.ack_periods),
+            overload_force_n: p.overload_force_n.unwrap_or(2.0 * controller.force_ref_n),
+            overload_time_s: p.overload_time_s.unwrap_or(d.overload_time_s),
+            operator_handback_pct: p.operator_handback_pct.unwrap_or(d.operator_handback_pct),
+            max_power_w: p.max_power_w.unwrap_or(d.max_power_w),
+            nominal_feed_mm_min: p.nominal_feed_mm_min.unwrap_or(d.nominal_feed_mm_min),
+            hold_on_raising_release: p
+                .hold_on_raising_release
+                .unwrap_or(d.hold_on_raising_release),
+        }
+    }
+}
+
+impl PolicySection {
+    /// [`PolicySection::resolve`] and validate; an error names `file`, the key under
+    /// `policy.` and the allowed range.
+    pub fn resolve_in(
+        &self,
+        file: &Path,
+        controller: &acc_core::ControllerConfig,
+    ) -> Result<PolicyConfig, ConfigError> {
+        let policy = self.resolve(controller);
+        policy.validate().map_err(|e| ConfigError::OutOfRange {
+            file: file.to_path_buf(),
+            key: format!("policy.{}", e.key),
+            value: e.value,
+            allowed: e.allowed.to_string(),
+        })?;
+        Ok(policy)
+    }
+}
+
 /// `[runtime]`: loop options.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
@@ -210,35 +260,7 @@ impl RunConfig {
             .map_err(|e| invalid("force.estimator", e.to_string()))?;
 
         // [policy]
-        let p = file.policy;
-        let d = PolicyConfig::default();
-        let policy = PolicyConfig {
-            period_s: controller.period_s,
-            min_override_pct: p
-                .min_override_pct
-                .unwrap_or(controller.override_spec.min_pct),
-            max_override_pct: p
-                .max_override_pct
-                .unwrap_or(controller.override_spec.max_pct),
-            link_hold_periods: p.link_hold_periods.unwrap_or(d.link_hold_periods),
-            invalid_power_periods: p.invalid_power_periods.unwrap_or(d.invalid_power_periods),
-            stale_seq_periods: p.stale_seq_periods.unwrap_or(d.stale_seq_periods),
-            ack_periods: p.ack_periods.unwrap_or(d.ack_periods),
-            overload_force_n: p.overload_force_n.unwrap_or(2.0 * controller.force_ref_n),
-            overload_time_s: p.overload_time_s.unwrap_or(d.overload_time_s),
-            operator_handback_pct: p.operator_handback_pct.unwrap_or(d.operator_handback_pct),
-            max_power_w: p.max_power_w.unwrap_or(d.max_power_w),
-            nominal_feed_mm_min: p.nominal_feed_mm_min.unwrap_or(d.nominal_feed_mm_min),
-            hold_on_raising_release: p
-                .hold_on_raising_release
-                .unwrap_or(d.hold_on_raising_release),
-        };
-        policy.validate().map_err(|e| ConfigError::OutOfRange {
-            file: path.to_path_buf(),
-            key: format!("policy.{}", e.key),
-            value: e.value,
-            allowed: e.allowed.to_string(),
-        })?;
+        let policy = file.policy.resolve_in(path, &controller)?;
 
         // [runtime]
         let rt = file.runtime;

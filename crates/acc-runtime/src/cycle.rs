@@ -7,10 +7,11 @@
 //! single-threaded caller (tests, the simulator on a manual clock) uses
 //! [`ControlLoop::cycle`].
 
-use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
+use acc_core::{ForceSample, ForceSource, Mode, OverrideLaw, PeriodInput, Saturation};
 use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
 
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
+use crate::record::RunRecord;
 
 /// The writes one period asks of the link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -48,12 +49,105 @@ pub struct CycleRecord {
     pub t_s: f64,
     /// Status read, or the link error.
     pub link: Result<BoardStatus, PmcErrorKind>,
+    /// Error of the previous period's writes, if any (reported to the policy this period).
+    pub write_error: Option<PmcErrorKind>,
+    /// Programmed feed the loop used, mm/min (`PROGRAMMED_FEED`, or the policy's nominal
+    /// feed when the board reports 0); `None` without a status.
+    pub programmed_feed_mm_min: Option<f64>,
+    /// Actual feed of the period, mm/min (programmed × applied override); `None` without a
+    /// status. Computed once here and used by the force source, the law and the path.
+    pub feed_mm_min: Option<f64>,
+    /// Path position after this period, mm: the integral of the actual feed (the last known
+    /// feed carries over periods without a status).
+    pub path_mm: f64,
     /// The force source's sample.
     pub force: ForceSample,
     /// The policy's decision.
     pub out: CycleOutput,
     /// The writes asked for.
     pub plan: WritePlan,
+}
+
+/// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
+/// `stale`, `disconnected`, `protocol`).
+pub fn kind_name(k: PmcErrorKind) -> String {
+    match k {
+        PmcErrorKind::Timeout => "timeout".into(),
+        PmcErrorKind::Crc => "crc".into(),
+        PmcErrorKind::Exception(c) => format!("exception_{c:02}"),
+        PmcErrorKind::Stale => "stale".into(),
+        PmcErrorKind::Disconnected => "disconnected".into(),
+        PmcErrorKind::Protocol => "protocol".into(),
+    }
+}
+
+impl CycleRecord {
+    /// The period's run-log record (`force_ref_n`: Fr to log when the law was not stepped).
+    /// The plant-truth columns stay empty; the simulator fills them in.
+    pub fn record(&self, force_ref_n: Option<f64>) -> RunRecord {
+        let status = self.link.ok();
+        let step = self.out.step;
+        let trace = step.map(|o| o.trace);
+        let mut r = RunRecord {
+            t_s: self.t_s,
+            period: self.index,
+            x_mm: Some(self.path_mm),
+            spindle_rpm: status.map(|s| f64::from(s.spindle_rpm)),
+            programmed_feed_mm_min: self.programmed_feed_mm_min,
+            feed_mm_min: self.feed_mm_min,
+            power_w: status.map(|s| f64::from(s.spindle_power_w)),
+            force_n: status.map(|_| self.force.force_n),
+            force_valid: self.out.force_valid,
+            force_ref_n: trace.map(|t| t.force_ref_n).or(force_ref_n),
+            kc_hat: trace.map(|t| t.kc_hat),
+            kp: trace.map(|t| t.kp),
+            ki: trace.map(|t| t.ki),
+            error_n: trace.map(|t| t.error_n),
+            mode: trace.map_or_else(String::new, |t| mode_name(t.mode).to_string()),
+            saturation: trace
+                .map_or_else(String::new, |t| saturation_name(t.saturation).to_string()),
+            override_cmd_pct: self.out.write_override.map(|o| o.0),
+            heartbeat: self.plan.override_and_heartbeat.map(|(_, hb)| hb),
+            override_applied_pct: status.map(|s| s.override_applied_pct),
+            override_operator_pct: status.map(|s| s.operator_override_pct),
+            state: self.out.state.name().to_string(),
+            alarms: self.out.alarms.bits(),
+            feed_hold: self.out.control.feed_hold_request,
+            ..RunRecord::default()
+        };
+        if let Err(k) = self.link {
+            r.flag(&format!("link:{}", kind_name(k)));
+        }
+        if let Some(k) = self.write_error {
+            r.flag(&format!("write:{}", kind_name(k)));
+        }
+        if status.is_some() && !self.out.force_valid {
+            r.flag("force_invalid");
+        }
+        if self.out.fault {
+            r.flag("fault");
+        }
+        r
+    }
+}
+
+/// Run-log name of a law mode.
+pub fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::AdaptivePi => "adaptive_pi",
+        Mode::FixedPi => "fixed_pi",
+        Mode::AdaptiveIntegral => "adaptive_integral",
+        Mode::Baseline => "baseline",
+    }
+}
+
+/// Run-log name of a saturation state.
+pub fn saturation_name(s: Saturation) -> &'static str {
+    match s {
+        Saturation::None => "none",
+        Saturation::Low => "low",
+        Saturation::High => "high",
+    }
 }
 
 /// Perform a write plan on a board.
@@ -85,6 +179,8 @@ pub struct ControlLoop<L, F> {
     heartbeat: u16,
     control_on_board: Option<ControlBits>,
     write_error: Option<PmcErrorKind>,
+    path_mm: f64,
+    last_feed_mm_min: f64,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -99,7 +195,36 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             heartbeat: 0,
             control_on_board: None,
             write_error: None,
+            path_mm: 0.0,
+            last_feed_mm_min: 0.0,
         }
+    }
+
+    /// The period, s.
+    pub fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    /// Index of the next period.
+    pub fn next_index(&self) -> u64 {
+        self.index
+    }
+
+    /// Path position so far, mm (integral of the actual feed).
+    pub fn path_mm(&self) -> f64 {
+        self.path_mm
+    }
+
+    /// Account for a period in which no cycle ran (the ticker skipped its deadline): the
+    /// index advances, the path integrates the last known feed, and the row is flagged
+    /// `skipped`. The policy is not stepped (nothing was read or written).
+    pub fn skip(&mut self, t_s: f64) -> RunRecord {
+        self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
+        let mut r = RunRecord::skipped(self.index, t_s, self.policy.state().name());
+        r.x_mm = Some(self.path_mm);
+        r.alarms = self.policy.alarms().bits();
+        self.index += 1;
+        r
     }
 
     /// The policy (state, alarms).
@@ -113,27 +238,48 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     }
 
     /// Decide this period from the status read (or link error) at time `t_s`. Pure.
+    ///
+    /// The actual feed is computed here, once: programmed feed (`PROGRAMMED_FEED`, or the
+    /// policy's `nominal_feed_mm_min` when the board reports 0) × `OVERRIDE_APPLIED`. The force
+    /// source, the law and the path integral all use that one value.
     pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, PmcErrorKind>) -> CycleRecord {
-        let force = match link {
-            Ok(s) => {
-                let programmed = f64::from(s.programmed_feed_mm_min);
+        let feeds = link.ok().map(|s| {
+            let programmed = if s.programmed_feed_mm_min > 0 {
+                f64::from(s.programmed_feed_mm_min)
+            } else {
+                self.policy.config().nominal_feed_mm_min
+            };
+            (
+                programmed,
+                programmed * f64::from(s.override_applied_pct) / 100.0,
+            )
+        });
+        if let Some((_, feed)) = feeds {
+            self.last_feed_mm_min = feed;
+        }
+        self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
+        let force = match (link, feeds) {
+            (Ok(s), Some((_, feed))) => {
                 let input = PeriodInput {
                     period_s: self.period_s,
                     spindle_rpm: f64::from(s.spindle_rpm),
-                    feed_mm_min: programmed * f64::from(s.override_applied_pct) / 100.0,
+                    feed_mm_min: feed,
                     true_force_n: None,
                     power_w: Some(f64::from(s.spindle_power_w)),
                     phases: None,
                 };
                 self.source.estimate(&input)
             }
-            Err(_) => ForceSample::INVALID,
+            _ => ForceSample::INVALID,
         };
+        let write_error = self.write_error.take();
         let input = CycleInput {
             t_s,
             link,
-            write_error: self.write_error.take(),
+            write_error,
             force,
+            programmed_feed_mm_min: feeds.map_or(0.0, |f| f.0),
+            feed_mm_min: feeds.map_or(0.0, |f| f.1),
         };
         let out = self.policy.step(&input, &mut self.law);
         let mut plan = WritePlan::default();
@@ -148,6 +294,10 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             index: self.index,
             t_s,
             link,
+            write_error,
+            programmed_feed_mm_min: feeds.map(|f| f.0),
+            feed_mm_min: feeds.map(|f| f.1),
+            path_mm: self.path_mm,
             force,
             out,
             plan,

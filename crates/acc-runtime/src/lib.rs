@@ -9,6 +9,7 @@
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`link`]: the Modbus RTU board as the runtime reads it;
 //! - [`cycle`]: one controller cycle against any `Pmc` (read, decide, write);
+//! - [`record`]: the run log — one [`RunRecord`] per period, schema v2, v1 migration;
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
 //! - [`testing`]: a scripted board, law and force source for tests.
@@ -19,6 +20,7 @@ pub mod config;
 pub mod cycle;
 pub mod link;
 pub mod policy;
+pub mod record;
 pub mod runner;
 pub mod shutdown;
 pub mod stats;
@@ -30,6 +32,7 @@ pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use policy::{
     AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Release,
 };
-pub use runner::{run, LogSink, RunError, RunOptions, RunRecord, RunSummary, VecSink};
+pub use record::{RunLogWriter, RunRecord};
+pub use runner::{run, LogSink, RunError, RunOptions, RunSummary, VecSink};
 pub use stats::LatencyStats;
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};

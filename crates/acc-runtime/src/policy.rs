@@ -201,8 +201,6 @@ pub enum Release {
     NoBoardAck,
     /// Force above the overload limit for too long (feed hold requested).
     Overload,
-    /// Program shutdown (Ctrl-C).
-    Shutdown,
 }
 
 impl Release {
@@ -217,13 +215,12 @@ impl Release {
             Release::BoardReset => "board_reset",
             Release::NoBoardAck => "no_board_ack",
             Release::Overload => "overload",
-            Release::Shutdown => "shutdown",
         }
     }
 
     /// Whether re-arming needs the operator's switch to be cycled off and on.
     pub fn latches(self) -> bool {
-        !matches!(self, Release::SwitchOff | Release::Shutdown)
+        !matches!(self, Release::SwitchOff)
     }
 }
 
@@ -375,6 +372,12 @@ pub struct CycleInput {
     /// Force sample computed from this period's status ([`ForceSample::INVALID`] when the
     /// read failed).
     pub force: ForceSample,
+    /// Programmed feed of the active block, mm/min (the loop substitutes the nominal feed
+    /// when the board reports 0; 0 when the read failed).
+    pub programmed_feed_mm_min: f64,
+    /// Actual feed of the period (programmed × applied override), mm/min, as the loop
+    /// computed it once (0 when the read failed).
+    pub feed_mm_min: f64,
 }
 
 /// What the runtime does with the board this period.
@@ -510,7 +513,7 @@ impl FaultPolicy {
         };
         let fault = !matches!(
             why,
-            Release::SwitchOff | Release::OperatorHandback | Release::Shutdown | Release::Overload
+            Release::SwitchOff | Release::OperatorHandback | Release::Overload
         );
         let raising = match (self.last_operator_pct, self.last_cmd) {
             (Some(op), Some(cmd)) => op > cmd,
@@ -530,7 +533,7 @@ impl FaultPolicy {
             Release::Watchdog => self.alarms.watchdog = true,
             Release::BoardReset | Release::NoBoardAck => self.alarms.board_reset = true,
             Release::Overload => self.alarms.overload = true,
-            Release::SwitchOff | Release::OperatorHandback | Release::Shutdown => {}
+            Release::SwitchOff | Release::OperatorHandback => {}
         }
     }
 
@@ -788,20 +791,15 @@ impl FaultPolicy {
             out.write_override = Some(FeedOverride(last));
             return;
         }
-        // The control step.
-        let programmed = if s.programmed_feed_mm_min > 0 {
-            f64::from(s.programmed_feed_mm_min)
-        } else {
-            self.cfg.nominal_feed_mm_min
-        };
+        // The control step, on the feed the loop computed once for this period.
         let m = Measurement {
             force_n: if force_valid {
                 input.force.force_n
             } else {
                 0.0
             },
-            feed_mm_min: programmed * f64::from(s.override_applied_pct) / 100.0,
-            programmed_feed_mm_min: programmed,
+            feed_mm_min: input.feed_mm_min,
+            programmed_feed_mm_min: input.programmed_feed_mm_min,
             valid: force_valid,
         };
         let step = law.step(&m);

@@ -20,25 +20,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use acc_core::{ForceSource, OverrideLaw};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{BoardStatus, Pmc, PmcErrorKind};
 use crossbeam_channel::{bounded, RecvTimeoutError, TrySendError};
 
 use crate::clock::Clock;
-use crate::cycle::{execute_writes, ControlLoop, CycleRecord, WritePlan, WriteResult};
+use crate::cycle::{execute_writes, ControlLoop, WritePlan, WriteResult};
 use crate::policy::{AccState, Alarms};
+use crate::record::RunRecord;
 use crate::stats::LatencyStats;
 use crate::ticker::{Ticker, TickerError, TickerStats};
-
-/// One period as the logger sees it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunRecord {
-    /// The cycle (status, force, decision, writes asked for).
-    pub cycle: CycleRecord,
-    /// Jitter of this period's tick against its deadline.
-    pub lateness: Duration,
-    /// The tick arrived after its deadline.
-    pub overrun: bool,
-}
 
 /// Where the logger thread puts the records (the CLI writes the run-log CSV).
 pub trait LogSink {
@@ -57,7 +47,7 @@ pub struct VecSink(pub Vec<RunRecord>);
 impl LogSink for VecSink {
     type Error = std::convert::Infallible;
     fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
-        self.0.push(*rec);
+        self.0.push(rec.clone());
         Ok(())
     }
     fn flush(&mut self) -> Result<(), Self::Error> {
@@ -77,6 +67,10 @@ pub struct RunOptions {
     pub log_queue: usize,
     /// Attempts of the final `CONTROL` write at shutdown (default 5).
     pub shutdown_attempts: u32,
+    /// Machine seconds per wall second (default 1): the run log's `t_s` is machine time.
+    pub time_scale: f64,
+    /// Fr to log in periods where the law was not stepped, N (default `None`).
+    pub force_ref_n: Option<f64>,
 }
 
 impl RunOptions {
@@ -87,6 +81,8 @@ impl RunOptions {
             max_periods: None,
             log_queue: 1024,
             shutdown_attempts: 5,
+            time_scale: 1.0,
+            force_ref_n: None,
         }
     }
 }
@@ -94,8 +90,11 @@ impl RunOptions {
 /// What a run did.
 #[derive(Debug, Clone)]
 pub struct RunSummary {
-    /// Periods run.
+    /// Periods whose cycle ran (read, decide, write).
     pub periods: u64,
+    /// Periods the ticker skipped (no cycle ran; each still has a run-log row, flagged
+    /// `skipped`).
+    pub skipped: u64,
     /// Ticker counters and period jitter.
     pub ticker: TickerStats,
     /// Round-trip time of a controller cycle: read, decision, writes.
@@ -133,8 +132,9 @@ pub enum RunError {
 }
 
 struct StatusMsg {
-    index: u64,
+    seq: u64,
     t_s: f64,
+    skipped: u64,
     link: Result<BoardStatus, PmcErrorKind>,
     writes: WriteResult,
     lateness: Duration,
@@ -161,6 +161,8 @@ where
     let (status_tx, status_rx) = bounded::<StatusMsg>(1);
     let (plan_tx, plan_rx) = bounded::<(u64, WritePlan)>(2);
     let (log_tx, log_rx) = bounded::<RunRecord>(opts.log_queue.max(1));
+    let (time_scale, force_ref_n) = (opts.time_scale, opts.force_ref_n);
+    let tick_s = opts.period.as_secs_f64();
 
     std::thread::scope(|scope| {
         // ---------------------------------------------------------------- logger
@@ -190,34 +192,41 @@ where
             .name("acc-control".into())
             .spawn_scoped(scope, move || {
                 let _span = tracing::info_span!("control").entered();
-                let (mut logged, mut dropped) = (0u64, 0u64);
+                let (mut logged, mut dropped, mut skipped) = (0u64, 0u64, 0u64);
+                let mut offer = |r: RunRecord| match log_tx.try_send(r) {
+                    Ok(()) => logged += 1,
+                    Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => dropped += 1,
+                };
                 for msg in status_rx.iter() {
-                    control.writes_done(&msg.writes);
-                    let rec = control.decide(msg.t_s, msg.link);
-                    debug_assert_eq!(rec.index, msg.index);
-                    for e in rec.out.events.iter() {
-                        tracing::info!(period = msg.index, event = ?e, "policy event");
+                    // Deadlines the ticker skipped still get their (flagged) rows.
+                    skipped += msg.skipped;
+                    for k in 0..msg.skipped {
+                        let t = msg.t_s - (msg.skipped - k) as f64 * tick_s;
+                        offer(control.skip(t * time_scale));
                     }
-                    if plan_tx.send((msg.index, rec.plan)).is_err() {
+                    control.writes_done(&msg.writes);
+                    let rec = control.decide(msg.t_s * time_scale, msg.link);
+                    for e in rec.out.events.iter() {
+                        tracing::info!(period = rec.index, event = ?e, "policy event");
+                    }
+                    if plan_tx.send((msg.seq, rec.plan)).is_err() {
                         break;
                     }
-                    let r = RunRecord {
-                        cycle: rec,
-                        lateness: msg.lateness,
-                        overrun: msg.overrun,
-                    };
-                    match log_tx.try_send(r) {
-                        Ok(()) => logged += 1,
-                        Err(TrySendError::Full(_)) => dropped += 1,
-                        Err(TrySendError::Disconnected(_)) => dropped += 1,
+                    let mut r = rec.record(force_ref_n);
+                    r.late_ms = msg.lateness.as_secs_f64() * 1e3;
+                    if msg.overrun {
+                        r.flag("late");
                     }
+                    offer(r);
                 }
                 drop(log_tx);
                 (
                     logged,
                     dropped,
+                    skipped,
                     control.policy().state(),
                     control.policy().alarms(),
+                    control,
                 )
             })?;
 
@@ -244,8 +253,9 @@ where
                 last_status = Some(s);
             }
             let msg = StatusMsg {
-                index: periods,
+                seq: periods,
                 t_s: (tick.deadline.saturating_sub(origin)).as_secs_f64(),
+                skipped: if periods == 0 { 0 } else { tick.skipped },
                 link,
                 writes,
                 lateness: tick.lateness,
@@ -275,17 +285,9 @@ where
         }
         // Orderly stop: ACC request and feed hold cleared; the operator has the override.
         drop(status_tx);
-        let bits = ControlBits::default();
-        let mut shutdown_ok = Err(PmcErrorKind::Disconnected);
-        for _ in 0..opts.shutdown_attempts.max(1) {
-            match pmc.write_control(bits) {
-                Ok(()) => {
-                    shutdown_ok = Ok(());
-                    break;
-                }
-                Err(e) => shutdown_ok = Err(P::kind(&e)),
-            }
-        }
+        let (logged, log_dropped, skipped, final_state, alarms, control) =
+            ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
+        let shutdown_ok = control.shutdown(pmc, opts.shutdown_attempts);
         match shutdown_ok {
             Ok(()) => tracing::info!("ACC_REQUEST cleared; the operator has the override"),
             Err(k) => {
@@ -293,11 +295,10 @@ where
             }
         }
         drop(io_span);
-        let (logged, log_dropped, final_state, alarms) =
-            ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
         let (log_errors, log_error) = logger.join().map_err(|_| RunError::Panicked("acc-log"))?;
         Ok(RunSummary {
             periods,
+            skipped,
             ticker: ticker.stats().clone(),
             cycle_rtt: rtt,
             logged,

@@ -282,6 +282,8 @@ fn implausible_board_power_is_invalid_even_if_the_source_accepts_it() {
                 power_w: None,
                 valid: true,
             },
+            programmed_feed_mm_min: 200.0,
+            feed_mm_min: 120.0,
         },
         &mut law,
     );
@@ -313,6 +315,8 @@ fn nan_or_negative_force_is_invalid() {
         }),
         write_error: None,
         force,
+        programmed_feed_mm_min: 200.0,
+        feed_mm_min: 2.0 * f64::from(st.override_applied_pct),
     };
     let o = p.step(&input(0.0, 1, good, &st), &mut law);
     assert_eq!(o.write_override.map(|c| c.0), Some(60));
@@ -671,6 +675,8 @@ mod invariant {
                     link: x.link,
                     write_error: x.write_error,
                     force: if x.link.is_ok() { x.force } else { ForceSample::INVALID },
+                    programmed_feed_mm_min: 200.0,
+                    feed_mm_min: x.link.map_or(0.0, |s| 2.0 * f64::from(s.override_applied_pct)),
                 };
                 let stale = match x.link {
                     Ok(s) => {
