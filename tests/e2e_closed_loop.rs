@@ -96,4 +96,67 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
         .find(|s| !s.is_cut)
         .expect("air segment");
     assert!(air.frac_at_max > 0.5, "air cut at 150 %: {air:?}");
+
+    // One loop, one log: `acc sim` on the same scenario writes a log with the same header as
+    // `acc run` and `acc board-sim`, and its settled forces agree with the serial run's within
+    // 2 % per segment.
+    let header = |p: &std::path::Path| {
+        std::fs::read_to_string(p)
+            .expect("log")
+            .lines()
+            .next()
+            .expect("header")
+            .to_string()
+    };
+    let sim_out = dir.path().join("sim_out");
+    let (code, sout, serr) = e2e_support::Proc::spawn(
+        &[
+            "sim",
+            &scenario.to_string_lossy(),
+            "--out",
+            &sim_out.to_string_lossy(),
+            "--no-plot",
+        ],
+        false,
+    )
+    .finish(Duration::from_secs(60));
+    assert_eq!(code, Some(0), "acc sim: {sout}\n{serr:?}");
+    let sim_csv = sim_out.join("run.csv");
+    assert_eq!(header(&sim_csv), header(&run_log), "acc sim vs acc run");
+    assert_eq!(
+        header(&sim_csv),
+        header(&sim_log),
+        "acc sim vs acc board-sim"
+    );
+    let in_process = summarize(
+        &RunResult {
+            law: "acc sim".into(),
+            finished: true,
+            volume_mm3: 0.0,
+            rows: read_log(&sim_csv),
+            ended_in_feed_hold: false,
+        },
+        &sc,
+    );
+    for (a, b) in summary
+        .segments
+        .iter()
+        .zip(&in_process.segments)
+        .filter(|(a, _)| a.reaches_ref)
+    {
+        let d = (a.mean_force_n - b.mean_force_n).abs() / b.mean_force_n;
+        println!(
+            "{}: acc run over the pty {:.1} N, acc sim {:.1} N ({:.2} %)",
+            a.label,
+            a.mean_force_n,
+            b.mean_force_n,
+            100.0 * d
+        );
+        assert!(
+            d <= 0.02,
+            "{}: settled forces differ by {:.2} %",
+            a.label,
+            100.0 * d
+        );
+    }
 }

@@ -192,7 +192,7 @@ fn acc_run_drives_the_pymodbus_standin() {
         "latched until the switch cycles"
     );
     assert!(
-        out.contains("alarms: Alarms { link_lost: false, power_invalid: false, watchdog: true"),
+        out.contains("final state: watchdog; alarms: watchdog\n"),
         "{out}"
     );
 

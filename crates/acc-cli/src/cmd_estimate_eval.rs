@@ -101,7 +101,7 @@ pub fn run(args: &EstimateEvalArgs) -> anyhow::Result<()> {
     if let Some(rec) = &args.calibrate_from {
         return run_calibrate(args, rec);
     }
-    let sweep_path = locate(&args.sweep);
+    let sweep_path = crate::configs::find("calibration", &args.sweep.to_string_lossy());
     let (cfg, motor) = SweepConfig::load(&sweep_path)?;
     let r = sweep::run(&cfg, &motor)?;
     print_sweep(&cfg, &r);
@@ -119,22 +119,9 @@ pub fn run(args: &EstimateEvalArgs) -> anyhow::Result<()> {
         println!("plot: {} and {}", w.svg.display(), w.png.display());
     }
     if !args.sim_only {
-        real_data(&locate(&args.data), plot_dir.as_deref())?;
+        real_data(&args.data, plot_dir.as_deref())?;
     }
     Ok(())
-}
-
-/// A relative default path, tried from the current directory, then from the workspace.
-fn locate(p: &Path) -> PathBuf {
-    if p.is_absolute() || p.exists() {
-        return p.to_path_buf();
-    }
-    let ws = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(p);
-    if ws.exists() {
-        ws
-    } else {
-        p.to_path_buf()
-    }
 }
 
 fn print_sweep(cfg: &SweepConfig, r: &SweepResult) {

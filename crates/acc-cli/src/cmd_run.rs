@@ -208,7 +208,9 @@ fn drive<P: Pmc + Send>(
     }
     let mut ccfg = cfg.controller;
     ccfg.override_spec = spec_for_board(ccfg.override_spec, step)?;
-    let law = Controller::new(ccfg).map_err(|e| anyhow::anyhow!("controller: {e:?}"))?;
+    let law = Controller::new(ccfg).map_err(|e| {
+        anyhow::anyhow!("{}: key `controller` (the preset): {e}", cfg.path.display())
+    })?;
     let period_s = ccfg.period_s;
     let source = cfg.force_source()?;
     let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s);
@@ -268,9 +270,9 @@ fn drive<P: Pmc + Send>(
         s.log_errors
     );
     println!(
-        "final state: {}; alarms: {:?}",
+        "final state: {}; alarms: {}",
         s.final_state.name(),
-        s.alarms
+        s.alarms.names()
     );
     match s.shutdown_ok {
         Ok(()) => {

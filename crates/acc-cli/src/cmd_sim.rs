@@ -54,30 +54,10 @@ pub fn parse_law(s: &str) -> Result<LawKind, String> {
     })
 }
 
-/// A scenario argument: an existing file, else `configs/scenarios/<name>.toml` (relative to
-/// the working directory, then to the source tree).
+/// A scenario argument: an existing file, else a shipped scenario by name
+/// (see [`crate::configs::find`]).
 pub fn resolve_scenario(arg: &str) -> PathBuf {
-    let p = Path::new(arg);
-    if p.is_file() {
-        return p.to_path_buf();
-    }
-    let file = if arg.ends_with(".toml") {
-        arg.to_string()
-    } else {
-        format!("{arg}.toml")
-    };
-    let here = Path::new("configs/scenarios").join(&file);
-    if here.is_file() {
-        return here;
-    }
-    let tree = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../configs/scenarios")
-        .join(&file);
-    if tree.is_file() {
-        tree
-    } else {
-        p.to_path_buf()
-    }
+    crate::configs::find("scenarios", arg)
 }
 
 /// Load the scenario named by `arg`, with an optional seed override.

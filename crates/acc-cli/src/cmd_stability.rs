@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use acc_config::{load_preset, resolve_preset, Preset};
+use acc_config::{load_preset, Preset};
 use acc_core::poles::{assign, assign_integral, PiGains};
 use acc_core::stability::{
     bisect_boundary, describe_pole, fixed_gain_stable_range, integral_kc_ratio_margin,
@@ -48,15 +48,6 @@ pub struct Analysis {
     pub paper_fixed_range: StableRange,
     /// Poles at Kc = factor · Kc_nominal with the gains frozen: (Kc, poles).
     pub frozen_table: Vec<(f64, Vec<PoleInfo>)>,
-}
-
-fn default_presets_dir() -> PathBuf {
-    let here = Path::new("configs/presets");
-    if here.is_dir() {
-        here.to_path_buf()
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/presets")
-    }
 }
 
 /// Gains of the preset's mode at Kc_hat (eq. 14, conclusion 5, or the fixed ones).
@@ -402,7 +393,7 @@ pub fn plot(a: &Analysis, out: &Path) -> anyhow::Result<Written> {
 
 /// Run `acc stability`.
 pub fn run(args: &StabilityArgs) -> anyhow::Result<()> {
-    let path = resolve_preset(&args.preset, default_presets_dir());
+    let path = crate::configs::find("presets", &args.preset);
     let preset = load_preset(&path)?;
     let analysis = analyse(preset).with_context(|| format!("analysing {}", path.display()))?;
     print!("{}", render(&analysis));

@@ -9,6 +9,7 @@ mod cmd_estimate_eval;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_stability;
+mod configs;
 
 /// Adaptive feedrate-override control for CNC milling.
 #[derive(Parser)]

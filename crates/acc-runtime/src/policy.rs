@@ -267,6 +267,31 @@ impl Alarms {
         self.link_lost || self.power_invalid || self.watchdog || self.board_reset || self.overload
     }
 
+    /// The alarms in force by name, comma-separated (`none` when there are none): `link_lost`,
+    /// `power_invalid`, `watchdog`, `board_reset`, `overload`.
+    ///
+    /// ```
+    /// use acc_runtime::Alarms;
+    /// let a = Alarms { watchdog: true, overload: true, ..Alarms::default() };
+    /// assert_eq!(a.names(), "watchdog, overload");
+    /// assert_eq!(Alarms::default().names(), "none");
+    /// ```
+    pub fn names(&self) -> String {
+        let all = [
+            (self.link_lost, "link_lost"),
+            (self.power_invalid, "power_invalid"),
+            (self.watchdog, "watchdog"),
+            (self.board_reset, "board_reset"),
+            (self.overload, "overload"),
+        ];
+        let on: Vec<&str> = all.iter().filter(|(b, _)| *b).map(|(_, n)| *n).collect();
+        if on.is_empty() {
+            "none".into()
+        } else {
+            on.join(", ")
+        }
+    }
+
     /// Compact bit code for the run log: bit 0 link, 1 power, 2 watchdog, 3 board reset,
     /// 4 overload.
     pub fn bits(&self) -> u8 {
