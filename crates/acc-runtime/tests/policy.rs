@@ -1,4 +1,5 @@
-//! Fault policy and operator priority (issue 5, items 6 and 7), each case against a scripted
+//! Fault policy (link loss, invalid power, watchdog, board reset, overload) and operator
+//! priority (switch, knob hand-back, locked override), each case against a scripted
 //! board (`ScriptedBoard`: the spec's `BoardLogic` behind a link with scripted faults) and a
 //! scripted law, on board time advanced 100 ms per period.
 
