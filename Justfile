@@ -8,10 +8,10 @@ deps:
 test:
     cargo test --workspace
 
-# What CI runs.
-ci: deps test
+# What CI runs (.ci/run): deps, then lint, then the README's test command.
+ci: deps lint test
 
-# Lints as CI would want them.
+# Formatting check and clippy with warnings as errors, as CI runs them.
 lint:
     cargo fmt --all -- --check
     cargo clippy --workspace --all-targets -- -D warnings

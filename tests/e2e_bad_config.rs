@@ -75,7 +75,8 @@ fn bad_configs_fail_clearly_before_anything_is_sent() {
     for (key, value, named, allowed) in cases {
         let cfg = config_with(dir.path(), key, value);
         let (code, text) = run_acc(&cfg, &pty);
-        assert_ne!(code, Some(0), "{key} = {value} must fail");
+        // 2: the exit code of every failed `acc` command (docs/runtime.md)
+        assert_eq!(code, Some(2), "{key} = {value} must fail with exit code 2");
         assert!(
             text.contains(named) && text.contains(allowed),
             "{key} = {value}: error names `{named}` and `{allowed}`:\n{text}"
@@ -89,7 +90,7 @@ fn bad_configs_fail_clearly_before_anything_is_sent() {
     // unknown port
     let cfg = root().join("configs/runtime/board_sim_fast.toml");
     let (code, text) = run_acc(&cfg, "/dev/does-not-exist-acc");
-    assert_ne!(code, Some(0));
+    assert_eq!(code, Some(2), "unknown port: exit code 2");
     assert!(
         text.contains("/dev/does-not-exist-acc") && text.contains("board.port"),
         "unknown port named with its key:\n{text}"

@@ -1,4 +1,5 @@
-//! No false discovery and two hidden effects at once (issue 6).
+//! The discrepancy workflow names no effect in a log that has none, and names both of two
+//! hidden effects at once.
 //!
 //! The 200-seed false-discovery rate is measured by
 //! `cargo run --release -p acc-ident --example sweep`; here a fast subset.

@@ -1,21 +1,13 @@
-//! Real data (issue 6). Data: `../shared/data/` — Vicomtech turning tool-wear data
+//! The discrepancy workflow on real data in `../shared/data/`: Vicomtech turning tool-wear data
 //! (CC BY-SA 4.0; Ferrando Chacón et al., Int. J. Adv. Manuf. Technol. 125 (2023)
 //! 4027–4045; raw data Mondragon Unibertsitatea) and the University of Michigan SMART lab
-//! CNC mill tool-wear data (CC0). Skipped with a message when the folder is absent.
+//! CNC mill tool-wear data (CC0). Skipped with a message when the data is absent, a
+//! failure when `CI` is set (see `real_data/mod.rs`).
 
-use std::path::PathBuf;
+mod real_data;
 
 use acc_ident::{import, workflow, EffectKind};
-
-fn data() -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skip: {} not found", p.display());
-        None
-    }
-}
+use real_data::shared_data;
 
 /// Turning, flank-wear column withheld, constant-Ks model calibrated on the first 20 % of
 /// each tool. Tool wear must be named outright on at least 5 of the 7 tools. The only
@@ -26,9 +18,10 @@ fn data() -> Option<PathBuf> {
 /// both the model as given and the refitted nominal.
 #[test]
 fn turning_names_tool_wear_and_shrinks_the_late_gap() {
-    let Some(root) = data() else { return };
-    let tools = import::vicomtech_turning(&root.join("vicomtech-turning/tool_wear_tools_3-10.csv"))
-        .expect("imports");
+    let Some(path) = shared_data("vicomtech-turning/tool_wear_tools_3-10.csv") else {
+        return;
+    };
+    let tools = import::vicomtech_turning(&path).expect("imports");
     assert_eq!(tools.len(), 7);
     let wear = EffectKind::ToolWear.name();
     let speed_alias = EffectKind::FeedExponent.name();
@@ -111,7 +104,9 @@ fn turning_names_tool_wear_and_shrinks_the_late_gap() {
 /// Wax milling: spindle power is no-load loss plus noise; no effect may be named.
 #[test]
 fn wax_milling_invents_no_effect() {
-    let Some(root) = data() else { return };
+    let Some(root) = shared_data("umich-cnc-mill") else {
+        return;
+    };
     // The twelve experiments on two threads (the machine has two cores).
     let results: Vec<(usize, Result<acc_ident::Report, String>)> = std::thread::scope(|s| {
         let handles: Vec<_> = [(1..=12).step_by(2), (2..=12).step_by(2)]
@@ -120,7 +115,7 @@ fn wax_milling_invents_no_effect() {
                 let root = &root;
                 s.spawn(move || {
                     ks.map(|k| {
-                        let path = root.join(format!("umich-cnc-mill/experiment_{k:02}.csv"));
+                        let path = root.join(format!("experiment_{k:02}.csv"));
                         let r = import::umich_mill(&path)
                             .map_err(|e| e.to_string())
                             .and_then(|log| {

@@ -1,4 +1,4 @@
-//! Hidden-effect recovery, fast grid (issue 6), dynamic and drift effects: for each
+//! Hidden-effect recovery, fast grid, dynamic and drift effects: for each
 //! effect, one log with white and one with AR(1) noise at effect-to-noise ratio 4; the
 //! nominal model lacks the effect. The full sweep is
 //! `cargo run --release -p acc-ident --example sweep`.

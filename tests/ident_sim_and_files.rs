@@ -1,5 +1,5 @@
 //! The workflow on a log written by the simulator itself, and the file formats: run-log
-//! errors with line and column, model files the simulator loads (issue 6).
+//! errors with line and column, model files the simulator loads.
 
 use std::path::Path;
 

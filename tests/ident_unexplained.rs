@@ -1,5 +1,5 @@
 //! An effect outside the library is reported as unexplained, with where, and not
-//! misnamed (issue 6).
+//! misnamed as one of the library's effects.
 
 mod ident_common;
 

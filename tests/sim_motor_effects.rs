@@ -1,5 +1,5 @@
 //! The induction-motor channel honours the machine file's `[spindle.noload_drift]` and
-//! `[spindle.motor_efficiency]` (issue 6): the power the two-wattmeter method measures from
+//! `[spindle.motor_efficiency]`: the power the two-wattmeter method measures from
 //! the sampled 3-phase signals (seed 000, physics.md §2: `P = i_U·v_UW + i_V·v_VW`) rises by
 //! `ΔP·(1 − e^(−t/τ))` (times the motor's marginal input per shaft watt) and by
 //! `c·P_c²/1000`, and nothing changes with the keys off.

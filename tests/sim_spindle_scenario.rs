@@ -1,6 +1,6 @@
 //! The measurement channel is chosen by the scenario: `[measurement] kind = "spindle-power"`
 //! swaps the dynamometer for the induction-motor model and the power-based estimator
-//! (issue 4) without any change to the loop, and the paper's case III still regulates.
+//! without any change to the loop, and the paper's case III still regulates.
 
 use acc_sim::run::configs_dir;
 use acc_sim::scenario::MeasurementSpec;

@@ -1,32 +1,19 @@
 //! The estimators on real data from `../shared/data` (skipped with a message when the
-//! folder is absent):
+//! data is absent, a failure when `CI` is set; see `real_data/mod.rs`):
 //! * Vicomtech turning (CC BY-SA 4.0, Ferrando Chacón et al. 2023): calibrate on one tool,
 //!   validate on the others, MAPE against the dynamometer `F_c`;
 //! * University of Michigan wax milling (CC0): no cutting force above the noise floor.
 
 #![allow(clippy::unwrap_used)]
 
-use std::path::PathBuf;
+mod real_data;
 
 use acc_spindle::datasets::{read_mill, read_turning};
 use acc_spindle::eval::{cross_tool, min_median_max, wax_check, TurningModel, WaxSetup};
-
-fn data() -> Option<PathBuf> {
-    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    if d.is_dir() {
-        Some(d)
-    } else {
-        println!("skip: {} not found (real data sets absent)", d.display());
-        None
-    }
-}
+use real_data::shared_data;
 
 fn medians(model: TurningModel) -> Option<(f64, f64, f64)> {
-    let path = data()?.join("vicomtech-turning/tool_wear_tools_3-10.csv");
-    if !path.exists() {
-        println!("skip: {} not found", path.display());
-        return None;
-    }
+    let path = shared_data("vicomtech-turning/tool_wear_tools_3-10.csv")?;
     let (rows, skipped) = read_turning(&path).unwrap();
     assert_eq!(rows.len() + skipped, 1058);
     let r = cross_tool(&rows, model).unwrap();
@@ -62,20 +49,12 @@ fn turning_power_plus_feed_current_is_below_5_percent() {
 
 #[test]
 fn wax_gives_no_force_above_the_noise_floor() {
-    let Some(d) = data() else {
-        return;
-    };
-    let dir = d.join("umich-cnc-mill");
     let mut exps = Vec::new();
     for k in 1..=12 {
-        let p = dir.join(format!("experiment_{k:02}.csv"));
-        if p.exists() {
-            exps.push(read_mill(&p).unwrap());
-        }
-    }
-    if exps.is_empty() {
-        println!("skip: no wax experiments in {}", dir.display());
-        return;
+        let Some(p) = shared_data(&format!("umich-cnc-mill/experiment_{k:02}.csv")) else {
+            return;
+        };
+        exps.push(read_mill(&p).unwrap());
     }
     let w = wax_check(&exps, WaxSetup::default()).unwrap();
     println!("{w:?}");

@@ -38,7 +38,9 @@ pub trait MeasurementChannel {
 #[derive(Debug, Clone)]
 pub struct Dynamometer {
     noise: Option<Normal<f64>>,
-    /// Per-period smoothing factor `e^(−2π·f_c·T)`; `None` = no low-pass.
+    /// Corner frequency f_c of the first-order low-pass on the period means, Hz (0 = off).
+    /// The smoothing factor `e^(−2π·f_c·T)` is computed each period from
+    /// `PeriodInput::period_s`.
     lowpass_hz: f64,
     state: Option<f64>,
     rng: ChaCha8Rng,

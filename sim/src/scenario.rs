@@ -51,7 +51,7 @@ fn default_window() -> f64 {
 }
 
 /// A scenario without a `[measurement]` section measures the force from spindle power
-/// (issue 4: the spindle-power channel is the default; the dynamometer stays for comparison).
+/// (the spindle-power channel is the default; the dynamometer stays for comparison).
 impl Default for MeasurementSpec {
     fn default() -> Self {
         MeasurementSpec::SpindlePower(crate::motor::SpindlePowerSpec::default())

@@ -1,4 +1,4 @@
-//! Controller behaviour a real machine needs (issue 2, "Must show"): estimator convergence
+//! Controller behaviour a real machine needs: estimator convergence
 //! with the normalized gain at every feed, estimator guards and bounds, anti-windup after an
 //! air cut at 150 % (with and without), bumpless start, invalid samples, frozen integrator.
 #![allow(clippy::unwrap_used)]

@@ -1,4 +1,4 @@
-//! Pole-stability regression suite (issue 2, "Must show"): pole assignment places the
+//! Pole-stability regression suite: pole assignment places the
 //! closed-loop poles (eq. 14 on the characteristic polynomial of eqs. 4 + 6, computed as
 //! companion-matrix eigenvalues), the fixed-gain Jury bound, refusal of poles on or outside
 //! the unit circle, and the integral-only pole.

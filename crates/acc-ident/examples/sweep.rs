@@ -1,4 +1,6 @@
-//! The full hidden-effect sweep of issue 6 (the fast grid runs in `cargo test`):
+//! The full hidden-effect sweep of the model-discrepancy workflow: every candidate effect
+//! hidden in simulated logs over seeds and effect-to-noise ratios, plus pairs (the fast grid
+//! runs in `cargo test`):
 //!
 //! ```text
 //! cargo run --release -p acc-ident --example sweep -- [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--pairs 10] [--threads 2] [--effects a,b] [--out out/sweep]

@@ -6,7 +6,8 @@
 //! applied to that exchange's reply:
 //!
 //! * [`Fault::CorruptCrc`] flips one bit of the reply's 4th byte (every RTU reply is at
-//!   least 5 bytes long, so the CRC check fails);
+//!   least 5 bytes long, so the byte exists and the reply then fails its CRC check; the
+//!   byte is a data or address byte except in a 5-byte exception reply);
 //! * [`Fault::DropReply`] swallows the reply (the client times out);
 //! * [`Fault::DelayReply`] holds the reply back for a while (longer than the client's
 //!   timeout ⇒ a timeout now and a late reply on the line later, which the client must
@@ -36,7 +37,10 @@ use std::time::{Duration, Instant};
 /// One fault applied to one reply.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Fault {
-    /// Flip bit 0 of the reply's byte at index 3.
+    /// Flip bit 0 of the reply's byte at index 3, so that the reply fails its CRC check.
+    /// That byte is the CRC's low byte only in a 5-byte exception reply; in a read reply it
+    /// is the first data byte, in a write echo the register address's low byte. The CRC
+    /// bytes themselves are left as sent.
     CorruptCrc,
     /// Swallow the whole reply.
     DropReply,
@@ -78,7 +82,8 @@ impl FaultInjector {
         self.with(|s| s.queue.len())
     }
 
-    /// Faults applied so far.
+    /// Faults taken from the queue so far: one counts when its request is written (client
+    /// side) or its reply is sent (board side), whether or not the reply then arrives.
     pub fn applied(&self) -> u64 {
         self.with(|s| s.applied)
     }
@@ -121,8 +126,8 @@ pub struct FaultyStream<T> {
 
 impl<T: Read + Write> FaultyStream<T> {
     /// Wrap `inner`; faults come from `faults`. While a reply is held back the stream
-    /// answers reads with `TimedOut` after `idle_slice` (use the port's read timeout,
-    /// e.g. [`crate::serial::POLL_SLICE`]).
+    /// answers reads with `TimedOut` after `idle_slice`, or sooner when the hold ends first
+    /// (use the port's read timeout, e.g. [`crate::serial::POLL_SLICE`]).
     pub fn new(inner: T, faults: FaultInjector, idle_slice: Duration) -> Self {
         Self {
             inner,

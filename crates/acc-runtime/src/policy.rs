@@ -60,7 +60,8 @@ pub struct PolicyConfig {
     pub ack_periods: u32,
     /// Overload force limit, N (default 1600, twice the paper's Fr).
     pub overload_force_n: f64,
-    /// Time above the overload limit before feed hold, s (default 0.3).
+    /// Time above the overload limit before feed hold, s (default 0.3), counted in periods
+    /// T from the first period above: see [`PolicyConfig::overload_periods`].
     pub overload_time_s: f64,
     /// Operator knob turned down by more than this from its highest position since arming
     /// hands control back, percent (default 10).
@@ -179,6 +180,21 @@ impl PolicyConfig {
             return Err(err("nominal_feed_mm_min", self.nominal_feed_mm_min, "> 0"));
         }
         Ok(())
+    }
+
+    /// Consecutive periods above `overload_force_n` that trip the feed hold:
+    /// `ceil(overload_time_s / period_s) + 1`. The first period above only shows that the
+    /// force crossed the limit somewhere in it; `overload_time_s` is counted from that
+    /// period's end, in whole periods T. With the defaults (0.3 s, T = 0.1 s): 4 periods;
+    /// with `overload_time_s` = 0: the first period above.
+    pub fn overload_periods(&self) -> u32 {
+        // The tolerance keeps 0.9 s / 0.3 s at 3 periods of time, not 4, despite rounding.
+        let after_first = (self.overload_time_s / self.period_s - 1e-9).ceil();
+        if after_first.is_finite() && after_first >= 1.0 {
+            (after_first.min(f64::from(u32::MAX - 1)) as u32) + 1
+        } else {
+            1
+        }
     }
 }
 
@@ -442,7 +458,8 @@ pub struct FaultPolicy {
     invalid_count: u32,
     last_seq: Option<u16>,
     seq_unchanged: u32,
-    overload_since_s: Option<f64>,
+    /// Consecutive periods so far with the force above `overload_force_n`.
+    overload_count: u32,
     switch_seen_off: bool,
     operator_ref: u16,
     acc_confirmed: bool,
@@ -467,7 +484,7 @@ impl FaultPolicy {
             invalid_count: 0,
             last_seq: None,
             seq_unchanged: 0,
-            overload_since_s: None,
+            overload_count: 0,
             switch_seen_off: false,
             operator_ref: 0,
             acc_confirmed: false,
@@ -668,8 +685,8 @@ impl FaultPolicy {
             }
             // Overload (tool-breakage protection), in any state.
             if force_valid && f.force_n > self.cfg.overload_force_n {
-                let since = *self.overload_since_s.get_or_insert(input.t_s);
-                if input.t_s - since + 1e-9 >= self.cfg.overload_time_s && !self.feed_hold {
+                self.overload_count = self.overload_count.saturating_add(1);
+                if self.overload_count >= self.cfg.overload_periods() && !self.feed_hold {
                     self.feed_hold = true;
                     out.events.push(Event::FeedHold(true));
                     tracing::warn!(force_n = f.force_n, "overload: feed hold requested");
@@ -683,7 +700,7 @@ impl FaultPolicy {
                     }
                 }
             } else {
-                self.overload_since_s = None;
+                self.overload_count = 0;
             }
         }
 

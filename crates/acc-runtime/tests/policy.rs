@@ -1,4 +1,5 @@
-//! Fault policy and operator priority (issue 5, items 6 and 7), each case against a scripted
+//! Fault policy (link loss, invalid power, watchdog, board reset, overload) and operator
+//! priority (switch, knob hand-back, locked override), each case against a scripted
 //! board (`ScriptedBoard`: the spec's `BoardLogic` behind a link with scripted faults) and a
 //! scripted law, on board time advanced 100 ms per period.
 
@@ -458,6 +459,11 @@ fn overload_requests_feed_hold_and_alarm() {
         overload_time_s: 0.3,
         ..PolicyConfig::default()
     };
+    assert_eq!(
+        cfg.overload_periods(),
+        4,
+        "the first period above, then 0.3 s at T = 0.1 s"
+    );
     let mut rig = Rig::new(cfg, [100]);
     rig.run(3);
     // a 0.2 s spike: no feed hold
@@ -474,7 +480,10 @@ fn overload_requests_feed_hold_and_alarm() {
         .iter()
         .position(|r| r.out.events.contains(&Event::FeedHold(true)))
         .expect("feed hold requested");
-    assert_eq!(hold_at, 3, "t − t_first ≥ 0.3 s at the 4th period");
+    assert_eq!(
+        hold_at, 3,
+        "0.3 s after the first period above: the 4th period"
+    );
     assert!(released(&recs[hold_at], Release::Overload));
     assert!(recs[hold_at].out.alarms.overload);
     assert!(rig.status().feed_hold_active);
@@ -486,6 +495,47 @@ fn overload_requests_feed_hold_and_alarm() {
     assert!(armed(&on));
     rig.step();
     assert!(!rig.status().feed_hold_active);
+}
+
+/// Periods of sustained overload (from an armed, active policy) until the feed hold.
+fn periods_to_overload_hold(cfg: PolicyConfig) -> usize {
+    let mut rig = Rig::new(cfg, [100]);
+    rig.run(3);
+    assert_eq!(rig.state(), AccState::Active);
+    rig.power_w = 4000; // 2000 N, above the 1600 N limit
+    let recs = rig.run(20);
+    recs.iter()
+        .position(|r| r.out.events.contains(&Event::FeedHold(true)))
+        .expect("feed hold requested")
+        + 1
+}
+
+#[test]
+fn overload_time_is_counted_in_periods_of_the_configured_t() {
+    // The rig's clock advances 0.1 s per cycle whatever T says: only `period_s` can make
+    // the two configurations trip after different numbers of periods.
+    let base = PolicyConfig {
+        overload_force_n: 1600.0,
+        overload_time_s: 0.3,
+        ..PolicyConfig::default()
+    };
+    let fast = PolicyConfig {
+        period_s: 0.05,
+        ..base
+    };
+    assert_eq!(periods_to_overload_hold(base), 4, "1 + 0.3 s / 0.1 s");
+    assert_eq!(periods_to_overload_hold(fast), 7, "1 + 0.3 s / 0.05 s");
+    // ceil: 0.25 s at T = 0.1 s needs 3 whole periods after the first; 0 s trips on the
+    // first period above; 0.9 s / 0.3 s stays 1 + 3 despite floating-point rounding.
+    let c = |overload_time_s, period_s| PolicyConfig {
+        overload_time_s,
+        period_s,
+        ..base
+    };
+    assert_eq!(c(0.25, 0.1).overload_periods(), 4);
+    assert_eq!(c(0.0, 0.1).overload_periods(), 1);
+    assert_eq!(c(0.9, 0.3).overload_periods(), 4);
+    assert_eq!(periods_to_overload_hold(c(0.0, 0.1)), 1);
 }
 
 #[test]

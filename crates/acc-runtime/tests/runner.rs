@@ -2,7 +2,7 @@
 //! flag, and a logger that is too slow never blocks control (drops are counted).
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
 use acc_runtime::policy::{AccState, FaultPolicy, PolicyConfig};
@@ -237,24 +237,87 @@ fn drives_the_can_board_through_the_same_loop() {
     );
 }
 
-/// A law that stalls once for far longer than the period.
-struct StallOnce {
-    inner: ScriptedLaw,
-    at: usize,
-    steps: usize,
+/// How many status reads the board has answered, shared between the board (the I/O thread)
+/// and the law (the control thread) so that a test can order the two threads.
+#[derive(Default)]
+struct ReadCount {
+    reads: Mutex<u64>,
+    changed: Condvar,
 }
 
-impl acc_core::OverrideLaw for StallOnce {
+impl ReadCount {
+    fn get(&self) -> u64 {
+        *self.reads.lock().expect("read counter")
+    }
+
+    /// Block until at least `n` reads were answered (panics after 30 s of wall time: the
+    /// I/O thread is stuck, which is a failure of the run, not of the clock).
+    fn wait_for(&self, n: u64) {
+        let guard = self.reads.lock().expect("read counter");
+        let (guard, timeout) = self
+            .changed
+            .wait_timeout_while(guard, Duration::from_secs(30), |r| *r < n)
+            .expect("read counter");
+        assert!(
+            !timeout.timed_out(),
+            "read {n} never came (reads: {})",
+            *guard
+        );
+    }
+}
+
+/// [`LiveBoard`] whose status read of period `late_period` returns one whole period late on
+/// the manual clock: the I/O thread then has no time left to wait for that period's plan.
+struct LateReadBoard {
+    live: LiveBoard,
+    clock: ManualClock,
+    period: Duration,
+    late_period: u64,
+    count: Arc<ReadCount>,
+}
+
+impl acc_pmc::Pmc for LateReadBoard {
+    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
+    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
+        ScriptedBoard::kind(e)
+    }
+    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        let status = self.live.read_status();
+        let mut reads = self.count.reads.lock().expect("read counter");
+        if *reads == self.late_period {
+            self.clock.advance(self.period);
+        }
+        *reads += 1;
+        self.count.changed.notify_all();
+        status
+    }
+    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+        self.live.write_override(o, hb)
+    }
+    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+        self.live.write_control(c)
+    }
+}
+
+/// A law whose decision of period `held_period` is held until the board has answered the
+/// next period's status read, so that it reaches the I/O thread one period late.
+struct HeldDecision {
+    inner: ScriptedLaw,
+    held_period: u64,
+    count: Arc<ReadCount>,
+}
+
+impl acc_core::OverrideLaw for HeldDecision {
     fn name(&self) -> &str {
-        "stall-once"
+        "held-decision"
     }
     fn engage(&mut self, c: acc_core::FeedOverride) {
         self.inner.engage(c)
     }
     fn step(&mut self, m: &acc_core::Measurement) -> acc_core::StepOutput {
-        self.steps += 1;
-        if self.steps == self.at {
-            std::thread::sleep(Duration::from_millis(60));
+        // Reads answered = period index + 1 while period `held_period` is being decided.
+        if self.count.get() == self.held_period + 1 {
+            self.count.wait_for(self.held_period + 2);
         }
         self.inner.step(m)
     }
@@ -263,15 +326,31 @@ impl acc_core::OverrideLaw for StallOnce {
     }
 }
 
+/// Deterministic on the manual clock: the status read of period `LATE` takes the whole
+/// period, so the I/O thread's wait for that period's plan ends at once; the decision itself
+/// is held until the next period's read. The late plan must be dropped (that period writes
+/// nothing) and must not be applied in the next period; every other period's plan is
+/// applied in its own period. The plan wait of the other periods is the period (10 s) in
+/// wall time, far longer than any decision takes.
 #[test]
 fn a_late_control_decision_is_dropped_not_applied_a_period_late() {
-    let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
+    const LATE: u64 = 10;
+    let period = Duration::from_secs(10);
+    let clock = ManualClock::new();
+    let count = Arc::new(ReadCount::default());
+    let mut board = LateReadBoard {
+        live: LiveBoard(ScriptedBoard::new(), Vec::new()),
+        clock: clock.clone(),
+        period,
+        late_period: LATE,
+        count: Arc::clone(&count),
+    };
     let mut ctl = ControlLoop::new(
         FaultPolicy::new(PolicyConfig::default()),
-        StallOnce {
+        HeldDecision {
             inner: ScriptedLaw::new([90, 80, 70]),
-            at: 5,
-            steps: 0,
+            held_period: LATE,
+            count: Arc::clone(&count),
         },
         LinearPowerForce { n_per_w: 0.5 },
         0.1,
@@ -280,36 +359,31 @@ fn a_late_control_decision_is_dropped_not_applied_a_period_late() {
     let stop = AtomicBool::new(false);
     let opts = RunOptions {
         max_periods: Some(20),
-        // 5 ms of wall time to wait for a plan; the stalled step takes 60 ms
-        ..RunOptions::new(Duration::from_millis(5))
+        ..RunOptions::new(period)
     };
-    let s = run(
-        &mut board,
-        &mut ctl,
-        ManualClock::new(),
-        &mut sink,
-        &stop,
-        opts,
-    )
-    .expect("runs");
+    let s = run(&mut board, &mut ctl, clock.clone(), &mut sink, &stop, opts).expect("runs");
     assert_eq!(s.periods, 20);
-    let hb_at_read = &board.1;
-    let mut skipped = 0;
+    assert_eq!(count.get(), 20);
+    // The late read ended exactly at the next deadline: no tick was missed.
+    assert_eq!(s.ticker.overruns, 0);
+    assert_eq!(clock.now(), period * 20);
+    assert_eq!(sink.0.len(), 20);
+    let hb_at_read = &board.live.1;
+    let mut dropped = Vec::new();
     for (p, rec) in sink.0.iter().enumerate().take(19) {
-        let Some(hb) = rec.heartbeat else {
-            continue;
-        };
+        let hb = rec
+            .heartbeat
+            .unwrap_or_else(|| panic!("period {p}: the law decided, so the plan writes"));
         // the board shows this period's heartbeat at the next read, unless the plan was late
         if hb_at_read[p + 1] != hb {
-            skipped += 1;
             assert!(
                 hb_at_read[p + 1] < hb,
                 "period {p}: an older plan was applied late"
             );
-            assert!((4..8).contains(&p), "period {p}: only around the stall");
+            dropped.push(p as u64);
         }
     }
-    // The stalled decision (and the one queued behind it) missed their periods and were
-    // dropped; afterwards every period's plan is applied in its own period again.
-    assert!((1..=3).contains(&skipped), "dropped plans: {skipped}");
+    // Only the held decision missed its period; afterwards every period's plan is applied
+    // in its own period again.
+    assert_eq!(dropped, vec![LATE], "periods whose plan was dropped");
 }

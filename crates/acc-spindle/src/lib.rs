@@ -104,6 +104,18 @@ pub enum SpindleError {
         /// What is wrong (too few points, degenerate data, non-physical result).
         reason: String,
     },
+    /// The estimator's method needs a signal the chosen input does not carry (the board
+    /// reports spindle power only, no phase currents).
+    #[error(
+        "input `{input}` carries spindle power only; method `{method}` needs phase currents: \
+         use method `power` or `power-efficiency`"
+    )]
+    InputLacksSignal {
+        /// The input (`board-power`).
+        input: &'static str,
+        /// The estimator method that needs the missing signal.
+        method: &'static str,
+    },
     /// A parameter outside its allowed range.
     #[error("parameter `{key}` = {value} is out of range: allowed {allowed}")]
     OutOfRange {

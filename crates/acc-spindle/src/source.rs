@@ -42,10 +42,9 @@ impl SpindleSource {
     pub fn new(input: SpindleInput, est: SpindleEstimator) -> Result<Self, SpindleError> {
         let method = est.config().method;
         if input == SpindleInput::BoardPower && !method.needs_power() {
-            return Err(SpindleError::Fit {
+            return Err(SpindleError::InputLacksSignal {
+                input: "board-power",
                 method: method.name(),
-                reason: "the board reports power only: use method `power` or `power-efficiency`"
-                    .into(),
             });
         }
         let name = match input {
@@ -249,6 +248,17 @@ mod tests {
             ..Default::default()
         };
         let est = SpindleEstimator::new(cfg, c, nl).unwrap();
-        assert!(SpindleSource::new(SpindleInput::BoardPower, est).is_err());
+        let Err(e) = SpindleSource::new(SpindleInput::BoardPower, est) else {
+            panic!("board power with the current method must be refused");
+        };
+        // A configuration mismatch, not a failed calibration fit.
+        assert_eq!(
+            e,
+            SpindleError::InputLacksSignal {
+                input: "board-power",
+                method: Method::Current.name(),
+            }
+        );
+        assert!(e.to_string().contains("method `power`"), "{e}");
     }
 }

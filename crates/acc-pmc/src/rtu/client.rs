@@ -3,7 +3,7 @@
 use std::io::{Read, Write};
 use std::time::Duration;
 
-use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
+use super::codec::{BuildError, Decoded, FrameError, ProtocolError, Transaction};
 use super::{is_idle, LinkClock, MonotonicClock};
 use crate::board::{holding, input};
 use crate::stale::SeqWatch;
@@ -92,7 +92,8 @@ pub enum RtuError {
         /// The status read this cycle.
         status: BoardStatus,
     },
-    /// A request that cannot be encoded (caller error).
+    /// A caller error: a request that cannot be encoded, or a register read asked of a
+    /// write transaction.
     #[error(transparent)]
     Build(#[from] super::codec::BuildError),
 }
@@ -237,10 +238,11 @@ impl<T: Read + Write> RtuBoard<T> {
     fn registers(&mut self, tx: &Transaction) -> Result<Vec<u16>, RtuError> {
         match self.transact(tx)? {
             Decoded::Registers(r) => Ok(r),
-            Decoded::WriteAck => Err(RtuError::Protocol {
-                slave: self.cfg.slave,
-                source: ProtocolError::Truncated { len: 0 },
-            }),
+            // Only a write transaction (FC06/FC16) decodes to an acknowledgement: the caller
+            // passed a write where a register read was needed. Nothing is wrong with the reply.
+            Decoded::WriteAck => Err(RtuError::Build(BuildError(
+                "a register read was given a write transaction (FC06/FC16), which returns no registers",
+            ))),
         }
     }
 
@@ -386,5 +388,53 @@ impl<T: Read + Write> Pmc for RtuBoard<T> {
             control.to_register(),
         )?;
         self.transact(&tx).map(|_| ())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Cursor;
+
+    /// A byte stream that answers every request with the bytes of `reply` (then EOF).
+    struct Canned {
+        reply: Cursor<Vec<u8>>,
+        written: Vec<u8>,
+    }
+
+    impl Read for Canned {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            self.reply.read(buf)
+        }
+    }
+
+    impl Write for Canned {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.written.extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn registers_of_a_write_transaction_is_a_caller_error_not_a_bad_reply() {
+        let tx = Transaction::write_single_register(1, holding::WATCHDOG_MS, 500).expect("build");
+        // FC06's reply echoes the request byte for byte: a correct acknowledgement.
+        let ack = tx.request_bytes().to_vec();
+        let port = Canned {
+            reply: Cursor::new(ack.clone()),
+            written: Vec::new(),
+        };
+        let mut link = RtuBoard::new(port, RtuLinkConfig::default());
+        let e = link
+            .registers(&tx)
+            .expect_err("a write returns no registers");
+        assert!(
+            matches!(e, RtuError::Build(BuildError(msg)) if msg.contains("write transaction")),
+            "{e:?}"
+        );
+        assert_eq!(link.get_mut().written, ack, "the request went out once");
     }
 }

@@ -1,13 +1,13 @@
 //! Modbus RTU frames for the board: pure functions over bytes, no I/O.
 //!
-//! Frame generation, CRC-16 and frame-length guessing come from the `rmodbus` crate; this
+//! Frame generation and frame-length guessing come from the `rmodbus` crate, CRC-16/MODBUS
+//! from the `crc` crate (`rmodbus` keeps its own CRC private); this
 //! module only adds the board's transactions and a *layered* classification of replies:
 //! a bad checksum ([`FrameError::Crc`]) is kept apart from a device exception
 //! ([`FrameError::Exception`]) and from a reply that checks out but violates the protocol
 //! ([`FrameError::Protocol`]). Transport errors (timeouts, I/O) never arise here.
 
 use rmodbus::client::ModbusRequest;
-use rmodbus::server::ModbusFrame;
 use rmodbus::ModbusProto;
 
 /// Modbus function codes the board serves.
@@ -24,18 +24,13 @@ pub mod function {
     pub const EXCEPTION_FLAG: u8 = 0x80;
 }
 
-/// CRC-16/MODBUS of `data` (polynomial 0xA001 reflected, init 0xFFFF), computed by
-/// `rmodbus` (it appends the CRC when it finalizes an RTU frame). On the wire the CRC is
-/// sent low byte first.
+/// The CRC-16/MODBUS algorithm (the `crc` crate's catalogue entry).
+const MODBUS_CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_MODBUS);
+
+/// CRC-16/MODBUS of `data` (polynomial 0xA001 reflected, init 0xFFFF, no final XOR), for a
+/// body of any length. On the wire the CRC is sent low byte first.
 pub fn crc16(data: &[u8]) -> u16 {
-    let mut out: Vec<u8> = Vec::with_capacity(data.len() + 2);
-    let mut frame = ModbusFrame::new(0, &[], ModbusProto::Rtu, &mut out);
-    frame.response.extend_from_slice(data);
-    // finalize_response appends the CRC (it only fails for frames longer than 255 bytes).
-    if frame.finalize_response().is_err() || out.len() != data.len() + 2 {
-        return 0;
-    }
-    u16::from_le_bytes([out[data.len()], out[data.len() + 1]])
+    MODBUS_CRC.checksum(data)
 }
 
 /// Append the CRC (low byte first) to a frame body.
@@ -147,7 +142,8 @@ pub enum Decoded {
     WriteAck,
 }
 
-/// Failure to build a request (a caller error: register count outside 1…123/125).
+/// A caller error: a request that cannot be built (register count outside 1…123/125), or
+/// a transaction used for what it cannot give (registers from a write).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("cannot build Modbus request: {0}")]
 pub struct BuildError(pub &'static str);
@@ -246,7 +242,7 @@ impl Transaction {
         }
     }
 
-    /// Classify and decode one complete reply frame. Order: CRC (via `rmodbus`), slave
+    /// Classify and decode one complete reply frame. Order: CRC ([`crc16`]), slave
     /// address, exception flag, function, then length/echo; values are parsed by `rmodbus`.
     pub fn decode(&self, reply: &[u8]) -> Result<Decoded, FrameError> {
         if reply.len() < 5 {
@@ -359,6 +355,22 @@ mod tests {
         f[3] ^= 0x01;
         assert!(!crc_ok(&f));
         assert!(!crc_ok(&[0x01, 0x02, 0x03]));
+    }
+
+    #[test]
+    fn crc_of_bodies_longer_than_255_bytes() {
+        // 300 zero bytes → 0x3065 and 01 10 00 01 … (300 bytes) → 0xF2C5: CRC-16/MODBUS
+        // computed bit by bit (poly 0xA001 reflected, init 0xFFFF).
+        assert_eq!(crc16(&[0u8; 300]), 0x3065);
+        let mut body = vec![0x01, 0x10];
+        body.extend((0..298u32).map(|i| (i % 256) as u8));
+        assert_eq!(crc16(&body), 0xF2C5);
+        // A corrupted long frame is caught like a short one.
+        let mut f = body.clone();
+        append_crc(&mut f);
+        assert!(crc_ok(&f));
+        f[200] ^= 0x04;
+        assert!(!crc_ok(&f));
     }
 
     #[test]
