@@ -36,6 +36,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use acc_config::{check_range, ConfigError};
+use acc_core::filter::FirstOrderLag;
 use acc_core::PhaseBlock;
 use acc_spindle::power::PhaseSamples;
 use rand::SeedableRng;
@@ -747,7 +748,7 @@ impl MotorSim {
             ch.reserve(n);
         }
         let slices = torque_nm.len().clamp(1, n.max(1));
-        let lag = self.motor.cfg.drive.torque_lag_s;
+        let lag = FirstOrderLag::new(self.motor.cfg.drive.torque_lag_s);
         let mut truth = PeriodTruth::default();
         let full = 2f64.powi(s.adc_bits as i32 - 1);
         let (lsb_i, lsb_v) = (s.current_range_a / full, s.voltage_range_v / full);
@@ -761,11 +762,7 @@ impl MotorSim {
             let end = (j + 1) * n / slices;
             let t_cut = torque_nm.get(j).copied().unwrap_or(0.0);
             let dt = (end - start) as f64 / fs;
-            self.lagged_torque_nm = if lag > 0.0 {
-                t_cut + (self.lagged_torque_nm - t_cut) * (-dt / lag).exp()
-            } else {
-                t_cut
-            };
+            self.lagged_torque_nm = lag.step(self.lagged_torque_nm, t_cut, dt);
             let disturbance = if self.motor.cfg.drive.torque_noise_nm > 0.0 {
                 let z: f64 = StandardNormal.sample(&mut self.rng);
                 self.motor.cfg.drive.torque_noise_nm * z

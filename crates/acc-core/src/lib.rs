@@ -14,6 +14,8 @@
 //! | [`override_spec`] | [`FeedOverride`], board step (10 % or 1 %) and range 0 … 150 % |
 //! | [`stability`] | companion-matrix poles (nalgebra), Jury test, stable Kc ranges and margins |
 //! | [`source`] | the [`ForceSource`] measurement-channel trait |
+//! | [`filter`] | [`filter::FirstOrderLag`]: the one first-order lag (exact ZOH discretisation) |
+//! | [`stats`] | [`stats::rms`]: the one root mean square |
 //!
 //! ```
 //! use acc_core::stability::{kc_ratio_margin, pi_poles, spectral_radius};
@@ -48,11 +50,13 @@
 
 pub mod controller;
 pub mod estimator;
+pub mod filter;
 pub mod override_spec;
 pub mod pi;
 pub mod poles;
 pub mod source;
 pub mod stability;
+pub mod stats;
 
 pub use controller::{
     Controller, ControllerConfig, Measurement, Mode, ModeConfig, OverrideLaw, PaperCase,
