@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use acc_config::RangeError;
 use acc_config::{check_range, load_toml, ConfigError};
 use acc_core::filter::FirstOrderLag;
 use serde::{Deserialize, Serialize};
@@ -265,12 +266,14 @@ impl MachineSpec {
             1.0,
         )?;
         if !matches!(self.override_path.step_pct, 1 | 10) {
-            return Err(ConfigError::OutOfRange {
-                file: f.to_path_buf(),
-                key: "override_path.step_pct".into(),
-                value: self.override_path.step_pct.to_string(),
-                allowed: "1 or 10".into(),
-            });
+            return Err(ConfigError::OutOfRange(
+                RangeError::new(
+                    "override_path.step_pct",
+                    self.override_path.step_pct.to_string(),
+                    "1 or 10",
+                )
+                .in_file(f),
+            ));
         }
         check_range(f, "sim.mean_rate_hz", self.sim.mean_rate_hz, 10.0, 1e5)?;
         check_range(f, "sim.tooth_rate_hz", self.sim.tooth_rate_hz, 100.0, 1e6)?;

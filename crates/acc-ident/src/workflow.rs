@@ -13,6 +13,8 @@ use crate::runlog::RunLog;
 use crate::segment::{label_rows, segment_biases, segments, Segment};
 use crate::stats::{self, correlation, lag1, mean, n_eff, normal_quantile, Noise};
 
+use acc_core::RangeError;
+
 /// Workflow settings.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -71,16 +73,9 @@ pub enum WorkflowError {
         /// Folds asked for.
         folds: usize,
     },
-    /// An option is out of range.
-    #[error("option `{name}` = {value} is out of range: allowed {allowed}")]
-    BadOption {
-        /// Option name.
-        name: &'static str,
-        /// Value.
-        value: f64,
-        /// Allowed range.
-        allowed: &'static str,
-    },
+    /// An option is out of range (the key is the [`Options`] field).
+    #[error("{0}")]
+    BadOption(acc_core::RangeError),
 }
 
 /// Time series for plots.
@@ -453,18 +448,18 @@ fn metrics(
 /// signature → unexplained check → sealed-part comparison.
 pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
     if opts.folds < 2 || opts.folds > 20 {
-        return Err(WorkflowError::BadOption {
-            name: "folds",
-            value: opts.folds as f64,
-            allowed: "2 ..= 20",
-        });
+        return Err(WorkflowError::BadOption(RangeError::new(
+            "folds",
+            opts.folds as f64,
+            "2 ..= 20",
+        )));
     }
     if !(0.05..=0.5).contains(&opts.sealed_fraction) {
-        return Err(WorkflowError::BadOption {
-            name: "sealed_fraction",
-            value: opts.sealed_fraction,
-            allowed: "0.05 ..= 0.5",
-        });
+        return Err(WorkflowError::BadOption(RangeError::new(
+            "sealed_fraction",
+            opts.sealed_fraction,
+            "0.05 ..= 0.5",
+        )));
     }
     let mut inp = Inputs::from_log(log, model)?;
     let n = inp.len();

@@ -233,12 +233,9 @@ impl RunConfig {
                 .hold_on_raising_release
                 .unwrap_or(d.hold_on_raising_release),
         };
-        policy.validate().map_err(|e| ConfigError::OutOfRange {
-            file: path.to_path_buf(),
-            key: format!("policy.{}", e.key),
-            value: e.value,
-            allowed: e.allowed.to_string(),
-        })?;
+        policy
+            .validate()
+            .map_err(|e| ConfigError::OutOfRange(e.prefixed("policy").in_file(path)))?;
 
         // [runtime]
         let rt = file.runtime;

@@ -104,14 +104,7 @@ pub enum SpindleError {
         /// What is wrong (too few points, degenerate data, non-physical result).
         reason: String,
     },
-    /// A parameter outside its allowed range.
-    #[error("parameter `{key}` = {value} is out of range: allowed {allowed}")]
-    OutOfRange {
-        /// Parameter name as in the configuration.
-        key: &'static str,
-        /// Offending value.
-        value: f64,
-        /// Allowed range in words.
-        allowed: &'static str,
-    },
+    /// A parameter outside its allowed range (the key as in the configuration).
+    #[error("{0}")]
+    OutOfRange(acc_core::RangeError),
 }
