@@ -354,3 +354,70 @@ pub fn shared_data_dir(workspace_root: &Path) -> Option<PathBuf> {
     let d = workspace_root.join("../shared/data");
     d.is_dir().then_some(d)
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn file_with(text: &str) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("d.csv");
+        std::fs::write(&path, text).unwrap();
+        (dir, path)
+    }
+
+    #[test]
+    fn columns_by_name_trimmed_and_errors_name_file_line_column() {
+        let (_d, path) = file_with("b, a ,c\n1, 2 ,x\n3,4,y\n5,oops,z\n");
+        let mut f = CsvFile::open(&path).unwrap();
+        let [a, c] = f.columns(["a", "c"]).unwrap();
+        let mut got = Vec::new();
+        let mut err = None;
+        for row in f.rows() {
+            let row = row.unwrap();
+            match row.num(a) {
+                Ok(v) => got.push((row.line(), v, row.text(c).to_string())),
+                Err(e) => err = Some(e),
+            }
+        }
+        assert_eq!(got, vec![(2, 2.0, "x".into()), (3, 4.0, "y".into())]);
+        let e = err.unwrap();
+        assert_eq!(
+            e,
+            DatasetError::BadValue {
+                file: path.clone(),
+                line: 4,
+                col: 2,
+                column: "a".into(),
+                message: "`oops` is not a finite number".into(),
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: line 4, column 2 (`a`): `oops` is not a finite number",
+                path.display()
+            )
+        );
+        let missing = CsvFile::open(&path).unwrap().column("nope").unwrap_err();
+        assert_eq!(
+            missing.to_string(),
+            format!("{}: line 1: missing column `nope`", path.display())
+        );
+        assert_eq!(missing.file(), path.as_path());
+    }
+
+    #[test]
+    fn non_finite_numbers_and_missing_files_are_refused() {
+        let (_d, path) = file_with("x\nNaN\n");
+        let mut f = CsvFile::open(&path).unwrap();
+        let row = f.rows().next().unwrap().unwrap();
+        assert!(matches!(
+            row.num(0),
+            Err(DatasetError::BadValue { line: 2, .. })
+        ));
+        let e = CsvFile::open(Path::new("/nonexistent/d.csv")).unwrap_err();
+        assert!(matches!(e, DatasetError::Open { .. }), "{e}");
+    }
+}
