@@ -7,6 +7,7 @@
 //! power-based force source) implements the same trait and is selected by the scenario's
 //! `[measurement] kind`, so the loop does not change.
 
+use acc_core::filter::FirstOrderLag;
 use acc_core::{ForceSample, ForceSource, PeriodInput};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -72,13 +73,11 @@ impl ForceSource for Dynamometer {
         };
         let noisy = truth + self.noise.map_or(0.0, |n| n.sample(&mut self.rng));
         let out = if self.lowpass_hz > 0.0 {
-            let a = (-2.0 * std::f64::consts::PI * self.lowpass_hz * input.period_s).exp();
-            let y = match self.state {
-                Some(prev) => a * prev + (1.0 - a) * noisy,
-                None => noisy,
-            };
-            self.state = Some(y);
-            y
+            FirstOrderLag::from_cutoff_hz(self.lowpass_hz).step_from(
+                &mut self.state,
+                noisy,
+                input.period_s,
+            )
         } else {
             noisy
         };

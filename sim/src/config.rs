@@ -2,7 +2,9 @@
 
 use std::path::Path;
 
+use acc_config::RangeError;
 use acc_config::{check_range, load_toml, ConfigError};
+use acc_core::filter::FirstOrderLag;
 use serde::{Deserialize, Serialize};
 
 use crate::process::{ProcessSpec, ToothSpec, WearSpec};
@@ -108,13 +110,7 @@ impl NoloadDrift {
     /// Drift `ΔP · (1 − e^(−t/τ))` at `t_s` after spindle start, W (0 for `t ≤ 0`; a
     /// step for `τ ≤ 0`).
     pub fn power_w(&self, t_s: f64) -> f64 {
-        if t_s <= 0.0 {
-            0.0
-        } else if self.tau_s <= 0.0 {
-            self.delta_w
-        } else {
-            self.delta_w * (1.0 - (-t_s / self.tau_s).exp())
-        }
+        self.delta_w * FirstOrderLag::new(self.tau_s).step_response(t_s)
     }
 
     /// Range checks; errors name `<prefix>.delta_w` / `<prefix>.tau_s`.
@@ -270,12 +266,14 @@ impl MachineSpec {
             1.0,
         )?;
         if !matches!(self.override_path.step_pct, 1 | 10) {
-            return Err(ConfigError::OutOfRange {
-                file: f.to_path_buf(),
-                key: "override_path.step_pct".into(),
-                value: self.override_path.step_pct.to_string(),
-                allowed: "1 or 10".into(),
-            });
+            return Err(ConfigError::OutOfRange(
+                RangeError::new(
+                    "override_path.step_pct",
+                    self.override_path.step_pct.to_string(),
+                    "1 or 10",
+                )
+                .in_file(f),
+            ));
         }
         check_range(f, "sim.mean_rate_hz", self.sim.mean_rate_hz, 10.0, 1e5)?;
         check_range(f, "sim.tooth_rate_hz", self.sim.tooth_rate_hz, 100.0, 1e6)?;
@@ -411,15 +409,7 @@ impl SensorLowpass {
     /// One period of length `dt_s` with mean input `x`; `state` holds the last output
     /// (`None` before the first period). Returns the filtered value.
     pub fn step(&self, state: &mut Option<f64>, x: f64, dt_s: f64) -> f64 {
-        let y = match *state {
-            Some(prev) if self.tau_s > 1e-9 => {
-                let a = (-dt_s / self.tau_s).exp();
-                a * prev + (1.0 - a) * x
-            }
-            _ => x,
-        };
-        *state = Some(y);
-        y
+        FirstOrderLag::new(self.tau_s).step_from(state, x, dt_s)
     }
 
     /// Filter a series of period means in place; `dt_s[k]` is the length of period `k`.

@@ -4,6 +4,8 @@
 use std::collections::VecDeque;
 use std::f64::consts::PI;
 
+use acc_core::filter::FirstOrderLag;
+
 use crate::config::{MachineSpec, Runout, SensorLowpass, SpindleSpec, ToolSpec};
 use crate::process::{ForceLaw, ToothModel, Wear, WearSpec};
 use crate::workpiece::Workpiece;
@@ -308,11 +310,7 @@ impl Machine {
     pub fn advance(&mut self, period_s: f64) -> PeriodRecord<'_> {
         let n = ((period_s * self.rate_hz).round() as usize).max(1);
         let dt = period_s / n as f64;
-        let alpha = if self.tau_s > 0.0 {
-            1.0 - (-dt / self.tau_s).exp()
-        } else {
-            1.0
-        };
+        let alpha = FirstOrderLag::new(self.tau_s).alpha(dt);
         let ap = self.workpiece.axial_depth_mm;
         let t0 = self.t_s;
         self.samples.clear();
@@ -332,7 +330,7 @@ impl Machine {
                 self.programmed_feed_mm_min * f64::from(ov) / 100.0
             };
             let f_old = self.feed_mm_min;
-            self.feed_mm_min += (target - self.feed_mm_min) * alpha;
+            self.feed_mm_min = FirstOrderLag::advance(self.feed_mm_min, target, alpha);
             let dx = 0.5 * (f_old + self.feed_mm_min) * dt / 60.0;
             self.x_mm += dx;
             let rpm = self.spindle.speed_rpm();

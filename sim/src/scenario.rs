@@ -210,17 +210,7 @@ struct ModelTables {
 /// Prefix the key of a validation error with the model-file table it came from.
 fn in_table(table: &str, e: ConfigError) -> ConfigError {
     match e {
-        ConfigError::OutOfRange {
-            file,
-            key,
-            value,
-            allowed,
-        } => ConfigError::OutOfRange {
-            file,
-            key: format!("{table}.{key}"),
-            value,
-            allowed,
-        },
+        ConfigError::OutOfRange(e) => ConfigError::OutOfRange(e.prefixed(table)),
         ConfigError::Invalid { file, key, message } => ConfigError::Invalid {
             file,
             key: format!("{table}.{key}"),
@@ -580,7 +570,8 @@ mod tests {
 
     fn key_of(e: &ConfigError) -> &str {
         match e {
-            ConfigError::Invalid { key, .. } | ConfigError::OutOfRange { key, .. } => key,
+            ConfigError::Invalid { key, .. }
+            | ConfigError::OutOfRange(acc_config::RangeError { key, .. }) => key,
             other => panic!("expected a keyed error, got {other}"),
         }
     }

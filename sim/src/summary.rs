@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use acc_core::stats::rms;
+
 use crate::run::RunResult;
 use crate::scenario::Scenario;
 use crate::workpiece::Workpiece;
@@ -85,15 +87,6 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     }
     let idx = (p * (sorted.len() - 1) as f64).round() as usize;
     sorted[idx.min(sorted.len() - 1)]
-}
-
-fn rms(xs: impl Iterator<Item = f64>) -> f64 {
-    let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
-    if n == 0 {
-        0.0
-    } else {
-        (s / n as f64).sqrt()
-    }
 }
 
 /// The force of a record, N: the one the controller saw, else (a machine-side log of

@@ -15,6 +15,7 @@
 
 use std::path::Path;
 
+use acc_config::RangeError;
 use acc_config::{check_range, load_toml, ConfigError};
 use serde::Deserialize;
 
@@ -266,12 +267,14 @@ impl Workpiece {
             };
             for (k, d) in keys.into_iter().zip([s.depth_start_mm, s.depth_end_mm]) {
                 if d > diameter_mm {
-                    return Err(ConfigError::OutOfRange {
-                        file: path.to_path_buf(),
-                        key: format!("segment[{i}].{k}"),
-                        value: d.to_string(),
-                        allowed: format!("0 ..= {diameter_mm} (the tool diameter)"),
-                    });
+                    return Err(ConfigError::OutOfRange(
+                        RangeError::new(
+                            format!("segment[{i}].{k}"),
+                            d.to_string(),
+                            format!("0 ..= {diameter_mm} (the tool diameter)"),
+                        )
+                        .in_file(path),
+                    ));
                 }
             }
         }

@@ -17,6 +17,9 @@ use serde::de::DeserializeOwned;
 
 pub mod preset;
 
+/// The one out-of-range error of the workspace (defined in `acc-core`, the lowest crate, so
+/// that the control core reports its parameter ranges with it too).
+pub use acc_core::RangeError;
 pub use preset::{load_controller, load_preset, parse_preset, resolve_preset, Preset, PresetFile};
 
 /// A configuration error: which file, which key, what is wrong.
@@ -38,18 +41,10 @@ pub enum ConfigError {
         /// Parser message, including line and column and the key where known.
         message: String,
     },
-    /// A value outside its allowed range.
-    #[error("{file}: key `{key}` = {value} is out of range: allowed {allowed}")]
-    OutOfRange {
-        /// File path.
-        file: PathBuf,
-        /// Dotted key path.
-        key: String,
-        /// Offending value as written.
-        value: String,
-        /// Allowed range in words, e.g. `0.001 ..= 10`.
-        allowed: String,
-    },
+    /// A value outside its allowed range: `FILE: key `K` = V is out of range: allowed A`
+    /// (the file is always set by this crate's checks).
+    #[error("{0}")]
+    OutOfRange(RangeError),
     /// Any other invalid value (inconsistent keys, unknown preset name, ...).
     #[error("{file}: key `{key}`: {message}")]
     Invalid {
@@ -84,6 +79,12 @@ pub fn parse_toml<T: DeserializeOwned>(
     })
 }
 
+impl From<RangeError> for ConfigError {
+    fn from(e: RangeError) -> Self {
+        ConfigError::OutOfRange(e)
+    }
+}
+
 /// Check `lo <= value <= hi` (and finite); the error names file, key and range.
 pub fn check_range(
     file: impl AsRef<Path>,
@@ -95,12 +96,10 @@ pub fn check_range(
     if value.is_finite() && value >= lo && value <= hi {
         Ok(value)
     } else {
-        Err(ConfigError::OutOfRange {
-            file: file.as_ref().to_path_buf(),
-            key: key.to_string(),
-            value: value.to_string(),
-            allowed: format!("{lo} ..= {hi}"),
-        })
+        Err(ConfigError::OutOfRange(
+            RangeError::new(key.to_string(), value.to_string(), format!("{lo} ..= {hi}"))
+                .in_file(file),
+        ))
     }
 }
 
@@ -115,12 +114,14 @@ pub fn check_open_range(
     if value.is_finite() && value > lo && value < hi {
         Ok(value)
     } else {
-        Err(ConfigError::OutOfRange {
-            file: file.as_ref().to_path_buf(),
-            key: key.to_string(),
-            value: value.to_string(),
-            allowed: format!("{lo} < x < {hi}"),
-        })
+        Err(ConfigError::OutOfRange(
+            RangeError::new(
+                key.to_string(),
+                value.to_string(),
+                format!("{lo} < x < {hi}"),
+            )
+            .in_file(file),
+        ))
     }
 }
 

@@ -52,6 +52,7 @@ use acc_core::{
 };
 use serde::Deserialize;
 
+use crate::RangeError;
 use crate::{check_open_range, check_range, load_toml, parse_toml, ConfigError};
 
 /// A preset file as written (before validation).
@@ -270,11 +271,11 @@ impl ModeSection {
                         format!("{{ re = {re}, im = {im} }}"),
                     ),
                 };
-                poles.validate().map_err(|e| ConfigError::OutOfRange {
-                    file: file.to_path_buf(),
-                    key: "mode.poles".into(),
-                    value: format!("{written} ({e})"),
-                    allowed: POLES_ALLOWED.into(),
+                poles.validate().map_err(|e| {
+                    ConfigError::OutOfRange(
+                        RangeError::new("mode.poles", format!("{written} ({e})"), POLES_ALLOWED)
+                            .in_file(file),
+                    )
                 })?;
                 Ok(ModeConfig::AdaptivePi { poles })
             }
@@ -294,11 +295,8 @@ impl ModeSection {
 impl OverrideSection {
     /// Validate and convert; errors name `override.<key>`.
     pub fn to_spec(&self, file: &Path) -> Result<OverrideSpec, ConfigError> {
-        let bad = |key: &str, value: u16, allowed: String| ConfigError::OutOfRange {
-            file: file.to_path_buf(),
-            key: key.into(),
-            value: value.to_string(),
-            allowed,
+        let bad = |key: &str, value: u16, allowed: String| {
+            ConfigError::OutOfRange(RangeError::new(key, value.to_string(), allowed).in_file(file))
         };
         let step = self.step_pct;
         if !(1..=50).contains(&step) {
@@ -342,12 +340,14 @@ impl EstimatorSection {
     pub fn to_config(&self, file: &Path) -> Result<EstimatorConfig, ConfigError> {
         check_open_range(file, "estimator.kc_min", self.kc_min, 0.0, 1e4)?;
         if !(self.kc_max.is_finite() && self.kc_max > self.kc_min && self.kc_max <= 1e4) {
-            return Err(ConfigError::OutOfRange {
-                file: file.to_path_buf(),
-                key: "estimator.kc_max".into(),
-                value: self.kc_max.to_string(),
-                allowed: format!("kc_min = {} < x <= 10000", self.kc_min),
-            });
+            return Err(ConfigError::OutOfRange(
+                RangeError::new(
+                    "estimator.kc_max",
+                    self.kc_max.to_string(),
+                    format!("kc_min = {} < x <= 10000", self.kc_min),
+                )
+                .in_file(file),
+            ));
         }
         check_range(
             file,
@@ -415,12 +415,14 @@ impl PlantSection {
         let [lo, hi] = self.kc_sweep;
         check_open_range(file, "plant.kc_sweep[0]", lo, 0.0, 1e4)?;
         if !(hi.is_finite() && hi > lo && hi <= 1e4) {
-            return Err(ConfigError::OutOfRange {
-                file: file.to_path_buf(),
-                key: "plant.kc_sweep[1]".into(),
-                value: hi.to_string(),
-                allowed: format!("kc_sweep[0] = {lo} < x <= 10000"),
-            });
+            return Err(ConfigError::OutOfRange(
+                RangeError::new(
+                    "plant.kc_sweep[1]",
+                    hi.to_string(),
+                    format!("kc_sweep[0] = {lo} < x <= 10000"),
+                )
+                .in_file(file),
+            ));
         }
         Ok(())
     }

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acc_config::{load_preset, parse_preset, resolve_preset, ConfigError};
+use acc_config::{load_preset, parse_preset, resolve_preset, ConfigError, RangeError};
 use acc_core::{ControllerConfig, PaperCase};
 
 fn presets_dir() -> PathBuf {
@@ -71,13 +71,13 @@ fn with(text: &str, key: &str, value: &str) -> String {
 
 fn out_of_range(text: &str) -> (String, String, String) {
     match parse_preset("presets/bad.toml", text).unwrap_err() {
-        ConfigError::OutOfRange {
+        ConfigError::OutOfRange(RangeError {
             file,
             key,
             allowed,
             value,
-        } => {
-            assert_eq!(file, PathBuf::from("presets/bad.toml"));
+        }) => {
+            assert_eq!(file, Some(PathBuf::from("presets/bad.toml")));
             (key, allowed, value)
         }
         other => panic!("expected OutOfRange, got {other:?}"),

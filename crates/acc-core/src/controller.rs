@@ -43,6 +43,7 @@
 use crate::estimator::KcEstimator;
 use crate::pi::PiState;
 use crate::poles::{self, PiGains};
+use crate::RangeError;
 use crate::{CoreError, DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec};
 
 /// What the controller sees once per period `T`.
@@ -417,18 +418,12 @@ impl ModeConfig {
             }
             ModeConfig::FixedPi { kp, ki } => {
                 if !(kp.is_finite() && kp >= 0.0) {
-                    return Err(CoreError::OutOfRange {
-                        name: "mode.kp",
-                        value: kp,
-                        allowed: ">= 0",
-                    });
+                    return Err(CoreError::OutOfRange(RangeError::new(
+                        "mode.kp", kp, ">= 0",
+                    )));
                 }
                 if !(ki.is_finite() && ki > 0.0) {
-                    return Err(CoreError::OutOfRange {
-                        name: "mode.ki",
-                        value: ki,
-                        allowed: "> 0",
-                    });
+                    return Err(CoreError::OutOfRange(RangeError::new("mode.ki", ki, "> 0")));
                 }
                 Ok(())
             }
@@ -492,25 +487,21 @@ impl ControllerConfig {
     /// Check every value; errors name the configuration key and the allowed range.
     pub fn validate(&self) -> Result<(), CoreError> {
         if !(self.period_s.is_finite() && self.period_s > 0.0 && self.period_s <= 10.0) {
-            return Err(CoreError::OutOfRange {
-                name: "period_s",
-                value: self.period_s,
-                allowed: "0 < T <= 10",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "period_s",
+                self.period_s,
+                "0 < T <= 10",
+            )));
         }
         if !(self.force_ref_n.is_finite() && self.force_ref_n > 0.0) {
-            return Err(CoreError::OutOfRange {
-                name: "force_ref_n",
-                value: self.force_ref_n,
-                allowed: "> 0",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "force_ref_n",
+                self.force_ref_n,
+                "> 0",
+            )));
         }
         if !(self.km.is_finite() && self.km > 0.0) {
-            return Err(CoreError::OutOfRange {
-                name: "km",
-                value: self.km,
-                allowed: "> 0",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new("km", self.km, "> 0")));
         }
         self.mode.validate()?;
         self.override_spec.validate()?;

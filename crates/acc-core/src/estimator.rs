@@ -41,6 +41,7 @@
 //! ```
 
 use crate::CoreError;
+use crate::RangeError;
 
 /// Estimator gain choice.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -127,66 +128,58 @@ impl EstimatorConfig {
             if value.is_finite() && value > 0.0 {
                 Ok(())
             } else {
-                Err(CoreError::OutOfRange {
-                    name,
-                    value,
-                    allowed: "> 0",
-                })
+                Err(CoreError::OutOfRange(RangeError::new(name, value, "> 0")))
             }
         };
         let nonneg = |name, value: f64| {
             if value.is_finite() && value >= 0.0 {
                 Ok(())
             } else {
-                Err(CoreError::OutOfRange {
-                    name,
-                    value,
-                    allowed: ">= 0",
-                })
+                Err(CoreError::OutOfRange(RangeError::new(name, value, ">= 0")))
             }
         };
         pos("estimator.kc_min", self.kc_min)?;
         if !(self.kc_max.is_finite() && self.kc_max > self.kc_min) {
-            return Err(CoreError::OutOfRange {
-                name: "estimator.kc_max",
-                value: self.kc_max,
-                allowed: "> kc_min",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "estimator.kc_max",
+                self.kc_max,
+                "> kc_min",
+            )));
         }
         if !(self.kc_initial >= self.kc_min && self.kc_initial <= self.kc_max) {
-            return Err(CoreError::OutOfRange {
-                name: "estimator.kc_initial",
-                value: self.kc_initial,
-                allowed: "kc_min ..= kc_max",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "estimator.kc_initial",
+                self.kc_initial,
+                "kc_min ..= kc_max",
+            )));
         }
         match self.gain {
             EstimatorGain::Fixed { g_c } => pos("estimator.g_c", g_c)?,
             EstimatorGain::Normalized { mu } => {
                 if !(mu.is_finite() && mu > 0.0 && mu < 2.0) {
-                    return Err(CoreError::OutOfRange {
-                        name: "estimator.mu",
-                        value: mu,
-                        allowed: "0 < mu < 2",
-                    });
+                    return Err(CoreError::OutOfRange(RangeError::new(
+                        "estimator.mu",
+                        mu,
+                        "0 < mu < 2",
+                    )));
                 }
             }
         }
         nonneg("estimator.min_force_n", self.min_force_n)?;
         nonneg("estimator.min_feed_mm_min", self.min_feed_mm_min)?;
         if self.confirm_periods > 10_000 {
-            return Err(CoreError::OutOfRange {
-                name: "estimator.confirm_periods",
-                value: f64::from(self.confirm_periods),
-                allowed: "0 ..= 10000",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "estimator.confirm_periods",
+                f64::from(self.confirm_periods),
+                "0 ..= 10000",
+            )));
         }
         if !(self.confirm_tol.is_finite() && self.confirm_tol > 0.0 && self.confirm_tol < 1.0) {
-            return Err(CoreError::OutOfRange {
-                name: "estimator.confirm_tol",
-                value: self.confirm_tol,
-                allowed: "0 < x < 1",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "estimator.confirm_tol",
+                self.confirm_tol,
+                "0 < x < 1",
+            )));
         }
         Ok(())
     }
@@ -223,11 +216,7 @@ impl KcEstimator {
     pub fn new(cfg: EstimatorConfig, km: f64) -> Result<Self, CoreError> {
         cfg.validate()?;
         if !(km.is_finite() && km > 0.0) {
-            return Err(CoreError::OutOfRange {
-                name: "km",
-                value: km,
-                allowed: "> 0",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new("km", km, "> 0")));
         }
         Ok(Self {
             cfg,

@@ -14,6 +14,8 @@
 //! | [`override_spec`] | [`FeedOverride`], board step (10 % or 1 %) and range 0 … 150 % |
 //! | [`stability`] | companion-matrix poles (nalgebra), Jury test, stable Kc ranges and margins |
 //! | [`source`] | the [`ForceSource`] measurement-channel trait |
+//! | [`filter`] | [`filter::FirstOrderLag`]: the one first-order lag (exact ZOH discretisation) |
+//! | [`stats`] | [`stats::rms`]: the one root mean square |
 //!
 //! ```
 //! use acc_core::stability::{kc_ratio_margin, pi_poles, spectral_radius};
@@ -48,11 +50,13 @@
 
 pub mod controller;
 pub mod estimator;
+pub mod filter;
 pub mod override_spec;
 pub mod pi;
 pub mod poles;
 pub mod source;
 pub mod stability;
+pub mod stats;
 
 pub use controller::{
     Controller, ControllerConfig, Measurement, Mode, ModeConfig, OverrideLaw, PaperCase,
@@ -63,33 +67,94 @@ pub use override_spec::{FeedOverride, OverrideSpec};
 pub use poles::{DesiredPoles, PiGains, PoleError};
 pub use source::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
 
+/// A value outside its allowed range — the one shape of this error in the workspace (core
+/// parameters, configuration files, policy, spindle parameters, command-line options).
+/// Displays as `FILE: key `K` = V is out of range: allowed A` (without `FILE: ` when the
+/// value did not come from a file).
+///
+/// ```
+/// use acc_core::RangeError;
+/// let e = RangeError::new("period_s", -1.0, "0 < T <= 10");
+/// assert_eq!(e.to_string(), "key `period_s` = -1 is out of range: allowed 0 < T <= 10");
+/// let e = e.prefixed("controller").in_file("m.toml");
+/// assert_eq!(
+///     e.to_string(),
+///     "m.toml: key `controller.period_s` = -1 is out of range: allowed 0 < T <= 10"
+/// );
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RangeError {
+    /// The file the value came from, if any.
+    pub file: Option<std::path::PathBuf>,
+    /// Dotted key path as written in the configuration (or the option name).
+    pub key: String,
+    /// Offending value as written.
+    pub value: String,
+    /// Allowed range in words, e.g. `0.001 ..= 10`.
+    pub allowed: String,
+}
+
+impl RangeError {
+    /// `key` = `value` is outside `allowed` (no file yet; see [`RangeError::in_file`]).
+    pub fn new(
+        key: impl Into<String>,
+        value: impl std::fmt::Display,
+        allowed: impl Into<String>,
+    ) -> Self {
+        Self {
+            file: None,
+            key: key.into(),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        }
+    }
+
+    /// The same error, naming the file the value came from.
+    pub fn in_file(self, file: impl AsRef<std::path::Path>) -> Self {
+        Self {
+            file: Some(file.as_ref().to_path_buf()),
+            ..self
+        }
+    }
+
+    /// The same error with the key inside `table` (`table.key`).
+    pub fn prefixed(self, table: &str) -> Self {
+        Self {
+            key: format!("{table}.{}", self.key),
+            ..self
+        }
+    }
+}
+
+impl std::fmt::Display for RangeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(file) = &self.file {
+            write!(f, "{}: ", file.display())?;
+        }
+        write!(
+            f,
+            "key `{}` = {} is out of range: allowed {}",
+            self.key, self.value, self.allowed
+        )
+    }
+}
+
+impl std::error::Error for RangeError {}
+
 /// Errors raised when building controller parts from parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CoreError {
     /// A desired pole set is not strictly inside the unit circle.
     Pole(PoleError),
-    /// A parameter is outside its allowed range.
-    OutOfRange {
-        /// Parameter name as used in configuration files.
-        name: &'static str,
-        /// Offending value.
-        value: f64,
-        /// Human-readable allowed range, e.g. `"(0, 2)"`.
-        allowed: &'static str,
-    },
+    /// A parameter is outside its allowed range (the key is the configuration name).
+    OutOfRange(RangeError),
 }
 
 impl std::fmt::Display for CoreError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             CoreError::Pole(e) => write!(f, "{e}"),
-            CoreError::OutOfRange {
-                name,
-                value,
-                allowed,
-            } => {
-                write!(f, "`{name}` = {value} is out of range: allowed {allowed}")
-            }
+            CoreError::OutOfRange(e) => write!(f, "{e}"),
         }
     }
 }
@@ -98,7 +163,7 @@ impl std::error::Error for CoreError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             CoreError::Pole(e) => Some(e),
-            CoreError::OutOfRange { .. } => None,
+            CoreError::OutOfRange(e) => Some(e),
         }
     }
 }

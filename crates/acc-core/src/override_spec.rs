@@ -8,6 +8,7 @@
 //! between two positions does not dither between them.
 
 use crate::CoreError;
+use crate::RangeError;
 
 /// A feed override in percent of the programmed feed (integer percent).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -96,33 +97,33 @@ impl OverrideSpec {
     /// finite in 0 ..= `step_pct`/2.
     pub fn validate(&self) -> Result<(), CoreError> {
         if self.step_pct == 0 || self.step_pct > 50 {
-            return Err(CoreError::OutOfRange {
-                name: "override.step_pct",
-                value: f64::from(self.step_pct),
-                allowed: "1 ..= 50",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "override.step_pct",
+                f64::from(self.step_pct),
+                "1 ..= 50",
+            )));
         }
         if self.max_pct > Self::ABSOLUTE_MAX_PCT || !self.max_pct.is_multiple_of(self.step_pct) {
-            return Err(CoreError::OutOfRange {
-                name: "override.max_pct",
-                value: f64::from(self.max_pct),
-                allowed: "a multiple of step_pct, <= 150",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "override.max_pct",
+                f64::from(self.max_pct),
+                "a multiple of step_pct, <= 150",
+            )));
         }
         if self.min_pct > self.max_pct || !self.min_pct.is_multiple_of(self.step_pct) {
-            return Err(CoreError::OutOfRange {
-                name: "override.min_pct",
-                value: f64::from(self.min_pct),
-                allowed: "a multiple of step_pct, <= max_pct",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "override.min_pct",
+                f64::from(self.min_pct),
+                "a multiple of step_pct, <= max_pct",
+            )));
         }
         let h = self.hysteresis_pct;
         if !(h.is_finite() && h >= 0.0 && h <= f64::from(self.step_pct) / 2.0) {
-            return Err(CoreError::OutOfRange {
-                name: "override.hysteresis_pct",
-                value: h,
-                allowed: "0 ..= step_pct/2",
-            });
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "override.hysteresis_pct",
+                h,
+                "0 ..= step_pct/2",
+            )));
         }
         Ok(())
     }

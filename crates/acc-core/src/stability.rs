@@ -31,6 +31,7 @@ use nalgebra::{Complex, Matrix1, Matrix2};
 
 use crate::poles::{validate_single, DesiredPoles, PoleError};
 use crate::CoreError;
+use crate::RangeError;
 
 /// A pole in the z-plane, `re + j·im`.
 pub type Pole = Complex<f64>;
@@ -149,11 +150,7 @@ fn check(name: &'static str, value: f64, ok: bool, allowed: &'static str) -> Res
     if value.is_finite() && ok {
         Ok(())
     } else {
-        Err(CoreError::OutOfRange {
-            name,
-            value,
-            allowed,
-        })
+        Err(CoreError::OutOfRange(RangeError::new(name, value, allowed)))
     }
 }
 

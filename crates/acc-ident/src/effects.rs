@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use acc_config::RangeError;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
@@ -473,12 +474,14 @@ impl Effects {
         }
         if let Some(e) = self.feed_exponent {
             if e.feed_ref_mm_min <= 0.0 {
-                return Err(ConfigError::OutOfRange {
-                    file: f.to_path_buf(),
-                    key: "effects.feed_exponent.feed_ref_mm_min".into(),
-                    value: e.feed_ref_mm_min.to_string(),
-                    allowed: "> 0".into(),
-                });
+                return Err(ConfigError::OutOfRange(
+                    RangeError::new(
+                        "effects.feed_exponent.feed_ref_mm_min",
+                        e.feed_ref_mm_min.to_string(),
+                        "> 0",
+                    )
+                    .in_file(f),
+                ));
             }
         }
         Ok(())

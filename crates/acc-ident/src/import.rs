@@ -1,4 +1,6 @@
-//! Importers for the real data in `../shared/data/`, mapped onto the run-log schema.
+//! Importers for the real data in `../shared/data/`, mapped onto the run-log schema. The
+//! files are read by `acc_spindle::datasets` (the one reader of these data sets, shared with
+//! `acc estimate-eval`); this module maps its rows onto run logs.
 //!
 //! **Vicomtech turning** (`vicomtech-turning/tool_wear_tools_3-10.csv`, CC BY-SA 4.0,
 //! Ferrando Chacón et al., Int. J. Adv. Manuf. Technol. 125 (2023) 4027–4045; raw data
@@ -34,87 +36,57 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use acc_spindle::datasets::{read_mill, read_turning, DatasetError};
+
 use crate::model::{
     Channel, FeedDrive, FeedInput, Machine, Measurement, Model, OverridePath, Process, Spindle,
     Tool, Wear,
 };
 use crate::runlog::{RunLog, RunLogError};
 
-/// A CSV-layer error as a [`RunLogError`] naming the file and line.
-fn csv_error(path: &Path, e: csv::Error) -> RunLogError {
-    RunLogError::Csv {
-        file: path.to_path_buf(),
-        line: e.position().map(|p| p.line()).unwrap_or(0),
-        message: e.to_string(),
-    }
-}
-
-/// Open a CSV file and read its header.
-fn open(path: &Path) -> Result<(csv::Reader<std::fs::File>, Cols<'_>), RunLogError> {
-    let f = std::fs::File::open(path).map_err(|e| RunLogError::Io {
-        file: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(f);
-    let header = rdr.headers().map_err(|e| csv_error(path, e))?.clone();
-    Ok((rdr, Cols { path, header }))
-}
-
-struct Cols<'a> {
-    path: &'a Path,
-    header: csv::StringRecord,
-}
-
-impl Cols<'_> {
-    fn idx(&self, name: &str) -> Result<usize, RunLogError> {
-        self.header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| RunLogError::MissingColumn {
-                file: self.path.to_path_buf(),
-                column: name.into(),
+/// The data sets are read by `acc_spindle::datasets` (one reader for `acc estimate-eval`
+/// and the import); its errors keep their file, line and column here.
+impl From<DatasetError> for RunLogError {
+    fn from(e: DatasetError) -> Self {
+        match e {
+            DatasetError::Open { file, reason } => RunLogError::Io { file, reason },
+            DatasetError::MissingColumn { file, column } => RunLogError::MissingColumn {
+                file,
+                column,
                 required: "see acc_ident::import docs".into(),
-            })
-    }
-
-    fn num(&self, rec: &csv::StringRecord, col: usize) -> Result<f64, RunLogError> {
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        let text = rec.get(col).unwrap_or("");
-        text.parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| RunLogError::BadValue {
-                file: self.path.to_path_buf(),
+            },
+            DatasetError::BadValue {
+                file,
                 line,
-                col: col + 1,
-                column: self.header.get(col).unwrap_or("").into(),
-                message: format!("`{text}` is not a finite number"),
-            })
+                col,
+                column,
+                message,
+            } => RunLogError::BadValue {
+                file,
+                line,
+                col,
+                column,
+                message,
+            },
+            DatasetError::Csv {
+                file,
+                line,
+                message,
+            } => RunLogError::Csv {
+                file,
+                line,
+                message,
+            },
+        }
     }
 }
 
 /// Import the Vicomtech turning file: one run log per tool id, in file order.
 pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogError> {
-    let (mut rdr, cols) = open(path)?;
-    let (c_f, c_p, c_s, c_feed, c_tool, c_vb) = (
-        cols.idx("F_c_MEAN")?,
-        cols.idx("TV50.S_MEAN")?,
-        cols.idx("CON.SV2.S")?,
-        cols.idx("CON.G.FREAL")?,
-        cols.idx("tool")?,
-        cols.idx("Vb")?,
-    );
+    let (rows, _skipped) = read_turning(path)?;
     let mut out: BTreeMap<u32, RunLog> = BTreeMap::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| csv_error(path, e))?;
-        let feed = cols.num(&rec, c_feed)?;
-        if feed <= 0.0 {
-            continue;
-        }
-        let tool = cols.num(&rec, c_tool)? as u32;
-        let log = out.entry(tool).or_insert_with(|| RunLog {
+    for r in rows {
+        let log = out.entry(r.tool).or_insert_with(|| RunLog {
             force_n: Some(Vec::new()),
             power_w: Some(Vec::new()),
             wear_vb_um: Some(Vec::new()),
@@ -124,16 +96,16 @@ pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogErr
         log.t_s.push(t);
         log.radial_depth_mm.push(1.0);
         log.axial_depth_mm.push(1.0);
-        log.spindle_rpm.push(cols.num(&rec, c_s)? / 1000.0);
-        log.feed_mm_min.push(feed);
+        log.spindle_rpm.push(r.speed / 1000.0);
+        log.feed_mm_min.push(r.feed);
         let push = |v: &mut Option<Vec<f64>>, x: f64| {
             if let Some(v) = v.as_mut() {
                 v.push(x);
             }
         };
-        push(&mut log.force_n, cols.num(&rec, c_f)?);
-        push(&mut log.power_w, cols.num(&rec, c_p)?);
-        push(&mut log.wear_vb_um, cols.num(&rec, c_vb)?);
+        push(&mut log.force_n, r.force_n);
+        push(&mut log.power_w, r.power_w);
+        push(&mut log.wear_vb_um, r.vb_um);
     }
     for log in out.values_mut() {
         let ratio: Vec<f64> = (0..log.len())
@@ -158,34 +130,24 @@ pub fn vicomtech_turning(path: &Path) -> Result<BTreeMap<u32, RunLog>, RunLogErr
 /// run-down power (inertia) is outside the model, and rows with the spindle stopped carry
 /// no information. Time keeps the original 0.1 s grid (with gaps).
 pub fn umich_mill(path: &Path) -> Result<RunLog, RunLogError> {
-    let (mut rdr, cols) = open(path)?;
-    let (c_p, c_s, c_vx, c_vy, c_feed, c_phase) = (
-        cols.idx("S1_OutputPower")?,
-        cols.idx("S1_ActualVelocity")?,
-        cols.idx("X1_ActualVelocity")?,
-        cols.idx("Y1_ActualVelocity")?,
-        cols.idx("M1_CURRENT_FEEDRATE")?,
-        cols.idx("Machining_Process")?,
-    );
+    let rows = read_mill(path)?;
     let mut log = RunLog::default();
     let mut power = Vec::new();
     let mut prog = Vec::new();
     let mut phases = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| csv_error(path, e))?;
-        let phase = rec.get(c_phase).unwrap_or("").to_string();
-        let cutting = phase.starts_with("Layer");
+    for r in rows {
+        let cutting = r.is_cutting();
         let t = (log.t_s.len() + 1) as f64 * 0.1;
         log.t_s.push(t);
         let d = if cutting { 1.0 } else { 0.0 };
         log.radial_depth_mm.push(d);
         log.axial_depth_mm.push(d);
-        log.spindle_rpm.push((cols.num(&rec, c_s)? * 60.0).max(0.0));
-        let (vx, vy) = (cols.num(&rec, c_vx)?, cols.num(&rec, c_vy)?);
+        log.spindle_rpm.push((r.spindle_velocity * 60.0).max(0.0));
+        let (vx, vy) = (r.x_velocity_mm_s, r.y_velocity_mm_s);
         log.feed_mm_min.push(60.0 * (vx * vx + vy * vy).sqrt());
-        prog.push(cols.num(&rec, c_feed)? * 60.0);
-        power.push(cols.num(&rec, c_p)? * 1000.0);
-        phases.push(phase);
+        prog.push(r.programmed_feed_mm_s * 60.0);
+        power.push(r.spindle_power_w);
+        phases.push(r.process);
     }
     log.power_w = Some(power);
     log.programmed_feed_mm_min = Some(prog);

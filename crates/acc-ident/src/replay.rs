@@ -2,6 +2,8 @@
 //! engagement, spindle speed and feed (or feed command) drive the model; nothing is fed
 //! back, so the prediction is compared with the measurement like for like.
 
+use acc_core::filter::FirstOrderLag;
+
 use crate::effects::EffectKind;
 use crate::model::{Channel, FeedInput, Model};
 use crate::physics;
@@ -226,7 +228,7 @@ fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Ve
             let mut k = 0usize;
             for i in 0..n {
                 let h = inp.dt_s[i] / SUBSTEPS as f64;
-                let a = if tau > 1e-9 { (-h / tau).exp() } else { 0.0 };
+                let alpha = FirstOrderLag::new(tau).alpha(h);
                 let t_start = inp.t_s[i] - inp.dt_s[i];
                 let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
                 for j in 0..SUBSTEPS {
@@ -258,7 +260,7 @@ fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Ve
                         kk = next;
                     }
                     let u = u / h;
-                    f = a * f + (1.0 - a) * u;
+                    f = FirstOrderLag::advance(f, u, alpha);
                     sum += f;
                     if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {
                         sum_w += f;

@@ -16,13 +16,9 @@ pub fn mean(x: &[f64]) -> f64 {
     }
 }
 
-/// Root mean square (0 for an empty slice).
+/// Root mean square (0 for an empty slice): [`acc_core::stats::rms`] on a slice.
 pub fn rms(x: &[f64]) -> f64 {
-    if x.is_empty() {
-        0.0
-    } else {
-        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
-    }
+    acc_core::stats::rms(x.iter().copied())
 }
 
 /// Lag-1 autocorrelation of `x` about its mean, clamped to [−0.95, 0.99].

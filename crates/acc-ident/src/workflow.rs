@@ -13,6 +13,8 @@ use crate::runlog::RunLog;
 use crate::segment::{label_rows, segment_biases, segments, Segment};
 use crate::stats::{self, correlation, lag1, mean, n_eff, normal_quantile, Noise};
 
+use acc_core::RangeError;
+
 /// Workflow settings.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -71,16 +73,9 @@ pub enum WorkflowError {
         /// Folds asked for.
         folds: usize,
     },
-    /// An option is out of range.
-    #[error("option `{name}` = {value} is out of range: allowed {allowed}")]
-    BadOption {
-        /// Option name.
-        name: &'static str,
-        /// Value.
-        value: f64,
-        /// Allowed range.
-        allowed: &'static str,
-    },
+    /// An option is out of range (the key is the [`Options`] field).
+    #[error("{0}")]
+    BadOption(acc_core::RangeError),
 }
 
 /// Time series for plots.
@@ -451,271 +446,290 @@ fn metrics(
 /// `folds − 1` folds, (b) is significant after a Bonferroni correction over the
 /// candidates, (c) has a 95 % interval excluding its null, and (d) removes its residual
 /// signature → unexplained check → sealed-part comparison.
+///
+/// The stages are the private functions below, in order: `check_options`, `Prepared::new`
+/// (split and locate), `Selection::nominal` (nominal refit), `Selection::run` (rounds of
+/// `screen_candidate` and `choose_best`), `ResidualCheck::run` (unexplained),
+/// `sealed_check` and `assemble` (report).
 pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
+    check_options(opts)?;
+    let p = Prepared::new(model, log, opts)?;
+    let ctx = Ctx {
+        inp: &p.inp,
+        sel: p.sel.clone(),
+        folds: p.folds.clone(),
+    };
+    let check = ResidualCheck {
+        inp: &p.inp,
+        segs: &p.sel_segs,
+        n_sel: p.n_sel,
+        q_floor: p.q_floor,
+        min_len: p.min_len,
+        alpha: opts.alpha,
+        sigs: &p.sigs,
+        sel: &p.sel,
+    };
+    let mut s = Selection::nominal(model, &p, opts);
+    s.run(&p, &ctx, opts);
+
+    // Unexplained?
+    let upd_replay = replay(&s.base_model, &p.inp);
+    let (noise_f, unexplained) = check.run(&s.base_model);
+
+    let sealed = sealed_check(&p, &s.nominal_refit, &upd_replay.predicted, noise_f);
+    Ok(assemble(model, p, s, upd_replay, unexplained, sealed, opts))
+}
+
+/// The options [`analyse`] accepts: 2 ..= 20 folds, a sealed fraction in 0.05 ..= 0.5.
+fn check_options(opts: &Options) -> Result<(), WorkflowError> {
     if opts.folds < 2 || opts.folds > 20 {
-        return Err(WorkflowError::BadOption {
-            name: "folds",
-            value: opts.folds as f64,
-            allowed: "2 ..= 20",
-        });
+        return Err(WorkflowError::BadOption(RangeError::new(
+            "folds",
+            opts.folds as f64,
+            "2 ..= 20",
+        )));
     }
     if !(0.05..=0.5).contains(&opts.sealed_fraction) {
-        return Err(WorkflowError::BadOption {
-            name: "sealed_fraction",
-            value: opts.sealed_fraction,
-            allowed: "0.05 ..= 0.5",
-        });
+        return Err(WorkflowError::BadOption(RangeError::new(
+            "sealed_fraction",
+            opts.sealed_fraction,
+            "0.05 ..= 0.5",
+        )));
     }
-    let mut inp = Inputs::from_log(log, model)?;
-    let n = inp.len();
-    let needed = 12 * opts.folds + 20;
-    if n < needed {
-        return Err(WorkflowError::TooShort {
-            rows: n,
-            needed,
-            folds: opts.folds,
-        });
+    Ok(())
+}
+
+/// The log prepared for selection: inputs, the selection / sealed split, contiguous folds,
+/// segments, the nominal replay and its residual, noise and the "locate" part of the report.
+struct Prepared {
+    /// Model inputs (with the fit prior set around the nominal model).
+    inp: Inputs,
+    /// Rows in the log.
+    n: usize,
+    /// Rows in the selection part (`0..n_sel`); the sealed part is `n_sel..n`.
+    n_sel: usize,
+    /// The selection rows.
+    sel: Vec<usize>,
+    /// Contiguous folds over the selection rows.
+    folds: Vec<std::ops::Range<usize>>,
+    /// Shortest segment tested for a bias, rows.
+    min_len: usize,
+    /// Segments over the whole log.
+    segs: Vec<Segment>,
+    /// Segments clipped to the selection part.
+    sel_segs: Vec<Segment>,
+    /// The nominal model's replay.
+    nominal_replay: crate::replay::Replay,
+    /// Quantization floor of the noise σ.
+    q_floor: f64,
+    /// Noise of the nominal residual over the selection part.
+    noise0: Noise,
+    /// Candidate signals the residual is correlated with.
+    sigs: Vec<(String, Vec<f64>)>,
+    /// Nominal residual RMS, segment biases and correlations (report section 1).
+    locate: Locate,
+}
+
+impl Prepared {
+    /// Split the log (selection / sealed, folds) and locate the nominal discrepancy.
+    fn new(model: &Model, log: &RunLog, opts: &Options) -> Result<Self, WorkflowError> {
+        let mut inp = Inputs::from_log(log, model)?;
+        let n = inp.len();
+        let needed = 12 * opts.folds + 20;
+        if n < needed {
+            return Err(WorkflowError::TooShort {
+                rows: n,
+                needed,
+                folds: opts.folds,
+            });
+        }
+        let n_sel = ((1.0 - opts.sealed_fraction) * n as f64).round() as usize;
+        let sel: Vec<usize> = (0..n_sel).collect();
+        let fold_len = n_sel / opts.folds;
+        let folds: Vec<std::ops::Range<usize>> = (0..opts.folds)
+            .map(|k| {
+                let a = k * fold_len;
+                let b = if k + 1 == opts.folds {
+                    n_sel
+                } else {
+                    a + fold_len
+                };
+                a..b
+            })
+            .collect();
+        let min_len = ((opts.min_segment_s / inp.period_s.max(1e-9)).round() as usize).max(3);
+
+        // 1. Locate.
+        let labels = label_rows(&inp, opts.transient_s);
+        let segs = segments(&labels);
+        let sel_segs: Vec<Segment> = segs
+            .iter()
+            .filter(|s| s.start < n_sel)
+            .map(|s| Segment {
+                end: s.end.min(n_sel),
+                ..*s
+            })
+            .collect();
+        let nominal_replay = replay(model, &inp);
+        let r0_full: Vec<f64> = (0..n)
+            .map(|i| inp.measured[i] - nominal_replay.predicted[i])
+            .collect();
+        let q_floor = quantization_sigma(&inp.measured);
+        let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
+        let sigs = signals(&inp, &nominal_replay);
+        inp.prior = Some(crate::fit::Prior::around(model, noise0.sigma.max(1e-9)));
+        let locate = Locate {
+            residual_rms: stats::rms(&r0_full[..n_sel]),
+            segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
+            correlations: correlate(&r0_full[..n_sel], &sigs, &sel, opts.alpha),
+        };
+        Ok(Self {
+            inp,
+            n,
+            n_sel,
+            sel,
+            folds,
+            min_len,
+            segs,
+            sel_segs,
+            nominal_replay,
+            q_floor,
+            noise0,
+            sigs,
+            locate,
+        })
     }
-    let n_sel = ((1.0 - opts.sealed_fraction) * n as f64).round() as usize;
-    let sel: Vec<usize> = (0..n_sel).collect();
-    let fold_len = n_sel / opts.folds;
-    let folds: Vec<std::ops::Range<usize>> = (0..opts.folds)
-        .map(|k| {
-            let a = k * fold_len;
-            let b = if k + 1 == opts.folds {
-                n_sel
-            } else {
-                a + fold_len
-            };
-            a..b
-        })
-        .collect();
-    let min_len = ((opts.min_segment_s / inp.period_s.max(1e-9)).round() as usize).max(3);
+}
 
-    // 1. Locate.
-    let labels = label_rows(&inp, opts.transient_s);
-    let segs = segments(&labels);
-    let sel_segs: Vec<Segment> = segs
-        .iter()
-        .filter(|s| s.start < n_sel)
-        .map(|s| Segment {
-            end: s.end.min(n_sel),
-            ..*s
-        })
-        .collect();
-    let nominal_replay = replay(model, &inp);
-    let r0_full: Vec<f64> = (0..n)
-        .map(|i| inp.measured[i] - nominal_replay.predicted[i])
-        .collect();
-    let q_floor = quantization_sigma(&inp.measured);
-    let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
-    let sigs = signals(&inp, &nominal_replay);
-    inp.prior = Some(crate::fit::Prior::around(model, noise0.sigma.max(1e-9)));
-    let ctx = Ctx {
-        inp: &inp,
-        sel: sel.clone(),
-        folds,
-    };
-    let locate = Locate {
-        residual_rms: stats::rms(&r0_full[..n_sel]),
-        segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
-        correlations: correlate(&r0_full[..n_sel], &sigs, &sel, opts.alpha),
-    };
+/// A candidate that passed every criterion: its kind, held-out errors, fit and held-out MSE.
+type Scored = (EffectKind, Vec<f64>, crate::fit::Fit, f64);
 
-    // Nominal parameters refitted (the base of round 1).
-    let nuis = nuisance(&inp, opts.fit_speed_exponent);
-    let base_fit = fit::fit(model, &nuis, &[], &inp, &sel);
-    let mut base_model = base_fit.model.clone();
-    // Re-express the refitted model so its free parameters restart at their nulls.
-    let mut base_free = nuis.clone();
-    let mut base_params = base_fit.params.clone();
-    let nominal_refit = base_fit.model.clone();
-    // The model the reported nuisance parameters are relative to.
-    let mut params_start = model.clone();
+/// The state of greedy forward selection: the current base model and what was accepted.
+struct Selection {
+    /// The current base model (nominal refit plus the accepted effects).
+    base_model: Model,
+    /// Its free parameters.
+    base_free: Vec<Free>,
+    /// Its fitted parameters.
+    base_params: Vec<crate::fit::FittedParam>,
+    /// The nominal parameters refitted without effects (the base of round 1).
+    nominal_refit: Model,
+    /// The model the reported nuisance parameters are relative to.
+    params_start: Model,
+    /// Accepted effects, in order.
+    accepted: Vec<EffectKind>,
+    /// Unresolved ambiguous pairs.
+    ambiguous: Vec<(EffectKind, EffectKind)>,
+    /// The rounds, for the report.
+    rounds: Vec<Round>,
+}
 
-    let check = ResidualCheck {
-        inp: &inp,
-        segs: &sel_segs,
-        n_sel,
-        q_floor,
-        min_len,
-        alpha: opts.alpha,
-        sigs: &sigs,
-        sel: &sel,
-    };
+/// What a selection round compares every candidate with.
+struct RoundBase<'a> {
+    /// The base model every candidate starts from.
+    zero_base: &'a Model,
+    /// The base model's free parameters.
+    base_free: &'a [Free],
+    /// The base model's held-out errors.
+    base_cv: &'a [f64],
+    /// The base model's residual over the selection rows.
+    base_res: &'a [f64],
+    /// The base model's held-out MSE.
+    mse_base: f64,
+    /// Noise of the base model's residual.
+    noise: Noise,
+    /// Applicable candidates (the Bonferroni factor).
+    m: f64,
+}
 
-    // 2–4. Forward selection.
-    let mut rounds = Vec::new();
-    let mut accepted: Vec<EffectKind> = Vec::new();
-    let mut ambiguous: Vec<(EffectKind, EffectKind)> = Vec::new();
-    let candidates: Vec<EffectKind> = opts.candidates.clone();
-    for round in 1..=opts.max_effects {
-        let zero_base = base_model.clone();
-        let base_cv = ctx.cv_errors(&zero_base, &base_free);
-        let base_res = ctx.residual(&base_model);
+impl Selection {
+    /// The nominal parameters refitted (the base of round 1).
+    fn nominal(model: &Model, p: &Prepared, opts: &Options) -> Self {
+        let nuis = nuisance(&p.inp, opts.fit_speed_exponent);
+        let base_fit = fit::fit(model, &nuis, &[], &p.inp, &p.sel);
+        Self {
+            base_model: base_fit.model.clone(),
+            // Re-express the refitted model so its free parameters restart at their nulls.
+            base_free: nuis.clone(),
+            base_params: base_fit.params.clone(),
+            nominal_refit: base_fit.model.clone(),
+            params_start: model.clone(),
+            accepted: Vec::new(),
+            ambiguous: Vec::new(),
+            rounds: Vec::new(),
+        }
+    }
+
+    /// 2–4. Forward selection: rounds until none passes or `max_effects` are in; an
+    /// ambiguity is resolved when both members ended up accepted.
+    fn run(&mut self, p: &Prepared, ctx: &Ctx<'_>, opts: &Options) {
+        for round in 1..=opts.max_effects {
+            if !self.round(round, p, ctx, opts) {
+                break;
+            }
+        }
+        let accepted = &self.accepted;
+        self.ambiguous
+            .retain(|(a, b)| !(accepted.contains(a) && accepted.contains(b)));
+    }
+
+    /// The accepted effects that are not part of an unresolved ambiguity.
+    fn named(&self) -> Vec<String> {
+        self.accepted
+            .iter()
+            .filter(|k| !self.ambiguous.iter().any(|(a, b)| a == *k || b == *k))
+            .map(|k| k.name().to_string())
+            .collect()
+    }
+
+    /// One round: screen every candidate not yet accepted, accept the best (if any passed).
+    /// Returns `false` when none passed (selection stops).
+    fn round(&mut self, round: usize, p: &Prepared, ctx: &Ctx<'_>, opts: &Options) -> bool {
+        let inp = &p.inp;
+        let zero_base = self.base_model.clone();
+        let base_cv = ctx.cv_errors(&zero_base, &self.base_free);
+        let base_res = ctx.residual(&self.base_model);
         let mse_base = mean(&base_cv.iter().map(|e| e * e).collect::<Vec<_>>());
         let noise = noise_of(
             &{
-                let r = replay(&base_model, &inp);
-                (0..n)
+                let r = replay(&self.base_model, inp);
+                (0..p.n)
                     .map(|i| inp.measured[i] - r.predicted[i])
                     .collect::<Vec<_>>()
             },
-            &sel_segs,
-            n_sel,
-            q_floor,
+            &p.sel_segs,
+            p.n_sel,
+            p.q_floor,
         );
-        let pool: Vec<EffectKind> = candidates
+        let pool: Vec<EffectKind> = opts
+            .candidates
             .iter()
             .copied()
-            .filter(|k| !accepted.contains(k))
+            .filter(|k| !self.accepted.contains(k))
             .collect();
-        let applicable: Vec<EffectKind> = pool
-            .iter()
-            .copied()
-            .filter(|k| inp.applicable(*k).is_ok())
-            .collect();
-        let m = applicable.len().max(1) as f64;
+        let applicable = pool.iter().filter(|k| inp.applicable(**k).is_ok()).count();
+        let base = RoundBase {
+            zero_base: &zero_base,
+            base_free: &self.base_free,
+            base_cv: &base_cv,
+            base_res: &base_res,
+            mse_base,
+            noise,
+            m: applicable.max(1) as f64,
+        };
         let mut results: Vec<CandidateResult> = Vec::new();
-        let mut scored: Vec<(EffectKind, Vec<f64>, crate::fit::Fit, f64)> = Vec::new();
+        let mut scored: Vec<Scored> = Vec::new();
         for &kind in &pool {
-            if let Err(why) = inp.applicable(kind) {
-                results.push(CandidateResult {
-                    effect: kind.name().into(),
-                    applicable: false,
-                    skip_reason: Some(why.into()),
-                    params: Vec::new(),
-                    heldout_mse_base: mse_base,
-                    heldout_mse: mse_base,
-                    heldout_gain_pct: 0.0,
-                    folds_improved: 0,
-                    heldout_chi2: 0.0,
-                    dof: 0,
-                    p_adjusted: 1.0,
-                    ci_excludes_null: false,
-                    signature_r_before: 0.0,
-                    signature_r_after: 0.0,
-                    signature_ratio: f64::INFINITY,
-                    signature_gone: false,
-                    effect_to_noise: 0.0,
-                    passed: false,
-                });
-                continue;
-            }
-            let start = with_null(&zero_base, kind);
-            let mut free = base_free.clone();
-            free.extend(effect_free(kind));
-            let f = fit::fit(&start, &free, &effect_grid(kind), &inp, &sel);
-            let cv = ctx.cv_errors(&f.model, &free);
-            // Held-out loss reduction per row, and per fold.
-            let delta: Vec<f64> = base_cv
-                .iter()
-                .zip(&cv)
-                .map(|(b, c)| b * b - c * c)
-                .collect();
-            let folds_improved = ctx
-                .folds
-                .iter()
-                .filter(|r| delta[(*r).clone()].iter().sum::<f64>() > 0.0)
-                .count();
-            let dof = effect_free(kind).len();
-            let chi2 = heldout_chi2(&base_cv, &cv);
-            let p_adj = (chi2_sf(chi2, dof) * m).min(1.0);
-            let mut f = f;
-            if let Some(size) = wear_size(kind, &f, &inp, n_sel) {
-                f.params.push(size);
-            }
-            let primary_name = match kind {
-                EffectKind::ToolWear => WEAR_SIZE.to_string(),
-                _ => Free::Effect(kind, 0).name(),
-            };
-            // Signature: the effect's own contribution at the fitted values.
-            let mut off = f.model.clone();
-            off.effects.remove(kind);
-            let with = replay(&f.model, &inp);
-            let without = replay(&off, &inp);
-            let contrib: Vec<f64> = sel
-                .iter()
-                .map(|&i| with.predicted[i] - without.predicted[i])
-                .collect();
-            let after = ctx.residual(&f.model);
-            let (r_before, _) = correlation(&contrib, &base_res);
-            let (r_after, p_after) = correlation(&contrib, &after);
-            // Regression coefficient of the residual on the effect's contribution: about 1
-            // before (the residual holds the effect), about 0 after if the effect took it.
-            let coef = |r: &[f64]| {
-                let cc: f64 = contrib.iter().map(|c| c * c).sum();
-                if cc > 0.0 {
-                    r.iter().zip(&contrib).map(|(a, c)| a * c).sum::<f64>() / cc
-                } else {
-                    0.0
-                }
-            };
-            let (b_before, b_after) = (coef(&base_res), coef(&after));
-            let sig_ratio = if b_before.abs() > 1e-12 {
-                (b_after / b_before).abs()
-            } else {
-                f64::INFINITY
-            };
-            let sig_gone = p_after > 0.01 || sig_ratio <= 0.25;
-            let enr = if noise.sigma > 0.0 {
-                stats::rms(&contrib) / noise.sigma
-            } else {
-                0.0
-            };
-            let mse = mean(&cv.iter().map(|e| e * e).collect::<Vec<_>>());
-            let gain_pct = if mse_base > 0.0 {
-                100.0 * (mse_base - mse) / mse_base
-            } else {
-                0.0
-            };
-            let others_pass = folds_improved + 1 >= ctx.folds.len()
-                && gain_pct >= opts.min_gain_pct
-                && p_adj < opts.alpha
-                && sig_gone;
-            // The primary parameter's interval: profile likelihood for the parameters that
-            // sit on a curved ridge with a partner or enter through a delay / time
-            // constant (computed only when the other criteria pass: it costs ~20 fits).
-            if others_pass && PROFILED.contains(&kind) {
-                if let Some(k) = f.free.iter().position(|x| *x == Free::Effect(kind, 0)) {
-                    f.profile(k, &inp, &sel);
-                }
-            }
-            let ci_ok = f
-                .params
-                .iter()
-                .find(|p| p.name == primary_name)
-                .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
-                .unwrap_or(false);
-            let passed = others_pass && ci_ok;
-            results.push(CandidateResult {
-                effect: kind.name().into(),
-                applicable: true,
-                skip_reason: None,
-                params: f.params.clone(),
-                heldout_mse_base: mse_base,
-                heldout_mse: mse,
-                heldout_gain_pct: gain_pct,
-                folds_improved,
-                heldout_chi2: chi2,
-                dof,
-                p_adjusted: p_adj,
-                ci_excludes_null: ci_ok,
-                signature_r_before: r_before,
-                signature_r_after: r_after,
-                signature_ratio: sig_ratio,
-                signature_gone: sig_gone,
-                effect_to_noise: enr,
-                passed,
-            });
-            if passed {
-                scored.push((kind, cv, f, mse));
-            }
+            let (result, passed) = screen_candidate(kind, &base, p, ctx, opts);
+            results.push(result);
+            scored.extend(passed);
         }
         scored.sort_by(|a, b| a.3.total_cmp(&b.3));
-        let base_names: Vec<String> = accepted.iter().map(|k| k.name().to_string()).collect();
-        let Some((best, best_cv, best_fit, _)) = scored.first().cloned() else {
-            rounds.push(Round {
+        let base_names: Vec<String> = self.accepted.iter().map(|k| k.name().to_string()).collect();
+        let Some((best, best_fit, verdict, encompassing)) =
+            choose_best(&scored, &self.base_free, ctx, opts, &mut self.ambiguous)
+        else {
+            self.rounds.push(Round {
                 round,
                 base: base_names,
                 candidates: results,
@@ -723,55 +737,14 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
                 added: None,
                 encompassing: None,
             });
-            break;
+            return false;
         };
-        let (mut best, mut best_fit) = (best, best_fit);
-        let mut verdict = format!("accepted {}", best.name());
-        let mut encompassing = None;
-        if let Some((second, second_cv, second_fit, _)) = scored.get(1).cloned() {
-            // Non-nested comparison on the same held-out rows, one degree of freedom.
-            if chi2_sf(heldout_chi2(&second_cv, &best_cv), 1) > opts.alpha {
-                let e = ctx.encompass(
-                    &base_free,
-                    (best, &best_cv, &best_fit.model),
-                    (second, &second_cv),
-                    opts,
-                );
-                let (a, b) = (best.name(), second.name());
-                match e.outcome.as_str() {
-                    "a" => {
-                        verdict = format!(
-                            "accepted {a} ({b} predicts as well alone but adds nothing once {a} is in, while {a} adds to {b})"
-                        )
-                    }
-                    "b" => {
-                        verdict = format!(
-                            "accepted {b} ({a} predicts as well alone but adds nothing once {b} is in, while {b} adds to {a})"
-                        );
-                        best = second;
-                        best_fit = second_fit;
-                    }
-                    "both" => {
-                        verdict = format!(
-                            "accepted {a} ({b} predicts as well alone; each adds to the other, so {b} is tested again next round)"
-                        )
-                    }
-                    _ => {
-                        ambiguous.push((best, second));
-                        verdict = format!(
-                            "ambiguous between {a} and {b} (neither adds to the other; {a} kept provisionally)"
-                        );
-                    }
-                }
-                encompassing = Some(e);
-            }
-        }
-        accepted.push(best);
-        base_free.extend(effect_free(best));
-        base_model = best_fit.model.clone();
-        base_params = best_fit.params.clone();
-        params_start = with_null(&zero_base, best);
-        rounds.push(Round {
+        self.accepted.push(best);
+        self.base_free.extend(effect_free(best));
+        self.base_model = best_fit.model.clone();
+        self.base_params = best_fit.params.clone();
+        self.params_start = with_null(&zero_base, best);
+        self.rounds.push(Round {
             round,
             base: base_names,
             candidates: results,
@@ -779,48 +752,245 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             added: Some(best.name().into()),
             encompassing,
         });
+        true
     }
-    // An ambiguity is resolved when both members ended up accepted.
-    ambiguous.retain(|(a, b)| !(accepted.contains(a) && accepted.contains(b)));
-    let named: Vec<String> = accepted
+}
+
+/// Screen one candidate against the round's base: fit it jointly with the base's free
+/// parameters, score it by held-out prediction (folds improved, gain, Bonferroni-adjusted
+/// χ² p-value), check its residual signature and its primary parameter's interval.
+/// Returns the report row and, if it passed every criterion, its [`Scored`] entry.
+fn screen_candidate(
+    kind: EffectKind,
+    base: &RoundBase<'_>,
+    p: &Prepared,
+    ctx: &Ctx<'_>,
+    opts: &Options,
+) -> (CandidateResult, Option<Scored>) {
+    let (inp, sel, n_sel) = (&p.inp, &p.sel, p.n_sel);
+    let mse_base = base.mse_base;
+    if let Err(why) = inp.applicable(kind) {
+        let skipped = CandidateResult {
+            effect: kind.name().into(),
+            applicable: false,
+            skip_reason: Some(why.into()),
+            params: Vec::new(),
+            heldout_mse_base: mse_base,
+            heldout_mse: mse_base,
+            heldout_gain_pct: 0.0,
+            folds_improved: 0,
+            heldout_chi2: 0.0,
+            dof: 0,
+            p_adjusted: 1.0,
+            ci_excludes_null: false,
+            signature_r_before: 0.0,
+            signature_r_after: 0.0,
+            signature_ratio: f64::INFINITY,
+            signature_gone: false,
+            effect_to_noise: 0.0,
+            passed: false,
+        };
+        return (skipped, None);
+    }
+    let start = with_null(base.zero_base, kind);
+    let mut free = base.base_free.to_vec();
+    free.extend(effect_free(kind));
+    let f = fit::fit(&start, &free, &effect_grid(kind), inp, sel);
+    let cv = ctx.cv_errors(&f.model, &free);
+    // Held-out loss reduction per row, and per fold.
+    let delta: Vec<f64> = base
+        .base_cv
         .iter()
-        .filter(|k| !ambiguous.iter().any(|(a, b)| a == *k || b == *k))
-        .map(|k| k.name().to_string())
+        .zip(&cv)
+        .map(|(b, c)| b * b - c * c)
         .collect();
+    let folds_improved = ctx
+        .folds
+        .iter()
+        .filter(|r| delta[(*r).clone()].iter().sum::<f64>() > 0.0)
+        .count();
+    let dof = effect_free(kind).len();
+    let chi2 = heldout_chi2(base.base_cv, &cv);
+    let p_adj = (chi2_sf(chi2, dof) * base.m).min(1.0);
+    let mut f = f;
+    if let Some(size) = wear_size(kind, &f, inp, n_sel) {
+        f.params.push(size);
+    }
+    let primary_name = match kind {
+        EffectKind::ToolWear => WEAR_SIZE.to_string(),
+        _ => Free::Effect(kind, 0).name(),
+    };
+    // Signature: the effect's own contribution at the fitted values.
+    let mut off = f.model.clone();
+    off.effects.remove(kind);
+    let with = replay(&f.model, inp);
+    let without = replay(&off, inp);
+    let contrib: Vec<f64> = sel
+        .iter()
+        .map(|&i| with.predicted[i] - without.predicted[i])
+        .collect();
+    let after = ctx.residual(&f.model);
+    let (r_before, _) = correlation(&contrib, base.base_res);
+    let (r_after, p_after) = correlation(&contrib, &after);
+    // Regression coefficient of the residual on the effect's contribution: about 1
+    // before (the residual holds the effect), about 0 after if the effect took it.
+    let coef = |r: &[f64]| {
+        let cc: f64 = contrib.iter().map(|c| c * c).sum();
+        if cc > 0.0 {
+            r.iter().zip(&contrib).map(|(a, c)| a * c).sum::<f64>() / cc
+        } else {
+            0.0
+        }
+    };
+    let (b_before, b_after) = (coef(base.base_res), coef(&after));
+    let sig_ratio = if b_before.abs() > 1e-12 {
+        (b_after / b_before).abs()
+    } else {
+        f64::INFINITY
+    };
+    let sig_gone = p_after > 0.01 || sig_ratio <= 0.25;
+    let enr = if base.noise.sigma > 0.0 {
+        stats::rms(&contrib) / base.noise.sigma
+    } else {
+        0.0
+    };
+    let mse = mean(&cv.iter().map(|e| e * e).collect::<Vec<_>>());
+    let gain_pct = if mse_base > 0.0 {
+        100.0 * (mse_base - mse) / mse_base
+    } else {
+        0.0
+    };
+    let others_pass = folds_improved + 1 >= ctx.folds.len()
+        && gain_pct >= opts.min_gain_pct
+        && p_adj < opts.alpha
+        && sig_gone;
+    // The primary parameter's interval: profile likelihood for the parameters that
+    // sit on a curved ridge with a partner or enter through a delay / time
+    // constant (computed only when the other criteria pass: it costs ~20 fits).
+    if others_pass && PROFILED.contains(&kind) {
+        if let Some(k) = f.free.iter().position(|x| *x == Free::Effect(kind, 0)) {
+            f.profile(k, inp, sel);
+        }
+    }
+    let ci_ok = f
+        .params
+        .iter()
+        .find(|p| p.name == primary_name)
+        .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
+        .unwrap_or(false);
+    let passed = others_pass && ci_ok;
+    let result = CandidateResult {
+        effect: kind.name().into(),
+        applicable: true,
+        skip_reason: None,
+        params: f.params.clone(),
+        heldout_mse_base: mse_base,
+        heldout_mse: mse,
+        heldout_gain_pct: gain_pct,
+        folds_improved,
+        heldout_chi2: chi2,
+        dof,
+        p_adjusted: p_adj,
+        ci_excludes_null: ci_ok,
+        signature_r_before: r_before,
+        signature_r_after: r_after,
+        signature_ratio: sig_ratio,
+        signature_gone: sig_gone,
+        effect_to_noise: enr,
+        passed,
+    };
+    (result, passed.then_some((kind, cv, f, mse)))
+}
 
-    // Unexplained?
-    let upd_replay = replay(&base_model, &inp);
-    let (noise_f, unexplained) = check.run(&base_model);
+/// The round's pick among the passed candidates (sorted by held-out MSE): the best, unless
+/// the runner-up predicts as well (non-nested held-out χ², one degree of freedom) — then
+/// the encompassing test decides, and an undecided pair is recorded in `ambiguous`.
+/// Returns the effect, its fit, the verdict and the encompassing test, or `None` when no
+/// candidate passed.
+fn choose_best(
+    scored: &[Scored],
+    base_free: &[Free],
+    ctx: &Ctx<'_>,
+    opts: &Options,
+    ambiguous: &mut Vec<(EffectKind, EffectKind)>,
+) -> Option<(EffectKind, crate::fit::Fit, String, Option<Encompassing>)> {
+    let (best, best_cv, best_fit, _) = scored.first().cloned()?;
+    let (mut best, mut best_fit) = (best, best_fit);
+    let mut verdict = format!("accepted {}", best.name());
+    let mut encompassing = None;
+    if let Some((second, second_cv, second_fit, _)) = scored.get(1).cloned() {
+        // Non-nested comparison on the same held-out rows, one degree of freedom.
+        if chi2_sf(heldout_chi2(&second_cv, &best_cv), 1) > opts.alpha {
+            let e = ctx.encompass(
+                base_free,
+                (best, &best_cv, &best_fit.model),
+                (second, &second_cv),
+                opts,
+            );
+            let (a, b) = (best.name(), second.name());
+            match e.outcome.as_str() {
+                "a" => {
+                    verdict = format!(
+                        "accepted {a} ({b} predicts as well alone but adds nothing once {a} is in, while {a} adds to {b})"
+                    )
+                }
+                "b" => {
+                    verdict = format!(
+                        "accepted {b} ({a} predicts as well alone but adds nothing once {b} is in, while {b} adds to {a})"
+                    );
+                    best = second;
+                    best_fit = second_fit;
+                }
+                "both" => {
+                    verdict = format!(
+                        "accepted {a} ({b} predicts as well alone; each adds to the other, so {b} is tested again next round)"
+                    )
+                }
+                _ => {
+                    ambiguous.push((best, second));
+                    verdict = format!(
+                        "ambiguous between {a} and {b} (neither adds to the other; {a} kept provisionally)"
+                    );
+                }
+            }
+            encompassing = Some(e);
+        }
+    }
+    Some((best, best_fit, verdict, encompassing))
+}
 
-    // 5. Sealed part.
+/// The sealed part (stage 5; rows `n_sel..n`, never used in selection): the nominal
+/// model, the nominal refit and the updated model (`updated`, its prediction) compared.
+fn sealed_check(p: &Prepared, nominal_refit: &Model, updated: &[f64], noise_f: Noise) -> Sealed {
+    let (inp, n, n_sel) = (&p.inp, p.n, p.n_sel);
     let sealed_rows = n_sel..n;
     let m_nom = metrics(
-        &inp,
-        &nominal_replay.predicted,
+        inp,
+        &p.nominal_replay.predicted,
         sealed_rows.clone(),
-        &segs,
+        &p.segs,
         noise_f,
-        min_len,
+        p.min_len,
     );
-    let refit_pred = replay(&nominal_refit, &inp).predicted;
+    let refit_pred = replay(nominal_refit, inp).predicted;
     let m_ref = metrics(
-        &inp,
+        inp,
         &refit_pred,
         sealed_rows.clone(),
-        &segs,
+        &p.segs,
         noise_f,
-        min_len,
+        p.min_len,
     );
     let m_upd = metrics(
-        &inp,
-        &upd_replay.predicted,
+        inp,
+        updated,
         sealed_rows.clone(),
-        &segs,
+        &p.segs,
         noise_f,
-        min_len,
+        p.min_len,
     );
     let red = |a: f64, b: f64| if a > 0.0 { 100.0 * (a - b) / a } else { 0.0 };
-    let sealed = Sealed {
+    Sealed {
         from_s: inp.t_s[n_sel],
         to_s: inp.t_s[n - 1],
         rows: n - n_sel,
@@ -829,58 +999,27 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         nominal: m_nom,
         nominal_refit: m_ref,
         updated: m_upd,
-    };
+    }
+}
 
+/// Assemble the report, the plot series and the updated model.
+fn assemble(
+    model: &Model,
+    p: Prepared,
+    s: Selection,
+    upd_replay: crate::replay::Replay,
+    unexplained: Option<Unexplained>,
+    sealed: Sealed,
+    opts: &Options,
+) -> Analysis {
+    let (inp, n, n_sel) = (&p.inp, p.n, p.n_sel);
+    let named = s.named();
     let unit = match inp.channel {
         Channel::Power => "W",
         Channel::Force => "N",
     };
-    let mut conclusion = conclude(&named, &ambiguous, unexplained.as_ref(), &sealed, unit);
-    let beta_involved = accepted.contains(&EffectKind::FeedExponent)
-        || ambiguous
-            .iter()
-            .any(|(a, b)| *a == EffectKind::FeedExponent || *b == EffectKind::FeedExponent);
-    if let (true, Some((cv_rev, cv_feed))) = (beta_involved, feed_per_rev_spread(&inp)) {
-        conclusion.push_str(&format!(
-            " Note: the feed per revolution is constant in this log (spread {:.1} % while the feed varies {:.1} %), so what `feed_exponent` measures here is the force's dependence on cutting speed.",
-            100.0 * cv_rev,
-            100.0 * cv_feed
-        ));
-    }
-    let strongest = locate
-        .correlations
-        .iter()
-        .max_by(|a, b| a.r.abs().total_cmp(&b.r.abs()))
-        .map(|c| c.signal.clone())
-        .unwrap_or_else(|| "time".into());
-    let signal = sigs
-        .iter()
-        .find(|(n, _)| *n == strongest)
-        .map(|(_, v)| v.clone())
-        .unwrap_or_default();
-    let sealed_bias = sealed
-        .nominal
-        .segments
-        .iter()
-        .zip(&sealed.updated.segments)
-        .map(|(a, b)| (0.5 * (a.t_start_s + a.t_end_s), a.bias, b.bias))
-        .collect();
-    let series = Series {
-        t_s: inp.t_s.clone(),
-        measured: inp.measured.clone(),
-        nominal: nominal_replay.predicted.clone(),
-        updated: upd_replay.predicted.clone(),
-        strongest_signal: strongest,
-        signal,
-        flagged: locate
-            .segments
-            .iter()
-            .filter(|b| b.significant)
-            .map(|b| (b.t_start_s, b.t_end_s))
-            .collect(),
-        sealed_from_s: sealed.from_s,
-        sealed_bias,
-    };
+    let conclusion = conclusion_with_notes(inp, &s, &named, unexplained.as_ref(), &sealed, unit);
+    let series = plot_series(&p, &upd_replay, &sealed);
     let report = Report {
         schema_version: SCHEMA_VERSION,
         input: InputInfo {
@@ -900,11 +1039,12 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             sealed_from_s: inp.t_s[n_sel],
             folds: opts.folds,
         },
-        noise: noise0,
-        locate,
-        rounds,
+        noise: p.noise0,
+        locate: p.locate,
+        rounds: s.rounds,
         accepted: named,
-        ambiguous: ambiguous
+        ambiguous: s
+            .ambiguous
             .iter()
             .map(|(a, b)| Ambiguity {
                 effects: [a.name().into(), b.name().into()],
@@ -912,15 +1052,83 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
             })
             .collect(),
         unexplained,
-        updated_params: absolute(base_params, &params_start, model),
+        updated_params: absolute(s.base_params, &s.params_start, model),
         sealed,
         conclusion,
     };
-    Ok(Analysis {
+    Analysis {
         report,
-        updated: base_model,
+        updated: s.base_model,
         series,
-    })
+    }
+}
+
+/// [`conclude`], plus a note when a feed exponent is involved but the feed per revolution
+/// is constant in the log.
+fn conclusion_with_notes(
+    inp: &Inputs,
+    s: &Selection,
+    named: &[String],
+    unexplained: Option<&Unexplained>,
+    sealed: &Sealed,
+    unit: &str,
+) -> String {
+    let mut conclusion = conclude(named, &s.ambiguous, unexplained, sealed, unit);
+    let beta_involved = s.accepted.contains(&EffectKind::FeedExponent)
+        || s.ambiguous
+            .iter()
+            .any(|(a, b)| *a == EffectKind::FeedExponent || *b == EffectKind::FeedExponent);
+    if let (true, Some((cv_rev, cv_feed))) = (beta_involved, feed_per_rev_spread(inp)) {
+        conclusion.push_str(&format!(
+            " Note: the feed per revolution is constant in this log (spread {:.1} % while the feed varies {:.1} %), so what `feed_exponent` measures here is the force's dependence on cutting speed.",
+            100.0 * cv_rev,
+            100.0 * cv_feed
+        ));
+    }
+    conclusion
+}
+
+/// The series for plots: measured, nominal and updated predictions, the signal the
+/// nominal residual correlates with most, flagged segments and the sealed-part biases.
+fn plot_series(p: &Prepared, upd_replay: &crate::replay::Replay, sealed: &Sealed) -> Series {
+    let inp = &p.inp;
+    let strongest = p
+        .locate
+        .correlations
+        .iter()
+        .max_by(|a, b| a.r.abs().total_cmp(&b.r.abs()))
+        .map(|c| c.signal.clone())
+        .unwrap_or_else(|| "time".into());
+    let signal = p
+        .sigs
+        .iter()
+        .find(|(n, _)| *n == strongest)
+        .map(|(_, v)| v.clone())
+        .unwrap_or_default();
+    let sealed_bias = sealed
+        .nominal
+        .segments
+        .iter()
+        .zip(&sealed.updated.segments)
+        .map(|(a, b)| (0.5 * (a.t_start_s + a.t_end_s), a.bias, b.bias))
+        .collect();
+    Series {
+        t_s: inp.t_s.clone(),
+        measured: inp.measured.clone(),
+        nominal: p.nominal_replay.predicted.clone(),
+        updated: upd_replay.predicted.clone(),
+        strongest_signal: strongest,
+        signal,
+        flagged: p
+            .locate
+            .segments
+            .iter()
+            .filter(|b| b.significant)
+            .map(|b| (b.t_start_s, b.t_end_s))
+            .collect(),
+        sealed_from_s: sealed.from_s,
+        sealed_bias,
+    }
 }
 
 /// `Some((spread of feed/rpm, spread of feed))` (coefficients of variation over the cutting

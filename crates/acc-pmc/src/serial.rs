@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use acc_config::ConfigError;
+use acc_config::RangeError;
 use serialport::{DataBits, Parity, SerialPort, StopBits, TTYPort};
 
 use crate::board::{WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS};
@@ -154,12 +155,10 @@ pub(crate) fn int_in(
     if (lo..=hi).contains(&value) {
         Ok(value)
     } else {
-        Err(ConfigError::OutOfRange {
-            file: file.to_path_buf(),
-            key: key.to_string(),
-            value: value.to_string(),
-            allowed: format!("{lo} ..= {hi}"),
-        })
+        Err(ConfigError::OutOfRange(
+            RangeError::new(key.to_string(), value.to_string(), format!("{lo} ..= {hi}"))
+                .in_file(file),
+        ))
     }
 }
 
@@ -212,11 +211,15 @@ impl RtuConfig {
             .iter()
             .copied()
             .find(|b| i64::from(*b) == self.baud)
-            .ok_or_else(|| ConfigError::OutOfRange {
-                file: file.to_path_buf(),
-                key: key("baud"),
-                value: self.baud.to_string(),
-                allowed: format!("one of {BAUD_RATES:?}"),
+            .ok_or_else(|| {
+                ConfigError::OutOfRange(
+                    RangeError::new(
+                        key("baud"),
+                        self.baud.to_string(),
+                        format!("one of {BAUD_RATES:?}"),
+                    )
+                    .in_file(file),
+                )
             })?;
         let parity = match self.parity.to_ascii_lowercase().as_str() {
             "none" => Parity::None,
@@ -230,12 +233,14 @@ impl RtuConfig {
             }
         };
         if self.data_bits != 8 {
-            return Err(ConfigError::OutOfRange {
-                file: file.to_path_buf(),
-                key: key("data_bits"),
-                value: self.data_bits.to_string(),
-                allowed: "8 (Modbus RTU frames are 8-bit)".into(),
-            });
+            return Err(ConfigError::OutOfRange(
+                RangeError::new(
+                    key("data_bits"),
+                    self.data_bits.to_string(),
+                    "8 (Modbus RTU frames are 8-bit)",
+                )
+                .in_file(file),
+            ));
         }
         let stop_bits = match int_in(file, &key("stop_bits"), self.stop_bits, 1, 2)? {
             1 => StopBits::One,

@@ -99,12 +99,9 @@ impl PolicySection {
         controller: &acc_core::ControllerConfig,
     ) -> Result<PolicyConfig, ConfigError> {
         let policy = self.resolve(controller);
-        policy.validate().map_err(|e| ConfigError::OutOfRange {
-            file: file.to_path_buf(),
-            key: format!("policy.{}", e.key),
-            value: e.value,
-            allowed: e.allowed.to_string(),
-        })?;
+        policy
+            .validate()
+            .map_err(|e| ConfigError::OutOfRange(e.prefixed("policy").in_file(file)))?;
         Ok(policy)
     }
 }

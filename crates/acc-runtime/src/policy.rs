@@ -96,17 +96,10 @@ impl Default for PolicyConfig {
     }
 }
 
-/// A policy parameter outside its allowed range: `(key, value, allowed)`.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("policy key `{key}` = {value} is out of range: allowed {allowed}")]
-pub struct PolicyConfigError {
-    /// Key name as in the `[policy]` table of the run config.
-    pub key: &'static str,
-    /// Offending value.
-    pub value: String,
-    /// Allowed range in words.
-    pub allowed: &'static str,
-}
+/// A policy parameter outside its allowed range: the workspace's one
+/// [`acc_config::RangeError`], keyed as in the `[policy]` table of the run config (the run
+/// config loader prefixes `policy.` and names the file).
+pub type PolicyConfigError = acc_config::RangeError;
 
 impl PolicyConfig {
     /// Check every field; the error names the key and the allowed range.
@@ -116,11 +109,7 @@ impl PolicyConfig {
             value: impl ToString,
             allowed: &'static str,
         ) -> PolicyConfigError {
-            PolicyConfigError {
-                key,
-                value: value.to_string(),
-                allowed,
-            }
+            PolicyConfigError::new(key, value.to_string(), allowed)
         }
         let finite_pos = |x: f64| x.is_finite() && x > 0.0;
         if !(finite_pos(self.period_s) && self.period_s <= 10.0) {

@@ -38,6 +38,8 @@ use crate::calibrate::Constants;
 use crate::noload::{AdaptOutcome, NoLoad, NoLoadModel};
 use crate::SpindleError;
 
+use acc_core::RangeError;
+
 /// Which estimator turns power/current into force.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -161,11 +163,9 @@ impl EstimatorConfig {
         ];
         for (key, value, lo, hi, allowed) in checks {
             if !(value.is_finite() && value >= lo && value <= hi) {
-                return Err(SpindleError::OutOfRange {
-                    key,
-                    value,
-                    allowed,
-                });
+                return Err(SpindleError::OutOfRange(RangeError::new(
+                    key, value, allowed,
+                )));
             }
         }
         Ok(())

@@ -18,12 +18,10 @@ use crate::SpindleError;
 
 /// RMS of `est − truth`.
 pub fn rms_error(est: &[f64], truth: &[f64]) -> f64 {
-    let n = est.len().min(truth.len());
-    if n == 0 {
+    if est.is_empty() || truth.is_empty() {
         return f64::NAN;
     }
-    let s: f64 = est.iter().zip(truth).map(|(e, t)| (e - t).powi(2)).sum();
-    (s / n as f64).sqrt()
+    acc_core::stats::rms(est.iter().zip(truth).map(|(e, t)| e - t))
 }
 
 /// Error rate, %: RMS error divided by the mean true value (seed 000 §3.3 reports both).

@@ -25,6 +25,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::SpindleError;
 
+use acc_core::RangeError;
+
 /// Fusion settings. TOML keys are the field names.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -126,11 +128,11 @@ impl Fusion {
             if ok && value.is_finite() {
                 Ok(())
             } else {
-                Err(SpindleError::OutOfRange {
+                Err(SpindleError::OutOfRange(RangeError::new(
                     key,
                     value,
-                    allowed: "0 < f < sample_rate_hz / 2",
-                })
+                    "0 < f < sample_rate_hz / 2",
+                )))
             }
         };
         bad(

@@ -116,14 +116,7 @@ pub enum SpindleError {
         /// The estimator method that needs the missing signal.
         method: &'static str,
     },
-    /// A parameter outside its allowed range.
-    #[error("parameter `{key}` = {value} is out of range: allowed {allowed}")]
-    OutOfRange {
-        /// Parameter name as in the configuration.
-        key: &'static str,
-        /// Offending value.
-        value: f64,
-        /// Allowed range in words.
-        allowed: &'static str,
-    },
+    /// A parameter outside its allowed range (the key as in the configuration).
+    #[error("{0}")]
+    OutOfRange(acc_core::RangeError),
 }

@@ -17,6 +17,7 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, ErrorKind, Read};
 use std::path::Path;
 
+use acc_core::RangeError;
 use acc_core::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
 
 use crate::source::{SpindleInput, SpindleSource};
@@ -343,11 +344,11 @@ impl<R: Read> StreamForceSource<R> {
         est: SpindleEstimator,
     ) -> Result<Self, SpindleError> {
         if !(sample_rate_hz.is_finite() && (1.0..=1e7).contains(&sample_rate_hz)) {
-            return Err(SpindleError::OutOfRange {
-                key: "sample_rate_hz",
-                value: sample_rate_hz,
-                allowed: "1 ..= 1e7",
-            });
+            return Err(SpindleError::OutOfRange(RangeError::new(
+                "sample_rate_hz",
+                sample_rate_hz,
+                "1 ..= 1e7",
+            )));
         }
         Ok(Self {
             stream,
