@@ -16,7 +16,7 @@ use acc_pmc::loopback::PtyBoard;
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::serial::configure_pty;
 use acc_pmc::serialport::{SerialPort, TTYPort};
-use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 
 mod e2e_support;
 use e2e_support::peer_ready;
@@ -132,7 +132,7 @@ fn our_client_drives_the_pymodbus_standin() {
     assert_eq!(s.override_applied_pct, 120);
     for bad in [155u16, 35] {
         let err = b.write_override(bad, 2).expect_err("refused");
-        assert_eq!(err.kind(), PmcErrorKind::Exception(3), "{err}");
+        assert_eq!(err.kind(), BoardErrorKind::Exception(3), "{err}");
     }
     assert_eq!(
         b.read_holding().expect("holding"),
@@ -186,7 +186,7 @@ fn frozen_sample_seq_of_the_standin_is_stale() {
         b.read_status().expect("not yet stale");
     }
     let err = b.read_status().expect_err("stale");
-    assert_eq!(err.kind(), PmcErrorKind::Stale, "{err}");
+    assert_eq!(err.kind(), BoardErrorKind::Stale, "{err}");
 }
 
 // ------------------------------------------------------------------ mbpoll

@@ -3,10 +3,10 @@
 //! Register behaviour is the PMC crate's pure [`BoardLogic`] (the same code the Modbus
 //! server runs), fed with Modbus requests exactly as a link would send them; the machine
 //! side of the board (operator switch, NC state, spindle power, rpm, programmed feed) is
-//! driven by the simulated [`Machine`]. The loop sees only the [`Pmc`] trait.
+//! driven by the simulated [`Machine`]. The loop sees only the [`Board`] trait.
 
 use acc_pmc::board::{holding, input, BoardLogic, Exception, OverrideResolution, Reply, Request};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardStatus, ControlBits};
 
 use crate::machine::{Machine, PeriodRecord};
 
@@ -79,12 +79,8 @@ impl SimBoard {
     }
 }
 
-impl Pmc for SimBoard {
+impl Board for SimBoard {
     type Error = Exception;
-
-    fn kind(err: &Exception) -> PmcErrorKind {
-        PmcErrorKind::Exception(err.code())
-    }
 
     fn read_status(&mut self) -> Result<BoardStatus, Exception> {
         let reply = self.logic.handle(
@@ -136,6 +132,7 @@ mod tests {
     use super::*;
     use crate::run::configs_dir;
     use crate::scenario::Scenario;
+    use acc_pmc::{BoardError, BoardErrorKind};
 
     fn board() -> SimBoard {
         let sc =
@@ -179,7 +176,7 @@ mod tests {
     fn the_board_refuses_an_override_off_its_step() {
         let mut b = board();
         let err = b.write_override(125, 1).expect_err("not a multiple of 10");
-        assert_eq!(SimBoard::kind(&err), PmcErrorKind::Exception(3));
+        assert_eq!(err.kind(), BoardErrorKind::Exception(3));
         assert_eq!(b.read_status().expect("status").override_applied_pct, 100);
     }
 

@@ -3,7 +3,7 @@
 //! The embedded default machine of `acc`: workpieces along the tool path
 //! ([`workpiece`]), the mean-force and tooth-level cutting process with tool wear
 //! ([`process`]), the feed drive and override path ([`machine`]), the PMC interface board
-//! ([`board`], the PMC crate's `BoardLogic` behind the `Pmc` trait), measurement channels
+//! ([`board`], the PMC crate's `BoardLogic` behind the `Board` trait), measurement channels
 //! ([`channel`], `ForceSource`s), comparison baselines ([`baselines`]), scenario files
 //! ([`scenario`]), the closed loop ([`mod@run`]), the run log ([`runlog`], shared with the real
 //! runtime) and summaries ([`summary`]).

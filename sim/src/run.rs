@@ -3,10 +3,10 @@
 //! Per control period `T` (manual clock, no sleeping):
 //! 1. the machine runs `T` with the override now applied by the board;
 //! 2. the measurement channel turns the period into a force sample (`ForceSource`);
-//! 3. the loop reads the board status through the [`Pmc`] trait (applied override,
+//! 3. the loop reads the board status through the [`Board`] trait (applied override,
 //!    programmed feed, spindle speed and power) — the feed that produced the force is
 //!    `programmed × applied`, as on a real machine;
-//! 4. the law steps and its command is written with a new heartbeat through [`Pmc`];
+//! 4. the law steps and its command is written with a new heartbeat through [`Board`];
 //! 5. one run-log row is written (and flushed).
 //!
 //! The run ends when the tool centre has passed the end of the workpiece or at
@@ -15,7 +15,7 @@
 use std::io::Write;
 
 use acc_core::{FeedOverride, Measurement, Mode, OverrideLaw, Saturation};
-use acc_pmc::{ControlBits, Pmc};
+use acc_pmc::{Board, ControlBits};
 
 use crate::channel::MeasurementChannel;
 use crate::runlog::{RunLogRow, RunLogWriter};

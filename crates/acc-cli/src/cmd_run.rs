@@ -13,7 +13,7 @@ use std::path::PathBuf;
 
 use acc_core::{Controller, Mode, OverrideSpec, Saturation};
 use acc_pmc::rtu::RtuBoard;
-use acc_pmc::{BoardStatus, Pmc};
+use acc_pmc::{Board, BoardStatus};
 use acc_runtime::config::{LinkSettings, RunConfig};
 use acc_runtime::link::{CanPmc, RtuPmc};
 use acc_runtime::policy::FaultPolicy;
@@ -241,7 +241,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
 }
 
 /// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
-fn drive<P: Pmc + Send>(
+fn drive<P: Board + Send>(
     args: &RunArgs,
     cfg: &RunConfig,
     pmc: &mut P,

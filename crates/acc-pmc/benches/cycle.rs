@@ -16,7 +16,7 @@ use std::time::Duration;
 use acc_pmc::board::BoardLogic;
 use acc_pmc::loopback::{Paced, PtyBoard};
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
-use acc_pmc::Pmc;
+use acc_pmc::{Board, BoardError};
 use criterion::{criterion_group, criterion_main, Criterion};
 
 fn link_cfg() -> RtuLinkConfig {
@@ -35,14 +35,14 @@ fn board() -> BoardLogic {
     b
 }
 
-fn cycle<P: Pmc>(link: &mut P, hb: &mut u16) {
+fn cycle<P: Board>(link: &mut P, hb: &mut u16) {
     *hb = hb.wrapping_add(1);
     let status = link
         .read_status()
-        .map_err(|e| P::kind(&e))
+        .map_err(|e| e.kind())
         .expect("read status");
     link.write_override(status.override_applied_pct.clamp(10, 150) / 10 * 10, *hb)
-        .map_err(|e| P::kind(&e))
+        .map_err(|e| e.kind())
         .expect("write override");
 }
 

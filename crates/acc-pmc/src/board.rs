@@ -164,6 +164,13 @@ impl core::fmt::Display for Exception {
 
 impl std::error::Error for Exception {}
 
+impl crate::BoardError for Exception {
+    /// `Exception(code)`: the board refused the request.
+    fn kind(&self) -> crate::BoardErrorKind {
+        crate::BoardErrorKind::Exception(self.code())
+    }
+}
+
 /// The board's override resolution (`OVERRIDE_STEP`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum OverrideResolution {

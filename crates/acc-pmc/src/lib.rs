@@ -4,7 +4,7 @@
 //! | module | what |
 //! | --- | --- |
 //! | [`board`] | the board as a pure state machine ([`board::BoardLogic`]): registers, `ACC_ACTIVE`, watchdog (time passed in), exceptions; [`BoardStatus`] ⇄ registers |
-//! | [`rtu`] | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]), client [`rtu::RtuBoard`] (implements [`Pmc`]), server [`rtu::RtuServer`] |
+//! | [`rtu`] | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]), client [`rtu::RtuBoard`] (implements [`Board`]), server [`rtu::RtuServer`] |
 //! | [`serial`] | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
 //! | [`can`] | CAN variant: pure frame codec, [`can::CanBoard`] over any `embedded_can::blocking::Can`, in-memory board bus |
 //! | [`fault`] | fault injection on a client's byte stream (corrupt CRC, drop, delay, garbage) |
@@ -16,7 +16,7 @@
 //! ```
 //! use acc_pmc::board::{lock_board, BoardLogic};
 //! use acc_pmc::can::{emulator::CanBoardEmulator, CanBoard, CanLinkConfig};
-//! use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+//! use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 //! let mut logic = BoardLogic::default();
 //! logic.set_acc_switch(true);
 //! logic.push_power_sample(3_000);
@@ -30,7 +30,7 @@
 //! assert_eq!(lock_board(&board).override_applied_pct(), 120);
 //! // The board's step is 10 %: 125 % is refused like exception 03.
 //! let err = link.write_override(125, 2).unwrap_err();
-//! assert_eq!(CanBoard::<CanBoardEmulator>::kind(&err), PmcErrorKind::Exception(3));
+//! assert_eq!(err.kind(), BoardErrorKind::Exception(3));
 //! ```
 //!
 //! CONTRACT NOTE: the names in this file are shared with the simulator and runtime crates.
@@ -95,7 +95,7 @@ pub struct ControlBits {
 
 /// Error kinds the runtime acts on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PmcErrorKind {
+pub enum BoardErrorKind {
     /// No (complete) reply within the timeout.
     Timeout,
     /// Reply with a bad checksum.
@@ -110,13 +110,18 @@ pub enum PmcErrorKind {
     Protocol,
 }
 
-/// The PMC interface: narrow and fallible. Implemented by the Modbus RTU board, the CAN
-/// board and the simulated board.
-pub trait Pmc {
-    /// Error type; maps onto [`PmcErrorKind`].
-    type Error: std::error::Error + Send + Sync + 'static;
-    /// Classify an error.
-    fn kind(err: &Self::Error) -> PmcErrorKind;
+/// An error of a [`Board`] link: it knows which [`BoardErrorKind`] the runtime acts on
+/// (embedded-hal habit: each driver's error maps onto one shared kind).
+pub trait BoardError: std::error::Error + Send + Sync + 'static {
+    /// Classify this error.
+    fn kind(&self) -> BoardErrorKind;
+}
+
+/// The PMC interface board, as the controller sees it: narrow and fallible. Implemented by
+/// the Modbus RTU board, the CAN board and the simulated board.
+pub trait Board {
+    /// Error type; carries its [`BoardErrorKind`] ([`BoardError::kind`]).
+    type Error: BoardError;
     /// Read the status block (input registers 0…8).
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error>;
     /// Write `OVERRIDE_CMD` (percent, a multiple of the board's step) and `HEARTBEAT` in

@@ -7,7 +7,7 @@
 //! path for an external program (`mbpoll`, a `serialport::new(path)` open).
 //!
 //! ```
-//! use acc_pmc::{board::BoardLogic, loopback::PtyBoard, rtu::{RtuBoard, RtuLinkConfig}, Pmc};
+//! use acc_pmc::{board::BoardLogic, loopback::PtyBoard, rtu::{RtuBoard, RtuLinkConfig}, Board};
 //! let mut pty = PtyBoard::spawn(BoardLogic::default(), 1, 115_200).unwrap();
 //! pty.with_board(|b| { b.set_acc_switch(true); b.push_power_sample(4200); });
 //! let mut link = RtuBoard::new(pty.take_client_port().unwrap(), RtuLinkConfig::default());

@@ -7,7 +7,7 @@ use acc_pmc::board::{BoardLogic, OverrideResolution, SharedBoard};
 use acc_pmc::can::emulator::{CanBoardEmulator, MemFrame};
 use acc_pmc::can::{CanBoard, CanError, CanLinkConfig};
 use acc_pmc::clock::ManualClock;
-use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 use embedded_can::blocking::Can;
 use embedded_can::{Frame, StandardId};
 
@@ -81,7 +81,7 @@ fn invalid_override_is_refused_locally_like_exception_03() {
     link.write_override(90, 1).expect("90 ok");
     for bad in [155u16, 35, 300] {
         let err = link.write_override(bad, 2).expect_err("refused");
-        assert_eq!(err.kind(), PmcErrorKind::Exception(3), "{err}");
+        assert_eq!(err.kind(), BoardErrorKind::Exception(3), "{err}");
     }
     assert_eq!(acc_pmc::board::lock_board(&board).override_cmd_pct(), 90);
     // A raw frame with 155 % (not through the link) is ignored by the board as a whole.
@@ -130,7 +130,7 @@ fn silence_is_a_timeout_and_frozen_seq_is_stale() {
     link.read_status().expect("first pair");
     // No new sample: the board sends nothing.
     let err = link.read_status().expect_err("silent bus");
-    assert_eq!(err.kind(), PmcErrorKind::Timeout, "{err}");
+    assert_eq!(err.kind(), BoardErrorKind::Timeout, "{err}");
     // A board that repeats its last sample: SAMPLE_SEQ frozen.
     link.get_mut().emit_status();
     link.read_status().expect("1 unchanged");
@@ -157,20 +157,20 @@ fn bus_errors_map_to_kinds_and_lost_pairs_time_out() {
         .fail_next_receive(embedded_can::ErrorKind::Crc);
     assert_eq!(
         link.read_status().expect_err("crc").kind(),
-        PmcErrorKind::Crc
+        BoardErrorKind::Crc
     );
     link.get_mut()
         .fail_next_receive(embedded_can::ErrorKind::Acknowledge);
     assert_eq!(
         link.read_status().expect_err("ack").kind(),
-        PmcErrorKind::Disconnected
+        BoardErrorKind::Disconnected
     );
     link.read_status().expect("clean again");
     link.get_mut().drop_next_pairs(1);
     sample(&board, 1);
     assert_eq!(
         link.read_status().expect_err("lost").kind(),
-        PmcErrorKind::Timeout
+        BoardErrorKind::Timeout
     );
     assert!(matches!(
         CanBoard::new(

@@ -14,7 +14,7 @@ use std::time::Duration;
 use acc_pmc::board::{lock_board, BoardLogic, OverrideResolution};
 use acc_pmc::can::codec::{decode_command, encode_status, NodeIds};
 use acc_pmc::can::{CanBoard, CanLinkConfig};
-use acc_pmc::{ControlBits, Pmc};
+use acc_pmc::{Board, ControlBits};
 use embedded_can::{Frame, Id, StandardId};
 use socketcan::{CanFrame, CanSocket, Socket};
 

@@ -10,7 +10,7 @@ use acc_pmc::loopback::PtyBoard;
 use acc_pmc::rtu::codec::append_crc;
 use acc_pmc::rtu::{RtuBoard, RtuError, RtuLinkConfig};
 use acc_pmc::serial::{open_rtu_board, RtuConfig, POLL_SLICE};
-use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 use serialport::TTYPort;
 
 const ARM: ControlBits = ControlBits {
@@ -116,11 +116,7 @@ fn exception_03_is_reported_as_exception_and_not_retried() {
     b.write_override(90, 1).expect("90 is fine");
     for bad in [155u16, 35] {
         let err = b.write_override(bad, 2).expect_err("must be refused");
-        assert_eq!(
-            RtuBoard::<TTYPort>::kind(&err),
-            PmcErrorKind::Exception(3),
-            "{err}"
-        );
+        assert_eq!(err.kind(), BoardErrorKind::Exception(3), "{err}");
         assert!(err.to_string().contains("exception 03"), "{err}");
     }
     assert_eq!(b.stats().retries, 0);
@@ -131,7 +127,7 @@ fn exception_03_is_reported_as_exception_and_not_retried() {
         "old value kept"
     );
     let err = b.write_watchdog_ms(50).expect_err("watchdog 50 ms");
-    assert_eq!(err.kind(), PmcErrorKind::Exception(3));
+    assert_eq!(err.kind(), BoardErrorKind::Exception(3));
 }
 
 #[test]
@@ -183,7 +179,7 @@ fn frozen_sample_seq_is_stale_after_the_configured_reads() {
     let err = b
         .read_status()
         .expect_err("third unchanged read after the first");
-    assert_eq!(err.kind(), PmcErrorKind::Stale);
+    assert_eq!(err.kind(), BoardErrorKind::Stale);
     match &err {
         RtuError::Stale {
             unchanged_reads,
@@ -213,7 +209,7 @@ fn corrupted_crc_is_retried_then_reported() {
     assert_eq!((b.stats().crc_errors, b.stats().retries), (1, 1));
     faults.push_n(Fault::CorruptCrc, 2);
     let err = b.read_status().expect_err("both attempts corrupted");
-    assert_eq!(err.kind(), PmcErrorKind::Crc);
+    assert_eq!(err.kind(), BoardErrorKind::Crc);
     assert_eq!(faults.pending(), 0);
     // The link is clean afterwards.
     b.write_override(100, 9).expect("next cycle");
@@ -236,7 +232,7 @@ fn dropped_reply_times_out_and_retry_recovers() {
     let (mut b0, faults0) = faulty_link(&mut pty0, cfg(30, 0, 200));
     faults0.push(Fault::DropReply);
     let err = b0.read_status().expect_err("no retries");
-    assert_eq!(err.kind(), PmcErrorKind::Timeout);
+    assert_eq!(err.kind(), BoardErrorKind::Timeout);
     assert!(
         err.to_string().contains("no complete reply within 30 ms"),
         "{err}"
@@ -251,7 +247,7 @@ fn late_reply_is_a_timeout_and_is_not_taken_for_the_next_one() {
     // The FC16 acknowledgement arrives 150 ms late (timeout 60 ms).
     faults.push(Fault::DelayReply(Duration::from_millis(150)));
     let err = b.write_override(120, 1).expect_err("late");
-    assert_eq!(err.kind(), PmcErrorKind::Timeout);
+    assert_eq!(err.kind(), BoardErrorKind::Timeout);
     std::thread::sleep(Duration::from_millis(200));
     // The late FC16 ack is on the line now; the next FC04 must not be confused by it.
     let s = b.read_status().expect("status after resync");
@@ -270,7 +266,7 @@ fn retries_stay_within_the_budget() {
     let t0 = Instant::now();
     let err = b.read_status().expect_err("all dropped");
     let took = t0.elapsed();
-    assert_eq!(err.kind(), PmcErrorKind::Timeout);
+    assert_eq!(err.kind(), BoardErrorKind::Timeout);
     // 100 ms + 100 ms fit in 250 ms, a third attempt would not (5 retries allowed).
     assert_eq!(b.stats().retries, 1);
     assert!(
@@ -284,17 +280,20 @@ fn board_side_faults_reach_a_client_that_only_has_the_device_path() {
     let mut pty = spawn_board();
     let mut b = link(&mut pty, cfg(60, 0, 200));
     pty.faults().push(Fault::CorruptCrc);
-    assert_eq!(b.read_status().expect_err("crc").kind(), PmcErrorKind::Crc);
+    assert_eq!(
+        b.read_status().expect_err("crc").kind(),
+        BoardErrorKind::Crc
+    );
     pty.faults().push(Fault::DropReply);
     assert_eq!(
         b.write_override(100, 1).expect_err("dropped").kind(),
-        PmcErrorKind::Timeout
+        BoardErrorKind::Timeout
     );
     pty.faults()
         .push(Fault::DelayReply(Duration::from_millis(150)));
     assert_eq!(
         b.read_status().expect_err("late").kind(),
-        PmcErrorKind::Timeout
+        BoardErrorKind::Timeout
     );
     std::thread::sleep(Duration::from_millis(200));
     b.write_override(110, 2)
@@ -334,7 +333,7 @@ fn closed_board_end_is_disconnected() {
     b.read_status().expect("alive");
     drop(pty);
     let err = b.read_status().expect_err("board gone");
-    assert_eq!(err.kind(), PmcErrorKind::Disconnected, "{err}");
+    assert_eq!(err.kind(), BoardErrorKind::Disconnected, "{err}");
 }
 
 // ------------------------------------------------------------------ raw server framing

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use acc_pmc::board::BoardLogic;
 use acc_pmc::loopback::{Paced, PtyBoard};
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
-use acc_pmc::Pmc;
+use acc_pmc::Board;
 use acc_runtime::LatencyStats;
 
 fn main() {

@@ -1,4 +1,4 @@
-//! One controller cycle against any [`Pmc`]: read the status, make a force sample of it,
+//! One controller cycle against any [`Board`]: read the status, make a force sample of it,
 //! run the [`FaultPolicy`] (which steps the law), write the override with the heartbeat and
 //! the `CONTROL` bits when they change.
 //!
@@ -8,7 +8,7 @@
 //! [`ControlLoop::cycle`].
 
 use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 
@@ -25,16 +25,16 @@ pub struct WritePlan {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct WriteResult {
     /// Error of the override/heartbeat write.
-    pub override_error: Option<PmcErrorKind>,
+    pub override_error: Option<BoardErrorKind>,
     /// Error of the control write.
-    pub control_error: Option<PmcErrorKind>,
+    pub control_error: Option<BoardErrorKind>,
     /// The control bits that reached the board (the plan's, if written without error).
     pub control_written: Option<ControlBits>,
 }
 
 impl WriteResult {
     /// The first error, if any.
-    pub fn error(&self) -> Option<PmcErrorKind> {
+    pub fn error(&self) -> Option<BoardErrorKind> {
         self.override_error.or(self.control_error)
     }
 }
@@ -47,7 +47,7 @@ pub struct CycleRecord {
     /// Time of the period, s since start.
     pub t_s: f64,
     /// Status read, or the link error.
-    pub link: Result<BoardStatus, PmcErrorKind>,
+    pub link: Result<BoardStatus, BoardErrorKind>,
     /// The force source's sample.
     pub force: ForceSample,
     /// The policy's decision.
@@ -57,17 +57,17 @@ pub struct CycleRecord {
 }
 
 /// Perform a write plan on a board.
-pub fn execute_writes<P: Pmc>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
+pub fn execute_writes<P: Board>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
     let mut r = WriteResult::default();
     if let Some((cmd, hb)) = plan.override_and_heartbeat {
         if let Err(e) = pmc.write_override(cmd, hb) {
-            r.override_error = Some(P::kind(&e));
+            r.override_error = Some(e.kind());
         }
     }
     if let Some(c) = plan.control {
         match pmc.write_control(c) {
             Ok(()) => r.control_written = Some(c),
-            Err(e) => r.control_error = Some(P::kind(&e)),
+            Err(e) => r.control_error = Some(e.kind()),
         }
     }
     r
@@ -84,7 +84,7 @@ pub struct ControlLoop<L, F> {
     index: u64,
     heartbeat: u16,
     control_on_board: Option<ControlBits>,
-    write_error: Option<PmcErrorKind>,
+    write_error: Option<BoardErrorKind>,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -113,7 +113,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     }
 
     /// Decide this period from the status read (or link error) at time `t_s`. Pure.
-    pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, PmcErrorKind>) -> CycleRecord {
+    pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
         let force = match link {
             Ok(s) => {
                 let programmed = f64::from(s.programmed_feed_mm_min);
@@ -165,8 +165,8 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     }
 
     /// One full period on `pmc` at time `t_s`: read, decide, write.
-    pub fn cycle<P: Pmc>(&mut self, pmc: &mut P, t_s: f64) -> CycleRecord {
-        let link = pmc.read_status().map_err(|e| P::kind(&e));
+    pub fn cycle<P: Board>(&mut self, pmc: &mut P, t_s: f64) -> CycleRecord {
+        let link = pmc.read_status().map_err(|e| e.kind());
         let rec = self.decide(t_s, link);
         let r = execute_writes(pmc, &rec.plan);
         self.writes_done(&r);
@@ -176,16 +176,16 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// Orderly stop: clear `ACC_REQUEST` and `FEED_HOLD_REQUEST` (the board then follows the
     /// operator's override), trying up to `attempts` times. Returns the last error if none
     /// of the attempts got through.
-    pub fn shutdown<P: Pmc>(&mut self, pmc: &mut P, attempts: u32) -> Result<(), PmcErrorKind> {
+    pub fn shutdown<P: Board>(&mut self, pmc: &mut P, attempts: u32) -> Result<(), BoardErrorKind> {
         let bits = self.shutdown_bits();
-        let mut last = PmcErrorKind::Disconnected;
+        let mut last = BoardErrorKind::Disconnected;
         for _ in 0..attempts.max(1) {
             match pmc.write_control(bits) {
                 Ok(()) => {
                     self.control_on_board = Some(bits);
                     return Ok(());
                 }
-                Err(e) => last = P::kind(&e),
+                Err(e) => last = e.kind(),
             }
         }
         Err(last)

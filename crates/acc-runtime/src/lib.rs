@@ -8,7 +8,7 @@
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`link`]: the Modbus RTU board as the runtime reads it;
-//! - [`cycle`]: one controller cycle against any `Pmc` (read, decide, write);
+//! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
 //! - [`testing`]: a scripted board, law and force source for tests.

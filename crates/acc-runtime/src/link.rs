@@ -4,7 +4,7 @@ use std::io::{Read, Write};
 
 use acc_pmc::can::{CanBoard, CanError};
 use acc_pmc::rtu::{RtuBoard, RtuError};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardStatus, ControlBits};
 
 /// The Modbus RTU board for the runtime: a `SAMPLE_SEQ`-stale read is passed on as the
 /// status it carries (the policy judges staleness itself on the full status, so it still
@@ -12,12 +12,8 @@ use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
 #[derive(Debug)]
 pub struct RtuPmc<T: Read + Write>(pub RtuBoard<T>);
 
-impl<T: Read + Write> Pmc for RtuPmc<T> {
+impl<T: Read + Write> Board for RtuPmc<T> {
     type Error = RtuError;
-
-    fn kind(err: &RtuError) -> PmcErrorKind {
-        err.kind()
-    }
 
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
         match self.0.read_status() {
@@ -39,17 +35,13 @@ impl<T: Read + Write> Pmc for RtuPmc<T> {
 #[derive(Debug)]
 pub struct CanPmc<B: embedded_can::blocking::Can>(pub CanBoard<B>);
 
-impl<B> Pmc for CanPmc<B>
+impl<B> Board for CanPmc<B>
 where
     B: embedded_can::blocking::Can,
-    CanBoard<B>: Pmc<Error = CanError<B::Error>>,
+    CanBoard<B>: Board<Error = CanError<B::Error>>,
     B::Error: std::error::Error + Send + Sync + 'static,
 {
     type Error = CanError<B::Error>;
-
-    fn kind(err: &Self::Error) -> PmcErrorKind {
-        <CanBoard<B> as Pmc>::kind(err)
-    }
 
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         match self.0.read_status() {

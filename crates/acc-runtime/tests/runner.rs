@@ -10,7 +10,7 @@ use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
 use acc_runtime::{run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, VecSink};
 
 /// Run `pmc` with [`control()`] on a fresh manual clock, T = 0.1 s, at most `max` periods.
-fn run_manual<P: acc_pmc::Pmc + Send, S: LogSink + Send>(
+fn run_manual<P: acc_pmc::Board + Send, S: LogSink + Send>(
     pmc: &mut P,
     ctl: &mut ControlLoop<ScriptedLaw, LinearPowerForce>,
     sink: &mut S,
@@ -37,11 +37,8 @@ fn control() -> ControlLoop<ScriptedLaw, LinearPowerForce> {
 /// `HEARTBEAT` at every read.
 struct LiveBoard(ScriptedBoard, Vec<u16>);
 
-impl acc_pmc::Pmc for LiveBoard {
-    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
-    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
-        ScriptedBoard::kind(e)
-    }
+impl acc_pmc::Board for LiveBoard {
+    type Error = <ScriptedBoard as acc_pmc::Board>::Error;
     fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
         self.1.push(self.0.board.heartbeat());
         self.0.board.push_power_sample(1500);
@@ -198,11 +195,8 @@ fn drives_the_can_board_through_the_same_loop() {
 
     /// New power sample before every read, as the board's sensor would.
     struct Live(CanPmc<CanBoardEmulator>, acc_pmc::board::SharedBoard);
-    impl acc_pmc::Pmc for Live {
-        type Error = <CanPmc<CanBoardEmulator> as acc_pmc::Pmc>::Error;
-        fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
-            CanPmc::<CanBoardEmulator>::kind(e)
-        }
+    impl acc_pmc::Board for Live {
+        type Error = <CanPmc<CanBoardEmulator> as acc_pmc::Board>::Error;
         fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
             lock_board(&self.1).push_power_sample(1500);
             self.0.read_status()

@@ -6,7 +6,7 @@
 //! the PC sends one command frame (`0x200+n`) per cycle. There are no replies and no
 //! exceptions on CAN, so [`CanBoard`] refuses an override the board would refuse (above
 //! 150 % or not a multiple of the last reported step) locally, with the same
-//! [`PmcErrorKind::Exception`]`(3)` the RTU board answers.
+//! [`BoardErrorKind::Exception`]`(3)` the RTU board answers.
 //!
 //! The bus's `receive` must return after a short time when no frame arrives, with an error
 //! for which [`ReceiveTimeout::is_receive_timeout`] is true (socketcan: set a read timeout
@@ -22,7 +22,7 @@ use embedded_can::{Frame, Id, StandardId};
 use crate::board::OVERRIDE_MAX_PCT;
 use crate::clock::{LinkClock, MonotonicClock};
 use crate::stale::SeqWatch;
-use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 use codec::{decode_status, encode_command, CanCodecError, Command, NodeIds};
 
 /// Tells a receive timeout (no frame yet) apart from a real bus error.
@@ -77,7 +77,7 @@ impl Default for CanLinkConfig {
 /// Errors of the CAN link.
 #[derive(Debug, thiserror::Error)]
 pub enum CanError<E: std::error::Error + 'static> {
-    /// The bus reported an error (from the driver, see [`CanError::kind`] for the mapping).
+    /// The bus reported an error (from the driver; see [`BoardError::kind`] for the mapping).
     #[error("CAN bus error: {0}")]
     Bus(#[source] E),
     /// No complete status pair within the timeout.
@@ -112,22 +112,25 @@ pub enum CanError<E: std::error::Error + 'static> {
     BadNode(u8),
 }
 
-impl<E: std::error::Error + embedded_can::Error + 'static> CanError<E> {
-    /// The [`PmcErrorKind`] the runtime acts on. Bus errors: `Bit`, `Stuff`, `Crc`, `Form`
+impl<E> BoardError for CanError<E>
+where
+    E: std::error::Error + embedded_can::Error + Send + Sync + 'static,
+{
+    /// The [`BoardErrorKind`] the runtime acts on. Bus errors: `Bit`, `Stuff`, `Crc`, `Form`
     /// → `Crc` (corrupted frames); `Acknowledge` (nobody acknowledged) and `Other` (driver
     /// or interface failure) → `Disconnected`; `Overrun` → `Protocol`.
-    pub fn kind(&self) -> PmcErrorKind {
+    fn kind(&self) -> BoardErrorKind {
         use embedded_can::ErrorKind as K;
         match self {
             CanError::Bus(e) => match e.kind() {
-                K::Bit | K::Stuff | K::Crc | K::Form => PmcErrorKind::Crc,
-                K::Acknowledge | K::Other => PmcErrorKind::Disconnected,
-                _ => PmcErrorKind::Protocol,
+                K::Bit | K::Stuff | K::Crc | K::Form => BoardErrorKind::Crc,
+                K::Acknowledge | K::Other => BoardErrorKind::Disconnected,
+                _ => BoardErrorKind::Protocol,
             },
-            CanError::Timeout { .. } => PmcErrorKind::Timeout,
-            CanError::Codec(_) | CanError::BadNode(_) => PmcErrorKind::Protocol,
-            CanError::InvalidOverride { .. } => PmcErrorKind::Exception(3),
-            CanError::Stale { .. } => PmcErrorKind::Stale,
+            CanError::Timeout { .. } => BoardErrorKind::Timeout,
+            CanError::Codec(_) | CanError::BadNode(_) => BoardErrorKind::Protocol,
+            CanError::InvalidOverride { .. } => BoardErrorKind::Exception(3),
+            CanError::Stale { .. } => BoardErrorKind::Stale,
         }
     }
 }
@@ -261,16 +264,12 @@ where
     }
 }
 
-impl<B> Pmc for CanBoard<B>
+impl<B> Board for CanBoard<B>
 where
     B: embedded_can::blocking::Can,
     B::Error: std::error::Error + embedded_can::Error + ReceiveTimeout + Send + Sync + 'static,
 {
     type Error = CanError<B::Error>;
-
-    fn kind(err: &Self::Error) -> PmcErrorKind {
-        err.kind()
-    }
 
     /// The newest status pair (`0x180+n`, `0x280+n`), then the `SAMPLE_SEQ` check.
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {

@@ -7,7 +7,7 @@ use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
 use super::{is_idle, LinkClock, MonotonicClock};
 use crate::board::{holding, input};
 use crate::stale::SeqWatch;
-use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 /// Link parameters of [`RtuBoard`] (validated from the `[board]` config by
 /// [`crate::serial::RtuConfig::validate`]).
@@ -97,24 +97,26 @@ pub enum RtuError {
     Build(#[from] super::codec::BuildError),
 }
 
-impl RtuError {
-    /// The [`PmcErrorKind`] the runtime acts on.
-    pub fn kind(&self) -> PmcErrorKind {
+impl BoardError for RtuError {
+    /// The [`BoardErrorKind`] the runtime acts on.
+    fn kind(&self) -> BoardErrorKind {
         match self {
             RtuError::Exception {
                 source: FrameError::Exception { code, .. },
                 ..
-            } => PmcErrorKind::Exception(*code),
+            } => BoardErrorKind::Exception(*code),
             RtuError::Exception { .. } | RtuError::Protocol { .. } | RtuError::Build(_) => {
-                PmcErrorKind::Protocol
+                BoardErrorKind::Protocol
             }
-            RtuError::Crc { .. } => PmcErrorKind::Crc,
-            RtuError::Timeout { .. } => PmcErrorKind::Timeout,
-            RtuError::Io(_) => PmcErrorKind::Disconnected,
-            RtuError::Stale { .. } => PmcErrorKind::Stale,
+            RtuError::Crc { .. } => BoardErrorKind::Crc,
+            RtuError::Timeout { .. } => BoardErrorKind::Timeout,
+            RtuError::Io(_) => BoardErrorKind::Disconnected,
+            RtuError::Stale { .. } => BoardErrorKind::Stale,
         }
     }
+}
 
+impl RtuError {
     fn retryable(&self) -> bool {
         matches!(
             self,
@@ -144,8 +146,8 @@ pub struct LinkStats {
 
 /// The board over Modbus RTU on any byte stream `T` (a serial port, a pty, a test double).
 ///
-/// One controller cycle is [`Pmc::read_status`] (FC04, registers 0…8) then
-/// [`Pmc::write_override`] (FC16, registers 0…1). After any failed attempt the link drains
+/// One controller cycle is [`Board::read_status`] (FC04, registers 0…8) then
+/// [`Board::write_override`] (FC16, registers 0…1). After any failed attempt the link drains
 /// the input until the line is silent, so a late reply is never taken for the next one.
 pub struct RtuBoard<T: Read + Write> {
     port: T,
@@ -349,12 +351,8 @@ impl<T: Read + Write> RtuBoard<T> {
     }
 }
 
-impl<T: Read + Write> Pmc for RtuBoard<T> {
+impl<T: Read + Write> Board for RtuBoard<T> {
     type Error = RtuError;
-
-    fn kind(err: &RtuError) -> PmcErrorKind {
-        err.kind()
-    }
 
     /// FC04 registers 0…8, then the `SAMPLE_SEQ` staleness check.
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {

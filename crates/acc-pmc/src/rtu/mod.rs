@@ -2,7 +2,7 @@
 //!
 //! * [`codec`]: pure frames (built and checked with `rmodbus`), layered reply errors.
 //! * [`RtuBoard`]: the client link, generic over any `Read + Write` byte stream; implements
-//!   [`crate::Pmc`].
+//!   [`crate::Board`].
 //! * [`RtuServer`]: serves a [`crate::board::BoardLogic`] over any `Read + Write` (the
 //!   `acc board-sim` emulator and the tests).
 //!
