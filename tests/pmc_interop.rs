@@ -11,8 +11,8 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use acc_pmc::board::{BoardLogic, OverrideResolution};
-use acc_pmc::loopback::PtyBoard;
+use acc_pmc::emu::{BoardLogic, PtyBoard};
+use acc_pmc::regs::OverrideResolution;
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::serial::configure_pty;
 use acc_pmc::serialport::{SerialPort, TTYPort};

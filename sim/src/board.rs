@@ -5,7 +5,8 @@
 //! side of the board (operator switch, NC state, spindle power, rpm, programmed feed) is
 //! driven by the simulated [`Machine`]. The loop sees only the [`Board`] trait.
 
-use acc_pmc::board::{holding, input, BoardLogic, Exception, OverrideResolution, Reply, Request};
+use acc_pmc::emu::{BoardLogic, Exception, Reply, Request};
+use acc_pmc::regs::{holding, input, OverrideResolution};
 use acc_pmc::{Board, BoardStatus, ControlBits};
 
 use crate::machine::{Machine, PeriodRecord};

@@ -59,7 +59,7 @@ pub enum SimError {
     Core(acc_core::CoreError),
     /// The simulated board answered with a Modbus exception.
     #[error("board: {0}")]
-    Board(#[from] acc_pmc::board::Exception),
+    Board(#[from] acc_pmc::emu::Exception),
     /// The measurement channel could not be built (e.g. its calibration cut failed).
     #[error("measurement channel: {0}")]
     Channel(String),

@@ -5,7 +5,7 @@
 //!
 //! A pty moves bytes instantly whatever baud rate is set, so each rate is measured twice:
 //! `raw` (pty as is: software + kernel overhead only) and `paced` (both ends wrapped in
-//! `loopback::Paced`, which delivers each write after its UART wire time, 10 bits per
+//! `emu::Paced`, which delivers each write after its UART wire time, 10 bits per
 //! character). The paced figure is what a real line costs; the wire time alone of one
 //! cycle is 52 bytes × 10 bit / baud (27.1 ms at 19 200 Bd, 4.5 ms at 115 200 Bd).
 //!
@@ -13,8 +13,7 @@
 
 use std::time::Duration;
 
-use acc_pmc::board::BoardLogic;
-use acc_pmc::loopback::{Paced, PtyBoard};
+use acc_pmc::emu::{BoardLogic, Paced, PtyBoard};
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::{Board, BoardError};
 use criterion::{criterion_group, criterion_main, Criterion};

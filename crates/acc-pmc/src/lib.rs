@@ -1,21 +1,24 @@
-//! `acc-pmc`: the PMC interface trait, the board register map (`../shared/docs/pmc-board.md`),
-//! and the Modbus RTU and CAN links.
+//! `acc-pmc`: the PMC interface board as the controller sees it — the [`Board`] trait, the
+//! board register map (`../shared/docs/pmc-board.md`), the Modbus RTU and CAN links — and,
+//! behind the cargo feature `emulator`, the board's own side (emulator, servers, faults).
 //!
-//! | module | what |
-//! | --- | --- |
-//! | [`board`] | the board as a pure state machine ([`board::BoardLogic`]): registers, `ACC_ACTIVE`, watchdog (time passed in), exceptions; [`BoardStatus`] ⇄ registers |
-//! | [`rtu`] | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]), client [`rtu::RtuBoard`] (implements [`Board`]), server [`rtu::RtuServer`] |
-//! | [`serial`] | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
-//! | [`can`] | CAN variant: pure frame codec, [`can::CanBoard`] over any `embedded_can::blocking::Can`, in-memory board bus |
-//! | [`fault`] | fault injection on a client's byte stream (corrupt CRC, drop, delay, garbage) |
-//! | [`loopback`] | an emulated board on a pty pair ([`loopback::PtyBoard`]), UART pacing |
-//! | [`stale`], [`clock`] | `SAMPLE_SEQ` staleness; injected clocks |
+//! | module | built | what |
+//! | --- | --- | --- |
+//! | crate root | always | [`Board`] (read status, write override + heartbeat, write `CONTROL`), [`BoardError`] / [`BoardErrorKind`], [`BoardStatus`], [`ControlBits`] |
+//! | [`regs`] | always | pure register map: addresses, bits, limits, [`OverrideResolution`](regs::OverrideResolution); [`BoardStatus`] ⇄ input registers, [`ControlBits`] ⇄ `CONTROL` |
+//! | [`rtu`] | always | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]); client [`rtu::RtuBoard`] (implements [`Board`]) over any `Read + Write` |
+//! | [`can`] | always | CAN: pure frame codec ([`can::codec`]); client [`can::CanBoard`] (implements [`Board`]) over any `embedded_can::blocking::Can` |
+//! | [`serial`] | always | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
+//! | [`clock`] | always | the injected [`clock::Clock`] ([`clock::SystemClock`], per-instance [`clock::ManualClock`]) |
+//! | `emu` | feature `emulator` | the board emulator: `BoardLogic` (register behaviour), `RtuServer`, `CanBoardEmulator`, `PtyBoard`, fault injectors |
 //!
-//! One controller cycle, here on the in-memory CAN bus (the RTU link reads the same):
+//! One controller cycle, here on the in-memory CAN bus of the emulator (the RTU link reads
+//! the same):
 //!
 //! ```
-//! use acc_pmc::board::{lock_board, BoardLogic};
-//! use acc_pmc::can::{emulator::CanBoardEmulator, CanBoard, CanLinkConfig};
+//! # #[cfg(feature = "emulator")] {
+//! use acc_pmc::emu::{lock_board, BoardLogic, CanBoardEmulator};
+//! use acc_pmc::can::{CanBoard, CanLinkConfig};
 //! use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 //! let mut logic = BoardLogic::default();
 //! logic.set_acc_switch(true);
@@ -31,6 +34,7 @@
 //! // The board's step is 10 %: 125 % is refused like exception 03.
 //! let err = link.write_override(125, 2).unwrap_err();
 //! assert_eq!(err.kind(), BoardErrorKind::Exception(3));
+//! # }
 //! ```
 //!
 //! CONTRACT NOTE: the names in this file are shared with the simulator and runtime crates.
@@ -40,11 +44,11 @@
 /// The `serialport` crate this crate links against (for `TTYPort`, `SerialPort`).
 pub use serialport;
 
-pub mod board;
 pub mod can;
 pub mod clock;
-pub mod fault;
-pub mod loopback;
+#[cfg(feature = "emulator")]
+pub mod emu;
+pub mod regs;
 pub mod rtu;
 pub mod serial;
 pub mod stale;

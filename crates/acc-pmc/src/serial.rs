@@ -22,7 +22,7 @@ use std::time::Duration;
 use acc_config::ConfigError;
 use serialport::{DataBits, Parity, SerialPort, StopBits, TTYPort};
 
-use crate::board::{WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS};
+use crate::regs::{WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS};
 use crate::rtu::{RtuBoard, RtuLinkConfig};
 
 /// Read timeout of an opened port: a read with no byte returns after this long. The client

@@ -3,10 +3,10 @@
 
 use std::time::Duration;
 
-use acc_pmc::board::{BoardLogic, OverrideResolution, SharedBoard};
-use acc_pmc::can::emulator::{CanBoardEmulator, MemFrame};
 use acc_pmc::can::{CanBoard, CanError, CanLinkConfig};
 use acc_pmc::clock::ManualClock;
+use acc_pmc::emu::{BoardLogic, CanBoardEmulator, MemFrame, SharedBoard};
+use acc_pmc::regs::OverrideResolution;
 use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 use embedded_can::blocking::Can;
 use embedded_can::{Frame, StandardId};
@@ -35,7 +35,7 @@ fn setup(stale_after_reads: u16) -> (CanBoard<CanBoardEmulator>, SharedBoard, Ma
 }
 
 fn sample(board: &SharedBoard, power_w: u32) {
-    acc_pmc::board::lock_board(board).push_power_sample(power_w);
+    acc_pmc::emu::lock_board(board).push_power_sample(power_w);
 }
 
 #[test]
@@ -57,7 +57,7 @@ fn status_override_and_heartbeat_over_the_mock_bus() {
     let s = link.read_status().expect("status");
     assert!(s.acc_active);
     assert_eq!((s.override_applied_pct, s.spindle_power_w), (120, 5_500));
-    let b = acc_pmc::board::lock_board(&board);
+    let b = acc_pmc::emu::lock_board(&board);
     assert_eq!(b.holding_registers(), [120, 1, 1, 500]);
 }
 
@@ -83,12 +83,12 @@ fn invalid_override_is_refused_locally_like_exception_03() {
         let err = link.write_override(bad, 2).expect_err("refused");
         assert_eq!(err.kind(), BoardErrorKind::Exception(3), "{err}");
     }
-    assert_eq!(acc_pmc::board::lock_board(&board).override_cmd_pct(), 90);
+    assert_eq!(acc_pmc::emu::lock_board(&board).override_cmd_pct(), 90);
     // A raw frame with 155 % (not through the link) is ignored by the board as a whole.
     let id = StandardId::new(0x201).expect("id");
     let frame = MemFrame::new(id, &[155, 1, 9, 0]).expect("frame");
     link.get_mut().transmit(&frame).expect("sent");
-    let b = acc_pmc::board::lock_board(&board);
+    let b = acc_pmc::emu::lock_board(&board);
     assert_eq!((b.override_cmd_pct(), b.heartbeat()), (90, 1));
     drop(b);
     assert_eq!(link.get_mut().stats().rejected, 1);

@@ -11,9 +11,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use acc_pmc::board::{lock_board, BoardLogic, OverrideResolution};
 use acc_pmc::can::codec::{decode_command, encode_status, NodeIds};
 use acc_pmc::can::{CanBoard, CanLinkConfig};
+use acc_pmc::emu::{lock_board, BoardLogic};
+use acc_pmc::regs::OverrideResolution;
 use acc_pmc::{Board, ControlBits};
 use embedded_can::{Frame, Id, StandardId};
 use socketcan::{CanFrame, CanSocket, Socket};

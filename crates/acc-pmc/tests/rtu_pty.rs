@@ -4,9 +4,8 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use acc_pmc::board::{holding, BoardLogic, OverrideResolution};
-use acc_pmc::fault::{Fault, FaultInjector, FaultyStream};
-use acc_pmc::loopback::PtyBoard;
+use acc_pmc::emu::{BoardLogic, Fault, FaultInjector, FaultyStream, PtyBoard};
+use acc_pmc::regs::{holding, OverrideResolution};
 use acc_pmc::rtu::codec::append_crc;
 use acc_pmc::rtu::{RtuBoard, RtuError, RtuLinkConfig};
 use acc_pmc::serial::{open_rtu_board, RtuConfig, POLL_SLICE};

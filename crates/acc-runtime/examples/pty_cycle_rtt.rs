@@ -11,8 +11,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use acc_pmc::board::BoardLogic;
-use acc_pmc::loopback::{Paced, PtyBoard};
+use acc_pmc::emu::{BoardLogic, Paced, PtyBoard};
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::Board;
 use acc_runtime::LatencyStats;

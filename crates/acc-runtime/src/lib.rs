@@ -11,7 +11,8 @@
 //! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
-//! - [`testing`]: a scripted board, law and force source for tests.
+//! - `testing` (feature `testing`, which enables acc-pmc's `emulator`): a scripted board,
+//!   law and force source for tests.
 #![deny(missing_docs)]
 
 pub mod clock;
@@ -22,6 +23,7 @@ pub mod policy;
 pub mod runner;
 pub mod shutdown;
 pub mod stats;
+#[cfg(feature = "testing")]
 pub mod testing;
 pub mod ticker;
 

@@ -8,7 +8,8 @@ use acc_core::{
     FeedOverride, ForceSample, ForceSource, Measurement, Mode, OverrideLaw, PeriodInput,
     Saturation, StepOutput, Trace,
 };
-use acc_pmc::board::{holding, BoardLogic, OverrideResolution, Request};
+use acc_pmc::emu::{BoardLogic, Request};
+use acc_pmc::regs::{holding, OverrideResolution};
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 /// Error of [`ScriptedBoard`]: just the kind.

@@ -179,9 +179,8 @@ fn a_slow_logger_never_blocks_control() {
 /// The same loop drives the CAN board (acc-pmc's CanBoard over its in-memory bus emulator).
 #[test]
 fn drives_the_can_board_through_the_same_loop() {
-    use acc_pmc::board::{lock_board, BoardLogic};
-    use acc_pmc::can::emulator::CanBoardEmulator;
     use acc_pmc::can::{CanBoard, CanLinkConfig};
+    use acc_pmc::emu::{lock_board, BoardLogic, CanBoardEmulator};
     use acc_runtime::link::CanPmc;
 
     let mut logic = BoardLogic::default();
@@ -194,7 +193,7 @@ fn drives_the_can_board_through_the_same_loop() {
     let can = CanBoard::new(bus, CanLinkConfig::default()).expect("CAN board");
 
     /// New power sample before every read, as the board's sensor would.
-    struct Live(CanPmc<CanBoardEmulator>, acc_pmc::board::SharedBoard);
+    struct Live(CanPmc<CanBoardEmulator>, acc_pmc::emu::SharedBoard);
     impl acc_pmc::Board for Live {
         type Error = <CanPmc<CanBoardEmulator> as acc_pmc::Board>::Error;
         fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {

@@ -1,6 +1,6 @@
 //! The board's CAN variant: [`CanBoard`] over any bus implementing the standard
 //! [`embedded_can::blocking::Can`] trait (a `socketcan::CanSocket` in production, the
-//! in-memory [`emulator::CanBoardEmulator`] in tests and simulations).
+//! in-memory `emu::CanBoardEmulator` in tests and simulations, feature `emulator`).
 //!
 //! The board broadcasts its status (`0x180+n`, then `0x280+n`) with every new power sample;
 //! the PC sends one command frame (`0x200+n`) per cycle. There are no replies and no
@@ -13,14 +13,13 @@
 //! on the socket; it reports `io::ErrorKind::WouldBlock`/`TimedOut`).
 
 pub mod codec;
-pub mod emulator;
 
 use std::time::Duration;
 
 use embedded_can::{Frame, Id, StandardId};
 
-use crate::board::OVERRIDE_MAX_PCT;
 use crate::clock::{LinkClock, MonotonicClock};
+use crate::regs::OVERRIDE_MAX_PCT;
 use crate::stale::SeqWatch;
 use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 use codec::{decode_status, encode_command, CanCodecError, Command, NodeIds};

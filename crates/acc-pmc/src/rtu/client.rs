@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
 use super::{is_idle, LinkClock, MonotonicClock};
-use crate::board::{holding, input};
+use crate::regs::{holding, input};
 use crate::stale::SeqWatch;
 use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 

@@ -1,5 +1,5 @@
 //! An in-memory CAN bus with the board on it: [`CanBoardEmulator`] implements
-//! [`embedded_can::blocking::Can`] with [`MemFrame`]s and serves a [`BoardLogic`](crate::board::BoardLogic) per the
+//! [`embedded_can::blocking::Can`] with [`MemFrame`]s and serves a [`BoardLogic`](super::BoardLogic) per the
 //! spec's CAN variant. Used as the mock bus of the CAN link's tests and as a simulated CAN
 //! board.
 //!
@@ -15,10 +15,11 @@ use std::time::Duration;
 
 use embedded_can::{Frame, Id, StandardId};
 
-use super::codec::{decode_command, encode_status, NodeIds};
-use super::ReceiveTimeout;
-use crate::board::{holding, lock_board, SharedBoard};
+use super::board::{lock_board, SharedBoard};
+use crate::can::codec::{decode_command, encode_status, NodeIds};
+use crate::can::ReceiveTimeout;
 use crate::clock::{LinkClock, MonotonicClock};
+use crate::regs::holding;
 
 /// A classic CAN data frame held in memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
