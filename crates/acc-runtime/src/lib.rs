@@ -3,7 +3,8 @@
 //!
 //! Layers (copper-rs habit: pure algorithm, thin runtime adapter):
 //! - [`config`]: the typed, validated run config of `acc run`;
-//! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]);
+//! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]),
+//!   re-exported from acc-pmc;
 //! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
@@ -15,7 +16,9 @@
 //!   law and force source for tests.
 #![deny(missing_docs)]
 
-pub mod clock;
+/// Injected time: the one [`Clock`] of the workspace lives in acc-pmc (the links' deadlines
+/// and the emulator use it too); re-exported here.
+pub use acc_pmc::clock;
 pub mod config;
 pub mod cycle;
 pub mod link;

@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use embedded_can::{Frame, Id, StandardId};
 
-use crate::clock::{LinkClock, MonotonicClock};
+use crate::clock::{Clock, SystemClock};
 use crate::regs::OVERRIDE_MAX_PCT;
 use crate::stale::SeqWatch;
 use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
@@ -139,7 +139,7 @@ pub struct CanBoard<B: embedded_can::blocking::Can> {
     bus: B,
     cfg: CanLinkConfig,
     ids: NodeIds,
-    clock: Box<dyn LinkClock>,
+    clock: Box<dyn Clock>,
     seq: SeqWatch,
     pending_a: Option<[u8; 8]>,
     last: Option<BoardStatus>,
@@ -163,14 +163,14 @@ where
     /// A link to node `cfg.node` on `bus`, deadlines on the system monotonic clock. The
     /// first command frame carries `OVERRIDE_CMD` = 100, `CONTROL` = 0, `HEARTBEAT` = 0.
     pub fn new(bus: B, cfg: CanLinkConfig) -> Result<Self, CanError<B::Error>> {
-        Self::with_clock(bus, cfg, Box::new(MonotonicClock::default()))
+        Self::with_clock(bus, cfg, Box::new(SystemClock::default()))
     }
 
     /// As [`CanBoard::new`] with an injected clock.
     pub fn with_clock(
         bus: B,
         cfg: CanLinkConfig,
-        clock: Box<dyn LinkClock>,
+        clock: Box<dyn Clock>,
     ) -> Result<Self, CanError<B::Error>> {
         let ids = NodeIds::new(cfg.node).ok_or(CanError::BadNode(cfg.node))?;
         Ok(Self {

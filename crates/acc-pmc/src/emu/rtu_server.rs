@@ -17,7 +17,7 @@ use rmodbus::{ErrorKind, ModbusProto};
 
 use super::board::{lock_board, Exception, Reply, Request, SharedBoard};
 use super::fault::{Fault, FaultInjector};
-use crate::clock::{LinkClock, MonotonicClock};
+use crate::clock::{Clock, SystemClock};
 use crate::rtu::codec::crc_ok;
 use crate::rtu::is_idle;
 
@@ -41,7 +41,7 @@ pub struct RtuServer<P: Read + Write> {
     port: P,
     slave: u8,
     board: SharedBoard,
-    clock: Box<dyn LinkClock>,
+    clock: Box<dyn Clock>,
     buf: Vec<u8>,
     stats: ServerStats,
     faults: Option<FaultInjector>,
@@ -60,11 +60,11 @@ impl<P: Read + Write> RtuServer<P> {
     /// Serve `board` as slave `slave` (1…247) on `port`; the board's `now_ms` is taken from
     /// the system monotonic clock.
     pub fn new(port: P, slave: u8, board: SharedBoard) -> Self {
-        Self::with_clock(port, slave, board, Box::new(MonotonicClock::default()))
+        Self::with_clock(port, slave, board, Box::new(SystemClock::default()))
     }
 
     /// As [`RtuServer::new`] with an injected clock (the board's watchdog runs on it).
-    pub fn with_clock(port: P, slave: u8, board: SharedBoard, clock: Box<dyn LinkClock>) -> Self {
+    pub fn with_clock(port: P, slave: u8, board: SharedBoard, clock: Box<dyn Clock>) -> Self {
         Self {
             port,
             slave,

@@ -4,7 +4,8 @@ use std::io::{Read, Write};
 use std::time::Duration;
 
 use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
-use super::{is_idle, LinkClock, MonotonicClock};
+use super::is_idle;
+use crate::clock::{Clock, SystemClock};
 use crate::regs::{holding, input};
 use crate::stale::SeqWatch;
 use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
@@ -152,7 +153,7 @@ pub struct LinkStats {
 pub struct RtuBoard<T: Read + Write> {
     port: T,
     cfg: RtuLinkConfig,
-    clock: Box<dyn LinkClock>,
+    clock: Box<dyn Clock>,
     stats: LinkStats,
     resync: bool,
     seq: SeqWatch,
@@ -170,11 +171,11 @@ impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
 impl<T: Read + Write> RtuBoard<T> {
     /// A link on `port` with the system monotonic clock.
     pub fn new(port: T, cfg: RtuLinkConfig) -> Self {
-        Self::with_clock(port, cfg, Box::new(MonotonicClock::default()))
+        Self::with_clock(port, cfg, Box::new(SystemClock::default()))
     }
 
     /// A link with an injected clock (deadlines are measured on it).
-    pub fn with_clock(port: T, cfg: RtuLinkConfig, clock: Box<dyn LinkClock>) -> Self {
+    pub fn with_clock(port: T, cfg: RtuLinkConfig, clock: Box<dyn Clock>) -> Self {
         Self {
             port,
             cfg,

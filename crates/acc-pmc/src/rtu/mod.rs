@@ -16,8 +16,6 @@ pub mod codec;
 
 pub use client::{LinkStats, RtuBoard, RtuError, RtuLinkConfig};
 
-pub use crate::clock::{LinkClock, MonotonicClock};
-
 /// Whether an I/O error only means "no byte yet" (the stream's read timeout).
 pub(crate) fn is_idle(err: &std::io::Error) -> bool {
     matches!(
