@@ -80,7 +80,6 @@ fn our_client(path: &str) -> RtuBoard<TTYPort> {
         timeout: Duration::from_millis(300),
         budget: Duration::from_millis(300),
         retries: 0,
-        stale_after_reads: 0,
         ..settings.link
     };
     RtuBoard::new(open_port(&settings).expect("open"), link)

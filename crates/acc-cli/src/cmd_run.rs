@@ -15,7 +15,6 @@ use acc_core::{Controller, Mode, OverrideSpec, Saturation};
 use acc_pmc::rtu::RtuBoard;
 use acc_pmc::{Board, BoardStatus};
 use acc_runtime::config::{LinkSettings, RunConfig};
-use acc_runtime::link::{CanPmc, RtuPmc};
 use acc_runtime::policy::FaultPolicy;
 use acc_runtime::shutdown::{init_tracing, install_stop_flag, LogFormat};
 use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord, SystemClock};
@@ -205,15 +204,15 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                     )
                 })?;
             let status = rtu
-                .read_status_raw()
+                .read_status()
                 .with_context(|| format!("reading the board status on {}", rtu_cfg.port))?;
             println!(
                 "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms",
                 rtu_cfg.link.slave, rtu_cfg.port, rtu_cfg.serial.baud, rtu_cfg.watchdog_ms
             );
-            let mut pmc = RtuPmc(rtu);
+            let mut pmc = rtu;
             drive(args, &cfg, &mut pmc, status)?;
-            let st = pmc.0.stats();
+            let st = pmc.stats();
             println!(
                 "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
                 st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
@@ -227,7 +226,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                     cfg.path.display()
                 )
             })?;
-            let mut pmc = CanPmc(board);
+            let mut pmc = board;
             let status = pmc
                 .read_status()
                 .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))?;

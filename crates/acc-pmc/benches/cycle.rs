@@ -22,7 +22,6 @@ fn link_cfg() -> RtuLinkConfig {
     RtuLinkConfig {
         timeout: Duration::from_millis(200),
         budget: Duration::from_millis(200),
-        stale_after_reads: 0,
         ..RtuLinkConfig::default()
     }
 }

@@ -51,7 +51,6 @@ pub mod emu;
 pub mod regs;
 pub mod rtu;
 pub mod serial;
-pub mod stale;
 
 /// Status read from the board once per cycle (input registers 0…8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -106,8 +105,6 @@ pub enum BoardErrorKind {
     Crc,
     /// The board answered with a Modbus exception code (01 function, 02 address, 03 value…).
     Exception(u8),
-    /// The power sample did not change (`SAMPLE_SEQ` frozen) for longer than allowed.
-    Stale,
     /// The port or bus is gone.
     Disconnected,
     /// A reply that parses but violates the protocol (wrong slave, wrong function, length).

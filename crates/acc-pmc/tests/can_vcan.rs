@@ -85,7 +85,6 @@ fn can_board_over_vcan() {
     let cfg = CanLinkConfig {
         node: 1,
         timeout: Duration::from_millis(100),
-        stale_after_reads: 3,
     };
     let mut link = CanBoard::new(link_sock, cfg).expect("link");
     let s = link.read_status().expect("status");

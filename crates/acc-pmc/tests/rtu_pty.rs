@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use acc_pmc::emu::{BoardLogic, Fault, FaultInjector, FaultyStream, PtyBoard};
 use acc_pmc::regs::{holding, OverrideResolution};
 use acc_pmc::rtu::codec::append_crc;
-use acc_pmc::rtu::{RtuBoard, RtuError, RtuLinkConfig};
+use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::serial::{open_rtu_board, RtuConfig, POLL_SLICE};
 use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 use serialport::TTYPort;
@@ -54,7 +54,6 @@ fn cfg(timeout_ms: u64, retries: u8, budget_ms: u64) -> RtuLinkConfig {
         timeout: Duration::from_millis(timeout_ms),
         retries,
         budget: Duration::from_millis(budget_ms),
-        stale_after_reads: 0,
     }
 }
 
@@ -162,32 +161,16 @@ fn watchdog_trips_without_heartbeat_and_alarm_reset_clears_it() {
 }
 
 #[test]
-fn frozen_sample_seq_is_stale_after_the_configured_reads() {
+fn frozen_sample_seq_is_returned_as_read() {
+    // Staleness is the runtime policy's to judge: the link hands over every status as read.
     let mut pty = spawn_board();
-    let mut b = link(
-        &mut pty,
-        RtuLinkConfig {
-            stale_after_reads: 3,
-            ..cfg(200, 1, 1000)
-        },
-    );
-    for _ in 0..3 {
-        b.read_status()
-            .expect("first read and two unchanged reads are fine");
-    }
-    let err = b
-        .read_status()
-        .expect_err("third unchanged read after the first");
-    assert_eq!(err.kind(), BoardErrorKind::Stale);
-    match &err {
-        RtuError::Stale {
-            unchanged_reads,
-            status,
-        } => {
-            assert_eq!(*unchanged_reads, 3);
-            assert_eq!(status.spindle_power_w, 5_000);
-        }
-        other => panic!("{other}"),
+    let mut b = link(&mut pty, cfg(200, 1, 1000));
+    let first = b.read_status().expect("first read");
+    for _ in 0..5 {
+        let s = b
+            .read_status()
+            .expect("unchanged SAMPLE_SEQ is not a link error");
+        assert_eq!((s.sample_seq, s.spindle_power_w), (first.sample_seq, 5_000));
     }
     pty.with_board(|l| l.push_power_sample(6_000));
     assert_eq!(

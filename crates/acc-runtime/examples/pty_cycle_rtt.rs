@@ -45,7 +45,6 @@ fn main() {
         let cfg = RtuLinkConfig {
             timeout: Duration::from_millis(200),
             budget: Duration::from_millis(400),
-            stale_after_reads: 0,
             ..RtuLinkConfig::default()
         };
         let mut link = RtuBoard::new(port, cfg);

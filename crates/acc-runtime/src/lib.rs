@@ -8,7 +8,6 @@
 //! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
-//! - [`link`]: the Modbus RTU board as the runtime reads it;
 //! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
@@ -21,7 +20,6 @@
 pub use acc_pmc::clock;
 pub mod config;
 pub mod cycle;
-pub mod link;
 pub mod policy;
 pub mod runner;
 pub mod shutdown;

@@ -570,11 +570,8 @@ impl FaultPolicy {
             fault: false,
         };
 
-        // 1. Link health: read errors (except Stale) and last period's write errors.
-        let read_fault = match input.link {
-            Err(BoardErrorKind::Stale) | Ok(_) => None,
-            Err(k) => Some(k),
-        };
+        // 1. Link health: read errors and last period's write errors.
+        let read_fault = input.link.err();
         let link_fault = read_fault.or(input.write_error);
         if let Some(kind) = link_fault {
             self.link_failures = self.link_failures.saturating_add(1);
@@ -592,7 +589,7 @@ impl FaultPolicy {
         }
 
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
-        let mut stale = matches!(input.link, Err(BoardErrorKind::Stale));
+        let mut stale = false;
         if let Some(s) = status {
             if self.last_seq == Some(s.sample_seq) {
                 self.seq_unchanged = self.seq_unchanged.saturating_add(1);

@@ -181,7 +181,6 @@ fn a_slow_logger_never_blocks_control() {
 fn drives_the_can_board_through_the_same_loop() {
     use acc_pmc::can::{CanBoard, CanLinkConfig};
     use acc_pmc::emu::{lock_board, BoardLogic, CanBoardEmulator};
-    use acc_runtime::link::CanPmc;
 
     let mut logic = BoardLogic::default();
     logic.set_acc_switch(true);
@@ -193,9 +192,9 @@ fn drives_the_can_board_through_the_same_loop() {
     let can = CanBoard::new(bus, CanLinkConfig::default()).expect("CAN board");
 
     /// New power sample before every read, as the board's sensor would.
-    struct Live(CanPmc<CanBoardEmulator>, acc_pmc::emu::SharedBoard);
+    struct Live(CanBoard<CanBoardEmulator>, acc_pmc::emu::SharedBoard);
     impl acc_pmc::Board for Live {
-        type Error = <CanPmc<CanBoardEmulator> as acc_pmc::Board>::Error;
+        type Error = <CanBoard<CanBoardEmulator> as acc_pmc::Board>::Error;
         fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
             lock_board(&self.1).push_power_sample(1500);
             self.0.read_status()
@@ -207,7 +206,7 @@ fn drives_the_can_board_through_the_same_loop() {
             self.0.write_control(c)
         }
     }
-    let mut pmc = Live(CanPmc(can), std::sync::Arc::clone(&shared));
+    let mut pmc = Live(can, std::sync::Arc::clone(&shared));
     let mut ctl = control();
     let mut sink = VecSink::default();
     let stop = AtomicBool::new(false);

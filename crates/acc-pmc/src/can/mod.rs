@@ -20,7 +20,6 @@ use embedded_can::{Frame, Id, StandardId};
 
 use crate::clock::{Clock, SystemClock};
 use crate::regs::OVERRIDE_MAX_PCT;
-use crate::stale::SeqWatch;
 use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 use codec::{decode_status, encode_command, CanCodecError, Command, NodeIds};
 
@@ -58,9 +57,6 @@ pub struct CanLinkConfig {
     pub node: u8,
     /// Time `read_status` waits for a fresh status pair. Default 40 ms.
     pub timeout: Duration,
-    /// Status pairs in a row with an unchanged `SAMPLE_SEQ` that make the power stale;
-    /// 0 disables the check. Default 3.
-    pub stale_after_reads: u16,
 }
 
 impl Default for CanLinkConfig {
@@ -68,7 +64,6 @@ impl Default for CanLinkConfig {
         Self {
             node: 1,
             timeout: Duration::from_millis(40),
-            stale_after_reads: 3,
         }
     }
 }
@@ -98,14 +93,6 @@ pub enum CanError<E: std::error::Error + 'static> {
         /// The board's step, percent.
         step: u16,
     },
-    /// `SAMPLE_SEQ` did not change for `unchanged_reads` status pairs.
-    #[error("SAMPLE_SEQ stuck at {} for {unchanged_reads} reads: spindle power is stale", status.sample_seq)]
-    Stale {
-        /// Reads in a row with the same `SAMPLE_SEQ`.
-        unchanged_reads: u32,
-        /// The status received.
-        status: BoardStatus,
-    },
     /// The node id is outside 1…127.
     #[error("CAN node id {0} is out of range: allowed 1 ..= 127")]
     BadNode(u8),
@@ -129,7 +116,6 @@ where
             CanError::Timeout { .. } => BoardErrorKind::Timeout,
             CanError::Codec(_) | CanError::BadNode(_) => BoardErrorKind::Protocol,
             CanError::InvalidOverride { .. } => BoardErrorKind::Exception(3),
-            CanError::Stale { .. } => BoardErrorKind::Stale,
         }
     }
 }
@@ -140,7 +126,6 @@ pub struct CanBoard<B: embedded_can::blocking::Can> {
     cfg: CanLinkConfig,
     ids: NodeIds,
     clock: Box<dyn Clock>,
-    seq: SeqWatch,
     pending_a: Option<[u8; 8]>,
     last: Option<BoardStatus>,
     command: Command,
@@ -178,7 +163,6 @@ where
             cfg,
             ids,
             clock,
-            seq: SeqWatch::new(cfg.stale_after_reads),
             pending_a: None,
             last: None,
             command: Command {
@@ -197,11 +181,6 @@ where
     /// The last complete status received, if any.
     pub fn last_status(&self) -> Option<BoardStatus> {
         self.last
-    }
-
-    /// Forget the `SAMPLE_SEQ` history.
-    pub fn reset_staleness(&mut self) {
-        self.seq.reset();
     }
 
     fn standard_id(frame: &B::Frame) -> Option<u16> {
@@ -270,17 +249,12 @@ where
 {
     type Error = CanError<B::Error>;
 
-    /// The newest status pair (`0x180+n`, `0x280+n`), then the `SAMPLE_SEQ` check.
+    /// The newest status pair (`0x180+n`, `0x280+n`), as received (`SAMPLE_SEQ` staleness
+    /// is the fault policy's to judge).
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         let status = self.receive_status()?;
         self.last = Some(status);
-        match self.seq.observe(status.sample_seq) {
-            Some(unchanged_reads) => Err(CanError::Stale {
-                unchanged_reads,
-                status,
-            }),
-            None => Ok(status),
-        }
+        Ok(status)
     }
 
     /// One command frame with the new override and heartbeat and the current `CONTROL`.
@@ -322,9 +296,6 @@ pub struct CanConfig {
     /// Status wait per read, ms, 5…2000. Default 40.
     #[serde(default = "default_can_timeout_ms")]
     pub timeout_ms: i64,
-    /// Unchanged `SAMPLE_SEQ` reads that make the power stale, 0 (off)…1000. Default 3.
-    #[serde(default = "default_can_stale")]
-    pub stale_after_reads: i64,
 }
 
 fn default_node() -> i64 {
@@ -333,18 +304,14 @@ fn default_node() -> i64 {
 fn default_can_timeout_ms() -> i64 {
     40
 }
-fn default_can_stale() -> i64 {
-    3
-}
 
 impl CanConfig {
-    /// A config for `iface` with defaults (node 1, 40 ms, stale after 3).
+    /// A config for `iface` with defaults (node 1, 40 ms).
     pub fn for_iface(iface: impl Into<String>) -> Self {
         Self {
             iface: iface.into(),
             node: default_node(),
             timeout_ms: default_can_timeout_ms(),
-            stale_after_reads: default_can_stale(),
         }
     }
 
@@ -366,17 +333,9 @@ impl CanConfig {
         let node = crate::serial::int_in(file, &key("node"), self.node, 1, 127)? as u8;
         let timeout_ms =
             crate::serial::int_in(file, &key("timeout_ms"), self.timeout_ms, 5, 2000)? as u64;
-        let stale = crate::serial::int_in(
-            file,
-            &key("stale_after_reads"),
-            self.stale_after_reads,
-            0,
-            1000,
-        )? as u16;
         Ok(CanLinkConfig {
             node,
             timeout: Duration::from_millis(timeout_ms),
-            stale_after_reads: stale,
         })
     }
 }

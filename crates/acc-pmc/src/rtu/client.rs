@@ -7,7 +7,6 @@ use super::codec::{Decoded, FrameError, ProtocolError, Transaction};
 use super::is_idle;
 use crate::clock::{Clock, SystemClock};
 use crate::regs::{holding, input};
-use crate::stale::SeqWatch;
 use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 /// Link parameters of [`RtuBoard`] (validated from the `[board]` config by
@@ -24,9 +23,6 @@ pub struct RtuLinkConfig {
     /// Total time one call (all attempts) may take; a retry is started only if a full
     /// `timeout` still fits. Keep it below the control period T. Default 90 ms.
     pub budget: Duration,
-    /// Reads in a row with an unchanged `SAMPLE_SEQ` after which `read_status` reports
-    /// [`RtuError::Stale`]; 0 disables the check. Default 3.
-    pub stale_after_reads: u16,
 }
 
 impl Default for RtuLinkConfig {
@@ -36,13 +32,14 @@ impl Default for RtuLinkConfig {
             timeout: Duration::from_millis(40),
             retries: 1,
             budget: Duration::from_millis(90),
-            stale_after_reads: 3,
         }
     }
 }
 
 /// Errors of the RTU link, layered: the board refused (exception) ≠ line noise (CRC) ≠ no
-/// answer (timeout) ≠ a wrong answer (protocol) ≠ the port is gone (I/O) ≠ a frozen sensor.
+/// answer (timeout) ≠ a wrong answer (protocol) ≠ the port is gone (I/O). A frozen power
+/// sensor (`SAMPLE_SEQ` unchanged) is not a link error: the status is returned as read and
+/// the runtime's fault policy judges staleness.
 #[derive(Debug, thiserror::Error)]
 pub enum RtuError {
     /// The board answered with a Modbus exception.
@@ -84,15 +81,6 @@ pub enum RtuError {
     /// The byte stream failed (port unplugged, pty closed).
     #[error("serial I/O failed: {0}")]
     Io(#[source] std::io::Error),
-    /// `SAMPLE_SEQ` did not change for `unchanged_reads` reads: the power value is stale.
-    /// The status block read this cycle is attached (everything but the power is current).
-    #[error("SAMPLE_SEQ stuck at {} for {unchanged_reads} reads: spindle power is stale", status.sample_seq)]
-    Stale {
-        /// Reads in a row with the same `SAMPLE_SEQ`.
-        unchanged_reads: u32,
-        /// The status read this cycle.
-        status: BoardStatus,
-    },
     /// A request that cannot be encoded (caller error).
     #[error(transparent)]
     Build(#[from] super::codec::BuildError),
@@ -112,7 +100,6 @@ impl BoardError for RtuError {
             RtuError::Crc { .. } => BoardErrorKind::Crc,
             RtuError::Timeout { .. } => BoardErrorKind::Timeout,
             RtuError::Io(_) => BoardErrorKind::Disconnected,
-            RtuError::Stale { .. } => BoardErrorKind::Stale,
         }
     }
 }
@@ -156,7 +143,6 @@ pub struct RtuBoard<T: Read + Write> {
     clock: Box<dyn Clock>,
     stats: LinkStats,
     resync: bool,
-    seq: SeqWatch,
 }
 
 impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
@@ -182,7 +168,6 @@ impl<T: Read + Write> RtuBoard<T> {
             clock,
             stats: LinkStats::default(),
             resync: false,
-            seq: SeqWatch::new(cfg.stale_after_reads),
         }
     }
 
@@ -206,11 +191,6 @@ impl<T: Read + Write> RtuBoard<T> {
         self.port
     }
 
-    /// Forget the `SAMPLE_SEQ` history (after a board restart or a long pause).
-    pub fn reset_staleness(&mut self) {
-        self.seq.reset();
-    }
-
     /// FC03: read holding registers 0…3 (`OVERRIDE_CMD`, `HEARTBEAT`, `CONTROL`,
     /// `WATCHDOG_MS`) — e.g. to see whether the board restarted (all back to defaults).
     pub fn read_holding(&mut self) -> Result<[u16; holding::COUNT as usize], RtuError> {
@@ -226,15 +206,6 @@ impl<T: Read + Write> RtuBoard<T> {
         let tx =
             Transaction::write_single_register(self.cfg.slave, holding::WATCHDOG_MS, watchdog_ms)?;
         self.transact(&tx).map(|_| ())
-    }
-
-    /// FC04: read input registers 0…8 without the staleness check.
-    pub fn read_status_raw(&mut self) -> Result<BoardStatus, RtuError> {
-        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
-        let regs = self.registers(&tx)?;
-        let mut block = [0u16; input::COUNT as usize];
-        block.copy_from_slice(&regs);
-        Ok(BoardStatus::from_input_registers(&block))
     }
 
     fn registers(&mut self, tx: &Transaction) -> Result<Vec<u16>, RtuError> {
@@ -355,16 +326,14 @@ impl<T: Read + Write> RtuBoard<T> {
 impl<T: Read + Write> Board for RtuBoard<T> {
     type Error = RtuError;
 
-    /// FC04 registers 0…8, then the `SAMPLE_SEQ` staleness check.
+    /// FC04 registers 0…8, decoded as read (`SAMPLE_SEQ` staleness is the fault policy's
+    /// to judge).
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
-        let status = self.read_status_raw()?;
-        match self.seq.observe(status.sample_seq) {
-            Some(unchanged_reads) => Err(RtuError::Stale {
-                unchanged_reads,
-                status,
-            }),
-            None => Ok(status),
-        }
+        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
+        let regs = self.registers(&tx)?;
+        let mut block = [0u16; input::COUNT as usize];
+        block.copy_from_slice(&regs);
+        Ok(BoardStatus::from_input_registers(&block))
     }
 
     /// FC16 registers 0…1 (`OVERRIDE_CMD`, `HEARTBEAT`).
