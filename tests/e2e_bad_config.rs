@@ -5,8 +5,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use acc_pmc::board::BoardLogic;
-use acc_pmc::loopback::PtyBoard;
+use acc_pmc::emu::{BoardLogic, PtyBoard};
 use e2e_support::{root, Proc};
 
 /// The fast board-sim config with `board.<key> = <value>` replaced (or added).

@@ -19,7 +19,7 @@ use std::time::Duration;
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::serial::{configure_pty, open_port, RtuConfig};
 use acc_pmc::serialport::{SerialPort, TTYPort};
-use acc_pmc::Pmc;
+use acc_pmc::Board;
 use e2e_support::{field, read_log, root, Proc};
 
 fn pymodbus_ready() -> bool {
@@ -80,7 +80,6 @@ fn our_client(path: &str) -> RtuBoard<TTYPort> {
         timeout: Duration::from_millis(300),
         budget: Duration::from_millis(300),
         retries: 0,
-        stale_after_reads: 0,
         ..settings.link
     };
     RtuBoard::new(open_port(&settings).expect("open"), link)

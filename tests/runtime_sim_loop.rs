@@ -1,5 +1,5 @@
 //! The runtime's own cycle (fault policy + adaptive controller + spindle-power force source,
-//! from the shipped run config) against the simulator's board (`SimBoard`, the `Pmc` of the
+//! from the shipped run config) against the simulator's board (`SimBoard`, the `Board` of the
 //! simulated machine) on manual time: the same code `acc run` runs, without a serial line,
 //! deterministic and ~100x faster than real time. Paper case III on 2-3-4 mm.
 

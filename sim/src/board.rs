@@ -3,13 +3,11 @@
 //! Register behaviour is the PMC crate's pure [`BoardLogic`] (the same code the Modbus
 //! server runs), fed with Modbus requests exactly as a link would send them; the machine
 //! side of the board (operator switch, NC state, spindle power, rpm, programmed feed) is
-//! driven by the simulated [`Machine`]. The loop sees only the [`Pmc`] trait.
+//! driven by the simulated [`Machine`]. The loop sees only the [`Board`] trait.
 
-use acc_pmc::board::{
-    holding, input, lock_board, BoardLogic, Exception, OverrideResolution, Reply, Request,
-    SharedBoard,
-};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::emu::{lock_board, BoardLogic, Exception, Reply, Request, SharedBoard};
+use acc_pmc::regs::{holding, input, OverrideResolution};
+use acc_pmc::{Board, BoardStatus, ControlBits};
 use acc_runtime::RunRecord;
 
 use crate::machine::{Machine, PeriodRecord};
@@ -26,7 +24,7 @@ pub enum PowerFault {
 /// The simulated board plus the machine behind it, on a manual clock.
 ///
 /// The register logic is shared ([`SharedBoard`]): `acc sim` talks to it in process through
-/// the [`Pmc`] trait, `acc board-sim` serves the same logic over Modbus RTU to `acc run`;
+/// the [`Board`] trait, `acc board-sim` serves the same logic over Modbus RTU to `acc run`;
 /// both step the machine with [`SimBoard::advance_period`].
 #[derive(Debug)]
 pub struct SimBoard {
@@ -139,12 +137,8 @@ pub fn add_truth(row: &mut RunRecord, rec: &PeriodRecord<'_>, true_force_n: f64)
     row.feed_true_mm_min = Some(rec.feed_mean_mm_min);
 }
 
-impl Pmc for SimBoard {
+impl Board for SimBoard {
     type Error = Exception;
-
-    fn kind(err: &Exception) -> PmcErrorKind {
-        PmcErrorKind::Exception(err.code())
-    }
 
     fn read_status(&mut self) -> Result<BoardStatus, Exception> {
         let reply = lock_board(&self.logic).handle(
@@ -196,6 +190,7 @@ mod tests {
     use super::*;
     use crate::run::configs_dir;
     use crate::scenario::Scenario;
+    use acc_pmc::{BoardError, BoardErrorKind};
 
     fn board() -> SimBoard {
         let sc =
@@ -241,7 +236,7 @@ mod tests {
     fn the_board_refuses_an_override_off_its_step() {
         let mut b = board();
         let err = b.write_override(125, 1).expect_err("not a multiple of 10");
-        assert_eq!(SimBoard::kind(&err), PmcErrorKind::Exception(3));
+        assert_eq!(err.kind(), BoardErrorKind::Exception(3));
         assert_eq!(b.read_status().expect("status").override_applied_pct, 100);
     }
 

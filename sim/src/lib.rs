@@ -3,7 +3,7 @@
 //! The embedded default machine of `acc`: workpieces along the tool path
 //! ([`workpiece`]), the mean-force and tooth-level cutting process with tool wear
 //! ([`process`]), the feed drive and override path ([`machine`]), the PMC interface board
-//! ([`board`], the PMC crate's `BoardLogic` behind the `Pmc` trait), measurement channels
+//! ([`board`], the PMC crate's `BoardLogic` behind the `Board` trait), measurement channels
 //! ([`channel`], `ForceSource`s), comparison baselines ([`baselines`]), scenario files
 //! ([`scenario`]), the closed loop ([`mod@run`]: the production `ControlLoop` on a stepped clock, logging acc-runtime's
 //! `RunRecord`) and summaries ([`summary`]).
@@ -58,7 +58,7 @@ pub enum SimError {
     Core(acc_core::CoreError),
     /// The simulated board answered with a Modbus exception.
     #[error("board: {0}")]
-    Board(#[from] acc_pmc::board::Exception),
+    Board(#[from] acc_pmc::emu::Exception),
     /// The measurement channel could not be built (e.g. its calibration cut failed).
     #[error("measurement channel: {0}")]
     Channel(String),

@@ -3,13 +3,13 @@
 //! There is one control loop in `acc`: [`acc_runtime::ControlLoop`] with its
 //! [`FaultPolicy`], the loop `acc run` drives on a wall clock against a serial or CAN board.
 //! Here it runs against the simulated board ([`crate::SimBoard`], the emulator's
-//! register logic behind the `Pmc` trait) on a clock the simulator steps. Per control period
+//! register logic behind the `Board` trait) on a clock the simulator steps. Per control period
 //! `T`:
 //! 1. the plant runs `T` with the override the board now applies (feed drive, process, wear,
 //!    spindle); the board publishes the period's power sample, speed and cycle state;
 //! 2. the scenario's measurement channel (dynamometer or induction-motor spindle power)
 //!    measures the period; the loop's force source ([`PlantSensor`]) hands that sample on;
-//! 3. [`ControlLoop::cycle`] reads the status through the `Pmc` trait, computes the actual
+//! 3. [`ControlLoop::cycle`] reads the status through the `Board` trait, computes the actual
 //!    feed (programmed × applied), lets the fault policy step the law, and writes the
 //!    override with a new heartbeat and the `CONTROL` bits — exactly as under `acc run`;
 //! 4. the period's [`RunRecord`] (the production record plus the plant's truth: position,

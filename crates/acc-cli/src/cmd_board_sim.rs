@@ -28,8 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use acc_pmc::loopback::{Paced, PtyBoard};
-use acc_pmc::rtu::server::{lock_board, spawn_server, SharedBoard};
+use acc_pmc::emu::{lock_board, spawn_server, Paced, PtyBoard, SharedBoard};
 use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_runtime::shutdown::install_stop_flag;
 use acc_runtime::{SystemClock, Ticker};

@@ -13,9 +13,8 @@ use std::path::PathBuf;
 
 use acc_core::{Controller, OverrideSpec};
 use acc_pmc::rtu::RtuBoard;
-use acc_pmc::{BoardStatus, Pmc};
+use acc_pmc::{Board, BoardStatus};
 use acc_runtime::config::{LinkSettings, RunConfig};
-use acc_runtime::link::{CanPmc, RtuPmc};
 use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_flag, LogFormat};
@@ -148,15 +147,15 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                     )
                 })?;
             let status = rtu
-                .read_status_raw()
+                .read_status()
                 .with_context(|| format!("reading the board status on {}", rtu_cfg.port))?;
             println!(
                 "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms",
                 rtu_cfg.link.slave, rtu_cfg.port, rtu_cfg.serial.baud, rtu_cfg.watchdog_ms
             );
-            let mut pmc = RtuPmc(rtu);
+            let mut pmc = rtu;
             drive(args, &cfg, &mut pmc, status)?;
-            let st = pmc.0.stats();
+            let st = pmc.stats();
             println!(
                 "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
                 st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
@@ -170,7 +169,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                     cfg.path.display()
                 )
             })?;
-            let mut pmc = CanPmc(board);
+            let mut pmc = board;
             let status = pmc
                 .read_status()
                 .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))?;
@@ -184,7 +183,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
 }
 
 /// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
-fn drive<P: Pmc + Send>(
+fn drive<P: Board + Send>(
     args: &RunArgs,
     cfg: &RunConfig,
     pmc: &mut P,

@@ -5,7 +5,7 @@
 //!
 //! A pty moves bytes instantly whatever baud rate is set, so each rate is measured twice:
 //! `raw` (pty as is: software + kernel overhead only) and `paced` (both ends wrapped in
-//! `loopback::Paced`, which delivers each write after its UART wire time, 10 bits per
+//! `emu::Paced`, which delivers each write after its UART wire time, 10 bits per
 //! character). The paced figure is what a real line costs; the wire time alone of one
 //! cycle is 52 bytes × 10 bit / baud (27.1 ms at 19 200 Bd, 4.5 ms at 115 200 Bd).
 //!
@@ -13,17 +13,15 @@
 
 use std::time::Duration;
 
-use acc_pmc::board::BoardLogic;
-use acc_pmc::loopback::{Paced, PtyBoard};
+use acc_pmc::emu::{BoardLogic, Paced, PtyBoard};
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
-use acc_pmc::Pmc;
+use acc_pmc::{Board, BoardError};
 use criterion::{criterion_group, criterion_main, Criterion};
 
 fn link_cfg() -> RtuLinkConfig {
     RtuLinkConfig {
         timeout: Duration::from_millis(200),
         budget: Duration::from_millis(200),
-        stale_after_reads: 0,
         ..RtuLinkConfig::default()
     }
 }
@@ -35,14 +33,14 @@ fn board() -> BoardLogic {
     b
 }
 
-fn cycle<P: Pmc>(link: &mut P, hb: &mut u16) {
+fn cycle<P: Board>(link: &mut P, hb: &mut u16) {
     *hb = hb.wrapping_add(1);
     let status = link
         .read_status()
-        .map_err(|e| P::kind(&e))
+        .map_err(|e| e.kind())
         .expect("read status");
     link.write_override(status.override_applied_pct.clamp(10, 150) / 10 * 10, *hb)
-        .map_err(|e| P::kind(&e))
+        .map_err(|e| e.kind())
         .expect("write override");
 }
 

@@ -1,58 +1,176 @@
-//! Time sources for link deadlines and the board's watchdog, handed to each link or server
-//! (never global). Production uses [`MonotonicClock`]; simulations and tests may use
-//! [`ManualClock`] to run deterministically and faster than real time.
+//! Injected time, the one clock of the workspace: a [`Clock`] trait with a [`SystemClock`]
+//! (monotonic, real sleeps) and a [`ManualClock`] (per instance, advanced by the caller or
+//! jumped to a deadline). Re-exported by `acc-runtime` as `acc_runtime::{Clock, ManualClock,
+//! SystemClock}`.
+//!
+//! Users: the runtime's ticker and loop; the links' deadlines ([`crate::rtu::RtuBoard`],
+//! [`crate::can::CanBoard`]); the emulator's watchdog time. Nothing calls `Instant::now()` or
+//! `sleep` outside [`SystemClock`], so a simulation on a [`ManualClock`] runs as fast as the
+//! CPU allows and is deterministic (copper-rs habit: the mock clock is handed out per
+//! instance, never a global).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// A monotonic time source.
-pub trait LinkClock: Send {
-    /// Time since an arbitrary fixed origin.
+/// A monotonic time source that can block until an absolute deadline.
+pub trait Clock: Send + Sync {
+    /// Time elapsed since this clock's origin (monotonic, never goes back).
     fn now(&self) -> Duration;
+    /// Block until `now() >= deadline` (absolute, since the clock's origin). Returns at once
+    /// if the deadline has passed. A manual clock jumps to the deadline instead of waiting.
+    fn sleep_until(&self, deadline: Duration);
 }
 
-/// The system's monotonic clock (`std::time::Instant`), origin at construction.
-#[derive(Debug, Clone, Copy)]
-pub struct MonotonicClock(Instant);
-
-impl Default for MonotonicClock {
-    fn default() -> Self {
-        Self(Instant::now())
-    }
-}
-
-impl LinkClock for MonotonicClock {
+impl<C: Clock + ?Sized> Clock for &C {
     fn now(&self) -> Duration {
-        self.0.elapsed()
+        (**self).now()
+    }
+    fn sleep_until(&self, deadline: Duration) {
+        (**self).sleep_until(deadline)
     }
 }
 
-/// A clock that moves only when told to; clones share the same time.
+impl<C: Clock + ?Sized> Clock for Arc<C> {
+    fn now(&self) -> Duration {
+        (**self).now()
+    }
+    fn sleep_until(&self, deadline: Duration) {
+        (**self).sleep_until(deadline)
+    }
+}
+
+/// The real monotonic clock (`std::time::Instant`), origin at construction.
+///
+/// `sleep_until` sleeps with `std::thread::sleep` until `deadline − spin`, then busy-waits the
+/// last `spin` (default 0: no busy-wait; on a shared 2-core machine spinning costs the other
+/// threads more than the kernel's timer slack costs us).
+#[derive(Debug, Clone, Copy)]
+pub struct SystemClock {
+    origin: Instant,
+    spin: Duration,
+}
+
+impl Default for SystemClock {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SystemClock {
+    /// A clock whose origin is now, without busy-waiting.
+    pub fn new() -> Self {
+        Self {
+            origin: Instant::now(),
+            spin: Duration::ZERO,
+        }
+    }
+
+    /// Busy-wait the last `spin` before each deadline (trades CPU for lower jitter).
+    pub fn with_spin(mut self, spin: Duration) -> Self {
+        self.spin = spin;
+        self
+    }
+}
+
+impl Clock for SystemClock {
+    fn now(&self) -> Duration {
+        self.origin.elapsed()
+    }
+
+    fn sleep_until(&self, deadline: Duration) {
+        loop {
+            let now = self.now();
+            if now >= deadline {
+                return;
+            }
+            let left = deadline - now;
+            if left > self.spin {
+                std::thread::sleep(left - self.spin);
+            } else {
+                std::hint::spin_loop();
+            }
+        }
+    }
+}
+
+/// A manual clock: time moves only when the owner advances it, or when a sleeper asks for a
+/// later deadline (`sleep_until` jumps to it). Clones share the same time; separate
+/// `ManualClock::new()` instances are independent.
 ///
 /// ```
-/// use acc_pmc::clock::{LinkClock, ManualClock};
+/// use acc_pmc::clock::{Clock, ManualClock};
 /// use std::time::Duration;
-/// let clock = ManualClock::default();
-/// let handle = clock.clone();
-/// handle.advance(Duration::from_millis(250));
-/// assert_eq!(clock.now(), Duration::from_millis(250));
+/// let clock = ManualClock::new();
+/// let other = ManualClock::new();
+/// clock.advance(Duration::from_millis(30));
+/// clock.sleep_until(Duration::from_millis(100));
+/// assert_eq!(clock.now(), Duration::from_millis(100));
+/// assert_eq!(other.now(), Duration::ZERO); // per instance, not global
 /// ```
 #[derive(Debug, Clone, Default)]
 pub struct ManualClock {
-    micros: Arc<AtomicU64>,
+    nanos: Arc<AtomicU64>,
 }
 
 impl ManualClock {
-    /// Move time forward by `d` (microsecond resolution).
+    /// A clock at t = 0.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Move time forward by `d` (e.g. to model the duration of work inside a period).
     pub fn advance(&self, d: Duration) {
-        let us = u64::try_from(d.as_micros()).unwrap_or(u64::MAX);
-        self.micros.fetch_add(us, Ordering::SeqCst);
+        self.nanos.fetch_add(to_nanos(d), Ordering::SeqCst);
+    }
+
+    /// Set the time to `t` if `t` is later than now (time never goes back).
+    pub fn set(&self, t: Duration) {
+        self.nanos.fetch_max(to_nanos(t), Ordering::SeqCst);
     }
 }
 
-impl LinkClock for ManualClock {
+fn to_nanos(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+
+impl Clock for ManualClock {
     fn now(&self) -> Duration {
-        Duration::from_micros(self.micros.load(Ordering::SeqCst))
+        Duration::from_nanos(self.nanos.load(Ordering::SeqCst))
+    }
+
+    fn sleep_until(&self, deadline: Duration) {
+        self.set(deadline);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn manual_clock_never_goes_back() {
+        let c = ManualClock::new();
+        c.set(Duration::from_secs(5));
+        c.set(Duration::from_secs(1));
+        assert_eq!(c.now(), Duration::from_secs(5));
+        c.sleep_until(Duration::from_secs(2));
+        assert_eq!(c.now(), Duration::from_secs(5));
+    }
+
+    #[test]
+    fn manual_clock_clones_share_time() {
+        let a = ManualClock::new();
+        let b = a.clone();
+        a.advance(Duration::from_millis(7));
+        assert_eq!(b.now(), Duration::from_millis(7));
+    }
+
+    #[test]
+    fn system_clock_sleeps_at_least_to_deadline() {
+        let c = SystemClock::new();
+        let deadline = c.now() + Duration::from_millis(2);
+        c.sleep_until(deadline);
+        assert!(c.now() >= deadline);
     }
 }

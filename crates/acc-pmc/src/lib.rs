@@ -1,22 +1,25 @@
-//! `acc-pmc`: the PMC interface trait, the board register map (`../shared/docs/pmc-board.md`),
-//! and the Modbus RTU and CAN links.
+//! `acc-pmc`: the PMC interface board as the controller sees it — the [`Board`] trait, the
+//! board register map (`../shared/docs/pmc-board.md`), the Modbus RTU and CAN links — and,
+//! behind the cargo feature `emulator`, the board's own side (emulator, servers, faults).
 //!
-//! | module | what |
-//! | --- | --- |
-//! | [`board`] | the board as a pure state machine ([`board::BoardLogic`]): registers, `ACC_ACTIVE`, watchdog (time passed in), exceptions; [`BoardStatus`] ⇄ registers |
-//! | [`rtu`] | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]), client [`rtu::RtuBoard`] (implements [`Pmc`]), server [`rtu::RtuServer`] |
-//! | [`serial`] | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
-//! | [`can`] | CAN variant: pure frame codec, [`can::CanBoard`] over any `embedded_can::blocking::Can`, in-memory board bus |
-//! | [`fault`] | fault injection on a client's byte stream (corrupt CRC, drop, delay, garbage) |
-//! | [`loopback`] | an emulated board on a pty pair ([`loopback::PtyBoard`]), UART pacing |
-//! | [`stale`], [`clock`] | `SAMPLE_SEQ` staleness; injected clocks |
+//! | module | built | what |
+//! | --- | --- | --- |
+//! | crate root | always | [`Board`] (read status, write override + heartbeat, write `CONTROL`), [`BoardError`] / [`BoardErrorKind`], [`BoardStatus`], [`ControlBits`] |
+//! | [`regs`] | always | pure register map: addresses, bits, limits, [`OverrideResolution`](regs::OverrideResolution); [`BoardStatus`] ⇄ input registers, [`ControlBits`] ⇄ `CONTROL` |
+//! | [`rtu`] | always | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]); client [`rtu::RtuBoard`] (implements [`Board`]) over any `Read + Write` |
+//! | [`can`] | always | CAN: pure frame codec ([`can::codec`]); client [`can::CanBoard`] (implements [`Board`]) over any `embedded_can::blocking::Can` |
+//! | [`serial`] | always | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
+//! | [`clock`] | always | the injected [`clock::Clock`] ([`clock::SystemClock`], per-instance [`clock::ManualClock`]) |
+//! | `emu` | feature `emulator` | the board emulator: `BoardLogic` (register behaviour), `RtuServer`, `CanBoardEmulator`, `PtyBoard`, fault injectors |
 //!
-//! One controller cycle, here on the in-memory CAN bus (the RTU link reads the same):
+//! One controller cycle, here on the in-memory CAN bus of the emulator (the RTU link reads
+//! the same):
 //!
 //! ```
-//! use acc_pmc::board::{lock_board, BoardLogic};
-//! use acc_pmc::can::{emulator::CanBoardEmulator, CanBoard, CanLinkConfig};
-//! use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+//! # #[cfg(feature = "emulator")] {
+//! use acc_pmc::emu::{lock_board, BoardLogic, CanBoardEmulator};
+//! use acc_pmc::can::{CanBoard, CanLinkConfig};
+//! use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 //! let mut logic = BoardLogic::default();
 //! logic.set_acc_switch(true);
 //! logic.push_power_sample(3_000);
@@ -30,7 +33,8 @@
 //! assert_eq!(lock_board(&board).override_applied_pct(), 120);
 //! // The board's step is 10 %: 125 % is refused like exception 03.
 //! let err = link.write_override(125, 2).unwrap_err();
-//! assert_eq!(CanBoard::<CanBoardEmulator>::kind(&err), PmcErrorKind::Exception(3));
+//! assert_eq!(err.kind(), BoardErrorKind::Exception(3));
+//! # }
 //! ```
 //!
 //! CONTRACT NOTE: the names in this file are shared with the simulator and runtime crates.
@@ -40,14 +44,13 @@
 /// The `serialport` crate this crate links against (for `TTYPort`, `SerialPort`).
 pub use serialport;
 
-pub mod board;
 pub mod can;
 pub mod clock;
-pub mod fault;
-pub mod loopback;
+#[cfg(feature = "emulator")]
+pub mod emu;
+pub mod regs;
 pub mod rtu;
 pub mod serial;
-pub mod stale;
 
 /// Status read from the board once per cycle (input registers 0…8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -95,28 +98,31 @@ pub struct ControlBits {
 
 /// Error kinds the runtime acts on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PmcErrorKind {
+pub enum BoardErrorKind {
     /// No (complete) reply within the timeout.
     Timeout,
     /// Reply with a bad checksum.
     Crc,
     /// The board answered with a Modbus exception code (01 function, 02 address, 03 value…).
     Exception(u8),
-    /// The power sample did not change (`SAMPLE_SEQ` frozen) for longer than allowed.
-    Stale,
     /// The port or bus is gone.
     Disconnected,
     /// A reply that parses but violates the protocol (wrong slave, wrong function, length).
     Protocol,
 }
 
-/// The PMC interface: narrow and fallible. Implemented by the Modbus RTU board, the CAN
-/// board and the simulated board.
-pub trait Pmc {
-    /// Error type; maps onto [`PmcErrorKind`].
-    type Error: std::error::Error + Send + Sync + 'static;
-    /// Classify an error.
-    fn kind(err: &Self::Error) -> PmcErrorKind;
+/// An error of a [`Board`] link: it knows which [`BoardErrorKind`] the runtime acts on
+/// (embedded-hal habit: each driver's error maps onto one shared kind).
+pub trait BoardError: std::error::Error + Send + Sync + 'static {
+    /// Classify this error.
+    fn kind(&self) -> BoardErrorKind;
+}
+
+/// The PMC interface board, as the controller sees it: narrow and fallible. Implemented by
+/// the Modbus RTU board, the CAN board and the simulated board.
+pub trait Board {
+    /// Error type; carries its [`BoardErrorKind`] ([`BoardError::kind`]).
+    type Error: BoardError;
     /// Read the status block (input registers 0…8).
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error>;
     /// Write `OVERRIDE_CMD` (percent, a multiple of the board's step) and `HEARTBEAT` in

@@ -23,7 +23,7 @@ use acc_config::ConfigError;
 use acc_config::RangeError;
 use serialport::{DataBits, Parity, SerialPort, StopBits, TTYPort};
 
-use crate::board::{WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS};
+use crate::regs::{WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS};
 use crate::rtu::{RtuBoard, RtuLinkConfig};
 
 /// Read timeout of an opened port: a read with no byte returns after this long. The client
@@ -68,10 +68,6 @@ pub struct RtuConfig {
     /// Board watchdog `WATCHDOG_MS` to program at start, ms, 100…5000. Default 500.
     #[serde(default = "default_watchdog_ms")]
     pub watchdog_ms: i64,
-    /// Reads with an unchanged `SAMPLE_SEQ` that make the power stale, 0 (off)…1000.
-    /// Default 3.
-    #[serde(default = "default_stale")]
-    pub stale_after_reads: i64,
 }
 
 fn default_baud() -> i64 {
@@ -101,9 +97,6 @@ fn default_budget_ms() -> i64 {
 fn default_watchdog_ms() -> i64 {
     i64::from(WATCHDOG_DEFAULT_MS)
 }
-fn default_stale() -> i64 {
-    3
-}
 
 /// Validated serial framing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -129,7 +122,7 @@ pub struct RtuSettings {
     pub file: PathBuf,
     /// Serial framing.
     pub serial: SerialParams,
-    /// Link parameters (slave, timeout, retries, budget, staleness).
+    /// Link parameters (slave, timeout, retries, budget).
     pub link: RtuLinkConfig,
     /// `WATCHDOG_MS` to program into the board at start, ms.
     pub watchdog_ms: u16,
@@ -176,7 +169,6 @@ impl RtuConfig {
             retries: default_retries(),
             budget_ms: default_budget_ms(),
             watchdog_ms: default_watchdog_ms(),
-            stale_after_reads: default_stale(),
         }
     }
 
@@ -261,13 +253,6 @@ impl RtuConfig {
             i64::from(*WATCHDOG_RANGE_MS.end()),
         );
         let watchdog_ms = int_in(file, &key("watchdog_ms"), self.watchdog_ms, wd_lo, wd_hi)? as u16;
-        let stale_after_reads = int_in(
-            file,
-            &key("stale_after_reads"),
-            self.stale_after_reads,
-            0,
-            1000,
-        )? as u16;
         Ok(RtuSettings {
             port: self.port.clone(),
             port_key: key("port"),
@@ -283,7 +268,6 @@ impl RtuConfig {
                 timeout: Duration::from_millis(timeout_ms),
                 retries,
                 budget: Duration::from_millis(budget_ms),
-                stale_after_reads,
             },
             watchdog_ms,
         })

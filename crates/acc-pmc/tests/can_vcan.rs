@@ -11,10 +11,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use acc_pmc::board::{lock_board, BoardLogic, OverrideResolution};
 use acc_pmc::can::codec::{decode_command, encode_status, NodeIds};
 use acc_pmc::can::{CanBoard, CanLinkConfig};
-use acc_pmc::{ControlBits, Pmc};
+use acc_pmc::emu::{lock_board, BoardLogic};
+use acc_pmc::regs::OverrideResolution;
+use acc_pmc::{Board, ControlBits};
 use embedded_can::{Frame, Id, StandardId};
 use socketcan::{CanFrame, CanSocket, Socket};
 
@@ -84,7 +85,6 @@ fn can_board_over_vcan() {
     let cfg = CanLinkConfig {
         node: 1,
         timeout: Duration::from_millis(100),
-        stale_after_reads: 3,
     };
     let mut link = CanBoard::new(link_sock, cfg).expect("link");
     let s = link.read_status().expect("status");

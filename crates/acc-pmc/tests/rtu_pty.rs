@@ -4,13 +4,12 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use acc_pmc::board::{holding, BoardLogic, OverrideResolution};
-use acc_pmc::fault::{Fault, FaultInjector, FaultyStream};
-use acc_pmc::loopback::PtyBoard;
+use acc_pmc::emu::{BoardLogic, Fault, FaultInjector, FaultyStream, PtyBoard};
+use acc_pmc::regs::{holding, OverrideResolution};
 use acc_pmc::rtu::codec::append_crc;
-use acc_pmc::rtu::{RtuBoard, RtuError, RtuLinkConfig};
+use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
 use acc_pmc::serial::{open_rtu_board, RtuConfig, POLL_SLICE};
-use acc_pmc::{ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, ControlBits};
 use serialport::TTYPort;
 
 const ARM: ControlBits = ControlBits {
@@ -55,7 +54,6 @@ fn cfg(timeout_ms: u64, retries: u8, budget_ms: u64) -> RtuLinkConfig {
         timeout: Duration::from_millis(timeout_ms),
         retries,
         budget: Duration::from_millis(budget_ms),
-        stale_after_reads: 0,
     }
 }
 
@@ -116,11 +114,7 @@ fn exception_03_is_reported_as_exception_and_not_retried() {
     b.write_override(90, 1).expect("90 is fine");
     for bad in [155u16, 35] {
         let err = b.write_override(bad, 2).expect_err("must be refused");
-        assert_eq!(
-            RtuBoard::<TTYPort>::kind(&err),
-            PmcErrorKind::Exception(3),
-            "{err}"
-        );
+        assert_eq!(err.kind(), BoardErrorKind::Exception(3), "{err}");
         assert!(err.to_string().contains("exception 03"), "{err}");
     }
     assert_eq!(b.stats().retries, 0);
@@ -131,7 +125,7 @@ fn exception_03_is_reported_as_exception_and_not_retried() {
         "old value kept"
     );
     let err = b.write_watchdog_ms(50).expect_err("watchdog 50 ms");
-    assert_eq!(err.kind(), PmcErrorKind::Exception(3));
+    assert_eq!(err.kind(), BoardErrorKind::Exception(3));
 }
 
 #[test]
@@ -167,32 +161,16 @@ fn watchdog_trips_without_heartbeat_and_alarm_reset_clears_it() {
 }
 
 #[test]
-fn frozen_sample_seq_is_stale_after_the_configured_reads() {
+fn frozen_sample_seq_is_returned_as_read() {
+    // Staleness is the runtime policy's to judge: the link hands over every status as read.
     let mut pty = spawn_board();
-    let mut b = link(
-        &mut pty,
-        RtuLinkConfig {
-            stale_after_reads: 3,
-            ..cfg(200, 1, 1000)
-        },
-    );
-    for _ in 0..3 {
-        b.read_status()
-            .expect("first read and two unchanged reads are fine");
-    }
-    let err = b
-        .read_status()
-        .expect_err("third unchanged read after the first");
-    assert_eq!(err.kind(), PmcErrorKind::Stale);
-    match &err {
-        RtuError::Stale {
-            unchanged_reads,
-            status,
-        } => {
-            assert_eq!(*unchanged_reads, 3);
-            assert_eq!(status.spindle_power_w, 5_000);
-        }
-        other => panic!("{other}"),
+    let mut b = link(&mut pty, cfg(200, 1, 1000));
+    let first = b.read_status().expect("first read");
+    for _ in 0..5 {
+        let s = b
+            .read_status()
+            .expect("unchanged SAMPLE_SEQ is not a link error");
+        assert_eq!((s.sample_seq, s.spindle_power_w), (first.sample_seq, 5_000));
     }
     pty.with_board(|l| l.push_power_sample(6_000));
     assert_eq!(
@@ -213,7 +191,7 @@ fn corrupted_crc_is_retried_then_reported() {
     assert_eq!((b.stats().crc_errors, b.stats().retries), (1, 1));
     faults.push_n(Fault::CorruptCrc, 2);
     let err = b.read_status().expect_err("both attempts corrupted");
-    assert_eq!(err.kind(), PmcErrorKind::Crc);
+    assert_eq!(err.kind(), BoardErrorKind::Crc);
     assert_eq!(faults.pending(), 0);
     // The link is clean afterwards.
     b.write_override(100, 9).expect("next cycle");
@@ -236,7 +214,7 @@ fn dropped_reply_times_out_and_retry_recovers() {
     let (mut b0, faults0) = faulty_link(&mut pty0, cfg(30, 0, 200));
     faults0.push(Fault::DropReply);
     let err = b0.read_status().expect_err("no retries");
-    assert_eq!(err.kind(), PmcErrorKind::Timeout);
+    assert_eq!(err.kind(), BoardErrorKind::Timeout);
     assert!(
         err.to_string().contains("no complete reply within 30 ms"),
         "{err}"
@@ -251,7 +229,7 @@ fn late_reply_is_a_timeout_and_is_not_taken_for_the_next_one() {
     // The FC16 acknowledgement arrives 150 ms late (timeout 60 ms).
     faults.push(Fault::DelayReply(Duration::from_millis(150)));
     let err = b.write_override(120, 1).expect_err("late");
-    assert_eq!(err.kind(), PmcErrorKind::Timeout);
+    assert_eq!(err.kind(), BoardErrorKind::Timeout);
     std::thread::sleep(Duration::from_millis(200));
     // The late FC16 ack is on the line now; the next FC04 must not be confused by it.
     let s = b.read_status().expect("status after resync");
@@ -270,7 +248,7 @@ fn retries_stay_within_the_budget() {
     let t0 = Instant::now();
     let err = b.read_status().expect_err("all dropped");
     let took = t0.elapsed();
-    assert_eq!(err.kind(), PmcErrorKind::Timeout);
+    assert_eq!(err.kind(), BoardErrorKind::Timeout);
     // 100 ms + 100 ms fit in 250 ms, a third attempt would not (5 retries allowed).
     assert_eq!(b.stats().retries, 1);
     assert!(
@@ -284,17 +262,20 @@ fn board_side_faults_reach_a_client_that_only_has_the_device_path() {
     let mut pty = spawn_board();
     let mut b = link(&mut pty, cfg(60, 0, 200));
     pty.faults().push(Fault::CorruptCrc);
-    assert_eq!(b.read_status().expect_err("crc").kind(), PmcErrorKind::Crc);
+    assert_eq!(
+        b.read_status().expect_err("crc").kind(),
+        BoardErrorKind::Crc
+    );
     pty.faults().push(Fault::DropReply);
     assert_eq!(
         b.write_override(100, 1).expect_err("dropped").kind(),
-        PmcErrorKind::Timeout
+        BoardErrorKind::Timeout
     );
     pty.faults()
         .push(Fault::DelayReply(Duration::from_millis(150)));
     assert_eq!(
         b.read_status().expect_err("late").kind(),
-        PmcErrorKind::Timeout
+        BoardErrorKind::Timeout
     );
     std::thread::sleep(Duration::from_millis(200));
     b.write_override(110, 2)
@@ -334,7 +315,7 @@ fn closed_board_end_is_disconnected() {
     b.read_status().expect("alive");
     drop(pty);
     let err = b.read_status().expect_err("board gone");
-    assert_eq!(err.kind(), PmcErrorKind::Disconnected, "{err}");
+    assert_eq!(err.kind(), BoardErrorKind::Disconnected, "{err}");
 }
 
 // ------------------------------------------------------------------ raw server framing

@@ -11,10 +11,9 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use acc_pmc::board::BoardLogic;
-use acc_pmc::loopback::{Paced, PtyBoard};
+use acc_pmc::emu::{BoardLogic, Paced, PtyBoard};
 use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
-use acc_pmc::Pmc;
+use acc_pmc::Board;
 use acc_runtime::LatencyStats;
 
 fn main() {
@@ -46,7 +45,6 @@ fn main() {
         let cfg = RtuLinkConfig {
             timeout: Duration::from_millis(200),
             budget: Duration::from_millis(400),
-            stale_after_reads: 0,
             ..RtuLinkConfig::default()
         };
         let mut link = RtuBoard::new(port, cfg);

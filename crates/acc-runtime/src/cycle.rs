@@ -1,4 +1,4 @@
-//! One controller cycle against any [`Pmc`]: read the status, make a force sample of it,
+//! One controller cycle against any [`Board`]: read the status, make a force sample of it,
 //! run the [`FaultPolicy`] (which steps the law), write the override with the heartbeat and
 //! the `CONTROL` bits when they change.
 //!
@@ -8,7 +8,7 @@
 //! [`ControlLoop::cycle`].
 
 use acc_core::{ForceSample, ForceSource, Mode, OverrideLaw, PeriodInput, Saturation};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
@@ -26,16 +26,16 @@ pub struct WritePlan {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct WriteResult {
     /// Error of the override/heartbeat write.
-    pub override_error: Option<PmcErrorKind>,
+    pub override_error: Option<BoardErrorKind>,
     /// Error of the control write.
-    pub control_error: Option<PmcErrorKind>,
+    pub control_error: Option<BoardErrorKind>,
     /// The control bits that reached the board (the plan's, if written without error).
     pub control_written: Option<ControlBits>,
 }
 
 impl WriteResult {
     /// The first error, if any.
-    pub fn error(&self) -> Option<PmcErrorKind> {
+    pub fn error(&self) -> Option<BoardErrorKind> {
         self.override_error.or(self.control_error)
     }
 }
@@ -48,9 +48,9 @@ pub struct CycleRecord {
     /// Time of the period, s since start.
     pub t_s: f64,
     /// Status read, or the link error.
-    pub link: Result<BoardStatus, PmcErrorKind>,
+    pub link: Result<BoardStatus, BoardErrorKind>,
     /// Error of the previous period's writes, if any (reported to the policy this period).
-    pub write_error: Option<PmcErrorKind>,
+    pub write_error: Option<BoardErrorKind>,
     /// Programmed feed the loop used, mm/min (`PROGRAMMED_FEED`, or the policy's nominal
     /// feed when the board reports 0); `None` without a status.
     pub programmed_feed_mm_min: Option<f64>,
@@ -69,15 +69,14 @@ pub struct CycleRecord {
 }
 
 /// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
-/// `stale`, `disconnected`, `protocol`).
-pub fn kind_name(k: PmcErrorKind) -> String {
+/// `disconnected`, `protocol`).
+pub fn kind_name(k: BoardErrorKind) -> String {
     match k {
-        PmcErrorKind::Timeout => "timeout".into(),
-        PmcErrorKind::Crc => "crc".into(),
-        PmcErrorKind::Exception(c) => format!("exception_{c:02}"),
-        PmcErrorKind::Stale => "stale".into(),
-        PmcErrorKind::Disconnected => "disconnected".into(),
-        PmcErrorKind::Protocol => "protocol".into(),
+        BoardErrorKind::Timeout => "timeout".into(),
+        BoardErrorKind::Crc => "crc".into(),
+        BoardErrorKind::Exception(c) => format!("exception_{c:02}"),
+        BoardErrorKind::Disconnected => "disconnected".into(),
+        BoardErrorKind::Protocol => "protocol".into(),
     }
 }
 
@@ -151,17 +150,17 @@ pub fn saturation_name(s: Saturation) -> &'static str {
 }
 
 /// Perform a write plan on a board.
-pub fn execute_writes<P: Pmc>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
+pub fn execute_writes<P: Board>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
     let mut r = WriteResult::default();
     if let Some((cmd, hb)) = plan.override_and_heartbeat {
         if let Err(e) = pmc.write_override(cmd, hb) {
-            r.override_error = Some(P::kind(&e));
+            r.override_error = Some(e.kind());
         }
     }
     if let Some(c) = plan.control {
         match pmc.write_control(c) {
             Ok(()) => r.control_written = Some(c),
-            Err(e) => r.control_error = Some(P::kind(&e)),
+            Err(e) => r.control_error = Some(e.kind()),
         }
     }
     r
@@ -178,7 +177,7 @@ pub struct ControlLoop<L, F> {
     index: u64,
     heartbeat: u16,
     control_on_board: Option<ControlBits>,
-    write_error: Option<PmcErrorKind>,
+    write_error: Option<BoardErrorKind>,
     path_mm: f64,
     last_feed_mm_min: f64,
 }
@@ -242,7 +241,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// The actual feed is computed here, once: programmed feed (`PROGRAMMED_FEED`, or the
     /// policy's `nominal_feed_mm_min` when the board reports 0) × `OVERRIDE_APPLIED`. The force
     /// source, the law and the path integral all use that one value.
-    pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, PmcErrorKind>) -> CycleRecord {
+    pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
         let feeds = link.ok().map(|s| {
             let programmed = if s.programmed_feed_mm_min > 0 {
                 f64::from(s.programmed_feed_mm_min)
@@ -315,8 +314,8 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     }
 
     /// One full period on `pmc` at time `t_s`: read, decide, write.
-    pub fn cycle<P: Pmc>(&mut self, pmc: &mut P, t_s: f64) -> CycleRecord {
-        let link = pmc.read_status().map_err(|e| P::kind(&e));
+    pub fn cycle<P: Board>(&mut self, pmc: &mut P, t_s: f64) -> CycleRecord {
+        let link = pmc.read_status().map_err(|e| e.kind());
         let rec = self.decide(t_s, link);
         let r = execute_writes(pmc, &rec.plan);
         self.writes_done(&r);
@@ -326,16 +325,16 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// Orderly stop: clear `ACC_REQUEST` and `FEED_HOLD_REQUEST` (the board then follows the
     /// operator's override), trying up to `attempts` times. Returns the last error if none
     /// of the attempts got through.
-    pub fn shutdown<P: Pmc>(&mut self, pmc: &mut P, attempts: u32) -> Result<(), PmcErrorKind> {
+    pub fn shutdown<P: Board>(&mut self, pmc: &mut P, attempts: u32) -> Result<(), BoardErrorKind> {
         let bits = self.shutdown_bits();
-        let mut last = PmcErrorKind::Disconnected;
+        let mut last = BoardErrorKind::Disconnected;
         for _ in 0..attempts.max(1) {
             match pmc.write_control(bits) {
                 Ok(()) => {
                     self.control_on_board = Some(bits);
                     return Ok(());
                 }
-                Err(e) => last = P::kind(&e),
+                Err(e) => last = e.kind(),
             }
         }
         Err(last)

@@ -3,27 +3,30 @@
 //!
 //! Layers (copper-rs habit: pure algorithm, thin runtime adapter):
 //! - [`config`]: the typed, validated run config of `acc run`;
-//! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]);
+//! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]),
+//!   re-exported from acc-pmc;
 //! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
-//! - [`link`]: the Modbus RTU board as the runtime reads it;
-//! - [`cycle`]: one controller cycle against any `Pmc` (read, decide, write);
+//! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v2, v1 migration;
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
-//! - [`testing`]: a scripted board, law and force source for tests.
+//! - `testing` (feature `testing`, which enables acc-pmc's `emulator`): a scripted board,
+//!   law and force source for tests.
 #![deny(missing_docs)]
 
-pub mod clock;
+/// Injected time: the one [`Clock`] of the workspace lives in acc-pmc (the links' deadlines
+/// and the emulator use it too); re-exported here.
+pub use acc_pmc::clock;
 pub mod config;
 pub mod cycle;
-pub mod link;
 pub mod policy;
 pub mod record;
 pub mod runner;
 pub mod shutdown;
 pub mod stats;
+#[cfg(feature = "testing")]
 pub mod testing;
 pub mod ticker;
 

@@ -39,7 +39,7 @@
 //! than the last one written.
 
 use acc_core::{FeedOverride, ForceSample, Measurement, OverrideLaw, StepOutput};
-use acc_pmc::{BoardStatus, ControlBits, PmcErrorKind};
+use acc_pmc::{BoardErrorKind, BoardStatus, ControlBits};
 
 /// Parameters of the fault policy. Defaults in each field's doc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -323,7 +323,7 @@ pub enum Event {
     /// A link error this period (the count of consecutive failures).
     LinkError {
         /// Error kind.
-        kind: PmcErrorKind,
+        kind: BoardErrorKind,
         /// Consecutive failures including this one.
         consecutive: u32,
     },
@@ -396,9 +396,9 @@ pub struct CycleInput {
     /// Time of the period (start of the read), s since the run began.
     pub t_s: f64,
     /// Status read this period, or the link error kind.
-    pub link: Result<BoardStatus, PmcErrorKind>,
+    pub link: Result<BoardStatus, BoardErrorKind>,
     /// Error of the previous period's writes, if any.
-    pub write_error: Option<PmcErrorKind>,
+    pub write_error: Option<BoardErrorKind>,
     /// Force sample computed from this period's status ([`ForceSample::INVALID`] when the
     /// read failed).
     pub force: ForceSample,
@@ -604,11 +604,8 @@ impl FaultPolicy {
             fault: false,
         };
 
-        // 1. Link health: read errors (except Stale) and last period's write errors.
-        let read_fault = match input.link {
-            Err(PmcErrorKind::Stale) | Ok(_) => None,
-            Err(k) => Some(k),
-        };
+        // 1. Link health: read errors and last period's write errors.
+        let read_fault = input.link.err();
         let link_fault = read_fault.or(input.write_error);
         if let Some(kind) = link_fault {
             self.link_failures = self.link_failures.saturating_add(1);
@@ -626,7 +623,7 @@ impl FaultPolicy {
         }
 
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
-        let mut stale = matches!(input.link, Err(PmcErrorKind::Stale));
+        let mut stale = false;
         if let Some(s) = status {
             if self.last_seq == Some(s.sample_seq) {
                 self.seq_unchanged = self.seq_unchanged.saturating_add(1);

@@ -1,7 +1,7 @@
 //! The threaded runtime: link I/O, control and logging on three threads joined by
 //! `crossbeam-channel`.
 //!
-//! - **I/O thread** (owns the [`Pmc`] and the [`Ticker`]): at every deadline it reads the
+//! - **I/O thread** (owns the [`Board`] and the [`Ticker`]): at every deadline it reads the
 //!   status, hands it to the control thread, waits for the write plan (bounded by one
 //!   period), performs the writes and reports their outcome with the next status. It also
 //!   measures the round-trip time of each cycle (read + decide + writes).
@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use acc_core::{ForceSource, OverrideLaw};
-use acc_pmc::{BoardStatus, Pmc, PmcErrorKind};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus};
 use crossbeam_channel::{bounded, RecvTimeoutError, TrySendError};
 
 use crate::clock::Clock;
@@ -112,7 +112,7 @@ pub struct RunSummary {
     /// Alarms at the end.
     pub alarms: Alarms,
     /// The shutdown `CONTROL` write reached the board.
-    pub shutdown_ok: Result<(), PmcErrorKind>,
+    pub shutdown_ok: Result<(), BoardErrorKind>,
     /// The last status read.
     pub last_status: Option<BoardStatus>,
 }
@@ -135,7 +135,7 @@ struct StatusMsg {
     seq: u64,
     t_s: f64,
     skipped: u64,
-    link: Result<BoardStatus, PmcErrorKind>,
+    link: Result<BoardStatus, BoardErrorKind>,
     writes: WriteResult,
     lateness: Duration,
     overrun: bool,
@@ -151,7 +151,7 @@ pub fn run<P, L, F, C, S>(
     opts: RunOptions,
 ) -> Result<RunSummary, RunError>
 where
-    P: Pmc + Send,
+    P: Board + Send,
     L: OverrideLaw + Send,
     F: ForceSource + Send,
     C: Clock + Clone,
@@ -248,7 +248,7 @@ where
                 );
             }
             let t0 = clock.now();
-            let link = pmc.read_status().map_err(|e| P::kind(&e));
+            let link = pmc.read_status().map_err(|e| e.kind());
             if let Ok(s) = link {
                 last_status = Some(s);
             }

@@ -1,4 +1,4 @@
-//! Test doubles for the runtime: a scripted [`Pmc`] built on the board's own
+//! Test doubles for the runtime: a scripted [`Board`] built on the board's own
 //! [`BoardLogic`] (so every register rule of the spec holds), a scripted [`OverrideLaw`],
 //! and a linear power-to-force source. Used by the unit tests here and by `tests/runtime_*`.
 
@@ -8,24 +8,31 @@ use acc_core::{
     FeedOverride, ForceSample, ForceSource, Measurement, Mode, OverrideLaw, PeriodInput,
     Saturation, StepOutput, Trace,
 };
-use acc_pmc::board::{holding, BoardLogic, OverrideResolution, Request};
-use acc_pmc::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use acc_pmc::emu::{BoardLogic, Request};
+use acc_pmc::regs::{holding, OverrideResolution};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 /// Error of [`ScriptedBoard`]: just the kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("scripted board error: {0:?}")]
-pub struct ScriptedError(pub PmcErrorKind);
+pub struct ScriptedError(pub BoardErrorKind);
+
+impl BoardError for ScriptedError {
+    fn kind(&self) -> BoardErrorKind {
+        self.0
+    }
+}
 
 /// What the scripted link does with one transaction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LinkFault {
     /// The request reaches the board, the reply is lost or corrupt (the write took effect).
-    ReplyLost(PmcErrorKind),
+    ReplyLost(BoardErrorKind),
     /// The request never reaches the board.
-    RequestLost(PmcErrorKind),
+    RequestLost(BoardErrorKind),
 }
 
-/// A [`Pmc`] over an in-memory [`BoardLogic`] with a script of link faults and a manual
+/// A [`Board`] over an in-memory [`BoardLogic`] with a script of link faults and a manual
 /// board time (ms), advanced by the test.
 #[derive(Debug, Clone)]
 pub struct ScriptedBoard {
@@ -85,12 +92,8 @@ impl Default for ScriptedBoard {
     }
 }
 
-impl Pmc for ScriptedBoard {
+impl Board for ScriptedBoard {
     type Error = ScriptedError;
-
-    fn kind(err: &Self::Error) -> PmcErrorKind {
-        err.0
-    }
 
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         self.transact(|s| {
@@ -107,7 +110,7 @@ impl Pmc for ScriptedBoard {
             };
             s.board
                 .handle(req, s.now_ms)
-                .map_err(|e| ScriptedError(PmcErrorKind::Exception(e.code())))?;
+                .map_err(|e| ScriptedError(BoardErrorKind::Exception(e.code())))?;
             s.override_writes.push((override_pct, heartbeat));
             Ok(())
         })
@@ -121,7 +124,7 @@ impl Pmc for ScriptedBoard {
             };
             s.board
                 .handle(req, s.now_ms)
-                .map_err(|e| ScriptedError(PmcErrorKind::Exception(e.code())))?;
+                .map_err(|e| ScriptedError(BoardErrorKind::Exception(e.code())))?;
             s.control_writes.push(control);
             Ok(())
         })

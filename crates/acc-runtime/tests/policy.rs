@@ -4,7 +4,7 @@
 //! scripted law, on board time advanced 100 ms per period.
 
 use acc_core::ForceSample;
-use acc_pmc::{BoardStatus, PmcErrorKind};
+use acc_pmc::{BoardErrorKind, BoardStatus};
 use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Release};
 use acc_runtime::testing::{LinearPowerForce, LinkFault, ScriptedBoard, ScriptedLaw};
 use acc_runtime::{ControlLoop, CycleRecord};
@@ -133,7 +133,7 @@ fn link_timeout_holds_the_last_override_then_releases_with_alarm() {
     assert_eq!(rig.status().override_applied_pct, 120);
     // every transaction times out for a while (requests never reach the board)
     rig.b
-        .inject(LinkFault::RequestLost(PmcErrorKind::Timeout), 200);
+        .inject(LinkFault::RequestLost(BoardErrorKind::Timeout), 200);
     let during: Vec<_> = rig.run(5);
     for r in &during {
         assert_eq!(r.out.state, AccState::Active);
@@ -181,7 +181,7 @@ fn crc_errors_hold_then_release() {
     let mut rig = Rig::new(cfg, [90]);
     rig.run(3);
     // replies are corrupt, but the requests reach the board: the heartbeat keeps it alive
-    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Crc), 100);
+    rig.b.inject(LinkFault::ReplyLost(BoardErrorKind::Crc), 100);
     let recs = rig.run(4);
     assert!(recs[..3].iter().all(|r| r.out.state == AccState::Active));
     assert!(recs[..3]
@@ -199,7 +199,7 @@ fn crc_errors_hold_then_release() {
     // a single CRC error inside the budget does not release
     let mut rig = Rig::new(cfg, [90]);
     rig.run(3);
-    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Crc), 1);
+    rig.b.inject(LinkFault::ReplyLost(BoardErrorKind::Crc), 1);
     rig.run(5);
     assert_eq!(rig.state(), AccState::Active);
 }
@@ -243,7 +243,8 @@ fn a_fault_release_below_the_operator_knob_does_not_hold() {
     };
     let mut rig = Rig::new(cfg, [120]);
     rig.run(3);
-    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Timeout), 6);
+    rig.b
+        .inject(LinkFault::ReplyLost(BoardErrorKind::Timeout), 6);
     let recs = rig.run(3);
     assert!(released(&recs[2], Release::LinkLost));
     assert!(!recs[2].out.control.feed_hold_request);
@@ -255,7 +256,8 @@ fn a_fault_release_below_the_operator_knob_does_not_hold() {
     };
     let mut rig = Rig::new(cfg, [60]);
     rig.run(3);
-    rig.b.inject(LinkFault::ReplyLost(PmcErrorKind::Timeout), 6);
+    rig.b
+        .inject(LinkFault::ReplyLost(BoardErrorKind::Timeout), 6);
     let recs = rig.run(3);
     assert!(released(&recs[2], Release::LinkLost));
     assert!(!recs[2].out.control.feed_hold_request);
@@ -379,16 +381,10 @@ fn frozen_sample_seq_is_stale_power() {
         assert!(r.out.write_override.is_some_and(|c| c.0 <= at_stale));
     }
     assert!(released(&recs[7], Release::PowerInvalid));
-    // a Stale error kind from the link is treated the same way
-    let mut rig = Rig::new(cfg, [90]);
-    rig.run(2);
-    rig.b.inject(LinkFault::RequestLost(PmcErrorKind::Stale), 1);
-    let r = rig.step();
-    assert!(!r.out.force_valid);
-    assert!(r
-        .out
-        .events
+    // a frozen SAMPLE_SEQ is not a link error: the policy alone judges it
+    assert!(recs
         .iter()
+        .flat_map(|r| r.out.events.iter())
         .all(|e| !matches!(e, Event::LinkError { .. })));
 }
 
@@ -633,20 +629,19 @@ mod invariant {
 
     #[derive(Debug, Clone)]
     struct Period {
-        link: Result<BoardStatus, PmcErrorKind>,
-        write_error: Option<PmcErrorKind>,
+        link: Result<BoardStatus, BoardErrorKind>,
+        write_error: Option<BoardErrorKind>,
         force: ForceSample,
         law_cmd: u16,
     }
 
-    fn kind() -> impl Strategy<Value = PmcErrorKind> {
+    fn kind() -> impl Strategy<Value = BoardErrorKind> {
         prop_oneof![
-            Just(PmcErrorKind::Timeout),
-            Just(PmcErrorKind::Crc),
-            Just(PmcErrorKind::Exception(3)),
-            Just(PmcErrorKind::Stale),
-            Just(PmcErrorKind::Disconnected),
-            Just(PmcErrorKind::Protocol),
+            Just(BoardErrorKind::Timeout),
+            Just(BoardErrorKind::Crc),
+            Just(BoardErrorKind::Exception(3)),
+            Just(BoardErrorKind::Disconnected),
+            Just(BoardErrorKind::Protocol),
         ]
     }
 

@@ -10,7 +10,7 @@ use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
 use acc_runtime::{run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, VecSink};
 
 /// Run `pmc` with [`control()`] on a fresh manual clock, T = 0.1 s, at most `max` periods.
-fn run_manual<P: acc_pmc::Pmc + Send, S: LogSink + Send>(
+fn run_manual<P: acc_pmc::Board + Send, S: LogSink + Send>(
     pmc: &mut P,
     ctl: &mut ControlLoop<ScriptedLaw, LinearPowerForce>,
     sink: &mut S,
@@ -37,11 +37,8 @@ fn control() -> ControlLoop<ScriptedLaw, LinearPowerForce> {
 /// `HEARTBEAT` at every read.
 struct LiveBoard(ScriptedBoard, Vec<u16>);
 
-impl acc_pmc::Pmc for LiveBoard {
-    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
-    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
-        ScriptedBoard::kind(e)
-    }
+impl acc_pmc::Board for LiveBoard {
+    type Error = <ScriptedBoard as acc_pmc::Board>::Error;
     fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
         self.1.push(self.0.board.heartbeat());
         self.0.board.push_power_sample(1500);
@@ -182,10 +179,8 @@ fn a_slow_logger_never_blocks_control() {
 /// The same loop drives the CAN board (acc-pmc's CanBoard over its in-memory bus emulator).
 #[test]
 fn drives_the_can_board_through_the_same_loop() {
-    use acc_pmc::board::{lock_board, BoardLogic};
-    use acc_pmc::can::emulator::CanBoardEmulator;
     use acc_pmc::can::{CanBoard, CanLinkConfig};
-    use acc_runtime::link::CanPmc;
+    use acc_pmc::emu::{lock_board, BoardLogic, CanBoardEmulator};
 
     let mut logic = BoardLogic::default();
     logic.set_acc_switch(true);
@@ -197,12 +192,9 @@ fn drives_the_can_board_through_the_same_loop() {
     let can = CanBoard::new(bus, CanLinkConfig::default()).expect("CAN board");
 
     /// New power sample before every read, as the board's sensor would.
-    struct Live(CanPmc<CanBoardEmulator>, acc_pmc::board::SharedBoard);
-    impl acc_pmc::Pmc for Live {
-        type Error = <CanPmc<CanBoardEmulator> as acc_pmc::Pmc>::Error;
-        fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
-            CanPmc::<CanBoardEmulator>::kind(e)
-        }
+    struct Live(CanBoard<CanBoardEmulator>, acc_pmc::emu::SharedBoard);
+    impl acc_pmc::Board for Live {
+        type Error = <CanBoard<CanBoardEmulator> as acc_pmc::Board>::Error;
         fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
             lock_board(&self.1).push_power_sample(1500);
             self.0.read_status()
@@ -214,7 +206,7 @@ fn drives_the_can_board_through_the_same_loop() {
             self.0.write_control(c)
         }
     }
-    let mut pmc = Live(CanPmc(can), std::sync::Arc::clone(&shared));
+    let mut pmc = Live(can, std::sync::Arc::clone(&shared));
     let mut ctl = control();
     let mut sink = VecSink::default();
     let stop = AtomicBool::new(false);
@@ -276,11 +268,8 @@ struct LateReadBoard {
     count: Arc<ReadCount>,
 }
 
-impl acc_pmc::Pmc for LateReadBoard {
-    type Error = <ScriptedBoard as acc_pmc::Pmc>::Error;
-    fn kind(e: &Self::Error) -> acc_pmc::PmcErrorKind {
-        ScriptedBoard::kind(e)
-    }
+impl acc_pmc::Board for LateReadBoard {
+    type Error = <ScriptedBoard as acc_pmc::Board>::Error;
     fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
         let status = self.live.read_status();
         let mut reads = self.count.reads.lock().expect("read counter");

@@ -1,28 +1,26 @@
 //! The board's CAN variant: [`CanBoard`] over any bus implementing the standard
 //! [`embedded_can::blocking::Can`] trait (a `socketcan::CanSocket` in production, the
-//! in-memory [`emulator::CanBoardEmulator`] in tests and simulations).
+//! in-memory `emu::CanBoardEmulator` in tests and simulations, feature `emulator`).
 //!
 //! The board broadcasts its status (`0x180+n`, then `0x280+n`) with every new power sample;
 //! the PC sends one command frame (`0x200+n`) per cycle. There are no replies and no
 //! exceptions on CAN, so [`CanBoard`] refuses an override the board would refuse (above
 //! 150 % or not a multiple of the last reported step) locally, with the same
-//! [`PmcErrorKind::Exception`]`(3)` the RTU board answers.
+//! [`BoardErrorKind::Exception`]`(3)` the RTU board answers.
 //!
 //! The bus's `receive` must return after a short time when no frame arrives, with an error
 //! for which [`ReceiveTimeout::is_receive_timeout`] is true (socketcan: set a read timeout
 //! on the socket; it reports `io::ErrorKind::WouldBlock`/`TimedOut`).
 
 pub mod codec;
-pub mod emulator;
 
 use std::time::Duration;
 
 use embedded_can::{Frame, Id, StandardId};
 
-use crate::board::OVERRIDE_MAX_PCT;
-use crate::clock::{LinkClock, MonotonicClock};
-use crate::stale::SeqWatch;
-use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use crate::clock::{Clock, SystemClock};
+use crate::regs::OVERRIDE_MAX_PCT;
+use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 use codec::{decode_status, encode_command, CanCodecError, Command, NodeIds};
 
 /// Tells a receive timeout (no frame yet) apart from a real bus error.
@@ -59,9 +57,6 @@ pub struct CanLinkConfig {
     pub node: u8,
     /// Time `read_status` waits for a fresh status pair. Default 40 ms.
     pub timeout: Duration,
-    /// Status pairs in a row with an unchanged `SAMPLE_SEQ` that make the power stale;
-    /// 0 disables the check. Default 3.
-    pub stale_after_reads: u16,
 }
 
 impl Default for CanLinkConfig {
@@ -69,7 +64,6 @@ impl Default for CanLinkConfig {
         Self {
             node: 1,
             timeout: Duration::from_millis(40),
-            stale_after_reads: 3,
         }
     }
 }
@@ -77,7 +71,7 @@ impl Default for CanLinkConfig {
 /// Errors of the CAN link.
 #[derive(Debug, thiserror::Error)]
 pub enum CanError<E: std::error::Error + 'static> {
-    /// The bus reported an error (from the driver, see [`CanError::kind`] for the mapping).
+    /// The bus reported an error (from the driver; see [`BoardError::kind`] for the mapping).
     #[error("CAN bus error: {0}")]
     Bus(#[source] E),
     /// No complete status pair within the timeout.
@@ -99,35 +93,29 @@ pub enum CanError<E: std::error::Error + 'static> {
         /// The board's step, percent.
         step: u16,
     },
-    /// `SAMPLE_SEQ` did not change for `unchanged_reads` status pairs.
-    #[error("SAMPLE_SEQ stuck at {} for {unchanged_reads} reads: spindle power is stale", status.sample_seq)]
-    Stale {
-        /// Reads in a row with the same `SAMPLE_SEQ`.
-        unchanged_reads: u32,
-        /// The status received.
-        status: BoardStatus,
-    },
     /// The node id is outside 1…127.
     #[error("CAN node id {0} is out of range: allowed 1 ..= 127")]
     BadNode(u8),
 }
 
-impl<E: std::error::Error + embedded_can::Error + 'static> CanError<E> {
-    /// The [`PmcErrorKind`] the runtime acts on. Bus errors: `Bit`, `Stuff`, `Crc`, `Form`
+impl<E> BoardError for CanError<E>
+where
+    E: std::error::Error + embedded_can::Error + Send + Sync + 'static,
+{
+    /// The [`BoardErrorKind`] the runtime acts on. Bus errors: `Bit`, `Stuff`, `Crc`, `Form`
     /// → `Crc` (corrupted frames); `Acknowledge` (nobody acknowledged) and `Other` (driver
     /// or interface failure) → `Disconnected`; `Overrun` → `Protocol`.
-    pub fn kind(&self) -> PmcErrorKind {
+    fn kind(&self) -> BoardErrorKind {
         use embedded_can::ErrorKind as K;
         match self {
             CanError::Bus(e) => match e.kind() {
-                K::Bit | K::Stuff | K::Crc | K::Form => PmcErrorKind::Crc,
-                K::Acknowledge | K::Other => PmcErrorKind::Disconnected,
-                _ => PmcErrorKind::Protocol,
+                K::Bit | K::Stuff | K::Crc | K::Form => BoardErrorKind::Crc,
+                K::Acknowledge | K::Other => BoardErrorKind::Disconnected,
+                _ => BoardErrorKind::Protocol,
             },
-            CanError::Timeout { .. } => PmcErrorKind::Timeout,
-            CanError::Codec(_) | CanError::BadNode(_) => PmcErrorKind::Protocol,
-            CanError::InvalidOverride { .. } => PmcErrorKind::Exception(3),
-            CanError::Stale { .. } => PmcErrorKind::Stale,
+            CanError::Timeout { .. } => BoardErrorKind::Timeout,
+            CanError::Codec(_) | CanError::BadNode(_) => BoardErrorKind::Protocol,
+            CanError::InvalidOverride { .. } => BoardErrorKind::Exception(3),
         }
     }
 }
@@ -137,8 +125,7 @@ pub struct CanBoard<B: embedded_can::blocking::Can> {
     bus: B,
     cfg: CanLinkConfig,
     ids: NodeIds,
-    clock: Box<dyn LinkClock>,
-    seq: SeqWatch,
+    clock: Box<dyn Clock>,
     pending_a: Option<[u8; 8]>,
     last: Option<BoardStatus>,
     command: Command,
@@ -161,14 +148,14 @@ where
     /// A link to node `cfg.node` on `bus`, deadlines on the system monotonic clock. The
     /// first command frame carries `OVERRIDE_CMD` = 100, `CONTROL` = 0, `HEARTBEAT` = 0.
     pub fn new(bus: B, cfg: CanLinkConfig) -> Result<Self, CanError<B::Error>> {
-        Self::with_clock(bus, cfg, Box::new(MonotonicClock::default()))
+        Self::with_clock(bus, cfg, Box::new(SystemClock::default()))
     }
 
     /// As [`CanBoard::new`] with an injected clock.
     pub fn with_clock(
         bus: B,
         cfg: CanLinkConfig,
-        clock: Box<dyn LinkClock>,
+        clock: Box<dyn Clock>,
     ) -> Result<Self, CanError<B::Error>> {
         let ids = NodeIds::new(cfg.node).ok_or(CanError::BadNode(cfg.node))?;
         Ok(Self {
@@ -176,7 +163,6 @@ where
             cfg,
             ids,
             clock,
-            seq: SeqWatch::new(cfg.stale_after_reads),
             pending_a: None,
             last: None,
             command: Command {
@@ -195,11 +181,6 @@ where
     /// The last complete status received, if any.
     pub fn last_status(&self) -> Option<BoardStatus> {
         self.last
-    }
-
-    /// Forget the `SAMPLE_SEQ` history.
-    pub fn reset_staleness(&mut self) {
-        self.seq.reset();
     }
 
     fn standard_id(frame: &B::Frame) -> Option<u16> {
@@ -261,28 +242,19 @@ where
     }
 }
 
-impl<B> Pmc for CanBoard<B>
+impl<B> Board for CanBoard<B>
 where
     B: embedded_can::blocking::Can,
     B::Error: std::error::Error + embedded_can::Error + ReceiveTimeout + Send + Sync + 'static,
 {
     type Error = CanError<B::Error>;
 
-    fn kind(err: &Self::Error) -> PmcErrorKind {
-        err.kind()
-    }
-
-    /// The newest status pair (`0x180+n`, `0x280+n`), then the `SAMPLE_SEQ` check.
+    /// The newest status pair (`0x180+n`, `0x280+n`), as received (`SAMPLE_SEQ` staleness
+    /// is the fault policy's to judge).
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         let status = self.receive_status()?;
         self.last = Some(status);
-        match self.seq.observe(status.sample_seq) {
-            Some(unchanged_reads) => Err(CanError::Stale {
-                unchanged_reads,
-                status,
-            }),
-            None => Ok(status),
-        }
+        Ok(status)
     }
 
     /// One command frame with the new override and heartbeat and the current `CONTROL`.
@@ -324,9 +296,6 @@ pub struct CanConfig {
     /// Status wait per read, ms, 5…2000. Default 40.
     #[serde(default = "default_can_timeout_ms")]
     pub timeout_ms: i64,
-    /// Unchanged `SAMPLE_SEQ` reads that make the power stale, 0 (off)…1000. Default 3.
-    #[serde(default = "default_can_stale")]
-    pub stale_after_reads: i64,
 }
 
 fn default_node() -> i64 {
@@ -335,18 +304,14 @@ fn default_node() -> i64 {
 fn default_can_timeout_ms() -> i64 {
     40
 }
-fn default_can_stale() -> i64 {
-    3
-}
 
 impl CanConfig {
-    /// A config for `iface` with defaults (node 1, 40 ms, stale after 3).
+    /// A config for `iface` with defaults (node 1, 40 ms).
     pub fn for_iface(iface: impl Into<String>) -> Self {
         Self {
             iface: iface.into(),
             node: default_node(),
             timeout_ms: default_can_timeout_ms(),
-            stale_after_reads: default_can_stale(),
         }
     }
 
@@ -368,17 +333,9 @@ impl CanConfig {
         let node = crate::serial::int_in(file, &key("node"), self.node, 1, 127)? as u8;
         let timeout_ms =
             crate::serial::int_in(file, &key("timeout_ms"), self.timeout_ms, 5, 2000)? as u64;
-        let stale = crate::serial::int_in(
-            file,
-            &key("stale_after_reads"),
-            self.stale_after_reads,
-            0,
-            1000,
-        )? as u16;
         Ok(CanLinkConfig {
             node,
             timeout: Duration::from_millis(timeout_ms),
-            stale_after_reads: stale,
         })
     }
 }

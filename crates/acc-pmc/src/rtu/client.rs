@@ -4,10 +4,10 @@ use std::io::{Read, Write};
 use std::time::Duration;
 
 use super::codec::{BuildError, Decoded, FrameError, ProtocolError, Transaction};
-use super::{is_idle, LinkClock, MonotonicClock};
-use crate::board::{holding, input};
-use crate::stale::SeqWatch;
-use crate::{BoardStatus, ControlBits, Pmc, PmcErrorKind};
+use super::is_idle;
+use crate::clock::{Clock, SystemClock};
+use crate::regs::{holding, input};
+use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 /// Link parameters of [`RtuBoard`] (validated from the `[board]` config by
 /// [`crate::serial::RtuConfig::validate`]).
@@ -23,9 +23,6 @@ pub struct RtuLinkConfig {
     /// Total time one call (all attempts) may take; a retry is started only if a full
     /// `timeout` still fits. Keep it below the control period T. Default 90 ms.
     pub budget: Duration,
-    /// Reads in a row with an unchanged `SAMPLE_SEQ` after which `read_status` reports
-    /// [`RtuError::Stale`]; 0 disables the check. Default 3.
-    pub stale_after_reads: u16,
 }
 
 impl Default for RtuLinkConfig {
@@ -35,13 +32,14 @@ impl Default for RtuLinkConfig {
             timeout: Duration::from_millis(40),
             retries: 1,
             budget: Duration::from_millis(90),
-            stale_after_reads: 3,
         }
     }
 }
 
 /// Errors of the RTU link, layered: the board refused (exception) ≠ line noise (CRC) ≠ no
-/// answer (timeout) ≠ a wrong answer (protocol) ≠ the port is gone (I/O) ≠ a frozen sensor.
+/// answer (timeout) ≠ a wrong answer (protocol) ≠ the port is gone (I/O). A frozen power
+/// sensor (`SAMPLE_SEQ` unchanged) is not a link error: the status is returned as read and
+/// the runtime's fault policy judges staleness.
 #[derive(Debug, thiserror::Error)]
 pub enum RtuError {
     /// The board answered with a Modbus exception.
@@ -83,39 +81,31 @@ pub enum RtuError {
     /// The byte stream failed (port unplugged, pty closed).
     #[error("serial I/O failed: {0}")]
     Io(#[source] std::io::Error),
-    /// `SAMPLE_SEQ` did not change for `unchanged_reads` reads: the power value is stale.
-    /// The status block read this cycle is attached (everything but the power is current).
-    #[error("SAMPLE_SEQ stuck at {} for {unchanged_reads} reads: spindle power is stale", status.sample_seq)]
-    Stale {
-        /// Reads in a row with the same `SAMPLE_SEQ`.
-        unchanged_reads: u32,
-        /// The status read this cycle.
-        status: BoardStatus,
-    },
     /// A caller error: a request that cannot be encoded, or a register read asked of a
     /// write transaction.
     #[error(transparent)]
     Build(#[from] super::codec::BuildError),
 }
 
-impl RtuError {
-    /// The [`PmcErrorKind`] the runtime acts on.
-    pub fn kind(&self) -> PmcErrorKind {
+impl BoardError for RtuError {
+    /// The [`BoardErrorKind`] the runtime acts on.
+    fn kind(&self) -> BoardErrorKind {
         match self {
             RtuError::Exception {
                 source: FrameError::Exception { code, .. },
                 ..
-            } => PmcErrorKind::Exception(*code),
+            } => BoardErrorKind::Exception(*code),
             RtuError::Exception { .. } | RtuError::Protocol { .. } | RtuError::Build(_) => {
-                PmcErrorKind::Protocol
+                BoardErrorKind::Protocol
             }
-            RtuError::Crc { .. } => PmcErrorKind::Crc,
-            RtuError::Timeout { .. } => PmcErrorKind::Timeout,
-            RtuError::Io(_) => PmcErrorKind::Disconnected,
-            RtuError::Stale { .. } => PmcErrorKind::Stale,
+            RtuError::Crc { .. } => BoardErrorKind::Crc,
+            RtuError::Timeout { .. } => BoardErrorKind::Timeout,
+            RtuError::Io(_) => BoardErrorKind::Disconnected,
         }
     }
+}
 
+impl RtuError {
     fn retryable(&self) -> bool {
         matches!(
             self,
@@ -145,16 +135,15 @@ pub struct LinkStats {
 
 /// The board over Modbus RTU on any byte stream `T` (a serial port, a pty, a test double).
 ///
-/// One controller cycle is [`Pmc::read_status`] (FC04, registers 0…8) then
-/// [`Pmc::write_override`] (FC16, registers 0…1). After any failed attempt the link drains
+/// One controller cycle is [`Board::read_status`] (FC04, registers 0…8) then
+/// [`Board::write_override`] (FC16, registers 0…1). After any failed attempt the link drains
 /// the input until the line is silent, so a late reply is never taken for the next one.
 pub struct RtuBoard<T: Read + Write> {
     port: T,
     cfg: RtuLinkConfig,
-    clock: Box<dyn LinkClock>,
+    clock: Box<dyn Clock>,
     stats: LinkStats,
     resync: bool,
-    seq: SeqWatch,
 }
 
 impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
@@ -169,18 +158,17 @@ impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
 impl<T: Read + Write> RtuBoard<T> {
     /// A link on `port` with the system monotonic clock.
     pub fn new(port: T, cfg: RtuLinkConfig) -> Self {
-        Self::with_clock(port, cfg, Box::new(MonotonicClock::default()))
+        Self::with_clock(port, cfg, Box::new(SystemClock::default()))
     }
 
     /// A link with an injected clock (deadlines are measured on it).
-    pub fn with_clock(port: T, cfg: RtuLinkConfig, clock: Box<dyn LinkClock>) -> Self {
+    pub fn with_clock(port: T, cfg: RtuLinkConfig, clock: Box<dyn Clock>) -> Self {
         Self {
             port,
             cfg,
             clock,
             stats: LinkStats::default(),
             resync: false,
-            seq: SeqWatch::new(cfg.stale_after_reads),
         }
     }
 
@@ -204,11 +192,6 @@ impl<T: Read + Write> RtuBoard<T> {
         self.port
     }
 
-    /// Forget the `SAMPLE_SEQ` history (after a board restart or a long pause).
-    pub fn reset_staleness(&mut self) {
-        self.seq.reset();
-    }
-
     /// FC03: read holding registers 0…3 (`OVERRIDE_CMD`, `HEARTBEAT`, `CONTROL`,
     /// `WATCHDOG_MS`) — e.g. to see whether the board restarted (all back to defaults).
     pub fn read_holding(&mut self) -> Result<[u16; holding::COUNT as usize], RtuError> {
@@ -224,15 +207,6 @@ impl<T: Read + Write> RtuBoard<T> {
         let tx =
             Transaction::write_single_register(self.cfg.slave, holding::WATCHDOG_MS, watchdog_ms)?;
         self.transact(&tx).map(|_| ())
-    }
-
-    /// FC04: read input registers 0…8 without the staleness check.
-    pub fn read_status_raw(&mut self) -> Result<BoardStatus, RtuError> {
-        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
-        let regs = self.registers(&tx)?;
-        let mut block = [0u16; input::COUNT as usize];
-        block.copy_from_slice(&regs);
-        Ok(BoardStatus::from_input_registers(&block))
     }
 
     fn registers(&mut self, tx: &Transaction) -> Result<Vec<u16>, RtuError> {
@@ -351,23 +325,17 @@ impl<T: Read + Write> RtuBoard<T> {
     }
 }
 
-impl<T: Read + Write> Pmc for RtuBoard<T> {
+impl<T: Read + Write> Board for RtuBoard<T> {
     type Error = RtuError;
 
-    fn kind(err: &RtuError) -> PmcErrorKind {
-        err.kind()
-    }
-
-    /// FC04 registers 0…8, then the `SAMPLE_SEQ` staleness check.
+    /// FC04 registers 0…8, decoded as read (`SAMPLE_SEQ` staleness is the fault policy's
+    /// to judge).
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
-        let status = self.read_status_raw()?;
-        match self.seq.observe(status.sample_seq) {
-            Some(unchanged_reads) => Err(RtuError::Stale {
-                unchanged_reads,
-                status,
-            }),
-            None => Ok(status),
-        }
+        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
+        let regs = self.registers(&tx)?;
+        let mut block = [0u16; input::COUNT as usize];
+        block.copy_from_slice(&regs);
+        Ok(BoardStatus::from_input_registers(&block))
     }
 
     /// FC16 registers 0…1 (`OVERRIDE_CMD`, `HEARTBEAT`).

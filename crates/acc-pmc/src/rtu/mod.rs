@@ -2,9 +2,10 @@
 //!
 //! * [`codec`]: pure frames (built and checked with `rmodbus`), layered reply errors.
 //! * [`RtuBoard`]: the client link, generic over any `Read + Write` byte stream; implements
-//!   [`crate::Pmc`].
-//! * [`RtuServer`]: serves a [`crate::board::BoardLogic`] over any `Read + Write` (the
-//!   `acc board-sim` emulator and the tests).
+//!   [`crate::Board`].
+//!
+//! The board side (`RtuServer`, serving the emulated board) lives in `crate::emu` (feature
+//! `emulator`).
 //!
 //! Streams must return from `read` within a short time when no byte arrives
 //! (`ErrorKind::TimedOut` or `WouldBlock`): a [`serialport::TTYPort`] opened by
@@ -12,12 +13,8 @@
 
 pub mod client;
 pub mod codec;
-pub mod server;
 
 pub use client::{LinkStats, RtuBoard, RtuError, RtuLinkConfig};
-pub use server::{RtuServer, ServerStats, SharedBoard};
-
-pub use crate::clock::{LinkClock, MonotonicClock};
 
 /// Whether an I/O error only means "no byte yet" (the stream's read timeout).
 pub(crate) fn is_idle(err: &std::io::Error) -> bool {

@@ -1,4 +1,4 @@
-//! The board side of the RTU link: [`RtuServer`] serves a [`BoardLogic`](crate::board::BoardLogic) over any byte
+//! The board side of the RTU link: [`RtuServer`] serves a [`BoardLogic`](super::BoardLogic) over any byte
 //! stream. Used by `acc board-sim`, the tests and the `mbpoll` interop test.
 //!
 //! Framing is robust to what a real line delivers: a frame arriving in pieces is
@@ -15,11 +15,11 @@ use rmodbus::consts::ModbusFunction;
 use rmodbus::server::{ModbusFrame, Read as ExtRead};
 use rmodbus::{ErrorKind, ModbusProto};
 
-use super::codec::crc_ok;
-use super::{is_idle, LinkClock, MonotonicClock};
-pub use crate::board::{lock_board, SharedBoard};
-use crate::board::{Exception, Reply, Request};
-use crate::fault::{Fault, FaultInjector};
+use super::board::{lock_board, Exception, Reply, Request, SharedBoard};
+use super::fault::{Fault, FaultInjector};
+use crate::clock::{Clock, SystemClock};
+use crate::rtu::codec::crc_ok;
+use crate::rtu::is_idle;
 
 /// Counters of the server since it was created.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -36,12 +36,12 @@ pub struct ServerStats {
     pub bytes_discarded: u64,
 }
 
-/// A Modbus RTU slave serving a [`BoardLogic`](crate::board::BoardLogic) on the byte stream `P`.
+/// A Modbus RTU slave serving a [`BoardLogic`](super::BoardLogic) on the byte stream `P`.
 pub struct RtuServer<P: Read + Write> {
     port: P,
     slave: u8,
     board: SharedBoard,
-    clock: Box<dyn LinkClock>,
+    clock: Box<dyn Clock>,
     buf: Vec<u8>,
     stats: ServerStats,
     faults: Option<FaultInjector>,
@@ -60,11 +60,11 @@ impl<P: Read + Write> RtuServer<P> {
     /// Serve `board` as slave `slave` (1…247) on `port`; the board's `now_ms` is taken from
     /// the system monotonic clock.
     pub fn new(port: P, slave: u8, board: SharedBoard) -> Self {
-        Self::with_clock(port, slave, board, Box::new(MonotonicClock::default()))
+        Self::with_clock(port, slave, board, Box::new(SystemClock::default()))
     }
 
     /// As [`RtuServer::new`] with an injected clock (the board's watchdog runs on it).
-    pub fn with_clock(port: P, slave: u8, board: SharedBoard, clock: Box<dyn LinkClock>) -> Self {
+    pub fn with_clock(port: P, slave: u8, board: SharedBoard, clock: Box<dyn Clock>) -> Self {
         Self {
             port,
             slave,

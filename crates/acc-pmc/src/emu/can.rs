@@ -1,5 +1,5 @@
 //! An in-memory CAN bus with the board on it: [`CanBoardEmulator`] implements
-//! [`embedded_can::blocking::Can`] with [`MemFrame`]s and serves a [`BoardLogic`](crate::board::BoardLogic) per the
+//! [`embedded_can::blocking::Can`] with [`MemFrame`]s and serves a [`BoardLogic`](super::BoardLogic) per the
 //! spec's CAN variant. Used as the mock bus of the CAN link's tests and as a simulated CAN
 //! board.
 //!
@@ -15,10 +15,11 @@ use std::time::Duration;
 
 use embedded_can::{Frame, Id, StandardId};
 
-use super::codec::{decode_command, encode_status, NodeIds};
-use super::ReceiveTimeout;
-use crate::board::{holding, lock_board, SharedBoard};
-use crate::clock::{LinkClock, MonotonicClock};
+use super::board::{lock_board, SharedBoard};
+use crate::can::codec::{decode_command, encode_status, NodeIds};
+use crate::can::ReceiveTimeout;
+use crate::clock::{Clock, SystemClock};
+use crate::regs::holding;
 
 /// A classic CAN data frame held in memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -119,7 +120,7 @@ pub struct EmulatorStats {
 pub struct CanBoardEmulator {
     board: SharedBoard,
     ids: NodeIds,
-    clock: Box<dyn LinkClock>,
+    clock: Box<dyn Clock>,
     rx: VecDeque<MemFrame>,
     last_seq_sent: Option<u16>,
     fail_next: VecDeque<embedded_can::ErrorKind>,
@@ -140,11 +141,11 @@ impl std::fmt::Debug for CanBoardEmulator {
 impl CanBoardEmulator {
     /// Serve `board` as node `node` (1…127; `None` outside), on the system clock.
     pub fn new(board: SharedBoard, node: u8) -> Option<Self> {
-        Self::with_clock(board, node, Box::new(MonotonicClock::default()))
+        Self::with_clock(board, node, Box::new(SystemClock::default()))
     }
 
     /// As [`CanBoardEmulator::new`] with an injected clock (the board's watchdog runs on it).
-    pub fn with_clock(board: SharedBoard, node: u8, clock: Box<dyn LinkClock>) -> Option<Self> {
+    pub fn with_clock(board: SharedBoard, node: u8, clock: Box<dyn Clock>) -> Option<Self> {
         Some(Self {
             board,
             ids: NodeIds::new(node)?,

@@ -7,7 +7,9 @@
 //! path for an external program (`mbpoll`, a `serialport::new(path)` open).
 //!
 //! ```
-//! use acc_pmc::{board::BoardLogic, loopback::PtyBoard, rtu::{RtuBoard, RtuLinkConfig}, Pmc};
+//! use acc_pmc::emu::{BoardLogic, PtyBoard};
+//! use acc_pmc::rtu::{RtuBoard, RtuLinkConfig};
+//! use acc_pmc::Board;
 //! let mut pty = PtyBoard::spawn(BoardLogic::default(), 1, 115_200).unwrap();
 //! pty.with_board(|b| { b.set_acc_switch(true); b.push_power_sample(4200); });
 //! let mut link = RtuBoard::new(pty.take_client_port().unwrap(), RtuLinkConfig::default());
@@ -24,9 +26,9 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 
-use crate::board::BoardLogic;
-use crate::fault::FaultInjector;
-use crate::rtu::server::{lock_board, RtuServer, ServerStats, SharedBoard};
+use super::board::{lock_board, BoardLogic, SharedBoard};
+use super::fault::FaultInjector;
+use super::rtu_server::{RtuServer, ServerStats};
 use crate::serial::configure_pty;
 
 /// A [`BoardLogic`] served over Modbus RTU on the master end of a pty pair.
@@ -103,7 +105,7 @@ impl PtyBoard {
         self.client.take()
     }
 
-    /// Faults applied to the board's replies (see [`crate::fault`]); empty by default.
+    /// Faults applied to the board's replies (see [`super::fault`]); empty by default.
     pub fn faults(&self) -> &FaultInjector {
         &self.faults
     }

@@ -15,15 +15,15 @@
 //! * [`Fault::Garbage`] puts noise bytes in front of the reply.
 //!
 //! The same faults can be applied on the board's side instead, to every reply an
-//! [`crate::rtu::RtuServer`] sends ([`crate::rtu::RtuServer::set_faults`],
-//! [`crate::loopback::PtyBoard::faults`]): that reaches a client in another process
+//! [`super::RtuServer`] sends ([`super::RtuServer::set_faults`],
+//! [`super::PtyBoard::faults`]): that reaches a client in another process
 //! (`acc run --port <pty>` against `acc board-sim`).
 //!
 //! The injector is `Clone + Send`: keep one handle in the test while the stream is owned
 //! by an [`crate::rtu::RtuBoard`] running in another thread.
 //!
 //! ```
-//! use acc_pmc::fault::{Fault, FaultInjector};
+//! use acc_pmc::emu::fault::{Fault, FaultInjector};
 //! let faults = FaultInjector::default();
 //! faults.push_n(Fault::DropReply, 2);
 //! assert_eq!(faults.pending(), 2);
