@@ -5,7 +5,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use acc_sim::motor::{BuiltinMotor, FeedDriveCurrent, FeedDriveSpec, MotorSim};
+use acc_sim::motor::{BuiltinMotor, FeedDriveCurrent, FeedDriveCurrentSpec, MotorSim};
 use acc_sim::run::configs_dir;
 use acc_sim::Scenario;
 use acc_spindle::block_stats;
@@ -32,7 +32,7 @@ fn fusion_follows_the_tooth_ripple() {
     }
     // Feed force taken as 0.6 × the resultant (seed 004: f_x from f_t, f_r over the flute
     // engagement; an assumption of this test, the mean-force ratio does not matter here).
-    let feed = FeedDriveSpec::default();
+    let feed = FeedDriveCurrentSpec::default();
     let feed_ratio = 0.6;
     let mut feed_drive = FeedDriveCurrent::new(feed, 12);
     let fs = 1000.0;

@@ -1,4 +1,4 @@
-//! `acc-ident`: the model-discrepancy workflow of issue 6 — find where the simulated
+//! `acc-ident`: the model-discrepancy workflow — find where the simulated
 //! machine and a measured run log disagree, name the missing effect, add it to the model
 //! and show the gap shrink on a sealed part of the log.
 //!

@@ -437,7 +437,7 @@ fn metrics(
     }
 }
 
-/// Run the whole workflow of issue 6 on one log.
+/// Run the whole workflow on one log: replay, residuals, candidate effects, selection, sealed check, report.
 ///
 /// Locate (nominal residual, noise, segments, correlations) → for each round of greedy
 /// forward selection, fit every applicable candidate jointly with the nominal parameters

@@ -7,7 +7,7 @@
 //! this period. The controller itself is any [`OverrideLaw`], stepped from here so that the
 //! policy decides when it runs, when it is frozen and what of its command reaches the board.
 //!
-//! Rules (issue 5, items 6 and 7):
+//! Rules:
 //! - **ACC only while the operator's switch is on**: the policy arms (bumpless: the law is
 //!   engaged at the override in force) when `ACC_SWITCH` is on, and releases at once when it
 //!   goes off.

@@ -22,7 +22,7 @@ use crate::config::{SensorLowpass, SpindleSpec};
 /// (first order, ≈ 60 Hz in seed 004) plus seeded Gaussian noise.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct FeedDriveSpec {
+pub struct FeedDriveCurrentSpec {
     /// Current at no feed force (`C/Kt`: friction of guides and ball screw), A. Default 3.
     pub friction_a: f64,
     /// Current per newton of feed force (`Kf/Kt`), A/N. Default 0.01.
@@ -33,7 +33,7 @@ pub struct FeedDriveSpec {
     pub noise_a: f64,
 }
 
-impl Default for FeedDriveSpec {
+impl Default for FeedDriveCurrentSpec {
     fn default() -> Self {
         Self {
             friction_a: 3.0,
@@ -44,17 +44,17 @@ impl Default for FeedDriveSpec {
     }
 }
 
-/// The feed-drive current model (see [`FeedDriveSpec`]).
+/// The feed-drive current model (see [`FeedDriveCurrentSpec`]).
 #[derive(Debug, Clone)]
 pub struct FeedDriveCurrent {
-    spec: FeedDriveSpec,
+    spec: FeedDriveCurrentSpec,
     state_a: f64,
     rng: ChaCha8Rng,
 }
 
 impl FeedDriveCurrent {
     /// At rest (no feed force), RNG `seed`.
-    pub fn new(spec: FeedDriveSpec, seed: u64) -> Self {
+    pub fn new(spec: FeedDriveCurrentSpec, seed: u64) -> Self {
         Self {
             spec,
             state_a: spec.friction_a,

@@ -6,44 +6,8 @@ use std::f64::consts::PI;
 use super::config::MotorConfig;
 use crate::config::{MotorEfficiency, NoloadDrift, SpindleSpec};
 
-/// Minimal complex number for the phasor algebra of one operating point (four operations;
-/// kept local so the simulator's dependency list stays as its owner set it).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Cx {
-    re: f64,
-    im: f64,
-}
-
-impl Cx {
-    const fn new(re: f64, im: f64) -> Self {
-        Self { re, im }
-    }
-    fn add(self, o: Cx) -> Cx {
-        Cx::new(self.re + o.re, self.im + o.im)
-    }
-    fn mul(self, o: Cx) -> Cx {
-        Cx::new(
-            self.re * o.re - self.im * o.im,
-            self.re * o.im + self.im * o.re,
-        )
-    }
-    fn div(self, o: Cx) -> Cx {
-        let d = o.re * o.re + o.im * o.im;
-        Cx::new(
-            (self.re * o.re + self.im * o.im) / d,
-            (self.im * o.re - self.re * o.im) / d,
-        )
-    }
-    fn scale(self, k: f64) -> Cx {
-        Cx::new(self.re * k, self.im * k)
-    }
-    fn norm(self) -> f64 {
-        self.re.hypot(self.im)
-    }
-    fn arg(self) -> f64 {
-        self.im.atan2(self.re)
-    }
-}
+/// Phasors of one operating point.
+type Cx = num_complex::Complex64;
 
 /// Steady state of the motor at one speed and load.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -270,9 +234,9 @@ impl Motor {
         let c = &self.cfg.circuit;
         let emf = Cx::new(e, 0.0);
         // Rotor branch admittance s/(R_r + j·s·X_r): no singularity at s = 0.
-        let i_r = emf.scale(s).div(Cx::new(c.r_r_ohm, s * xr));
+        let i_r = emf * s / Cx::new(c.r_r_ohm, s * xr);
         let i_0 = Cx::new(e / rfe, -e / xm);
-        let i_s = i_0.add(i_r);
+        let i_s = i_0 + i_r;
         let i_sq = i_s.re * i_s.re + i_s.im * i_s.im;
         // Load loss as an extra series resistance R_x = P_x/(3|I_s|²) in the stator: the
         // drive holds the currents (same flux, same torque, same slip) and supplies the
@@ -283,9 +247,9 @@ impl Motor {
             0.0
         };
         let v = if r_x != 0.0 {
-            emf.add(i_s.mul(Cx::new(c.r_s_ohm + r_x, xs)))
+            emf + i_s * Cx::new(c.r_s_ohm + r_x, xs)
         } else {
-            emf.add(i_s.mul(Cx::new(c.r_s_ohm, xs)))
+            emf + i_s * Cx::new(c.r_s_ohm, xs)
         };
         let i_mag = i_s.norm();
         let input_w = 3.0 * (v.re * i_s.re + v.im * i_s.im);
