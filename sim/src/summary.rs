@@ -65,8 +65,11 @@ pub struct Summary {
     /// Per-segment statistics.
     pub segments: Vec<SegmentStats>,
     /// Cycle time (tool centre from 0 to the end of the path), s; `None` if the run hit
-    /// its time limit first.
+    /// its time limit first or ended in a fault feed hold.
     pub cycle_time_s: Option<f64>,
+    /// The production loop's fault policy stopped the machine with a feed hold (overload:
+    /// the tool-breakage protection) at this time, s, and the run ended there.
+    pub feed_hold_at_s: Option<f64>,
     /// Cycle time at the programmed feed (100 % throughout), s.
     pub programmed_cycle_time_s: f64,
     /// Metal removed, cm³.
@@ -205,6 +208,9 @@ pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
         settle_s,
         segments,
         cycle_time_s: result.finished.then(|| rows.last().map_or(0.0, |r| r.t_s)),
+        feed_hold_at_s: result
+            .ended_in_feed_hold
+            .then(|| rows.iter().find(|r| r.feed_hold).map_or(0.0, |r| r.t_s)),
         programmed_cycle_time_s: workpiece.length_mm() / programmed_feed_mm_min * 60.0,
         volume_cm3: result.volume_mm3 * 1e-3,
         rms_error_cut_n: rms(cut_rows.map(|r| force(r) - fr)),
@@ -269,9 +275,13 @@ impl fmt::Display for Summary {
                 note
             )?;
         }
-        let cycle = self
-            .cycle_time_s
-            .map_or_else(|| "not finished".to_string(), |c| format!("{c:.1} s"));
+        let cycle = self.cycle_time_s.map_or_else(
+            || match self.feed_hold_at_s {
+                Some(t) => format!("not finished: overload feed hold at {t:.1} s"),
+                None => "not finished".to_string(),
+            },
+            |c| format!("{c:.1} s"),
+        );
         writeln!(
             f,
             "cycle time {cycle} (at the programmed feed: {:.1} s); metal removed {:.2} cm³",
@@ -300,9 +310,13 @@ pub fn comparison_table(summaries: &[Summary]) -> String {
         "law", "rms_err_N", "peak_F_N", "t>1.1Fr_s", "cycle_s", "switches"
     );
     for s in summaries {
-        let cycle = s
-            .cycle_time_s
-            .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1}"));
+        let cycle = s.cycle_time_s.map_or_else(
+            || match s.feed_hold_at_s {
+                Some(t) => format!("hold@{t:.1}"),
+                None => "unfinished".to_string(),
+            },
+            |c| format!("{c:.1}"),
+        );
         out.push_str(&format!(
             "{:<16} {:>12.1} {:>12.1} {:>14.1} {:>13} {:>10}\n",
             s.law, s.rms_error_cut_n, s.peak_force_n, s.time_above_s, cycle, s.override_switches

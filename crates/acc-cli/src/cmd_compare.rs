@@ -59,6 +59,13 @@ pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
     );
     let summaries: Vec<Summary> = results.iter().map(|(_, s)| s.clone()).collect();
     print!("{}", comparison_table(&summaries));
+    if summaries.iter().any(|s| s.feed_hold_at_s.is_some()) {
+        println!(
+            "hold@t: every law runs in the production loop; its fault policy held the feed at t s \
+             (overload: above {:.0} N for {} s, the tool-breakage protection) and the run ended there",
+            sc.policy.overload_force_n, sc.policy.overload_time_s
+        );
+    }
     if !args.no_plot {
         let out = args.out.clone().unwrap_or_else(|| default_out(&sc));
         std::fs::create_dir_all(&out)
