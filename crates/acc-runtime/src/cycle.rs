@@ -95,7 +95,8 @@ impl CycleRecord {
             programmed_feed_mm_min: self.programmed_feed_mm_min,
             feed_mm_min: self.feed_mm_min,
             power_w: status.map(|s| f64::from(s.spindle_power_w)),
-            force_n: status.map(|_| self.force.force_n),
+            force_n: (status.is_some() && self.force.valid && self.force.force_n.is_finite())
+                .then_some(self.force.force_n),
             force_valid: self.out.force_valid,
             force_ref_n: trace.map(|t| t.force_ref_n).or(force_ref_n),
             kc_hat: trace.map(|t| t.kc_hat),

@@ -73,7 +73,8 @@ pub struct RunRecord {
     pub feed_mm_min: Option<f64>,
     /// Spindle input power as the board reported it, W.
     pub power_w: Option<f64>,
-    /// Estimated mean cutting force of the period (the force source's sample), N.
+    /// Estimated mean cutting force of the period (the force source's sample), N; empty
+    /// when the source had no usable sample (no status, NaN or implausible power).
     pub force_n: Option<f64>,
     /// The policy used the force sample as valid.
     pub force_valid: bool,
