@@ -240,8 +240,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// Decide this period from the status read (or link error) at time `t_s`. Pure.
     ///
     /// The actual feed is computed here, once: programmed feed (`PROGRAMMED_FEED`, or the
-    /// policy's `nominal_feed_mm_min` when the board reports 0) × `OVERRIDE_APPLIED`. The force
-    /// source, the law and the path integral all use that one value.
+    /// policy's `nominal_feed_mm_min` when the board reports 0) × `OVERRIDE_APPLIED`, and 0
+    /// while `FEED_HOLD_ACTIVE`. The force source, the law and the path integral all use that
+    /// one value.
     pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
         let feeds = link.ok().map(|s| {
             let programmed = if s.programmed_feed_mm_min > 0 {
@@ -249,10 +250,13 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             } else {
                 self.policy.config().nominal_feed_mm_min
             };
-            (
-                programmed,
-                programmed * f64::from(s.override_applied_pct) / 100.0,
-            )
+            // A feed hold stops the axes whatever the override.
+            let feed = if s.feed_hold_active {
+                0.0
+            } else {
+                programmed * f64::from(s.override_applied_pct) / 100.0
+            };
+            (programmed, feed)
         });
         if let Some((_, feed)) = feeds {
             self.last_feed_mm_min = feed;

@@ -376,3 +376,102 @@ fn a_late_control_decision_is_dropped_not_applied_a_period_late() {
     // in its own period again.
     assert_eq!(dropped, vec![LATE], "periods whose plan was dropped");
 }
+
+/// A [`LiveBoard`] whose read in period `at` stalls for 3.5 periods on the manual clock (a
+/// slow link): the next tick comes 2.5 periods late, and the ticker skips the two whole
+/// deadlines that passed meanwhile.
+struct StallingBoard {
+    live: LiveBoard,
+    clock: ManualClock,
+    at: usize,
+    reads: usize,
+}
+
+impl acc_pmc::Board for StallingBoard {
+    type Error = <ScriptedBoard as acc_pmc::Board>::Error;
+    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        if self.reads == self.at {
+            self.clock.advance(Duration::from_millis(350));
+        }
+        self.reads += 1;
+        self.live.read_status()
+    }
+    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+        self.live.write_override(o, hb)
+    }
+    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+        self.live.write_control(c)
+    }
+}
+
+#[test]
+fn skipped_periods_still_get_their_flagged_rows() {
+    let clock = ManualClock::new();
+    let mut board = StallingBoard {
+        live: LiveBoard(ScriptedBoard::new(), Vec::new()),
+        clock: clock.clone(),
+        at: 5,
+        reads: 0,
+    };
+    let mut ctl = control();
+    let mut sink = VecSink::default();
+    let stop = AtomicBool::new(false);
+    let opts = RunOptions {
+        max_periods: Some(20),
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let s = run(&mut board, &mut ctl, clock.clone(), &mut sink, &stop, opts).expect("runs");
+    assert_eq!(s.periods, 20, "cycles run");
+    assert_eq!(s.skipped, 2, "deadlines skipped by the stall");
+    assert_eq!(s.ticker.skipped, 2);
+    let rows = &sink.0;
+    assert_eq!(rows.len(), 22, "one row per period, skipped ones included");
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r.period, k as u64, "consecutive period indices");
+    }
+    let skipped: Vec<u64> = rows
+        .iter()
+        .filter(|r| r.has_flag("skipped"))
+        .map(|r| r.period)
+        .collect();
+    assert_eq!(
+        skipped,
+        vec![6, 7],
+        "the two deadlines that passed during the stall"
+    );
+    for r in rows.iter().filter(|r| r.has_flag("skipped")) {
+        assert_eq!(r.override_cmd_pct, None, "nothing was written");
+        assert_eq!(r.force_n, None, "nothing was read");
+    }
+    // The period after the stall came late and says so.
+    assert!(rows[8].has_flag("late"), "{:?}", rows[8]);
+    // Times stay on the T grid: the skipped rows sit at their own deadlines.
+    for w in rows.windows(2) {
+        assert!(
+            (w[1].t_s - w[0].t_s - 0.1).abs() < 1e-9,
+            "{} -> {}",
+            w[0].t_s,
+            w[1].t_s
+        );
+    }
+}
+
+#[test]
+fn the_path_integrates_the_actual_feed_and_stands_still_in_a_feed_hold() {
+    let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
+    let mut ctl = control();
+    let mut x = 0.0;
+    for k in 0..5 {
+        let c = ctl.cycle(&mut board, 0.1 * k as f64);
+        let feed = c.feed_mm_min.expect("status read");
+        assert!(feed > 0.0);
+        x += feed * 0.1 / 60.0;
+        assert!((c.path_mm - x).abs() < 1e-12, "{} vs {x}", c.path_mm);
+    }
+    board.0.board.set_operator_feed_hold(true);
+    for k in 5..10 {
+        let c = ctl.cycle(&mut board, 0.1 * k as f64);
+        assert_eq!(c.feed_mm_min, Some(0.0), "no feed in a feed hold");
+    }
+    assert!((ctl.path_mm() - x).abs() < 1e-12, "the path stood still");
+}
