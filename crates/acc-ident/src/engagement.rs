@@ -163,3 +163,76 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod record_tests {
+    use super::*;
+    use crate::runlog::{from_records, from_records_with, RunLogError};
+    use acc_runtime::RunRecord;
+
+    /// A production log: 40 rows at 200 mm/min from 5 mm to 18.3 mm along `steps_2_3_4.toml`.
+    fn production_rows() -> Vec<RunRecord> {
+        (0..40)
+            .map(|k| RunRecord {
+                t_s: 0.1 * (k + 1) as f64,
+                period: k,
+                x_mm: Some(200.0 / 60.0 * 0.1 * (k + 1) as f64 + 5.0),
+                spindle_rpm: Some(600.0),
+                programmed_feed_mm_min: Some(200.0),
+                feed_mm_min: Some(200.0),
+                power_w: Some(700.0),
+                force_n: Some(0.0),
+                ..RunRecord::default()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_production_log_needs_the_workpiece_and_gets_its_engagement_from_it() {
+        let rows = production_rows();
+        let p = Path::new("run.csv");
+        let e = from_records(&rows, p).expect_err("no engagement");
+        assert!(
+            matches!(
+                e,
+                RunLogError::MissingEngagement {
+                    line: 2,
+                    last_line: 41,
+                    empty_rows: 40,
+                    rows: 40,
+                    radial_col: 30,
+                    axial_col: 31,
+                    x_col: 8,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("run.csv: line 2:") && msg.contains("--workpiece"),
+            "{msg}"
+        );
+        let wp = acc_sim::run::configs_dir().join("workpieces/steps_2_3_4.toml");
+        let eng = PathEngagement::load(&wp, 16.0, 0.0).expect("workpiece");
+        let log = from_records_with(&rows, p, Some(&eng)).expect("engagement from x_mm");
+        for (i, r) in rows.iter().enumerate() {
+            let x = r.x_mm.expect("x");
+            assert_eq!(log.radial_depth_mm[i], eng.at(x).0);
+            assert_eq!(log.axial_depth_mm[i], 16.0);
+        }
+        // Air before the cut (x = 5.3 mm: the material starts 9.7 mm ahead, beyond the
+        // radius), fully engaged at the end (x = 18.3 mm: 2 mm from 15 mm on).
+        assert_eq!(log.radial_depth_mm[0], 0.0);
+        assert_eq!(*log.radial_depth_mm.last().expect("rows"), 2.0);
+        // A row without a path position is refused with its line and column.
+        let mut holed = rows.clone();
+        holed[5].x_mm = None;
+        let e = from_records_with(&holed, p, Some(&eng)).expect_err("no x_mm");
+        assert!(
+            e.to_string()
+                .starts_with("run.csv: line 7, column 8 (`x_mm`): empty"),
+            "{e}"
+        );
+    }
+}
