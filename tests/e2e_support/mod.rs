@@ -246,7 +246,12 @@ pub fn assert_faults_never_raise(rows: &[RunRecord]) -> usize {
 /// baud, machine time starting with the controller, plus `extra` arguments; returns the
 /// process and the pty path it printed.
 pub fn spawn_board_sim(extra: &[&str]) -> (Proc, String) {
-    let scenario = root().join("configs/scenarios/paper_case3.toml");
+    spawn_board_sim_on("configs/scenarios/paper_case3.toml", extra)
+}
+
+/// [`spawn_board_sim`] on another scenario (`scenario` relative to the repository root).
+pub fn spawn_board_sim_on(scenario: &str, extra: &[&str]) -> (Proc, String) {
+    let scenario = root().join(scenario);
     let scenario = scenario.to_string_lossy();
     let mut args = vec![
         "board-sim",

@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use acc_ident::engagement::PathEngagement;
 use acc_ident::model::Channel;
 use acc_ident::{import, workflow, EffectKind, Model, RunLog};
 use acc_plot::{
@@ -51,11 +52,64 @@ pub struct DiscrepancyArgs {
     /// Also fit the speed exponent γ with every candidate when the speed varies.
     #[arg(long)]
     pub fit_speed_exponent: bool,
+    /// Workpiece the measured run cut (`configs/workpieces/*.toml`, or the scenario file
+    /// that names it): the engagement of a production log (`acc run`, no depth columns) is
+    /// rebuilt from it at the logged path position `x_mm`, for the model's tool diameter.
+    #[arg(long)]
+    pub workpiece: Option<PathBuf>,
+    /// With `--workpiece`: workpiece coordinate of the tool centre when the run began, mm
+    /// (-1e5..=1e5). 0 = the start of the workpiece's first segment, where the simulated
+    /// machine starts (`acc board-sim --wait-for-controller`).
+    #[arg(long, default_value_t = acc_ident::engagement::DEFAULT_X0_MM, allow_negative_numbers = true)]
+    pub x0_mm: f64,
+}
+
+/// The engagement source of `--workpiece` (with `--x0-mm`) for `model`'s tool, if given.
+fn path_engagement(
+    args: &DiscrepancyArgs,
+    model: Option<&Model>,
+) -> anyhow::Result<Option<PathEngagement>> {
+    let Some(wp) = &args.workpiece else {
+        if args.x0_mm != acc_ident::engagement::DEFAULT_X0_MM {
+            bail!(
+                "--x0-mm {} needs --workpiece (the offset is along the workpiece)",
+                args.x0_mm
+            );
+        }
+        return Ok(None);
+    };
+    if args.import.is_some() {
+        bail!("--workpiece applies to run logs written by `acc`, not to --import");
+    }
+    let Some(model) = model else {
+        bail!("--workpiece needs --model (the engagement uses the model's tool diameter)");
+    };
+    let eng = PathEngagement::load(wp, model.tool.diameter_mm, args.x0_mm)?;
+    eprintln!(
+        "engagement: from `{}` ({}) at x_mm {:+} mm, tool diameter {} mm (the log's own depth columns, if any, are not used)",
+        wp.display(),
+        eng.workpiece.name,
+        args.x0_mm,
+        eng.tool_diameter_mm
+    );
+    if eng.has_material_changes() {
+        eprintln!(
+            "engagement: note: `{}` has segments with ks_factor != 1; the model has one Ks, so a material change shows up as an unexplained discrepancy",
+            wp.display()
+        );
+    }
+    Ok(Some(eng))
 }
 
 fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
+    // The model first: a production log's engagement needs its tool diameter.
+    let given_model = args.model.as_deref().map(Model::load).transpose()?;
+    let engagement = path_engagement(args, given_model.as_ref())?;
     let (log, default_model) = match args.import.as_deref() {
-        None => (acc_ident::runlog::read_csv(&args.measured)?, None),
+        None => (
+            acc_ident::runlog::read_csv_with(&args.measured, engagement.as_ref())?,
+            None,
+        ),
         Some("vicomtech-turning") => {
             let tools = import::vicomtech_turning(&args.measured)?;
             let ids: Vec<u32> = tools.keys().copied().collect();
@@ -79,8 +133,8 @@ fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
         }
         Some(other) => bail!("--import `{other}`: allowed `vicomtech-turning`, `umich-mill`"),
     };
-    let mut model = match (&args.model, default_model) {
-        (Some(p), _) => Model::load(p)?,
+    let mut model = match (given_model, default_model) {
+        (Some(m), _) => m,
         (None, Some(m)) => m,
         (None, None) => bail!("--model is required unless --import gives a nominal model"),
     };

@@ -2,8 +2,9 @@
 //! machine and a measured run log disagree, name the missing effect, add it to the model
 //! and show the gap shrink on a sealed part of the log.
 //!
-//! Pipeline ([`workflow::analyse`]): read a run log ([`runlog`], or an importer in
-//! [`import`]) → replay the model open loop on the recorded inputs ([`replay`]) →
+//! Pipeline ([`workflow::analyse`]): read a run log ([`runlog`]; a production log from
+//! `acc run` with its engagement rebuilt from the workpiece, [`engagement`]; or an importer
+//! in [`import`]) → replay the model open loop on the recorded inputs ([`replay`]) →
 //! residuals, noise (AR(1)), regimes and correlations ([`segment`], [`stats`]) → fit each
 //! candidate effect ([`effects`]) jointly with the nominal parameters it can be confused
 //! with ([`fit`], Levenberg–Marquardt) → select by contiguous-fold held-out prediction →
@@ -19,6 +20,7 @@
 //! ```
 
 pub mod effects;
+pub mod engagement;
 pub mod fit;
 pub mod import;
 pub mod model;

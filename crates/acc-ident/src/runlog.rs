@@ -5,8 +5,15 @@
 //! override_cmd_pct, override_applied_pct, force_true_n, force_ref_n, kc_hat, kp, ki, mode`
 //! and, from the importers, `tool_id`, `phase`, `wear_vb_um`. Unknown columns are ignored.
 //! Every error names the file, the 1-based line and the column.
+//!
+//! A log written by `acc` (run-log schema v2 or v1) is read as typed records. A production
+//! log (`acc run`) has no engagement: [`read_csv_with`] rebuilds it from the workpiece at
+//! the logged path position `x_mm` ([`crate::engagement`]); without a workpiece the error
+//! ([`RunLogError::MissingEngagement`]) names the empty columns and lines.
 
 use std::path::{Path, PathBuf};
+
+use crate::engagement::PathEngagement;
 
 /// A run-log reading or writing error; names file, line and column where they exist.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +59,27 @@ pub enum RunLogError {
         line: u64,
         /// Parser message.
         message: String,
+    },
+    /// A run log without engagement (a production log from `acc run`) and no workpiece to
+    /// rebuild it from.
+    #[error("{file}: line {line}: columns {radial_col} (`radial_depth_mm`) and {axial_col} (`axial_depth_mm`) are empty ({empty_rows} of {rows} data rows, lines {line}..={last_line}): a production log (`acc run`) does not know its depth of cut. Without the engagement the model cannot be replayed, so nothing can be compared on this log: no effect named, no model updated (the log alone shows power and force over time and where the tool cut, not why they differ from the model). Add `--workpiece WORKPIECE.toml` (the workpiece file, or the scenario the machine ran) so that the engagement comes from the logged path position (column {x_col}, `x_mm`), and `--x0-mm X0` if the run did not begin with the tool centre at the start of the workpiece's first segment (default 0)")]
+    MissingEngagement {
+        /// File path.
+        file: PathBuf,
+        /// 1-based line of the first row without engagement (the header is line 1).
+        line: u64,
+        /// 1-based line of the last such row.
+        last_line: u64,
+        /// Rows without engagement.
+        empty_rows: usize,
+        /// Data rows in the log.
+        rows: usize,
+        /// 1-based column number of `radial_depth_mm` (schema v2).
+        radial_col: usize,
+        /// 1-based column number of `axial_depth_mm` (schema v2).
+        axial_col: usize,
+        /// 1-based column number of `x_mm` (schema v2).
+        x_col: usize,
     },
     /// The log is unusable as a whole (too short, time not increasing).
     #[error("{file}: {message}")]
@@ -242,72 +270,156 @@ impl RunLog {
     }
 }
 
-/// Run-log records as a [`RunLog`]. The simulator's truth columns are preferred where
-/// present (true position, the drive's actual feed); the engagement (`radial_depth_mm`,
-/// `axial_depth_mm`) must be in every row — a production log (`acc run`) has none, and the
-/// error says so. A cell a period did not have (the override in an arming period, the force
-/// in a period whose read failed) carries the previous row's value.
+/// Run-log records as a [`RunLog`], with the engagement they carry. The simulator's truth
+/// columns are preferred where present (true position, the drive's actual feed); the
+/// engagement (`radial_depth_mm`, `axial_depth_mm`) must be in every row — a production log
+/// (`acc run`) has none, and the error ([`RunLogError::MissingEngagement`]) says which
+/// columns and lines and what to add. A cell a period did not have (the override in an
+/// arming period, the force in a period whose read failed) carries the previous row's
+/// value.
 pub fn from_records(rows: &[acc_runtime::RunRecord], path: &Path) -> Result<RunLog, RunLogError> {
-    if let Some(i) = rows
-        .iter()
-        .position(|r| r.radial_depth_mm.is_none() || r.axial_depth_mm.is_none())
-    {
-        return Err(RunLogError::Invalid {
-            file: path.to_path_buf(),
-            message: format!(
-                "line {}: no engagement (`radial_depth_mm`, `axial_depth_mm` empty): a production log from `acc run` does not know its depth of cut; give the workpiece (`--workpiece`) so that the engagement comes from the logged path position `x_mm`",
-                i + 2
-            ),
-        });
-    }
-    type Get = dyn Fn(&acc_runtime::RunRecord) -> Option<f64>;
-    let col = |f: &Get| -> Vec<f64> {
-        let mut last = rows.iter().find_map(f).unwrap_or(0.0);
-        rows.iter()
-            .map(|r| {
-                if let Some(v) = f(r) {
-                    last = v;
-                }
-                last
-            })
-            .collect()
+    from_records_with(rows, path, None)
+}
+
+/// [`from_records`], with the engagement rebuilt from the workpiece when `engagement` is
+/// given: every row's radial and axial depth come from [`PathEngagement::at`] at the logged
+/// path position `x_mm` (the production column, never the simulator's `x_true_mm`), and
+/// the log's own depth columns, if any, are not used. `x_mm` must then be in every row.
+pub fn from_records_with(
+    rows: &[acc_runtime::RunRecord],
+    path: &Path,
+    engagement: Option<&PathEngagement>,
+) -> Result<RunLog, RunLogError> {
+    let column_no = |name: &str| {
+        acc_runtime::record::COLUMNS
+            .iter()
+            .position(|c| *c == name)
+            .map_or(0, |i| i + 1)
     };
-    let has = |f: &Get| rows.iter().any(|r| f(r).is_some());
+    let (radial, axial, x) = match engagement {
+        None => {
+            let missing: Vec<usize> = rows
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| r.radial_depth_mm.is_none() || r.axial_depth_mm.is_none())
+                .map(|(i, _)| i)
+                .collect();
+            if let (Some(&first), Some(&last)) = (missing.first(), missing.last()) {
+                return Err(RunLogError::MissingEngagement {
+                    file: path.to_path_buf(),
+                    line: first as u64 + 2,
+                    last_line: last as u64 + 2,
+                    empty_rows: missing.len(),
+                    rows: rows.len(),
+                    radial_col: column_no("radial_depth_mm"),
+                    axial_col: column_no("axial_depth_mm"),
+                    x_col: column_no("x_mm"),
+                });
+            }
+            let radial = rows.iter().map(|r| r.radial_depth_mm.unwrap_or(0.0));
+            let axial = rows.iter().map(|r| r.axial_depth_mm.unwrap_or(0.0));
+            let x: Vec<f64> = carry(rows, |r| r.x_true_mm.or(r.x_mm));
+            (radial.collect::<Vec<f64>>(), axial.collect::<Vec<f64>>(), x)
+        }
+        Some(eng) => {
+            let mut radial = Vec::with_capacity(rows.len());
+            let mut axial = Vec::with_capacity(rows.len());
+            let mut x = Vec::with_capacity(rows.len());
+            for (i, r) in rows.iter().enumerate() {
+                let Some(xm) = r.x_mm else {
+                    return Err(RunLogError::BadValue {
+                        file: path.to_path_buf(),
+                        line: i as u64 + 2,
+                        col: column_no("x_mm"),
+                        column: "x_mm".into(),
+                        message: format!(
+                            "empty: the engagement from the workpiece `{}` needs the path position in every row",
+                            eng.source.display()
+                        ),
+                    });
+                };
+                let (d, ap) = eng.at(xm);
+                radial.push(d);
+                axial.push(ap);
+                x.push(xm + eng.x0_mm);
+            }
+            (radial, axial, x)
+        }
+    };
     let power = |r: &acc_runtime::RunRecord| r.power_w;
     let force = |r: &acc_runtime::RunRecord| r.force_n;
+    let has =
+        |f: &dyn Fn(&acc_runtime::RunRecord) -> Option<f64>| rows.iter().any(|r| f(r).is_some());
     Ok(RunLog {
         t_s: rows.iter().map(|r| r.t_s).collect(),
-        x_mm: Some(col(&|r| r.x_true_mm.or(r.x_mm))),
-        radial_depth_mm: col(&|r| r.radial_depth_mm),
-        axial_depth_mm: col(&|r| r.axial_depth_mm),
-        spindle_rpm: col(&|r| r.spindle_rpm),
-        programmed_feed_mm_min: Some(col(&|r| r.programmed_feed_mm_min)),
-        override_cmd_pct: Some(col(&|r| {
+        x_mm: Some(x),
+        radial_depth_mm: radial,
+        axial_depth_mm: axial,
+        spindle_rpm: carry(rows, |r| r.spindle_rpm),
+        programmed_feed_mm_min: Some(carry(rows, |r| r.programmed_feed_mm_min)),
+        override_cmd_pct: Some(carry(rows, |r| {
             r.override_cmd_pct.or(r.override_applied_pct).map(f64::from)
         })),
-        override_applied_pct: Some(col(&|r| r.override_applied_pct.map(f64::from))),
-        feed_mm_min: col(&|r| r.feed_true_mm_min.or(r.feed_mm_min)),
-        force_n: has(&force).then(|| col(&force)),
-        power_w: has(&power).then(|| col(&power)),
+        override_applied_pct: Some(carry(rows, |r| r.override_applied_pct.map(f64::from))),
+        feed_mm_min: carry(rows, |r| r.feed_true_mm_min.or(r.feed_mm_min)),
+        force_n: has(&force).then(|| carry(rows, force)),
+        power_w: has(&power).then(|| carry(rows, power)),
         wear_vb_um: None,
         phase: None,
     })
 }
 
+/// Column `f` of the records; an empty cell carries the previous row's value (the first
+/// known value before it, 0 when the column is empty throughout).
+fn carry(
+    rows: &[acc_runtime::RunRecord],
+    f: impl Fn(&acc_runtime::RunRecord) -> Option<f64>,
+) -> Vec<f64> {
+    let mut last = rows.iter().find_map(&f).unwrap_or(0.0);
+    rows.iter()
+        .map(|r| {
+            if let Some(v) = f(r) {
+                last = v;
+            }
+            last
+        })
+        .collect()
+}
+
 /// Read a run log from a CSV file; see the module docs for the columns.
 pub fn read_csv(path: &Path) -> Result<RunLog, RunLogError> {
+    read_csv_with(path, None)
+}
+
+/// [`read_csv`], with the engagement of a run log (schema v1/v2) rebuilt from the workpiece
+/// when `engagement` is given ([`from_records_with`]).
+pub fn read_csv_with(
+    path: &Path,
+    engagement: Option<&PathEngagement>,
+) -> Result<RunLog, RunLogError> {
     let file = std::fs::File::open(path).map_err(|e| RunLogError::Io {
         file: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    read_csv_from(file, path)
+    read_csv_from_with(file, path, engagement)
 }
 
 /// Read a run log from any reader; `path` is used in errors only. A log written by `acc sim`,
 /// `acc run` or `acc board-sim` (run-log schema v2, or v1) is read as typed records
 /// ([`acc_runtime::record::read_run_log`]) and converted with [`from_records`]; any other CSV
 /// is read column by column (the importers' layout).
-pub fn read_csv_from(mut reader: impl std::io::Read, path: &Path) -> Result<RunLog, RunLogError> {
+pub fn read_csv_from(reader: impl std::io::Read, path: &Path) -> Result<RunLog, RunLogError> {
+    read_csv_from_with(reader, path, None)
+}
+
+/// [`read_csv_from`] with an optional [`PathEngagement`]: a run log written by `acc`
+/// then takes its engagement from the workpiece at `x_mm` ([`from_records_with`]). Any
+/// other CSV must carry its own depth columns, and giving a workpiece for it is an error.
+pub fn read_csv_from_with(
+    mut reader: impl std::io::Read,
+    path: &Path,
+    engagement: Option<&PathEngagement>,
+) -> Result<RunLog, RunLogError> {
     let mut text = String::new();
     reader
         .read_to_string(&mut text)
@@ -323,7 +435,16 @@ pub fn read_csv_from(mut reader: impl std::io::Read, path: &Path) -> Result<RunL
                 message: e.to_string(),
             }
         })?;
-        return from_records(&rows, path);
+        return from_records_with(&rows, path, engagement);
+    }
+    if let Some(eng) = engagement {
+        return Err(RunLogError::Invalid {
+            file: path.to_path_buf(),
+            message: format!(
+                "line 1: not a run log written by `acc` (schema v1/v2: `t_s,period,…,state,…`): the workpiece `{}` rebuilds the engagement of `acc run` logs only; give a CSV with `radial_depth_mm` and `axial_depth_mm` without `--workpiece`",
+                eng.source.display()
+            ),
+        });
     }
     let reader = text.as_bytes();
     let mut rdr = csv::ReaderBuilder::new()
