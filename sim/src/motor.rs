@@ -694,7 +694,8 @@ pub struct MotorSim {
 
 /// Quantise to the ADC grid and clip to the range.
 fn adc(x: f64, range: f64, lsb: f64) -> f64 {
-    ((x.clamp(-range, range) / lsb).round() * lsb).clamp(-range, range)
+    // `exact::round` is `f64::round` bit for bit, without the library call.
+    (crate::exact::round(x.clamp(-range, range) / lsb) * lsb).clamp(-range, range)
 }
 
 impl MotorSim {
@@ -798,7 +799,7 @@ impl MotorSim {
             let (sva, cva) = op.voltage_angle.sin_cos();
             let (sia, cia) = op.current_angle.sin_cos();
             for _ in start..end {
-                self.theta = (self.theta + dtheta) % (2.0 * PI);
+                self.theta = crate::exact::rem_tau(self.theta + dtheta);
                 let (sn, cs) = self.theta.sin_cos();
                 // Voltage phase U angle θ+α_v; V, W lag/lead by 2π/3.
                 let (cv, sv) = (cs * cva - sn * sva, sn * cva + cs * sva);
