@@ -738,14 +738,37 @@ impl MotorSim {
     /// the period in equal time slices (one value = constant over the period; the
     /// simulator passes its internal samples). Returns the sampled block.
     pub fn run_period(&mut self, rpm: f64, torque_nm: &[f64], period_s: f64) -> &MotorBlock {
+        self.run_period_tail(rpm, torque_nm, period_s, usize::MAX)
+    }
+
+    /// DAQ samples in a period of `period_s` (the block length of [`MotorSim::run_period`]).
+    pub fn samples_in(&self, period_s: f64) -> usize {
+        (period_s * self.motor.cfg.sensors.sample_rate_hz)
+            .round()
+            .max(0.0) as usize
+    }
+
+    /// [`MotorSim::run_period`] keeping only the last `keep` samples of the block (all of
+    /// them if `keep` ≥ [`MotorSim::samples_in`]): the earlier ones are not synthesised,
+    /// but their noise is still drawn, so the kept samples, the truth and every later
+    /// period are bit for bit those of `run_period` (for a reader of a window at the end
+    /// of the period, e.g. [`SpindlePowerChannel`]).
+    pub fn run_period_tail(
+        &mut self,
+        rpm: f64,
+        torque_nm: &[f64],
+        period_s: f64,
+        keep: usize,
+    ) -> &MotorBlock {
         let s = self.motor.cfg.sensors;
         let fs = s.sample_rate_hz;
-        let n = (period_s * fs).round().max(0.0) as usize;
+        let n = self.samples_in(period_s);
+        let skip = n.saturating_sub(keep);
         let b = &mut self.block.samples;
         b.sample_rate_hz = fs;
         b.clear();
         for ch in [&mut b.i_u, &mut b.i_v, &mut b.v_uw, &mut b.v_vw] {
-            ch.reserve(n);
+            ch.reserve(n - skip);
         }
         let slices = torque_nm.len().clamp(1, n.max(1));
         let lag = self.motor.cfg.drive.torque_lag_s;
@@ -798,8 +821,22 @@ impl MotorSim {
             let dtheta = 2.0 * PI * op.freq_hz / fs;
             let (sva, cva) = op.voltage_angle.sin_cos();
             let (sia, cia) = op.current_angle.sin_cos();
-            for _ in start..end {
+            for idx in start..end {
                 self.theta = crate::exact::rem_tau(self.theta + dtheta);
+                if idx < skip {
+                    // Not kept: draw the sample's noise (same order, same draws) only.
+                    for sigma in [s.current_noise_a, s.current_noise_a] {
+                        if sigma > 0.0 {
+                            let _: f64 = StandardNormal.sample(&mut self.rng);
+                        }
+                    }
+                    for sigma in [s.voltage_noise_v, s.voltage_noise_v] {
+                        if sigma > 0.0 {
+                            let _: f64 = StandardNormal.sample(&mut self.rng);
+                        }
+                    }
+                    continue;
+                }
                 let (sn, cs) = self.theta.sin_cos();
                 // Voltage phase U angle θ+α_v; V, W lag/lead by 2π/3.
                 let (cv, sv) = (cs * cva - sn * sva, sn * cva + cs * sva);
@@ -956,6 +993,32 @@ mod tests {
             },
         );
         assert_eq!(rest, m.operating_point(0.0, 0.0));
+    }
+
+    #[test]
+    fn tail_period_is_the_tail_of_the_full_period_bit_for_bit() {
+        let mut full = MotorSim::new(seed000(), 3);
+        let mut tail = MotorSim::new(seed000(), 3);
+        let torques: Vec<f64> = (0..100).map(|k| 20.0 + 0.3 * f64::from(k)).collect();
+        for (period, keep) in [(0, 500), (1, 1), (2, 0), (3, 1000), (4, 5000), (5, 499)] {
+            let rpm = 1500.0 + f64::from(period);
+            let a = full.run_period(rpm, &torques, 0.1).clone();
+            let b = tail.run_period_tail(rpm, &torques, 0.1, keep);
+            let n = a.samples.len();
+            assert_eq!(n, 1000);
+            let k = keep.min(n);
+            for (x, y) in [
+                (&a.samples.i_u, &b.samples.i_u),
+                (&a.samples.i_v, &b.samples.i_v),
+                (&a.samples.v_uw, &b.samples.v_uw),
+                (&a.samples.v_vw, &b.samples.v_vw),
+            ] {
+                let x: Vec<u64> = x[n - k..].iter().map(|v| v.to_bits()).collect();
+                let y: Vec<u64> = y.iter().map(|v| v.to_bits()).collect();
+                assert_eq!(x, y, "period {period}, keep {keep}");
+            }
+            assert_eq!(a.truth, b.truth);
+        }
     }
 
     #[test]
@@ -1371,16 +1434,19 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
         self.torques.clear();
         self.torques
             .extend(period.samples.iter().map(|s| s.torque_nm));
-        let block = self
-            .motor
-            .run_period(period.spindle_rpm, &self.torques, period.period_s);
-        self.last = block.truth;
-        let n = block.samples.len();
+        let n = self.motor.samples_in(period.period_s);
+        let fs = self.motor.motor().config().sensors.sample_rate_hz;
         let w = if self.window_s > 0.0 && self.window_s < period.period_s {
-            ((self.window_s * block.samples.sample_rate_hz).round() as usize).clamp(1, n.max(1))
+            ((self.window_s * fs).round() as usize).clamp(1, n.max(1))
         } else {
             n
         };
+        // Only the window is read: the samples before it are not synthesised (their noise
+        // is drawn, so the stream and the window are bit for bit those of the full block).
+        let block =
+            self.motor
+                .run_period_tail(period.spindle_rpm, &self.torques, period.period_s, w);
+        self.last = block.truth;
         let mut phases = block.samples.tail_block(w);
         let measured_w = acc_spindle::block_stats(&phases).ok().map(|s| s.power_w);
         let reported_w = measured_w.map(|p| self.sensor.read(p, period.period_s));
