@@ -32,6 +32,7 @@ pub mod baselines;
 pub mod board;
 pub mod channel;
 pub mod config;
+mod exact;
 pub mod machine;
 pub mod motor;
 pub mod process;

@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use acc_core::filter::FirstOrderLag;
 
 use crate::config::{MachineSpec, Runout, SensorLowpass, SpindleSpec, ToolSpec};
-use crate::process::{ForceLaw, ToothModel, Wear, WearSpec};
+use crate::process::{ForceLaw, ForceMemo, ToothModel, Wear, WearSpec};
 use crate::workpiece::Workpiece;
 
 /// Which force model the machine integrates.
@@ -170,6 +170,8 @@ pub struct Machine {
     volume_mm3: f64,
     depth_mm: f64,
     samples: Vec<Sample>,
+    /// The force law's last powers (a pure cache: results bit-identical without it).
+    force_memo: ForceMemo,
 }
 
 impl std::fmt::Debug for Machine {
@@ -230,6 +232,7 @@ impl Machine {
             volume_mm3: 0.0,
             depth_mm: 0.0,
             samples: Vec::new(),
+            force_memo: ForceMemo::default(),
         }
     }
 
@@ -336,7 +339,8 @@ impl Machine {
             let rpm = self.spindle.speed_rpm();
             let eng = self.workpiece.engagement(self.x_mm, self.radius_mm);
             self.depth_mm = eng.depth_mm;
-            let mean = self.law.mean_force_n(
+            let mean = self.law.mean_force_n_memo(
+                &mut self.force_memo,
                 eng.depth_mm,
                 ap,
                 self.feed_mm_min,
@@ -345,14 +349,15 @@ impl Machine {
             );
             let th0 = self.spindle_angle_rad;
             let th1 = th0 + rpm / 60.0 * 2.0 * PI * dt;
-            self.spindle_angle_rad = th1 % (2.0 * PI);
+            self.spindle_angle_rad = crate::exact::rem_tau(th1);
             let mean = match self.runout {
                 Some(r) => mean * r.mean_factor(th0, th1),
                 None => mean,
             };
             let force = match &self.tooth {
                 Some(tooth) => {
-                    self.theta_rad = (self.theta_rad + rpm / 60.0 * 2.0 * PI * dt) % (2.0 * PI);
+                    self.theta_rad =
+                        crate::exact::rem_tau(self.theta_rad + rpm / 60.0 * 2.0 * PI * dt);
                     mean * tooth.ratio(self.theta_rad, self.x_mm, &self.workpiece, eng.depth_mm)
                 }
                 None => mean,

@@ -7,6 +7,7 @@ use std::path::Path;
 use acc_config::{check_range, ConfigError};
 use serde::{Deserialize, Serialize};
 
+use crate::exact::PowMemo;
 use crate::workpiece::Workpiece;
 
 /// `[process]` table of a tool file: the mean-force law (seed 002, eq. 1)
@@ -179,6 +180,14 @@ impl ProcessSpec {
     }
 }
 
+/// The last powers [`ForceLaw::mean_force_n_memo`] computed (one memo per machine).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct ForceMemo {
+    radial: PowMemo,
+    feed: PowMemo,
+    rpm: PowMemo,
+}
+
 /// The mean-force law with its `Ks` solved from the calibration point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ForceLaw {
@@ -212,6 +221,28 @@ impl ForceLaw {
         rpm: f64,
         ks_factor: f64,
     ) -> f64 {
+        self.mean_force_n_memo(
+            &mut ForceMemo::default(),
+            radial_mm,
+            axial_mm,
+            feed_mm_min,
+            rpm,
+            ks_factor,
+        )
+    }
+
+    /// [`ForceLaw::mean_force_n`] bit for bit, remembering each power for its last
+    /// argument in `memo` (the simulator's per-step call: speed and engaged depth rarely
+    /// change from one internal step to the next, the feed not at all once settled).
+    pub(crate) fn mean_force_n_memo(
+        &self,
+        memo: &mut ForceMemo,
+        radial_mm: f64,
+        axial_mm: f64,
+        feed_mm_min: f64,
+        rpm: f64,
+        ks_factor: f64,
+    ) -> f64 {
         if radial_mm <= 0.0 || feed_mm_min <= 0.0 || rpm <= 0.0 {
             return 0.0;
         }
@@ -219,9 +250,9 @@ impl ForceLaw {
         self.ks
             * ks_factor
             * axial_mm
-            * radial_mm.powf(s.alpha)
-            * feed_mm_min.powf(s.beta)
-            * rpm.powf(s.gamma)
+            * memo.radial.powf(radial_mm, s.alpha)
+            * memo.feed.powf(feed_mm_min, s.beta)
+            * memo.rpm.powf(rpm, s.gamma)
     }
 
     /// Process gain `Kc = F/f` at a feed, N/(mm/min) (seed 002, eq. 3).

@@ -315,16 +315,19 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
         self.torques.clear();
         self.torques
             .extend(period.samples.iter().map(|s| s.torque_nm));
-        let block = self
-            .motor
-            .run_period(period.spindle_rpm, &self.torques, period.period_s);
-        self.last = block.truth;
-        let n = block.samples.len();
+        let n = self.motor.samples_in(period.period_s);
+        let fs = self.motor.motor().config().sensors.sample_rate_hz;
         let w = if self.window_s > 0.0 && self.window_s < period.period_s {
-            ((self.window_s * block.samples.sample_rate_hz).round() as usize).clamp(1, n.max(1))
+            ((self.window_s * fs).round() as usize).clamp(1, n.max(1))
         } else {
             n
         };
+        // Only the window is read: the samples before it are not synthesised (their noise
+        // is drawn, so the stream and the window are bit for bit those of the full block).
+        let block =
+            self.motor
+                .run_period_tail(period.spindle_rpm, &self.torques, period.period_s, w);
+        self.last = block.truth;
         let mut phases = block.samples.tail_block(w);
         let measured_w = acc_spindle::block_stats(&phases).ok().map(|s| s.power_w);
         let reported_w = measured_w.map(|p| self.sensor.read(p, period.period_s));

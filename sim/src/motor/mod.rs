@@ -156,6 +156,32 @@ mod tests {
     }
 
     #[test]
+    fn tail_period_is_the_tail_of_the_full_period_bit_for_bit() {
+        let mut full = MotorSim::new(seed000(), 3);
+        let mut tail = MotorSim::new(seed000(), 3);
+        let torques: Vec<f64> = (0..100).map(|k| 20.0 + 0.3 * f64::from(k)).collect();
+        for (period, keep) in [(0, 500), (1, 1), (2, 0), (3, 1000), (4, 5000), (5, 499)] {
+            let rpm = 1500.0 + f64::from(period);
+            let a = full.run_period(rpm, &torques, 0.1).clone();
+            let b = tail.run_period_tail(rpm, &torques, 0.1, keep);
+            let n = a.samples.len();
+            assert_eq!(n, 1000);
+            let k = keep.min(n);
+            for (x, y) in [
+                (&a.samples.i_u, &b.samples.i_u),
+                (&a.samples.i_v, &b.samples.i_v),
+                (&a.samples.v_uw, &b.samples.v_uw),
+                (&a.samples.v_vw, &b.samples.v_vw),
+            ] {
+                let x: Vec<u64> = x[n - k..].iter().map(|v| v.to_bits()).collect();
+                let y: Vec<u64> = y.iter().map(|v| v.to_bits()).collect();
+                assert_eq!(x, y, "period {period}, keep {keep}");
+            }
+            assert_eq!(a.truth, b.truth);
+        }
+    }
+
+    #[test]
     fn sampled_power_matches_the_operating_point() {
         let mut sim = MotorSim::new(seed000(), 1);
         sim.run_period(1500.0, &[40.0], 1.0);

@@ -63,7 +63,8 @@ pub struct MotorSim {
 
 /// Quantise to the ADC grid and clip to the range.
 fn adc(x: f64, range: f64, lsb: f64) -> f64 {
-    ((x.clamp(-range, range) / lsb).round() * lsb).clamp(-range, range)
+    // `exact::round` is `f64::round` bit for bit, without the library call.
+    (crate::exact::round(x.clamp(-range, range) / lsb) * lsb).clamp(-range, range)
 }
 
 impl MotorSim {
@@ -106,14 +107,37 @@ impl MotorSim {
     /// the period in equal time slices (one value = constant over the period; the
     /// simulator passes its internal samples). Returns the sampled block.
     pub fn run_period(&mut self, rpm: f64, torque_nm: &[f64], period_s: f64) -> &MotorBlock {
+        self.run_period_tail(rpm, torque_nm, period_s, usize::MAX)
+    }
+
+    /// DAQ samples in a period of `period_s` (the block length of [`MotorSim::run_period`]).
+    pub fn samples_in(&self, period_s: f64) -> usize {
+        (period_s * self.motor.cfg.sensors.sample_rate_hz)
+            .round()
+            .max(0.0) as usize
+    }
+
+    /// [`MotorSim::run_period`] keeping only the last `keep` samples of the block (all of
+    /// them if `keep` ≥ [`MotorSim::samples_in`]): the earlier ones are not synthesised,
+    /// but their noise is still drawn, so the kept samples, the truth and every later
+    /// period are bit for bit those of `run_period` (for a reader of a window at the end
+    /// of the period, e.g. [`super::SpindlePowerChannel`]).
+    pub fn run_period_tail(
+        &mut self,
+        rpm: f64,
+        torque_nm: &[f64],
+        period_s: f64,
+        keep: usize,
+    ) -> &MotorBlock {
         let s = self.motor.cfg.sensors;
         let fs = s.sample_rate_hz;
-        let n = (period_s * fs).round().max(0.0) as usize;
+        let n = self.samples_in(period_s);
+        let skip = n.saturating_sub(keep);
         let b = &mut self.block.samples;
         b.sample_rate_hz = fs;
         b.clear();
         for ch in [&mut b.i_u, &mut b.i_v, &mut b.v_uw, &mut b.v_vw] {
-            ch.reserve(n);
+            ch.reserve(n - skip);
         }
         let slices = torque_nm.len().clamp(1, n.max(1));
         let lag = FirstOrderLag::new(self.motor.cfg.drive.torque_lag_s);
@@ -162,8 +186,22 @@ impl MotorSim {
             let dtheta = 2.0 * PI * op.freq_hz / fs;
             let (sva, cva) = op.voltage_angle.sin_cos();
             let (sia, cia) = op.current_angle.sin_cos();
-            for _ in start..end {
-                self.theta = (self.theta + dtheta) % (2.0 * PI);
+            for idx in start..end {
+                self.theta = crate::exact::rem_tau(self.theta + dtheta);
+                if idx < skip {
+                    // Not kept: draw the sample's noise (same order, same draws) only.
+                    for sigma in [s.current_noise_a, s.current_noise_a] {
+                        if sigma > 0.0 {
+                            let _: f64 = StandardNormal.sample(&mut self.rng);
+                        }
+                    }
+                    for sigma in [s.voltage_noise_v, s.voltage_noise_v] {
+                        if sigma > 0.0 {
+                            let _: f64 = StandardNormal.sample(&mut self.rng);
+                        }
+                    }
+                    continue;
+                }
                 let (sn, cs) = self.theta.sin_cos();
                 // Voltage phase U angle θ+α_v; V, W lag/lead by 2π/3.
                 let (cv, sv) = (cs * cva - sn * sva, sn * cva + cs * sva);
