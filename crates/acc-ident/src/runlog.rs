@@ -446,20 +446,10 @@ pub fn read_csv_from_with(
             ),
         });
     }
-    let reader = text.as_bytes();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(reader);
-    let csv_err = |e: csv::Error| RunLogError::Csv {
-        file: path.to_path_buf(),
-        line: e.position().map(|p| p.line()).unwrap_or(0),
-        message: e.to_string(),
-    };
-    let header = rdr.headers().map_err(csv_err)?.clone();
-    let find = |name: &str| header.iter().position(|h| h == name);
+    let mut csv = acc_spindle::datasets::CsvFile::from_reader(text.as_bytes(), path)?;
     let mut idx_req = [0usize; 5];
     for (k, name) in REQUIRED.iter().enumerate() {
-        idx_req[k] = find(name).ok_or_else(|| RunLogError::MissingColumn {
+        idx_req[k] = csv.find(name).ok_or_else(|| RunLogError::MissingColumn {
             file: path.to_path_buf(),
             column: name.to_string(),
             required: format!("{} and one of power_w, force_n", REQUIRED.join(", ")),
@@ -474,37 +464,25 @@ pub fn read_csv_from_with(
         "power_w",
         "wear_vb_um",
     ];
-    let idx_opt: Vec<Option<usize>> = optional.iter().map(|n| find(n)).collect();
-    let idx_phase = find("phase");
+    let idx_opt: Vec<Option<usize>> = optional.iter().map(|n| csv.find(n)).collect();
+    let idx_phase = csv.find("phase");
     let mut req: [Vec<f64>; 5] = Default::default();
     let mut opt: Vec<Vec<f64>> = vec![Vec::new(); optional.len()];
     let mut phase = Vec::new();
     let mut rows_line = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(csv_err)?;
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        rows_line.push(line);
+    for row in csv.rows() {
+        let row = row?;
+        rows_line.push(row.line());
         let cell = |col: usize, name: &str| -> Result<f64, RunLogError> {
-            let bad = |message: String| RunLogError::BadValue {
-                file: path.to_path_buf(),
-                line,
-                col: col + 1,
-                column: name.to_string(),
-                message,
-            };
-            let text = rec.get(col).ok_or_else(|| bad("missing cell".into()))?;
-            let v: f64 = text
-                .parse()
-                .map_err(|_| bad(format!("`{text}` is not a number")))?;
-            if !v.is_finite() {
-                return Err(bad(format!("`{text}` is not finite")));
-            }
+            let v = row.num(col)?;
             let nonneg = matches!(
                 name,
                 "radial_depth_mm" | "axial_depth_mm" | "spindle_rpm" | "feed_mm_min"
             );
             if nonneg && v < 0.0 {
-                return Err(bad(format!("{v} is negative; allowed >= 0")));
+                return Err(row
+                    .bad(col, format!("{v} is negative; allowed >= 0"))
+                    .into());
             }
             Ok(v)
         };
@@ -515,7 +493,7 @@ pub fn read_csv_from_with(
             if let Some(c) = idx_opt[k] {
                 // An optional cell may be empty (e.g. `x_mm` on a real machine); a column
                 // that is empty throughout is treated as absent.
-                if rec.get(c).is_some_and(|t| t.is_empty()) {
+                if row.text(c).is_empty() {
                     opt[k].push(f64::NAN);
                 } else {
                     opt[k].push(cell(c, name)?);
@@ -523,7 +501,7 @@ pub fn read_csv_from_with(
             }
         }
         if let Some(c) = idx_phase {
-            phase.push(rec.get(c).unwrap_or("").to_string());
+            phase.push(row.text(c).to_string());
         }
     }
     let take = |k: usize| -> Result<Option<Vec<f64>>, RunLogError> {

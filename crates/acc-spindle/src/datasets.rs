@@ -71,30 +71,44 @@ impl DatasetError {
     }
 }
 
-/// A CSV file with a header line, read row by row (see the module docs).
+/// A CSV file with a header line, read row by row (see the module docs). `R` is the byte
+/// source: a file ([`CsvFile::open`]) or any reader ([`CsvFile::from_reader`], e.g. text
+/// already in memory); `file` names it in errors.
 #[derive(Debug)]
-pub struct CsvFile {
+pub struct CsvFile<R: std::io::Read = File> {
     file: PathBuf,
     header: csv::StringRecord,
-    reader: csv::Reader<File>,
+    reader: csv::Reader<R>,
 }
 
-impl CsvFile {
+impl CsvFile<File> {
     /// Open `path` and read its header line; fields are trimmed.
     pub fn open(path: &Path) -> Result<Self, DatasetError> {
         let f = File::open(path).map_err(|e| DatasetError::Open {
             file: path.to_path_buf(),
             reason: e.to_string(),
         })?;
+        Self::from_reader(f, path)
+    }
+}
+
+impl<R: std::io::Read> CsvFile<R> {
+    /// Read the header line of `reader`; fields are trimmed; `path` names it in errors.
+    pub fn from_reader(reader: R, path: &Path) -> Result<Self, DatasetError> {
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(f);
+            .from_reader(reader);
         let header = reader.headers().map_err(|e| csv_error(path, e))?.clone();
         Ok(Self {
             file: path.to_path_buf(),
             header,
             reader,
         })
+    }
+
+    /// The 0-based index of the column called `name`, if the header has it.
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
     }
 
     /// The 0-based index of the column called `name`.
