@@ -94,6 +94,47 @@ fn bad_configs_fail_clearly_before_anything_is_sent() {
         text.contains("/dev/does-not-exist-acc") && text.contains("board.port"),
         "unknown port named with its key:\n{text}"
     );
+    // A run log that cannot be written, and a negative duration: refused before the port.
+    let p = Proc::spawn(
+        &[
+            "run",
+            "--config",
+            &cfg.to_string_lossy(),
+            "--port",
+            &pty,
+            "--log",
+            "/proc/acc-no-such-dir/run.csv",
+        ],
+        false,
+    );
+    let (code, out, err) = p.finish(Duration::from_secs(20));
+    let text = format!("{out}\n{}", err.join("\n"));
+    assert_eq!(code, Some(2), "unwritable log: exit code 2\n{text}");
+    assert!(
+        text.contains("--log /proc/acc-no-such-dir/run.csv"),
+        "the log path is named:\n{text}"
+    );
+    let p = Proc::spawn(
+        &[
+            "run",
+            "--config",
+            &cfg.to_string_lossy(),
+            "--port",
+            &pty,
+            "--log",
+            "/dev/null",
+            "--duration-s",
+            "-1",
+        ],
+        false,
+    );
+    let (code, out, err) = p.finish(Duration::from_secs(20));
+    let text = format!("{out}\n{}", err.join("\n"));
+    assert_eq!(code, Some(2), "negative duration: exit code 2\n{text}");
+    assert!(
+        text.contains("--duration-s -1: must be a positive number of seconds"),
+        "{text}"
+    );
     let stats = board.stop().expect("server stats");
     assert_eq!(stats.requests, 0, "nothing was sent to the board");
 }

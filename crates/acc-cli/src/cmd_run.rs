@@ -1,8 +1,8 @@
 //! `acc run --config <run.toml> --port <device>`: the production loop against the PMC
 //! interface board (Modbus RTU), with the run log written continuously.
 //!
-//! Order of events: the whole config is loaded and validated (no port touched); the port is
-//! opened and its framing verified (nothing sent); the first transaction writes
+//! Order of events: the whole config and the options are loaded and validated and the run
+//! log is created (no port touched); the port is opened and its framing verified (nothing sent); the first transaction writes
 //! `WATCHDOG_MS`; the status is read and printed with the board's resolution; the threaded
 //! loop runs until Ctrl-C (or `--duration-s`); then `ACC_REQUEST` is cleared, the run log
 //! flushed, a summary printed, and the exit code is 0.
@@ -38,7 +38,7 @@ pub struct RunArgs {
     #[arg(long, default_value = "out/run.csv")]
     pub log: PathBuf,
     /// Stop after this much machine time, s (default: run until Ctrl-C).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
     /// Events as JSON lines on stderr (filter: `ACC_LOG`, e.g. `ACC_LOG=debug`).
     #[arg(long)]
@@ -130,6 +130,15 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             bail!("--duration-s {d}: must be a positive number of seconds");
         }
     }
+    // The run log too: a path that cannot be written fails here, before the first byte goes
+    // to the board.
+    if let Some(dir) = args.log.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--log {}: cannot create its folder", args.log.display()))?;
+    }
+    let file = File::create(&args.log)
+        .with_context(|| format!("--log {}: cannot create the run log", args.log.display()))?;
+    let writer = RunLogWriter::new(BufWriter::new(file))?;
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
             // 2. Open the port (framing verified, nothing sent).
@@ -154,7 +163,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                 rtu_cfg.link.slave, rtu_cfg.port, rtu_cfg.serial.baud, rtu_cfg.watchdog_ms
             );
             let mut pmc = rtu;
-            drive(args, &cfg, &mut pmc, status)?;
+            drive(args, &cfg, &mut pmc, status, writer)?;
             let st = pmc.stats();
             println!(
                 "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
@@ -177,7 +186,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                 "board: CAN node {} on {iface} (board watchdog at its own setting)",
                 link.node
             );
-            drive(args, &cfg, &mut pmc, status)
+            drive(args, &cfg, &mut pmc, status, writer)
         }
     }
 }
@@ -188,6 +197,7 @@ fn drive<P: Board + Send>(
     cfg: &RunConfig,
     pmc: &mut P,
     status: BoardStatus,
+    writer: RunLogWriter<BufWriter<File>>,
 ) -> anyhow::Result<()> {
     let step = status.override_step_pct;
     println!(
@@ -214,14 +224,7 @@ fn drive<P: Board + Send>(
     let source = cfg.force_source()?;
     let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s);
 
-    // Run log and stop flag.
-    if let Some(dir) = args.log.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("creating the run-log folder {}", dir.display()))?;
-    }
-    let file = File::create(&args.log)
-        .with_context(|| format!("creating the run log {}", args.log.display()))?;
-    let writer = RunLogWriter::new(BufWriter::new(file))?;
+    // Run log (created before the port was opened) and stop flag.
     let mut sink = RunLogSink::new(writer);
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
     let opts = RunOptions {
