@@ -125,18 +125,21 @@ impl PolicyConfig {
                 "0 ..= max_override_pct",
             ));
         }
-        if self.link_hold_periods > 1000 {
+        // Counts of tolerated faults are at least 1: 0 would release on a single CRC error or
+        // a single bad sample, and a release mid-cut on a board without the fallback clamp
+        // hands the feed back to the operator's (higher) knob.
+        if self.link_hold_periods == 0 || self.link_hold_periods > 1000 {
             return Err(err(
                 "link_hold_periods",
                 self.link_hold_periods,
-                "0 ..= 1000",
+                "1 ..= 1000",
             ));
         }
-        if self.invalid_power_periods > 1000 {
+        if self.invalid_power_periods == 0 || self.invalid_power_periods > 1000 {
             return Err(err(
                 "invalid_power_periods",
                 self.invalid_power_periods,
-                "0 ..= 1000",
+                "1 ..= 1000",
             ));
         }
         if self.stale_seq_periods == 0 || self.stale_seq_periods > 1000 {

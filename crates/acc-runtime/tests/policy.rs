@@ -621,6 +621,37 @@ fn invalid_policy_config_names_the_key() {
     .validate()
     .expect_err("out of range");
     assert_eq!(e.key, "overload_time_s");
+    // Counts of tolerated faults must be positive: 0 would release on one CRC error.
+    for (cfg, key) in [
+        (
+            PolicyConfig {
+                link_hold_periods: 0,
+                ..PolicyConfig::default()
+            },
+            "link_hold_periods",
+        ),
+        (
+            PolicyConfig {
+                invalid_power_periods: 0,
+                ..PolicyConfig::default()
+            },
+            "invalid_power_periods",
+        ),
+    ] {
+        let e = cfg.validate().expect_err("zero refused");
+        assert_eq!(e.key, key);
+        assert!(
+            e.to_string().contains("= 0") && e.to_string().contains("1 ..= 1000"),
+            "{e}"
+        );
+    }
+    assert!(PolicyConfig {
+        link_hold_periods: 1,
+        invalid_power_periods: 1,
+        ..PolicyConfig::default()
+    }
+    .validate()
+    .is_ok());
 }
 
 mod invariant {
