@@ -41,7 +41,10 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
         .and_then(|v| v.parse().ok())
         .expect("summary line `periods: N`");
     assert_eq!(rows.len(), periods, "one run-log row per period");
-    assert!(out.contains("shutdown: ACC_REQUEST cleared"), "{out}");
+    assert!(
+        out.contains("ACC_REQUEST cleared, the operator has the override"),
+        "{out}"
+    );
     assert!(
         berr.iter()
             .any(|l| l.contains("final ACC_REQUEST=0 ACC_ACTIVE=0")),

@@ -17,8 +17,8 @@ use acc_pmc::{Board, BoardStatus};
 use acc_runtime::config::{LinkSettings, RunConfig};
 use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
-use acc_runtime::shutdown::{init_tracing, install_stop_flag, LogFormat};
-use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord, SystemClock};
+use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
+use acc_runtime::{run, ControlLoop, Drain, Ended, LogSink, RunOptions, RunRecord, SystemClock};
 use anyhow::{bail, Context};
 
 /// Arguments of `acc run`.
@@ -222,11 +222,13 @@ fn drive<P: Board + Send>(
     })?;
     let period_s = ccfg.period_s;
     let source = cfg.force_source()?;
-    let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s);
+    let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s)
+        .with_air_force_n(cfg.shutdown.air_force_n);
 
-    // Run log (created before the port was opened) and stop flag.
+    // Run log (created before the port was opened) and the signals: the first Ctrl-C or
+    // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
     let mut sink = RunLogSink::new(writer);
-    let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
+    let stop = install_stop_signals().context("installing the Ctrl-C handler")?;
     let opts = RunOptions {
         max_periods: args
             .duration_s
@@ -234,10 +236,14 @@ fn drive<P: Board + Send>(
         log_queue: cfg.runtime.log_queue,
         time_scale: cfg.runtime.time_scale,
         force_ref_n: Some(ccfg.force_ref_n),
+        drain: Some(Drain {
+            max: std::time::Duration::from_secs_f64(cfg.shutdown.drain_s / cfg.runtime.time_scale),
+            air_periods: cfg.shutdown.air_periods,
+        }),
         ..RunOptions::new(cfg.tick_period())
     };
     println!(
-        "running `{}`: T = {} s (tick every {:.1} ms of wall time), Fr = {} N; run log {}; Ctrl-C stops",
+        "running `{}`: T = {} s (tick every {:.1} ms of wall time), Fr = {} N; run log {}; Ctrl-C stops once the cut has ended (a second Ctrl-C: feed hold now)",
         cfg.name,
         period_s,
         cfg.tick_period().as_secs_f64() * 1e3,
@@ -276,16 +282,60 @@ fn drive<P: Board + Send>(
         s.final_state.name(),
         s.alarms.names()
     );
-    match s.shutdown_ok {
-        Ok(()) => {
+    match (s.shutdown_ok, s.ended) {
+        (Ok(()), Ended::FeedHold { reason }) => {
+            let why = match reason {
+                "second_signal" => "a second stop signal came".to_string(),
+                "drain_timeout" => format!(
+                    "the cut had not ended after the {} s drain",
+                    cfg.shutdown.drain_s
+                ),
+                other => other.to_string(),
+            };
+            Err(ExitWith {
+                code: EXIT_FEED_HOLD,
+                message: format!(
+                    "shutdown: still cutting ({why}): feed hold requested, then ACC_REQUEST cleared with the feed hold kept; the NC needs cycle start"
+                ),
+            }
+            .into())
+        }
+        (Ok(()), Ended::Released) => {
+            println!(
+                "shutdown: out of the cut; ACC_REQUEST cleared, the operator has the override"
+            );
+            Ok(())
+        }
+        (Ok(()), Ended::Completed) => {
             println!("shutdown: ACC_REQUEST cleared, the operator has the override");
             Ok(())
         }
-        Err(k) => bail!(
-            "shutdown: could not clear ACC_REQUEST ({k:?}); the board's watchdog releases the override"
+        (Err(k), _) => bail!(
+            "shutdown: could not write CONTROL ({k:?}); the board's watchdog releases the override"
         ),
     }
 }
+
+/// Exit code of `acc run` when a stop request found the machine still cutting and ended
+/// with a feed hold.
+pub const EXIT_FEED_HOLD: i32 = 3;
+
+/// An error that ends the process with its own exit code (see `main`).
+#[derive(Debug)]
+pub struct ExitWith {
+    /// Process exit code.
+    pub code: i32,
+    /// The last message.
+    pub message: String,
+}
+
+impl std::fmt::Display for ExitWith {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for ExitWith {}
 
 #[cfg(test)]
 mod board_step_tests {

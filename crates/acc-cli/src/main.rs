@@ -38,7 +38,10 @@ enum Command {
     /// effect, write report.json/.md, plots and model.updated.toml.
     Discrepancy(cmd_discrepancy::DiscrepancyArgs),
     /// The production loop against the PMC interface board (Modbus RTU): fault policy,
-    /// operator priority, run log (CSV, same schema as `acc sim`); Ctrl-C stops in order.
+    /// operator priority, run log (CSV, same schema as `acc sim`). Ctrl-C mid-cut keeps
+    /// control until the cut ends (at most `[shutdown] drain_s`), then releases; still
+    /// cutting then, or a second Ctrl-C: feed hold, then release. Exit codes: 0 stopped out
+    /// of the cut, 2 failure (config, file, link), 3 stopped mid-cut with feed hold.
     Run(cmd_run::RunArgs),
     /// Serve the board protocol on a new pty (prints its path) or a given port, backed by
     /// the simulated machine running in step with real time.
@@ -54,6 +57,10 @@ fn main() {
     if let Err(e) = dispatch(cli) {
         // `{:#}` prints the whole cause chain on one line: the file, key and allowed range
         // that the config layers put into their errors.
+        if let Some(x) = e.downcast_ref::<cmd_run::ExitWith>() {
+            eprintln!("{x}");
+            std::process::exit(x.code);
+        }
         eprintln!("error: {e:#}");
         std::process::exit(EXIT_FAILURE);
     }

@@ -106,6 +106,29 @@ impl PolicySection {
     }
 }
 
+/// `[shutdown]`: what Ctrl-C / SIGTERM does in the middle of a cut (all keys optional).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ShutdownSection {
+    /// Longest drain after a stop request, s of machine time, 0 ..= 600 (default 10).
+    pub drain_s: Option<f64>,
+    /// Consecutive periods out of the cut that end the drain, 1 ..= 1000 (default 5).
+    pub air_periods: Option<u32>,
+    /// A valid force sample below this is out of the cut, N, 0 ..= Fr (default 0.2·Fr).
+    pub air_force_n: Option<f64>,
+}
+
+/// The resolved `[shutdown]` settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShutdownConfig {
+    /// Longest drain, s of machine time.
+    pub drain_s: f64,
+    /// Consecutive periods out of the cut that end the drain.
+    pub air_periods: u32,
+    /// Air threshold on the force estimate, N.
+    pub air_force_n: f64,
+}
+
 /// `[runtime]`: loop options.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
@@ -144,6 +167,9 @@ pub struct RunFile {
     /// Fault policy.
     #[serde(default)]
     pub policy: PolicySection,
+    /// Stop on a signal in the middle of a cut.
+    #[serde(default)]
+    pub shutdown: ShutdownSection,
     /// Loop options.
     #[serde(default)]
     pub runtime: RuntimeSection,
@@ -180,6 +206,8 @@ pub struct RunConfig {
     pub estimator: EstimatorConfig,
     /// Fault policy (period from the controller preset).
     pub policy: PolicyConfig,
+    /// Shutdown drain.
+    pub shutdown: ShutdownConfig,
     /// Loop options.
     pub runtime: RuntimeSection,
 }
@@ -259,6 +287,29 @@ impl RunConfig {
         // [policy]
         let policy = file.policy.resolve_in(path, &controller)?;
 
+        // [shutdown]
+        let sd = file.shutdown;
+        let shutdown = ShutdownConfig {
+            drain_s: sd.drain_s.unwrap_or(10.0),
+            air_periods: sd.air_periods.unwrap_or(5),
+            air_force_n: sd.air_force_n.unwrap_or(0.2 * controller.force_ref_n),
+        };
+        check_range(path, "shutdown.drain_s", shutdown.drain_s, 0.0, 600.0)?;
+        check_range(
+            path,
+            "shutdown.air_periods",
+            f64::from(shutdown.air_periods),
+            1.0,
+            1000.0,
+        )?;
+        check_range(
+            path,
+            "shutdown.air_force_n",
+            shutdown.air_force_n,
+            0.0,
+            controller.force_ref_n,
+        )?;
+
         // [runtime]
         let rt = file.runtime;
         check_range(path, "runtime.time_scale", rt.time_scale, 0.1, 100.0)?;
@@ -278,6 +329,7 @@ impl RunConfig {
             calibration,
             estimator,
             policy,
+            shutdown,
             runtime: rt,
         })
     }

@@ -181,6 +181,8 @@ pub struct ControlLoop<L, F> {
     write_error: Option<BoardErrorKind>,
     path_mm: f64,
     last_feed_mm_min: f64,
+    air_force_n: f64,
+    air_run: u32,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -197,7 +199,24 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             write_error: None,
             path_mm: 0.0,
             last_feed_mm_min: 0.0,
+            air_force_n: 0.0,
+            air_run: 0,
         }
+    }
+
+    /// Count a period as out of the cut when the force sample is valid and below
+    /// `air_force_n`, N (default 0: only a fallen `CYCLE_ACTIVE` counts); see
+    /// [`ControlLoop::air_periods`].
+    pub fn with_air_force_n(mut self, air_force_n: f64) -> Self {
+        self.air_force_n = air_force_n;
+        self
+    }
+
+    /// Consecutive periods up to now that were out of the cut: the status read and either
+    /// `CYCLE_ACTIVE` off or a valid force sample below the air threshold. A shutdown drains
+    /// until this reaches its configured count.
+    pub fn air_periods(&self) -> u32 {
+        self.air_run
     }
 
     /// The period, s.
@@ -286,6 +305,15 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             feed_mm_min: feeds.map_or(0.0, |f| f.1),
         };
         let out = self.policy.step(&input, &mut self.law);
+        let air = link.is_ok_and(|s| {
+            !s.cycle_active
+                || (force.valid && force.force_n.is_finite() && force.force_n < self.air_force_n)
+        });
+        self.air_run = if air {
+            self.air_run.saturating_add(1)
+        } else {
+            0
+        };
         let mut plan = WritePlan::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
@@ -343,6 +371,38 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             }
         }
         Err(last)
+    }
+
+    /// Stop in the middle of a cut: request feed hold while ACC still drives the override,
+    /// then release ACC with the feed hold kept, so that handing the override back to the
+    /// operator cannot raise the feed (the NC needs cycle start). Up to `attempts` tries per
+    /// write; returns the last error if a write never got through.
+    pub fn hold_and_release<P: Board>(
+        &mut self,
+        pmc: &mut P,
+        attempts: u32,
+    ) -> Result<(), BoardErrorKind> {
+        let hold = ControlBits {
+            acc_request: self.control_on_board.is_some_and(|c| c.acc_request),
+            feed_hold_request: true,
+            alarm_reset: false,
+        };
+        let released = self.policy.shutdown_with_hold();
+        for bits in [hold, released] {
+            let mut result = Err(BoardErrorKind::Disconnected);
+            for _ in 0..attempts.max(1) {
+                match pmc.write_control(bits) {
+                    Ok(()) => {
+                        self.control_on_board = Some(bits);
+                        result = Ok(());
+                        break;
+                    }
+                    Err(e) => result = Err(e.kind()),
+                }
+            }
+            result?;
+        }
+        Ok(())
     }
 
     /// The `CONTROL` bits of an orderly stop (moves the policy to idle).

@@ -36,6 +36,8 @@ pub use policy::{
     AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Release,
 };
 pub use record::{RunLogWriter, RunRecord};
-pub use runner::{run, LogSink, RunError, RunOptions, RunSummary, VecSink};
+pub use runner::{
+    run, Drain, Ended, LogSink, RunError, RunOptions, RunSummary, StopRequest, VecSink,
+};
 pub use stats::LatencyStats;
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};

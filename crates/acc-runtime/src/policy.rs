@@ -517,6 +517,19 @@ impl FaultPolicy {
         ControlBits::default()
     }
 
+    /// The `CONTROL` bits of a stop in the middle of a cut: ACC request cleared, feed hold
+    /// requested (and kept). Moves the policy to idle.
+    pub fn shutdown_with_hold(&mut self) -> ControlBits {
+        self.state = AccState::Idle;
+        self.acc_request = false;
+        self.feed_hold = true;
+        ControlBits {
+            acc_request: false,
+            feed_hold_request: true,
+            alarm_reset: false,
+        }
+    }
+
     fn control(&self) -> ControlBits {
         ControlBits {
             acc_request: self.acc_request,

@@ -11,10 +11,12 @@
 //! - **Logger thread** (owns the [`LogSink`]): writes and flushes each record; drains the
 //!   queue and flushes at the end.
 //!
-//! Shutdown: when the `stop` flag is set (Ctrl-C, see [`crate::shutdown`]) or `max_periods`
-//! is reached, the I/O thread writes `CONTROL` with `ACC_REQUEST` and `FEED_HOLD_REQUEST`
-//! cleared (the board then follows the operator's override), the channels close, the
-//! logger drains and flushes, and [`run`] returns a [`RunSummary`].
+//! Shutdown: when `max_periods` is reached, or a stop is requested ([`StopRequest`]: Ctrl-C,
+//! see [`crate::shutdown`]) and — with a [`Drain`] — the cut has ended, the I/O thread writes
+//! `CONTROL` with `ACC_REQUEST` and `FEED_HOLD_REQUEST` cleared (the board then follows the
+//! operator's override). A stop while still cutting when the drain runs out, or a second
+//! request, writes feed hold first and then releases with the hold kept ([`Ended`]). The
+//! channels close, the logger drains and flushes, and [`run`] returns a [`RunSummary`].
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -71,6 +73,64 @@ pub struct RunOptions {
     pub time_scale: f64,
     /// Fr to log in periods where the law was not stepped, N (default `None`).
     pub force_ref_n: Option<f64>,
+    /// Drain on a stop request (default `None`: release at once). With a drain, a stop
+    /// request while ACC drives the override keeps the loop running until the cut has ended
+    /// ([`Drain::air_periods`] in a row out of the cut, see [`ControlLoop::air_periods`]), at
+    /// most [`Drain::max`]; still cutting then, or on a second request, it requests feed hold
+    /// and then releases ([`Ended::FeedHold`]). `max_periods` ends without a drain.
+    pub drain: Option<Drain>,
+}
+
+/// The shutdown drain (`[shutdown]` of the run config).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drain {
+    /// Longest drain, in the clock's (wall) time.
+    pub max: Duration,
+    /// Consecutive periods out of the cut that end the drain (≥ 1).
+    pub air_periods: u32,
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// `max_periods` reached; `ACC_REQUEST` cleared.
+    Completed,
+    /// Stopped on request out of the cut (or with ACC not driving): `ACC_REQUEST` cleared,
+    /// the operator has the override.
+    Released,
+    /// Stopped on request while still cutting (the drain ran out, or a second request):
+    /// feed hold requested, then `ACC_REQUEST` cleared with the feed hold kept.
+    FeedHold {
+        /// `drain_timeout` or `second_signal`.
+        reason: &'static str,
+    },
+}
+
+/// How the caller asks a run to stop: a plain flag (`AtomicBool`, a stop request) or the
+/// process's signals ([`crate::shutdown::StopSignals`]: the first signal drains, a second
+/// stops now).
+pub trait StopRequest: Sync {
+    /// A stop was requested (drain first, when the run has a [`Drain`]).
+    fn stop_requested(&self) -> bool;
+    /// Stop now, without waiting for the cut to end.
+    fn stop_now(&self) -> bool {
+        false
+    }
+}
+
+impl StopRequest for AtomicBool {
+    fn stop_requested(&self) -> bool {
+        self.load(Ordering::SeqCst)
+    }
+}
+
+impl StopRequest for crate::shutdown::StopSignals {
+    fn stop_requested(&self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
+    fn stop_now(&self) -> bool {
+        self.again.load(Ordering::SeqCst)
+    }
 }
 
 impl RunOptions {
@@ -83,6 +143,7 @@ impl RunOptions {
             shutdown_attempts: 5,
             time_scale: 1.0,
             force_ref_n: None,
+            drain: None,
         }
     }
 }
@@ -92,6 +153,8 @@ impl RunOptions {
 pub struct RunSummary {
     /// Periods whose cycle ran (read, decide, write).
     pub periods: u64,
+    /// How the run ended.
+    pub ended: Ended,
     /// Periods the ticker skipped (no cycle ran; each still has a run-log row, flagged
     /// `skipped`).
     pub skipped: u64,
@@ -142,12 +205,12 @@ struct StatusMsg {
 }
 
 /// Run the loop until `stop` is set or `opts.max_periods` is reached. See the module docs.
-pub fn run<P, L, F, C, S>(
+pub fn run<P, L, F, C, S, Q>(
     pmc: &mut P,
     control: &mut ControlLoop<L, F>,
     clock: C,
     sink: &mut S,
-    stop: &AtomicBool,
+    stop: &Q,
     opts: RunOptions,
 ) -> Result<RunSummary, RunError>
 where
@@ -156,6 +219,7 @@ where
     F: ForceSource + Send,
     C: Clock + Clone,
     S: LogSink + Send,
+    Q: StopRequest + ?Sized,
 {
     let mut ticker = Ticker::new(clock.clone(), opts.period)?;
     let (status_tx, status_rx) = bounded::<StatusMsg>(1);
@@ -163,6 +227,10 @@ where
     let (log_tx, log_rx) = bounded::<RunRecord>(opts.log_queue.max(1));
     let (time_scale, force_ref_n) = (opts.time_scale, opts.force_ref_n);
     let tick_s = opts.period.as_secs_f64();
+    // Set by the control thread after each decision: the cut has ended (or ACC is not
+    // driving), so a release cannot raise the feed.
+    let out_of_cut = &AtomicBool::new(true);
+    let air_needed = opts.drain.map_or(1, |d| d.air_periods.max(1));
 
     std::thread::scope(|scope| {
         // ---------------------------------------------------------------- logger
@@ -206,6 +274,11 @@ where
                     }
                     control.writes_done(&msg.writes);
                     let rec = control.decide(msg.t_s * time_scale, msg.link);
+                    out_of_cut.store(
+                        control.policy().state() != AccState::Active
+                            || control.air_periods() >= air_needed,
+                        Ordering::SeqCst,
+                    );
                     for e in rec.out.events.iter() {
                         tracing::info!(period = rec.index, event = ?e, "policy event");
                     }
@@ -237,7 +310,37 @@ where
         let mut periods = 0u64;
         let mut last_status = None;
         let origin = clock.now();
-        while !stop.load(Ordering::SeqCst) && opts.max_periods.is_none_or(|m| periods < m) {
+        let mut drain_since: Option<std::time::Duration> = None;
+        let ended = loop {
+            if opts.max_periods.is_some_and(|m| periods >= m) {
+                break Ended::Completed;
+            }
+            if stop.stop_requested() {
+                let Some(drain) = opts.drain else {
+                    break Ended::Released;
+                };
+                let now = clock.now();
+                let since = *drain_since.get_or_insert_with(|| {
+                    tracing::warn!(
+                        max_s = drain.max.as_secs_f64(),
+                        "stop requested: ACC keeps control until the cut ends"
+                    );
+                    now
+                });
+                if out_of_cut.load(Ordering::SeqCst) {
+                    break Ended::Released;
+                }
+                if stop.stop_now() {
+                    break Ended::FeedHold {
+                        reason: "second_signal",
+                    };
+                }
+                if now.saturating_sub(since) >= drain.max {
+                    break Ended::FeedHold {
+                        reason: "drain_timeout",
+                    };
+                }
+            }
             let tick = ticker.wait();
             if tick.overrun {
                 tracing::warn!(
@@ -262,7 +365,9 @@ where
                 overrun: tick.overrun,
             };
             if status_tx.send(msg).is_err() {
-                break;
+                break Ended::FeedHold {
+                    reason: "control_stopped",
+                };
             }
             // The plan of this period; a late plan of an earlier period is discarded.
             let deadline = t0 + opts.period;
@@ -278,26 +383,39 @@ where
                     Err(RecvTimeoutError::Disconnected) => break None,
                 }
             };
-            let Some(plan) = plan else { break };
+            let Some(plan) = plan else {
+                break Ended::FeedHold {
+                    reason: "control_stopped",
+                };
+            };
             writes = execute_writes(pmc, &plan);
             rtt.record(clock.now().saturating_sub(t0));
             periods += 1;
-        }
-        // Orderly stop: ACC request and feed hold cleared; the operator has the override.
+        };
+        // Stop: out of the cut, ACC request and feed hold cleared (the operator has the
+        // override); still cutting, feed hold first, then the release with the hold kept.
         drop(status_tx);
         let (logged, log_dropped, skipped, final_state, alarms, control) =
             ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
-        let shutdown_ok = control.shutdown(pmc, opts.shutdown_attempts);
-        match shutdown_ok {
-            Ok(()) => tracing::info!("ACC_REQUEST cleared; the operator has the override"),
-            Err(k) => {
-                tracing::error!(kind = ?k, "could not clear ACC_REQUEST; the board watchdog will release")
+        let shutdown_ok = match ended {
+            Ended::FeedHold { .. } => control.hold_and_release(pmc, opts.shutdown_attempts),
+            Ended::Completed | Ended::Released => control.shutdown(pmc, opts.shutdown_attempts),
+        };
+        match (shutdown_ok, ended) {
+            (Ok(()), Ended::FeedHold { reason }) => tracing::warn!(
+                reason,
+                "still cutting: feed hold requested, then ACC_REQUEST cleared with the hold kept"
+            ),
+            (Ok(()), _) => tracing::info!("ACC_REQUEST cleared; the operator has the override"),
+            (Err(k), _) => {
+                tracing::error!(kind = ?k, "could not write CONTROL; the board watchdog will release")
             }
         }
         drop(io_span);
         let (log_errors, log_error) = logger.join().map_err(|_| RunError::Panicked("acc-log"))?;
         Ok(RunSummary {
             periods,
+            ended,
             skipped,
             ticker: ticker.stats().clone(),
             cycle_rtt: rtt,

@@ -15,6 +15,32 @@ pub fn install_stop_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     Ok(stop)
 }
 
+/// The two stop flags of [`install_stop_signals`].
+#[derive(Debug, Clone)]
+pub struct StopSignals {
+    /// Set by the first Ctrl-C / SIGTERM: stop once the cut has ended (the drain).
+    pub stop: Arc<AtomicBool>,
+    /// Set by a second signal: stop now (feed hold, then release).
+    pub again: Arc<AtomicBool>,
+}
+
+/// Install a Ctrl-C (SIGINT) and SIGTERM handler: the first signal sets
+/// [`StopSignals::stop`], every later one [`StopSignals::again`]. Can be called once per
+/// process (and not together with [`install_stop_flag`]).
+pub fn install_stop_signals() -> Result<StopSignals, ctrlc::Error> {
+    let signals = StopSignals {
+        stop: Arc::new(AtomicBool::new(false)),
+        again: Arc::new(AtomicBool::new(false)),
+    };
+    let (stop, again) = (Arc::clone(&signals.stop), Arc::clone(&signals.again));
+    ctrlc::set_handler(move || {
+        if stop.swap(true, Ordering::SeqCst) {
+            again.store(true, Ordering::SeqCst);
+        }
+    })?;
+    Ok(signals)
+}
+
 /// Log output format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LogFormat {

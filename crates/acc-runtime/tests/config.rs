@@ -37,6 +37,14 @@ fn shipped_run_configs_load() {
     }
     assert_eq!(fast.tick_period(), std::time::Duration::from_millis(25));
     assert_eq!(fast.policy.overload_force_n, 1600.0);
+    // [shutdown]: defaults, and the shipped production config's values.
+    assert_eq!(
+        (fast.shutdown.drain_s, fast.shutdown.air_periods),
+        (10.0, 5)
+    );
+    assert_eq!(fast.shutdown.air_force_n, 0.2 * fast.controller.force_ref_n);
+    let prod = RunConfig::load(cfg("paper_vmc_run.toml"), None).expect("loads");
+    assert_eq!(prod.shutdown.air_force_n, 160.0);
 }
 
 #[test]
@@ -62,6 +70,21 @@ fn bad_values_name_file_and_key() {
             "policy.max_override_pct",
         ),
         ("slave = 1", "slave = 0", "board.slave"),
+        (
+            "link_hold_periods = 5",
+            "link_hold_periods = 0",
+            "policy.link_hold_periods",
+        ),
+        (
+            "[runtime]",
+            "[shutdown]\nair_periods = 0\n[runtime]",
+            "shutdown.air_periods",
+        ),
+        (
+            "[runtime]",
+            "[shutdown]\ndrain_s = -1.0\n[runtime]",
+            "shutdown.drain_s",
+        ),
         ("name = ", "bogus_key = 1\nname = ", "bogus_key"),
     ] {
         assert!(base.contains(from), "{from}");
