@@ -508,13 +508,18 @@ impl FaultPolicy {
         self.last_cmd
     }
 
-    /// The `CONTROL` bits for an orderly shutdown: ACC request and feed hold cleared, the
-    /// override left to the operator. Moves the policy to idle.
+    /// The `CONTROL` bits for an orderly shutdown: ACC request cleared, the override left to
+    /// the operator. A feed hold the policy requested (an overload, a release that would have
+    /// raised the feed) is kept: stopping the program must not restart the axes. Moves the
+    /// policy to idle.
     pub fn shutdown(&mut self) -> ControlBits {
         self.state = AccState::Idle;
         self.acc_request = false;
-        self.feed_hold = false;
-        ControlBits::default()
+        ControlBits {
+            acc_request: false,
+            feed_hold_request: self.feed_hold,
+            alarm_reset: false,
+        }
     }
 
     /// The `CONTROL` bits of a stop in the middle of a cut: ACC request cleared, feed hold

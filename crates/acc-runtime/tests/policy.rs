@@ -493,6 +493,25 @@ fn overload_requests_feed_hold_and_alarm() {
     assert!(!rig.status().feed_hold_active);
 }
 
+#[test]
+fn stopping_the_program_keeps_a_feed_hold_the_policy_requested() {
+    let mut rig = Rig::new(PolicyConfig::default(), [100]);
+    rig.run(3);
+    rig.power_w = 4000; // 2000 N, above 2 Fr for longer than 0.3 s
+    rig.run(6);
+    assert!(rig.status().feed_hold_active, "overload feed hold");
+    rig.lp.shutdown(&mut rig.b, 3).expect("written");
+    let last = rig
+        .b
+        .control_writes
+        .last()
+        .copied()
+        .expect("control written");
+    assert!(!last.acc_request, "ACC released");
+    assert!(last.feed_hold_request, "the overload's feed hold is kept");
+    assert!(rig.status().feed_hold_active, "the axes stay held");
+}
+
 /// Periods of sustained overload (from an armed, active policy) until the feed hold.
 fn periods_to_overload_hold(cfg: PolicyConfig) -> usize {
     let mut rig = Rig::new(cfg, [100]);
