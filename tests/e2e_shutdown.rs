@@ -97,3 +97,42 @@ fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force()
         "the feed stopped: {end:?}"
     );
 }
+
+/// The board's device vanishes (board-sim killed: the pty's other end closes, every read
+/// fails with EIO): `acc run` ends within the configured periods with exit code 4, a clear
+/// message and a complete run log, instead of logging "disconnected" forever.
+#[test]
+fn a_vanished_device_ends_acc_run_with_its_exit_code() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run_log = dir.path().join("run.csv");
+    let (mut board, pty) = spawn_board_sim(&["--fault", "operator@5:100"]);
+    let run = spawn_run("configs/runtime/board_sim_fast.toml", &pty, &run_log);
+    assert!(
+        board.wait_for("fault Operator(100)", Duration::from_secs(60)),
+        "board-sim did not reach t = 5 s: {:?}",
+        board.err_lines
+    );
+    board.child.kill().expect("kill board-sim");
+    let _ = board.child.wait();
+    let started = std::time::Instant::now();
+    let (code, out, err) = run.finish(Duration::from_secs(30));
+    let text = format!("{out}\n{}", err.join("\n"));
+    assert_eq!(code, Some(4), "exit code of a lost device:\n{text}");
+    assert!(
+        text.contains("the board's device is gone"),
+        "the message says why:\n{text}"
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "ended within a bounded time: {:?}",
+        started.elapsed()
+    );
+    let rows = read_log(&run_log);
+    let periods: usize = e2e_support::field(&out, "periods")
+        .and_then(|v| v.parse().ok())
+        .expect("summary line `periods: N`");
+    assert_eq!(rows.len(), periods, "run log complete to the last period");
+    assert!(rows
+        .last()
+        .is_some_and(|r| r.has_flag("link:disconnected") || r.has_flag("link:timeout")));
+}

@@ -283,6 +283,17 @@ fn drive<P: Board + Send>(
         s.alarms.names()
     );
     match (s.shutdown_ok, s.ended) {
+        (ok, Ended::DeviceLost) => Err(ExitWith {
+            code: EXIT_DEVICE_LOST,
+            message: format!(
+                "the board's device is gone ({} periods in a row without it: port or cable): run ended, run log flushed; final CONTROL write {}; the board's watchdog takes the override",
+                RunOptions::new(cfg.tick_period())
+                    .device_lost_periods
+                    .unwrap_or_default(),
+                if ok.is_ok() { "sent" } else { "not possible" }
+            ),
+        }
+        .into()),
         (Ok(()), Ended::FeedHold { reason }) => {
             let why = match reason {
                 "second_signal" => "a second stop signal came".to_string(),
@@ -319,6 +330,9 @@ fn drive<P: Board + Send>(
 /// Exit code of `acc run` when a stop request found the machine still cutting and ended
 /// with a feed hold.
 pub const EXIT_FEED_HOLD: i32 = 3;
+
+/// Exit code of `acc run` when the board's serial device or CAN interface vanished.
+pub const EXIT_DEVICE_LOST: i32 = 4;
 
 /// An error that ends the process with its own exit code (see `main`).
 #[derive(Debug)]

@@ -41,7 +41,8 @@ enum Command {
     /// operator priority, run log (CSV, same schema as `acc sim`). Ctrl-C mid-cut keeps
     /// control until the cut ends (at most `[shutdown] drain_s`), then releases; still
     /// cutting then, or a second Ctrl-C: feed hold, then release. Exit codes: 0 stopped out
-    /// of the cut, 2 failure (config, file, link), 3 stopped mid-cut with feed hold.
+    /// of the cut, 2 failure (config, file, link), 3 stopped mid-cut with feed hold, 4 the
+    /// board's device vanished (port, cable, CAN interface).
     Run(cmd_run::RunArgs),
     /// Serve the board protocol on a new pty (prints its path) or a given port, backed by
     /// the simulated machine running in step with real time.

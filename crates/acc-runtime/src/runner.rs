@@ -79,6 +79,11 @@ pub struct RunOptions {
     /// most [`Drain::max`]; still cutting then, or on a second request, it requests feed hold
     /// and then releases ([`Ended::FeedHold`]). `max_periods` ends without a drain.
     pub drain: Option<Drain>,
+    /// End the run after this many consecutive periods in which the link reported the
+    /// device gone (`BoardErrorKind::Disconnected`: the port or bus vanished), default 20
+    /// (`None`: never). The policy has released by then (after `link_hold_periods`); the run
+    /// ends with [`Ended::DeviceLost`] instead of logging "disconnected" forever.
+    pub device_lost_periods: Option<u32>,
 }
 
 /// The shutdown drain (`[shutdown]` of the run config).
@@ -104,6 +109,10 @@ pub enum Ended {
         /// `drain_timeout` or `second_signal`.
         reason: &'static str,
     },
+    /// The device was gone for [`RunOptions::device_lost_periods`] periods in a row; the
+    /// final `CONTROL` write was tried (it normally fails: the board's watchdog and fallback
+    /// take over).
+    DeviceLost,
 }
 
 /// How the caller asks a run to stop: a plain flag (`AtomicBool`, a stop request) or the
@@ -144,6 +153,7 @@ impl RunOptions {
             time_scale: 1.0,
             force_ref_n: None,
             drain: None,
+            device_lost_periods: Some(20),
         }
     }
 }
@@ -311,9 +321,14 @@ where
         let mut last_status = None;
         let origin = clock.now();
         let mut drain_since: Option<std::time::Duration> = None;
+        let mut gone = 0u32;
         let ended = loop {
             if opts.max_periods.is_some_and(|m| periods >= m) {
                 break Ended::Completed;
+            }
+            if opts.device_lost_periods.is_some_and(|n| gone >= n.max(1)) {
+                tracing::error!(periods = gone, "the board's device is gone: ending the run");
+                break Ended::DeviceLost;
             }
             if stop.stop_requested() {
                 let Some(drain) = opts.drain else {
@@ -355,6 +370,10 @@ where
             if let Ok(s) = link {
                 last_status = Some(s);
             }
+            gone = match link {
+                Err(BoardErrorKind::Disconnected) => gone.saturating_add(1),
+                _ => 0,
+            };
             let msg = StatusMsg {
                 seq: periods,
                 t_s: (tick.deadline.saturating_sub(origin)).as_secs_f64(),
@@ -399,7 +418,9 @@ where
             ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
         let shutdown_ok = match ended {
             Ended::FeedHold { .. } => control.hold_and_release(pmc, opts.shutdown_attempts),
-            Ended::Completed | Ended::Released => control.shutdown(pmc, opts.shutdown_attempts),
+            Ended::Completed | Ended::Released | Ended::DeviceLost => {
+                control.shutdown(pmc, opts.shutdown_attempts)
+            }
         };
         match (shutdown_ok, ended) {
             (Ok(()), Ended::FeedHold { reason }) => tracing::warn!(

@@ -654,3 +654,54 @@ fn a_stop_out_of_the_cut_releases_at_once() {
         .iter()
         .all(|c| !c.feed_hold_request));
 }
+
+#[test]
+fn a_vanished_device_ends_the_run_within_the_configured_periods() {
+    // Healthy for 10 transactions' worth of periods, then every transaction finds the
+    // device gone (a pulled USB adapter: EIO on every read and write).
+    let mut b = ScriptedBoard::new();
+    b.faults.extend(std::iter::repeat_n(None, 25));
+    b.faults.extend(std::iter::repeat_n(
+        Some(acc_runtime::testing::LinkFault::RequestLost(
+            acc_pmc::BoardErrorKind::Disconnected,
+        )),
+        10_000,
+    ));
+    let mut board = LiveBoard(b, Vec::new());
+    let mut ctl = control();
+    let mut sink = VecSink::default();
+    let stop = AtomicBool::new(false);
+    let opts = RunOptions {
+        max_periods: Some(1000),
+        device_lost_periods: Some(20),
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let s = run(
+        &mut board,
+        &mut ctl,
+        ManualClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+    )
+    .expect("runs");
+    assert_eq!(s.ended, acc_runtime::Ended::DeviceLost);
+    assert!(
+        s.periods < 60,
+        "ended soon after the loss: {} periods",
+        s.periods
+    );
+    let gone = sink
+        .0
+        .iter()
+        .rev()
+        .take_while(|r| r.has_flag("link:disconnected"))
+        .count();
+    assert_eq!(
+        gone, 20,
+        "exactly the configured periods without the device"
+    );
+    // Every period has its row; the policy released (link lost) before the end.
+    assert_eq!(sink.0.len() as u64, s.periods);
+    assert!(sink.0.last().is_some_and(|r| r.state == "link_lost"));
+}
