@@ -11,8 +11,19 @@ use std::time::Duration;
 
 use e2e_support::{read_log, spawn_board_sim, spawn_run};
 
+/// The closed loops of this file run one at a time: two board-sim/acc-run pairs at 4x time
+/// on a 2-core machine would slip each other's timing.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 #[test]
 fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force() {
+    let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let sim_log = dir.path().join("machine.csv");
     let run_log = dir.path().join("run.csv");
@@ -103,6 +114,7 @@ fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force()
 /// message and a complete run log, instead of logging "disconnected" forever.
 #[test]
 fn a_vanished_device_ends_acc_run_with_its_exit_code() {
+    let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let run_log = dir.path().join("run.csv");
     let (mut board, pty) = spawn_board_sim(&["--fault", "operator@5:100"]);
