@@ -44,19 +44,20 @@ fn config_with(dir: &std::path::Path, key: &str, value: &str) -> std::path::Path
 }
 
 fn run_acc(config: &std::path::Path, port: &str) -> (Option<i32>, String) {
-    let p = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            &config.to_string_lossy(),
-            "--port",
-            port,
-            "--log",
-            "/dev/null",
-        ],
-        false,
-    );
-    let (code, out, err) = p.finish(Duration::from_secs(20));
+    run_acc_with(config, port, "/dev/null", &[])
+}
+
+/// `acc run --config <config> --port <port> --log <log> <extra…>`: (exit code, all output).
+fn run_acc_with(
+    config: &std::path::Path,
+    port: &str,
+    log: &str,
+    extra: &[&str],
+) -> (Option<i32>, String) {
+    let config = config.to_string_lossy();
+    let mut args = vec!["run", "--config", &config, "--port", port, "--log", log];
+    args.extend_from_slice(extra);
+    let (code, out, err) = Proc::spawn(&args, false).finish(Duration::from_secs(20));
     (code, format!("{out}\n{}", err.join("\n")))
 }
 
@@ -95,41 +96,13 @@ fn bad_configs_fail_clearly_before_anything_is_sent() {
         "unknown port named with its key:\n{text}"
     );
     // A run log that cannot be written, and a negative duration: refused before the port.
-    let p = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            &cfg.to_string_lossy(),
-            "--port",
-            &pty,
-            "--log",
-            "/proc/acc-no-such-dir/run.csv",
-        ],
-        false,
-    );
-    let (code, out, err) = p.finish(Duration::from_secs(20));
-    let text = format!("{out}\n{}", err.join("\n"));
+    let (code, text) = run_acc_with(&cfg, &pty, "/proc/acc-no-such-dir/run.csv", &[]);
     assert_eq!(code, Some(2), "unwritable log: exit code 2\n{text}");
     assert!(
         text.contains("--log /proc/acc-no-such-dir/run.csv"),
         "the log path is named:\n{text}"
     );
-    let p = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            &cfg.to_string_lossy(),
-            "--port",
-            &pty,
-            "--log",
-            "/dev/null",
-            "--duration-s",
-            "-1",
-        ],
-        false,
-    );
-    let (code, out, err) = p.finish(Duration::from_secs(20));
-    let text = format!("{out}\n{}", err.join("\n"));
+    let (code, text) = run_acc_with(&cfg, &pty, "/dev/null", &["--duration-s", "-1"]);
     assert_eq!(code, Some(2), "negative duration: exit code 2\n{text}");
     assert!(
         text.contains("--duration-s -1: must be a positive number of seconds"),

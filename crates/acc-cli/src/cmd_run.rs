@@ -242,6 +242,7 @@ fn drive<P: Board + Send>(
         }),
         ..RunOptions::new(cfg.tick_period())
     };
+    let device_lost_periods = opts.device_lost_periods.unwrap_or_default();
     println!(
         "running `{}`: T = {} s (tick every {:.1} ms of wall time), Fr = {} N; run log {}; Ctrl-C stops once the cut has ended (a second Ctrl-C: feed hold now)",
         cfg.name,
@@ -287,9 +288,7 @@ fn drive<P: Board + Send>(
             code: EXIT_DEVICE_LOST,
             message: format!(
                 "the board's device is gone ({} periods in a row without it: port or cable): run ended, run log flushed; final CONTROL write {}; the board's watchdog takes the override",
-                RunOptions::new(cfg.tick_period())
-                    .device_lost_periods
-                    .unwrap_or_default(),
+                device_lost_periods,
                 if ok.is_ok() { "sent" } else { "not possible" }
             ),
         }

@@ -671,20 +671,8 @@ fn a_vanished_device_ends_the_run_within_the_configured_periods() {
     let mut ctl = control();
     let mut sink = VecSink::default();
     let stop = AtomicBool::new(false);
-    let opts = RunOptions {
-        max_periods: Some(1000),
-        device_lost_periods: Some(20),
-        ..RunOptions::new(Duration::from_millis(100))
-    };
-    let s = run(
-        &mut board,
-        &mut ctl,
-        ManualClock::new(),
-        &mut sink,
-        &stop,
-        opts,
-    )
-    .expect("runs");
+    // The default gives a device 20 periods (`RunOptions::device_lost_periods`).
+    let s = run_manual(&mut board, &mut ctl, &mut sink, &stop, 1000);
     assert_eq!(s.ended, acc_runtime::Ended::DeviceLost);
     assert!(
         s.periods < 60,
