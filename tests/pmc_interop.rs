@@ -283,7 +283,7 @@ fn mbpoll_reads_and_writes_our_board_emulator() {
         assert!(text.to_lowercase().contains("illegal data value"), "{text}");
     }
     // Exception 02 outside the map.
-    let (ok, text) = mbpoll(&path, &["-t", "3", "-r", "9", "-c", "1"]);
+    let (ok, text) = mbpoll(&path, &["-t", "3", "-r", "16", "-c", "1"]);
     assert!(
         !ok && text.to_lowercase().contains("illegal data address"),
         "{text}"

@@ -52,7 +52,9 @@ pub mod regs;
 pub mod rtu;
 pub mod serial;
 
-/// Status read from the board once per cycle (input registers 0…8).
+/// Status read from the board once per cycle (input registers 0…14 on a v2 board, 0…8 on a
+/// v1 board, where the v2 fields read as unknown: see
+/// [`BoardStatus::from_v1_input_registers`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct BoardStatus {
     /// `STATUS` bit 0: operator's ACC ON switch.
@@ -83,6 +85,49 @@ pub struct BoardStatus {
     pub sample_seq: u16,
     /// `PROGRAMMED_FEED`, mm/min (0 = unknown).
     pub programmed_feed_mm_min: u16,
+    /// `STATUS` bit 7 (v2): the board's fallback clamp is engaged.
+    pub fallback_active: bool,
+    /// `STATUS` bit 8 (v2): the board has powered up since the last `ALARM_RESET`.
+    pub board_restarted: bool,
+    /// `PROTOCOL_VERSION` (v2: 2; 0 on a v1 board).
+    pub protocol_version: u16,
+    /// `TOOL_NUMBER` (v2): active tool (T word), 0 = none/unknown.
+    pub tool_number: u16,
+    /// `PROGRAM_NUMBER` (v2): running program (O number), 0 = unknown.
+    pub program_number: u16,
+    /// `BLOCK_NUMBER` (v2): active block (N word, low 16 bits), 0 = unknown.
+    pub block_number: u16,
+    /// `ACTUAL_FEED` (v2): actual path feed from the NC, mm/min (after override, 0 in feed
+    /// hold); 0 on a v1 board.
+    pub actual_feed_mm_min: u16,
+    /// `FALLBACK_OVERRIDE` (v2): the clamp now applied, percent; 150 when no clamp is
+    /// engaged (and always 150 on a v1 board, which has no clamp).
+    pub fallback_override_pct: u16,
+}
+
+/// The board's protocol generation, as a link found it (`../shared/docs/pmc-board.md`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoardProtocol {
+    /// v1: registers 0…8 only. No fallback clamp (a watchdog trip, release or lost link
+    /// falls back to the operator's knob, which can raise the feed), no `FALLBACK_MODE`, no
+    /// tool / program / block / actual-feed registers, no `BOARD_RESTARTED`.
+    V1,
+    /// v2: the fallback clamp, `FALLBACK_MODE`, the NC context registers 9…14.
+    V2,
+}
+
+impl BoardProtocol {
+    /// What a controller cannot do on a board of this protocol, for the one-time
+    /// announcement ("" for v2).
+    pub fn limitations(self) -> &'static str {
+        match self {
+            BoardProtocol::V2 => "",
+            BoardProtocol::V1 => {
+                "v1 board: no fallback clamp (a watchdog trip, a killed controller or a pulled cable hands the feed back to the operator's knob, which can raise it), \
+                 so ACC never releases mid-cut without a feed hold; no FALLBACK_MODE; no tool, program, block or actual-feed registers; no BOARD_RESTARTED bit"
+            }
+        }
+    }
 }
 
 /// `CONTROL` register bits (holding register 2).
@@ -130,4 +175,10 @@ pub trait Board {
     fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Self::Error>;
     /// Write the `CONTROL` bits (ACC request, feed-hold request, alarm reset).
     fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error>;
+    /// The protocol the link found the board to speak; `None` until it knows (before the
+    /// first successful status read). Links that only ever speak one protocol may keep the
+    /// default, which derives nothing and says `None`.
+    fn protocol(&self) -> Option<BoardProtocol> {
+        None
+    }
 }

@@ -1,4 +1,5 @@
-//! The board's register map (`../shared/docs/pmc-board.md`, v1): register addresses, bits,
+//! The board's register map (`../shared/docs/pmc-board.md`, protocol v2, which keeps every v1
+//! register where it was): register addresses, bits,
 //! limits, and [`BoardStatus`] ⇄ input registers, [`ControlBits`] ⇄ `CONTROL`. Pure data
 //! and pure functions, shared by the clients ([`crate::rtu`], [`crate::can`]) and the
 //! emulator (`crate::emu`, feature `emulator`).
@@ -10,10 +11,18 @@
 //! regs[input::STATUS as usize] = status_bits::ACC_SWITCH | status_bits::ACC_ACTIVE;
 //! regs[input::POWER_HI as usize] = 0x0001;
 //! regs[input::POWER_LO as usize] = 0x86A0;
+//! regs[input::PROTOCOL_VERSION as usize] = 2;
+//! regs[input::TOOL_NUMBER as usize] = 7;
 //! let status = BoardStatus::from_input_registers(&regs);
 //! assert!(status.acc_switch && status.acc_active);
 //! assert_eq!(status.spindle_power_w, 100_000);
+//! assert!(status.is_v2());
+//! assert_eq!(status.tool_number, 7);
 //! assert_eq!(status.to_input_registers(), regs);
+//! // A v1 board has registers 0…8 only: the v2 fields read as "unknown".
+//! let v1 = BoardStatus::from_v1_input_registers(&[0x03, 100, 100, 10, 0, 500, 6000, 1, 800]);
+//! assert!(!v1.is_v2());
+//! assert_eq!(v1.fallback_override_pct, 150);
 //! ```
 
 use crate::{BoardStatus, ControlBits};
@@ -28,8 +37,13 @@ pub mod holding {
     pub const CONTROL: u16 = 2;
     /// `WATCHDOG_MS`: watchdog time, ms, 100…5000, default 500.
     pub const WATCHDOG_MS: u16 = 3;
-    /// Number of holding registers (addresses `0..COUNT`).
-    pub const COUNT: u16 = 4;
+    /// `FALLBACK_MODE` (v2): what a watchdog trip does besides the fallback clamp,
+    /// see [`super::FallbackMode`].
+    pub const FALLBACK_MODE: u16 = 4;
+    /// Number of holding registers of a v2 board (addresses `0..COUNT`).
+    pub const COUNT: u16 = 5;
+    /// Number of holding registers of a v1 board (no `FALLBACK_MODE`).
+    pub const V1_COUNT: u16 = 4;
 }
 
 /// Input register addresses (0-based protocol addresses; read with FC04).
@@ -52,8 +66,25 @@ pub mod input {
     pub const SAMPLE_SEQ: u16 = 7;
     /// `PROGRAMMED_FEED`: programmed feed of the active block, mm/min (0 = unknown).
     pub const PROGRAMMED_FEED: u16 = 8;
-    /// Number of input registers (addresses `0..COUNT`).
-    pub const COUNT: u16 = 9;
+    /// `PROTOCOL_VERSION` (v2): 2. A v1 board answers exception 02 or 0 here.
+    pub const PROTOCOL_VERSION: u16 = 9;
+    /// `TOOL_NUMBER` (v2): active tool (T word), 0 = none/unknown.
+    pub const TOOL_NUMBER: u16 = 10;
+    /// `PROGRAM_NUMBER` (v2): running program (O number), 0 = unknown.
+    pub const PROGRAM_NUMBER: u16 = 11;
+    /// `BLOCK_NUMBER` (v2): sequence number of the active block (N word, low 16 bits),
+    /// 0 = unknown.
+    pub const BLOCK_NUMBER: u16 = 12;
+    /// `ACTUAL_FEED` (v2): actual path feed from the NC, mm/min (after override, 0 in feed
+    /// hold).
+    pub const ACTUAL_FEED: u16 = 13;
+    /// `FALLBACK_OVERRIDE` (v2): the fallback clamp now applied, percent; 150 when no clamp
+    /// is engaged.
+    pub const FALLBACK_OVERRIDE: u16 = 14;
+    /// Number of input registers of a v2 board (addresses `0..COUNT`).
+    pub const COUNT: u16 = 15;
+    /// Number of input registers of a v1 board (addresses `0..V1_COUNT`).
+    pub const V1_COUNT: u16 = 9;
 }
 
 /// Bits of the `STATUS` input register.
@@ -72,6 +103,10 @@ pub mod status_bits {
     pub const OVERRIDE_LOCKED: u16 = 1 << 5;
     /// bit 6 `CNC_ALARM`.
     pub const CNC_ALARM: u16 = 1 << 6;
+    /// bit 7 `FALLBACK_ACTIVE` (v2): the fallback clamp is engaged.
+    pub const FALLBACK_ACTIVE: u16 = 1 << 7;
+    /// bit 8 `BOARD_RESTARTED` (v2): set at power-up, cleared by `ALARM_RESET`.
+    pub const BOARD_RESTARTED: u16 = 1 << 8;
 }
 
 /// Bits of the `CONTROL` holding register.
@@ -84,6 +119,41 @@ pub mod control_bits {
     pub const ALARM_RESET: u16 = 1 << 2;
     /// All bits the board defines; writing any other bit is exception 03.
     pub const DEFINED: u16 = ACC_REQUEST | FEED_HOLD_REQUEST | ALARM_RESET;
+}
+
+/// `PROTOCOL_VERSION` of a v2 board.
+pub const PROTOCOL_V2: u16 = 2;
+/// `FALLBACK_OVERRIDE` when no clamp is engaged, percent.
+pub const FALLBACK_NONE_PCT: u16 = 150;
+
+/// `FALLBACK_MODE` (holding register 4, v2): what a watchdog trip does besides engaging the
+/// fallback clamp.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FallbackMode {
+    /// 0: clamp only.
+    ClampOnly,
+    /// 1: clamp and feed hold until `ALARM_RESET` (power-up default).
+    #[default]
+    ClampAndFeedHold,
+}
+
+impl FallbackMode {
+    /// The register value (0 or 1).
+    pub fn to_register(self) -> u16 {
+        match self {
+            FallbackMode::ClampOnly => 0,
+            FallbackMode::ClampAndFeedHold => 1,
+        }
+    }
+
+    /// The mode for a register value; `None` outside 0…1.
+    pub fn from_register(v: u16) -> Option<Self> {
+        match v {
+            0 => Some(FallbackMode::ClampOnly),
+            1 => Some(FallbackMode::ClampAndFeedHold),
+            _ => None,
+        }
+    }
 }
 
 /// Highest `OVERRIDE_CMD` the board accepts, percent.
@@ -130,7 +200,7 @@ impl OverrideResolution {
 }
 
 impl BoardStatus {
-    /// Encode as input registers 0…8 (spec table "Input registers").
+    /// Encode as input registers 0…14 (spec table "Input registers", v2).
     pub fn to_input_registers(&self) -> [u16; input::COUNT as usize] {
         use status_bits as b;
         let flags = [
@@ -141,6 +211,8 @@ impl BoardStatus {
             (self.watchdog_tripped, b::WATCHDOG_TRIPPED),
             (self.override_locked, b::OVERRIDE_LOCKED),
             (self.cnc_alarm, b::CNC_ALARM),
+            (self.fallback_active, b::FALLBACK_ACTIVE),
+            (self.board_restarted, b::BOARD_RESTARTED),
         ];
         let status = flags
             .iter()
@@ -156,10 +228,27 @@ impl BoardStatus {
             self.spindle_rpm,
             self.sample_seq,
             self.programmed_feed_mm_min,
+            self.protocol_version,
+            self.tool_number,
+            self.program_number,
+            self.block_number,
+            self.actual_feed_mm_min,
+            self.fallback_override_pct,
         ]
     }
 
-    /// Decode input registers 0…8. Undefined `STATUS` bits are ignored.
+    /// Encode as a v1 board's input registers 0…8 (the v2 `STATUS` bits 7 and 8 are not
+    /// part of v1 and are left out).
+    pub fn to_v1_input_registers(&self) -> [u16; input::V1_COUNT as usize] {
+        let all = self.to_input_registers();
+        let mut v1 = [0u16; input::V1_COUNT as usize];
+        v1.copy_from_slice(&all[..input::V1_COUNT as usize]);
+        v1[input::STATUS as usize] &=
+            !(status_bits::FALLBACK_ACTIVE | status_bits::BOARD_RESTARTED);
+        v1
+    }
+
+    /// Decode input registers 0…14. Undefined `STATUS` bits are ignored.
     pub fn from_input_registers(regs: &[u16; input::COUNT as usize]) -> Self {
         use status_bits as b;
         let s = regs[input::STATUS as usize];
@@ -171,6 +260,8 @@ impl BoardStatus {
             watchdog_tripped: s & b::WATCHDOG_TRIPPED != 0,
             override_locked: s & b::OVERRIDE_LOCKED != 0,
             cnc_alarm: s & b::CNC_ALARM != 0,
+            fallback_active: s & b::FALLBACK_ACTIVE != 0,
+            board_restarted: s & b::BOARD_RESTARTED != 0,
             override_applied_pct: regs[input::OVERRIDE_APPLIED as usize],
             operator_override_pct: regs[input::OPERATOR_OVERRIDE as usize],
             override_step_pct: regs[input::OVERRIDE_STEP as usize],
@@ -179,7 +270,30 @@ impl BoardStatus {
             spindle_rpm: regs[input::SPINDLE_RPM as usize],
             sample_seq: regs[input::SAMPLE_SEQ as usize],
             programmed_feed_mm_min: regs[input::PROGRAMMED_FEED as usize],
+            protocol_version: regs[input::PROTOCOL_VERSION as usize],
+            tool_number: regs[input::TOOL_NUMBER as usize],
+            program_number: regs[input::PROGRAM_NUMBER as usize],
+            block_number: regs[input::BLOCK_NUMBER as usize],
+            actual_feed_mm_min: regs[input::ACTUAL_FEED as usize],
+            fallback_override_pct: regs[input::FALLBACK_OVERRIDE as usize],
         }
+    }
+
+    /// Decode a v1 board's input registers 0…8: the v2 fields read as unknown
+    /// (`protocol_version` 0, no tool/program/block, no clamp: `fallback_override_pct`
+    /// 150), and `STATUS` bits 7 and 8 (not defined in v1) are ignored.
+    pub fn from_v1_input_registers(regs: &[u16; input::V1_COUNT as usize]) -> Self {
+        let mut all = [0u16; input::COUNT as usize];
+        all[..input::V1_COUNT as usize].copy_from_slice(regs);
+        all[input::STATUS as usize] &=
+            !(status_bits::FALLBACK_ACTIVE | status_bits::BOARD_RESTARTED);
+        all[input::FALLBACK_OVERRIDE as usize] = FALLBACK_NONE_PCT;
+        Self::from_input_registers(&all)
+    }
+
+    /// The board speaks protocol v2 (`PROTOCOL_VERSION` ≥ 2): fallback clamp, NC context.
+    pub fn is_v2(&self) -> bool {
+        self.protocol_version >= PROTOCOL_V2
     }
 }
 
@@ -230,16 +344,40 @@ mod tests {
             spindle_rpm: 12_000,
             sample_seq: 65_000,
             programmed_feed_mm_min: 800,
+            fallback_active: true,
+            board_restarted: false,
+            protocol_version: 2,
+            tool_number: 12,
+            program_number: 4711,
+            block_number: 230,
+            actual_feed_mm_min: 720,
+            fallback_override_pct: 90,
         };
         let r = s.to_input_registers();
         assert_eq!(
             r,
-            [0b101_0101, 90, 110, 10, 0xDEAD, 0xBEEF, 12_000, 65_000, 800]
+            [
+                0b1101_0101,
+                90,
+                110,
+                10,
+                0xDEAD,
+                0xBEEF,
+                12_000,
+                65_000,
+                800,
+                2,
+                12,
+                4711,
+                230,
+                720,
+                90
+            ]
         );
         assert_eq!(BoardStatus::from_input_registers(&r), s);
         // every single status bit maps to its own field.
-        for bit in 0..7 {
-            let mut regs = [0u16; 9];
+        for bit in 0..9 {
+            let mut regs = [0u16; 15];
             regs[0] = 1 << bit;
             let d = BoardStatus::from_input_registers(&regs);
             let flags = [
@@ -250,6 +388,8 @@ mod tests {
                 d.watchdog_tripped,
                 d.override_locked,
                 d.cnc_alarm,
+                d.fallback_active,
+                d.board_restarted,
             ];
             assert_eq!(flags.iter().filter(|f| **f).count(), 1);
             assert!(flags[bit]);
@@ -257,9 +397,27 @@ mod tests {
         }
         // undefined bits are ignored.
         assert_eq!(
-            BoardStatus::from_input_registers(&[0xFF80, 0, 0, 0, 0, 0, 0, 0, 0]),
+            BoardStatus::from_input_registers(&[0xFE00, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
             BoardStatus::default()
         );
+        // v1: registers 0…8 only; bits 7 and 8 are not v1's and are ignored.
+        let v1 = BoardStatus::from_v1_input_registers(&[0x0185, 90, 110, 10, 0, 1, 2, 3, 4]);
+        assert!(v1.acc_switch && v1.cycle_active && !v1.fallback_active && !v1.board_restarted);
+        assert!(!v1.is_v2());
+        assert_eq!(v1.fallback_override_pct, FALLBACK_NONE_PCT);
+        assert_eq!(
+            v1.to_v1_input_registers(),
+            [0x0005, 90, 110, 10, 0, 1, 2, 3, 4]
+        );
+    }
+
+    #[test]
+    fn fallback_mode_register() {
+        for m in [FallbackMode::ClampOnly, FallbackMode::ClampAndFeedHold] {
+            assert_eq!(FallbackMode::from_register(m.to_register()), Some(m));
+        }
+        assert_eq!(FallbackMode::from_register(2), None);
+        assert_eq!(FallbackMode::default(), FallbackMode::ClampAndFeedHold);
     }
 
     #[test]

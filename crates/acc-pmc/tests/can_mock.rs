@@ -57,7 +57,7 @@ fn status_override_and_heartbeat_over_the_mock_bus() {
     assert!(s.acc_active);
     assert_eq!((s.override_applied_pct, s.spindle_power_w), (120, 5_500));
     let b = acc_pmc::emu::lock_board(&board);
-    assert_eq!(b.holding_registers(), [120, 1, 1, 500]);
+    assert_eq!(b.holding_registers(), [120, 1, 1, 500, 1]);
 }
 
 #[test]

@@ -391,7 +391,7 @@ fn server_skips_garbage_partial_frames_and_other_slaves() {
     assert_eq!(read_reply(&mut port), framed(&[0x01, 0x81, 0x01]));
 
     // Address outside the map: exception 02.
-    port.write_all(&framed(&[0x01, 0x04, 0x00, 0x09, 0x00, 0x01]))
+    port.write_all(&framed(&[0x01, 0x04, 0x00, 0x0F, 0x00, 0x01]))
         .expect("write");
     assert_eq!(read_reply(&mut port), framed(&[0x01, 0x84, 0x02]));
 

@@ -719,6 +719,7 @@ mod invariant {
                 spindle_rpm: 600,
                 sample_seq: seq,
                 programmed_feed_mm_min: 200,
+                ..BoardStatus::default()
             })
     }
 

@@ -5,7 +5,12 @@
 //! | --- | --- | --- |
 //! | `0x180 + n` | board → PC, every new power sample | `STATUS` u8, `OVERRIDE_APPLIED` u8, `OPERATOR_OVERRIDE` u8, `OVERRIDE_STEP` u8, power W u32 |
 //! | `0x280 + n` | board → PC, with the frame above | `SPINDLE_RPM` u16, `SAMPLE_SEQ` u16, `PROGRAMMED_FEED` u16, reserved u16 |
+//! | `0x300 + n` | board → PC, v2, with the frames above | `TOOL_NUMBER` u16, `ACTUAL_FEED` u16, `BLOCK_NUMBER` u16, `FALLBACK_OVERRIDE` u8, `STATUS` high byte u8 |
+//! | `0x380 + n` | board → PC, v2, once a second | `PROTOCOL_VERSION` u16, `PROGRAM_NUMBER` u16, reserved u32 |
 //! | `0x200 + n` | PC → board, every cycle | `OVERRIDE_CMD` u8, `CONTROL` u8, `HEARTBEAT` u16 |
+//!
+//! `0x180 + n` carries the low byte of `STATUS`; the v2 bits 8… (`BOARD_RESTARTED`) travel in
+//! the `0x300 + n` frame. A v1 board sends no `0x300`/`0x380` frames.
 
 use crate::{BoardStatus, ControlBits};
 
@@ -15,6 +20,10 @@ pub const STATUS_A_BASE: u16 = 0x180;
 pub const STATUS_B_BASE: u16 = 0x280;
 /// Base id of the command frame (`0x200 + n`).
 pub const COMMAND_BASE: u16 = 0x200;
+/// Base id of the v2 NC-context frame (`0x300 + n`).
+pub const CONTEXT_BASE: u16 = 0x300;
+/// Base id of the v2 identity frame (`0x380 + n`, once a second).
+pub const IDENTITY_BASE: u16 = 0x380;
 /// Allowed node ids (so that every id stays a distinct 11-bit identifier).
 pub const NODE_RANGE: core::ops::RangeInclusive<u8> = 1..=127;
 
@@ -27,6 +36,10 @@ pub struct NodeIds {
     pub status_b: u16,
     /// `0x200 + n`, PC → board.
     pub command: u16,
+    /// `0x300 + n`, board → PC (v2).
+    pub context: u16,
+    /// `0x380 + n`, board → PC (v2, once a second).
+    pub identity: u16,
 }
 
 impl NodeIds {
@@ -38,6 +51,8 @@ impl NodeIds {
                 status_a: STATUS_A_BASE + n,
                 status_b: STATUS_B_BASE + n,
                 command: COMMAND_BASE + n,
+                context: CONTEXT_BASE + n,
+                identity: IDENTITY_BASE + n,
             }
         })
     }
@@ -70,12 +85,12 @@ fn pct_u8(field: &'static str, value: u16) -> Result<u8, CanCodecError> {
     u8::try_from(value).map_err(|_| CanCodecError::OutOfRange { field, value })
 }
 
-/// Encode a status block as the two board → PC payloads (`0x180+n`, `0x280+n`).
+/// Encode a status block as the two board → PC payloads (`0x180+n`, `0x280+n`); the
+/// `0x180+n` frame carries the low byte of `STATUS`.
 pub fn encode_status(s: &BoardStatus) -> Result<([u8; 8], [u8; 8]), CanCodecError> {
     let regs = s.to_input_registers();
-    let status = pct_u8("STATUS", regs[0])?;
     let mut a = [0u8; 8];
-    a[0] = status;
+    a[0] = (regs[0] & 0xFF) as u8;
     a[1] = pct_u8("OVERRIDE_APPLIED", s.override_applied_pct)?;
     a[2] = pct_u8("OPERATOR_OVERRIDE", s.operator_override_pct)?;
     a[3] = pct_u8("OVERRIDE_STEP", s.override_step_pct)?;
@@ -87,7 +102,65 @@ pub fn encode_status(s: &BoardStatus) -> Result<([u8; 8], [u8; 8]), CanCodecErro
     Ok((a, b))
 }
 
-/// Decode the two board → PC payloads into a status block.
+/// Encode the v2 NC-context payload (`0x300+n`): tool, actual feed, block, the clamp and
+/// the high byte of `STATUS`.
+pub fn encode_context(s: &BoardStatus) -> Result<[u8; 8], CanCodecError> {
+    let regs = s.to_input_registers();
+    let mut c = [0u8; 8];
+    c[0..2].copy_from_slice(&s.tool_number.to_le_bytes());
+    c[2..4].copy_from_slice(&s.actual_feed_mm_min.to_le_bytes());
+    c[4..6].copy_from_slice(&s.block_number.to_le_bytes());
+    c[6] = pct_u8("FALLBACK_OVERRIDE", s.fallback_override_pct)?;
+    c[7] = (regs[0] >> 8) as u8;
+    Ok(c)
+}
+
+/// Decode a v2 NC-context payload (`0x300+n`) into `status` (tool, actual feed, block,
+/// clamp, and `STATUS` bits 8…15: `BOARD_RESTARTED`).
+pub fn decode_context(
+    ids: NodeIds,
+    data: &[u8],
+    status: &mut BoardStatus,
+) -> Result<(), CanCodecError> {
+    let c: &[u8; 8] = data.try_into().map_err(|_| CanCodecError::Length {
+        id: ids.context,
+        expected: 8,
+        received: data.len(),
+    })?;
+    let mut regs = status.to_input_registers();
+    regs[0] = (regs[0] & 0x00FF) | (u16::from(c[7]) << 8);
+    regs[10] = u16::from_le_bytes([c[0], c[1]]);
+    regs[13] = u16::from_le_bytes([c[2], c[3]]);
+    regs[12] = u16::from_le_bytes([c[4], c[5]]);
+    regs[14] = u16::from(c[6]);
+    *status = BoardStatus::from_input_registers(&regs);
+    Ok(())
+}
+
+/// Encode the v2 identity payload (`0x380+n`, once a second): protocol version and
+/// program number.
+pub fn encode_identity(s: &BoardStatus) -> [u8; 8] {
+    let mut d = [0u8; 8];
+    d[0..2].copy_from_slice(&s.protocol_version.to_le_bytes());
+    d[2..4].copy_from_slice(&s.program_number.to_le_bytes());
+    d
+}
+
+/// Decode a v2 identity payload (`0x380+n`): `(PROTOCOL_VERSION, PROGRAM_NUMBER)`.
+pub fn decode_identity(ids: NodeIds, data: &[u8]) -> Result<(u16, u16), CanCodecError> {
+    let d: &[u8; 8] = data.try_into().map_err(|_| CanCodecError::Length {
+        id: ids.identity,
+        expected: 8,
+        received: data.len(),
+    })?;
+    Ok((
+        u16::from_le_bytes([d[0], d[1]]),
+        u16::from_le_bytes([d[2], d[3]]),
+    ))
+}
+
+/// Decode the two board → PC payloads into a status block (the v1 fields; the v2 fields
+/// come from [`decode_context`] and [`decode_identity`] and read as unknown until then).
 pub fn decode_status(ids: NodeIds, a: &[u8], b: &[u8]) -> Result<BoardStatus, CanCodecError> {
     let a: &[u8; 8] = a.try_into().map_err(|_| CanCodecError::Length {
         id: ids.status_a,
@@ -100,7 +173,8 @@ pub fn decode_status(ids: NodeIds, a: &[u8], b: &[u8]) -> Result<BoardStatus, Ca
         received: b.len(),
     })?;
     let power = u32::from_le_bytes([a[4], a[5], a[6], a[7]]);
-    let regs = [
+    let mut regs = [0u16; crate::regs::input::COUNT as usize];
+    regs[..9].copy_from_slice(&[
         u16::from(a[0]),
         u16::from(a[1]),
         u16::from(a[2]),
@@ -110,7 +184,8 @@ pub fn decode_status(ids: NodeIds, a: &[u8], b: &[u8]) -> Result<BoardStatus, Ca
         u16::from_le_bytes([b[0], b[1]]),
         u16::from_le_bytes([b[2], b[3]]),
         u16::from_le_bytes([b[4], b[5]]),
-    ];
+    ]);
+    regs[crate::regs::input::FALLBACK_OVERRIDE as usize] = crate::regs::FALLBACK_NONE_PCT;
     Ok(BoardStatus::from_input_registers(&regs))
 }
 
@@ -154,6 +229,8 @@ mod tests {
         status_a: 0x181,
         status_b: 0x281,
         command: 0x201,
+        context: 0x301,
+        identity: 0x381,
     };
 
     #[test]
@@ -198,6 +275,59 @@ mod tests {
             (6000, 0x1234, 1200)
         );
         assert_eq!(encode_status(&s), Ok((a, b)));
+    }
+
+    #[test]
+    fn v2_frames_byte_layout() {
+        let mut s = BoardStatus {
+            acc_switch: true,
+            fallback_active: true,
+            board_restarted: true,
+            ..BoardStatus::default()
+        };
+        s.tool_number = 12;
+        s.actual_feed_mm_min = 720;
+        s.block_number = 0x1234;
+        s.fallback_override_pct = 90;
+        s.protocol_version = 2;
+        s.program_number = 4711;
+        let (a, _) = encode_status(&s).expect("encode");
+        assert_eq!(a[0], 0x81); // ACC_SWITCH | FALLBACK_ACTIVE: low byte only
+        let c = encode_context(&s).expect("context");
+        assert_eq!(c, [12, 0, 0xD0, 0x02, 0x34, 0x12, 90, 0x01]);
+        let d = encode_identity(&s);
+        assert_eq!(d, [2, 0, 0x67, 0x12, 0, 0, 0, 0]);
+        let (a, b) = encode_status(&s).expect("encode");
+        let mut back = decode_status(IDS, &a, &b).expect("decode");
+        // The v1 frames alone: bit 7 is in frame A; no clamp value, version unknown.
+        assert!(back.fallback_active && !back.board_restarted && !back.is_v2());
+        assert_eq!(back.fallback_override_pct, 150);
+        decode_context(IDS, &c, &mut back).expect("context");
+        let (version, program) = decode_identity(IDS, &d).expect("identity");
+        back.protocol_version = version;
+        back.program_number = program;
+        // The context frame brings STATUS bit 8 and keeps bit 7 of frame A.
+        assert!(back.board_restarted && back.fallback_active);
+        assert_eq!(
+            (back.tool_number, back.actual_feed_mm_min, back.block_number),
+            (12, 720, 0x1234)
+        );
+        assert_eq!(
+            (
+                back.fallback_override_pct,
+                back.protocol_version,
+                back.program_number
+            ),
+            (90, 2, 4711)
+        );
+        assert_eq!(
+            decode_context(IDS, &[0; 7], &mut back),
+            Err(CanCodecError::Length {
+                id: 0x301,
+                expected: 8,
+                received: 7
+            })
+        );
     }
 
     #[test]

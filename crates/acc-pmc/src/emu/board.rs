@@ -352,6 +352,7 @@ impl BoardLogic {
             self.heartbeat,
             control,
             self.watchdog_ms,
+            crate::regs::FallbackMode::default().to_register(),
         ]
     }
 
@@ -378,6 +379,15 @@ impl BoardLogic {
             spindle_rpm: self.spindle_rpm,
             sample_seq: self.sample_seq,
             programmed_feed_mm_min: self.programmed_feed_mm_min,
+            // TODO(v2): the emulator's v2 behaviour (clamp, context registers).
+            fallback_active: false,
+            board_restarted: false,
+            protocol_version: 0,
+            tool_number: 0,
+            program_number: 0,
+            block_number: 0,
+            actual_feed_mm_min: 0,
+            fallback_override_pct: crate::regs::FALLBACK_NONE_PCT,
         }
     }
 
@@ -629,25 +639,25 @@ mod tests {
             values: vec![50, 9, 1, 50],
         };
         assert_eq!(b.handle(req, 3), Err(Exception::IllegalDataValue));
-        assert_eq!(b.holding_registers(), [120, 7, 1, 500]);
+        assert_eq!(b.holding_registers(), [120, 7, 1, 500, 1]);
     }
 
     #[test]
     fn addresses_outside_the_map_are_exception_02() {
         let mut b = BoardLogic::default();
         let cases = [
-            Request::ReadInput { addr: 9, count: 1 },
-            Request::ReadInput { addr: 0, count: 10 },
-            Request::ReadInput { addr: 8, count: 2 },
-            Request::ReadHolding { addr: 4, count: 1 },
+            Request::ReadInput { addr: 15, count: 1 },
+            Request::ReadInput { addr: 0, count: 16 },
+            Request::ReadInput { addr: 14, count: 2 },
+            Request::ReadHolding { addr: 5, count: 1 },
             Request::ReadHolding {
                 addr: 65535,
                 count: 2,
             },
-            Request::WriteSingle { addr: 4, value: 0 },
+            Request::WriteSingle { addr: 5, value: 0 },
             Request::WriteMultiple {
-                addr: 3,
-                values: vec![500, 0],
+                addr: 4,
+                values: vec![1, 0],
             },
         ];
         for req in cases {
@@ -657,7 +667,7 @@ mod tests {
                 "{req:?}"
             );
         }
-        assert_eq!(b.holding_registers(), [100, 0, 0, 500]);
+        assert_eq!(b.holding_registers(), [100, 0, 0, 500, 1]);
     }
 
     #[test]
@@ -806,7 +816,7 @@ mod tests {
         b.tick(2000);
         assert!(b.status().watchdog_tripped);
         b.power_cycle();
-        assert_eq!(b.holding_registers(), [100, 0, 0, 500]);
+        assert_eq!(b.holding_registers(), [100, 0, 0, 500, 1]);
         let s = b.status();
         assert!(!s.watchdog_tripped && !s.acc_active && !s.feed_hold_active);
         assert!(s.acc_switch);

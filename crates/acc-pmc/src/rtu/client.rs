@@ -6,8 +6,8 @@ use std::time::Duration;
 use super::codec::{BuildError, Decoded, FrameError, ProtocolError, Transaction};
 use super::is_idle;
 use crate::clock::{Clock, SystemClock};
-use crate::regs::{holding, input};
-use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
+use crate::regs::{holding, input, FallbackMode};
+use crate::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
 
 /// Link parameters of [`RtuBoard`] (validated from the `[board]` config by
 /// [`crate::serial::RtuConfig::validate`]).
@@ -144,6 +144,7 @@ pub struct RtuBoard<T: Read + Write> {
     clock: Box<dyn Clock>,
     stats: LinkStats,
     resync: bool,
+    protocol: Option<BoardProtocol>,
 }
 
 impl<T: Read + Write> std::fmt::Debug for RtuBoard<T> {
@@ -169,6 +170,7 @@ impl<T: Read + Write> RtuBoard<T> {
             clock,
             stats: LinkStats::default(),
             resync: false,
+            protocol: None,
         }
     }
 
@@ -192,14 +194,31 @@ impl<T: Read + Write> RtuBoard<T> {
         self.port
     }
 
-    /// FC03: read holding registers 0…3 (`OVERRIDE_CMD`, `HEARTBEAT`, `CONTROL`,
-    /// `WATCHDOG_MS`) — e.g. to see whether the board restarted (all back to defaults).
-    pub fn read_holding(&mut self) -> Result<[u16; holding::COUNT as usize], RtuError> {
-        let tx = Transaction::read_holding_registers(self.cfg.slave, 0, holding::COUNT)?;
-        let regs = self.registers(&tx)?;
-        let mut out = [0u16; holding::COUNT as usize];
-        out.copy_from_slice(&regs);
-        Ok(out)
+    /// FC03: read the holding registers — 0…4 on a v2 board (`OVERRIDE_CMD`, `HEARTBEAT`,
+    /// `CONTROL`, `WATCHDOG_MS`, `FALLBACK_MODE`), 0…3 on a v1 board (detected as in
+    /// [`Board::read_status`]: exception 02 for the v2 register).
+    pub fn read_holding(&mut self) -> Result<Vec<u16>, RtuError> {
+        if self.protocol != Some(BoardProtocol::V1) {
+            let tx = Transaction::read_holding_registers(self.cfg.slave, 0, holding::COUNT)?;
+            match self.registers(&tx) {
+                Err(e) if e.kind() == BoardErrorKind::Exception(2) => {
+                    self.protocol = Some(BoardProtocol::V1);
+                }
+                other => return other,
+            }
+        }
+        let tx = Transaction::read_holding_registers(self.cfg.slave, 0, holding::V1_COUNT)?;
+        self.registers(&tx)
+    }
+
+    /// FC06: set `FALLBACK_MODE` (v2 only; a v1 board answers exception 02).
+    pub fn write_fallback_mode(&mut self, mode: FallbackMode) -> Result<(), RtuError> {
+        let tx = Transaction::write_single_register(
+            self.cfg.slave,
+            holding::FALLBACK_MODE,
+            mode.to_register(),
+        )?;
+        self.transact(&tx).map(|_| ())
     }
 
     /// FC06: set `WATCHDOG_MS` (100…5000 ms; the board answers exception 03 otherwise).
@@ -328,14 +347,46 @@ impl<T: Read + Write> RtuBoard<T> {
 impl<T: Read + Write> Board for RtuBoard<T> {
     type Error = RtuError;
 
-    /// FC04 registers 0…8, decoded as read (`SAMPLE_SEQ` staleness is the fault policy's
-    /// to judge).
+    /// FC04 registers 0…14 (v2) or 0…8 (v1), decoded as read (`SAMPLE_SEQ` staleness is the
+    /// fault policy's to judge).
+    ///
+    /// Protocol detection: until the board is known to be v1, the link reads 0…14. A v2
+    /// board answers `PROTOCOL_VERSION` ≥ 2. Exception 02 (a v1 board without registers
+    /// 9…14) or a version of 0/1 (a v1 board answering zeros) makes the link a v1 link from
+    /// then on: it reads 0…8 and the v2 fields read as unknown
+    /// ([`BoardStatus::from_v1_input_registers`]).
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
-        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
+        if self.protocol != Some(BoardProtocol::V1) {
+            let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
+            match self.registers(&tx) {
+                Ok(regs) => {
+                    let mut block = [0u16; input::COUNT as usize];
+                    block.copy_from_slice(&regs);
+                    let status = BoardStatus::from_input_registers(&block);
+                    if status.is_v2() {
+                        self.protocol = Some(BoardProtocol::V2);
+                        return Ok(status);
+                    }
+                    self.protocol = Some(BoardProtocol::V1);
+                    let mut v1 = [0u16; input::V1_COUNT as usize];
+                    v1.copy_from_slice(&block[..input::V1_COUNT as usize]);
+                    return Ok(BoardStatus::from_v1_input_registers(&v1));
+                }
+                Err(e) if e.kind() == BoardErrorKind::Exception(2) => {
+                    self.protocol = Some(BoardProtocol::V1);
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::V1_COUNT)?;
         let regs = self.registers(&tx)?;
-        let mut block = [0u16; input::COUNT as usize];
+        let mut block = [0u16; input::V1_COUNT as usize];
         block.copy_from_slice(&regs);
-        Ok(BoardStatus::from_input_registers(&block))
+        Ok(BoardStatus::from_v1_input_registers(&block))
+    }
+
+    fn protocol(&self) -> Option<BoardProtocol> {
+        self.protocol
     }
 
     /// FC16 registers 0…1 (`OVERRIDE_CMD`, `HEARTBEAT`).
