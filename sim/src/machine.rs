@@ -163,6 +163,9 @@ pub struct Machine {
     delay_steps: usize,
     override_input_pct: u16,
     feed_hold: bool,
+    /// Multiplier on the material's `Ks` (a hard spot injected by a fault schedule), 1 =
+    /// the workpiece as specified.
+    hardness_factor: f64,
     t_s: f64,
     x_mm: f64,
     feed_mm_min: f64,
@@ -225,6 +228,7 @@ impl Machine {
             delay_steps,
             override_input_pct: 100,
             feed_hold: false,
+            hardness_factor: 1.0,
             t_s: 0.0,
             x_mm: 0.0,
             feed_mm_min: 0.0,
@@ -250,6 +254,16 @@ impl Machine {
     /// Assert or release the NC's feed hold (feed target 0 while held).
     pub fn set_feed_hold(&mut self, hold: bool) {
         self.feed_hold = hold;
+    }
+
+    /// Multiply the material's specific cutting force `Ks` by `factor` from now on (a hard
+    /// spot or inclusion the workpiece file does not describe; `acc board-sim --fault
+    /// hard@T:S:F`). Non-finite or non-positive factors are ignored; 1 restores the
+    /// workpiece as specified.
+    pub fn set_hardness_factor(&mut self, factor: f64) {
+        if factor.is_finite() && factor > 0.0 {
+            self.hardness_factor = factor;
+        }
     }
 
     /// Programmed feed of the NC block, mm/min.
@@ -345,7 +359,7 @@ impl Machine {
                 ap,
                 self.feed_mm_min,
                 rpm,
-                eng.ks_factor * self.wear.factor(),
+                eng.ks_factor * self.wear.factor() * self.hardness_factor,
             );
             let th0 = self.spindle_angle_rad;
             let th1 = th0 + rpm / 60.0 * 2.0 * PI * dt;
@@ -476,6 +490,49 @@ mod tests {
             ..r
         }));
         assert_eq!(null, truth);
+    }
+
+    #[test]
+    fn a_hard_spot_scales_the_force_by_its_factor_until_restored() {
+        let dir = configs_dir();
+        let spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+        let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
+        let mut plain = Machine::new(
+            &spec,
+            &tool,
+            WearSpec::default(),
+            wp.clone(),
+            ForceModel::Mean,
+            200.0,
+        );
+        let mut hard = Machine::new(
+            &spec,
+            &tool,
+            WearSpec::default(),
+            wp,
+            ForceModel::Mean,
+            200.0,
+        );
+        for _ in 0..150 {
+            plain.advance(0.1);
+            hard.advance(0.1);
+        }
+        hard.set_hardness_factor(2.5);
+        hard.set_hardness_factor(f64::NAN); // ignored
+        hard.set_hardness_factor(-1.0); // ignored
+        let (p, h) = (
+            plain.advance(0.1).force_mean_n,
+            hard.advance(0.1).force_mean_n,
+        );
+        assert!(p > 100.0, "cutting: {p}");
+        assert!((h / p - 2.5).abs() < 1e-9, "{h} / {p}");
+        hard.set_hardness_factor(1.0);
+        let (p, h) = (
+            plain.advance(0.1).force_mean_n,
+            hard.advance(0.1).force_mean_n,
+        );
+        assert!((h - p).abs() < 1e-9 * p, "{h} vs {p}");
     }
 
     #[test]

@@ -6,6 +6,7 @@ mod cmd_board_sim;
 mod cmd_compare;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
+mod cmd_fault_matrix;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_stability;
@@ -47,6 +48,11 @@ enum Command {
     /// Serve the board protocol on a new pty (prints its path) or a given port, backed by
     /// the simulated machine running in step with real time.
     BoardSim(cmd_board_sim::BoardSimArgs),
+    /// The reliability fault matrix: every fault (signals, kill -9, hang, cable, device,
+    /// board restart, CRC, late replies, stale or bad power, knob, lock, overload) driven at
+    /// the deepest cut of a real `acc run` against `acc board-sim`, on a v2 and a v1 board;
+    /// the table of override and force before/after, log completeness and exit codes.
+    FaultMatrix(cmd_fault_matrix::FaultMatrixArgs),
 }
 
 /// Exit code for a failed command (bad config, bad file, link error, ...).
@@ -94,5 +100,6 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => cmd_run::run_cmd(&args),
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),
+        Command::FaultMatrix(args) => cmd_fault_matrix::run_cmd(&args),
     }
 }

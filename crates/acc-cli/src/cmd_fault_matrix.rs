@@ -1,0 +1,810 @@
+//! `acc fault-matrix`: every fault of the reliability table, driven at the worst moment of
+//! a real closed loop, on a v2 and on a v1 board, measured on the machine side.
+//!
+//! Each row is one production run: `acc board-sim` (this same binary) serves the simulated
+//! machine of paper case III on a new pty, `acc run` drives it, and the fault hits at
+//! `--at-s` of machine time, deep in the 4 mm step where the override and the force are at
+//! their highest. Board faults are `acc board-sim --fault` schedules; process faults are real
+//! signals sent to the `acc run` process when the board reports the moment. The row is then
+//! judged from the two run logs:
+//!
+//! - **last cmd**: the override ACC last commanded before the fault (the board's
+//!   `OVERRIDE_CMD` in the last period it was `ACC_ACTIVE`);
+//! - **max applied after**: the largest override on the PMC inputs in the window after the
+//!   fault while the feed was not held (in feed hold the axes stand still, whatever the
+//!   override);
+//! - **force before / after**: the largest true cutting force (the simulator's) in the
+//!   `--before-s` before the fault and in the window after it;
+//! - **log complete**: `acc run`'s log has one row for every period from the first to the last
+//!   (`period` consecutive), skipped and faulty ones included;
+//! - **exit**: `acc run`'s exit code (or the signal that ended it).
+//!
+//! Pass: max applied after ≤ last cmd, force after ≤ 1.05 × force before, log complete. A
+//! row no controller can make safe (a v1 board has no fallback clamp) is marked with why;
+//! the NC's own override lock is reported, not judged (the NC ignores the override inputs).
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use acc_runtime::record::{read_run_log, RunRecord};
+use anyhow::{bail, Context};
+
+/// Arguments of `acc fault-matrix`.
+#[derive(Debug, clap::Args)]
+pub struct FaultMatrixArgs {
+    /// Output directory: `fault-matrix.md` (the table), `fault-matrix.json`, and one folder
+    /// of logs per row.
+    #[arg(long, default_value = "out/fault-matrix")]
+    pub out: PathBuf,
+    /// Replace the table between `<!-- fault-matrix:begin -->` and `<!-- fault-matrix:end -->`
+    /// in this markdown file (e.g. `docs/reliability.md`).
+    #[arg(long)]
+    pub update_doc: Option<PathBuf>,
+    /// Board protocols to test: `2`, `1` or `both`.
+    #[arg(long, default_value = "both")]
+    pub protocol: String,
+    /// Only these faults (repeatable; names as in the table's first column).
+    #[arg(long = "only")]
+    pub only: Vec<String>,
+    /// Scenario served by `acc board-sim`.
+    #[arg(long, default_value = "configs/scenarios/paper_case3.toml")]
+    pub scenario: PathBuf,
+    /// `acc run` configuration (its `runtime.time_scale` must equal `--time-scale`).
+    #[arg(long, default_value = "configs/runtime/fault_matrix.toml")]
+    pub config: PathBuf,
+    /// Machine seconds per wall second for both processes (1 ..= 20).
+    #[arg(long, default_value_t = 10.0)]
+    pub time_scale: f64,
+    /// Machine time of the fault, s (paper case III: the 4 mm step runs from about 31 s to
+    /// 55 s).
+    #[arg(long, default_value_t = 40.0)]
+    pub at_s: f64,
+    /// Window before the fault for the reference force, s of machine time.
+    #[arg(long, default_value_t = 2.0)]
+    pub before_s: f64,
+    /// Window after the fault, s of machine time.
+    #[arg(long, default_value_t = 6.0)]
+    pub after_s: f64,
+}
+
+/// How a fault is brought about.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Action {
+    /// A signal to `acc run` at the moment (`SIGINT`, `SIGTERM`, `SIGKILL`).
+    Signal(&'static str),
+    /// Two `SIGINT`s, 0.5 s of machine time apart.
+    DoubleSigint,
+    /// `SIGSTOP` for this many s of machine time, then `SIGCONT` (the controller hangs: the
+    /// board's watchdog trips).
+    Hang(f64),
+    /// An `acc board-sim --fault` at the moment; `{t}` in the text is replaced by the time.
+    Board(&'static str),
+}
+
+/// One fault of the matrix.
+#[derive(Debug, Clone, Copy)]
+struct Fault {
+    name: &'static str,
+    what: &'static str,
+    action: Action,
+    /// Why a v1 board cannot be made safe against it (`None`: it must pass on v1 too).
+    v1_unsafe: Option<&'static str>,
+    /// Not judged: the NC itself ignores the override inputs.
+    not_judged: Option<&'static str>,
+}
+
+const NO_CLAMP: &str = "v1 board: no fallback clamp; with the controller gone the board falls back to the operator's knob (100 %)";
+
+const FAULTS: &[Fault] = &[
+    Fault {
+        name: "sigint",
+        what: "Ctrl-C to acc run",
+        action: Action::Signal("INT"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "sigterm",
+        what: "SIGTERM to acc run",
+        action: Action::Signal("TERM"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "sigint-twice",
+        what: "a second Ctrl-C 0.5 s later",
+        action: Action::DoubleSigint,
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "sigkill",
+        what: "kill -9 acc run",
+        action: Action::Signal("KILL"),
+        v1_unsafe: Some(NO_CLAMP),
+        not_judged: None,
+    },
+    Fault {
+        name: "watchdog",
+        what: "acc run hangs 2 s (SIGSTOP/SIGCONT): the board's watchdog trips",
+        action: Action::Hang(2.0),
+        v1_unsafe: Some(NO_CLAMP),
+        not_judged: None,
+    },
+    Fault {
+        name: "cable-pulled",
+        what: "the line goes dead for 3 s (no replies), then comes back",
+        action: Action::Board("unplug@{t}:3"),
+        v1_unsafe: Some(NO_CLAMP),
+        not_judged: None,
+    },
+    Fault {
+        name: "device-vanished",
+        what: "the serial device disappears for good",
+        action: Action::Board("unplug@{t}"),
+        v1_unsafe: Some(NO_CLAMP),
+        not_judged: None,
+    },
+    Fault {
+        name: "board-restart",
+        what: "the board power-cycles",
+        action: Action::Board("restart@{t}"),
+        v1_unsafe: Some("v1 board: it comes up at the operator's knob, with no feed hold at power-up, for the period before the controller sees it"),
+        not_judged: None,
+    },
+    Fault {
+        name: "crc",
+        what: "20 replies with a bad CRC",
+        action: Action::Board("crc@{t}:20"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "late",
+        what: "20 replies late (after the timeout)",
+        action: Action::Board("late@{t}:20"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "frozen-seq",
+        what: "SAMPLE_SEQ frozen for 3 s (stale power sensor)",
+        action: Action::Board("freeze-seq@{t}:3"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "bad-power",
+        what: "power register 0xFFFFFFFF (implausible) for 3 s",
+        action: Action::Board("bad-power@{t}:3"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "knob-down",
+        what: "the operator turns the knob from 100 % to 60 %",
+        action: Action::Board("operator@{t}:60"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "override-locked",
+        what: "the NC locks the override for 3 s (tapping, override cancel)",
+        action: Action::Board("lock@{t}:3"),
+        v1_unsafe: None,
+        not_judged: Some("the NC forces 100 % itself (OVERRIDE_LOCKED): the board reports it, no controller can change it"),
+    },
+    Fault {
+        name: "overload",
+        what: "a hard spot: the material's Ks × 2.5 for 2 s",
+        action: Action::Board("hard@{t}:2:2.5"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+];
+
+/// The measured outcome of one row.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Row {
+    /// Fault name.
+    pub fault: String,
+    /// What the fault is.
+    pub what: String,
+    /// Board protocol, 1 or 2.
+    pub protocol: u8,
+    /// Machine time the fault hit, s.
+    pub t_fault_s: Option<f64>,
+    /// Last override ACC commanded before the fault, percent.
+    pub last_cmd_pct: Option<u16>,
+    /// Largest applied override after the fault while the feed was not held, percent.
+    pub max_applied_after_pct: Option<u16>,
+    /// Largest true force in the window before the fault, N.
+    pub force_before_n: f64,
+    /// Largest true force in the window after the fault, N.
+    pub force_after_n: f64,
+    /// The feed was held (feed hold active) at some point after the fault.
+    pub feed_hold_after: bool,
+    /// `acc run`'s log rows, and whether every period from first to last has one.
+    pub log_rows: usize,
+    /// Every period has a row.
+    pub log_complete: bool,
+    /// `acc run`'s exit: code, or `signal N`, or `stopped by the harness (code)`.
+    pub exit: String,
+    /// `pass`, `FAIL: …`, `unsafe on v1: …` or `not judged: …`.
+    pub verdict: String,
+    /// The row passed (or is marked with a reason).
+    pub ok: bool,
+}
+
+/// `acc fault-matrix`.
+pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
+    if !(args.time_scale.is_finite() && (1.0..=20.0).contains(&args.time_scale)) {
+        bail!("--time-scale {}: allowed 1 ..= 20", args.time_scale);
+    }
+    let protocols: &[u8] = match args.protocol.as_str() {
+        "both" => &[2, 1],
+        "2" => &[2],
+        "1" => &[1],
+        p => bail!("--protocol {p}: allowed 2, 1 or both"),
+    };
+    for o in &args.only {
+        if !FAULTS.iter().any(|f| f.name == o) {
+            let names: Vec<_> = FAULTS.iter().map(|f| f.name).collect();
+            bail!(
+                "--only {o}: not a fault of the matrix; allowed: {}",
+                names.join(", ")
+            );
+        }
+    }
+    for (flag, v) in [
+        ("--at-s", args.at_s),
+        ("--before-s", args.before_s),
+        ("--after-s", args.after_s),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v <= 600.0) {
+            bail!("{flag} {v}: allowed 0 < s <= 600");
+        }
+    }
+    for (what, p) in [("--scenario", &args.scenario), ("--config", &args.config)] {
+        if !p.is_file() {
+            bail!("{what} {}: no such file", p.display());
+        }
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let faults: Vec<&Fault> = FAULTS
+        .iter()
+        .filter(|f| args.only.is_empty() || args.only.iter().any(|o| o == f.name))
+        .collect();
+    let total = faults.len() * protocols.len();
+    let mut rows = Vec::new();
+    let started = Instant::now();
+    for &protocol in protocols {
+        for f in &faults {
+            let dir = args.out.join(format!("v{protocol}-{}", f.name));
+            std::fs::create_dir_all(&dir)?;
+            eprint!(
+                "[{:>2}/{total}] v{protocol} {:<16} ",
+                rows.len() + 1,
+                f.name
+            );
+            std::io::stderr().flush().ok();
+            let row = run_row(args, f, protocol, &dir)
+                .with_context(|| format!("fault-matrix row v{protocol} {}", f.name))?;
+            eprintln!(
+                "{} ({:.0} s elapsed)",
+                row.verdict,
+                started.elapsed().as_secs_f64()
+            );
+            rows.push(row);
+        }
+    }
+    let table = markdown(&rows, args);
+    std::fs::write(args.out.join("fault-matrix.md"), &table)?;
+    std::fs::write(
+        args.out.join("fault-matrix.json"),
+        serde_json::to_string_pretty(&rows)?,
+    )?;
+    println!("{table}");
+    if let Some(doc) = &args.update_doc {
+        update_doc(doc, &table)?;
+        eprintln!("fault-matrix: table written into {}", doc.display());
+    }
+    let failed: Vec<_> = rows.iter().filter(|r| !r.ok).collect();
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} rows failed: {}",
+            failed.len(),
+            rows.len(),
+            failed
+                .iter()
+                .map(|r| format!("v{} {}", r.protocol, r.fault))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// A child `acc` process with its stderr lines collected on a thread.
+struct Proc {
+    child: Child,
+    lines: mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Proc {
+    fn spawn(args: &[String], dir: &Path, name: &str) -> anyhow::Result<(Proc, Option<String>)> {
+        let exe = std::env::current_exe().context("path of the acc binary")?;
+        let stdout_file = std::fs::File::create(dir.join(format!("{name}.stdout")))?;
+        let mut cmd = Command::new(exe);
+        cmd.args(args).stderr(Stdio::piped());
+        let first_line = name == "board-sim";
+        if first_line {
+            cmd.stdout(Stdio::piped());
+        } else {
+            cmd.stdout(stdout_file);
+        }
+        let mut child = cmd
+            .spawn()
+            .with_context(|| format!("starting acc {name}"))?;
+        let (tx, rx) = mpsc::channel();
+        let err = child.stderr.take().context("stderr piped")?;
+        let mut copy = std::fs::File::create(dir.join(format!("{name}.stderr")))?;
+        std::thread::spawn(move || {
+            for line in BufReader::new(err).lines().map_while(Result::ok) {
+                let _ = writeln!(copy, "{line}");
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let path = if first_line {
+            let out = child.stdout.take().context("stdout piped")?;
+            let mut line = String::new();
+            BufReader::new(out).read_line(&mut line)?;
+            Some(line.trim().to_string())
+        } else {
+            None
+        };
+        Ok((
+            Proc {
+                child,
+                lines: rx,
+                seen: Vec::new(),
+            },
+            path,
+        ))
+    }
+
+    /// Wait for a stderr line containing `needle`; returns it.
+    fn wait_for(&mut self, needle: &str, timeout: Duration) -> Option<String> {
+        let end = Instant::now() + timeout;
+        loop {
+            if let Some(l) = self.seen.iter().find(|l| l.contains(needle)) {
+                return Some(l.clone());
+            }
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return None;
+            }
+            match self.lines.recv_timeout(left.min(Duration::from_millis(50))) {
+                Ok(l) => self.seen.push(l),
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return self.seen.iter().find(|l| l.contains(needle)).cloned()
+                }
+            }
+        }
+    }
+
+    /// Send a signal by name (`INT`, `TERM`, `KILL`, `STOP`, `CONT`) with kill(1).
+    fn signal(&self, sig: &str) {
+        let _ = Command::new("kill")
+            .args(["-s", sig, &self.child.id().to_string()])
+            .status();
+    }
+
+    /// Wait for the exit at most `timeout`; `None` if still running.
+    fn wait(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
+        let end = Instant::now() + timeout;
+        loop {
+            if let Ok(Some(st)) = self.child.try_wait() {
+                return Some(st);
+            }
+            if Instant::now() > end {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+fn describe(st: std::process::ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    match (st.code(), st.signal()) {
+        (Some(c), _) => c.to_string(),
+        (None, Some(9)) => "killed (SIGKILL)".into(),
+        (None, Some(s)) => format!("signal {s}"),
+        (None, None) => "?".into(),
+    }
+}
+
+fn s(v: impl ToString) -> String {
+    v.to_string()
+}
+
+fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyhow::Result<Row> {
+    let machine_log = dir.join("machine.csv");
+    let run_log = dir.join("run.csv");
+    let at = args.at_s;
+    let scale = args.time_scale;
+    let wall = |machine_s: f64| Duration::from_secs_f64(machine_s / scale);
+    // The moment: a board fault at `at`, or a marker (the knob set to where it is) for the
+    // process faults.
+    let fault_spec = match f.action {
+        Action::Board(spec) => spec.replace("{t}", &format!("{at}")),
+        _ => format!("operator@{at}:100"),
+    };
+    let mut bargs = vec![
+        s("board-sim"),
+        s("--scenario"),
+        args.scenario.to_string_lossy().into_owned(),
+        s("--time-scale"),
+        format!("{scale}"),
+        s("--baud"),
+        s("115200"),
+        s("--wait-for-controller"),
+        s("--protocol"),
+        protocol.to_string(),
+        s("--log"),
+        machine_log.to_string_lossy().into_owned(),
+        s("--fault"),
+        fault_spec,
+        s("--late-ms"),
+        s("30"),
+    ];
+    if protocol == 1 {
+        bargs.extend([s("--v1-registers"), s("exception")]);
+    }
+    let (mut board, pty) = Proc::spawn(&bargs, dir, "board-sim")?;
+    let pty = pty.filter(|p| p.starts_with('/')).with_context(|| {
+        format!(
+            "acc board-sim printed no pty path; its stderr is in {}",
+            dir.join("board-sim.stderr").display()
+        )
+    })?;
+    let rargs = vec![
+        s("run"),
+        s("--config"),
+        args.config.to_string_lossy().into_owned(),
+        s("--port"),
+        pty,
+        s("--log"),
+        run_log.to_string_lossy().into_owned(),
+    ];
+    let (mut run, _) = Proc::spawn(&rargs, dir, "run")?;
+    // Wait for the moment (machine time `at` plus start-up slack).
+    let line = board
+        .wait_for(": fault ", wall(at) + Duration::from_secs(30))
+        .with_context(|| {
+            format!(
+                "acc board-sim never reached t = {at} s; see {}",
+                dir.display()
+            )
+        })?;
+    let t_fault = parse_fault_time(&line);
+    let mut harness_stop = true;
+    match f.action {
+        Action::Signal(sig) => {
+            run.signal(sig);
+            harness_stop = false;
+        }
+        Action::DoubleSigint => {
+            run.signal("INT");
+            std::thread::sleep(wall(0.5));
+            run.signal("INT");
+            harness_stop = false;
+        }
+        Action::Hang(secs) => {
+            run.signal("STOP");
+            std::thread::sleep(wall(secs));
+            run.signal("CONT");
+        }
+        Action::Board(_) => {}
+    }
+    // The window after the fault (and a signalled acc run's drain: at most 10 s + slack).
+    let exit = if harness_stop {
+        let st = run.wait(wall(args.after_s + 0.5));
+        match st {
+            Some(st) => describe(st),
+            None => {
+                run.signal("INT");
+                match run.wait(Duration::from_secs(20)) {
+                    Some(st) => format!("running; stopped by the harness ({})", describe(st)),
+                    None => "hung (killed by the harness)".into(),
+                }
+            }
+        }
+    } else {
+        match run.wait(wall(15.0) + Duration::from_secs(10)) {
+            Some(st) => describe(st),
+            None => "hung (killed by the harness)".into(),
+        }
+    };
+    // Let the machine show what the board does with the controller gone, then stop it.
+    std::thread::sleep(wall(1.0));
+    board.signal("INT");
+    if board.wait(Duration::from_secs(10)).is_none() {
+        board.signal("KILL");
+    }
+    drop(run);
+    drop(board);
+
+    let m = read(&machine_log)?;
+    let r = read(&run_log).unwrap_or_default();
+    Ok(judge(f, protocol, t_fault, &m, &r, exit, args))
+}
+
+fn read(path: &Path) -> anyhow::Result<Vec<RunRecord>> {
+    let file = std::fs::File::open(path).with_context(|| format!("{}", path.display()))?;
+    read_run_log(file).with_context(|| format!("{}", path.display()))
+}
+
+/// `board-sim: t = 40.0 s: fault Operator(100) (scheduled at 40 s)` → 40.0.
+fn parse_fault_time(line: &str) -> Option<f64> {
+    let rest = line.split("t = ").nth(1)?;
+    rest.split(' ').next()?.parse().ok()
+}
+
+fn judge(
+    f: &Fault,
+    protocol: u8,
+    t_fault: Option<f64>,
+    m: &[RunRecord],
+    r: &[RunRecord],
+    exit: String,
+    args: &FaultMatrixArgs,
+) -> Row {
+    let tf = t_fault.unwrap_or(args.at_s);
+    // A machine row covers the period ending at t_s: the fault's period is the first with
+    // t_s > tf.
+    let before: Vec<&RunRecord> = m.iter().filter(|x| x.t_s <= tf).collect();
+    let after: Vec<&RunRecord> = m
+        .iter()
+        .filter(|x| x.t_s > tf && x.t_s <= tf + args.after_s)
+        .collect();
+    let last_cmd = before
+        .iter()
+        .rev()
+        .find(|x| x.state == "acc_active")
+        .and_then(|x| x.override_applied_pct);
+    let max_applied_after = after
+        .iter()
+        .filter(|x| !x.feed_hold)
+        .filter_map(|x| x.override_applied_pct)
+        .max();
+    let force = |x: &&RunRecord| x.force_true_n.unwrap_or(0.0);
+    let force_before = before
+        .iter()
+        .filter(|x| x.t_s > tf - args.before_s)
+        .map(force)
+        .fold(0.0, f64::max);
+    let force_after = after.iter().map(force).fold(0.0, f64::max);
+    let feed_hold_after = after.iter().any(|x| x.feed_hold);
+    let log_complete =
+        !r.is_empty() && r.windows(2).all(|w| w[1].period == w[0].period + 1) && r[0].period == 0;
+
+    let mut problems = Vec::new();
+    if m.is_empty() || after.is_empty() {
+        problems.push("no machine rows after the fault".to_string());
+    }
+    match (last_cmd, max_applied_after) {
+        (Some(c), Some(a)) if a > c => problems.push(format!("override {c} → {a} %")),
+        (None, _) => problems.push("ACC was not active before the fault".into()),
+        _ => {}
+    }
+    if force_after > 1.05 * force_before {
+        problems.push(format!(
+            "force {force_before:.0} → {force_after:.0} N (> 1.05×)"
+        ));
+    }
+    if !log_complete {
+        problems.push("acc run's log misses periods".into());
+    }
+    let (verdict, ok) = if let Some(why) = f.not_judged {
+        (format!("not judged: {why}"), true)
+    } else if problems.is_empty() {
+        ("pass".to_string(), true)
+    } else if protocol == 1 && f.v1_unsafe.is_some() {
+        (
+            format!(
+                "unsafe on v1 ({}): {}",
+                problems.join("; "),
+                f.v1_unsafe.unwrap_or_default()
+            ),
+            true,
+        )
+    } else {
+        (format!("FAIL: {}", problems.join("; ")), false)
+    };
+    Row {
+        fault: f.name.into(),
+        what: f.what.into(),
+        protocol,
+        t_fault_s: t_fault,
+        last_cmd_pct: last_cmd,
+        max_applied_after_pct: max_applied_after,
+        force_before_n: force_before,
+        force_after_n: force_after,
+        feed_hold_after,
+        log_rows: r.len(),
+        log_complete,
+        exit,
+        verdict,
+        ok,
+    }
+}
+
+fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {
+    let mut t = String::new();
+    t.push_str(&format!(
+        "Generated by `acc fault-matrix --update-doc docs/reliability.md` ({} at {}× time, fault at t = {} s of machine time, windows {} s before / {} s after; `{}`).\n\n",
+        args.scenario.display(),
+        args.time_scale,
+        args.at_s,
+        args.before_s,
+        args.after_s,
+        args.config.display(),
+    ));
+    t.push_str("| fault | board | what | last cmd % | max applied after % | force before N | max force after N | after/before | feed hold | log rows (complete) | acc run exit | verdict |\n");
+    t.push_str("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | --- | --- | --- | --- |\n");
+    for r in rows {
+        let opt = |v: Option<u16>| v.map_or("–".to_string(), |v| v.to_string());
+        let ratio = if r.force_before_n > 0.0 {
+            format!("{:.2}", r.force_after_n / r.force_before_n)
+        } else {
+            "–".into()
+        };
+        t.push_str(&format!(
+            "| {} | v{} | {} | {} | {} | {:.0} | {:.0} | {} | {} | {} ({}) | {} | {} |\n",
+            r.fault,
+            r.protocol,
+            r.what,
+            opt(r.last_cmd_pct),
+            opt(r.max_applied_after_pct),
+            r.force_before_n,
+            r.force_after_n,
+            ratio,
+            if r.feed_hold_after { "yes" } else { "no" },
+            r.log_rows,
+            if r.log_complete { "yes" } else { "NO" },
+            r.exit,
+            r.verdict
+        ));
+    }
+    t
+}
+
+fn update_doc(doc: &Path, table: &str) -> anyhow::Result<()> {
+    const BEGIN: &str = "<!-- fault-matrix:begin -->";
+    const END: &str = "<!-- fault-matrix:end -->";
+    let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
+    let (Some(b), Some(e)) = (text.find(BEGIN), text.find(END)) else {
+        bail!(
+            "{}: no `{BEGIN}` … `{END}` markers to put the table between",
+            doc.display()
+        );
+    };
+    if e < b {
+        bail!("{}: `{END}` comes before `{BEGIN}`", doc.display());
+    }
+    let new = format!("{}{BEGIN}\n{table}{}", &text[..b], &text[e..]);
+    std::fs::write(doc, new).with_context(|| format!("{}", doc.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fault_time_is_parsed_from_the_board_sim_line() {
+        assert_eq!(
+            parse_fault_time("board-sim: t = 40.1 s: fault Operator(100) (scheduled at 40 s)"),
+            Some(40.1)
+        );
+        assert_eq!(parse_fault_time("board-sim: something else"), None);
+    }
+
+    fn row(t: f64, state: &str, applied: u16, force: f64, hold: bool, period: u64) -> RunRecord {
+        RunRecord {
+            t_s: t,
+            period,
+            state: state.into(),
+            override_applied_pct: Some(applied),
+            force_true_n: Some(force),
+            feed_hold: hold,
+            ..RunRecord::default()
+        }
+    }
+
+    fn args() -> FaultMatrixArgs {
+        FaultMatrixArgs {
+            out: PathBuf::from("x"),
+            update_doc: None,
+            protocol: "both".into(),
+            only: vec![],
+            scenario: PathBuf::from("s"),
+            config: PathBuf::from("c"),
+            time_scale: 10.0,
+            at_s: 1.0,
+            before_s: 1.0,
+            after_s: 1.0,
+        }
+    }
+
+    #[test]
+    fn a_raised_override_or_force_fails_and_a_held_feed_does_not_count() {
+        let sigkill = FAULTS.iter().find(|f| f.name == "sigkill").expect("row");
+        let run: Vec<RunRecord> = (0..5)
+            .map(|i| row(0.1 * i as f64, "active", 80, 0.0, false, i))
+            .collect();
+        // The knob's 100 % while the feed is held: fine.
+        let m = vec![
+            row(0.9, "acc_active", 80, 800.0, false, 9),
+            row(1.0, "acc_active", 80, 800.0, false, 10),
+            row(1.1, "operator", 100, 700.0, true, 11),
+            row(1.2, "operator", 100, 0.0, true, 12),
+        ];
+        let r = judge(sigkill, 2, Some(1.0), &m, &run, "killed".into(), &args());
+        assert!(r.ok && r.verdict == "pass", "{r:?}");
+        assert_eq!((r.last_cmd_pct, r.max_applied_after_pct), (Some(80), None));
+        // The knob's 100 % with the feed moving: a failure on v2, marked on v1.
+        let m2 = vec![
+            row(1.0, "acc_active", 80, 800.0, false, 10),
+            row(1.1, "operator", 100, 900.0, false, 11),
+        ];
+        let r = judge(sigkill, 2, Some(1.0), &m2, &run, "killed".into(), &args());
+        assert!(!r.ok && r.verdict.starts_with("FAIL"), "{r:?}");
+        assert!(r.verdict.contains("80 → 100") && r.verdict.contains("800 → 900"));
+        let r = judge(sigkill, 1, Some(1.0), &m2, &run, "killed".into(), &args());
+        assert!(r.ok && r.verdict.starts_with("unsafe on v1"), "{r:?}");
+        // A gap in acc run's periods fails the log check.
+        let mut gappy = run.clone();
+        gappy.remove(2);
+        let r = judge(sigkill, 2, Some(1.0), &m, &gappy, "killed".into(), &args());
+        assert!(!r.ok && r.verdict.contains("misses periods"), "{r:?}");
+    }
+
+    #[test]
+    fn the_doc_table_goes_between_the_markers() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let doc = dir.path().join("r.md");
+        std::fs::write(
+            &doc,
+            "# R\n<!-- fault-matrix:begin -->\nold\n<!-- fault-matrix:end -->\ntail\n",
+        )
+        .expect("write");
+        update_doc(&doc, "| new |\n").expect("update");
+        let text = std::fs::read_to_string(&doc).expect("read");
+        assert_eq!(
+            text,
+            "# R\n<!-- fault-matrix:begin -->\n| new |\n<!-- fault-matrix:end -->\ntail\n"
+        );
+        std::fs::write(&doc, "no markers").expect("write");
+        assert!(update_doc(&doc, "x").is_err());
+    }
+}
