@@ -23,14 +23,14 @@
 //! row no controller can make safe (a v1 board has no fallback clamp) is marked with why;
 //! the NC's own override lock is reported, not judged (the NC ignores the override inputs).
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use acc_runtime::record::{read_run_log, RunRecord};
+use acc_runtime::record::RunRecord;
 use anyhow::{bail, Context};
+
+use crate::harness::{describe, read, Proc};
 
 /// Arguments of `acc fault-matrix`.
 #[derive(Debug, clap::Args)]
@@ -329,119 +329,6 @@ pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A child `acc` process with its stderr lines collected on a thread.
-struct Proc {
-    child: Child,
-    lines: mpsc::Receiver<String>,
-    seen: Vec<String>,
-}
-
-impl Proc {
-    fn spawn(args: &[String], dir: &Path, name: &str) -> anyhow::Result<(Proc, Option<String>)> {
-        let exe = std::env::current_exe().context("path of the acc binary")?;
-        let stdout_file = std::fs::File::create(dir.join(format!("{name}.stdout")))?;
-        let mut cmd = Command::new(exe);
-        cmd.args(args).stderr(Stdio::piped());
-        let first_line = name == "board-sim";
-        if first_line {
-            cmd.stdout(Stdio::piped());
-        } else {
-            cmd.stdout(stdout_file);
-        }
-        let mut child = cmd
-            .spawn()
-            .with_context(|| format!("starting acc {name}"))?;
-        let (tx, rx) = mpsc::channel();
-        let err = child.stderr.take().context("stderr piped")?;
-        let mut copy = std::fs::File::create(dir.join(format!("{name}.stderr")))?;
-        std::thread::spawn(move || {
-            for line in BufReader::new(err).lines().map_while(Result::ok) {
-                let _ = writeln!(copy, "{line}");
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let path = if first_line {
-            let out = child.stdout.take().context("stdout piped")?;
-            let mut line = String::new();
-            BufReader::new(out).read_line(&mut line)?;
-            Some(line.trim().to_string())
-        } else {
-            None
-        };
-        Ok((
-            Proc {
-                child,
-                lines: rx,
-                seen: Vec::new(),
-            },
-            path,
-        ))
-    }
-
-    /// Wait for a stderr line containing `needle`; returns it.
-    fn wait_for(&mut self, needle: &str, timeout: Duration) -> Option<String> {
-        let end = Instant::now() + timeout;
-        loop {
-            if let Some(l) = self.seen.iter().find(|l| l.contains(needle)) {
-                return Some(l.clone());
-            }
-            let left = end.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return None;
-            }
-            match self.lines.recv_timeout(left.min(Duration::from_millis(50))) {
-                Ok(l) => self.seen.push(l),
-                Err(mpsc::RecvTimeoutError::Timeout) => {}
-                Err(mpsc::RecvTimeoutError::Disconnected) => {
-                    return self.seen.iter().find(|l| l.contains(needle)).cloned()
-                }
-            }
-        }
-    }
-
-    /// Send a signal by name (`INT`, `TERM`, `KILL`, `STOP`, `CONT`) with kill(1).
-    fn signal(&self, sig: &str) {
-        let _ = Command::new("kill")
-            .args(["-s", sig, &self.child.id().to_string()])
-            .status();
-    }
-
-    /// Wait for the exit at most `timeout`; `None` if still running.
-    fn wait(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
-        let end = Instant::now() + timeout;
-        loop {
-            if let Ok(Some(st)) = self.child.try_wait() {
-                return Some(st);
-            }
-            if Instant::now() > end {
-                return None;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.child.try_wait() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
-    }
-}
-
-fn describe(st: std::process::ExitStatus) -> String {
-    use std::os::unix::process::ExitStatusExt;
-    match (st.code(), st.signal()) {
-        (Some(c), _) => c.to_string(),
-        (None, Some(9)) => "killed (SIGKILL)".into(),
-        (None, Some(s)) => format!("signal {s}"),
-        (None, None) => "?".into(),
-    }
-}
-
 fn s(v: impl ToString) -> String {
     v.to_string()
 }
@@ -556,11 +443,6 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
     let m = read(&machine_log)?;
     let r = read(&run_log).unwrap_or_default();
     Ok(judge(f, protocol, t_fault, &m, &r, exit, args))
-}
-
-fn read(path: &Path) -> anyhow::Result<Vec<RunRecord>> {
-    let file = std::fs::File::open(path).with_context(|| format!("{}", path.display()))?;
-    read_run_log(file).with_context(|| format!("{}", path.display()))
 }
 
 /// `board-sim: t = 40.0 s: fault Operator(100) (scheduled at 40 s)` → 40.0.
@@ -699,19 +581,24 @@ fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {
 }
 
 fn update_doc(doc: &Path, table: &str) -> anyhow::Result<()> {
-    const BEGIN: &str = "<!-- fault-matrix:begin -->";
-    const END: &str = "<!-- fault-matrix:end -->";
+    update_between(doc, "fault-matrix", table)
+}
+
+/// Replace the text between `<!-- {name}:begin -->` and `<!-- {name}:end -->` in `doc`.
+pub fn update_between(doc: &Path, name: &str, table: &str) -> anyhow::Result<()> {
+    let begin = format!("<!-- {name}:begin -->");
+    let end = format!("<!-- {name}:end -->");
     let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
-    let (Some(b), Some(e)) = (text.find(BEGIN), text.find(END)) else {
+    let (Some(b), Some(e)) = (text.find(&begin), text.find(&end)) else {
         bail!(
-            "{}: no `{BEGIN}` … `{END}` markers to put the table between",
+            "{}: no `{begin}` … `{end}` markers to put the table between",
             doc.display()
         );
     };
     if e < b {
-        bail!("{}: `{END}` comes before `{BEGIN}`", doc.display());
+        bail!("{}: `{end}` comes before `{begin}`", doc.display());
     }
-    let new = format!("{}{BEGIN}\n{table}{}", &text[..b], &text[e..]);
+    let new = format!("{}{begin}\n{table}{}", &text[..b], &text[e..]);
     std::fs::write(doc, new).with_context(|| format!("{}", doc.display()))?;
     Ok(())
 }

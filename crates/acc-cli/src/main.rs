@@ -9,8 +9,10 @@ mod cmd_estimate_eval;
 mod cmd_fault_matrix;
 mod cmd_run;
 mod cmd_sim;
+mod cmd_soak;
 mod cmd_stability;
 mod configs;
+mod harness;
 
 /// Adaptive feedrate-override control for CNC milling.
 #[derive(Parser)]
@@ -53,6 +55,9 @@ enum Command {
     /// the deepest cut of a real `acc run` against `acc board-sim`, on a v2 and a v1 board;
     /// the table of override and force before/after, log completeness and exit codes.
     FaultMatrix(cmd_fault_matrix::FaultMatrixArgs),
+    /// An hour of machine time (by default) of `acc run` against `acc board-sim` with a
+    /// random board fault every few seconds: memory growth, lost rows, dead threads.
+    Soak(cmd_soak::SoakArgs),
 }
 
 /// Exit code for a failed command (bad config, bad file, link error, ...).
@@ -101,5 +106,6 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),
         Command::FaultMatrix(args) => cmd_fault_matrix::run_cmd(&args),
+        Command::Soak(args) => cmd_soak::run_cmd(&args),
     }
 }

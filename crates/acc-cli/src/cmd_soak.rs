@@ -1,0 +1,677 @@
+//! `acc soak`: an hour of machine time (by default) of `acc run` against `acc board-sim`
+//! over a pty, faster than real time, with a random board fault every few seconds; measures
+//! memory growth, lost log rows, dead threads and the never-raise invariant.
+//!
+//! The machine cuts paper case III's 2-3-4 mm steps over and over (a generated workpiece with
+//! as many repeats as the time needs). The fault schedule is drawn from `--seed`: CRC errors,
+//! dropped and late replies, a frozen `SAMPLE_SEQ`, implausible power, board restarts, NC
+//! override locks, the operator's knob down and back up, hard spots, a dead line for a few
+//! seconds; after each one the operator switches ACC off and on again (re-arming a latched
+//! release). Both processes' resident memory and thread counts are sampled once a wall
+//! second from `/proc`.
+//!
+//! Pass: RSS growth below 1 MiB for each process (median of the last minute of samples
+//! against the median of the first minute after warm-up), no lost rows in either log, the
+//! thread counts never drop (a dead server thread), `acc run` still controlling at the end,
+//! and no period with an unusable force sample raising the command.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use acc_runtime::record::RunRecord;
+use anyhow::{bail, Context};
+use rand::{Rng, SeedableRng};
+
+use crate::harness::{describe, read, rss_kib_and_threads, Proc};
+
+/// Arguments of `acc soak`.
+#[derive(Debug, clap::Args)]
+pub struct SoakArgs {
+    /// Machine time to run, s (60 ..= 86 400; default one hour).
+    #[arg(long, default_value_t = 3600.0)]
+    pub machine_s: f64,
+    /// Machine seconds per wall second (1 ..= 20).
+    #[arg(long, default_value_t = 10.0)]
+    pub time_scale: f64,
+    /// Mean time between faults, s of machine time (1 ..= 600).
+    #[arg(long, default_value_t = 5.0)]
+    pub fault_every_s: f64,
+    /// Seed of the fault schedule.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Board protocol served by `acc board-sim`: 2 or 1.
+    #[arg(long, default_value_t = 2)]
+    pub protocol: u8,
+    /// `acc run` configuration (its `runtime.time_scale` must equal `--time-scale`).
+    #[arg(long, default_value = "configs/runtime/fault_matrix.toml")]
+    pub config: PathBuf,
+    /// Scenario whose machine, tool, controller and workpiece pattern are repeated.
+    #[arg(long, default_value = "configs/scenarios/paper_case3.toml")]
+    pub scenario: PathBuf,
+    /// Output directory: soak.md, soak.json, memory plot, both run logs.
+    #[arg(long, default_value = "out/soak")]
+    pub out: PathBuf,
+    /// Replace the text between `<!-- soak:begin -->` and `<!-- soak:end -->` in this file.
+    #[arg(long)]
+    pub update_doc: Option<PathBuf>,
+}
+
+/// The measured outcome.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SoakReport {
+    /// Machine time covered by `acc run`'s log, s.
+    pub machine_s: f64,
+    /// Wall time of the run, s.
+    pub wall_s: f64,
+    /// Faults the board fired.
+    pub faults_fired: usize,
+    /// Faults by kind.
+    pub faults_by_kind: Vec<(String, usize)>,
+    /// `acc run` rows, and the periods missing between its first and last row.
+    pub run_rows: usize,
+    /// Periods without a row in `acc run`'s log.
+    pub run_missing: u64,
+    /// Rows flagged skipped / late / link error in `acc run`'s log.
+    pub run_flagged: usize,
+    /// Machine-side rows and missing periods.
+    pub machine_rows: usize,
+    /// Periods without a row in the machine-side log.
+    pub machine_missing: u64,
+    /// RSS growth of `acc run`, KiB (last minute vs first minute after warm-up).
+    pub run_rss_growth_kib: i64,
+    /// RSS of `acc run` at the end, KiB.
+    pub run_rss_end_kib: u64,
+    /// RSS growth of `acc board-sim`, KiB.
+    pub board_rss_growth_kib: i64,
+    /// RSS of `acc board-sim` at the end, KiB.
+    pub board_rss_end_kib: u64,
+    /// Thread counts (min, max) of `acc run` and `acc board-sim` after start-up.
+    pub run_threads: (u64, u64),
+    /// Thread counts of `acc board-sim`.
+    pub board_threads: (u64, u64),
+    /// Fault periods that raised the command (must be 0).
+    pub raised_in_fault: usize,
+    /// Largest true force while ACC was active and not in feed hold, N; and Fr.
+    pub max_force_n: f64,
+    /// Share of the run ACC was active, percent.
+    pub active_pct: f64,
+    /// `acc run`'s exit.
+    pub exit: String,
+    /// ACC was active in the last second of the run.
+    pub active_at_end: bool,
+    /// Verdict lines (empty = pass).
+    pub problems: Vec<String>,
+}
+
+/// `acc soak`.
+pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
+    if !(args.machine_s.is_finite() && (60.0..=86_400.0).contains(&args.machine_s)) {
+        bail!("--machine-s {}: allowed 60 ..= 86400", args.machine_s);
+    }
+    if !(args.time_scale.is_finite() && (1.0..=20.0).contains(&args.time_scale)) {
+        bail!("--time-scale {}: allowed 1 ..= 20", args.time_scale);
+    }
+    if !(args.fault_every_s.is_finite() && (1.0..=600.0).contains(&args.fault_every_s)) {
+        bail!("--fault-every-s {}: allowed 1 ..= 600", args.fault_every_s);
+    }
+    if !matches!(args.protocol, 1 | 2) {
+        bail!("--protocol {}: allowed 1 or 2", args.protocol);
+    }
+    for (what, p) in [("--scenario", &args.scenario), ("--config", &args.config)] {
+        if !p.is_file() {
+            bail!("{what} {}: no such file", p.display());
+        }
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let scenario = write_soak_scenario(&args.scenario, &args.out, args.machine_s)?;
+    let schedule = fault_schedule(args.seed, args.machine_s, args.fault_every_s);
+    let machine_log = args.out.join("machine.csv");
+    let run_log = args.out.join("run.csv");
+
+    let mut bargs: Vec<String> = [
+        "board-sim",
+        "--scenario",
+        &scenario.to_string_lossy(),
+        "--time-scale",
+        &args.time_scale.to_string(),
+        "--baud",
+        "115200",
+        "--wait-for-controller",
+        "--protocol",
+        &args.protocol.to_string(),
+        "--log",
+        &machine_log.to_string_lossy(),
+        "--late-ms",
+        "30",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for f in &schedule {
+        bargs.push("--fault".into());
+        bargs.push(f.clone());
+    }
+    let (mut board, pty) = Proc::spawn(&bargs, &args.out, "board-sim")?;
+    let pty = pty
+        .filter(|p| p.starts_with('/'))
+        .context("acc board-sim printed no pty path (see board-sim.stderr)")?;
+    let rargs: Vec<String> = [
+        "run",
+        "--config",
+        &args.config.to_string_lossy(),
+        "--port",
+        &pty,
+        "--log",
+        &run_log.to_string_lossy(),
+        "--duration-s",
+        &args.machine_s.to_string(),
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let (mut run, _) = Proc::spawn(&rargs, &args.out, "run")?;
+    eprintln!(
+        "soak: {} s of machine time at {}x ({:.0} s wall), {} scheduled faults (seed {}), v{} board",
+        args.machine_s,
+        args.time_scale,
+        args.machine_s / args.time_scale,
+        schedule.len(),
+        args.seed,
+        args.protocol
+    );
+
+    // Sample memory and threads once a wall second until acc run ends.
+    let started = Instant::now();
+    let mut samples: Vec<Sample> = Vec::new();
+    let limit = Duration::from_secs_f64(args.machine_s / args.time_scale * 1.5 + 120.0);
+    let status = loop {
+        if let Some(st) = run.wait(Duration::from_secs(1)) {
+            break Some(st);
+        }
+        let t = started.elapsed().as_secs_f64();
+        samples.push((
+            t,
+            rss_kib_and_threads(run.child.id()),
+            rss_kib_and_threads(board.child.id()),
+        ));
+        if samples.len().is_multiple_of(10) {
+            let rss = |s: Option<(u64, u64)>| s.map_or(0.0, |(r, _)| r as f64 / 1024.0);
+            let (_, r, b) = samples[samples.len() - 1];
+            eprintln!(
+                "soak: {:>5.0} s wall, ~{:>6.0} s machine ({:>3.0} %); RSS acc run {:.1} MiB, board-sim {:.1} MiB",
+                t,
+                t * args.time_scale,
+                100.0 * t * args.time_scale / args.machine_s,
+                rss(r),
+                rss(b)
+            );
+        }
+        if started.elapsed() > limit {
+            run.signal("INT");
+            break run.wait(Duration::from_secs(30));
+        }
+    };
+    let exit = status.map_or_else(|| "hung (killed)".to_string(), describe);
+    std::thread::sleep(Duration::from_millis(300));
+    board.signal("INT");
+    if board.wait(Duration::from_secs(10)).is_none() {
+        board.signal("KILL");
+    }
+    let fired: Vec<String> = {
+        board.drain(Duration::from_millis(200));
+        board
+            .seen
+            .iter()
+            .filter(|l| l.contains(": fault "))
+            .cloned()
+            .collect()
+    };
+    drop(run);
+    drop(board);
+
+    let r = read(&run_log)?;
+    let m = read(&machine_log)?;
+    let report = analyse(
+        &r,
+        &m,
+        &samples,
+        &fired,
+        exit,
+        started.elapsed().as_secs_f64(),
+    );
+    let text = markdown(&report, args);
+    std::fs::write(args.out.join("soak.md"), &text)?;
+    std::fs::write(
+        args.out.join("soak.json"),
+        serde_json::to_string_pretty(&report)?,
+    )?;
+    plot(&samples, &m, &args.out)?;
+    println!("{text}");
+    if let Some(doc) = &args.update_doc {
+        crate::cmd_fault_matrix::update_between(doc, "soak", &text)?;
+        eprintln!("soak: figures written into {}", doc.display());
+    }
+    if !report.problems.is_empty() {
+        bail!("soak failed: {}", report.problems.join("; "));
+    }
+    Ok(())
+}
+
+/// The scenario with its workpiece repeated for `machine_s` (paths made absolute).
+fn write_soak_scenario(base: &Path, out: &Path, machine_s: f64) -> anyhow::Result<PathBuf> {
+    let text =
+        std::fs::read_to_string(base).with_context(|| format!("reading {}", base.display()))?;
+    let mut sc: toml::Table =
+        toml::from_str(&text).with_context(|| format!("parsing {}", base.display()))?;
+    let dir = base
+        .parent()
+        .unwrap_or(Path::new("."))
+        .canonicalize()
+        .with_context(|| format!("folder of {}", base.display()))?;
+    for key in ["machine", "tool", "controller"] {
+        if let Some(toml::Value::String(p)) = sc.get(key) {
+            let abs = dir.join(p);
+            sc.insert(key.into(), abs.to_string_lossy().into_owned().into());
+        }
+    }
+    let wp_rel = match sc.get("workpiece") {
+        Some(toml::Value::String(p)) => p.clone(),
+        _ => bail!("{}: no `workpiece` path to repeat", base.display()),
+    };
+    let wp_path = dir.join(&wp_rel);
+    let wp_text = std::fs::read_to_string(&wp_path)
+        .with_context(|| format!("reading {}", wp_path.display()))?;
+    let wp: toml::Table =
+        toml::from_str(&wp_text).with_context(|| format!("parsing {}", wp_path.display()))?;
+    let segments = match wp.get("segment") {
+        Some(toml::Value::Array(a)) if !a.is_empty() => a.clone(),
+        _ => bail!("{}: no [[segment]] to repeat", wp_path.display()),
+    };
+    // One pass of case III takes about 60 s; repeat with margin (a pass never takes less
+    // than 20 s at 150 %).
+    let repeats = (machine_s / 20.0).ceil() as usize + 2;
+    let mut all = Vec::with_capacity(segments.len() * repeats);
+    for _ in 0..repeats {
+        all.extend(segments.iter().cloned());
+    }
+    let mut soak_wp = wp.clone();
+    soak_wp.insert(
+        "name".into(),
+        format!(
+            "soak: {} x {}",
+            repeats,
+            wp.get("name")
+                .and_then(|v| v.as_str())
+                .unwrap_or("workpiece")
+        )
+        .into(),
+    );
+    soak_wp.insert("segment".into(), toml::Value::Array(all));
+    let wp_out = out.join("soak_workpiece.toml");
+    std::fs::write(&wp_out, toml::to_string(&soak_wp)?)?;
+    sc.insert(
+        "workpiece".into(),
+        wp_out.canonicalize()?.to_string_lossy().into_owned().into(),
+    );
+    sc.insert("max_time_s".into(), toml::Value::Float(machine_s + 600.0));
+    sc.insert("name".into(), "soak".into());
+    let sc_out = out.join("soak_scenario.toml");
+    std::fs::write(&sc_out, toml::to_string(&sc)?)?;
+    Ok(sc_out)
+}
+
+/// The random fault schedule: `acc board-sim --fault` specs, each followed by the
+/// operator re-arming ACC (switch off, on).
+fn fault_schedule(seed: u64, machine_s: f64, every_s: f64) -> Vec<String> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut out = Vec::new();
+    let mut t = 30.0;
+    while t < machine_s - 30.0 {
+        let tt = format!("{t:.1}");
+        match rng.random_range(0..10) {
+            0 => out.push(format!("crc@{tt}:{}", rng.random_range(1..30))),
+            1 => out.push(format!("drop@{tt}:{}", rng.random_range(1..30))),
+            2 => out.push(format!("late@{tt}:{}", rng.random_range(1..30))),
+            3 => out.push(format!("freeze-seq@{tt}:{:.1}", rng.random_range(0.3..3.0))),
+            4 => out.push(format!("bad-power@{tt}:{:.1}", rng.random_range(0.3..3.0))),
+            5 => out.push(format!("restart@{tt}")),
+            6 => out.push(format!("lock@{tt}:{:.1}", rng.random_range(0.3..3.0))),
+            7 => {
+                out.push(format!("operator@{tt}:{}", 10 * rng.random_range(5..10)));
+                out.push(format!("operator@{:.1}:100", t + 2.0));
+            }
+            8 => out.push(format!(
+                "hard@{tt}:{:.1}:{:.2}",
+                rng.random_range(0.5..3.0),
+                rng.random_range(1.2..2.5)
+            )),
+            _ => out.push(format!("unplug@{tt}:{:.1}", rng.random_range(0.5..3.0))),
+        }
+        out.push(format!("switch@{:.1}:off", t + 3.5));
+        out.push(format!("switch@{:.1}:on", t + 4.0));
+        t += 4.5 + rng.random_range(0.5 * every_s..1.5 * every_s);
+    }
+    out
+}
+
+fn median(mut v: Vec<u64>) -> Option<u64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_unstable();
+    Some(v[v.len() / 2])
+}
+
+/// Periods missing between the first and last row (`period` must count up by one).
+fn missing(rows: &[RunRecord]) -> u64 {
+    rows.windows(2)
+        .map(|w| w[1].period.saturating_sub(w[0].period + 1))
+        .sum()
+}
+
+/// One sample: wall time s, (RSS KiB, threads) of acc run and of acc board-sim.
+type Sample = (f64, Option<(u64, u64)>, Option<(u64, u64)>);
+
+fn analyse(
+    r: &[RunRecord],
+    m: &[RunRecord],
+    samples: &[Sample],
+    fired: &[String],
+    exit: String,
+    wall_s: f64,
+) -> SoakReport {
+    let mut problems = Vec::new();
+    // Memory: first minute after a 30 s warm-up against the last minute.
+    let series = |pick: fn(&Sample) -> Option<(u64, u64)>| -> Vec<(f64, u64, u64)> {
+        samples
+            .iter()
+            .filter_map(|s| pick(s).map(|(rss, th)| (s.0, rss, th)))
+            .collect()
+    };
+    let growth = |v: &[(f64, u64, u64)]| -> (i64, u64, (u64, u64)) {
+        let end_t = v.last().map_or(0.0, |x| x.0);
+        let first = median(
+            v.iter()
+                .filter(|x| x.0 >= 30.0 && x.0 < 90.0)
+                .map(|x| x.1)
+                .collect(),
+        );
+        let last = median(
+            v.iter()
+                .filter(|x| x.0 > end_t - 60.0)
+                .map(|x| x.1)
+                .collect(),
+        );
+        let threads = v
+            .iter()
+            .filter(|x| x.0 >= 5.0)
+            .fold((u64::MAX, 0), |(lo, hi), x| (lo.min(x.2), hi.max(x.2)));
+        let g = match (first, last) {
+            (Some(a), Some(b)) => b as i64 - a as i64,
+            _ => 0,
+        };
+        (g, v.last().map_or(0, |x| x.1), threads)
+    };
+    let (run_g, run_end, run_th) = growth(&series(|s| s.1));
+    let (board_g, board_end, board_th) = growth(&series(|s| s.2));
+    if samples.len() < 150 {
+        problems.push(format!(
+            "only {} s of samples: too short to measure memory growth",
+            samples.len()
+        ));
+    }
+    for (who, g) in [("acc run", run_g), ("acc board-sim", board_g)] {
+        if g >= 1024 {
+            problems.push(format!("{who} RSS grew by {g} KiB (limit 1024)"));
+        }
+    }
+    if board_th.0 < board_th.1 {
+        problems.push(format!(
+            "acc board-sim's threads went from {} to {}",
+            board_th.1, board_th.0
+        ));
+    }
+    let run_missing = missing(r);
+    let machine_missing = missing(m);
+    if run_missing > 0 || r.first().is_some_and(|x| x.period != 0) {
+        problems.push(format!("acc run's log misses {run_missing} periods"));
+    }
+    if machine_missing > 0 {
+        problems.push(format!("the machine log misses {machine_missing} periods"));
+    }
+    let run_flagged = r.iter().filter(|x| !x.flags.is_empty()).count();
+    // The invariant: a period with an unusable force sample never raises the command.
+    let mut raised = 0;
+    let mut prev: Option<u16> = None;
+    for x in r {
+        if x.state != "active" {
+            prev = None;
+            continue;
+        }
+        let Some(c) = x.override_cmd_pct else {
+            continue;
+        };
+        if !x.force_valid && prev.is_some_and(|p| c > p) {
+            raised += 1;
+        }
+        prev = Some(c);
+    }
+    if raised > 0 {
+        problems.push(format!("{raised} fault periods raised the command"));
+    }
+    let t_end = r.last().map_or(0.0, |x| x.t_s);
+    let active_at_end = r
+        .iter()
+        .filter(|x| x.t_s > t_end - 1.0)
+        .any(|x| x.state == "active");
+    if !active_at_end {
+        problems.push("ACC was not controlling at the end of the run".into());
+    }
+    if !(exit == "0" || exit == "3") {
+        problems.push(format!("acc run exit {exit}"));
+    }
+    let active = r.iter().filter(|x| x.state == "active").count();
+    let max_force_n = m
+        .iter()
+        .filter(|x| x.state == "acc_active" && !x.feed_hold)
+        .filter_map(|x| x.force_true_n)
+        .fold(0.0, f64::max);
+    let mut kinds: Vec<(String, usize)> = Vec::new();
+    for l in fired {
+        let k = l
+            .split(": fault ")
+            .nth(1)
+            .and_then(|s| s.split(['(', ' ']).next())
+            .unwrap_or("?")
+            .to_string();
+        match kinds.iter_mut().find(|(n, _)| *n == k) {
+            Some((_, c)) => *c += 1,
+            None => kinds.push((k, 1)),
+        }
+    }
+    kinds.sort();
+    SoakReport {
+        machine_s: t_end,
+        wall_s,
+        faults_fired: fired.len(),
+        faults_by_kind: kinds,
+        run_rows: r.len(),
+        run_missing,
+        run_flagged,
+        machine_rows: m.len(),
+        machine_missing,
+        run_rss_growth_kib: run_g,
+        run_rss_end_kib: run_end,
+        board_rss_growth_kib: board_g,
+        board_rss_end_kib: board_end,
+        run_threads: run_th,
+        board_threads: board_th,
+        raised_in_fault: raised,
+        max_force_n,
+        active_pct: 100.0 * active as f64 / r.len().max(1) as f64,
+        exit,
+        active_at_end,
+        problems,
+    }
+}
+
+fn markdown(r: &SoakReport, args: &SoakArgs) -> String {
+    let kinds: Vec<String> = r
+        .faults_by_kind
+        .iter()
+        .map(|(k, n)| format!("{k} {n}"))
+        .collect();
+    format!(
+        "Generated by `acc soak --machine-s {} --time-scale {} --fault-every-s {} --seed {} --protocol {} --update-doc docs/reliability.md`.\n\n\
+| figure | value |\n| --- | --- |\n\
+| machine time / wall time | {:.0} s / {:.0} s |\n\
+| faults fired (incl. the operator's re-arm switching) | {} ({}) |\n\
+| acc run log rows / missing periods / flagged rows | {} / {} / {} |\n\
+| machine log rows / missing periods | {} / {} |\n\
+| acc run RSS at end / growth | {:.1} MiB / {:+} KiB |\n\
+| acc board-sim RSS at end / growth | {:.1} MiB / {:+} KiB |\n\
+| threads acc run (min–max) / board-sim | {}–{} / {}–{} |\n\
+| fault periods that raised the command | {} |\n\
+| ACC active | {:.1} % of periods; at the end: {} |\n\
+| largest true force while ACC drove the feed | {:.0} N |\n\
+| acc run exit | {} |\n\
+| verdict | {} |\n\n\
+Memory growth: median RSS of the last minute against the first minute after a 30 s warm-up; limit 1 MiB. Plot: `{}/soak.svg`.\n",
+        args.machine_s,
+        args.time_scale,
+        args.fault_every_s,
+        args.seed,
+        args.protocol,
+        r.machine_s,
+        r.wall_s,
+        r.faults_fired,
+        kinds.join(", "),
+        r.run_rows,
+        r.run_missing,
+        r.run_flagged,
+        r.machine_rows,
+        r.machine_missing,
+        r.run_rss_end_kib as f64 / 1024.0,
+        r.run_rss_growth_kib,
+        r.board_rss_end_kib as f64 / 1024.0,
+        r.board_rss_growth_kib,
+        r.run_threads.0,
+        r.run_threads.1,
+        r.board_threads.0,
+        r.board_threads.1,
+        r.raised_in_fault,
+        r.active_pct,
+        if r.active_at_end { "yes" } else { "no" },
+        r.max_force_n,
+        r.exit,
+        if r.problems.is_empty() {
+            "pass".to_string()
+        } else {
+            format!("FAIL: {}", r.problems.join("; "))
+        },
+        args.out.display(),
+    )
+}
+
+fn plot(samples: &[Sample], m: &[RunRecord], out: &Path) -> anyhow::Result<()> {
+    use acc_plot::{time_series, Figure, HLine, Panel, Series};
+    let mib = |pick: fn(&Sample) -> Option<(u64, u64)>| -> Vec<(f64, f64)> {
+        samples
+            .iter()
+            .filter_map(|s| pick(s).map(|(rss, _)| (s.0, rss as f64 / 1024.0)))
+            .collect()
+    };
+    // Machine log downsampled to one point per 10 s of machine time (max force, min
+    // override) so the plot stays small.
+    let mut force = Vec::new();
+    let mut ov = Vec::new();
+    for chunk in m.chunks(100) {
+        let t = chunk.last().map_or(0.0, |x| x.t_s);
+        force.push((
+            t,
+            chunk
+                .iter()
+                .filter_map(|x| x.force_true_n)
+                .fold(0.0, f64::max),
+        ));
+        ov.push((
+            t,
+            chunk
+                .iter()
+                .filter_map(|x| x.override_applied_pct)
+                .map(f64::from)
+                .fold(f64::NAN, f64::max),
+        ));
+    }
+    let fig = Figure {
+        title: "Soak: memory of both processes (wall time)".into(),
+        x_label: "wall time [s]".into(),
+        panels: vec![Panel {
+            y_label: "RSS [MiB]".into(),
+            series: vec![
+                Series::line("acc run", mib(|s| s.1)),
+                Series::line("acc board-sim", mib(|s| s.2)),
+            ],
+            ..Panel::default()
+        }],
+        ..Figure::default()
+    };
+    time_series(&fig, out.join("soak.svg"))?;
+    let fig = Figure {
+        title: "Soak: largest true force and override per 10 s (machine time)".into(),
+        x_label: "machine time [s]".into(),
+        panels: vec![
+            Panel {
+                y_label: "force [N]".into(),
+                series: vec![Series::line("max true force", force)],
+                hlines: vec![HLine::new("Fr", 800.0)],
+                ..Panel::default()
+            },
+            Panel {
+                y_label: "override [%]".into(),
+                series: vec![Series::line("max applied", ov)],
+                ..Panel::default()
+            },
+        ],
+        ..Figure::default()
+    };
+    time_series(&fig, out.join("soak_machine.svg"))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_schedule_is_seeded_and_re_arms_after_every_fault() {
+        let a = fault_schedule(7, 600.0, 5.0);
+        assert_eq!(a, fault_schedule(7, 600.0, 5.0));
+        assert_ne!(a, fault_schedule(8, 600.0, 5.0));
+        let faults = a.iter().filter(|f| !f.starts_with("switch@")).count();
+        let offs = a.iter().filter(|f| f.ends_with(":off")).count();
+        assert!(faults >= 50, "{faults} faults in 600 s");
+        assert_eq!(offs, a.iter().filter(|f| f.ends_with(":on")).count());
+        // Every spec has a time in the run.
+        for f in &a {
+            let t: f64 = f
+                .split('@')
+                .nth(1)
+                .and_then(|r| r.split(':').next())
+                .and_then(|t| t.parse().ok())
+                .unwrap_or(-1.0);
+            assert!((30.0..600.0).contains(&t), "{f}");
+        }
+    }
+
+    #[test]
+    fn missing_periods_are_counted() {
+        let row = |p| RunRecord {
+            period: p,
+            ..RunRecord::default()
+        };
+        assert_eq!(missing(&[row(0), row(1), row(2)]), 0);
+        assert_eq!(missing(&[row(0), row(3), row(4), row(6)]), 3);
+    }
+}
