@@ -94,6 +94,45 @@ impl Clock for SystemClock {
     }
 }
 
+/// Machine time on a faster-than-real-time wall clock: `now()` is the inner clock's time
+/// multiplied by `scale`, and `sleep_until(deadline)` waits until `deadline / scale` on the
+/// inner clock. `acc board-sim --time-scale 10` runs the board's watchdog on it, so that
+/// `WATCHDOG_MS` = 500 means 500 ms of machine time, as on the real machine.
+///
+/// ```
+/// use acc_pmc::clock::{Clock, ManualClock, ScaledClock};
+/// use std::time::Duration;
+/// let wall = ManualClock::new();
+/// let machine = ScaledClock::new(wall.clone(), 10.0).unwrap();
+/// wall.advance(Duration::from_millis(50));
+/// assert_eq!(machine.now(), Duration::from_millis(500));
+/// machine.sleep_until(Duration::from_secs(1));
+/// assert_eq!(wall.now(), Duration::from_millis(100));
+/// assert!(ScaledClock::new(wall, 0.0).is_none());
+/// ```
+#[derive(Debug, Clone)]
+pub struct ScaledClock<C: Clock> {
+    inner: C,
+    scale: f64,
+}
+
+impl<C: Clock> ScaledClock<C> {
+    /// `scale` machine seconds per inner second (finite, > 0); `None` otherwise.
+    pub fn new(inner: C, scale: f64) -> Option<Self> {
+        (scale.is_finite() && scale > 0.0).then_some(Self { inner, scale })
+    }
+}
+
+impl<C: Clock> Clock for ScaledClock<C> {
+    fn now(&self) -> Duration {
+        self.inner.now().mul_f64(self.scale)
+    }
+
+    fn sleep_until(&self, deadline: Duration) {
+        self.inner.sleep_until(deadline.div_f64(self.scale));
+    }
+}
+
 /// A manual clock: time moves only when the owner advances it, or when a sleeper asks for a
 /// later deadline (`sleep_until` jumps to it). Clones share the same time; separate
 /// `ManualClock::new()` instances are independent.
