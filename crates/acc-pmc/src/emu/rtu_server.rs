@@ -21,8 +21,7 @@
 //! waiting, so a flood of unread requests never slows the reading side down. A read error
 //! other than the idle timeout (no peer on the pty: `EIO`, end of stream) is counted in
 //! [`ServerStats::io_errors`] and retried after a pause. Both are logged (`tracing`) when they
-//! start and when they end. [`RtuServer::set_link`] pulls the cable: while the link flag is
-//! false, whatever arrives is read and thrown away and nothing is answered.
+//! start and when they end.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -67,8 +66,6 @@ pub struct ServerStats {
     pub replies_dropped: u64,
     /// Read errors other than the idle timeout (no peer, device gone), each retried.
     pub io_errors: u64,
-    /// Bytes read and thrown away while the link was pulled ([`RtuServer::set_link`]).
-    pub bytes_unplugged: u64,
 }
 
 /// A Modbus RTU slave serving a [`BoardLogic`](super::BoardLogic) on the byte stream `P`.
@@ -80,7 +77,6 @@ pub struct RtuServer<P: Read + Write> {
     buf: Vec<u8>,
     stats: ServerStats,
     faults: Option<FaultInjector>,
-    link: Option<Arc<AtomicBool>>,
     /// Time of the last failed reply write, ms; `None` while replies get through.
     congested_since_ms: Option<u64>,
     /// Replies dropped since the output became congested (for the log).
@@ -115,17 +111,10 @@ impl<P: Read + Write> RtuServer<P> {
             buf: Vec::with_capacity(512),
             stats: ServerStats::default(),
             faults: None,
-            link: None,
             congested_since_ms: None,
             dropped_in_congestion: 0,
             read_failing: false,
         }
-    }
-
-    /// The cable: while `link` is false the server reads and discards everything and answers
-    /// nothing (a pulled cable); when it is true again, serving resumes.
-    pub fn set_link(&mut self, link: Arc<AtomicBool>) {
-        self.link = Some(link);
     }
 
     /// Apply queued [`Fault`]s to the replies this server sends (one fault per reply:
@@ -182,16 +171,6 @@ impl<P: Read + Write> RtuServer<P> {
                 if self.read_failing {
                     self.read_failing = false;
                     tracing::info!("board server: the stream reads again");
-                }
-                if self
-                    .link
-                    .as_ref()
-                    .is_some_and(|l| !l.load(Ordering::Relaxed))
-                {
-                    // Cable pulled: the bytes never reach the board.
-                    self.stats.bytes_unplugged += n as u64;
-                    self.buf.clear();
-                    return Ok(0);
                 }
                 self.buf.extend_from_slice(&chunk[..n]);
                 false
