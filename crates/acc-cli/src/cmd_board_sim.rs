@@ -36,8 +36,14 @@
 //!   a deliberate act that ends the clamp), `unplug@T` (the cable is pulled for good: the
 //!   board reads and discards whatever arrives and answers nothing, the controller sees
 //!   timeouts; the machine runs on under the board's own logic — watchdog, clamp, feed
-//!   hold — and the log keeps being written) and `unplug@T:S` (plugged back in after S s of
-//!   machine time).
+//!   hold — and the log keeps being written), `unplug@T:S` (plugged back in after S s of
+//!   machine time), `vanish@T` (the device disappears: board-sim closes its end of the pty,
+//!   the controller's reads fail with EIO, as when a USB adapter is unplugged; the machine
+//!   runs on under the board's own logic) and `hard@T:S:F` (a hard spot: the material's
+//!   `Ks` × F for S s of machine time, 0 < F <= 10).
+//! - `--watchdog-time machine` runs the board's clock (its watchdog, `WATCHDOG_MS`) on
+//!   machine time, as on the real machine; the default `wall` keeps it on wall time, which
+//!   is more forgiving of a loaded host at high `--time-scale`.
 
 use std::collections::VecDeque;
 use std::fs::File;
@@ -109,6 +115,18 @@ pub struct BoardSimArgs {
     /// How a v1 board (`--protocol 1`) answers registers 9…14 and holding register 4.
     #[arg(long, value_enum, default_value_t = V1Registers::Exception)]
     pub v1_registers: V1Registers,
+    /// The board's clock (its watchdog): `wall` time or `machine` time (wall × time scale).
+    #[arg(long, value_enum, default_value_t = WatchdogTime::Wall)]
+    pub watchdog_time: WatchdogTime,
+}
+
+/// Which time the emulated board's watchdog counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum WatchdogTime {
+    /// Wall-clock time.
+    Wall,
+    /// Machine time (wall time × `--time-scale`).
+    Machine,
 }
 
 /// How an emulated v1 board answers the v2 registers.
@@ -152,12 +170,16 @@ enum Scheduled {
     Operator(u16),
     /// The cable is pulled, for good (`None`) or for this many machine seconds.
     Unplug(Option<f64>),
+    /// The device disappears: the pty is closed.
+    Vanish,
+    /// A hard spot: `Ks` × factor for this many machine seconds.
+    Hard(f64, f64),
 }
 
 fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
     let err = || {
         anyhow::anyhow!(
-            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, lock, stall, switch, operator, knob, unplug (T in machine seconds)"
+            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, lock, stall, switch, operator, knob, unplug, vanish, hard (T in machine seconds; hard@T:S:F)"
         )
     };
     let (kind, rest) = spec.split_once('@').ok_or_else(err)?;
@@ -199,6 +221,18 @@ fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
             None => None,
             Some(_) => Some(secs()?),
         }),
+        "vanish" => Scheduled::Vanish,
+        "hard" => {
+            let (secs, factor) = arg.and_then(|a| a.split_once(':')).ok_or_else(err)?;
+            let secs: f64 = secs.parse().map_err(|_| err())?;
+            let factor: f64 = factor.parse().map_err(|_| err())?;
+            if !(secs.is_finite() && secs > 0.0 && secs <= 3600.0)
+                || !(factor.is_finite() && factor > 0.0 && factor <= 10.0)
+            {
+                return Err(err());
+            }
+            Scheduled::Hard(secs, factor)
+        }
         "operator" | "knob" => Scheduled::Operator(
             arg.and_then(|a| a.parse::<u16>().ok())
                 .filter(|p| *p <= 150)
@@ -289,6 +323,18 @@ fn wrap<P: Read + Write + Send + 'static>(
 trait ReadWrite: Read + Write + Send {}
 impl<T: Read + Write + Send> ReadWrite for T {}
 
+/// The emulated board's clock: wall time, or machine time (wall × `time_scale`).
+fn board_clock(kind: WatchdogTime, time_scale: f64) -> Box<dyn acc_pmc::clock::Clock> {
+    let wall = SystemClock::new();
+    match kind {
+        WatchdogTime::Wall => Box::new(wall),
+        WatchdogTime::Machine => match acc_pmc::clock::ScaledClock::new(wall, time_scale) {
+            Some(c) => Box::new(c),
+            None => Box::new(wall),
+        },
+    }
+}
+
 /// `acc board-sim`.
 pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     acc_runtime::shutdown::init_tracing(acc_runtime::shutdown::LogFormat::Text, "warn");
@@ -334,13 +380,17 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
 
     // Serve: a new pty (path printed) or the given port.
     let stop_server = Arc::new(AtomicBool::new(false));
-    let (pty, server) = match &args.port {
+    let (mut pty, server) = match &args.port {
         None => {
             let q = Arc::clone(&queue);
             let u = Arc::clone(&unplugged);
-            let pty = PtyBoard::spawn_with(Arc::clone(&board), args.slave, args.baud, move |p| {
-                wrap(p, q, u, paced)
-            })
+            let pty = PtyBoard::spawn_with_clock(
+                Arc::clone(&board),
+                args.slave,
+                args.baud,
+                move |p| wrap(p, q, u, paced),
+                board_clock(args.watchdog_time, args.time_scale),
+            )
             .context("creating the pseudo-terminal")?;
             println!("{}", pty.path());
             (Some(pty), None)
@@ -364,6 +414,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 args.slave,
                 Arc::clone(&board),
                 Arc::clone(&stop_server),
+                board_clock(args.watchdog_time, args.time_scale),
             );
             println!("{dev}");
             (None, Some(h))
@@ -404,6 +455,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let (mut freeze_until, mut bad_until) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut lock_until: Option<f64> = None;
     let mut replug_at: Option<f64> = None;
+    let mut hard_until: Option<f64> = None;
     let mut done_at: Option<f64> = None;
     while !stop.load(Ordering::SeqCst) {
         let tick = ticker.wait();
@@ -432,12 +484,34 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                     unplugged.store(true, Ordering::SeqCst);
                     replug_at = s.map(|s| t + s);
                 }
+                Scheduled::Vanish => {
+                    drop(b);
+                    // Closing the master end hangs up the pty: the controller's reads fail.
+                    if let Some(p) = pty.take() {
+                        let st = p.stop()?;
+                        eprintln!(
+                            "board-sim: t = {t:.1} s: device gone (pty closed after {} requests)",
+                            st.requests
+                        );
+                    } else {
+                        // A real port: stop serving it (the controller sees silence).
+                        stop_server.store(true, Ordering::SeqCst);
+                    }
+                }
+                Scheduled::Hard(secs, factor) => {
+                    sim.machine_mut().set_hardness_factor(factor);
+                    hard_until = Some(t + secs);
+                }
             }
         }
         if replug_at.is_some_and(|u| t >= u) {
             unplugged.store(false, Ordering::SeqCst);
             replug_at = None;
             eprintln!("board-sim: t = {t:.1} s: cable plugged back in");
+        }
+        if hard_until.is_some_and(|u| t >= u) {
+            sim.machine_mut().set_hardness_factor(1.0);
+            hard_until = None;
         }
         if lock_until.is_some_and(|u| t >= u) {
             lock_board(&board).set_override_locked(false);
@@ -588,7 +662,20 @@ mod tests {
             parse_fault("restart@7", LATE).expect("restart"),
             (7.0, Scheduled::Restart)
         );
+        assert_eq!(
+            parse_fault("vanish@9", LATE).expect("vanish"),
+            (9.0, Scheduled::Vanish)
+        );
+        assert_eq!(
+            parse_fault("hard@40:2:2.5", LATE).expect("hard"),
+            (40.0, Scheduled::Hard(2.0, 2.5))
+        );
         for bad in [
+            "hard@40:2",
+            "hard@40:0:2",
+            "hard@40:2:0",
+            "hard@40:2:11",
+            "hard@40:x:2",
             "unplug@3:0",
             "unplug@3:-1",
             "unplug@3:x",

@@ -29,6 +29,7 @@ use serialport::{SerialPort, TTYPort};
 use super::board::{lock_board, BoardLogic, SharedBoard};
 use super::fault::FaultInjector;
 use super::rtu_server::{RtuServer, ServerStats};
+use crate::clock::{Clock, SystemClock};
 use crate::serial::configure_pty;
 
 /// A [`BoardLogic`] served over Modbus RTU on the master end of a pty pair.
@@ -61,6 +62,23 @@ impl PtyBoard {
         S: Read + Write + Send + 'static,
         F: FnOnce(TTYPort) -> S,
     {
+        Self::spawn_with_clock(board, slave, baud, wrap, Box::new(SystemClock::default()))
+    }
+
+    /// As [`PtyBoard::spawn_with`] with the board's time (its watchdog) on `clock`, e.g. a
+    /// [`crate::clock::ScaledClock`] so that `WATCHDOG_MS` counts machine time when the
+    /// simulated machine runs faster than real time.
+    pub fn spawn_with_clock<S, F>(
+        board: SharedBoard,
+        slave: u8,
+        baud: u32,
+        wrap: F,
+        clock: Box<dyn Clock>,
+    ) -> std::io::Result<Self>
+    where
+        S: Read + Write + Send + 'static,
+        F: FnOnce(TTYPort) -> S,
+    {
         let (mut master, mut client) = TTYPort::pair().map_err(std::io::Error::other)?;
         configure_pty(&mut master, baud).map_err(std::io::Error::other)?;
         configure_pty(&mut client, baud).map_err(std::io::Error::other)?;
@@ -77,7 +95,7 @@ impl PtyBoard {
             std::thread::Builder::new()
                 .name("pty-board".into())
                 .spawn(move || {
-                    let mut server = RtuServer::new(stream, slave, board);
+                    let mut server = RtuServer::with_clock(stream, slave, board, clock);
                     server.set_faults(faults);
                     server.run(&stop)?;
                     Ok(server.stats())

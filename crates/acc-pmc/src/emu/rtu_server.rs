@@ -481,19 +481,21 @@ fn to_request<V: rmodbus::VectorTrait<u8>>(mf: &ModbusFrame<'_, V>, frame: &[u8]
     }
 }
 
-/// Serve `board` on `port` in a new thread until `stop` is set; the thread returns the
+/// Serve `board` on `port` in a new thread until `stop` is set, the board's time on `clock`
+/// (its watchdog); the thread returns the
 /// server (for its statistics) or the I/O error that ended it.
 pub fn spawn_server<P>(
     port: P,
     slave: u8,
     board: SharedBoard,
     stop: Arc<AtomicBool>,
+    clock: Box<dyn Clock>,
 ) -> std::thread::JoinHandle<std::io::Result<ServerStats>>
 where
     P: Read + Write + Send + 'static,
 {
     std::thread::spawn(move || {
-        let mut server = RtuServer::new(port, slave, board);
+        let mut server = RtuServer::with_clock(port, slave, board, clock);
         server.run(&stop)?;
         Ok(server.stats())
     })
