@@ -185,13 +185,14 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             Ok(())
         }
         LinkSettings::Can { iface, link } => {
-            let board = acc_pmc::can::open_socketcan(iface, *link).map_err(|e| {
-                anyhow::anyhow!(
-                    "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
-                    cfg.path.display()
-                )
-            })
-            .exit_as(RunExit::Usage)?;
+            let board = acc_pmc::can::open_socketcan(iface, *link)
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
+                        cfg.path.display()
+                    )
+                })
+                .exit_as(RunExit::Usage)?;
             let mut pmc = board;
             let status = pmc
                 .read_status()

@@ -70,7 +70,11 @@ impl RunExit {
 
     /// The last line of a run that ended this way.
     pub fn last_line(self) -> String {
-        format!("acc run: ended: {} (exit code {})", self.meaning(), self.code())
+        format!(
+            "acc run: ended: {} (exit code {})",
+            self.meaning(),
+            self.code()
+        )
     }
 
     /// The exit-code table of `acc run --help`.

@@ -209,9 +209,10 @@ pub fn describe(
     if let Some(name) = ticked_after(message, "unknown field ") {
         let known = expected_names(message);
         let table = match &found {
-            Some(k) if k.rsplit('.').next() == Some(name) => {
-                k.rsplit_once('.').map(|(t, _)| t.to_string()).unwrap_or_default()
-            }
+            Some(k) if k.rsplit('.').next() == Some(name) => k
+                .rsplit_once('.')
+                .map(|(t, _)| t.to_string())
+                .unwrap_or_default(),
             Some(k) => k.clone(),
             None => String::new(),
         };
@@ -324,40 +325,42 @@ pub fn from_table<T: serde::de::DeserializeOwned>(
     ranges: &[KeyRange],
 ) -> Result<T, ConfigError> {
     let original = table.clone();
-    toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
-        // The key path of a try_into error is only in its Display (`in `a.b``).
-        let shown = e.to_string();
-        let keys = shown
-            .lines()
-            .find_map(|l| l.strip_prefix("in `"))
-            .map(|k| k.trim_end_matches('`').to_string());
-        let mut err = describe(
-            file,
-            e.message(),
-            &ErrorSite {
-                prefix,
-                keys: keys.clone(),
-                ..ErrorSite::default()
-            },
-            ranges,
-        );
-        // The value as written, from the table.
-        if let (Some(k), ConfigError::Invalid { message, .. }) = (&keys, &mut err) {
-            let mut v: Option<&toml::Value> = None;
-            let mut t = Some(&original);
-            for part in k.split('.') {
-                v = t.and_then(|t| t.get(part));
-                t = v.and_then(toml::Value::as_table);
+    toml::Value::Table(table)
+        .try_into()
+        .map_err(|e: toml::de::Error| {
+            // The key path of a try_into error is only in its Display (`in `a.b``).
+            let shown = e.to_string();
+            let keys = shown
+                .lines()
+                .find_map(|l| l.strip_prefix("in `"))
+                .map(|k| k.trim_end_matches('`').to_string());
+            let mut err = describe(
+                file,
+                e.message(),
+                &ErrorSite {
+                    prefix,
+                    keys: keys.clone(),
+                    ..ErrorSite::default()
+                },
+                ranges,
+            );
+            // The value as written, from the table.
+            if let (Some(k), ConfigError::Invalid { message, .. }) = (&keys, &mut err) {
+                let mut v: Option<&toml::Value> = None;
+                let mut t = Some(&original);
+                for part in k.split('.') {
+                    v = t.and_then(|t| t.get(part));
+                    t = v.and_then(toml::Value::as_table);
+                }
+                if let Some(v) = v {
+                    *message = match message.split_once(" is a ") {
+                        Some((_, tail)) => format!("{v} is a {tail}"),
+                        None => format!("{v}: {message}"),
+                    };
+                }
             }
-            if let Some(v) = v {
-                *message = match message.split_once(" is a ") {
-                    Some((_, tail)) => format!("{v} is a {tail}"),
-                    None => format!("{v}: {message}"),
-                };
-            }
-        }
-        err
-    })
+            err
+        })
 }
 
 #[cfg(test)]
@@ -444,11 +447,17 @@ mod tests {
             "{e}"
         );
         let e = err("nme = \"x\"\n[policy]\n");
-        assert!(e.contains("key `nme`: unknown key") && e.contains("`name`"), "{e}");
+        assert!(
+            e.contains("key `nme`: unknown key") && e.contains("`name`"),
+            "{e}"
+        );
         // Nothing near: no suggestion, the list of known keys.
         let e = err("name = \"x\"\n[policy]\nzzzzzzzzzz = 1\n");
         assert!(!e.contains("did you mean"), "{e}");
-        assert!(e.contains("allowed keys in `policy`: link_hold_periods"), "{e}");
+        assert!(
+            e.contains("allowed keys in `policy`: link_hold_periods"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -472,7 +481,10 @@ mod tests {
         let e = from_table::<Inner>(Path::new("m.toml"), "policy.inner", t, &[])
             .expect_err("type")
             .to_string();
-        assert!(e.starts_with("m.toml: key `policy.inner.count`: \"x\" is a string, expected u16"), "{e}");
+        assert!(
+            e.starts_with("m.toml: key `policy.inner.count`: \"x\" is a string, expected u16"),
+            "{e}"
+        );
         let mut t = toml::Table::new();
         t.insert("count".into(), toml::Value::Integer(1));
         t.insert("cuont".into(), toml::Value::Integer(1));
@@ -488,7 +500,10 @@ mod tests {
     #[test]
     fn nearest_finds_typos_only() {
         let known = ["link_hold_periods", "ack_periods", "time_scale"];
-        assert_eq!(nearest("link_hold_period", &known), Some("link_hold_periods"));
+        assert_eq!(
+            nearest("link_hold_period", &known),
+            Some("link_hold_periods")
+        );
         assert_eq!(nearest("time_scal", &known), Some("time_scale"));
         assert_eq!(nearest("colour", &known), None);
     }

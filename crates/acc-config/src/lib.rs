@@ -95,8 +95,7 @@ pub fn parse_toml_with<T: DeserializeOwned>(
     text: &str,
     ranges: &[KeyRange],
 ) -> Result<T, ConfigError> {
-    toml::from_str(text)
-        .map_err(|e| diagnose::from_toml_error(path.as_ref(), text, &e, ranges))
+    toml::from_str(text).map_err(|e| diagnose::from_toml_error(path.as_ref(), text, &e, ranges))
 }
 
 /// A file named by key `key` (value as written: `value`) of the config `file`: an error

@@ -53,7 +53,9 @@ use acc_core::{
 use serde::Deserialize;
 
 use crate::RangeError;
-use crate::{check_open_range, check_range, load_toml_with, parse_toml_with, ConfigError, KeyRange};
+use crate::{
+    check_open_range, check_range, load_toml_with, parse_toml_with, ConfigError, KeyRange,
+};
 
 /// A preset file as written (before validation).
 #[derive(Debug, Clone, PartialEq, Deserialize)]

@@ -230,7 +230,8 @@ fn structural_errors_name_the_key() {
     // Missing key.
     let err = parse_preset("x.toml", &base.replace("period_s = 0.1", "")).unwrap_err();
     assert!(
-        err.to_string().contains("key `controller.period_s`: missing"),
+        err.to_string()
+            .contains("key `controller.period_s`: missing"),
         "{err}"
     );
     // Fixed gain without g_c.

@@ -188,7 +188,10 @@ pub const RUN_KEY_RANGES: &[KeyRange] = &[
     KeyRange::new("policy.nominal_feed_mm_min", "> 0"),
     KeyRange::new("shutdown.drain_s", "0 ..= 600"),
     KeyRange::new("shutdown.air_periods", "1 ..= 1000"),
-    KeyRange::new("shutdown.air_force_n", "0 ..= Fr (the preset's force_ref_n)"),
+    KeyRange::new(
+        "shutdown.air_force_n",
+        "0 ..= Fr (the preset's force_ref_n)",
+    ),
     KeyRange::new("runtime.time_scale", "0.1 ..= 100"),
     KeyRange::new("runtime.log_queue", "1 ..= 1000000"),
 ];
