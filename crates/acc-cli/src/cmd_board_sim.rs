@@ -226,9 +226,9 @@ fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
             let (secs, factor) = arg.and_then(|a| a.split_once(':')).ok_or_else(err)?;
             let secs: f64 = secs.parse().map_err(|_| err())?;
             let factor: f64 = factor.parse().map_err(|_| err())?;
-            if !(secs.is_finite() && secs > 0.0 && secs <= 3600.0)
-                || !(factor.is_finite() && factor > 0.0 && factor <= 10.0)
-            {
+            let secs_ok = secs.is_finite() && secs > 0.0 && secs <= 3600.0;
+            let factor_ok = factor.is_finite() && factor > 0.0 && factor <= 10.0;
+            if !(secs_ok && factor_ok) {
                 return Err(err());
             }
             Scheduled::Hard(secs, factor)

@@ -5,7 +5,8 @@
 //! log is created (no port touched); the port is opened and its framing verified (nothing sent); the first transaction writes
 //! `WATCHDOG_MS`; the status is read and printed with the board's resolution; the threaded
 //! loop runs until Ctrl-C (or `--duration-s`); then `ACC_REQUEST` is cleared, the run log
-//! flushed, a summary printed, and the exit code is 0.
+//! flushed, a summary printed, and the exit code says which way the run ended
+//! ([`crate::exit::RunExit`]: 2 for anything wrong before the first byte was sent).
 
 use std::fs::File;
 use std::io::BufWriter;
@@ -20,6 +21,8 @@ use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
 use acc_runtime::{run, ControlLoop, Drain, Ended, LogSink, RunOptions, RunRecord, SystemClock};
 use anyhow::{bail, Context};
+
+use crate::exit::{ExitAs, RunExit};
 
 /// Arguments of `acc run`.
 #[derive(Debug, clap::Args)]
@@ -124,25 +127,33 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         "info",
     );
     // 1. Everything validated before the port is touched.
-    let cfg = RunConfig::load_for(&args.config, args.port.as_deref(), args.can.as_deref())?;
+    let cfg = RunConfig::load_for(&args.config, args.port.as_deref(), args.can.as_deref())
+        .exit_as(RunExit::Usage)?;
     if let Some(d) = args.duration_s {
         if !(d.is_finite() && d > 0.0) {
-            bail!("--duration-s {d}: must be a positive number of seconds");
+            return Err(anyhow::anyhow!(
+                "--duration-s {d}: must be a positive number of seconds: allowed > 0 (machine time)"
+            ))
+            .exit_as(RunExit::Usage);
         }
     }
     // The run log too: a path that cannot be written fails here, before the first byte goes
     // to the board.
     if let Some(dir) = args.log.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
-            .with_context(|| format!("--log {}: cannot create its folder", args.log.display()))?;
+            .with_context(|| format!("--log {}: cannot create its folder", args.log.display()))
+            .exit_as(RunExit::Usage)?;
     }
     let file = File::create(&args.log)
-        .with_context(|| format!("--log {}: cannot create the run log", args.log.display()))?;
-    let writer = RunLogWriter::new(BufWriter::new(file))?;
+        .with_context(|| format!("--log {}: cannot create the run log", args.log.display()))
+        .exit_as(RunExit::Usage)?;
+    let writer = RunLogWriter::new(BufWriter::new(file))
+        .with_context(|| format!("--log {}: cannot write the run log", args.log.display()))
+        .exit_as(RunExit::Usage)?;
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
             // 2. Open the port (framing verified, nothing sent).
-            let port = acc_pmc::serial::open_port(rtu_cfg)?;
+            let port = acc_pmc::serial::open_port(rtu_cfg).exit_as(RunExit::Usage)?;
             let mut rtu = RtuBoard::new(port, rtu_cfg.link);
             // 3. First transaction: the watchdog time; then the status.
             rtu.write_watchdog_ms(rtu_cfg.watchdog_ms)
@@ -154,10 +165,12 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                         rtu_cfg.link.slave,
                         rtu_cfg.port
                     )
-                })?;
+                })
+                .exit_as(RunExit::BoardNotAnswering)?;
             let status = rtu
                 .read_status()
-                .with_context(|| format!("reading the board status on {}", rtu_cfg.port))?;
+                .with_context(|| format!("reading the board status on {}", rtu_cfg.port))
+                .exit_as(RunExit::BoardNotAnswering)?;
             println!(
                 "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms",
                 rtu_cfg.link.slave, rtu_cfg.port, rtu_cfg.serial.baud, rtu_cfg.watchdog_ms
@@ -172,16 +185,19 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             Ok(())
         }
         LinkSettings::Can { iface, link } => {
-            let board = acc_pmc::can::open_socketcan(iface, *link).map_err(|e| {
-                anyhow::anyhow!(
-                    "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
-                    cfg.path.display()
-                )
-            })?;
+            let board = acc_pmc::can::open_socketcan(iface, *link)
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
+                        cfg.path.display()
+                    )
+                })
+                .exit_as(RunExit::Usage)?;
             let mut pmc = board;
             let status = pmc
                 .read_status()
-                .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))?;
+                .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))
+                .exit_as(RunExit::BoardNotAnswering)?;
             println!(
                 "board: CAN node {} on {iface} (board watchdog at its own setting)",
                 link.node
@@ -211,12 +227,15 @@ fn drive<P: Board + Send>(
     );
     println!("status: {}", describe_status(&status));
     if !(step == 1 || step == 10) {
-        bail!(
+        return Err(anyhow::anyhow!(
             "board reports OVERRIDE_STEP = {step} %: the spec allows 10 or 1; refusing to drive it"
-        );
+        ))
+        .exit_as(RunExit::BoardNotAnswering);
     }
     let mut ccfg = cfg.controller;
-    ccfg.override_spec = spec_for_board(ccfg.override_spec, step)?;
+    ccfg.override_spec = spec_for_board(ccfg.override_spec, step)
+        .with_context(|| format!("{}: key `controller` (the preset)", cfg.path.display()))
+        .exit_as(RunExit::BoardNotAnswering)?;
     let law = Controller::new(ccfg).map_err(|e| {
         anyhow::anyhow!("{}: key `controller` (the preset): {e}", cfg.path.display())
     })?;
@@ -258,7 +277,8 @@ fn drive<P: Board + Send>(
         &mut sink,
         &stop,
         opts,
-    )?;
+    )
+    .exit_as(RunExit::Internal)?;
 
     // Summary.
     // Every period has a run-log row: the cycles run plus the ones the ticker skipped.
@@ -310,6 +330,15 @@ fn drive<P: Board + Send>(
             }
             .into())
         }
+        (Ok(()), Ended::Released | Ended::Completed) if fault_feed_hold(&s) => Err(ExitWith {
+            code: EXIT_FAULT_FEED_HOLD,
+            message: format!(
+                "shutdown: ACC_REQUEST cleared; a fault had requested feed hold (final state {}, alarms: {}): the NC needs cycle start",
+                s.final_state.name(),
+                s.alarms.names()
+            ),
+        }
+        .into()),
         (Ok(()), Ended::Released) => {
             println!(
                 "shutdown: out of the cut; ACC_REQUEST cleared, the operator has the override"
@@ -320,18 +349,32 @@ fn drive<P: Board + Send>(
             println!("shutdown: ACC_REQUEST cleared, the operator has the override");
             Ok(())
         }
-        (Err(k), _) => bail!(
+        (Err(k), _) => Err(anyhow::anyhow!(
             "shutdown: could not write CONTROL ({k:?}); the board's watchdog releases the override"
-        ),
+        ))
+        .exit_as(RunExit::FinalWriteFailed),
     }
 }
 
-/// Exit code of `acc run` when a stop request found the machine still cutting and ended
-/// with a feed hold.
-pub const EXIT_FEED_HOLD: i32 = 3;
+/// A fault feed hold was in force when the run ended: the overload alarm, or a latched
+/// release whose last status shows the NC's feed hold.
+fn fault_feed_hold(s: &acc_runtime::RunSummary) -> bool {
+    s.alarms.overload
+        || (matches!(s.final_state, acc_runtime::policy::AccState::Latched(_))
+            && s.last_status.as_ref().is_some_and(|st| st.feed_hold_active))
+}
 
-/// Exit code of `acc run` when the board's serial device or CAN interface vanished.
-pub const EXIT_DEVICE_LOST: i32 = 4;
+/// Exit code of `acc run` when a stop request found the machine still cutting and ended
+/// with a feed hold ([`RunExit::FeedHold`]).
+pub const EXIT_FEED_HOLD: i32 = RunExit::FeedHold.code();
+
+/// Exit code of `acc run` when the board's serial device or CAN interface vanished
+/// ([`RunExit::DeviceLost`]).
+pub const EXIT_DEVICE_LOST: i32 = RunExit::DeviceLost.code();
+
+/// Exit code of `acc run` when a fault feed hold was in force at the end
+/// ([`RunExit::FaultFeedHold`]).
+pub const EXIT_FAULT_FEED_HOLD: i32 = RunExit::FaultFeedHold.code();
 
 /// An error that ends the process with its own exit code (see `main`).
 #[derive(Debug)]

@@ -12,6 +12,7 @@ mod cmd_sim;
 mod cmd_soak;
 mod cmd_stability;
 mod configs;
+mod exit;
 mod harness;
 
 /// Adaptive feedrate-override control for CNC milling.
@@ -43,9 +44,9 @@ enum Command {
     /// The production loop against the PMC interface board (Modbus RTU): fault policy,
     /// operator priority, run log (CSV, same schema as `acc sim`). Ctrl-C mid-cut keeps
     /// control until the cut ends (at most `[shutdown] drain_s`), then releases; still
-    /// cutting then, or a second Ctrl-C: feed hold, then release. Exit codes: 0 stopped out
-    /// of the cut, 2 failure (config, file, link), 3 stopped mid-cut with feed hold, 4 the
-    /// board's device vanished (port, cable, CAN interface).
+    /// cutting then, or a second Ctrl-C: feed hold, then release. One exit code per way the
+    /// run ended (listed below).
+    #[command(after_help = exit::RunExit::help())]
     Run(cmd_run::RunArgs),
     /// Serve the board protocol on a new pty (prints its path) or a given port, backed by
     /// the simulated machine running in step with real time.
@@ -60,21 +61,43 @@ enum Command {
     Soak(cmd_soak::SoakArgs),
 }
 
-/// Exit code for a failed command (bad config, bad file, link error, ...).
+/// Exit code for a failed command other than `acc run` (bad config, bad file, ...).
 const EXIT_FAILURE: i32 = 2;
 
 fn main() {
     quiet_broken_pipe();
     let cli = Cli::parse();
-    if let Err(e) = dispatch(cli) {
-        // `{:#}` prints the whole cause chain on one line: the file, key and allowed range
-        // that the config layers put into their errors.
-        if let Some(x) = e.downcast_ref::<cmd_run::ExitWith>() {
-            eprintln!("{x}");
-            std::process::exit(x.code);
+    let is_run = matches!(cli.command, Command::Run(_));
+    // A panic on the main thread is an internal error (exit 1), not a crash code.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli)))
+        .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error: the command panicked")));
+    match result {
+        Ok(()) => {
+            if is_run {
+                println!("{}", exit::RunExit::Completed.last_line());
+            }
         }
-        eprintln!("error: {e:#}");
-        std::process::exit(EXIT_FAILURE);
+        Err(e) if is_run => {
+            // `acc run`: the error (the file, key, value and range from the config layers, on
+            // one line with `{:#}`), then the last line saying which way the run ended.
+            let how = exit::exit_of(&e);
+            if let Some(x) = e.downcast_ref::<cmd_run::ExitWith>() {
+                eprintln!("{x}");
+            } else {
+                eprintln!("error: {e:#}");
+            }
+            eprintln!("{}", how.last_line());
+            std::process::exit(how.code());
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            let internal = e.to_string().starts_with("internal error");
+            std::process::exit(if internal {
+                exit::RunExit::Internal.code()
+            } else {
+                EXIT_FAILURE
+            });
+        }
     }
 }
 

@@ -15,11 +15,13 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+pub mod diagnose;
 pub mod preset;
 
 /// The one out-of-range error of the workspace (defined in `acc-core`, the lowest crate, so
 /// that the control core reports its parameter ranges with it too).
 pub use acc_core::RangeError;
+pub use diagnose::{from_table, KeyRange};
 pub use preset::{load_controller, load_preset, parse_preset, resolve_preset, Preset, PresetFile};
 
 /// A configuration error: which file, which key, what is wrong.
@@ -57,15 +59,25 @@ pub enum ConfigError {
     },
 }
 
-/// Read and deserialize a TOML file; errors name the file and, where TOML knows it, the
-/// line, column and key.
+/// Read and deserialize a TOML file; errors name the file, the full dotted key, the value
+/// and (for a number of the wrong type or outside its type) the type's range, with the
+/// line and column.
 pub fn load_toml<T: DeserializeOwned>(path: impl AsRef<Path>) -> Result<T, ConfigError> {
+    load_toml_with(path, &[])
+}
+
+/// [`load_toml`] with the allowed ranges of the file's numeric keys, shown when a value
+/// does not even deserialize (e.g. `-1` for an unsigned count).
+pub fn load_toml_with<T: DeserializeOwned>(
+    path: impl AsRef<Path>,
+    ranges: &[KeyRange],
+) -> Result<T, ConfigError> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
         file: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    parse_toml(path, &text)
+    parse_toml_with(path, &text, ranges)
 }
 
 /// Deserialize TOML text that came from `path` (used for errors only).
@@ -73,10 +85,38 @@ pub fn parse_toml<T: DeserializeOwned>(
     path: impl AsRef<Path>,
     text: &str,
 ) -> Result<T, ConfigError> {
-    toml::from_str(text).map_err(|e| ConfigError::Parse {
-        file: path.as_ref().to_path_buf(),
-        message: e.to_string().trim_end().replace('\n', "\n  "),
-    })
+    parse_toml_with(path, text, &[])
+}
+
+/// [`parse_toml`] with the allowed ranges of the file's numeric keys (see
+/// [`load_toml_with`]).
+pub fn parse_toml_with<T: DeserializeOwned>(
+    path: impl AsRef<Path>,
+    text: &str,
+    ranges: &[KeyRange],
+) -> Result<T, ConfigError> {
+    toml::from_str(text).map_err(|e| diagnose::from_toml_error(path.as_ref(), text, &e, ranges))
+}
+
+/// A file named by key `key` (value as written: `value`) of the config `file`: an error
+/// reading it (missing, unreadable) names `file`, the key and the path it resolved to.
+/// Errors inside the named file already name that file and its key, and pass through.
+pub fn referenced(file: &Path, key: &str, value: &Path, e: ConfigError) -> ConfigError {
+    match e {
+        ConfigError::Io {
+            file: target,
+            reason,
+        } => ConfigError::Invalid {
+            file: file.to_path_buf(),
+            key: key.to_string(),
+            message: format!(
+                "\"{}\" cannot be read: {}: {reason} (paths are relative to this file)",
+                value.display(),
+                target.display()
+            ),
+        },
+        other => other,
+    }
 }
 
 impl From<RangeError> for ConfigError {

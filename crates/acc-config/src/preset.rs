@@ -53,7 +53,9 @@ use acc_core::{
 use serde::Deserialize;
 
 use crate::RangeError;
-use crate::{check_open_range, check_range, load_toml, parse_toml, ConfigError};
+use crate::{
+    check_open_range, check_range, load_toml_with, parse_toml_with, ConfigError, KeyRange,
+};
 
 /// A preset file as written (before validation).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -462,17 +464,43 @@ impl PresetFile {
     }
 }
 
+/// The allowed range of every numeric key of a preset, as the validation checks it: shown
+/// also when a value does not deserialize at all (`step_pct = -10`, `mu = "half"`).
+pub const PRESET_KEY_RANGES: &[KeyRange] = &[
+    KeyRange::new("controller.period_s", "0.001 ..= 10"),
+    KeyRange::new("controller.force_ref_n", "1 ..= 100000"),
+    KeyRange::new("controller.km", "0 < x < 1000000"),
+    KeyRange::new("mode.kp", "0 ..= 100"),
+    KeyRange::new("mode.ki", "0 < x <= 1000"),
+    KeyRange::new("mode.pole", "-1 < x < 1"),
+    KeyRange::new("override.step_pct", "1 ..= 50"),
+    KeyRange::new("override.min_pct", "a multiple of step_pct, <= max_pct"),
+    KeyRange::new("override.max_pct", "a multiple of step_pct, <= 150"),
+    KeyRange::new("override.hysteresis_pct", "0 ..= step_pct / 2"),
+    KeyRange::new("estimator.kc_initial", "kc_min ..= kc_max"),
+    KeyRange::new("estimator.kc_min", "0 < x < 10000"),
+    KeyRange::new("estimator.kc_max", "kc_min < x <= 10000"),
+    KeyRange::new("estimator.mu", "0 < x < 2"),
+    KeyRange::new("estimator.g_c", "0 < x <= 10"),
+    KeyRange::new("estimator.min_force_n", "0 ..= 100000"),
+    KeyRange::new("estimator.min_feed_mm_min", "0 ..= 100000"),
+    KeyRange::new("estimator.confirm_periods", "0 ..= 10000 (0 = off)"),
+    KeyRange::new("estimator.confirm_tol", "0 < x < 1"),
+    KeyRange::new("plant.kc_nominal", "0 < x < 10000"),
+    KeyRange::new("plant.nominal_feed_mm_min", "0.001 ..= 100000"),
+];
+
 /// Read and validate a preset file.
 pub fn load_preset(path: impl AsRef<Path>) -> Result<Preset, ConfigError> {
     let path = path.as_ref();
-    let file: PresetFile = load_toml(path)?;
+    let file: PresetFile = load_toml_with(path, PRESET_KEY_RANGES)?;
     file.validate(path)
 }
 
 /// Validate preset text that came from `path` (used for errors only).
 pub fn parse_preset(path: impl AsRef<Path>, text: &str) -> Result<Preset, ConfigError> {
     let path = path.as_ref();
-    let file: PresetFile = parse_toml(path, text)?;
+    let file: PresetFile = parse_toml_with(path, text, PRESET_KEY_RANGES)?;
     file.validate(path)
 }
 

@@ -217,11 +217,23 @@ fn structural_errors_name_the_key() {
         &base.replace("km = 1.0", "km = 1.0\nkm_typo = 2.0"),
     )
     .unwrap_err();
-    assert!(matches!(err, ConfigError::Parse { .. }));
-    assert!(err.to_string().contains("km_typo"), "{err}");
+    // …named with its table and the nearest known key.
+    assert!(
+        matches!(&err, ConfigError::Invalid { key, .. } if key == "controller.km_typo"),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string()
+            .contains("allowed keys in `controller`: period_s, force_ref_n, km,"),
+        "{err}"
+    );
     // Missing key.
     let err = parse_preset("x.toml", &base.replace("period_s = 0.1", "")).unwrap_err();
-    assert!(err.to_string().contains("period_s"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("key `controller.period_s`: missing"),
+        "{err}"
+    );
     // Fixed gain without g_c.
     let err = parse_preset("x.toml", &with(&base, "gain", "\"fixed\"")).unwrap_err();
     assert_eq!(

@@ -4,7 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use acc_config::{check_range, load_toml, resolve_relative, ConfigError};
+use acc_config::{
+    check_range, from_table, load_toml_with, referenced, resolve_relative, ConfigError, KeyRange,
+};
 use acc_core::ControllerConfig;
 use acc_pmc::can::{CanConfig, CanLinkConfig};
 use acc_pmc::serial::{RtuConfig, RtuSettings};
@@ -150,6 +152,50 @@ impl Default for RuntimeSection {
     }
 }
 
+/// The allowed range of every numeric key of a run config (what the validation checks),
+/// shown also when a value does not deserialize at all (`link_hold_periods = -1`,
+/// `time_scale = "fast"`). `tests/configs_load.rs` checks that every numeric key of the
+/// shipped run configs is listed and that the limits agree with the validation.
+pub const RUN_KEY_RANGES: &[KeyRange] = &[
+    KeyRange::new(
+        "board.baud",
+        "one of [1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200]",
+    ),
+    KeyRange::new("board.data_bits", "8"),
+    KeyRange::new("board.stop_bits", "1 or 2"),
+    KeyRange::new("board.slave", "1 ..= 247"),
+    KeyRange::new("board.timeout_ms", "5 ..= 2000"),
+    KeyRange::new("board.retries", "0 ..= 5"),
+    KeyRange::new("board.budget_ms", "timeout_ms ..= 5000"),
+    KeyRange::new("board.watchdog_ms", "100 ..= 5000"),
+    KeyRange::new("can.node", "1 ..= 127"),
+    KeyRange::new("can.timeout_ms", "5 ..= 2000"),
+    KeyRange::new("force.estimator.tool_radius_mm", "0.1 ..= 1000"),
+    KeyRange::new("force.estimator.noise_floor_sigma", "0 ..= 100"),
+    KeyRange::new("force.estimator.max_speed_change", "0 ..= 1"),
+    KeyRange::new("force.estimator.min_rpm", "0 ..= 1e6"),
+    KeyRange::new("force.estimator.negative_sigma", "0 ..= 1000"),
+    KeyRange::new("policy.min_override_pct", "0 ..= max_override_pct"),
+    KeyRange::new("policy.max_override_pct", "1 ..= 150"),
+    KeyRange::new("policy.link_hold_periods", "1 ..= 1000"),
+    KeyRange::new("policy.invalid_power_periods", "1 ..= 1000"),
+    KeyRange::new("policy.stale_seq_periods", "1 ..= 1000"),
+    KeyRange::new("policy.ack_periods", "1 ..= 1000"),
+    KeyRange::new("policy.overload_force_n", "> 0"),
+    KeyRange::new("policy.overload_time_s", ">= 0"),
+    KeyRange::new("policy.operator_handback_pct", "0 ..= 150"),
+    KeyRange::new("policy.max_power_w", "> 0"),
+    KeyRange::new("policy.nominal_feed_mm_min", "> 0"),
+    KeyRange::new("shutdown.drain_s", "0 ..= 600"),
+    KeyRange::new("shutdown.air_periods", "1 ..= 1000"),
+    KeyRange::new(
+        "shutdown.air_force_n",
+        "0 ..= Fr (the preset's force_ref_n)",
+    ),
+    KeyRange::new("runtime.time_scale", "0.1 ..= 100"),
+    KeyRange::new("runtime.log_queue", "1 ..= 1000000"),
+];
+
 /// The run config as written.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -228,7 +274,7 @@ impl RunConfig {
         can: Option<&str>,
     ) -> Result<Self, ConfigError> {
         let path = path.as_ref();
-        let file: RunFile = load_toml(path)?;
+        let file: RunFile = load_toml_with(path, RUN_KEY_RANGES)?;
         Self::from_file(path, file, port, can)
     }
 
@@ -244,16 +290,15 @@ impl RunConfig {
             key: key.to_string(),
             message,
         };
-        let controller = acc_config::load_controller(resolve_relative(path, &file.controller))?;
+        let controller = acc_config::load_controller(resolve_relative(path, &file.controller))
+            .map_err(|e| referenced(path, "controller", &file.controller, e))?;
 
         // [board] or [can]
         let link = match can {
             Some(iface) => {
                 let mut table = file.can.unwrap_or_default();
                 table.insert("iface".into(), toml::Value::String(iface.to_string()));
-                let c: CanConfig = toml::Value::Table(table)
-                    .try_into()
-                    .map_err(|e| invalid("can", e.to_string().trim_end().to_string()))?;
+                let c: CanConfig = from_table(path, "can", table, RUN_KEY_RANGES)?;
                 LinkSettings::Can {
                     iface: iface.to_string(),
                     link: c.validate(path, "can")?,
@@ -270,19 +315,17 @@ impl RunConfig {
                         "missing: give --port <device> or set board.port".into(),
                     ));
                 }
-                let rtu: RtuConfig = toml::Value::Table(table)
-                    .try_into()
-                    .map_err(|e| invalid("board", e.to_string().trim_end().to_string()))?;
+                let rtu: RtuConfig = from_table(path, "board", table, RUN_KEY_RANGES)?;
                 LinkSettings::Rtu(rtu.validate(path, "board")?)
             }
         };
 
         // [force]
         let cal_path = resolve_relative(path, &file.force.calibration);
-        let calibration = SpindleCalibration::load(&cal_path)?;
+        let calibration = SpindleCalibration::load(&cal_path)
+            .map_err(|e| referenced(path, "force.calibration", &file.force.calibration, e))?;
         let estimator = file.force.estimator;
-        build_source(&calibration, estimator)
-            .map_err(|e| invalid("force.estimator", e.to_string()))?;
+        build_source(&calibration, estimator).map_err(|e| estimator_error(path, e))?;
 
         // [policy]
         let policy = file.policy.resolve_in(path, &controller)?;
@@ -336,16 +379,27 @@ impl RunConfig {
 
     /// The force source: the spindle estimator on the board's power register.
     pub fn force_source(&self) -> Result<SpindleSource, ConfigError> {
-        build_source(&self.calibration, self.estimator).map_err(|e| ConfigError::Invalid {
-            file: self.path.clone(),
-            key: "force.estimator".into(),
-            message: e.to_string(),
-        })
+        build_source(&self.calibration, self.estimator).map_err(|e| estimator_error(&self.path, e))
     }
 
     /// Wall-clock period of the ticker: `T / time_scale`.
     pub fn tick_period(&self) -> std::time::Duration {
         std::time::Duration::from_secs_f64(self.controller.period_s / self.runtime.time_scale)
+    }
+}
+
+/// An estimator error of the run config `file`: a range error names
+/// `force.estimator.<key>`, anything else `force.estimator`.
+fn estimator_error(file: &Path, e: acc_spindle::SpindleError) -> ConfigError {
+    match e {
+        acc_spindle::SpindleError::OutOfRange(r) => {
+            ConfigError::OutOfRange(r.prefixed("force.estimator").in_file(file))
+        }
+        other => ConfigError::Invalid {
+            file: file.to_path_buf(),
+            key: "force.estimator".into(),
+            message: other.to_string(),
+        },
     }
 }
 
