@@ -219,12 +219,20 @@ pub struct Row {
     pub t_fault_s: Option<f64>,
     /// Last override ACC commanded before the fault, percent.
     pub last_cmd_pct: Option<u16>,
-    /// Largest applied override after the fault while the feed was not held, percent.
+    /// Largest applied override after the fault in periods where ACC was not driving the
+    /// override and the feed was not held, percent (`None`: ACC drove, or the feed was held,
+    /// in every period of the window).
     pub max_applied_after_pct: Option<u16>,
     /// Largest true force in the window before the fault, N.
     pub force_before_n: f64,
-    /// Largest true force in the window after the fault, N.
+    /// Largest true force in the window after the fault, N (all periods, including those
+    /// in which ACC drove the override again).
     pub force_after_n: f64,
+    /// Largest true force after the fault in periods where ACC was not driving, N.
+    pub force_after_released_n: f64,
+    /// Periods of `acc run` with an unusable force sample or a link fault in which the
+    /// command rose above the one before.
+    pub raised_in_fault: usize,
     /// The feed was held (feed hold active) at some point after the fault.
     pub feed_hold_after: bool,
     /// `acc run`'s log rows, and whether every period from first to last has one.
@@ -462,22 +470,41 @@ fn judge(
 ) -> Row {
     let tf = t_fault.unwrap_or(args.at_s);
     // A machine row covers the period ending at t_s: the fault's period is the first with
-    // t_s > tf.
+    // t_s > tf. A signalled acc run drains for up to 10 s and then releases: its window runs
+    // to the end of the machine log.
+    let until = match f.action {
+        Action::Signal(_) | Action::DoubleSigint => f64::INFINITY,
+        _ => tf + args.after_s,
+    };
     let before: Vec<&RunRecord> = m.iter().filter(|x| x.t_s <= tf).collect();
-    let after: Vec<&RunRecord> = m
-        .iter()
-        .filter(|x| x.t_s > tf && x.t_s <= tf + args.after_s)
-        .collect();
+    let after: Vec<&RunRecord> = m.iter().filter(|x| x.t_s > tf && x.t_s <= until).collect();
+    let driving = |x: &RunRecord| x.state == "acc_active";
     let last_cmd = before
         .iter()
         .rev()
-        .find(|x| x.state == "acc_active")
+        .find(|x| driving(x))
         .and_then(|x| x.override_applied_pct);
-    let max_applied_after = after
-        .iter()
-        .filter(|x| !x.feed_hold)
-        .filter_map(|x| x.override_applied_pct)
-        .max();
+    // Board side: in every period after the fault in which ACC was not driving the override
+    // and the feed was not held, the applied override is at most what ACC last commanded
+    // (tracked through the window: ACC may re-arm and command again).
+    let mut last = last_cmd;
+    let mut max_released: Option<u16> = None;
+    let mut over = Vec::new();
+    for x in &after {
+        if driving(x) {
+            last = x.override_applied_pct.or(last);
+            continue;
+        }
+        if x.feed_hold {
+            continue;
+        }
+        if let Some(a) = x.override_applied_pct {
+            max_released = Some(max_released.map_or(a, |m: u16| m.max(a)));
+            if let Some(c) = last.filter(|c| a > *c) {
+                over.push(format!("t = {:.1} s: {c} → {a} %", x.t_s));
+            }
+        }
+    }
     let force = |x: &&RunRecord| x.force_true_n.unwrap_or(0.0);
     let force_before = before
         .iter()
@@ -485,7 +512,30 @@ fn judge(
         .map(force)
         .fold(0.0, f64::max);
     let force_after = after.iter().map(force).fold(0.0, f64::max);
+    let force_after_released = after
+        .iter()
+        .filter(|x| !driving(x))
+        .map(force)
+        .fold(0.0, f64::max);
     let feed_hold_after = after.iter().any(|x| x.feed_hold);
+    // Controller side: no period with an unusable force sample or a link fault raised the
+    // command above the one before it.
+    let mut raised = 0;
+    let mut prev: Option<u16> = None;
+    for x in r {
+        if x.state != "active" {
+            prev = None;
+            continue;
+        }
+        let Some(c) = x.override_cmd_pct else {
+            continue;
+        };
+        let faulty = !x.force_valid || x.flags.contains("link:");
+        if faulty && prev.is_some_and(|p| c > p) {
+            raised += 1;
+        }
+        prev = Some(c);
+    }
     let log_complete =
         !r.is_empty() && r.windows(2).all(|w| w[1].period == w[0].period + 1) && r[0].period == 0;
 
@@ -493,15 +543,22 @@ fn judge(
     if m.is_empty() || after.is_empty() {
         problems.push("no machine rows after the fault".to_string());
     }
-    match (last_cmd, max_applied_after) {
-        (Some(c), Some(a)) if a > c => problems.push(format!("override {c} → {a} %")),
-        (None, _) => problems.push("ACC was not active before the fault".into()),
-        _ => {}
+    if last_cmd.is_none() {
+        problems.push("ACC was not active before the fault".into());
     }
-    if force_after > 1.05 * force_before {
+    if let Some(first) = over.first() {
         problems.push(format!(
-            "force {force_before:.0} → {force_after:.0} N (> 1.05×)"
+            "override above ACC's last command in {} periods (first {first})",
+            over.len()
         ));
+    }
+    if force_after_released > 1.05 * force_before {
+        problems.push(format!(
+            "force {force_before:.0} → {force_after_released:.0} N with ACC not driving (> 1.05×)"
+        ));
+    }
+    if raised > 0 {
+        problems.push(format!("{raised} fault periods raised the command"));
     }
     if !log_complete {
         problems.push("acc run's log misses periods".into());
@@ -528,9 +585,11 @@ fn judge(
         protocol,
         t_fault_s: t_fault,
         last_cmd_pct: last_cmd,
-        max_applied_after_pct: max_applied_after,
+        max_applied_after_pct: max_released,
         force_before_n: force_before,
         force_after_n: force_after,
+        force_after_released_n: force_after_released,
+        raised_in_fault: raised,
         feed_hold_after,
         log_rows: r.len(),
         log_complete,
@@ -551,17 +610,12 @@ fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {
         args.after_s,
         args.config.display(),
     ));
-    t.push_str("| fault | board | what | last cmd % | max applied after % | force before N | max force after N | after/before | feed hold | log rows (complete) | acc run exit | verdict |\n");
-    t.push_str("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | --- | --- | --- | --- |\n");
+    t.push_str("| fault | board | what | last cmd % | max applied, ACC not driving % | force before N | max force after N: all / ACC not driving | feed hold after | fault periods raising cmd | log rows (complete) | acc run exit | verdict |\n");
+    t.push_str("| --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | --- | --- | --- |\n");
     for r in rows {
         let opt = |v: Option<u16>| v.map_or("–".to_string(), |v| v.to_string());
-        let ratio = if r.force_before_n > 0.0 {
-            format!("{:.2}", r.force_after_n / r.force_before_n)
-        } else {
-            "–".into()
-        };
         t.push_str(&format!(
-            "| {} | v{} | {} | {} | {} | {:.0} | {:.0} | {} | {} | {} ({}) | {} | {} |\n",
+            "| {} | v{} | {} | {} | {} | {:.0} | {:.0} / {:.0} | {} | {} | {} ({}) | {} | {} |\n",
             r.fault,
             r.protocol,
             r.what,
@@ -569,8 +623,9 @@ fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {
             opt(r.max_applied_after_pct),
             r.force_before_n,
             r.force_after_n,
-            ratio,
+            r.force_after_released_n,
             if r.feed_hold_after { "yes" } else { "no" },
+            r.raised_in_fault,
             r.log_rows,
             if r.log_complete { "yes" } else { "NO" },
             r.exit,
