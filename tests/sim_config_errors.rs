@@ -154,7 +154,11 @@ fn nc_context_keys_are_range_checked_and_reach_the_board() {
     let wp = wp.display().to_string();
     for (extra, key, range) in [
         ("[nc]\ntool_number = -1\n", "nc.tool_number", "0 ..= 65535"),
-        ("[nc]\nprogram_number = 70000\n", "nc.program_number", "0 ..= 65535"),
+        (
+            "[nc]\nprogram_number = 70000\n",
+            "nc.program_number",
+            "0 ..= 65535",
+        ),
         ("[nc]\nblock_step = 0\n", "nc.block_step", "1 ..= 1000"),
     ] {
         let p = write(dir.path(), "nc.toml", &scenario_text(&wp, extra));
@@ -164,7 +168,11 @@ fn nc_context_keys_are_range_checked_and_reach_the_board() {
             "{extra}: {e}"
         );
     }
-    let p = write(dir.path(), "nc.toml", &scenario_text(&wp, "[nc]\ntool = 3\n"));
+    let p = write(
+        dir.path(),
+        "nc.toml",
+        &scenario_text(&wp, "[nc]\ntool = 3\n"),
+    );
     let e = err(&p);
     assert!(e.contains("nc.toml") && e.contains("tool"), "{e}");
     // Valid keys reach the simulated board's registers; defaults fill the rest.
