@@ -482,8 +482,8 @@ fn to_request<V: rmodbus::VectorTrait<u8>>(mf: &ModbusFrame<'_, V>, frame: &[u8]
 }
 
 /// Serve `board` on `port` in a new thread until `stop` is set, the board's time on `clock`
-/// (its watchdog); the thread returns the
-/// server (for its statistics) or the I/O error that ended it.
+/// (its watchdog); the thread returns the server's statistics (stream errors never end it:
+/// see the module docs).
 pub fn spawn_server<P>(
     port: P,
     slave: u8,
