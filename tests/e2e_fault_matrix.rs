@@ -41,7 +41,7 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
     );
     let json = std::fs::read_to_string(out.join("fault-matrix.json")).expect("json");
     let rows: Vec<serde_json::Value> = serde_json::from_str(&json).expect("rows");
-    assert_eq!(rows.len(), 30, "15 faults x 2 boards");
+    assert_eq!(rows.len(), 32, "16 faults x 2 boards");
     for r in &rows {
         let verdict = r["verdict"].as_str().unwrap_or_default();
         let protocol = r["protocol"].as_u64().unwrap_or_default();
@@ -72,6 +72,15 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
         .find(|r| r["fault"] == "sigkill" && r["protocol"] == 2)
         .expect("v2 sigkill row");
     assert_eq!(kill2["feed_hold_after"].as_bool(), Some(true), "{kill2}");
+    // The overload protection answers a force the controller cannot bring down with a feed
+    // hold.
+    for p in [1, 2] {
+        let row = rows
+            .iter()
+            .find(|r| r["fault"] == "overload" && r["protocol"] == p)
+            .expect("overload row");
+        assert_eq!(row["feed_hold_after"].as_bool(), Some(true), "{row}");
+    }
     // Signals end the run with a feed hold mid-cut (exit 3), never at the knob.
     for sig in ["sigint", "sigterm", "sigint-twice"] {
         for p in [1, 2] {

@@ -40,7 +40,7 @@
 //!   machine time), `vanish@T` (the device disappears: board-sim closes its end of the pty,
 //!   the controller's reads fail with EIO, as when a USB adapter is unplugged; the machine
 //!   runs on under the board's own logic) and `hard@T:S:F` (a hard spot: the material's
-//!   `Ks` × F for S s of machine time, 0 < F <= 10).
+//!   `Ks` × F for S s of machine time, 0 < F <= 20).
 //! - `--watchdog-time machine` runs the board's clock (its watchdog, `WATCHDOG_MS`) on
 //!   machine time, as on the real machine; the default `wall` keeps it on wall time, which
 //!   is more forgiving of a loaded host at high `--time-scale`.
@@ -227,7 +227,7 @@ fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
             let secs: f64 = secs.parse().map_err(|_| err())?;
             let factor: f64 = factor.parse().map_err(|_| err())?;
             let secs_ok = secs.is_finite() && secs > 0.0 && secs <= 3600.0;
-            let factor_ok = factor.is_finite() && factor > 0.0 && factor <= 10.0;
+            let factor_ok = factor.is_finite() && factor > 0.0 && factor <= 20.0;
             if !(secs_ok && factor_ok) {
                 return Err(err());
             }
@@ -378,6 +378,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let unplugged = Arc::new(AtomicBool::new(false));
     let paced = args.paced.then_some(args.baud);
 
+    // The board's own clock, shared by the server (watchdog on requests) and the machine
+    // loop below (watchdog ticks every period, also when no request arrives at all).
+    let clock: Arc<dyn acc_pmc::clock::Clock> =
+        Arc::from(board_clock(args.watchdog_time, args.time_scale));
     // Serve: a new pty (path printed) or the given port.
     let stop_server = Arc::new(AtomicBool::new(false));
     let (mut pty, server) = match &args.port {
@@ -389,7 +393,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 args.slave,
                 args.baud,
                 move |p| wrap(p, q, u, paced),
-                board_clock(args.watchdog_time, args.time_scale),
+                Box::new(Arc::clone(&clock)),
             )
             .context("creating the pseudo-terminal")?;
             println!("{}", pty.path());
@@ -414,7 +418,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 args.slave,
                 Arc::clone(&board),
                 Arc::clone(&stop_server),
-                board_clock(args.watchdog_time, args.time_scale),
+                Box::new(Arc::clone(&clock)),
             );
             println!("{dev}");
             (None, Some(h))
@@ -509,6 +513,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             replug_at = None;
             eprintln!("board-sim: t = {t:.1} s: cable plugged back in");
         }
+        // The board's watchdog runs on its own timer, requests or not (a vanished device
+        // sends none).
+        lock_board(&board).tick(clock.now().as_millis() as u64);
         if hard_until.is_some_and(|u| t >= u) {
             sim.machine_mut().set_hardness_factor(1.0);
             hard_until = None;
@@ -674,7 +681,7 @@ mod tests {
             "hard@40:2",
             "hard@40:0:2",
             "hard@40:2:0",
-            "hard@40:2:11",
+            "hard@40:2:21",
             "hard@40:x:2",
             "unplug@3:0",
             "unplug@3:-1",

@@ -144,7 +144,7 @@ const FAULTS: &[Fault] = &[
     Fault {
         name: "device-vanished",
         what: "the serial device disappears for good",
-        action: Action::Board("unplug@{t}"),
+        action: Action::Board("vanish@{t}"),
         v1_unsafe: Some(NO_CLAMP),
         not_judged: None,
     },
@@ -198,9 +198,16 @@ const FAULTS: &[Fault] = &[
         not_judged: Some("the NC forces 100 % itself (OVERRIDE_LOCKED): the board reports it, no controller can change it"),
     },
     Fault {
-        name: "overload",
-        what: "a hard spot: the material's Ks × 2.5 for 2 s",
+        name: "hard-spot",
+        what: "a hard spot: the material's Ks × 2.5 for 2 s (ACC rides it)",
         action: Action::Board("hard@{t}:2:2.5"),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "overload",
+        what: "Ks × 12 for 2 s: above the overload limit even at the 10 % minimum (overload protection)",
+        action: Action::Board("hard@{t}:2:12"),
         v1_unsafe: None,
         not_judged: None,
     },
@@ -362,6 +369,8 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
         s("--baud"),
         s("115200"),
         s("--wait-for-controller"),
+        s("--watchdog-time"),
+        s("machine"),
         s("--protocol"),
         protocol.to_string(),
         s("--log"),
@@ -375,12 +384,14 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
         bargs.extend([s("--v1-registers"), s("exception")]);
     }
     let (mut board, pty) = Proc::spawn(&bargs, dir, "board-sim")?;
-    let pty = pty.filter(|p| p.starts_with('/')).with_context(|| {
-        format!(
-            "acc board-sim printed no pty path; its stderr is in {}",
-            dir.join("board-sim.stderr").display()
-        )
-    })?;
+    let Some(pty) = pty.filter(|p| p.starts_with('/')) else {
+        board.wait(Duration::from_secs(2));
+        board.drain(Duration::from_millis(200));
+        bail!(
+            "acc board-sim printed no pty path: {}",
+            board.seen.join(" / ")
+        );
+    };
     let rargs = vec![
         s("run"),
         s("--config"),

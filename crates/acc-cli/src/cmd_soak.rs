@@ -140,6 +140,8 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
         "--baud",
         "115200",
         "--wait-for-controller",
+        "--watchdog-time",
+        "machine",
         "--protocol",
         &args.protocol.to_string(),
         "--log",
