@@ -7,7 +7,33 @@
 
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
-/// Mean of a slice (0 for an empty slice).
+/// Solve the 3×3 system `a·x = b` (Gaussian elimination, partial pivoting); `None` when
+/// singular.
+pub fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+    for c in 0..3 {
+        let p = (c..3).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        if a[p][c].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(c, p);
+        b.swap(c, p);
+        for r in c + 1..3 {
+            let f = a[r][c] / a[c][c];
+            for k in c..3 {
+                a[r][k] -= f * a[c][k];
+            }
+            b[r] -= f * b[c];
+        }
+    }
+    let mut x = [0.0; 3];
+    for r in (0..3).rev() {
+        let s: f64 = (r + 1..3).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (b[r] - s) / a[r][r];
+    }
+    Some(x)
+}
+
+/// Mean (0 for an empty slice).
 pub fn mean(x: &[f64]) -> f64 {
     if x.is_empty() {
         0.0

@@ -37,6 +37,11 @@ pub struct Options {
     pub fit_speed_exponent: bool,
     /// Candidate effects. Default: all.
     pub candidates: Vec<EffectKind>,
+    /// The workpiece the log was cut on and the tool-centre position when it began, mm:
+    /// a plant replay ([`crate::replay::Inputs::plant`]) then takes the engagement from
+    /// the simulator's workpiece inside each period instead of the logged depths.
+    /// Default none.
+    pub workpiece: Option<(acc_sim::Workpiece, f64)>,
 }
 
 impl Default for Options {
@@ -51,6 +56,7 @@ impl Default for Options {
             min_gain_pct: 5.0,
             fit_speed_exponent: false,
             candidates: EffectKind::ALL.to_vec(),
+            workpiece: None,
         }
     }
 }
@@ -534,6 +540,9 @@ impl Prepared {
     /// Split the log (selection / sealed, folds) and locate the nominal discrepancy.
     fn new(model: &Model, log: &RunLog, opts: &Options) -> Result<Self, WorkflowError> {
         let mut inp = Inputs::from_log(log, model)?;
+        if let Some((wp, x0)) = &opts.workpiece {
+            inp.use_workpiece(wp.clone(), *x0);
+        }
         let n = inp.len();
         let needed = 12 * opts.folds + 20;
         if n < needed {
