@@ -82,6 +82,9 @@ pub enum WorkflowError {
     /// An option is out of range (the key is the [`Options`] field).
     #[error("{0}")]
     BadOption(acc_core::RangeError),
+    /// The log's values cannot be analysed (non-finite, a dead channel, time order).
+    #[error(transparent)]
+    BadLog(#[from] crate::runlog::RunLogError),
 }
 
 /// Time series for plots.
@@ -459,6 +462,53 @@ fn metrics(
 /// `sealed_check` and `assemble` (report).
 pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
     check_options(opts)?;
+    log.validate(std::path::Path::new("log"))?;
+    let mut warnings = log.unit_warnings();
+    // Split at gaps longer than two periods and analyse the longest piece: a run is never
+    // joined across a gap (the plant state, the wear clock and the noise are not
+    // continuous there).
+    let gaps = log.gaps(2.0);
+    if !gaps.is_empty() {
+        let mut cuts = vec![0];
+        cuts.extend(gaps.iter().map(|g| g.0));
+        cuts.push(log.len());
+        let (a, b) = cuts
+            .windows(2)
+            .map(|w| (w[0], w[1]))
+            .max_by_key(|(a, b)| b - a)
+            .unwrap_or((0, log.len()));
+        let list: Vec<String> = gaps
+            .iter()
+            .map(|(i, g)| {
+                format!(
+                    "line {} (`t_s` {} after {}: a gap of {g:.3} s)",
+                    i + 2,
+                    log.t_s[*i],
+                    log.t_s[*i - 1]
+                )
+            })
+            .collect();
+        let mut o = opts.clone();
+        if a > 0 {
+            // The plant replay starts at the piece: its engagement comes from the logged
+            // depths (the workpiece position at the gap is not known).
+            o.workpiece = None;
+        }
+        let mut an = analyse(model, &log.slice(a..b), &o)?;
+        an.report.warnings.insert(
+            0,
+            format!(
+                "time gaps longer than 2 periods at {}: the log was split there and only \
+                 lines {}..={} (the longest piece, {} rows) were analysed; pieces are never \
+                 joined across a gap",
+                list.join(", "),
+                a + 2,
+                b + 1,
+                b - a
+            ),
+        );
+        return Ok(an);
+    }
     let p = Prepared::new(model, log, opts)?;
     let ctx = Ctx {
         inp: &p.inp,
@@ -483,7 +533,9 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let (noise_f, unexplained) = check.run(&s.base_model);
 
     let sealed = sealed_check(&p, &s.nominal_refit, &upd_replay.predicted, noise_f);
-    Ok(assemble(model, p, s, upd_replay, unexplained, sealed, opts))
+    let mut a = assemble(model, p, s, upd_replay, unexplained, sealed, opts);
+    a.report.warnings.append(&mut warnings);
+    Ok(a)
 }
 
 /// The options [`analyse`] accepts: 2 ..= 20 folds, a sealed fraction in 0.05 ..= 0.5.
@@ -1064,6 +1116,7 @@ fn assemble(
         updated_params: absolute(s.base_params, &s.params_start, model),
         sealed,
         conclusion,
+        warnings: Vec::new(),
     };
     Analysis {
         report,
