@@ -59,9 +59,16 @@ fn check(wp: usize, tooth: bool, dyn_channel: bool, seed: u64) {
         );
         // The spindle-power channel's force is the power estimator's output: its model
         // error at entries is the estimator's, not the plant's (looser bound).
-        let k = if ch == Channel::Force && !dyn_channel { 2.5 } else { 1.6 };
+        let k = if ch == Channel::Force && !dyn_channel {
+            2.5
+        } else {
+            1.6
+        };
         assert!(rms <= k * s, "{tag}: replay RMS {rms:.2} vs noise σ {s:.2}");
-        assert!(mean.abs() <= 0.5 * s + 0.3, "{tag}: bias {mean:.2} vs σ {s:.2}");
+        assert!(
+            mean.abs() <= 0.5 * s + 0.3,
+            "{tag}: bias {mean:.2} vs σ {s:.2}"
+        );
     }
 }
 

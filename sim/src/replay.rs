@@ -254,8 +254,17 @@ mod tests {
         let spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
         let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
         let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
-        let ov: Vec<f64> = (0..300).map(|i| [100.0, 80.0, 120.0][(i / 40) % 3]).collect();
-        let mut m = Machine::new(&spec, &tool, WearSpec::default(), wp.clone(), ForceModel::Mean, 200.0);
+        let ov: Vec<f64> = (0..300)
+            .map(|i| [100.0, 80.0, 120.0][(i / 40) % 3])
+            .collect();
+        let mut m = Machine::new(
+            &spec,
+            &tool,
+            WearSpec::default(),
+            wp.clone(),
+            ForceModel::Mean,
+            200.0,
+        );
         let mut truth = Vec::new();
         for &o in &ov {
             m.set_override_input_pct(o as u16);
@@ -282,7 +291,10 @@ mod tests {
         let calib = tool.process.calib_force_n;
         let mut cut = 0;
         for (t, f) in tr.iter().zip(&truth) {
-            assert!((t.unit_force_mean * calib - f).abs() < 1e-9 * f.max(1.0), "{t:?} {f}");
+            assert!(
+                (t.unit_force_mean * calib - f).abs() < 1e-9 * f.max(1.0),
+                "{t:?} {f}"
+            );
             if *f > 10.0 {
                 cut += 1;
             }

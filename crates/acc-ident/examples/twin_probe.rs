@@ -4,7 +4,11 @@ use acc_ident::twin;
 fn main() {
     let dir = acc_sim::run::configs_dir();
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let names = if args.is_empty() { vec!["paper_case3.toml".to_string()] } else { args };
+    let names = if args.is_empty() {
+        vec!["paper_case3.toml".to_string()]
+    } else {
+        args
+    };
     for name in names {
         let sc = acc_sim::Scenario::load(dir.join("scenarios").join(&name)).expect("scenario");
         let t = std::time::Instant::now();
@@ -20,7 +24,11 @@ fn main() {
                 let d: Vec<f64> = r.windows(2).map(|w| w[1] - w[0]).collect();
                 let sd = (d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64 / 2.0).sqrt();
                 let mean = r.iter().sum::<f64>() / r.len() as f64;
-                let worst = r.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).unwrap();
+                let worst = r
+                    .iter()
+                    .enumerate()
+                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                    .unwrap();
                 println!("{name} {ch:?} wp={} rows {} sim {ts:.2}s replay {dt:.3}s: rms {rms:.2} mean {mean:.2} diff-sigma {sd:.2} worst row {} {:.1}", wp.is_some(), r.len(), worst.0, worst.1);
             }
         }

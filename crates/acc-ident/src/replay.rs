@@ -183,12 +183,7 @@ impl Inputs {
     /// 0 to the motor's rated torque; cached per speed.
     pub fn motor_curve(&self, motor: acc_sim::motor::BuiltinMotor, rpm: f64) -> [f64; 3] {
         let key = (rpm * 10.0).round() / 10.0;
-        if let Some((_, c)) = self
-            .motor_curves
-            .borrow()
-            .iter()
-            .find(|(r, _)| *r == key)
-        {
+        if let Some((_, c)) = self.motor_curves.borrow().iter().find(|(r, _)| *r == key) {
             return *c;
         }
         let c = motor_quadratic(motor, key);
@@ -669,8 +664,10 @@ fn replay_plant(
     };
     let dbeta = fx.get(EffectKind::FeedExponent, 0);
     let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
-    let runouts: Vec<acc_sim::config::Runout> =
-        [model.tool.runout, fx.runout].into_iter().flatten().collect();
+    let runouts: Vec<acc_sim::config::Runout> = [model.tool.runout, fx.runout]
+        .into_iter()
+        .flatten()
+        .collect();
     let runout_gain = |unit: f64, basis: [f64; 2]| -> f64 {
         if unit <= 0.0 {
             return 1.0;
@@ -703,7 +700,13 @@ fn replay_plant(
         if t.unit_force_mean > 0.0 {
             cut_min += inp.dt_s[i] / 60.0;
         }
-        let fb = |f: f64| if dbeta != 0.0 && f > 0.0 { (f / fref).powf(dbeta) } else { 1.0 };
+        let fb = |f: f64| {
+            if dbeta != 0.0 && f > 0.0 {
+                (f / fref).powf(dbeta)
+            } else {
+                1.0
+            }
+        };
         let k_mean = calib * factor * fb(t.feed_mean_mm_min);
         let k_win = calib * factor * fb(t.feed_window_mm_min);
         out.force_n[i] = k_mean * t.unit_force_mean * runout_gain(t.unit_force_mean, t.runout_mean);

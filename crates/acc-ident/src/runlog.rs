@@ -233,7 +233,9 @@ impl RunLog {
             if let Some(c) = c {
                 let (lo, hi) = c
                     .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    });
                 if hi - lo <= 1e-12 * hi.abs().max(1.0) {
                     return Err(invalid(format!(
                         "column `{name}` is constant ({lo} on all {n} data rows, lines 2..={}): \
@@ -285,7 +287,9 @@ impl RunLog {
             x.sort_by(|a, b| a.0.total_cmp(&b.0));
             Some(x[x.len() / 2])
         };
-        let all: Vec<usize> = (0..self.len()).filter(|&i| self.spindle_rpm[i] > 0.0).collect();
+        let all: Vec<usize> = (0..self.len())
+            .filter(|&i| self.spindle_rpm[i] > 0.0)
+            .collect();
         let mut check = |name: &str, v: &[f64], rows: &[usize], lo: f64, hi: f64, unit: &str| {
             if let Some((m, i)) = median(v, rows) {
                 if m != 0.0 && (m.abs() < lo || m.abs() > hi) {
@@ -304,8 +308,22 @@ impl RunLog {
             check("force_n", f, &cut, 2.0, 1e5, "N");
         }
         check("spindle_rpm", &self.spindle_rpm, &all, 5.0, 1e5, "rpm");
-        check("radial_depth_mm", &self.radial_depth_mm, &cut, 0.01, 200.0, "mm");
-        check("axial_depth_mm", &self.axial_depth_mm, &cut, 0.01, 200.0, "mm");
+        check(
+            "radial_depth_mm",
+            &self.radial_depth_mm,
+            &cut,
+            0.01,
+            200.0,
+            "mm",
+        );
+        check(
+            "axial_depth_mm",
+            &self.axial_depth_mm,
+            &cut,
+            0.01,
+            200.0,
+            "mm",
+        );
         w
     }
 

@@ -135,7 +135,11 @@ pub fn pooled_noise_diff(stretches: &[&[f64]]) -> Noise {
             continue;
         }
         let d: Vec<f64> = s.windows(2).map(|w| w[1] - w[0]).collect();
-        s0 += d.iter().filter(|v| v.abs() <= limit).map(|v| v * v).sum::<f64>();
+        s0 += d
+            .iter()
+            .filter(|v| v.abs() <= limit)
+            .map(|v| v * v)
+            .sum::<f64>();
         nd += d.iter().filter(|v| v.abs() <= limit).count();
         for w in d.windows(2) {
             if w[0].abs() <= limit && w[1].abs() <= limit {

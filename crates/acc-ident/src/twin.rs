@@ -25,7 +25,11 @@ pub fn model_for_scenario(scenario: &Scenario, channel: Channel) -> Model {
         MeasurementSpec::Dynamometer { window_s, .. } => (window_s, 0.0, None),
         MeasurementSpec::SpindlePower(spec) => (spec.window_s, spec.window_s, Some(spec.motor)),
     };
-    let motor = if channel == Channel::Power { motor } else { None };
+    let motor = if channel == Channel::Power {
+        motor
+    } else {
+        None
+    };
     if let Some(m) = motor {
         if let Ok(cfg) = m.config() {
             machine.spindle.no_load_power_w = acc_sim::motor::Motor::new(cfg)
@@ -58,8 +62,8 @@ pub fn simulate(scenario: &Scenario) -> Result<RunLog, String> {
     let mut law = scenario
         .build_law(acc_sim::LawKind::Ours)
         .map_err(|e| e.to_string())?;
-    let res = acc_sim::run::<std::io::Sink>(scenario, law.as_mut(), None)
-        .map_err(|e| e.to_string())?;
+    let res =
+        acc_sim::run::<std::io::Sink>(scenario, law.as_mut(), None).map_err(|e| e.to_string())?;
     crate::runlog::from_records(&res.rows, Path::new(&scenario.name)).map_err(|e| e.to_string())
 }
 
@@ -172,8 +176,9 @@ pub fn hidden_case(
         Hidden::FeedDriveLag(t) => sc.machine.feed_drive.tau_s += t,
         Hidden::OverrideDeadTime(t) => sc.machine.override_path.delay_s += t,
         Hidden::CopperLoss(c) => {
-            sc.machine.spindle.motor_efficiency =
-                Some(acc_sim::config::MotorEfficiency { copper_loss_per_kw: c })
+            sc.machine.spindle.motor_efficiency = Some(acc_sim::config::MotorEfficiency {
+                copper_loss_per_kw: c,
+            })
         }
         Hidden::NoloadDrift(d) => {
             sc.machine.spindle.noload_drift = Some(acc_sim::config::NoloadDrift {

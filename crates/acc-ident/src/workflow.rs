@@ -939,7 +939,15 @@ fn screen_candidate(
         .find(|p| p.name == primary_name)
         .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
         .unwrap_or(false);
-    let passed = others_pass && ci_ok;
+    // A parameter of the effect pinned at its fitting bound is not a measurement of it:
+    // the data want more than the effect's law allows (an effect outside the library
+    // borrowing this one's signature), so it is not named (issue 13).
+    let prefix = format!("{}.", kind.name());
+    let bound_ok = !f
+        .params
+        .iter()
+        .any(|p| p.name.starts_with(&prefix) && p.at_bound);
+    let passed = others_pass && ci_ok && bound_ok;
     let result = CandidateResult {
         effect: kind.name().into(),
         applicable: true,
