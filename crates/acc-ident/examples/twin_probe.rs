@@ -28,7 +28,7 @@ fn main() {
                     .iter()
                     .enumerate()
                     .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-                    .unwrap();
+                    .unwrap_or((0, &0.0));
                 println!("{name} {ch:?} wp={} rows {} sim {ts:.2}s replay {dt:.3}s: rms {rms:.2} mean {mean:.2} diff-sigma {sd:.2} worst row {} {:.1}", wp.is_some(), r.len(), worst.0, worst.1);
             }
         }

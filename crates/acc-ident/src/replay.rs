@@ -652,7 +652,6 @@ fn replay_plant(
 ) {
     let n = inp.len();
     let fx = &model.effects;
-    let law = physics::force_law(&model.tool.process);
     let calib = model.tool.process.calib_force_n;
     let w = &model.tool.wear;
     let wear = acc_sim::process::WearSpec {
@@ -679,8 +678,6 @@ fn replay_plant(
         }
         g
     };
-    let radius = 0.5 * model.tool.diameter_mm;
-    let torque_per_n = law.torque_nm(1.0, radius);
     let motor = match inp.channel {
         Channel::Power => model.measurement.spindle_motor,
         Channel::Force => None,
@@ -740,7 +737,6 @@ fn replay_plant(
             Channel::Power => 0.0,
         };
     }
-    let _ = torque_per_n;
     if let (Channel::Power, Some(l)) = (inp.channel, model.machine.spindle.sensor_lowpass) {
         l.filter(&mut out.predicted, &inp.dt_s);
     }

@@ -9,6 +9,7 @@ use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
 /// Solve the 3×3 system `a·x = b` (Gaussian elimination, partial pivoting); `None` when
 /// singular.
+#[allow(clippy::needless_range_loop)]
 pub fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
     for c in 0..3 {
         let p = (c..3).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
