@@ -143,7 +143,12 @@ fn run_log_errors_name_line_and_column() {
     let good = "t_s,feed_mm_min,spindle_rpm,radial_depth_mm,axial_depth_mm,power_w\n";
     let mut text = good.to_string();
     for i in 0..12 {
-        text.push_str(&format!("{:.1},200,600,2,16,900\n", i as f64 * 0.1 + 0.1));
+        // Power varies (a constant measured channel is refused as dead, issue 13); row 2 is 900.
+        text.push_str(&format!(
+            "{:.1},200,600,2,16,{}\n",
+            i as f64 * 0.1 + 0.1,
+            if i == 1 { 900 } else { 890 + i }
+        ));
     }
     assert_eq!(read_csv_from(text.as_bytes(), p).expect("reads").len(), 12);
     let bad = text.replacen("0.2,200,600,2,16,900", "0.2,abc,600,2,16,900", 1);
@@ -156,7 +161,7 @@ fn run_log_errors_name_line_and_column() {
         e.to_string().contains("line 3, column 2 (`feed_mm_min`)"),
         "{e}"
     );
-    let neg = text.replacen("0.3,200,600,2,16,900", "0.3,200,600,-2,16,900", 1);
+    let neg = text.replacen("0.3,200,600,2,16,892", "0.3,200,600,-2,16,892", 1);
     let e = read_csv_from(neg.as_bytes(), p).expect_err("negative depth");
     assert!(e.to_string().contains("line 4, column 4"), "{e}");
     let missing = text.replace("spindle_rpm", "rpm");

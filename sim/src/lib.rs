@@ -36,6 +36,7 @@ mod exact;
 pub mod machine;
 pub mod motor;
 pub mod process;
+pub mod replay;
 pub mod run;
 pub mod scenario;
 pub mod summary;

@@ -166,6 +166,9 @@ pub struct Machine {
     /// Multiplier on the material's `Ks` (a hard spot injected by a fault schedule), 1 =
     /// the workpiece as specified.
     hardness_factor: f64,
+    /// Engagement forced from outside (radial depth, axial depth, mm), replacing the
+    /// workpiece's (the replay of a log that records its engagement, [`crate::replay`]).
+    engagement_override: Option<(f64, f64)>,
     t_s: f64,
     x_mm: f64,
     feed_mm_min: f64,
@@ -229,6 +232,7 @@ impl Machine {
             override_input_pct: 100,
             feed_hold: false,
             hardness_factor: 1.0,
+            engagement_override: None,
             t_s: 0.0,
             x_mm: 0.0,
             feed_mm_min: 0.0,
@@ -263,6 +267,29 @@ impl Machine {
     pub fn set_hardness_factor(&mut self, factor: f64) {
         if factor.is_finite() && factor > 0.0 {
             self.hardness_factor = factor;
+        }
+    }
+
+    /// Change the programmed feed of the NC block, mm/min (the replay of a log whose
+    /// programmed feed changes; non-finite or negative values are ignored).
+    pub fn set_programmed_feed_mm_min(&mut self, feed_mm_min: f64) {
+        if feed_mm_min.is_finite() && feed_mm_min >= 0.0 {
+            self.programmed_feed_mm_min = feed_mm_min;
+        }
+    }
+
+    /// Force the engagement (radial, axial depth, mm; `Ks` factor 1) instead of the
+    /// workpiece's from the next period on; `None` returns to the workpiece. Used by
+    /// [`crate::replay`] on logs that record their depths but name no workpiece.
+    pub fn set_engagement_override(&mut self, depths_mm: Option<(f64, f64)>) {
+        self.engagement_override = depths_mm;
+    }
+
+    /// Move the tool centre to path position `x_mm` (a replay starting part-way along the
+    /// workpiece).
+    pub fn set_position_mm(&mut self, x_mm: f64) {
+        if x_mm.is_finite() {
+            self.x_mm = x_mm;
         }
     }
 
@@ -328,7 +355,9 @@ impl Machine {
         let n = ((period_s * self.rate_hz).round() as usize).max(1);
         let dt = period_s / n as f64;
         let alpha = FirstOrderLag::new(self.tau_s).alpha(dt);
-        let ap = self.workpiece.axial_depth_mm;
+        let ap = self
+            .engagement_override
+            .map_or(self.workpiece.axial_depth_mm, |(_, a)| a);
         let t0 = self.t_s;
         self.samples.clear();
         let mut sums = [0.0f64; 5];
@@ -351,7 +380,13 @@ impl Machine {
             let dx = 0.5 * (f_old + self.feed_mm_min) * dt / 60.0;
             self.x_mm += dx;
             let rpm = self.spindle.speed_rpm();
-            let eng = self.workpiece.engagement(self.x_mm, self.radius_mm);
+            let eng = match self.engagement_override {
+                Some((d, _)) => crate::workpiece::Engagement {
+                    depth_mm: d,
+                    ks_factor: 1.0,
+                },
+                None => self.workpiece.engagement(self.x_mm, self.radius_mm),
+            };
             self.depth_mm = eng.depth_mm;
             let mean = self.law.mean_force_n_memo(
                 &mut self.force_memo,

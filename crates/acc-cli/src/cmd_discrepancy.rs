@@ -175,7 +175,12 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
 /// Run `acc discrepancy`.
 pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
     let (model, log) = load_inputs(args)?;
-    let opts = options(args)?;
+    let mut opts = options(args)?;
+    // A plant replay (a log with the applied override) takes the engagement from the
+    // workpiece inside each period, as the simulator does.
+    if let Some(eng) = path_engagement(args, Some(&model))? {
+        opts.workpiece = Some((eng.workpiece, eng.x0_mm));
+    }
     let analysis = workflow::analyse(&model, &log, &opts)
         .with_context(|| format!("analysing {}", args.measured.display()))?;
     let out = &args.out;

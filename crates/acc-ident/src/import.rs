@@ -226,6 +226,7 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
             channel,
             feed_input: FeedInput::Recorded,
             force_window_s: 0.0,
+            ..Default::default()
         },
         machine: Machine {
             name: machine.into(),
@@ -306,6 +307,7 @@ pub fn model_from_sim(
             channel,
             feed_input: FeedInput::Auto,
             force_window_s: 0.0,
+            ..Default::default()
         },
         machine: machine.clone(),
         tool: tool.clone(),

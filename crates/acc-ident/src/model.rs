@@ -40,6 +40,10 @@ pub enum FeedInput {
     /// Always the recorded `feed_mm_min` (feed-drive lag and override dead time are then
     /// not identifiable and are skipped).
     Recorded,
+    /// The simulator's plant ([`acc_sim::replay`]) driven by the logged
+    /// `override_applied_pct` (the override on the PMC inputs during each period),
+    /// `programmed_feed_mm_min` and feed hold. `auto` picks it when both columns exist.
+    Plant,
 }
 
 /// `[machine.spindle]`: the simulator machine file's `[spindle]`.
@@ -76,6 +80,45 @@ pub struct Measurement {
     /// the whole period; the simulator's dynamometer averages the last 0.05 s).
     #[serde(default)]
     pub force_window_s: f64,
+    /// Force model of the replayed plant (`mean`, or `tooth`: the simulator's tooth-level
+    /// force, seed 004). Default `mean`. Used when the log carries the override the board
+    /// applied and the programmed feed (a log written by `acc sim`, `acc run` or
+    /// `acc board-sim`): the replay is then the simulator's plant ([`acc_sim::replay`]).
+    #[serde(default)]
+    pub force_model: PlantForceModel,
+    /// The spindle motor whose two-wattmeter power the log's `power_w` holds (the
+    /// simulator's `[measurement] kind = "spindle-power"` channel, e.g.
+    /// `seed002-small-mill`); absent: the constant-efficiency spindle law of
+    /// `[machine.spindle]` (the board's power register). With a motor,
+    /// `machine.spindle.no_load_power_w` is the motor's air-cut input power at the
+    /// logged speed and `efficiency` is not used.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spindle_motor: Option<acc_sim::motor::BuiltinMotor>,
+    /// Averaging window of the power channel at the end of each period, s (default 0 =
+    /// the whole period; the simulator's spindle-power channel reads the last 0.05 s).
+    #[serde(default)]
+    pub power_window_s: f64,
+}
+
+/// Force model of the replayed plant (`measurement.force_model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum PlantForceModel {
+    /// Mean force of seed 002 eq. (1).
+    #[default]
+    Mean,
+    /// Mean force times the tooth-pass ripple of a helical end mill (seed 004).
+    Tooth,
+}
+
+impl PlantForceModel {
+    /// The simulator's force model.
+    pub fn sim(self) -> acc_sim::ForceModel {
+        match self {
+            PlantForceModel::Mean => acc_sim::ForceModel::Mean,
+            PlantForceModel::Tooth => acc_sim::ForceModel::Tooth,
+        }
+    }
 }
 
 /// A complete model file.

@@ -38,8 +38,25 @@ pub struct Inputs {
     /// Weak prior on the nominal parameters used by [`crate::fit`] (None: plain least
     /// squares).
     pub prior: Option<crate::fit::Prior>,
+    /// The simulator's plant driving the replay (`feed_input = "plant"`, or `auto` on a
+    /// log with `override_applied_pct` and `programmed_feed_mm_min`); `None`: the
+    /// period-based feed path below.
+    pub plant: Option<PlantInputs>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
     cache: std::cell::RefCell<Option<std::rc::Rc<PathCache>>>,
+    /// Quadratic fits of the spindle motor's input power against torque, per speed.
+    motor_curves: std::cell::RefCell<Vec<(f64, [f64; 3])>>,
+}
+
+/// What drives the simulator's plant in a replay ([`acc_sim::replay::trace`]).
+#[derive(Debug, Clone)]
+pub struct PlantInputs {
+    /// Override on the PMC inputs during each row's period, %.
+    pub override_applied_pct: Vec<f64>,
+    /// Programmed feed, mm/min.
+    pub programmed_feed_mm_min: Vec<f64>,
+    /// Engagement: as logged, or from the workpiece (`Inputs::use_workpiece`).
+    pub engagement: acc_sim::replay::ReplayEngagement,
 }
 
 /// Errors preparing replay inputs.
@@ -51,6 +68,12 @@ pub enum ReplayError {
     /// `feed_input = "command"` but the command columns are missing.
     #[error("measurement.feed_input = \"command\" needs `programmed_feed_mm_min` and `override_cmd_pct` in the log")]
     MissingCommand,
+    /// `feed_input = "plant"` but the applied override or programmed feed is missing.
+    #[error("measurement.feed_input = \"plant\" needs `programmed_feed_mm_min` and `override_applied_pct` in the log")]
+    MissingApplied,
+    /// The model names a spindle motor the simulator cannot load.
+    #[error("measurement.spindle_motor: {0}")]
+    Motor(String),
 }
 
 impl Inputs {
@@ -76,9 +99,38 @@ impl Inputs {
             ),
             _ => None,
         };
+        let applied = match (&log.programmed_feed_mm_min, &log.override_applied_pct) {
+            (Some(p), Some(o)) => Some((p.clone(), o.clone())),
+            _ => None,
+        };
+        let use_plant = match model.measurement.feed_input {
+            FeedInput::Plant => {
+                if applied.is_none() {
+                    return Err(ReplayError::MissingApplied);
+                }
+                true
+            }
+            FeedInput::Auto => applied.is_some(),
+            _ => false,
+        };
+        let plant = if use_plant {
+            applied.map(|(p, o)| PlantInputs {
+                override_applied_pct: o,
+                programmed_feed_mm_min: p,
+                engagement: acc_sim::replay::ReplayEngagement::Logged {
+                    radial_mm: log.radial_depth_mm.clone(),
+                    axial_mm: log.axial_depth_mm.clone(),
+                },
+            })
+        } else {
+            None
+        };
+        if let Some(m) = model.measurement.spindle_motor {
+            m.config().map_err(|e| ReplayError::Motor(e.to_string()))?;
+        }
         let feed_cmd_mm_min = match model.measurement.feed_input {
             FeedInput::Recorded => None,
-            FeedInput::Auto => cmd,
+            FeedInput::Auto | FeedInput::Plant => cmd,
             FeedInput::Command => Some(cmd.ok_or(ReplayError::MissingCommand)?),
         };
         let feed_cmd_initial_mm_min = match (
@@ -108,8 +160,35 @@ impl Inputs {
             channel,
             period_s,
             prior: None,
+            plant,
             cache: Default::default(),
+            motor_curves: Default::default(),
         })
+    }
+
+    /// Replay the plant on `workpiece` (tool centre at `x0_mm` when the log began)
+    /// instead of the logged depths: the engagement then changes inside each period as in
+    /// the simulator, and material boundaries (`ks_factor`) are honoured. No effect
+    /// without a plant replay (see [`Inputs::plant`]).
+    pub fn use_workpiece(&mut self, workpiece: acc_sim::Workpiece, x0_mm: f64) {
+        if let Some(p) = self.plant.as_mut() {
+            p.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
+            *self.cache.borrow_mut() = None;
+        }
+    }
+
+    /// Input power of `motor` at `rpm` as a quadratic in the cutting torque,
+    /// `[a, b, c]` of `a + b·T + c·T²` (W, W/(N·m), W/(N·m)²), fitted by least squares to
+    /// the simulator's operating points ([`acc_sim::motor::Motor::operating_point`]) from
+    /// 0 to the motor's rated torque; cached per speed.
+    pub fn motor_curve(&self, motor: acc_sim::motor::BuiltinMotor, rpm: f64) -> [f64; 3] {
+        let key = (rpm * 10.0).round() / 10.0;
+        if let Some((_, c)) = self.motor_curves.borrow().iter().find(|(r, _)| *r == key) {
+            return *c;
+        }
+        let c = motor_quadratic(motor, key);
+        self.motor_curves.borrow_mut().push((key, c));
+        c
     }
 
     /// Number of samples.
@@ -194,6 +273,37 @@ impl Inputs {
 
 /// Sub-steps per period of the replayed feed path.
 const SUBSTEPS: usize = 10;
+
+/// Least-squares quadratic of the motor's input power against cutting torque at `rpm`
+/// (see [`Inputs::motor_curve`]); a zero curve when the motor cannot be loaded.
+fn motor_quadratic(motor: acc_sim::motor::BuiltinMotor, rpm: f64) -> [f64; 3] {
+    let Ok(cfg) = motor.config() else {
+        return [0.0; 3];
+    };
+    let t_max = cfg.rated.torque_nm.max(1.0);
+    let m = acc_sim::motor::Motor::new(cfg);
+    let pts: Vec<(f64, f64)> = (0..=60)
+        .map(|k| {
+            let t = t_max * k as f64 / 60.0;
+            (t, m.operating_point(rpm, t).input_w)
+        })
+        .collect();
+    // Normal equations of [1, T, T²] (scaled by t_max for conditioning).
+    let mut a = [[0.0f64; 3]; 3];
+    let mut b = [0.0f64; 3];
+    for &(t, p) in &pts {
+        let x = t / t_max;
+        let v = [1.0, x, x * x];
+        for i in 0..3 {
+            b[i] += v[i] * p;
+            for j in 0..3 {
+                a[i][j] += v[i] * v[j];
+            }
+        }
+    }
+    let c = crate::stats::solve3(a, b).unwrap_or([0.0; 3]);
+    [c[0], c[1] / t_max, c[2] / (t_max * t_max)]
+}
 
 /// One replay: the predicted channel and the internal signals that explain it.
 #[derive(Debug, Clone, Default)]
@@ -297,6 +407,51 @@ struct PathCache {
     window_feed: Vec<f64>,
     unit_force: Vec<f64>,
     unit_window_force: Vec<f64>,
+    /// The simulator's plant trace (plant replay only).
+    plant: Option<Vec<acc_sim::replay::PeriodTrace>>,
+}
+
+/// The window the compared channel averages at the end of each period, s.
+fn channel_window_s(model: &Model, inp: &Inputs) -> f64 {
+    match inp.channel {
+        Channel::Force => model.measurement.force_window_s,
+        Channel::Power => model.measurement.power_window_s,
+    }
+}
+
+/// Replay the simulator's plant for the path key (see [`acc_sim::replay::trace`]).
+fn plant_trace(
+    model: &Model,
+    inp: &Inputs,
+    plant: &PlantInputs,
+    key: &PathKey,
+) -> Vec<acc_sim::replay::PeriodTrace> {
+    let mut machine = model.machine.clone();
+    machine.override_path.delay_s = key.delay_s;
+    machine.feed_drive.tau_s = key.tau_s;
+    let motor = match (inp.channel, model.measurement.spindle_motor) {
+        (Channel::Power, Some(m)) => m.config().ok(),
+        _ => None,
+    };
+    let channel = acc_sim::replay::ReplayChannel {
+        window_s: key.window_s,
+        torque_lag_s: motor.as_ref().map_or(0.0, |c| c.drive.torque_lag_s),
+        daq_rate_hz: motor.as_ref().map_or(0.0, |c| c.sensors.sample_rate_hz),
+    };
+    let drive = acc_sim::replay::ReplayDrive {
+        period_s: &inp.dt_s,
+        override_applied_pct: &plant.override_applied_pct,
+        programmed_feed_mm_min: &plant.programmed_feed_mm_min,
+        feed_hold: None,
+    };
+    acc_sim::replay::trace(
+        &machine,
+        &model.tool,
+        model.measurement.force_model.sim(),
+        &plant.engagement,
+        &drive,
+        &channel,
+    )
 }
 
 fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
@@ -306,7 +461,11 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         delay_s: model.machine.override_path.delay_s
             + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
         tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
-        window_s: model.measurement.force_window_s,
+        window_s: if inp.plant.is_some() {
+            channel_window_s(model, inp)
+        } else {
+            model.measurement.force_window_s
+        },
         process: [
             p.calib_radial_mm,
             p.calib_feed_mm_min,
@@ -322,6 +481,19 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         if c.key == key {
             return c.clone();
         }
+    }
+    if let Some(plant) = &inp.plant {
+        let tr = plant_trace(model, inp, plant, &key);
+        let c = std::rc::Rc::new(PathCache {
+            key,
+            feed: tr.iter().map(|t| t.feed_mean_mm_min).collect(),
+            window_feed: tr.iter().map(|t| t.feed_window_mm_min).collect(),
+            unit_force: tr.iter().map(|t| t.unit_force_mean).collect(),
+            unit_window_force: tr.iter().map(|t| t.unit_force_window).collect(),
+            plant: Some(tr),
+        });
+        *inp.cache.borrow_mut() = Some(c.clone());
+        return c;
     }
     let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.window_s);
     let mut unit = *p;
@@ -344,6 +516,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         window_feed,
         unit_force,
         unit_window_force,
+        plant: None,
     });
     *inp.cache.borrow_mut() = Some(c.clone());
     c
@@ -373,6 +546,10 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         spindle_angle_rad: vec![0.0; n],
     };
     let cached = path(model, inp);
+    if let Some(tr) = &cached.plant {
+        replay_plant(model, inp, tr, &mut out);
+        return out;
+    }
     out.feed_mm_min.copy_from_slice(&cached.feed);
     out.window_feed_mm_min.copy_from_slice(&cached.window_feed);
     // Process force, volume and wear (the simulator's wear law, extra growth added).
@@ -458,4 +635,112 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         l.filter(&mut out.predicted, &inp.dt_s);
     }
     out
+}
+
+/// [`replay`] on the simulator's plant trace: the trace is at unit force scale, so `Ks`
+/// (`calib_force_n`), the wear factor (the simulator's law on the replayed volume), the
+/// feed exponent and the runout (its step means, through the trace's basis) scale it here;
+/// the power is the spindle law of the model (constant-speed spindle, or the motor's
+/// input-power curve at the logged speed through the window's mean and mean-square torque)
+/// plus the machine's and the candidates' drift and losses, then the sensor low-passes.
+#[allow(clippy::needless_range_loop)]
+fn replay_plant(
+    model: &Model,
+    inp: &Inputs,
+    tr: &[acc_sim::replay::PeriodTrace],
+    out: &mut Replay,
+) {
+    let n = inp.len();
+    let fx = &model.effects;
+    let calib = model.tool.process.calib_force_n;
+    let w = &model.tool.wear;
+    let wear = acc_sim::process::WearSpec {
+        growth_per_cm3: w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0),
+        volume_exponent: fx
+            .tool_wear
+            .map_or(w.volume_exponent, |e| e.volume_exponent),
+        ..*w
+    };
+    let dbeta = fx.get(EffectKind::FeedExponent, 0);
+    let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
+    let runouts: Vec<acc_sim::config::Runout> = [model.tool.runout, fx.runout]
+        .into_iter()
+        .flatten()
+        .collect();
+    let runout_gain = |unit: f64, basis: [f64; 2]| -> f64 {
+        if unit <= 0.0 {
+            return 1.0;
+        }
+        let mut g = 1.0;
+        for r in &runouts {
+            let (s, c) = r.phase_rad.sin_cos();
+            g *= 1.0 + r.amplitude * (c * basis[0] + s * basis[1]) / unit;
+        }
+        g
+    };
+    let motor = match inp.channel {
+        Channel::Power => model.measurement.spindle_motor,
+        Channel::Force => None,
+    };
+    let t0 = inp.t_s.first().copied().unwrap_or(0.0) - inp.dt_s.first().copied().unwrap_or(0.0);
+    let mut cut_min = 0.0;
+    let mut theta = 0.0;
+    for i in 0..n {
+        let t = &tr[i];
+        let s = inp.spindle_rpm[i];
+        theta += 2.0 * std::f64::consts::PI * s / 60.0 * inp.dt_s[i];
+        out.spindle_angle_rad[i] = theta;
+        out.feed_mm_min[i] = t.feed_mean_mm_min;
+        out.window_feed_mm_min[i] = t.feed_window_mm_min;
+        out.volume_mm3[i] = t.volume_mm3;
+        let factor = wear.factor(t.volume_mm3 / 1000.0, cut_min);
+        if t.unit_force_mean > 0.0 {
+            cut_min += inp.dt_s[i] / 60.0;
+        }
+        let fb = |f: f64| {
+            if dbeta != 0.0 && f > 0.0 {
+                (f / fref).powf(dbeta)
+            } else {
+                1.0
+            }
+        };
+        let k_mean = calib * factor * fb(t.feed_mean_mm_min);
+        let k_win = calib * factor * fb(t.feed_window_mm_min);
+        out.force_n[i] = k_mean * t.unit_force_mean * runout_gain(t.unit_force_mean, t.runout_mean);
+        let g_win = runout_gain(t.unit_force_window, t.runout_window);
+        let chan_force = k_win * t.unit_force_window * g_win;
+        // Torque seen by the power channel (window, after the drive's torque lag).
+        let torque = k_win * g_win * t.unit_torque_window;
+        let omega = s * 2.0 * std::f64::consts::PI / 60.0;
+        let pc = torque * omega;
+        out.cut_power_w[i] = pc;
+        let tt = inp.t_s[i] - t0;
+        out.predicted[i] = match inp.channel {
+            Channel::Force => chan_force,
+            Channel::Power if s > 0.0 => {
+                let sp = &model.machine.spindle;
+                let base = match motor {
+                    Some(m) => {
+                        let c = inp.motor_curve(m, s);
+                        let kk = k_win * g_win;
+                        sp.no_load_power_w
+                            + c[1] * torque
+                            + c[2] * kk * kk * t.unit_torque_sq_window
+                            + sp.noload_drift.map_or(0.0, |d| d.power_w(tt))
+                            + sp.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                    }
+                    None => physics::input_power_w(sp, torque, s, tt),
+                };
+                base + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
+                    + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+            }
+            Channel::Power => 0.0,
+        };
+    }
+    if let (Channel::Power, Some(l)) = (inp.channel, model.machine.spindle.sensor_lowpass) {
+        l.filter(&mut out.predicted, &inp.dt_s);
+    }
+    if let Some(l) = fx.sensor_lowpass {
+        l.filter(&mut out.predicted, &inp.dt_s);
+    }
 }

@@ -227,6 +227,10 @@ pub struct Report {
     pub sealed: Sealed,
     /// One-paragraph conclusion.
     pub conclusion: String,
+    /// What the input checks found (gaps the log was split at, suspicious units); each
+    /// names the column, row and value.
+    #[serde(default)]
+    pub warnings: Vec<String>,
 }
 
 impl Report {
@@ -241,6 +245,12 @@ impl Report {
         let u = &self.input.unit;
         let _ = writeln!(s, "# Model discrepancy report\n");
         let _ = writeln!(s, "{}\n", self.conclusion);
+        for w in &self.warnings {
+            let _ = writeln!(s, "- **Warning**: {w}");
+        }
+        if !self.warnings.is_empty() {
+            let _ = writeln!(s);
+        }
         let _ = writeln!(
             s,
             "Log: {} rows, period {:.3} s, channel `{}` ({u}), feed from {}; selection on the first {} rows, sealed part from {:.1} s; {} contiguous folds.\n",

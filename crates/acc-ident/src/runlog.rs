@@ -207,6 +207,44 @@ impl RunLog {
         if lens.iter().any(|&l| l != n) {
             return Err(invalid("columns have different lengths".into()));
         }
+        // Non-finite values (a log built in code; the CSV reader refuses them already).
+        let mut cols: Vec<(&str, &Vec<f64>)> = vec![
+            ("t_s", &self.t_s),
+            ("radial_depth_mm", &self.radial_depth_mm),
+            ("axial_depth_mm", &self.axial_depth_mm),
+            ("spindle_rpm", &self.spindle_rpm),
+            ("feed_mm_min", &self.feed_mm_min),
+        ];
+        for (name, c) in [("power_w", &self.power_w), ("force_n", &self.force_n)] {
+            if let Some(c) = c {
+                cols.push((name, c));
+            }
+        }
+        for (name, c) in &cols {
+            if let Some((i, v)) = c.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(invalid(format!(
+                    "line {}: column `{name}` is {v}: every value must be a finite number",
+                    i + 2
+                )));
+            }
+        }
+        // A dead or constant measured channel carries nothing to compare.
+        for (name, c) in [("power_w", &self.power_w), ("force_n", &self.force_n)] {
+            if let Some(c) = c {
+                let (lo, hi) = c
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    });
+                if hi - lo <= 1e-12 * hi.abs().max(1.0) {
+                    return Err(invalid(format!(
+                        "column `{name}` is constant ({lo} on all {n} data rows, lines 2..={}): \
+                         a dead or disconnected channel; nothing can be compared on it",
+                        n + 1
+                    )));
+                }
+            }
+        }
         for (i, w) in self.t_s.windows(2).enumerate() {
             if w[1] <= w[0] {
                 return Err(RunLogError::BadValue {
@@ -219,6 +257,74 @@ impl RunLog {
             }
         }
         Ok(())
+    }
+
+    /// Gaps in time longer than `max_periods` median periods: `(row, gap_s)` with `row` the
+    /// first row after the gap (0-based data row).
+    pub fn gaps(&self, max_periods: f64) -> Vec<(usize, f64)> {
+        let p = self.median_period_s();
+        self.t_s
+            .windows(2)
+            .enumerate()
+            .filter(|(_, w)| w[1] - w[0] > max_periods * p)
+            .map(|(i, w)| (i + 1, w[1] - w[0]))
+            .collect()
+    }
+
+    /// Warnings about values that look like the wrong unit (a factor 10³ off): power in kW,
+    /// speed in krpm, depths in m or µm, force in kN. Each names the column, a row (line)
+    /// and the value.
+    pub fn unit_warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        let cut: Vec<usize> = (0..self.len())
+            .filter(|&i| self.radial_depth_mm[i] > 0.0 && self.axial_depth_mm[i] > 0.0)
+            .collect();
+        let median = |v: &[f64], rows: &[usize]| -> Option<(f64, usize)> {
+            let mut x: Vec<(f64, usize)> = rows.iter().map(|&i| (v[i], i)).collect();
+            if x.is_empty() {
+                return None;
+            }
+            x.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Some(x[x.len() / 2])
+        };
+        let all: Vec<usize> = (0..self.len())
+            .filter(|&i| self.spindle_rpm[i] > 0.0)
+            .collect();
+        let mut check = |name: &str, v: &[f64], rows: &[usize], lo: f64, hi: f64, unit: &str| {
+            if let Some((m, i)) = median(v, rows) {
+                if m != 0.0 && (m.abs() < lo || m.abs() > hi) {
+                    w.push(format!(
+                        "column `{name}`: median {m} (e.g. line {}) is outside {lo}..{hi} {unit}: \
+                         a unit off by 10³?",
+                        i + 2
+                    ));
+                }
+            }
+        };
+        if let Some(p) = &self.power_w {
+            check("power_w", p, &all, 20.0, 2e5, "W");
+        }
+        if let Some(f) = &self.force_n {
+            check("force_n", f, &cut, 2.0, 1e5, "N");
+        }
+        check("spindle_rpm", &self.spindle_rpm, &all, 5.0, 1e5, "rpm");
+        check(
+            "radial_depth_mm",
+            &self.radial_depth_mm,
+            &cut,
+            0.01,
+            200.0,
+            "mm",
+        );
+        check(
+            "axial_depth_mm",
+            &self.axial_depth_mm,
+            &cut,
+            0.01,
+            200.0,
+            "mm",
+        );
+        w
     }
 
     /// Write the log as CSV in the run-log schema (present optional columns only).

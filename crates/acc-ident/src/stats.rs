@@ -7,7 +7,34 @@
 
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
-/// Mean of a slice (0 for an empty slice).
+/// Solve the 3×3 system `a·x = b` (Gaussian elimination, partial pivoting); `None` when
+/// singular.
+#[allow(clippy::needless_range_loop)]
+pub fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+    for c in 0..3 {
+        let p = (c..3).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        if a[p][c].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(c, p);
+        b.swap(c, p);
+        for r in c + 1..3 {
+            let f = a[r][c] / a[c][c];
+            for k in c..3 {
+                a[r][k] -= f * a[c][k];
+            }
+            b[r] -= f * b[c];
+        }
+    }
+    let mut x = [0.0; 3];
+    for r in (0..3).rev() {
+        let s: f64 = (r + 1..3).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (b[r] - s) / a[r][r];
+    }
+    Some(x)
+}
+
+/// Mean (0 for an empty slice).
 pub fn mean(x: &[f64]) -> f64 {
     if x.is_empty() {
         0.0
@@ -84,15 +111,43 @@ pub struct Noise {
 /// downward bias of detrending short stretches (Kendall 1954). ρ is clamped to
 /// [−0.9, 0.95].
 pub fn pooled_noise_diff(stretches: &[&[f64]]) -> Noise {
-    let (mut s0, mut s1, mut nd, mut count) = (0.0, 0.0, 0usize, 0usize);
+    // Robust to spikes and steps the regimes did not catch: differences beyond 4.5 robust
+    // σ (1.4826·MAD of all differences) are left out, and so is every pair touching one.
+    let mut all: Vec<f64> = stretches
+        .iter()
+        .filter(|s| s.len() >= 4)
+        .flat_map(|s| s.windows(2).map(|w| (w[1] - w[0]).abs()))
+        .collect();
+    let limit = if all.is_empty() {
+        f64::INFINITY
+    } else {
+        let mid = all.len() / 2;
+        let (_, m, _) = all.select_nth_unstable_by(mid, f64::total_cmp);
+        let mad = *m;
+        if mad > 0.0 {
+            4.5 * 1.4826 * mad
+        } else {
+            f64::INFINITY
+        }
+    };
+    let (mut s0, mut s1, mut nd, mut n1, mut count) = (0.0, 0.0, 0usize, 0usize, 0usize);
     for s in stretches {
         if s.len() < 4 {
             continue;
         }
         let d: Vec<f64> = s.windows(2).map(|w| w[1] - w[0]).collect();
-        s0 += d.iter().map(|v| v * v).sum::<f64>();
-        s1 += d.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
-        nd += d.len();
+        s0 += d
+            .iter()
+            .filter(|v| v.abs() <= limit)
+            .map(|v| v * v)
+            .sum::<f64>();
+        nd += d.iter().filter(|v| v.abs() <= limit).count();
+        for w in d.windows(2) {
+            if w[0].abs() <= limit && w[1].abs() <= limit {
+                s1 += w[0] * w[1];
+                n1 += 1;
+            }
+        }
         count += s.len();
     }
     if nd == 0 || s0 <= 0.0 {
@@ -102,9 +157,11 @@ pub fn pooled_noise_diff(stretches: &[&[f64]]) -> Noise {
             samples: count,
         };
     }
-    let rho = (1.0 + 2.0 * s1 / s0).clamp(-0.9, 0.95);
+    let v0 = s0 / nd as f64;
+    let r_d = if n1 > 0 { s1 / n1 as f64 / v0 } else { 0.0 };
+    let rho = (1.0 + 2.0 * r_d).clamp(-0.9, 0.95);
     Noise {
-        sigma: (s0 / nd as f64 / (2.0 * (1.0 - rho))).sqrt(),
+        sigma: (v0 / (2.0 * (1.0 - rho))).sqrt(),
         rho,
         samples: count,
     }

@@ -93,8 +93,11 @@ pub fn nominal_model(case: &Case) -> Model {
         name: "paper machine (synthetic)".into(),
         measurement: Measurement {
             channel: case.channel,
-            feed_input: FeedInput::Auto,
+            // The synthetic log's override columns follow the command-path convention (a
+            // row's command acts after the override delay), not the board's applied value.
+            feed_input: FeedInput::Command,
             force_window_s: 0.0,
+            ..Default::default()
         },
         machine: Machine {
             name: "paper VMC".into(),

@@ -37,6 +37,11 @@ pub struct Options {
     pub fit_speed_exponent: bool,
     /// Candidate effects. Default: all.
     pub candidates: Vec<EffectKind>,
+    /// The workpiece the log was cut on and the tool-centre position when it began, mm:
+    /// a plant replay ([`crate::replay::Inputs::plant`]) then takes the engagement from
+    /// the simulator's workpiece inside each period instead of the logged depths.
+    /// Default none.
+    pub workpiece: Option<(acc_sim::Workpiece, f64)>,
 }
 
 impl Default for Options {
@@ -51,6 +56,7 @@ impl Default for Options {
             min_gain_pct: 5.0,
             fit_speed_exponent: false,
             candidates: EffectKind::ALL.to_vec(),
+            workpiece: None,
         }
     }
 }
@@ -76,6 +82,9 @@ pub enum WorkflowError {
     /// An option is out of range (the key is the [`Options`] field).
     #[error("{0}")]
     BadOption(acc_core::RangeError),
+    /// The log's values cannot be analysed (non-finite, a dead channel, time order).
+    #[error(transparent)]
+    BadLog(#[from] crate::runlog::RunLogError),
 }
 
 /// Time series for plots.
@@ -453,6 +462,53 @@ fn metrics(
 /// `sealed_check` and `assemble` (report).
 pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
     check_options(opts)?;
+    log.validate(std::path::Path::new("log"))?;
+    let mut warnings = log.unit_warnings();
+    // Split at gaps longer than two periods and analyse the longest piece: a run is never
+    // joined across a gap (the plant state, the wear clock and the noise are not
+    // continuous there).
+    let gaps = log.gaps(2.0);
+    if !gaps.is_empty() {
+        let mut cuts = vec![0];
+        cuts.extend(gaps.iter().map(|g| g.0));
+        cuts.push(log.len());
+        let (a, b) = cuts
+            .windows(2)
+            .map(|w| (w[0], w[1]))
+            .max_by_key(|(a, b)| b - a)
+            .unwrap_or((0, log.len()));
+        let list: Vec<String> = gaps
+            .iter()
+            .map(|(i, g)| {
+                format!(
+                    "line {} (`t_s` {} after {}: a gap of {g:.3} s)",
+                    i + 2,
+                    log.t_s[*i],
+                    log.t_s[*i - 1]
+                )
+            })
+            .collect();
+        let mut o = opts.clone();
+        if a > 0 {
+            // The plant replay starts at the piece: its engagement comes from the logged
+            // depths (the workpiece position at the gap is not known).
+            o.workpiece = None;
+        }
+        let mut an = analyse(model, &log.slice(a..b), &o)?;
+        an.report.warnings.insert(
+            0,
+            format!(
+                "time gaps longer than 2 periods at {}: the log was split there and only \
+                 lines {}..={} (the longest piece, {} rows) were analysed; pieces are never \
+                 joined across a gap",
+                list.join(", "),
+                a + 2,
+                b + 1,
+                b - a
+            ),
+        );
+        return Ok(an);
+    }
     let p = Prepared::new(model, log, opts)?;
     let ctx = Ctx {
         inp: &p.inp,
@@ -477,7 +533,9 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let (noise_f, unexplained) = check.run(&s.base_model);
 
     let sealed = sealed_check(&p, &s.nominal_refit, &upd_replay.predicted, noise_f);
-    Ok(assemble(model, p, s, upd_replay, unexplained, sealed, opts))
+    let mut a = assemble(model, p, s, upd_replay, unexplained, sealed, opts);
+    a.report.warnings.append(&mut warnings);
+    Ok(a)
 }
 
 /// The options [`analyse`] accepts: 2 ..= 20 folds, a sealed fraction in 0.05 ..= 0.5.
@@ -534,6 +592,9 @@ impl Prepared {
     /// Split the log (selection / sealed, folds) and locate the nominal discrepancy.
     fn new(model: &Model, log: &RunLog, opts: &Options) -> Result<Self, WorkflowError> {
         let mut inp = Inputs::from_log(log, model)?;
+        if let Some((wp, x0)) = &opts.workpiece {
+            inp.use_workpiece(wp.clone(), *x0);
+        }
         let n = inp.len();
         let needed = 12 * opts.folds + 20;
         if n < needed {
@@ -878,7 +939,15 @@ fn screen_candidate(
         .find(|p| p.name == primary_name)
         .map(|p| (p.ci_low > p.null || p.ci_high < p.null) && p.std_err.is_finite())
         .unwrap_or(false);
-    let passed = others_pass && ci_ok;
+    // A parameter of the effect pinned at its fitting bound is not a measurement of it:
+    // the data want more than the effect's law allows (an effect outside the library
+    // borrowing this one's signature), so it is not named (issue 13).
+    let prefix = format!("{}.", kind.name());
+    let bound_ok = !f
+        .params
+        .iter()
+        .any(|p| p.name.starts_with(&prefix) && p.at_bound);
+    let passed = others_pass && ci_ok && bound_ok;
     let result = CandidateResult {
         effect: kind.name().into(),
         applicable: true,
@@ -1055,6 +1124,7 @@ fn assemble(
         updated_params: absolute(s.base_params, &s.params_start, model),
         sealed,
         conclusion,
+        warnings: Vec::new(),
     };
     Analysis {
         report,

@@ -1,0 +1,275 @@
+//! The honest twin: logs from the production path (`acc sim`'s closed loop, the same
+//! [`acc_runtime::ControlLoop`] `acc run` drives) replayed by the simulator's own plant
+//! ([`acc_sim::replay`]), and the model that describes a scenario's machine as the
+//! discrepancy workflow sees it ([`model_for_scenario`]).
+
+use std::path::Path;
+
+use acc_sim::scenario::{MeasurementSpec, Scenario};
+
+use crate::effects::Effects;
+use crate::model::{Channel, FeedInput, Measurement, Model, PlantForceModel};
+use crate::replay::{replay, Inputs, ReplayError};
+use crate::runlog::RunLog;
+
+/// The model of `scenario`'s machine, tool and wear, compared on `channel`, replayed by
+/// the simulator's plant (`feed_input = "plant"`) with the scenario's force model and the
+/// window and spindle motor of its measurement channel. On the power channel of a
+/// spindle-power scenario the model's `no_load_power_w` is the motor's air-cut input
+/// power at the spindle speed.
+pub fn model_for_scenario(scenario: &Scenario, channel: Channel) -> Model {
+    let mut machine = scenario.machine.clone();
+    let mut tool = scenario.tool.clone();
+    tool.wear = scenario.wear;
+    let (force_window_s, power_window_s, motor) = match scenario.measurement {
+        MeasurementSpec::Dynamometer { window_s, .. } => (window_s, 0.0, None),
+        MeasurementSpec::SpindlePower(spec) => (spec.window_s, spec.window_s, Some(spec.motor)),
+    };
+    let motor = if channel == Channel::Power {
+        motor
+    } else {
+        None
+    };
+    if let Some(m) = motor {
+        if let Ok(cfg) = m.config() {
+            machine.spindle.no_load_power_w = acc_sim::motor::Motor::new(cfg)
+                .operating_point(machine.spindle.rpm, 0.0)
+                .input_w;
+        }
+    }
+    Model {
+        name: format!("{} (twin of the scenario)", scenario.name),
+        measurement: Measurement {
+            channel,
+            feed_input: FeedInput::Plant,
+            force_window_s,
+            force_model: match scenario.force_model {
+                acc_sim::ForceModel::Mean => PlantForceModel::Mean,
+                acc_sim::ForceModel::Tooth => PlantForceModel::Tooth,
+            },
+            spindle_motor: motor,
+            power_window_s: if motor.is_some() { power_window_s } else { 0.0 },
+        },
+        machine,
+        tool,
+        effects: Effects::default(),
+    }
+}
+
+/// Run `scenario` with its adaptive law through `acc sim`'s production loop and return the
+/// run log as the workflow reads it.
+pub fn simulate(scenario: &Scenario) -> Result<RunLog, String> {
+    let mut law = scenario
+        .build_law(acc_sim::LawKind::Ours)
+        .map_err(|e| e.to_string())?;
+    let res =
+        acc_sim::run::<std::io::Sink>(scenario, law.as_mut(), None).map_err(|e| e.to_string())?;
+    crate::runlog::from_records(&res.rows, Path::new(&scenario.name)).map_err(|e| e.to_string())
+}
+
+/// Residual of the replay of `model` on `log` (measured − replayed), with the
+/// engagement from `workpiece` when given (tool centre at `x0_mm` when the log began).
+pub fn replay_residual(
+    model: &Model,
+    log: &RunLog,
+    workpiece: Option<(&acc_sim::Workpiece, f64)>,
+) -> Result<Vec<f64>, ReplayError> {
+    let mut inp = Inputs::from_log(log, model)?;
+    if let Some((wp, x0)) = workpiece {
+        inp.use_workpiece(wp.clone(), x0);
+    }
+    let r = replay(model, &inp);
+    Ok(inp
+        .measured
+        .iter()
+        .zip(&r.predicted)
+        .map(|(m, p)| m - p)
+        .collect())
+}
+
+/// A hidden effect of the evaluation: what the simulated machine does that the nominal
+/// model (the scenario's own, [`model_for_scenario`]) does not.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Hidden {
+    /// Nothing hidden.
+    Null,
+    /// In the library: tool wear, `Ks` growth per cm³.
+    ToolWear(f64),
+    /// In the library: extra feed-drive lag, s.
+    FeedDriveLag(f64),
+    /// In the library: extra override-path dead time, s.
+    OverrideDeadTime(f64),
+    /// In the library: copper loss ∝ torque² (`motor_efficiency`), 1/kW (power only).
+    CopperLoss(f64),
+    /// In the library: no-load drift ΔP, W (τ 60 s; power only).
+    NoloadDrift(f64),
+    /// In the library: power-sensor low-pass τ, s (power only).
+    SensorLowpass(f64),
+    /// In the library: runout amplitude.
+    Runout(f64),
+    /// Out of the library: depth exponent α of the force law.
+    DepthExponent(f64),
+    /// Out of the library: a `Ks` step at a material boundary (factor from mid-part).
+    KsStep(f64),
+    /// Out of the library: the tooth-level force model against a mean-force model.
+    ToothModel,
+}
+
+impl Hidden {
+    /// The library effect this hidden effect is (None: null or out of library).
+    pub fn library(self) -> Option<crate::EffectKind> {
+        use crate::EffectKind as K;
+        Some(match self {
+            Hidden::ToolWear(_) => K::ToolWear,
+            Hidden::FeedDriveLag(_) => K::FeedDriveLag,
+            Hidden::OverrideDeadTime(_) => K::OverrideDeadTime,
+            Hidden::CopperLoss(_) => K::MotorEfficiency,
+            Hidden::NoloadDrift(_) => K::NoloadDrift,
+            Hidden::SensorLowpass(_) => K::SensorLowpass,
+            Hidden::Runout(_) => K::Runout,
+            _ => return None,
+        })
+    }
+
+    /// Short label with the amplitude.
+    pub fn label(self) -> String {
+        match self {
+            Hidden::Null => "null".into(),
+            Hidden::ToolWear(v) => format!("tool_wear {v}/cm³"),
+            Hidden::FeedDriveLag(v) => format!("feed_drive_lag +{v} s"),
+            Hidden::OverrideDeadTime(v) => format!("override_dead_time +{v} s"),
+            Hidden::CopperLoss(v) => format!("copper loss {v}/kW"),
+            Hidden::NoloadDrift(v) => format!("noload_drift {v} W"),
+            Hidden::SensorLowpass(v) => format!("sensor_lowpass {v} s"),
+            Hidden::Runout(v) => format!("runout A={v}"),
+            Hidden::DepthExponent(v) => format!("depth exponent α={v}"),
+            Hidden::KsStep(v) => format!("Ks step ×{v}"),
+            Hidden::ToothModel => "tooth-level force".into(),
+        }
+    }
+
+    /// Whether the effect acts on `channel` at all.
+    pub fn acts_on(self, channel: Channel) -> bool {
+        !matches!(
+            (self, channel),
+            (
+                Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
+                Channel::Force
+            )
+        )
+    }
+}
+
+/// One evaluation case: the scenario with the hidden effect in the simulated machine, the
+/// nominal model and the workpiece the replay uses.
+pub fn hidden_case(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+) -> (Scenario, Model, acc_sim::Workpiece) {
+    let model = model_for_scenario(base, channel);
+    let mut sc = base.clone();
+    let mut wp_model = base.workpiece.clone();
+    match hidden {
+        Hidden::Null => {}
+        Hidden::ToolWear(g) => sc.wear.growth_per_cm3 += g,
+        Hidden::FeedDriveLag(t) => sc.machine.feed_drive.tau_s += t,
+        Hidden::OverrideDeadTime(t) => sc.machine.override_path.delay_s += t,
+        Hidden::CopperLoss(c) => {
+            sc.machine.spindle.motor_efficiency = Some(acc_sim::config::MotorEfficiency {
+                copper_loss_per_kw: c,
+            })
+        }
+        Hidden::NoloadDrift(d) => {
+            sc.machine.spindle.noload_drift = Some(acc_sim::config::NoloadDrift {
+                delta_w: d,
+                tau_s: 60.0,
+            })
+        }
+        Hidden::SensorLowpass(t) => {
+            sc.machine.spindle.sensor_lowpass = Some(acc_sim::config::SensorLowpass { tau_s: t })
+        }
+        Hidden::Runout(a) => {
+            sc.tool.runout = Some(acc_sim::config::Runout {
+                amplitude: a,
+                phase_rad: 0.7,
+            })
+        }
+        Hidden::DepthExponent(a) => sc.tool.process.alpha = a,
+        Hidden::KsStep(k) => {
+            // The material changes half-way along the cut; the model's workpiece does not
+            // know it.
+            let cut: Vec<usize> = (0..sc.workpiece.segments.len())
+                .filter(|&i| sc.workpiece.segments[i].is_cut())
+                .collect();
+            let half = cut.len() / 2;
+            for &i in &cut[half..] {
+                sc.workpiece.segments[i].ks_factor *= k;
+            }
+            wp_model = base.workpiece.clone();
+        }
+        Hidden::ToothModel => sc.force_model = acc_sim::ForceModel::Tooth,
+    }
+    (sc, model, wp_model)
+}
+
+/// What the workflow said on one case.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// Named effects.
+    pub named: Vec<crate::EffectKind>,
+    /// Ambiguous pairs reported.
+    pub ambiguous: bool,
+    /// "Unexplained" reported.
+    pub unexplained: bool,
+    /// Whether the named effect's primary interval covers `truth` (in-library only).
+    pub covered: Option<bool>,
+}
+
+/// Run one case end to end: simulate through the production loop, analyse.
+pub fn run_case(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+) -> Result<Verdict, String> {
+    let (mut sc, model, wp) = hidden_case(base, hidden, channel);
+    sc.seed = seed;
+    let log = simulate(&sc)?;
+    let opts = crate::workflow::Options {
+        workpiece: Some((wp, 0.0)),
+        ..crate::workflow::Options::default()
+    };
+    let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;
+    let named: Vec<crate::EffectKind> = a
+        .report
+        .accepted
+        .iter()
+        .filter_map(|n| crate::EffectKind::from_name(n))
+        .collect();
+    let truth = match hidden {
+        Hidden::ToolWear(v)
+        | Hidden::FeedDriveLag(v)
+        | Hidden::OverrideDeadTime(v)
+        | Hidden::CopperLoss(v)
+        | Hidden::NoloadDrift(v)
+        | Hidden::SensorLowpass(v)
+        | Hidden::Runout(v) => Some(v),
+        _ => None,
+    };
+    let covered = match (hidden.library(), truth) {
+        (Some(k), Some(v)) if named.contains(&k) => a
+            .report
+            .updated_params
+            .iter()
+            .find(|p| p.name == format!("{}.{}", k.name(), k.params()[0].key))
+            .map(|p| p.ci_low <= v && v <= p.ci_high),
+        _ => None,
+    };
+    Ok(Verdict {
+        named,
+        ambiguous: !a.report.ambiguous.is_empty(),
+        unexplained: a.report.unexplained.is_some(),
+        covered,
+    })
+}

@@ -1,0 +1,304 @@
+//! The simulated plant replayed on the inputs a run log recorded (for the discrepancy
+//! workflow, `acc-ident`): the same [`Machine`] the simulator steps — override path delay
+//! line, first-order feed drive, engagement from the workpiece (or as logged), the force
+//! law with the tooth model when selected — driven period by period with the override the
+//! board applied (`override_applied_pct`), the programmed feed and the feed hold of each
+//! logged row. Nothing is fed back: the replay is open loop on the logged commands.
+//!
+//! The trace is taken at **unit force scale** (`calib_force_n = 1`, no wear, no runout), so
+//! a caller fitting `Ks`, wear and runout rescales it without re-running the plant: per
+//! period it holds the means over the period and over the measurement window of the unit
+//! force, the runout basis (`1 + A·cos(θ + φ)` is linear in `A·cos φ`, `A·sin φ`), and the
+//! unit torque after the spindle drive's torque lag as the induction-motor channel
+//! (`crate::motor::MotorSim::run_period_tail`) sees it, with its mean square (the motor's
+//! input power is nonlinear in torque).
+
+use std::f64::consts::PI;
+
+use acc_core::filter::FirstOrderLag;
+
+use crate::config::{MachineSpec, ToolSpec};
+use crate::machine::{ForceModel, Machine};
+use crate::process::WearSpec;
+use crate::workpiece::{Segment, SegmentKind, Workpiece};
+
+/// Where the replayed engagement comes from.
+#[derive(Debug, Clone)]
+pub enum ReplayEngagement {
+    /// The workpiece the log was cut on; the tool centre starts at `x0_mm` and moves with
+    /// the replayed feed (exactly as in the simulator).
+    Workpiece {
+        /// The workpiece.
+        workpiece: Workpiece,
+        /// Tool-centre position when the log began, mm.
+        x0_mm: f64,
+    },
+    /// The depths logged per row (held over the row's period). The tooth model needs the
+    /// workpiece geometry, so this mode integrates the mean force model.
+    Logged {
+        /// Radial depth per row, mm.
+        radial_mm: Vec<f64>,
+        /// Axial depth per row, mm.
+        axial_mm: Vec<f64>,
+    },
+}
+
+/// The logged commands that drive the replay, one entry per row.
+#[derive(Debug, Clone, Copy)]
+pub struct ReplayDrive<'a> {
+    /// Length of the period ending at each row, s.
+    pub period_s: &'a [f64],
+    /// Override on the PMC inputs during the row's period, percent.
+    pub override_applied_pct: &'a [f64],
+    /// Programmed feed, mm/min.
+    pub programmed_feed_mm_min: &'a [f64],
+    /// Feed hold in force during the row's period (`None`: never).
+    pub feed_hold: Option<&'a [bool]>,
+}
+
+/// How the measurement channel looks at each period.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ReplayChannel {
+    /// Averaging window at the end of each period, s (0 = the whole period).
+    pub window_s: f64,
+    /// Torque lag of the spindle drive before the motor's power, s (0 = none: a
+    /// constant-speed spindle or a force channel).
+    pub torque_lag_s: f64,
+    /// DAQ sample rate of the motor channel, Hz (0 = the machine's internal rate).
+    pub daq_rate_hz: f64,
+}
+
+/// One replayed period at unit force scale.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PeriodTrace {
+    /// Mean feed over the period, mm/min.
+    pub feed_mean_mm_min: f64,
+    /// Mean feed over the window, mm/min.
+    pub feed_window_mm_min: f64,
+    /// Mean unit force over the period (force per newton of `calib_force_n`), −.
+    pub unit_force_mean: f64,
+    /// Mean unit force over the window, −.
+    pub unit_force_window: f64,
+    /// Runout basis over the period: means of unit force × `(sin θ₁ − sin θ₀)/Δθ` and ×
+    /// `(cos θ₁ − cos θ₀)/Δθ` per internal step (the runout factor's step mean is
+    /// `1 + A·(cos φ·c + sin φ·s)`).
+    pub runout_mean: [f64; 2],
+    /// The runout basis over the window.
+    pub runout_window: [f64; 2],
+    /// Mean over the window of the unit torque after the drive's torque lag, N·m per N.
+    pub unit_torque_window: f64,
+    /// Mean square of the same, (N·m per N)².
+    pub unit_torque_sq_window: f64,
+    /// Removed volume since the replay began (unit independent), mm³.
+    pub volume_mm3: f64,
+    /// Radial depth at the end of the period, mm.
+    pub radial_depth_mm: f64,
+    /// Tool-centre position at the end of the period, mm.
+    pub x_mm: f64,
+}
+
+/// Replay the plant of `machine` + `tool` (force model `force_model`) on `drive` with the
+/// engagement `engagement`, seen through `channel`. One [`PeriodTrace`] per row.
+///
+/// The simulator's own [`Machine::advance`] runs every period (same internal rate, delay
+/// line, drive lag, engagement and force law); only the unit scale (no `Ks`, wear or
+/// runout) and the forced engagement of [`ReplayEngagement::Logged`] differ.
+pub fn trace(
+    machine: &MachineSpec,
+    tool: &ToolSpec,
+    force_model: ForceModel,
+    engagement: &ReplayEngagement,
+    drive: &ReplayDrive<'_>,
+    channel: &ReplayChannel,
+) -> Vec<PeriodTrace> {
+    let n = drive.period_s.len();
+    let mut unit = tool.clone();
+    unit.process.calib_force_n = 1.0;
+    unit.runout = None;
+    let no_wear = WearSpec {
+        initial_factor: 1.0,
+        growth_per_cm3: 0.0,
+        growth_per_min: 0.0,
+        ..WearSpec::default()
+    };
+    let (wp, model, x0, logged) = match engagement {
+        ReplayEngagement::Workpiece { workpiece, x0_mm } => {
+            (workpiece.clone(), force_model, *x0_mm, None)
+        }
+        ReplayEngagement::Logged {
+            radial_mm,
+            axial_mm,
+        } => {
+            let a = axial_mm.iter().copied().fold(0.0, f64::max).max(1.0);
+            let wp = Workpiece {
+                name: "logged engagement".into(),
+                axial_depth_mm: a,
+                segments: vec![Segment {
+                    kind: SegmentKind::Cut,
+                    start_mm: -1e12,
+                    end_mm: 1e12,
+                    depth_start_mm: 1.0,
+                    depth_end_mm: 1.0,
+                    ks_factor: 1.0,
+                }],
+            };
+            (wp, ForceModel::Mean, 0.0, Some((radial_mm, axial_mm)))
+        }
+    };
+    let fp0 = drive.programmed_feed_mm_min.first().copied().unwrap_or(0.0);
+    let mut m = Machine::new(machine, &unit, no_wear, wp, model, fp0);
+    m.set_position_mm(x0);
+    let lag = FirstOrderLag::new(channel.torque_lag_s);
+    let mut lagged = 0.0;
+    let mut theta = 0.0f64;
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let dt_row = drive.period_s[i];
+        let ov = drive.override_applied_pct[i];
+        m.set_override_input_pct(if ov.is_finite() {
+            ov.round().clamp(0.0, f64::from(u16::MAX)) as u16
+        } else {
+            0
+        });
+        m.set_programmed_feed_mm_min(drive.programmed_feed_mm_min[i]);
+        m.set_feed_hold(drive.feed_hold.is_some_and(|h| h[i]));
+        if let Some((r, a)) = logged {
+            m.set_engagement_override(Some((r[i].max(0.0), a[i].max(0.0))));
+        }
+        let rpm = m.spindle_rpm();
+        let rec = m.advance(dt_row);
+        let ns = rec.samples.len();
+        let dt = rec.sample_dt_s;
+        // The force channel's window: the last k internal samples.
+        let k = if channel.window_s <= 0.0 {
+            ns
+        } else {
+            ((channel.window_s / dt).round() as usize).clamp(1, ns.max(1))
+        };
+        let mut tr = PeriodTrace {
+            feed_mean_mm_min: rec.feed_mean_mm_min,
+            unit_force_mean: rec.force_mean_n,
+            radial_depth_mm: rec.radial_depth_mm,
+            x_mm: rec.x_mm,
+            ..PeriodTrace::default()
+        };
+        let dth = rpm / 60.0 * 2.0 * PI * dt;
+        let (mut fw, mut ffw, mut rm, mut rw) = (0.0, 0.0, [0.0; 2], [0.0; 2]);
+        for (j, s) in rec.samples.iter().enumerate() {
+            let th0 = theta;
+            let th1 = th0 + dth;
+            theta = crate::exact::rem_tau(th1);
+            let basis = if dth.abs() < 1e-12 {
+                [th0.cos(), -th0.sin()]
+            } else {
+                [(th1.sin() - th0.sin()) / dth, (th1.cos() - th0.cos()) / dth]
+            };
+            rm[0] += s.force_n * basis[0];
+            rm[1] += s.force_n * basis[1];
+            if j >= ns - k {
+                fw += s.force_n;
+                ffw += s.feed_mm_min;
+                rw[0] += s.force_n * basis[0];
+                rw[1] += s.force_n * basis[1];
+            }
+        }
+        let (nsf, kf) = (ns.max(1) as f64, k.max(1) as f64);
+        tr.unit_force_window = fw / kf;
+        tr.feed_window_mm_min = ffw / kf;
+        tr.runout_mean = [rm[0] / nsf, rm[1] / nsf];
+        tr.runout_window = [rw[0] / kf, rw[1] / kf];
+        // The motor channel: the torque samples in equal slices over the DAQ block, the
+        // drive's lag stepped per slice, the window = the last DAQ samples
+        // (`MotorSim::run_period_tail`).
+        let fs = if channel.daq_rate_hz > 0.0 {
+            channel.daq_rate_hz
+        } else {
+            1.0 / dt
+        };
+        let nd = ((dt_row * fs).round().max(0.0) as usize).max(1);
+        let w = if channel.window_s > 0.0 && channel.window_s < dt_row {
+            ((channel.window_s * fs).round() as usize).clamp(1, nd)
+        } else {
+            nd
+        };
+        let skip = nd - w;
+        let slices = ns.clamp(1, nd);
+        let (mut tw, mut tsq, mut cnt) = (0.0, 0.0, 0.0);
+        for j in 0..slices {
+            let start = j * nd / slices;
+            let end = (j + 1) * nd / slices;
+            let t_cut = rec.samples.get(j).map_or(0.0, |s| s.torque_nm);
+            lagged = lag.step(lagged, t_cut, (end - start) as f64 / fs);
+            let kept = end.saturating_sub(start.max(skip)) as f64;
+            tw += kept * lagged;
+            tsq += kept * lagged * lagged;
+            cnt += kept;
+        }
+        let cnt = cnt.max(1.0);
+        tr.unit_torque_window = tw / cnt;
+        tr.unit_torque_sq_window = tsq / cnt;
+        tr.volume_mm3 = m.volume_mm3();
+        out.push(tr);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run::configs_dir;
+
+    #[test]
+    fn a_replay_of_the_simulators_own_commands_is_its_force_at_unit_scale() {
+        let dir = configs_dir();
+        let spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+        let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
+        let ov: Vec<f64> = (0..300)
+            .map(|i| [100.0, 80.0, 120.0][(i / 40) % 3])
+            .collect();
+        let mut m = Machine::new(
+            &spec,
+            &tool,
+            WearSpec::default(),
+            wp.clone(),
+            ForceModel::Mean,
+            200.0,
+        );
+        let mut truth = Vec::new();
+        for &o in &ov {
+            m.set_override_input_pct(o as u16);
+            truth.push(m.advance(0.1).force_mean_n);
+        }
+        let period = vec![0.1; ov.len()];
+        let fp = vec![200.0; ov.len()];
+        let tr = trace(
+            &spec,
+            &tool,
+            ForceModel::Mean,
+            &ReplayEngagement::Workpiece {
+                workpiece: wp,
+                x0_mm: 0.0,
+            },
+            &ReplayDrive {
+                period_s: &period,
+                override_applied_pct: &ov,
+                programmed_feed_mm_min: &fp,
+                feed_hold: None,
+            },
+            &ReplayChannel::default(),
+        );
+        let calib = tool.process.calib_force_n;
+        let mut cut = 0;
+        for (t, f) in tr.iter().zip(&truth) {
+            assert!(
+                (t.unit_force_mean * calib - f).abs() < 1e-9 * f.max(1.0),
+                "{t:?} {f}"
+            );
+            if *f > 10.0 {
+                cut += 1;
+            }
+        }
+        assert!(cut > 100, "{cut}");
+    }
+}

@@ -1,0 +1,90 @@
+//! Issue 13, item 1: the replay is the simulator. Null logs from `acc sim`'s production
+//! loop (random shipped workpiece, force model, measurement channel and seed) replay to
+//! within the measurement noise on both channels.
+
+use acc_ident::model::Channel;
+use acc_ident::twin;
+use acc_sim::scenario::MeasurementSpec;
+use acc_sim::{ForceModel, Scenario, Workpiece};
+use proptest::prelude::*;
+
+fn base() -> Scenario {
+    let dir = acc_sim::run::configs_dir();
+    Scenario::load(dir.join("scenarios/paper_case3.toml")).expect("scenario")
+}
+
+const WORKPIECES: [&str; 5] = [
+    "steps_1_2_3.toml",
+    "steps_2_3_4.toml",
+    "ramp_2_4.toml",
+    "interrupted.toml",
+    "hard_inclusion.toml",
+];
+
+/// Robust noise σ of a residual: MAD of first differences / (0.6745·√2).
+fn sigma(r: &[f64]) -> f64 {
+    let mut d: Vec<f64> = r.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2] / 0.6745 / 2f64.sqrt()
+}
+
+fn check(wp: usize, tooth: bool, dyn_channel: bool, seed: u64) {
+    let dir = acc_sim::run::configs_dir();
+    let mut sc = base();
+    sc.workpiece = Workpiece::load(dir.join("workpieces").join(WORKPIECES[wp])).expect("wp");
+    sc.seed = seed;
+    sc.max_time_s = 40.0;
+    if tooth {
+        sc.force_model = ForceModel::Tooth;
+    }
+    if dyn_channel {
+        sc.measurement = MeasurementSpec::Dynamometer {
+            noise_n: 5.0,
+            lowpass_hz: 0.0,
+            window_s: 0.05,
+        };
+    }
+    let log = twin::simulate(&sc).expect("simulated");
+    for ch in [Channel::Force, Channel::Power] {
+        let m = twin::model_for_scenario(&sc, ch);
+        let r = twin::replay_residual(&m, &log, Some((&sc.workpiece, 0.0))).expect("replay");
+        let n = r.len() as f64;
+        let rms = (r.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+        let mean = r.iter().sum::<f64>() / n;
+        // The floor: the board's whole watts (1/√12 W) or a noise-free channel.
+        let s = sigma(&r).max(0.5);
+        let tag = format!(
+            "{} tooth={tooth} dyn={dyn_channel} seed {seed} {ch:?}",
+            WORKPIECES[wp]
+        );
+        // The spindle-power channel's force is the power estimator's output: its model
+        // error at entries is the estimator's, not the plant's (looser bound).
+        let k = if ch == Channel::Force && !dyn_channel {
+            2.5
+        } else {
+            1.6
+        };
+        assert!(rms <= k * s, "{tag}: replay RMS {rms:.2} vs noise σ {s:.2}");
+        assert!(
+            mean.abs() <= 0.5 * s + 0.3,
+            "{tag}: bias {mean:.2} vs σ {s:.2}"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+    #[test]
+    fn null_logs_from_acc_sim_replay_within_the_noise(
+        wp in 0usize..5, tooth in any::<bool>(), dyn_channel in any::<bool>(), seed in 1u64..10_000
+    ) {
+        check(wp, tooth, dyn_channel, seed);
+    }
+}
+
+#[test]
+fn both_force_models_on_both_channels() {
+    for (tooth, dyn_channel) in [(false, false), (true, false), (false, true), (true, true)] {
+        check(3, tooth, dyn_channel, 17);
+    }
+}
