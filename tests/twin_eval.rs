@@ -19,28 +19,26 @@ fn null_logs_from_acc_sim_name_nothing_on_the_power_channel() {
     // The interrupted cut named `feed_exponent` on every seed before the replay was the
     // simulator's plant. (The force channel of a spindle-power log is the power
     // estimator's output, whose own dynamics still read as a feed-drive lag: docs/twin.md.)
-    for ch in [Channel::Power] {
-        let v = run_case(&scenario("interrupted.toml"), Hidden::Null, ch, 1007).expect("case");
-        assert!(v.named.is_empty(), "{ch:?}: named {:?}", v.named);
-    }
+    let ch = Channel::Power;
+    let v = run_case(&scenario("interrupted.toml"), Hidden::Null, ch, 1007).expect("case");
+    assert!(v.named.is_empty(), "{ch:?}: named {:?}", v.named);
 }
 
 #[test]
 fn hidden_tool_wear_is_named_on_the_power_channel() {
-    for ch in [Channel::Power] {
-        let v = run_case(
-            &scenario("steps_2_3_4.toml"),
-            Hidden::ToolWear(0.08),
-            ch,
-            1000,
-        )
-        .expect("case");
-        assert_eq!(
-            v.named,
-            vec![acc_ident::EffectKind::ToolWear],
-            "{ch:?}: {v:?}"
-        );
-    }
+    let ch = Channel::Power;
+    let v = run_case(
+        &scenario("steps_2_3_4.toml"),
+        Hidden::ToolWear(0.08),
+        ch,
+        1000,
+    )
+    .expect("case");
+    assert_eq!(
+        v.named,
+        vec![acc_ident::EffectKind::ToolWear],
+        "{ch:?}: {v:?}"
+    );
 }
 
 fn null_log() -> (acc_ident::Model, acc_ident::RunLog) {
