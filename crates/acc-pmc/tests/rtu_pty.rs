@@ -77,7 +77,8 @@ fn controller_cycle_drives_the_override() {
     let s = b.read_status().expect("status");
     assert!(s.acc_active);
     assert_eq!(s.override_applied_pct, 120);
-    assert_eq!(b.read_holding().expect("holding"), [120, 1, 1, 500]);
+    // A v2 board: five holding registers, FALLBACK_MODE 1 (clamp and feed hold).
+    assert_eq!(b.read_holding().expect("holding"), [120, 1, 1, 500, 1]);
     assert_eq!(
         pty.with_board(|l| (l.override_cmd_pct(), l.heartbeat())),
         (120, 1)
@@ -302,10 +303,20 @@ fn board_restart_is_visible_in_the_holding_registers() {
     b.write_override(140, 5).expect("cycle");
     assert!(b.read_status().expect("status").acc_active);
     pty.with_board(|l| l.power_cycle());
-    assert_eq!(b.read_holding().expect("holding"), [100, 0, 0, 500]);
+    assert_eq!(b.read_holding().expect("holding"), [100, 0, 0, 500, 1]);
     let s = b.read_status().expect("status");
     assert!(!s.acc_active);
     assert_eq!(s.override_applied_pct, 70);
+    // v2: the restart is flagged, and in a cycle the board holds the feed (it lost the last
+    // override) until the controller writes ALARM_RESET.
+    assert!(s.board_restarted && s.cycle_active && s.feed_hold_active);
+    b.write_control(ControlBits {
+        alarm_reset: true,
+        ..ARM
+    })
+    .expect("re-arm");
+    let s = b.read_status().expect("status");
+    assert!(!s.board_restarted && !s.feed_hold_active && s.acc_active);
 }
 
 #[test]

@@ -1,4 +1,5 @@
-//! The emulated PMC interface board, as a pure state machine (`../shared/docs/pmc-board.md`, v1).
+//! The emulated PMC interface board, as a pure state machine (`../shared/docs/pmc-board.md`,
+//! protocol v2, or v1 on request).
 //!
 //! [`BoardLogic`] holds the board's holding and input registers and implements every rule of
 //! the spec's "Board behaviour" section. It never touches a port or a clock: time is passed in
@@ -9,30 +10,53 @@
 //! [`Request`]); the machine side (the simulator, or a test) sets what the CNC and the
 //! operator do with the `set_*` methods.
 //!
+//! The protocol is chosen at construction ([`BoardLogic::with_protocol`] with an
+//! [`EmulatedProtocol`]; [`BoardLogic::new`] and `default` give v2):
+//!
+//! | | v2 | v1 (`V1Exception` / `V1Zeros`) |
+//! | --- | --- | --- |
+//! | input registers 9…14, holding register 4 | `PROTOCOL_VERSION` = 2, NC context, `FALLBACK_OVERRIDE`; `FALLBACK_MODE` | exception 02 / read 0 |
+//! | `ACC_ACTIVE` falls (watchdog, `ACC_REQUEST` cleared, lost link) in a cycle | fallback clamp: applied = min(operator, override at the fall) until the knob turns, the cycle ends or ACC is active again | applied = operator's knob |
+//! | watchdog trip | clamp, and feed hold until `ALARM_RESET` when `FALLBACK_MODE` = 1 | — |
+//! | power cycle | `BOARD_RESTARTED` and (in a cycle) feed hold until `ALARM_RESET` | — |
+//!
 //! ```
-//! use acc_pmc::emu::board::{BoardLogic, Exception, Request, Reply};
+//! use acc_pmc::emu::board::{BoardLogic, EmulatedProtocol, Exception, Request, Reply};
 //! use acc_pmc::regs::{holding, OverrideResolution};
 //! let mut board = BoardLogic::new(OverrideResolution::Percent10);
 //! board.set_acc_switch(true);
-//! board.set_operator_override_pct(80);
-//! // The controller asks for the override (CONTROL bit 0) and commands 120 %.
+//! board.set_cycle_active(true);
+//! board.set_operator_override_pct(100);
+//! // The controller asks for the override (CONTROL bit 0) and commands 60 %.
 //! board.handle(Request::WriteSingle { addr: holding::CONTROL, value: 1 }, 0).unwrap();
-//! board.handle(Request::WriteMultiple { addr: holding::OVERRIDE_CMD, values: vec![120, 1] }, 0).unwrap();
-//! assert_eq!(board.status().override_applied_pct, 120);
-//! // 125 is not a multiple of the 10 % step: exception 03, the old value stays.
-//! let err = board.handle(Request::WriteSingle { addr: holding::OVERRIDE_CMD, value: 125 }, 0);
+//! board.handle(Request::WriteMultiple { addr: holding::OVERRIDE_CMD, values: vec![60, 1] }, 0).unwrap();
+//! assert_eq!(board.status().override_applied_pct, 60);
+//! // 65 is not a multiple of the 10 % step: exception 03, the old value stays.
+//! let err = board.handle(Request::WriteSingle { addr: holding::OVERRIDE_CMD, value: 65 }, 0);
 //! assert_eq!(err, Err(Exception::IllegalDataValue));
-//! // No heartbeat change for WATCHDOG_MS = 500 ms: the board falls back to the operator.
+//! // No heartbeat change for WATCHDOG_MS = 500 ms: the watchdog trips. The operator's knob
+//! // is at 100 %, but the fallback clamp keeps the 60 % of the moment of the trip, and
+//! // FALLBACK_MODE 1 (the default) holds the feed until ALARM_RESET.
 //! board.tick(500);
-//! assert!(board.status().watchdog_tripped);
-//! assert_eq!(board.status().override_applied_pct, 80);
+//! let s = board.status();
+//! assert!(s.watchdog_tripped && s.fallback_active && s.feed_hold_active);
+//! assert_eq!((s.override_applied_pct, s.fallback_override_pct), (60, 60));
+//! // A v1 board hands the feed back to the knob: 100 %.
+//! let mut v1 = BoardLogic::with_protocol(OverrideResolution::Percent10, EmulatedProtocol::V1Exception);
+//! v1.set_acc_switch(true);
+//! v1.set_cycle_active(true);
+//! v1.handle(Request::WriteMultiple { addr: 0, values: vec![60, 1, 1] }, 0).unwrap();
+//! v1.tick(500);
+//! assert_eq!(v1.status().override_applied_pct, 100);
+//! assert_eq!(v1.handle(Request::ReadInput { addr: 9, count: 1 }, 500), Err(Exception::IllegalDataAddress));
 //! ```
 
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 use crate::regs::{
-    control_bits, holding, input, OverrideResolution, MAX_READ_COUNT, MAX_WRITE_COUNT,
-    OVERRIDE_DEFAULT_PCT, OVERRIDE_MAX_PCT, WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS,
+    control_bits, holding, input, FallbackMode, OverrideResolution, FALLBACK_NONE_PCT,
+    MAX_READ_COUNT, MAX_WRITE_COUNT, OVERRIDE_DEFAULT_PCT, OVERRIDE_MAX_PCT, PROTOCOL_V2,
+    WATCHDOG_DEFAULT_MS, WATCHDOG_RANGE_MS,
 };
 use crate::BoardStatus;
 
@@ -153,24 +177,63 @@ pub enum Reply {
     },
 }
 
+/// Which protocol generation the emulated board speaks (`../shared/docs/pmc-board.md`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EmulatedProtocol {
+    /// v2 (the default): `PROTOCOL_VERSION` = 2, `FALLBACK_MODE`, the fallback clamp, the
+    /// watchdog and power-up feed holds, `STATUS` bits 7/8, the NC context registers 9…14.
+    #[default]
+    V2,
+    /// A v1 board that answers exception 02 for input registers 9…14 and holding register
+    /// 4: no clamp (a fall of `ACC_ACTIVE` hands the override to the operator's knob), no
+    /// feed hold of its own, `STATUS` bits 7/8 never set.
+    V1Exception,
+    /// A v1 board that reads 0 for input registers 9…14 and holding register 4 (writes to
+    /// register 4 are accepted and ignored); otherwise as [`EmulatedProtocol::V1Exception`].
+    V1Zeros,
+}
+
+impl EmulatedProtocol {
+    /// The board speaks v2.
+    pub fn is_v2(self) -> bool {
+        self == EmulatedProtocol::V2
+    }
+}
+
 /// The board: holding registers, machine-side inputs, and the behaviour rules of the spec.
 ///
 /// Time: every call that can change the watchdog takes `now_ms`, a monotonic time in
 /// milliseconds from any origin. The board never reads a clock.
+///
+/// Every method that changes state re-evaluates `ACC_ACTIVE`: a fall for any reason other
+/// than the operator's [ACC ON] switch or `OVERRIDE_LOCKED` engages the fallback clamp (v2,
+/// while `CYCLE_ACTIVE`), a rise ends it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BoardLogic {
     resolution: OverrideResolution,
+    protocol: EmulatedProtocol,
     // --- holding registers ---
     override_cmd_pct: u16,
     heartbeat: u16,
     acc_request: bool,
     feed_hold_request: bool,
     watchdog_ms: u16,
+    fallback_mode: FallbackMode,
     // --- internal state ---
     watchdog_tripped: bool,
     /// Start of the current watchdog interval: the last heartbeat change, ACC request
     /// edge, alarm reset or power cycle, ms.
     watchdog_since_ms: Option<u64>,
+    /// `ACC_ACTIVE` as last evaluated (edge detection for the clamp).
+    was_active: bool,
+    /// The fallback clamp (v2), percent; `None` when not engaged.
+    clamp_pct: Option<u16>,
+    /// Feed hold asserted by a watchdog trip with `FALLBACK_MODE` = 1, until `ALARM_RESET`.
+    watchdog_feed_hold: bool,
+    /// Feed hold asserted at power-up in a cycle, until `ALARM_RESET`.
+    restart_feed_hold: bool,
+    /// `BOARD_RESTARTED` (v2): set by a power cycle, cleared by `ALARM_RESET`.
+    board_restarted: bool,
     // --- machine side ---
     acc_switch: bool,
     operator_override_pct: u16,
@@ -182,6 +245,10 @@ pub struct BoardLogic {
     spindle_rpm: u16,
     sample_seq: u16,
     programmed_feed_mm_min: u16,
+    tool_number: u16,
+    program_number: u16,
+    block_number: u16,
+    actual_feed_mm_min: u16,
 }
 
 impl Default for BoardLogic {
@@ -191,18 +258,33 @@ impl Default for BoardLogic {
 }
 
 impl BoardLogic {
-    /// A board just powered up: `OVERRIDE_CMD` = 100, `CONTROL` = 0, `WATCHDOG_MS` = 500,
-    /// `ACC_ACTIVE` off; operator switch off, operator override 100 %, no power, no cycle.
+    /// A v2 board (see [`BoardLogic::with_protocol`]).
     pub fn new(resolution: OverrideResolution) -> Self {
+        Self::with_protocol(resolution, EmulatedProtocol::V2)
+    }
+
+    /// A board speaking `protocol`, as the controller finds it when it connects:
+    /// `OVERRIDE_CMD` = 100, `CONTROL` = 0, `WATCHDOG_MS` = 500, `FALLBACK_MODE` = 1,
+    /// `ACC_ACTIVE` off, no clamp; operator switch off, operator override 100 %, no power,
+    /// no cycle, no NC context. `BOARD_RESTARTED` is clear (the board has been up for a while;
+    /// [`BoardLogic::power_cycle`] models a restart).
+    pub fn with_protocol(resolution: OverrideResolution, protocol: EmulatedProtocol) -> Self {
         Self {
             resolution,
+            protocol,
             override_cmd_pct: OVERRIDE_DEFAULT_PCT,
             heartbeat: 0,
             acc_request: false,
             feed_hold_request: false,
             watchdog_ms: WATCHDOG_DEFAULT_MS,
+            fallback_mode: FallbackMode::default(),
             watchdog_tripped: false,
             watchdog_since_ms: None,
+            was_active: false,
+            clamp_pct: None,
+            watchdog_feed_hold: false,
+            restart_feed_hold: false,
+            board_restarted: false,
             acc_switch: false,
             operator_override_pct: OVERRIDE_DEFAULT_PCT,
             cycle_active: false,
@@ -213,27 +295,65 @@ impl BoardLogic {
             spindle_rpm: 0,
             sample_seq: 0,
             programmed_feed_mm_min: 0,
+            tool_number: 0,
+            program_number: 0,
+            block_number: 0,
+            actual_feed_mm_min: 0,
         }
     }
 
+    /// The protocol this board speaks.
+    pub fn protocol(&self) -> EmulatedProtocol {
+        self.protocol
+    }
+
     /// Power cycle: holding registers back to their defaults (`OVERRIDE_CMD` = 100,
-    /// `HEARTBEAT` = 0, `CONTROL` = 0, `WATCHDOG_MS` = 500), watchdog cleared. The machine
-    /// side (switches, power, rpm, …) is the CNC's and stays as it is.
+    /// `HEARTBEAT` = 0, `CONTROL` = 0, `WATCHDOG_MS` = 500, `FALLBACK_MODE` = 1), watchdog
+    /// cleared, clamp forgotten. v2: `BOARD_RESTARTED` set until `ALARM_RESET`, and if
+    /// `CYCLE_ACTIVE` is set the board asserts feed hold until `ALARM_RESET` (it has lost the
+    /// last override). The machine side (switches, power, rpm, NC context) is the CNC's and
+    /// stays as it is.
     pub fn power_cycle(&mut self) {
         self.override_cmd_pct = OVERRIDE_DEFAULT_PCT;
         self.heartbeat = 0;
         self.acc_request = false;
         self.feed_hold_request = false;
         self.watchdog_ms = WATCHDOG_DEFAULT_MS;
+        self.fallback_mode = FallbackMode::default();
         self.watchdog_tripped = false;
         self.watchdog_since_ms = None;
+        self.was_active = false;
+        self.clamp_pct = None;
+        self.watchdog_feed_hold = false;
+        let v2 = self.protocol.is_v2();
+        self.board_restarted = v2;
+        self.restart_feed_hold = v2 && self.cycle_active;
+    }
+
+    /// Re-evaluate `ACC_ACTIVE` after a state change: a fall engages the clamp (v2, in a
+    /// cycle) unless the operator's switch is off or the override is locked; a rise ends it.
+    fn update_active(&mut self) {
+        let active = self.acc_active();
+        if active {
+            self.clamp_pct = None;
+        } else if self.was_active
+            && self.protocol.is_v2()
+            && self.cycle_active
+            && self.acc_switch
+            && !self.override_locked
+        {
+            // ACC was active until this change, so the applied override was the command.
+            self.clamp_pct = Some(self.override_cmd_pct);
+        }
+        self.was_active = active;
     }
 
     // ------------------------------------------------------------------ controller side
 
     /// Advance the watchdog to `now_ms`: trips when `ACC_REQUEST` is set and `HEARTBEAT` has
-    /// not changed for `WATCHDOG_MS` (spec, "Board behaviour"). Call it at least once per
-    /// millisecond of interest; [`BoardLogic::handle`] calls it before every request.
+    /// not changed for `WATCHDOG_MS` (spec, "Board behaviour"). A trip engages the clamp and,
+    /// with `FALLBACK_MODE` = 1, the feed hold (v2). Call it at least once per millisecond of
+    /// interest; [`BoardLogic::handle`] calls it before every request.
     pub fn tick(&mut self, now_ms: u64) {
         if !self.acc_request || self.watchdog_tripped {
             return;
@@ -241,6 +361,26 @@ impl BoardLogic {
         let since = *self.watchdog_since_ms.get_or_insert(now_ms);
         if now_ms.saturating_sub(since) >= u64::from(self.watchdog_ms) {
             self.watchdog_tripped = true;
+            if self.protocol.is_v2() && self.fallback_mode == FallbackMode::ClampAndFeedHold {
+                self.watchdog_feed_hold = true;
+            }
+            self.update_active();
+        }
+    }
+
+    /// Number of holding registers this board has (exception 02 beyond).
+    fn holding_len(&self) -> u16 {
+        match self.protocol {
+            EmulatedProtocol::V1Exception => holding::V1_COUNT,
+            EmulatedProtocol::V2 | EmulatedProtocol::V1Zeros => holding::COUNT,
+        }
+    }
+
+    /// Number of input registers this board has (exception 02 beyond).
+    fn input_len(&self) -> u16 {
+        match self.protocol {
+            EmulatedProtocol::V1Exception => input::V1_COUNT,
+            EmulatedProtocol::V2 | EmulatedProtocol::V1Zeros => input::COUNT,
         }
     }
 
@@ -250,12 +390,12 @@ impl BoardLogic {
         self.tick(now_ms);
         match request {
             Request::ReadHolding { addr, count } => {
-                let range = check_range(addr, count, holding::COUNT, MAX_READ_COUNT)?;
+                let range = check_range(addr, count, self.holding_len(), MAX_READ_COUNT)?;
                 let regs = self.holding_registers();
                 Ok(Reply::Registers(regs[range].to_vec()))
             }
             Request::ReadInput { addr, count } => {
-                let range = check_range(addr, count, input::COUNT, MAX_READ_COUNT)?;
+                let range = check_range(addr, count, self.input_len(), MAX_READ_COUNT)?;
                 let regs = self.input_registers();
                 Ok(Reply::Registers(regs[range].to_vec()))
             }
@@ -273,11 +413,12 @@ impl BoardLogic {
     }
 
     /// Write consecutive holding registers from `addr` at time `now_ms` (ms): validate all,
-    /// then apply all (FC06 is a write of one).
+    /// then apply all in address order (FC06 is a write of one).
     ///
-    /// Errors: exception 02 for addresses outside `0..4`; exception 03 for an empty or
-    /// too long write, an override above 150 or not a multiple of the step, a watchdog
-    /// outside 100…5000 ms, or an undefined `CONTROL` bit.
+    /// Errors: exception 02 for addresses outside the map (`0..5`; `0..4` on a
+    /// [`EmulatedProtocol::V1Exception`] board); exception 03 for an empty or too long
+    /// write, an override above 150 or not a multiple of the step, a watchdog outside
+    /// 100…5000 ms, an undefined `CONTROL` bit, or a `FALLBACK_MODE` other than 0 or 1.
     pub fn write_holding(
         &mut self,
         addr: u16,
@@ -286,12 +427,13 @@ impl BoardLogic {
     ) -> Result<(), Exception> {
         self.tick(now_ms);
         let count = u16::try_from(values.len()).map_err(|_| Exception::IllegalDataValue)?;
-        let range = check_range(addr, count, holding::COUNT, MAX_WRITE_COUNT)?;
+        let range = check_range(addr, count, self.holding_len(), MAX_WRITE_COUNT)?;
         for (reg, &value) in range.clone().zip(values) {
             self.validate_holding(reg as u16, value)?;
         }
         for (reg, &value) in range.zip(values) {
             self.apply_holding(reg as u16, value, now_ms);
+            self.update_active();
         }
         Ok(())
     }
@@ -304,6 +446,12 @@ impl BoardLogic {
             holding::HEARTBEAT => true,
             holding::CONTROL => value & !control_bits::DEFINED == 0,
             holding::WATCHDOG_MS => WATCHDOG_RANGE_MS.contains(&value),
+            holding::FALLBACK_MODE => match self.protocol {
+                EmulatedProtocol::V2 => FallbackMode::from_register(value).is_some(),
+                // An unused register of a v1 board: anything goes, nothing happens.
+                EmulatedProtocol::V1Zeros => true,
+                EmulatedProtocol::V1Exception => return Err(Exception::IllegalDataAddress),
+            },
             _ => return Err(Exception::IllegalDataAddress),
         };
         if ok {
@@ -331,14 +479,22 @@ impl BoardLogic {
                 if value & control_bits::ALARM_RESET != 0 {
                     self.watchdog_tripped = false;
                     self.watchdog_since_ms = Some(now_ms);
+                    self.watchdog_feed_hold = false;
+                    self.restart_feed_hold = false;
+                    self.board_restarted = false;
                 }
             }
             holding::WATCHDOG_MS => self.watchdog_ms = value,
+            holding::FALLBACK_MODE if self.protocol.is_v2() => {
+                self.fallback_mode = FallbackMode::from_register(value).unwrap_or_default();
+            }
             _ => {}
         }
     }
 
-    /// Holding registers 0…3 as they read back (`ALARM_RESET` reads 0).
+    /// Holding registers 0…4 as they read back (`ALARM_RESET` reads 0; `FALLBACK_MODE` reads
+    /// 0 on a [`EmulatedProtocol::V1Zeros`] board and is outside the map of a
+    /// [`EmulatedProtocol::V1Exception`] board).
     pub fn holding_registers(&self) -> [u16; holding::COUNT as usize] {
         let mut control = 0;
         if self.acc_request {
@@ -347,24 +503,38 @@ impl BoardLogic {
         if self.feed_hold_request {
             control |= control_bits::FEED_HOLD_REQUEST;
         }
+        let fallback_mode = if self.protocol.is_v2() {
+            self.fallback_mode.to_register()
+        } else {
+            0
+        };
         [
             self.override_cmd_pct,
             self.heartbeat,
             control,
             self.watchdog_ms,
-            crate::regs::FallbackMode::default().to_register(),
+            fallback_mode,
         ]
     }
 
-    /// Input registers 0…8 as the controller reads them.
+    /// Input registers 0…14 as the controller reads them (on a v1 board registers 9…14 read
+    /// 0, or are outside the map of a [`EmulatedProtocol::V1Exception`] board).
     pub fn input_registers(&self) -> [u16; input::COUNT as usize] {
-        self.status().to_input_registers()
+        let status = self.status();
+        if self.protocol.is_v2() {
+            status.to_input_registers()
+        } else {
+            let mut regs = [0u16; input::COUNT as usize];
+            regs[..input::V1_COUNT as usize].copy_from_slice(&status.to_v1_input_registers());
+            regs
+        }
     }
 
-    /// The status block (input registers 0…8) decoded.
+    /// The status block decoded: input registers 0…14 of a v2 board; on a v1 board what
+    /// [`BoardStatus::from_v1_input_registers`] gives (no clamp, no context, version 0).
     pub fn status(&self) -> BoardStatus {
         let acc_active = self.acc_active();
-        BoardStatus {
+        let full = BoardStatus {
             acc_switch: self.acc_switch,
             acc_active,
             cycle_active: self.cycle_active,
@@ -379,15 +549,19 @@ impl BoardLogic {
             spindle_rpm: self.spindle_rpm,
             sample_seq: self.sample_seq,
             programmed_feed_mm_min: self.programmed_feed_mm_min,
-            // TODO(v2): the emulator's v2 behaviour (clamp, context registers).
-            fallback_active: false,
-            board_restarted: false,
-            protocol_version: 0,
-            tool_number: 0,
-            program_number: 0,
-            block_number: 0,
-            actual_feed_mm_min: 0,
-            fallback_override_pct: crate::regs::FALLBACK_NONE_PCT,
+            fallback_active: self.clamp_pct.is_some(),
+            board_restarted: self.board_restarted,
+            protocol_version: PROTOCOL_V2,
+            tool_number: self.tool_number,
+            program_number: self.program_number,
+            block_number: self.block_number,
+            actual_feed_mm_min: self.actual_feed_mm_min,
+            fallback_override_pct: self.fallback_override_pct(),
+        };
+        if self.protocol.is_v2() {
+            full
+        } else {
+            BoardStatus::from_v1_input_registers(&full.to_v1_input_registers())
         }
     }
 
@@ -396,20 +570,50 @@ impl BoardLogic {
         self.acc_switch && self.acc_request && !self.watchdog_tripped && !self.override_locked
     }
 
-    /// `OVERRIDE_APPLIED`, percent: `OVERRIDE_CMD` while `ACC_ACTIVE`, otherwise the
-    /// operator's switch. This is what the machine's feed drive should obey (the NC itself
-    /// forces 100 % while `OVERRIDE_LOCKED`; that is the machine's business, not the board's).
+    /// `OVERRIDE_APPLIED`, percent: `OVERRIDE_CMD` while `ACC_ACTIVE`; otherwise the
+    /// operator's switch, limited by the fallback clamp when it is engaged (v2:
+    /// `min(OPERATOR_OVERRIDE, FALLBACK_OVERRIDE)`). This is what the machine's feed drive
+    /// should obey (the NC itself forces 100 % while `OVERRIDE_LOCKED`; that is the
+    /// machine's business, not the board's).
     pub fn override_applied_pct(&self) -> u16 {
         if self.acc_active() {
             self.override_cmd_pct
         } else {
-            self.operator_override_pct
+            match self.clamp_pct {
+                Some(clamp) => self.operator_override_pct.min(clamp),
+                None => self.operator_override_pct,
+            }
         }
     }
 
-    /// `FEED_HOLD_ACTIVE`: the controller's `FEED_HOLD_REQUEST` or the operator's feed hold.
+    /// `FALLBACK_OVERRIDE` (v2), percent: the clamp when engaged, else 150.
+    pub fn fallback_override_pct(&self) -> u16 {
+        self.clamp_pct.unwrap_or(FALLBACK_NONE_PCT)
+    }
+
+    /// `FALLBACK_ACTIVE` (v2): the clamp is engaged.
+    pub fn fallback_active(&self) -> bool {
+        self.clamp_pct.is_some()
+    }
+
+    /// `FALLBACK_MODE` (v2) as last written.
+    pub fn fallback_mode(&self) -> FallbackMode {
+        self.fallback_mode
+    }
+
+    /// `BOARD_RESTARTED` (v2): set by [`BoardLogic::power_cycle`], cleared by `ALARM_RESET`.
+    pub fn board_restarted(&self) -> bool {
+        self.board_restarted
+    }
+
+    /// `FEED_HOLD_ACTIVE`: the controller's `FEED_HOLD_REQUEST`, the operator's feed hold,
+    /// or (v2) the board's own feed hold after a watchdog trip with `FALLBACK_MODE` = 1 or a
+    /// power-up in a cycle (both until `ALARM_RESET`).
     pub fn feed_hold_active(&self) -> bool {
-        self.feed_hold_request || self.operator_feed_hold
+        self.feed_hold_request
+            || self.operator_feed_hold
+            || self.watchdog_feed_hold
+            || self.restart_feed_hold
     }
 
     /// `OVERRIDE_CMD`, percent, as last accepted.
@@ -446,21 +650,33 @@ impl BoardLogic {
     /// The operator's [ACC ON] switch.
     pub fn set_acc_switch(&mut self, on: bool) {
         self.acc_switch = on;
+        self.update_active();
     }
 
-    /// The operator's override switch, percent; clamped to 0…150.
+    /// The operator's override switch, percent; clamped to 0…150. Turning the knob (a
+    /// value different from the current one) is a deliberate act: it ends the fallback clamp.
     pub fn set_operator_override_pct(&mut self, pct: u16) {
-        self.operator_override_pct = pct.min(OVERRIDE_MAX_PCT);
+        let pct = pct.min(OVERRIDE_MAX_PCT);
+        if pct != self.operator_override_pct {
+            self.clamp_pct = None;
+        }
+        self.operator_override_pct = pct;
     }
 
-    /// NC cycle running (`CYCLE_ACTIVE`).
+    /// NC cycle running (`CYCLE_ACTIVE`); its fall ends the fallback clamp.
     pub fn set_cycle_active(&mut self, on: bool) {
+        if !on {
+            self.clamp_pct = None;
+        }
         self.cycle_active = on;
+        self.update_active();
     }
 
-    /// The NC forces 100 % (tapping, threading, override cancel): `OVERRIDE_LOCKED`.
+    /// The NC forces 100 % (tapping, threading, override cancel): `OVERRIDE_LOCKED`. A fall
+    /// of `ACC_ACTIVE` because of the lock does not engage the clamp.
     pub fn set_override_locked(&mut self, on: bool) {
         self.override_locked = on;
+        self.update_active();
     }
 
     /// CNC alarm (`CNC_ALARM`).
@@ -498,6 +714,28 @@ impl BoardLogic {
     /// Programmed feed of the active block, mm/min (0 = unknown).
     pub fn set_programmed_feed_mm_min(&mut self, feed_mm_min: u16) {
         self.programmed_feed_mm_min = feed_mm_min;
+    }
+
+    /// Active tool (T word), 0 = none/unknown: `TOOL_NUMBER` (v2).
+    pub fn set_tool_number(&mut self, tool: u16) {
+        self.tool_number = tool;
+    }
+
+    /// Running program (O number), 0 = unknown: `PROGRAM_NUMBER` (v2).
+    pub fn set_program_number(&mut self, program: u16) {
+        self.program_number = program;
+    }
+
+    /// Sequence number of the active block (N word, low 16 bits), 0 = unknown:
+    /// `BLOCK_NUMBER` (v2).
+    pub fn set_block_number(&mut self, block: u16) {
+        self.block_number = block;
+    }
+
+    /// Actual path feed from the NC, mm/min (after override, 0 in feed hold):
+    /// `ACTUAL_FEED` (v2).
+    pub fn set_actual_feed_mm_min(&mut self, feed_mm_min: u16) {
+        self.actual_feed_mm_min = feed_mm_min;
     }
 }
 
@@ -846,6 +1084,420 @@ mod tests {
         match b.handle(Request::ReadInput { addr: 6, count: 3 }, 0) {
             Ok(Reply::Registers(r)) => assert_eq!(r, vec![6000, 0, 1200]),
             other => panic!("{other:?}"),
+        }
+    }
+
+    // ------------------------------------------------------------------ protocol v2
+
+    const ACC: u16 = control_bits::ACC_REQUEST;
+    const RESET: u16 = control_bits::ALARM_RESET;
+
+    /// A board in a cycle, operator switch on, knob at `knob` %, the controller active at
+    /// `cmd` % (heartbeat 1) at time 0.
+    fn cutting(protocol: EmulatedProtocol, knob: u16, cmd: u16) -> BoardLogic {
+        let mut b = BoardLogic::with_protocol(OverrideResolution::Percent10, protocol);
+        b.set_acc_switch(true);
+        b.set_cycle_active(true);
+        b.set_operator_override_pct(knob);
+        b.write_holding(0, &[cmd, 1, ACC], 0).expect("arm");
+        assert!(b.acc_active());
+        assert_eq!(b.override_applied_pct(), cmd);
+        b
+    }
+
+    fn read_all_inputs(b: &mut BoardLogic) -> Result<Reply, Exception> {
+        b.handle(Request::ReadInput { addr: 0, count: 15 }, 0)
+    }
+
+    #[test]
+    fn v2_reports_version_context_and_fallback_registers() {
+        let mut b = BoardLogic::default();
+        assert_eq!(b.protocol(), EmulatedProtocol::V2);
+        b.set_tool_number(12);
+        b.set_program_number(4711);
+        b.set_block_number(230);
+        b.set_actual_feed_mm_min(720);
+        match read_all_inputs(&mut b) {
+            Ok(Reply::Registers(r)) => assert_eq!(r[9..], [2, 12, 4711, 230, 720, 150]),
+            other => panic!("{other:?}"),
+        }
+        let s = b.status();
+        assert!(s.is_v2() && !s.fallback_active && !s.board_restarted);
+        assert_eq!(
+            (s.tool_number, s.program_number, s.block_number),
+            (12, 4711, 230)
+        );
+        assert_eq!(s.actual_feed_mm_min, 720);
+        assert_eq!(
+            b.handle(Request::ReadHolding { addr: 0, count: 5 }, 0),
+            Ok(Reply::Registers(vec![100, 0, 0, 500, 1]))
+        );
+    }
+
+    #[test]
+    fn fallback_mode_register_accepts_0_and_1_and_resets_on_power_cycle() {
+        let mut b = BoardLogic::default();
+        assert_eq!(b.fallback_mode(), FallbackMode::ClampAndFeedHold);
+        assert!(write1(&mut b, holding::FALLBACK_MODE, 0, 0).is_ok());
+        assert_eq!(b.holding_registers()[4], 0);
+        for bad in [2u16, 3, 255, 65535] {
+            assert_eq!(
+                write1(&mut b, holding::FALLBACK_MODE, bad, 0),
+                Err(Exception::IllegalDataValue),
+                "{bad}"
+            );
+        }
+        assert_eq!(b.fallback_mode(), FallbackMode::ClampOnly, "old value kept");
+        // A bad FALLBACK_MODE in an FC16 write refuses the whole write.
+        assert_eq!(
+            b.write_holding(3, &[1000, 7], 0),
+            Err(Exception::IllegalDataValue)
+        );
+        assert_eq!(b.watchdog_ms(), 500);
+        b.power_cycle();
+        assert_eq!(b.fallback_mode(), FallbackMode::ClampAndFeedHold);
+    }
+
+    #[test]
+    fn v1_exception_board_has_no_registers_9_to_14_and_no_fallback_mode() {
+        let mut b =
+            BoardLogic::with_protocol(OverrideResolution::Percent10, EmulatedProtocol::V1Exception);
+        b.set_tool_number(5);
+        for req in [
+            Request::ReadInput { addr: 0, count: 15 },
+            Request::ReadInput { addr: 9, count: 1 },
+            Request::ReadInput { addr: 14, count: 1 },
+            Request::ReadHolding { addr: 0, count: 5 },
+            Request::ReadHolding { addr: 4, count: 1 },
+            Request::WriteSingle { addr: 4, value: 1 },
+            Request::WriteMultiple {
+                addr: 3,
+                values: vec![500, 1],
+            },
+        ] {
+            assert_eq!(
+                b.handle(req.clone(), 0),
+                Err(Exception::IllegalDataAddress),
+                "{req:?}"
+            );
+        }
+        assert_eq!(
+            b.handle(Request::ReadInput { addr: 0, count: 9 }, 0)
+                .map(|r| match r {
+                    Reply::Registers(r) => r.len(),
+                    _ => 0,
+                }),
+            Ok(9)
+        );
+        let s = b.status();
+        assert_eq!(
+            s,
+            BoardStatus::from_v1_input_registers(&s.to_v1_input_registers())
+        );
+        assert_eq!((s.protocol_version, s.tool_number), (0, 0));
+    }
+
+    #[test]
+    fn v1_zeros_board_reads_zeros_for_registers_9_to_14() {
+        let mut b =
+            BoardLogic::with_protocol(OverrideResolution::Percent10, EmulatedProtocol::V1Zeros);
+        b.set_tool_number(5);
+        b.set_actual_feed_mm_min(300);
+        match read_all_inputs(&mut b) {
+            Ok(Reply::Registers(r)) => assert_eq!(r[9..], [0; 6]),
+            other => panic!("{other:?}"),
+        }
+        // FALLBACK_MODE reads 0; a write is accepted and changes nothing.
+        assert!(write1(&mut b, holding::FALLBACK_MODE, 7, 0).is_ok());
+        assert_eq!(
+            b.handle(Request::ReadHolding { addr: 0, count: 5 }, 0),
+            Ok(Reply::Registers(vec![100, 0, 0, 500, 0]))
+        );
+        assert!(!b.status().is_v2());
+    }
+
+    #[test]
+    fn watchdog_trip_clamps_to_the_override_of_the_moment_and_holds_the_feed() {
+        let mut b = cutting(EmulatedProtocol::V2, 100, 60);
+        b.tick(500);
+        let s = b.status();
+        assert!(s.watchdog_tripped && !s.acc_active);
+        assert!(s.fallback_active && s.feed_hold_active);
+        assert_eq!((s.override_applied_pct, s.fallback_override_pct), (60, 60));
+        let r = b.input_registers();
+        assert_eq!(
+            r[0] & (status_bits::FALLBACK_ACTIVE | status_bits::FEED_HOLD_ACTIVE),
+            status_bits::FALLBACK_ACTIVE | status_bits::FEED_HOLD_ACTIVE
+        );
+        assert_eq!(r[14], 60);
+        // ALARM_RESET without ACC_REQUEST clears the trip and the feed hold, not the clamp.
+        write1(&mut b, holding::CONTROL, RESET, 600).expect("reset");
+        let s = b.status();
+        assert!(!s.watchdog_tripped && !s.feed_hold_active && s.fallback_active);
+        assert_eq!(s.override_applied_pct, 60);
+        // The same knob position written again is no turn of the knob.
+        b.set_operator_override_pct(100);
+        assert_eq!(b.override_applied_pct(), 60);
+        // A knob below the clamp wins (min), but turning it is a deliberate act: clamp ends.
+        b.set_operator_override_pct(40);
+        assert_eq!(b.override_applied_pct(), 40);
+        assert!(!b.fallback_active());
+        assert_eq!(b.fallback_override_pct(), 150);
+        b.set_operator_override_pct(120);
+        assert_eq!(b.override_applied_pct(), 120);
+    }
+
+    #[test]
+    fn clamp_applies_the_lower_of_knob_and_clamp() {
+        let mut b = cutting(EmulatedProtocol::V2, 50, 80);
+        write1(&mut b, holding::CONTROL, 0, 10).expect("release");
+        let s = b.status();
+        assert!(
+            s.fallback_active && !s.feed_hold_active,
+            "a release holds nothing"
+        );
+        assert_eq!((s.override_applied_pct, s.fallback_override_pct), (50, 80));
+    }
+
+    #[test]
+    fn watchdog_trip_with_fallback_mode_0_clamps_without_feed_hold() {
+        let mut b = cutting(EmulatedProtocol::V2, 150, 90);
+        write1(&mut b, holding::FALLBACK_MODE, 0, 0).expect("mode");
+        b.tick(499);
+        assert!(b.acc_active());
+        b.tick(500);
+        let s = b.status();
+        assert!(s.watchdog_tripped && s.fallback_active && !s.feed_hold_active);
+        assert_eq!(s.override_applied_pct, 90);
+    }
+
+    #[test]
+    fn controller_release_clamps_and_the_clamp_is_taken_in_register_order() {
+        // CONTROL = 0 in the same FC16 write as a new command: the command is applied first
+        // (register order), so the clamp is the new command.
+        let mut b = cutting(EmulatedProtocol::V2, 100, 90);
+        b.write_holding(0, &[30, 2, 0], 10).expect("write");
+        let s = b.status();
+        assert!(!s.acc_active && s.fallback_active);
+        assert_eq!((s.override_applied_pct, s.fallback_override_pct), (30, 30));
+        // The controller re-arms: ACC active again ends the clamp.
+        b.write_holding(0, &[110, 3, ACC], 20).expect("re-arm");
+        let s = b.status();
+        assert!(s.acc_active && !s.fallback_active);
+        assert_eq!(
+            (s.override_applied_pct, s.fallback_override_pct),
+            (110, 150)
+        );
+    }
+
+    #[test]
+    fn operator_switch_off_and_override_lock_do_not_clamp() {
+        let mut b = cutting(EmulatedProtocol::V2, 100, 50);
+        b.set_acc_switch(false);
+        assert!(!b.fallback_active());
+        assert_eq!(b.override_applied_pct(), 100, "the operator took over");
+        b.set_acc_switch(true);
+        assert!(b.acc_active());
+        b.set_override_locked(true);
+        assert!(!b.acc_active() && !b.fallback_active());
+        assert_eq!(b.override_applied_pct(), 100);
+    }
+
+    #[test]
+    fn clamp_ends_when_the_cycle_ends_and_is_not_engaged_outside_a_cycle() {
+        let mut b = cutting(EmulatedProtocol::V2, 100, 40);
+        write1(&mut b, holding::CONTROL, 0, 10).expect("release");
+        assert_eq!(b.override_applied_pct(), 40);
+        b.set_cycle_active(false);
+        assert!(!b.fallback_active());
+        assert_eq!(b.override_applied_pct(), 100);
+        // Out of a cycle a release has nothing to protect: no clamp.
+        write1(&mut b, holding::CONTROL, ACC, 20).expect("arm");
+        write1(&mut b, holding::OVERRIDE_CMD, 40, 20).expect("cmd");
+        write1(&mut b, holding::CONTROL, 0, 30).expect("release");
+        assert!(!b.fallback_active());
+        assert_eq!(b.override_applied_pct(), 100);
+    }
+
+    #[test]
+    fn clamp_survives_the_operator_switch_off_and_alarm_reset() {
+        let mut b = cutting(EmulatedProtocol::V2, 100, 70);
+        b.tick(500);
+        b.set_acc_switch(false);
+        write1(&mut b, holding::CONTROL, RESET, 600).expect("reset");
+        assert!(b.fallback_active());
+        assert_eq!(b.override_applied_pct(), 70);
+    }
+
+    #[test]
+    fn power_cycle_in_a_cycle_sets_restarted_and_holds_the_feed_until_alarm_reset() {
+        let mut b = cutting(EmulatedProtocol::V2, 100, 60);
+        b.power_cycle();
+        let s = b.status();
+        assert!(s.board_restarted && s.feed_hold_active && !s.acc_active);
+        assert!(!s.fallback_active, "the board lost the last override");
+        assert_eq!(
+            b.input_registers()[0] & status_bits::BOARD_RESTARTED,
+            status_bits::BOARD_RESTARTED
+        );
+        // The controller re-arms: override first, then ALARM_RESET with ACC_REQUEST.
+        b.write_holding(0, &[60, 1], 100).expect("cmd");
+        assert!(b.status().feed_hold_active, "feed hold until ALARM_RESET");
+        write1(&mut b, holding::CONTROL, ACC | RESET, 100).expect("reset");
+        let s = b.status();
+        assert!(!s.board_restarted && !s.feed_hold_active && s.acc_active);
+        assert_eq!(s.override_applied_pct, 60);
+        // Out of a cycle: restarted, but no feed hold.
+        b.set_cycle_active(false);
+        b.power_cycle();
+        let s = b.status();
+        assert!(s.board_restarted && !s.feed_hold_active);
+    }
+
+    #[test]
+    fn v1_board_hands_the_feed_to_the_knob_after_a_watchdog_trip() {
+        // Why a controller on a v1 board must never release mid-cut: last command 40 %, the
+        // knob at 100 %, the link dies: the board drives 100 %, no feed hold.
+        for protocol in [EmulatedProtocol::V1Exception, EmulatedProtocol::V1Zeros] {
+            let mut b = cutting(protocol, 100, 40);
+            b.tick(500);
+            let s = b.status();
+            assert!(s.watchdog_tripped && !s.fallback_active && !s.feed_hold_active);
+            assert_eq!(s.override_applied_pct, 100, "{protocol:?}");
+            assert_eq!(s.fallback_override_pct, 150);
+            // A release raises the feed the same way.
+            let mut b = cutting(protocol, 100, 40);
+            write1(&mut b, holding::CONTROL, 0, 10).expect("release");
+            assert_eq!(b.override_applied_pct(), 100);
+            // A power cycle in a cycle: no restarted bit, no feed hold.
+            b.power_cycle();
+            let s = b.status();
+            assert!(!s.board_restarted && !s.feed_hold_active);
+            assert_eq!(b.input_registers()[0] & 0x180, 0);
+        }
+    }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// What the controller, the clock and the power supply do to the board.
+        #[derive(Debug, Clone)]
+        enum Op {
+            /// FC16 `OVERRIDE_CMD`, `HEARTBEAT` (a new heartbeat).
+            Override(u16),
+            /// FC06 `HEARTBEAT` (a new value).
+            Heartbeat,
+            /// FC06 `CONTROL` with any defined bits (clearing `ACC_REQUEST`, `ALARM_RESET`…).
+            Control(u16),
+            /// FC06 `FALLBACK_MODE`.
+            FallbackMode(u16),
+            /// Time passes with no request: link silence (watchdog trips).
+            Silence(u64),
+            /// A power cycle of the board.
+            PowerCycle,
+        }
+
+        fn op() -> impl Strategy<Value = Op> {
+            prop_oneof![
+                3 => (0u16..=15).prop_map(|k| Op::Override(k * 10)),
+                2 => Just(Op::Heartbeat),
+                3 => (0u16..8).prop_map(Op::Control),
+                1 => (0u16..2).prop_map(Op::FallbackMode),
+                3 => (0u64..1500).prop_map(Op::Silence),
+                1 => Just(Op::PowerCycle),
+            ]
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(512))]
+
+            /// The knob stays where it is and the cycle runs: whatever the controller
+            /// writes, however long the link is silent, however often the board restarts,
+            /// the override a v2 board applies while ACC is not active never exceeds the
+            /// last override it applied while ACC was active, and after a power cycle the
+            /// feed is held until the controller writes ALARM_RESET.
+            #[test]
+            fn v2_never_raises_the_feed_above_the_last_acc_override(
+                knob in (0u16..=15).prop_map(|k| k * 10),
+                first in (0u16..=15).prop_map(|k| k * 10),
+                ops in proptest::collection::vec(op(), 1..60),
+            ) {
+                let mut b = cutting(EmulatedProtocol::V2, knob, first);
+                let mut now = 0u64;
+                let mut hb = 1u16;
+                let mut last_acc = first;
+                // Power cycled, and the controller has not written ALARM_RESET since.
+                let mut restarted_unreset = false;
+                // Power cycled, and ACC has not been active since: the board lost the last
+                // command, the controller must re-arm (its job; see the spec).
+                let mut restarted = false;
+                // A watchdog trip in FALLBACK_MODE 1 not yet reset.
+                let mut wd_hold = false;
+                for op in ops {
+                    now += 1;
+                    let tripped_before = b.status().watchdog_tripped;
+                    let mode_before = b.fallback_mode();
+                    match op {
+                        Op::Override(v) => {
+                            hb = hb.wrapping_add(1);
+                            b.handle(Request::WriteMultiple { addr: 0, values: vec![v, hb] }, now)
+                                .expect("valid write");
+                        }
+                        Op::Heartbeat => {
+                            hb = hb.wrapping_add(1);
+                            write1(&mut b, holding::HEARTBEAT, hb, now).expect("hb");
+                        }
+                        Op::Control(v) => {
+                            write1(&mut b, holding::CONTROL, v, now).expect("control");
+                            if v & RESET != 0 {
+                                restarted_unreset = false;
+                                wd_hold = false;
+                            }
+                        }
+                        Op::FallbackMode(v) => {
+                            write1(&mut b, holding::FALLBACK_MODE, v, now).expect("mode");
+                        }
+                        Op::Silence(ms) => {
+                            now += ms;
+                            b.tick(now);
+                        }
+                        Op::PowerCycle => {
+                            b.power_cycle();
+                            restarted_unreset = true;
+                            restarted = true;
+                            wd_hold = false;
+                        }
+                    }
+                    let s = b.status();
+                    prop_assert_eq!(s.operator_override_pct, knob);
+                    if s.acc_active {
+                        last_acc = s.override_applied_pct;
+                        restarted = false;
+                    } else if !restarted {
+                        prop_assert!(
+                            s.override_applied_pct <= last_acc,
+                            "applied {} > last ACC override {} ({:?})",
+                            s.override_applied_pct, last_acc, s
+                        );
+                        if s.fallback_active {
+                            prop_assert_eq!(
+                                s.override_applied_pct,
+                                knob.min(s.fallback_override_pct)
+                            );
+                        }
+                    }
+                    if restarted_unreset {
+                        prop_assert!(s.feed_hold_active && s.board_restarted, "{:?}", s);
+                    }
+                    if !tripped_before && s.watchdog_tripped && mode_before == FallbackMode::ClampAndFeedHold {
+                        wd_hold = true;
+                    }
+                    if wd_hold {
+                        prop_assert!(s.feed_hold_active, "watchdog feed hold: {:?}", s);
+                    }
+                }
+            }
         }
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! | module | what |
 //! | --- | --- |
-//! | [`board`] | the board as a pure state machine ([`BoardLogic`]): register behaviour of `pmc-board.md`, `ACC_ACTIVE`, watchdog (time passed in), exceptions ([`Exception`]) |
+//! | [`board`] | the board as a pure state machine ([`BoardLogic`]): register behaviour of `pmc-board.md` v2 (or v1, [`EmulatedProtocol`]), `ACC_ACTIVE`, watchdog (time passed in), fallback clamp, feed holds, exceptions ([`Exception`]) |
 //! | [`rtu_server`] | Modbus RTU slave ([`RtuServer`]) serving a [`SharedBoard`] over any `Read + Write` |
 //! | [`can`] | in-memory CAN bus with the board on it ([`CanBoardEmulator`], [`MemFrame`]) |
 //! | [`loopback`] | the emulated board on a pty pair ([`PtyBoard`]); UART pacing ([`Paced`]) |
@@ -30,7 +30,7 @@ pub mod fault;
 pub mod loopback;
 pub mod rtu_server;
 
-pub use board::{lock_board, BoardLogic, Exception, Reply, Request, SharedBoard};
+pub use board::{lock_board, BoardLogic, EmulatedProtocol, Exception, Reply, Request, SharedBoard};
 pub use can::{CanBoardEmulator, EmulatorStats, MemBusError, MemFrame};
 pub use fault::{Fault, FaultInjector, FaultyStream};
 pub use loopback::{Paced, PtyBoard};
