@@ -127,6 +127,11 @@ impl CycleRecord {
         if self.out.fault {
             r.flag("fault");
         }
+        for e in self.out.events.iter() {
+            if let crate::policy::Event::Rearmed { reason, .. } = e {
+                r.flag(&format!("rearm:{}", reason.as_str()));
+            }
+        }
         r
     }
 }

@@ -33,7 +33,7 @@ pub mod ticker;
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use policy::{
-    AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Release,
+    AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Rearm, Release,
 };
 pub use record::{RunLogWriter, RunRecord};
 pub use runner::{
