@@ -343,6 +343,12 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         rec
     }
 
+    /// The link was reopened (a new port or bus after the device vanished): what the board
+    /// was last given is unknown, so the next period writes `CONTROL` again.
+    pub fn link_reopened(&mut self) {
+        self.control_on_board = None;
+    }
+
     /// Report how the plan's writes went (feeds the next period's policy input).
     pub fn writes_done(&mut self, r: &WriteResult) {
         if let Some(c) = r.control_written {

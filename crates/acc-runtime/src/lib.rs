@@ -37,7 +37,8 @@ pub use policy::{
 };
 pub use record::{RunLogWriter, RunRecord};
 pub use runner::{
-    run, Drain, Ended, LogSink, RunError, RunOptions, RunSummary, StopRequest, VecSink,
+    run, run_with_reopen, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunError, RunOptions,
+    RunSummary, StopRequest, VecSink,
 };
 pub use stats::LatencyStats;
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};
