@@ -145,3 +145,46 @@ fn depth_beyond_the_tool_diameter_names_the_key_as_written() {
         );
     }
 }
+
+#[test]
+fn nc_context_keys_are_range_checked_and_reach_the_board() {
+    use acc_pmc::Board;
+    let dir = tempfile::tempdir().expect("tmp");
+    let wp = configs_dir().join("workpieces/steps_2_3_4.toml");
+    let wp = wp.display().to_string();
+    for (extra, key, range) in [
+        ("[nc]\ntool_number = -1\n", "nc.tool_number", "0 ..= 65535"),
+        (
+            "[nc]\nprogram_number = 70000\n",
+            "nc.program_number",
+            "0 ..= 65535",
+        ),
+        ("[nc]\nblock_step = 0\n", "nc.block_step", "1 ..= 1000"),
+    ] {
+        let p = write(dir.path(), "nc.toml", &scenario_text(&wp, extra));
+        let e = err(&p);
+        assert!(
+            e.contains("nc.toml") && e.contains(key) && e.contains(range),
+            "{extra}: {e}"
+        );
+    }
+    let p = write(
+        dir.path(),
+        "nc.toml",
+        &scenario_text(&wp, "[nc]\ntool = 3\n"),
+    );
+    let e = err(&p);
+    assert!(e.contains("nc.toml") && e.contains("tool"), "{e}");
+    // Valid keys reach the simulated board's registers; defaults fill the rest.
+    let p = write(
+        dir.path(),
+        "ok.toml",
+        &scenario_text(&wp, "[nc]\ntool_number = 12\nblock_step = 5\n"),
+    );
+    let sc = Scenario::load(&p).expect("valid");
+    let s = sc.build_board().read_status().expect("status");
+    assert_eq!(
+        (s.tool_number, s.program_number, s.block_number),
+        (12, 1000, 5)
+    );
+}

@@ -1,11 +1,17 @@
 //! `SimBoard`: the PMC interface board of the simulated machine.
 //!
 //! Register behaviour is the PMC crate's pure [`BoardLogic`] (the same code the Modbus
-//! server runs), fed with Modbus requests exactly as a link would send them; the machine
-//! side of the board (operator switch, NC state, spindle power, rpm, programmed feed) is
-//! driven by the simulated [`Machine`]. The loop sees only the [`Board`] trait.
+//! server runs; protocol v2 unless built with [`SimBoard::with_protocol`]), fed with Modbus
+//! requests exactly as a link would send them; the machine side of the board (operator
+//! switch, NC state, spindle power, rpm, programmed feed, and the v2 NC context: tool,
+//! program, block, actual feed) is driven by the simulated [`Machine`] every period. The
+//! simulated NC obeys the board: the override it applies (`OVERRIDE_APPLIED`, with the
+//! fallback clamp) and its feed hold (the controller's request, the watchdog's and the
+//! power-up one after a restart in a cycle). The loop sees only the [`Board`] trait.
 
-use acc_pmc::emu::{lock_board, BoardLogic, Exception, Reply, Request, SharedBoard};
+use acc_pmc::emu::{
+    lock_board, BoardLogic, EmulatedProtocol, Exception, Reply, Request, SharedBoard,
+};
 use acc_pmc::regs::{holding, input, OverrideResolution};
 use acc_pmc::{Board, BoardStatus, ControlBits};
 use acc_runtime::RunRecord;
@@ -21,6 +27,38 @@ pub enum PowerFault {
     Garbage,
 }
 
+/// The NC context the simulated board reports (v2 registers 10…12), from the scenario's
+/// `[nc]` table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NcContext {
+    /// `TOOL_NUMBER` (T word).
+    pub tool_number: u16,
+    /// `PROGRAM_NUMBER` (O number).
+    pub program_number: u16,
+    /// Segment `i` (0-based) of the workpiece runs as block `block_step × (i + 1)` (low 16
+    /// bits, as `BLOCK_NUMBER` carries them).
+    pub block_step: u16,
+}
+
+impl Default for NcContext {
+    /// Tool 1, program 1000, blocks N10, N20, …
+    fn default() -> Self {
+        NcContext {
+            tool_number: 1,
+            program_number: 1000,
+            block_step: 10,
+        }
+    }
+}
+
+impl NcContext {
+    /// `BLOCK_NUMBER` while the tool is in segment `index` (0-based).
+    pub fn block_number(&self, index: usize) -> u16 {
+        let n = u64::from(self.block_step) * (index as u64 + 1);
+        (n & 0xFFFF) as u16
+    }
+}
+
 /// The simulated board plus the machine behind it, on a manual clock.
 ///
 /// The register logic is shared ([`SharedBoard`]): `acc sim` talks to it in process through
@@ -33,14 +71,30 @@ pub struct SimBoard {
     now_ms: u64,
     power_fault: Option<PowerFault>,
     external_clock: bool,
+    nc: NcContext,
+    /// End of each workpiece segment along the path, mm (for `BLOCK_NUMBER`).
+    segment_ends_mm: Vec<f64>,
+}
+
+/// Index of the segment containing path position `x_mm` (the last one past the end).
+fn segment_at(ends_mm: &[f64], x_mm: f64) -> usize {
+    ends_mm
+        .partition_point(|e| *e <= x_mm)
+        .min(ends_mm.len().saturating_sub(1))
 }
 
 impl SimBoard {
-    /// A board with `step_pct` resolution (10 or 1; anything else is treated as 10), the
-    /// operator's ACC switch on, operator override 100 %, NC cycle running.
+    /// A v2 board with `step_pct` resolution (10 or 1; anything else is treated as 10), the
+    /// operator's ACC switch on, operator override 100 %, NC cycle running, the default
+    /// [`NcContext`].
     pub fn new(machine: Machine, step_pct: u16) -> Self {
+        Self::with_protocol(machine, step_pct, EmulatedProtocol::V2)
+    }
+
+    /// As [`SimBoard::new`], speaking `protocol`.
+    pub fn with_protocol(machine: Machine, step_pct: u16, protocol: EmulatedProtocol) -> Self {
         let res = OverrideResolution::from_step_pct(step_pct).unwrap_or_default();
-        let mut logic = BoardLogic::new(res);
+        let mut logic = BoardLogic::with_protocol(res, protocol);
         logic.set_acc_switch(true);
         logic.set_operator_override_pct(100);
         logic.set_cycle_active(true);
@@ -50,7 +104,16 @@ impl SimBoard {
             now_ms: 0,
             power_fault: None,
             external_clock: false,
+            nc: NcContext::default(),
+            segment_ends_mm: Vec::new(),
         };
+        board.segment_ends_mm = board
+            .machine
+            .workpiece()
+            .segments
+            .iter()
+            .map(|s| s.end_mm)
+            .collect();
         board.publish_machine_inputs();
         board
     }
@@ -78,6 +141,17 @@ impl SimBoard {
         self.logic.clone()
     }
 
+    /// The NC context reported from now on (tool, program, block numbering).
+    pub fn set_nc_context(&mut self, nc: NcContext) {
+        self.nc = nc;
+        self.publish_machine_inputs_no_sample();
+    }
+
+    /// The NC context in use.
+    pub fn nc_context(&self) -> NcContext {
+        self.nc
+    }
+
     /// Set or clear a fault of the power input (applies from the next period).
     pub fn set_power_fault(&mut self, fault: Option<PowerFault>) {
         self.power_fault = fault;
@@ -85,7 +159,10 @@ impl SimBoard {
 
     /// Advance the manual clock and the machine by one control period: the machine runs
     /// with the override now on the PMC inputs (`OVERRIDE_APPLIED`) and the feed hold, then
-    /// the board publishes the new spindle power sample, speed and programmed feed.
+    /// the board publishes the new spindle power sample, speed and programmed feed, and the
+    /// NC context: `ACTUAL_FEED` (the period's mean path feed after override, 0 while the
+    /// feed is held), `TOOL_NUMBER`, `PROGRAM_NUMBER`, `BLOCK_NUMBER` (of the segment the
+    /// tool is in).
     pub fn advance_period(&mut self, period_s: f64) -> PeriodRecord<'_> {
         let (applied, hold) = {
             let mut b = lock_board(&self.logic);
@@ -109,8 +186,26 @@ impl SimBoard {
             }
             b.set_spindle_rpm(rec.spindle_rpm.clamp(0.0, f64::from(u16::MAX)).round() as u16);
             b.set_cycle_active(rec.x_mm < path_mm);
+            let feed = if b.feed_hold_active() {
+                0
+            } else {
+                rec.feed_mean_mm_min.clamp(0.0, f64::from(u16::MAX)).round() as u16
+            };
+            b.set_actual_feed_mm_min(feed);
+            let segment = segment_at(&self.segment_ends_mm, rec.x_mm);
+            b.set_tool_number(self.nc.tool_number);
+            b.set_program_number(self.nc.program_number);
+            b.set_block_number(self.nc.block_number(segment));
         }
         rec
+    }
+
+    fn publish_machine_inputs_no_sample(&mut self) {
+        let segment = segment_at(&self.segment_ends_mm, self.machine.x_mm());
+        let mut b = lock_board(&self.logic);
+        b.set_tool_number(self.nc.tool_number);
+        b.set_program_number(self.nc.program_number);
+        b.set_block_number(self.nc.block_number(segment));
     }
 
     fn publish_machine_inputs(&mut self) {
@@ -123,6 +218,8 @@ impl SimBoard {
         b.set_spindle_rpm(rpm.clamp(0.0, f64::from(u16::MAX)).round() as u16);
         b.push_power_sample(power.clamp(0.0, f64::from(u32::MAX)).round() as u32);
         b.set_cycle_active(!finished);
+        drop(b);
+        self.publish_machine_inputs_no_sample();
     }
 }
 
@@ -137,29 +234,66 @@ pub fn add_truth(row: &mut RunRecord, rec: &PeriodRecord<'_>, true_force_n: f64)
     row.feed_true_mm_min = Some(rec.feed_mean_mm_min);
 }
 
+/// Decode registers 0…8 of a v1 board's read reply.
+fn v1_status(reply: Reply) -> Result<BoardStatus, Exception> {
+    match reply {
+        Reply::Registers(regs) if regs.len() >= usize::from(input::V1_COUNT) => {
+            let mut block = [0u16; input::V1_COUNT as usize];
+            block.copy_from_slice(&regs[..usize::from(input::V1_COUNT)]);
+            Ok(BoardStatus::from_v1_input_registers(&block))
+        }
+        _ => Err(Exception::IllegalFunction),
+    }
+}
+
 impl Board for SimBoard {
     type Error = Exception;
 
+    /// The protocol the simulated board speaks (known without a read: it is our board).
+    fn protocol(&self) -> Option<acc_pmc::BoardProtocol> {
+        Some(if lock_board(&self.logic).protocol().is_v2() {
+            acc_pmc::BoardProtocol::V2
+        } else {
+            acc_pmc::BoardProtocol::V1
+        })
+    }
+
+    /// Input registers 0…14 as a client reads them; a v1 board (exception 02 for 9…14, or
+    /// `PROTOCOL_VERSION` 0) is read as registers 0…8, like the RTU client does.
     fn read_status(&mut self) -> Result<BoardStatus, Exception> {
-        let reply = lock_board(&self.logic).handle(
+        let mut b = lock_board(&self.logic);
+        let full = b.handle(
             Request::ReadInput {
                 addr: 0,
                 count: input::COUNT,
             },
             self.now_ms,
-        )?;
-        match reply {
-            Reply::Registers(regs) => {
-                let mut block = [0u16; input::COUNT as usize];
-                for (b, r) in block.iter_mut().zip(regs) {
-                    *b = r;
-                }
-                Ok(BoardStatus::from_input_registers(&block))
+        );
+        let regs = match full {
+            Err(Exception::IllegalDataAddress) => {
+                let reply = b.handle(
+                    Request::ReadInput {
+                        addr: 0,
+                        count: input::V1_COUNT,
+                    },
+                    self.now_ms,
+                )?;
+                return v1_status(reply);
             }
+            Ok(Reply::Registers(regs)) => regs,
+            Err(e) => return Err(e),
             // The board answers a read with registers; anything else would be a bug in the
             // logic, reported like a device refusing the request.
-            _ => Err(Exception::IllegalFunction),
+            Ok(_) => return Err(Exception::IllegalFunction),
+        };
+        if regs.get(usize::from(input::PROTOCOL_VERSION)) == Some(&0) {
+            return v1_status(Reply::Registers(regs));
         }
+        let mut block = [0u16; input::COUNT as usize];
+        for (b, r) in block.iter_mut().zip(regs) {
+            *b = r;
+        }
+        Ok(BoardStatus::from_input_registers(&block))
     }
 
     fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Exception> {
@@ -240,22 +374,32 @@ mod tests {
         assert_eq!(b.read_status().expect("status").override_applied_pct, 100);
     }
 
-    #[test]
-    fn a_silent_controller_trips_the_watchdog_and_the_operator_takes_over() {
-        let mut b = board();
-        b.logic_mut().set_operator_override_pct(70);
+    fn board_v(protocol: EmulatedProtocol) -> SimBoard {
+        let sc =
+            Scenario::load(configs_dir().join("scenarios/paper_case1.toml")).expect("scenario");
+        sc.build_board_with(protocol)
+    }
+
+    fn arm(b: &mut SimBoard, cmd: u16) {
         b.write_control(ControlBits {
             acc_request: true,
             ..ControlBits::default()
         })
         .expect("control");
-        b.write_override(150, 1).expect("override");
+        b.write_override(cmd, 1).expect("override");
+    }
+
+    #[test]
+    fn a_silent_controller_on_a_v1_board_hands_the_feed_to_the_operator() {
+        let mut b = board_v(EmulatedProtocol::V1Exception);
+        b.logic_mut().set_operator_override_pct(70);
+        arm(&mut b, 150);
         // No heartbeat for 0.6 s > WATCHDOG_MS = 500 ms.
         for _ in 0..6 {
             b.advance_period(0.1);
         }
         let s = b.read_status().expect("status");
-        assert!(s.watchdog_tripped && !s.acc_active);
+        assert!(s.watchdog_tripped && !s.acc_active && !s.feed_hold_active);
         assert_eq!(s.override_applied_pct, 70);
         // The machine follows the operator's 70 % after the dead time and lag.
         let rec = b.advance_period(0.1);
@@ -264,5 +408,127 @@ mod tests {
             "{}",
             rec.feed_mean_mm_min
         );
+    }
+
+    #[test]
+    fn a_silent_controller_on_a_v2_board_is_clamped_and_the_feed_held() {
+        let mut b = board();
+        // The knob at 150 %, above the last command: the clamp keeps 50 %, the watchdog's
+        // feed hold (FALLBACK_MODE 1) stops the feed.
+        b.logic_mut().set_operator_override_pct(150);
+        arm(&mut b, 50);
+        for _ in 0..6 {
+            b.advance_period(0.1);
+        }
+        let s = b.read_status().expect("status");
+        assert!(s.watchdog_tripped && s.fallback_active && s.feed_hold_active);
+        assert_eq!((s.override_applied_pct, s.fallback_override_pct), (50, 50));
+        b.advance_period(0.1);
+        let rec = b.advance_period(0.1);
+        assert!(rec.feed_mean_mm_min < 1.0, "{}", rec.feed_mean_mm_min);
+        let s = b.read_status().expect("status");
+        assert_eq!(s.actual_feed_mm_min, 0, "ACTUAL_FEED is 0 in feed hold");
+        // ALARM_RESET without re-arming: the hold ends, the clamp stays (50 % = 100 mm/min).
+        b.write_control(ControlBits {
+            alarm_reset: true,
+            ..ControlBits::default()
+        })
+        .expect("reset");
+        for _ in 0..3 {
+            b.advance_period(0.1);
+        }
+        let rec = b.advance_period(0.1);
+        assert!(
+            (rec.feed_mean_mm_min - 100.0).abs() < 1.0,
+            "{}",
+            rec.feed_mean_mm_min
+        );
+    }
+
+    #[test]
+    fn a_restart_in_a_cycle_holds_the_feed_until_alarm_reset() {
+        let mut b = board();
+        arm(&mut b, 150);
+        for hb in 2..6 {
+            b.write_override(150, hb).expect("cycle");
+            b.advance_period(0.1);
+        }
+        assert!(b.advance_period(0.1).feed_mean_mm_min > 250.0);
+        b.logic_mut().power_cycle();
+        for _ in 0..3 {
+            b.advance_period(0.1);
+        }
+        let s = b.read_status().expect("status");
+        assert!(s.board_restarted && s.feed_hold_active && !s.acc_active);
+        let rec = b.advance_period(0.1);
+        assert!(rec.feed_mean_mm_min < 1.0, "{}", rec.feed_mean_mm_min);
+        // The controller re-arms: override first, then ALARM_RESET with ACC_REQUEST.
+        b.write_override(60, 9).expect("cmd");
+        b.write_control(ControlBits {
+            acc_request: true,
+            alarm_reset: true,
+            ..ControlBits::default()
+        })
+        .expect("re-arm");
+        for hb in 10..14 {
+            b.write_override(60, hb).expect("cycle");
+            b.advance_period(0.1);
+        }
+        let rec = b.advance_period(0.1);
+        assert!(
+            (rec.feed_mean_mm_min - 120.0).abs() < 1.0,
+            "{}",
+            rec.feed_mean_mm_min
+        );
+    }
+
+    #[test]
+    fn the_nc_context_follows_the_machine_every_period() {
+        let mut b = board();
+        let s = b.read_status().expect("status");
+        assert!(s.is_v2());
+        assert_eq!(
+            (s.tool_number, s.program_number, s.block_number),
+            (1, 1000, 10)
+        );
+        b.set_nc_context(NcContext {
+            tool_number: 12,
+            program_number: 4711,
+            block_step: 5,
+        });
+        arm(&mut b, 150);
+        let segments = b.machine().workpiece().segments.clone();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut hb = 2;
+        while !b.machine().finished() && b.machine().t_s() < 200.0 {
+            b.write_override(150, hb).expect("cycle");
+            hb = hb.wrapping_add(1);
+            let (feed, x) = {
+                let rec = b.advance_period(0.1);
+                (rec.feed_mean_mm_min, rec.x_mm)
+            };
+            let s = b.read_status().expect("status");
+            assert_eq!((s.tool_number, s.program_number), (12, 4711));
+            assert_eq!(f64::from(s.actual_feed_mm_min), feed.round(), "x = {x}");
+            let i = segments
+                .iter()
+                .position(|sg| x < sg.end_mm)
+                .unwrap_or(segments.len() - 1);
+            assert_eq!(s.block_number, 5 * (i as u16 + 1), "x = {x}");
+            seen.insert(s.block_number);
+        }
+        assert_eq!(seen.len(), segments.len(), "every segment's block seen");
+        // N65540 carried in 16 bits.
+        assert_eq!(NcContext::default().block_number(6553), 4);
+    }
+
+    #[test]
+    fn a_v1_board_reports_no_nc_context() {
+        let mut b = board_v(EmulatedProtocol::V1Zeros);
+        b.advance_period(0.1);
+        let s = b.read_status().expect("status");
+        assert!(!s.is_v2());
+        assert_eq!((s.tool_number, s.program_number, s.block_number), (0, 0, 0));
+        assert_eq!(s.fallback_override_pct, 150);
     }
 }

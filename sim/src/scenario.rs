@@ -126,6 +126,62 @@ fn default_settle() -> f64 {
     1.5
 }
 
+/// `[nc]` table: the NC context the simulated board reports in its v2 registers
+/// (`TOOL_NUMBER`, `PROGRAM_NUMBER`, `BLOCK_NUMBER`). All keys optional; numbers are read
+/// wide so that a negative or too large value gets a range error naming the key.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NcSpec {
+    /// Active tool (T word), 0…65535 (default 1).
+    #[serde(default = "default_tool_number")]
+    pub tool_number: i64,
+    /// Running program (O number), 0…65535 (default 1000).
+    #[serde(default = "default_program_number")]
+    pub program_number: i64,
+    /// N-word step between the workpiece's segments: segment `i` (0-based) runs as block
+    /// `block_step × (i + 1)`, 1…1000 (default 10).
+    #[serde(default = "default_block_step")]
+    pub block_step: i64,
+}
+
+fn default_tool_number() -> i64 {
+    i64::from(crate::board::NcContext::default().tool_number)
+}
+
+fn default_program_number() -> i64 {
+    i64::from(crate::board::NcContext::default().program_number)
+}
+
+fn default_block_step() -> i64 {
+    i64::from(crate::board::NcContext::default().block_step)
+}
+
+impl Default for NcSpec {
+    fn default() -> Self {
+        NcSpec {
+            tool_number: default_tool_number(),
+            program_number: default_program_number(),
+            block_step: default_block_step(),
+        }
+    }
+}
+
+impl NcSpec {
+    /// Check the ranges (errors name `file` and `nc.<key>`) and convert.
+    pub fn resolve(&self, file: &Path) -> Result<crate::board::NcContext, ConfigError> {
+        let get = |key: &str, v: i64, lo: u16, hi: u16| -> Result<u16, ConfigError> {
+            // i64 → f64 is exact for every value in range; outside it the error shows it.
+            check_range(file, key, v as f64, f64::from(lo), f64::from(hi))?;
+            Ok(u16::try_from(v).unwrap_or(hi))
+        };
+        Ok(crate::board::NcContext {
+            tool_number: get("nc.tool_number", self.tool_number, 0, u16::MAX)?,
+            program_number: get("nc.program_number", self.program_number, 0, u16::MAX)?,
+            block_step: get("nc.block_step", self.block_step, 1, 1000)?,
+        })
+    }
+}
+
 impl Default for SummarySpec {
     fn default() -> Self {
         SummarySpec {
@@ -178,6 +234,9 @@ pub struct ScenarioFile {
     /// overload limit defaults to 2 × Fr, the override range to the preset's).
     #[serde(default)]
     pub policy: acc_runtime::config::PolicySection,
+    /// NC context of the simulated board (tool, program, block numbering).
+    #[serde(default)]
+    pub nc: NcSpec,
 }
 
 fn default_max_time() -> f64 {
@@ -305,6 +364,8 @@ pub struct Scenario {
     pub settle_s: f64,
     /// Fault policy the production loop runs with (validated).
     pub policy: acc_runtime::PolicyConfig,
+    /// NC context the simulated board reports (`[nc]`, validated).
+    pub nc: crate::board::NcContext,
 }
 
 /// The laws `acc compare` runs.
@@ -400,6 +461,7 @@ impl Scenario {
         check_board_step(path, "controller", &controller, &machine)?;
         file.measurement.check_period(path, controller.period_s)?;
         let policy = file.policy.resolve_in(path, &controller)?;
+        let nc = file.nc.resolve(path)?;
         Ok(Scenario {
             path: path.to_path_buf(),
             name: file.name,
@@ -418,6 +480,7 @@ impl Scenario {
             measurement: file.measurement,
             settle_s: file.summary.settle_s,
             policy,
+            nc,
         })
     }
 
@@ -482,8 +545,13 @@ impl Scenario {
         self.controller.override_spec
     }
 
-    /// A fresh simulated board with the machine behind it.
+    /// A fresh simulated board (protocol v2) with the machine behind it.
     pub fn build_board(&self) -> SimBoard {
+        self.build_board_with(acc_pmc::emu::EmulatedProtocol::V2)
+    }
+
+    /// A fresh simulated board speaking `protocol` with the machine behind it.
+    pub fn build_board_with(&self, protocol: acc_pmc::emu::EmulatedProtocol) -> SimBoard {
         let machine = Machine::new(
             &self.machine,
             &self.tool,
@@ -492,7 +560,10 @@ impl Scenario {
             self.force_model,
             self.programmed_feed_mm_min,
         );
-        SimBoard::new(machine, self.machine.override_path.step_pct)
+        let mut board =
+            SimBoard::with_protocol(machine, self.machine.override_path.step_pct, protocol);
+        board.set_nc_context(self.nc);
+        board
     }
 
     /// A fresh measurement channel seeded with the scenario's seed (a spindle-power

@@ -2,23 +2,42 @@
 //! RTU on a new pseudo-terminal (its path is printed) or a given serial port, backed by the
 //! simulated machine of the scenario.
 //!
-//! - The register behaviour is acc-pmc's `BoardLogic`, served by its `RtuServer`.
+//! - The register behaviour is acc-pmc's `BoardLogic`, served by its `RtuServer`:
+//!   protocol v2 by default (`../shared/docs/pmc-board.md`: the fallback clamp — a release,
+//!   watchdog trip or lost link never raises the applied override —, `FALLBACK_MODE`, the
+//!   watchdog's and the power-up feed hold, `BOARD_RESTARTED`, the NC context registers
+//!   9…14); `--protocol 1` emulates a v1 board that answers exception 02 for registers 9…14
+//!   and holding register 4 (`--v1-registers exception`, the default) or reads them as 0
+//!   (`--v1-registers zeros`), with no clamp and no feed hold of its own.
+//! - The server answers every request for its slave address (malformed writes with
+//!   exception 03) and keeps serving however many requests queue up unread: replies it
+//!   cannot deliver are dropped and counted (printed at exit).
 //! - The machine (acc-sim's `Machine`: workpiece, force law, feed drive, override delay,
 //!   spindle) advances one control period `T` (the scenario preset's) on its own ticker,
-//!   every `T / time_scale` of wall time: the override now applied by the board acts on the
-//!   simulated feed; the period's mean spindle power goes to `POWER_HI:POWER_LO` with a new
-//!   `SAMPLE_SEQ`.
-//! - `--log` writes the machine-side run log (the simulator's schema: path position,
-//!   depths, true force) so that a closed loop over the serial line can be judged with the
-//!   simulator's summary.
+//!   every `T / time_scale` of wall time: the override now applied by the board (with the
+//!   clamp) and the board's feed hold act on the simulated feed; the period's mean spindle
+//!   power goes to `POWER_HI:POWER_LO` with a new `SAMPLE_SEQ`; the NC context (tool,
+//!   program, block = `nc.block_step` × (segment + 1), actual feed, 0 in feed hold) to
+//!   registers 10…13 (scenario table `[nc]`, defaults tool 1, program 1000, step 10).
+//! - `--log` writes the machine-side run log every period (the simulator's schema: path
+//!   position, depths, true force `force_true_n`, applied override, `feed_hold`, tool /
+//!   program / block) so that a closed loop over the serial line can be judged with the
+//!   simulator's summary. Its `flags` carry the board's state: `fallback:<pct>` (the clamp
+//!   is engaged at `FALLBACK_OVERRIDE` = pct), `watchdog` (tripped), `restarted`
+//!   (`BOARD_RESTARTED`), `unplugged` (the cable is out), `late` (the machine tick was late).
 //! - `--fault KIND@T[:ARG]` schedules faults at machine time `T` s for the end-to-end tests:
 //!   `crc@T:N` (corrupt the CRC of the next N replies), `drop@T:N` (swallow N replies),
-//!   `late@T:N` (deliver N replies `--late-ms` late), `restart@T` (board power cycle),
-//!   `freeze-seq@T:S` (`SAMPLE_SEQ` frozen for S s), `bad-power@T:S` (power register
-//!   0xFFFFFFFF, i.e. −1 W, for S s), `stall@T:S` (the board stops serving for S s of wall
-//!   time: its watchdog trips), `lock@T:S` (`OVERRIDE_LOCKED` for S s: the NC forces 100 %,
-//!   as in tapping), `switch@T:on|off` (operator's ACC switch), `operator@T:PCT`
-//!   (operator's override knob).
+//!   `late@T:N` (deliver N replies `--late-ms` late), `restart@T` (board power cycle: v2
+//!   holds the feed if a cycle is running), `freeze-seq@T:S` (`SAMPLE_SEQ` frozen for S s),
+//!   `bad-power@T:S` (power register 0xFFFFFFFF, i.e. −1 W, for S s), `stall@T:S` (the board
+//!   stops serving for S s of wall time: its watchdog trips), `lock@T:S` (`OVERRIDE_LOCKED`
+//!   for S s: the NC forces 100 %, as in tapping), `switch@T:on|off` (operator's ACC
+//!   switch), `operator@T:PCT` or `knob@T:PCT` (the operator turns the override knob to PCT:
+//!   a deliberate act that ends the clamp), `unplug@T` (the cable is pulled for good: the
+//!   board reads and discards whatever arrives and answers nothing, the controller sees
+//!   timeouts; the machine runs on under the board's own logic — watchdog, clamp, feed
+//!   hold — and the log keeps being written) and `unplug@T:S` (plugged back in after S s of
+//!   machine time).
 
 use std::collections::VecDeque;
 use std::fs::File;
@@ -28,7 +47,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use acc_pmc::emu::{lock_board, spawn_server, Paced, PtyBoard, SharedBoard};
+use acc_pmc::emu::{lock_board, spawn_server, EmulatedProtocol, Paced, PtyBoard, SharedBoard};
 use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_runtime::shutdown::install_stop_flag;
 use acc_runtime::{SystemClock, Ticker};
@@ -84,6 +103,32 @@ pub struct BoardSimArgs {
     /// time and the controller's time share their origin).
     #[arg(long)]
     pub wait_for_controller: bool,
+    /// Board protocol to emulate: 2 (fallback clamp, feed holds, NC context) or 1.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub protocol: u8,
+    /// How a v1 board (`--protocol 1`) answers registers 9…14 and holding register 4.
+    #[arg(long, value_enum, default_value_t = V1Registers::Exception)]
+    pub v1_registers: V1Registers,
+}
+
+/// How an emulated v1 board answers the v2 registers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum V1Registers {
+    /// Exception 02 (illegal data address).
+    Exception,
+    /// Read as 0 (writes to register 4 ignored).
+    Zeros,
+}
+
+impl BoardSimArgs {
+    /// The emulated board's protocol from `--protocol` and `--v1-registers`.
+    pub fn emulated_protocol(&self) -> EmulatedProtocol {
+        match (self.protocol, self.v1_registers) {
+            (1, V1Registers::Exception) => EmulatedProtocol::V1Exception,
+            (1, V1Registers::Zeros) => EmulatedProtocol::V1Zeros,
+            _ => EmulatedProtocol::V2,
+        }
+    }
 }
 
 /// A fault on the replies the board sends.
@@ -105,12 +150,14 @@ enum Scheduled {
     Lock(f64),
     Switch(bool),
     Operator(u16),
+    /// The cable is pulled, for good (`None`) or for this many machine seconds.
+    Unplug(Option<f64>),
 }
 
 fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
     let err = || {
         anyhow::anyhow!(
-            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, lock, stall, switch, operator (T in machine seconds)"
+            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, lock, stall, switch, operator, knob, unplug (T in machine seconds)"
         )
     };
     let (kind, rest) = spec.split_once('@').ok_or_else(err)?;
@@ -148,7 +195,11 @@ fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
             Some("off") => Scheduled::Switch(false),
             _ => return Err(err()),
         },
-        "operator" => Scheduled::Operator(
+        "unplug" => Scheduled::Unplug(match arg {
+            None => None,
+            Some(_) => Some(secs()?),
+        }),
+        "operator" | "knob" => Scheduled::Operator(
             arg.and_then(|a| a.parse::<u16>().ok())
                 .filter(|p| *p <= 150)
                 .ok_or_else(err)?,
@@ -161,19 +212,32 @@ fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
 type FaultQueue = Arc<Mutex<VecDeque<ReplyFault>>>;
 
 /// The board's side of the line with reply faults: each `write` of the server is one reply.
+/// While `unplugged` is set the cable is out: whatever arrives is read and lost (the server
+/// sees a silent line) and replies go nowhere.
 struct FaultyReplies<P> {
     inner: P,
     queue: FaultQueue,
+    unplugged: Arc<AtomicBool>,
 }
 
 impl<P: Read> Read for FaultyReplies<P> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        self.inner.read(buf)
+        let n = self.inner.read(buf)?;
+        if self.unplugged.load(Ordering::Relaxed) {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::TimedOut,
+                "cable unplugged",
+            ));
+        }
+        Ok(n)
     }
 }
 
 impl<P: Write> Write for FaultyReplies<P> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.unplugged.load(Ordering::Relaxed) {
+            return Ok(buf.len());
+        }
         let fault = self
             .queue
             .lock()
@@ -205,14 +269,20 @@ impl<P: Write> Write for FaultyReplies<P> {
 fn wrap<P: Read + Write + Send + 'static>(
     inner: P,
     queue: FaultQueue,
+    unplugged: Arc<AtomicBool>,
     paced: Option<u32>,
 ) -> Box<dyn ReadWrite> {
     match paced {
         Some(baud) => Box::new(FaultyReplies {
             inner: Paced::new(inner, baud, 10),
             queue,
+            unplugged,
         }),
-        None => Box::new(FaultyReplies { inner, queue }),
+        None => Box::new(FaultyReplies {
+            inner,
+            queue,
+            unplugged,
+        }),
     }
 }
 
@@ -253,11 +323,13 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
 
     let period_s = sc.controller.period_s;
     // The same simulated board and plant `acc sim` steps in process, served over the link.
-    let mut sim = sc.build_board();
+    let protocol = args.emulated_protocol();
+    let mut sim = sc.build_board_with(protocol);
     sim.logic_mut()
         .set_operator_override_pct(args.operator_override);
     let board: SharedBoard = sim.serve();
     let queue: FaultQueue = Arc::default();
+    let unplugged = Arc::new(AtomicBool::new(false));
     let paced = args.paced.then_some(args.baud);
 
     // Serve: a new pty (path printed) or the given port.
@@ -265,8 +337,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let (pty, server) = match &args.port {
         None => {
             let q = Arc::clone(&queue);
+            let u = Arc::clone(&unplugged);
             let pty = PtyBoard::spawn_with(Arc::clone(&board), args.slave, args.baud, move |p| {
-                wrap(p, q, paced)
+                wrap(p, q, u, paced)
             })
             .context("creating the pseudo-terminal")?;
             println!("{}", pty.path());
@@ -287,7 +360,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 .open_native()
                 .with_context(|| format!("--port {dev}: cannot open"))?;
             let h = spawn_server(
-                wrap(port, Arc::clone(&queue), paced),
+                wrap(port, Arc::clone(&queue), Arc::clone(&unplugged), paced),
                 args.slave,
                 Arc::clone(&board),
                 Arc::clone(&stop_server),
@@ -298,8 +371,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     };
     std::io::stdout().flush().ok();
     eprintln!(
-        "board-sim: `{}`, slave {}, T = {} s machine time every {:.1} ms wall; operator override {} %",
+        "board-sim: `{}`, {:?} board, slave {}, T = {} s machine time every {:.1} ms wall; operator override {} %",
         sc.name,
+        protocol,
         args.slave,
         period_s,
         1e3 * period_s / args.time_scale,
@@ -329,6 +403,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     )?;
     let (mut freeze_until, mut bad_until) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut lock_until: Option<f64> = None;
+    let mut replug_at: Option<f64> = None;
     let mut done_at: Option<f64> = None;
     while !stop.load(Ordering::SeqCst) {
         let tick = ticker.wait();
@@ -353,7 +428,16 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 }
                 Scheduled::Switch(on) => b.set_acc_switch(on),
                 Scheduled::Operator(p) => b.set_operator_override_pct(p),
+                Scheduled::Unplug(s) => {
+                    unplugged.store(true, Ordering::SeqCst);
+                    replug_at = s.map(|s| t + s);
+                }
             }
+        }
+        if replug_at.is_some_and(|u| t >= u) {
+            unplugged.store(false, Ordering::SeqCst);
+            replug_at = None;
+            eprintln!("board-sim: t = {t:.1} s: cable plugged back in");
         }
         if lock_until.is_some_and(|u| t >= u) {
             lock_board(&board).set_override_locked(false);
@@ -381,7 +465,11 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 late_ms: tick.lateness.as_secs_f64() * 1e3,
                 spindle_rpm: Some(rec.spindle_rpm),
                 programmed_feed_mm_min: Some(programmed),
-                feed_mm_min: Some(programmed * f64::from(status.override_applied_pct) / 100.0),
+                feed_mm_min: Some(if status.feed_hold_active {
+                    0.0
+                } else {
+                    programmed * f64::from(status.override_applied_pct) / 100.0
+                }),
                 power_w: Some(rec.power_mean_w),
                 force_ref_n: Some(sc.controller.force_ref_n),
                 override_cmd_pct: Some(cmd),
@@ -394,6 +482,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 }
                 .into(),
                 feed_hold: status.feed_hold_active,
+                tool: status.is_v2().then_some(status.tool_number),
+                program: status.is_v2().then_some(status.program_number),
+                block: status.is_v2().then_some(status.block_number),
                 x_mm: Some(rec.x_mm),
                 ..RunRecord::default()
             };
@@ -405,6 +496,15 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         }
         if status.watchdog_tripped {
             row.flag("watchdog");
+        }
+        if status.fallback_active {
+            row.flag(&format!("fallback:{}", status.fallback_override_pct));
+        }
+        if status.board_restarted {
+            row.flag("restarted");
+        }
+        if unplugged.load(Ordering::SeqCst) {
+            row.flag("unplugged");
         }
         if let Some(w) = log.as_mut() {
             w.write(&row)?;
@@ -433,30 +533,107 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         let b = lock_board(&board);
         let st = b.status();
         eprintln!(
-            "board-sim: final ACC_REQUEST={} ACC_ACTIVE={} OVERRIDE_APPLIED={} WATCHDOG_TRIPPED={}",
+            "board-sim: final ACC_REQUEST={} ACC_ACTIVE={} OVERRIDE_APPLIED={} WATCHDOG_TRIPPED={} FALLBACK_ACTIVE={} FALLBACK_OVERRIDE={} FEED_HOLD_ACTIVE={}",
             u8::from(b.control().acc_request),
             u8::from(st.acc_active),
             st.override_applied_pct,
-            u8::from(st.watchdog_tripped)
+            u8::from(st.watchdog_tripped),
+            u8::from(st.fallback_active),
+            st.fallback_override_pct,
+            u8::from(st.feed_hold_active)
         );
     }
     stop_server.store(true, Ordering::SeqCst);
     if let Some(p) = pty {
         let s = p.stop()?;
         eprintln!(
-            "board-sim: served {} requests ({} exceptions)",
-            s.requests, s.exceptions
+            "board-sim: served {} requests ({} exceptions, {} replies dropped undelivered, {} read errors)",
+            s.requests, s.exceptions, s.replies_dropped, s.io_errors
         );
     }
     if let Some(h) = server {
         match h.join() {
             Ok(Ok(s)) => eprintln!(
-                "board-sim: served {} requests ({} exceptions)",
-                s.requests, s.exceptions
+                "board-sim: served {} requests ({} exceptions, {} replies dropped undelivered, {} read errors)",
+                s.requests, s.exceptions, s.replies_dropped, s.io_errors
             ),
             Ok(Err(e)) => eprintln!("board-sim: server stopped: {e}"),
             Err(_) => bail!("board-sim: server thread panicked"),
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LATE: Duration = Duration::from_millis(60);
+
+    #[test]
+    fn unplug_and_knob_faults_parse() {
+        assert_eq!(
+            parse_fault("unplug@12.5", LATE).expect("for good"),
+            (12.5, Scheduled::Unplug(None))
+        );
+        assert_eq!(
+            parse_fault("unplug@3:2", LATE).expect("for 2 s"),
+            (3.0, Scheduled::Unplug(Some(2.0)))
+        );
+        assert_eq!(
+            parse_fault("knob@4:60", LATE).expect("knob"),
+            (4.0, Scheduled::Operator(60))
+        );
+        assert_eq!(
+            parse_fault("restart@7", LATE).expect("restart"),
+            (7.0, Scheduled::Restart)
+        );
+        for bad in [
+            "unplug@3:0",
+            "unplug@3:-1",
+            "unplug@3:x",
+            "knob@1:151",
+            "knob@1",
+            "plug@1",
+        ] {
+            let e = parse_fault(bad, LATE).expect_err(bad).to_string();
+            assert!(e.contains(bad) && e.contains("unplug"), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn protocol_arguments_choose_the_emulated_board() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: BoardSimArgs,
+        }
+        let parse = |extra: &[&str]| {
+            let mut argv = vec!["acc", "--scenario", "s.toml"];
+            argv.extend_from_slice(extra);
+            Cli::try_parse_from(argv).map(|c| c.args.emulated_protocol())
+        };
+        assert_eq!(parse(&[]).expect("default"), EmulatedProtocol::V2);
+        assert_eq!(
+            parse(&["--protocol", "1"]).expect("v1"),
+            EmulatedProtocol::V1Exception
+        );
+        assert_eq!(
+            parse(&["--protocol", "1", "--v1-registers", "zeros"]).expect("v1 zeros"),
+            EmulatedProtocol::V1Zeros
+        );
+        assert_eq!(
+            parse(&["--protocol", "2"]).expect("v2"),
+            EmulatedProtocol::V2
+        );
+        for bad in [
+            &["--protocol", "3"][..],
+            &["--protocol", "0"],
+            &["--v1-registers", "ones"],
+        ] {
+            let e = parse(bad).expect_err("refused").to_string();
+            assert!(e.contains(bad[0]), "{e}");
+        }
+    }
 }

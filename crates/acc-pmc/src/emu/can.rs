@@ -7,8 +7,12 @@
 //! `HEARTBEAT`, `CONTROL` (an invalid override makes the board ignore the whole frame, as
 //! it keeps the old value on RTU). The status pair (`0x180+n`, `0x280+n`) is queued
 //! whenever `SAMPLE_SEQ` has changed since the last pair (a new power sample), or on
-//! [`CanBoardEmulator::emit_status`]. `receive` on an empty queue sleeps `idle` (default
-//! 1 ms, like a socket read timeout) and returns [`MemBusError::Timeout`].
+//! [`CanBoardEmulator::emit_status`]. A v2 board (see
+//! [`EmulatedProtocol`](super::EmulatedProtocol)) sends the NC-context frame (`0x300+n`) right
+//! after every pair and the identity frame (`0x380+n`: protocol version, program number)
+//! once a second of board time, the first one at the first poll; a v1 board sends neither.
+//! `receive` on an empty queue sleeps `idle` (default 1 ms, like a socket read timeout) and
+//! returns [`MemBusError::Timeout`].
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -16,7 +20,7 @@ use std::time::Duration;
 use embedded_can::{Frame, Id, StandardId};
 
 use super::board::{lock_board, SharedBoard};
-use crate::can::codec::{decode_command, encode_status, NodeIds};
+use crate::can::codec::{decode_command, encode_context, encode_identity, encode_status, NodeIds};
 use crate::can::ReceiveTimeout;
 use crate::clock::{Clock, SystemClock};
 use crate::regs::holding;
@@ -114,7 +118,14 @@ pub struct EmulatorStats {
     pub rejected: u64,
     /// Status pairs sent.
     pub status_pairs: u64,
+    /// NC-context frames (`0x300+n`, v2) sent.
+    pub context_frames: u64,
+    /// Identity frames (`0x380+n`, v2) sent.
+    pub identity_frames: u64,
 }
+
+/// Interval of the v2 identity frame (`0x380+n`), ms of board time.
+pub const IDENTITY_INTERVAL_MS: u64 = 1000;
 
 /// The board on an in-memory CAN bus.
 pub struct CanBoardEmulator {
@@ -123,6 +134,7 @@ pub struct CanBoardEmulator {
     clock: Box<dyn Clock>,
     rx: VecDeque<MemFrame>,
     last_seq_sent: Option<u16>,
+    last_identity_ms: Option<u64>,
     fail_next: VecDeque<embedded_can::ErrorKind>,
     drop_pairs: usize,
     idle: Duration,
@@ -152,6 +164,7 @@ impl CanBoardEmulator {
             clock,
             rx: VecDeque::new(),
             last_seq_sent: None,
+            last_identity_ms: None,
             fail_next: VecDeque::new(),
             drop_pairs: 0,
             idle: Duration::from_millis(1),
@@ -195,6 +208,16 @@ impl CanBoardEmulator {
         u64::try_from(self.clock.now().as_millis()).unwrap_or(u64::MAX)
     }
 
+    fn push(&mut self, raw: u16, data: &[u8]) -> bool {
+        match StandardId::new(raw).and_then(|id| MemFrame::new(id, data)) {
+            Some(frame) => {
+                self.rx.push_back(frame);
+                true
+            }
+            None => false,
+        }
+    }
+
     fn queue_pair(&mut self, status: crate::BoardStatus) {
         self.last_seq_sent = Some(status.sample_seq);
         if self.drop_pairs > 0 {
@@ -205,13 +228,16 @@ impl CanBoardEmulator {
             Ok(p) => p,
             Err(_) => return, // a status that does not fit u8 fields is not sent
         };
-        let ids = [(self.ids.status_a, a), (self.ids.status_b, b)];
-        for (raw, data) in ids {
-            if let Some(frame) = StandardId::new(raw).and_then(|id| MemFrame::new(id, &data)) {
-                self.rx.push_back(frame);
+        self.push(self.ids.status_a, &a);
+        self.push(self.ids.status_b, &b);
+        self.stats.status_pairs += 1;
+        if status.is_v2() {
+            if let Ok(c) = encode_context(&status) {
+                if self.push(self.ids.context, &c) {
+                    self.stats.context_frames += 1;
+                }
             }
         }
-        self.stats.status_pairs += 1;
     }
 
     fn poll_board(&mut self) {
@@ -221,6 +247,16 @@ impl CanBoardEmulator {
             b.tick(now);
             b.status()
         };
+        if status.is_v2()
+            && self
+                .last_identity_ms
+                .is_none_or(|t| now.saturating_sub(t) >= IDENTITY_INTERVAL_MS)
+        {
+            self.last_identity_ms = Some(now);
+            if self.push(self.ids.identity, &encode_identity(&status)) {
+                self.stats.identity_frames += 1;
+            }
+        }
         if self.last_seq_sent != Some(status.sample_seq) {
             self.queue_pair(status);
         }
@@ -268,6 +304,132 @@ impl embedded_can::blocking::Can for CanBoardEmulator {
                 std::thread::sleep(self.idle);
                 Err(MemBusError::Timeout)
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::can::codec::{decode_context, decode_identity, decode_status};
+    use crate::clock::ManualClock;
+    use crate::emu::{BoardLogic, EmulatedProtocol};
+    use crate::regs::OverrideResolution;
+    use embedded_can::blocking::Can;
+
+    fn bus(protocol: EmulatedProtocol) -> (CanBoardEmulator, SharedBoard, ManualClock) {
+        let mut logic = BoardLogic::with_protocol(OverrideResolution::Percent10, protocol);
+        logic.set_acc_switch(true);
+        logic.set_cycle_active(true);
+        logic.set_tool_number(7);
+        logic.set_program_number(4711);
+        logic.set_block_number(230);
+        logic.set_actual_feed_mm_min(640);
+        let board = logic.shared();
+        let clock = ManualClock::new();
+        let mut emu = CanBoardEmulator::with_clock(board.clone(), 3, Box::new(clock.clone()))
+            .expect("node 3");
+        emu.set_idle(Duration::ZERO);
+        (emu, board, clock)
+    }
+
+    /// Every frame queued now: `(id, data)`.
+    fn drain(emu: &mut CanBoardEmulator) -> Vec<(u16, Vec<u8>)> {
+        let mut out = Vec::new();
+        while let Ok(f) = emu.receive() {
+            let Id::Standard(id) = f.id() else {
+                panic!("extended frame")
+            };
+            out.push((id.as_raw(), f.data().to_vec()));
+        }
+        out
+    }
+
+    #[test]
+    fn v2_board_sends_context_with_every_pair_and_identity_once_a_second() {
+        let (mut emu, board, clock) = bus(EmulatedProtocol::V2);
+        let ids = NodeIds::new(3).expect("ids");
+        lock_board(&board).push_power_sample(4_000);
+        let frames = drain(&mut emu);
+        let order: Vec<u16> = frames.iter().map(|f| f.0).collect();
+        assert_eq!(order, [0x383, 0x183, 0x283, 0x303]);
+        assert_eq!(decode_identity(ids, &frames[0].1), Ok((2, 4711)));
+        let mut s = decode_status(ids, &frames[1].1, &frames[2].1).expect("pair");
+        decode_context(ids, &frames[3].1, &mut s).expect("context");
+        assert_eq!(
+            (s.tool_number, s.block_number, s.actual_feed_mm_min),
+            (7, 230, 640)
+        );
+        assert_eq!(s.fallback_override_pct, 150);
+        assert!(!s.board_restarted);
+        // The clamp and BOARD_RESTARTED travel in the context frame.
+        {
+            let mut b = lock_board(&board);
+            b.write_holding(0, &[40, 1, 1], 0).expect("arm");
+            b.write_holding(2, &[0], 0).expect("release");
+            b.power_cycle();
+            b.push_power_sample(4_100);
+        }
+        let frames = drain(&mut emu);
+        assert_eq!(frames.len(), 3, "no identity before a second: {frames:?}");
+        let mut s = decode_status(ids, &frames[0].1, &frames[1].1).expect("pair");
+        decode_context(ids, &frames[2].1, &mut s).expect("context");
+        assert!(s.board_restarted && s.feed_hold_active);
+        // Identity: again at 1 s of board time, not at 999 ms; pairs only with new samples.
+        clock.advance(Duration::from_millis(999));
+        assert!(drain(&mut emu).is_empty());
+        clock.advance(Duration::from_millis(1));
+        let frames = drain(&mut emu);
+        assert_eq!(frames.len(), 1);
+        assert_eq!(frames[0].0, 0x383);
+        for _ in 0..5 {
+            clock.advance(Duration::from_millis(500));
+            lock_board(&board).push_power_sample(4_200);
+            drain(&mut emu);
+        }
+        let st = emu.stats();
+        assert_eq!(
+            (st.status_pairs, st.context_frames, st.identity_frames),
+            (7, 7, 4)
+        );
+    }
+
+    #[test]
+    fn clamp_reaches_the_context_frame() {
+        let (mut emu, board, _clock) = bus(EmulatedProtocol::V2);
+        let ids = NodeIds::new(3).expect("ids");
+        {
+            let mut b = lock_board(&board);
+            b.write_holding(0, &[40, 1, 1], 0).expect("arm");
+            b.write_holding(2, &[0], 0).expect("release");
+            b.push_power_sample(4_000);
+        }
+        let frames = drain(&mut emu);
+        let ctx = frames.iter().find(|f| f.0 == 0x303).expect("context");
+        let a = frames.iter().find(|f| f.0 == 0x183).expect("a");
+        let b = frames.iter().find(|f| f.0 == 0x283).expect("b");
+        let mut s = decode_status(ids, &a.1, &b.1).expect("pair");
+        decode_context(ids, &ctx.1, &mut s).expect("context");
+        assert!(s.fallback_active);
+        assert_eq!((s.fallback_override_pct, s.override_applied_pct), (40, 40));
+    }
+
+    #[test]
+    fn v1_boards_send_neither_context_nor_identity() {
+        for protocol in [EmulatedProtocol::V1Exception, EmulatedProtocol::V1Zeros] {
+            let (mut emu, board, clock) = bus(protocol);
+            for k in 0..30u32 {
+                lock_board(&board).push_power_sample(4_000 + k);
+                clock.advance(Duration::from_millis(100));
+                let frames = drain(&mut emu);
+                let order: Vec<u16> = frames.iter().map(|f| f.0).collect();
+                assert_eq!(order, [0x183, 0x283], "{protocol:?}");
+            }
+            let st = emu.stats();
+            assert_eq!(
+                (st.status_pairs, st.context_frames, st.identity_frames),
+                (30, 0, 0)
+            );
         }
     }
 }
