@@ -722,9 +722,13 @@ fn ending_mid_cut_on_a_v1_board_holds_the_feed_before_the_release() {
 }
 
 /// A link to a shared board whose device can vanish: while `dead`, every transaction
-/// answers `Disconnected` (the board itself keeps running: its time advances).
+/// answers `Disconnected` (the board itself keeps running: its time advances). The device
+/// vanishes at the read `die_at` (counted on the board, so it does not depend on thread
+/// timing).
 struct Vanishing {
     board: Arc<Mutex<(ScriptedBoard, bool)>>,
+    reads: Arc<Mutex<u32>>,
+    die_at: u32,
     /// Applied override and feed hold at every read that answered.
     seen: Arc<Mutex<Vec<(u16, bool)>>>,
 }
@@ -734,6 +738,11 @@ impl acc_pmc::Board for Vanishing {
     fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
         let mut g = self.board.lock().expect("board");
         let (b, dead) = &mut *g;
+        let mut reads = self.reads.lock().expect("reads");
+        *reads += 1;
+        if *reads == self.die_at {
+            *dead = true;
+        }
         b.board.push_power_sample(1500);
         b.now_ms += 100;
         if *dead {
@@ -783,33 +792,14 @@ fn reconnect_run(
 ) {
     let shared = Arc::new(Mutex::new((ScriptedBoard::new(), false)));
     let seen = Arc::new(Mutex::new(Vec::new()));
+    let reads = Arc::new(Mutex::new(0u32));
     let mut board = Vanishing {
         board: Arc::clone(&shared),
+        reads: Arc::clone(&reads),
+        die_at: 21,
         seen: Arc::clone(&seen),
     };
-    struct KillAfter {
-        n: usize,
-        board: Arc<Mutex<(ScriptedBoard, bool)>>,
-        rows: Vec<RunRecord>,
-    }
-    impl LogSink for KillAfter {
-        type Error = std::convert::Infallible;
-        fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
-            self.rows.push(rec.clone());
-            if self.rows.len() == self.n {
-                self.board.lock().expect("board").1 = true;
-            }
-            Ok(())
-        }
-        fn flush(&mut self) -> Result<(), Self::Error> {
-            Ok(())
-        }
-    }
-    let mut sink = KillAfter {
-        n: 20,
-        board: Arc::clone(&shared),
-        rows: Vec::new(),
-    };
+    let mut sink = VecSink::default();
     let mut attempts = 0u32;
     let mut reopen = || -> Result<Vanishing, String> {
         attempts += 1;
@@ -817,6 +807,8 @@ fn reconnect_run(
             shared.lock().expect("board").1 = false;
             Ok(Vanishing {
                 board: Arc::clone(&shared),
+                reads: Arc::clone(&reads),
+                die_at: 0,
                 seen: Arc::clone(&seen),
             })
         } else {
@@ -842,7 +834,7 @@ fn reconnect_run(
     .expect("runs");
     let seen = seen.lock().expect("seen").clone();
     let b = shared.lock().expect("board").0.clone();
-    (s, sink.rows, seen, b, attempts)
+    (s, sink.0, seen, b, attempts)
 }
 
 #[test]
