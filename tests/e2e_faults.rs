@@ -8,12 +8,12 @@
 //! | --- | --- | --- |
 //! | 3.5 s | `OVERRIDE_LOCKED` 2 s (as in tapping; 2 mm, where 100 % is safe) | law frozen, command held, no release |
 //! | 6 s | 6 replies with a corrupt CRC | held, no release |
-//! | 9 s | 70 replies dropped (timeouts) | held 30 periods, then `link_lost` |
+//! | 9 s | 70 replies dropped (timeouts) | held 30 periods, then `link_lost` (nothing commanded); re-armed at the last command when the link answers again mid-cut (`rearm:link_restored`) |
 //! | 20 s | 10 replies 40 ms late (timeout 15 ms) | held, no release |
 //! | 24 s | `SAMPLE_SEQ` frozen 2 s | stale → `power_invalid` |
 //! | 30 s | power register 0xFFFFFFFF (−1 W) for 1.5 s | `power_invalid` |
-//! | 36 s | board power cycle mid-cut | `board_reset` |
-//! | 41 s | board stalls 0.7 s wall (> WATCHDOG_MS 500) | `watchdog` |
+//! | 36 s | board power cycle mid-cut | re-armed at once at the last command (`rearm:board_restart`), not latched |
+//! | 41 s | board stalls 0.7 s wall (> WATCHDOG_MS 500) | its watchdog trips during the outage; re-armed at the last command when it answers (`rearm:link_restored`) |
 //! | 53 s | operator turns the knob 100 → 80 % | hand back to the operator |
 //! | 59 s | SIGINT to `acc run` | exit 0, ACC_REQUEST cleared, log complete |
 //!
@@ -125,11 +125,24 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
             "link_lost",
             "power_invalid",
             "power_invalid",
-            "board_reset",
-            "watchdog",
             "operator_handback"
         ],
-        "release reasons in order"
+        "release reasons in order (a board restart and a stall mid-cut re-arm, not latch)"
+    );
+    let restart = rows
+        .iter()
+        .find(|r| r.has_flag("rearm:board_restart"))
+        .expect("re-armed after the board restart");
+    assert!((36.0..37.0).contains(&restart.t_s), "{}", restart.t_s);
+    let restored: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.has_flag("rearm:link_restored"))
+        .map(|r| r.t_s)
+        .collect();
+    assert!(
+        restored.iter().any(|t| (9.0..20.0).contains(t))
+            && restored.iter().any(|t| (41.0..45.0).contains(t)),
+        "re-armed when the link answered again: {restored:?}"
     );
     // Re-armed after every switch cycle: ACC active again at the end, and in between.
     let rearms = rows
@@ -137,7 +150,7 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
         .filter(|w| !is_active(&w[0]) && is_active(&w[1]))
         .count();
     assert!(
-        rearms >= 6,
+        rearms >= 4,
         "re-armed by the operator switch after each release: {rearms}"
     );
     // OVERRIDE_LOCKED: a run of held periods (ACC armed, law not stepped, valid samples,

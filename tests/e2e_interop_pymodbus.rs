@@ -130,6 +130,23 @@ fn acc_run_drives_the_pymodbus_standin() {
     let (code, out, err) = Proc::spawn(&a, false).finish(Duration::from_secs(30));
     assert_eq!(code, Some(0), "stdout:\n{out}\nstderr:\n{err:?}");
     assert!(out.contains("OVERRIDE_STEP = 10 %"), "{out}");
+    // The stand-in is a v1 board (exception 02 for registers 9…14): announced exactly once,
+    // with what it cannot do, and recorded in the summary.
+    let warnings: Vec<&String> = err
+        .iter()
+        .filter(|l| l.starts_with("warning: ") && l.contains("speaks protocol v1"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "stderr: {err:#?}");
+    assert!(
+        warnings[0].contains(acc_pmc::BoardProtocol::V1.limitations()),
+        "{warnings:?}"
+    );
+    assert!(out.contains("protocol v1"), "{out}");
+    assert!(out.contains("board protocol: v1;"), "{out}");
+    assert!(
+        !out.contains("FALLBACK_MODE"),
+        "not written to a v1 board: {out}"
+    );
     assert!(
         out.contains("ACC switch on") && out.contains("operator 70 %"),
         "{out}"
@@ -160,7 +177,16 @@ fn acc_run_drives_the_pymodbus_standin() {
         h[1] as usize >= rows.len() - 1,
         "HEARTBEAT changed every period: {h:?}"
     );
-    assert_eq!(h[2], 0, "ACC_REQUEST (and feed hold) cleared at the end");
+    // The stand-in is always cutting and has no fallback clamp: the end of the run requests
+    // feed hold before it clears ACC_REQUEST (a release there hands the feed to the knob).
+    assert_eq!(
+        h[2], 2,
+        "ACC_REQUEST cleared, FEED_HOLD_REQUEST kept at the end"
+    );
+    assert!(
+        out.contains("feed hold requested before the release"),
+        "{out}"
+    );
     assert_eq!(h[3], 500, "WATCHDOG_MS written at start");
     let s = ours.read_status().expect("status");
     assert!(!s.acc_active && !s.watchdog_tripped);

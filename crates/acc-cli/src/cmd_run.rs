@@ -3,7 +3,9 @@
 //!
 //! Order of events: the whole config and the options are loaded and validated and the run
 //! log is created (no port touched); the port is opened and its framing verified (nothing sent); the first transaction writes
-//! `WATCHDOG_MS`; the status is read and printed with the board's resolution; the threaded
+//! `WATCHDOG_MS`; the status is read and printed with the board's resolution and protocol (a
+//! v1 board is announced once, on stderr, with what it cannot do; a v2 board gets
+//! `[board] fallback_mode` written to `FALLBACK_MODE`); the threaded
 //! loop runs until Ctrl-C (or `--duration-s`); then `ACC_REQUEST` is cleared, the run log
 //! flushed, a summary printed, and the exit code says which way the run ended
 //! ([`crate::exit::RunExit`]: 2 for anything wrong before the first byte was sent).
@@ -13,13 +15,17 @@ use std::io::BufWriter;
 use std::path::PathBuf;
 
 use acc_core::{Controller, OverrideSpec};
+use acc_pmc::regs::FallbackMode;
 use acc_pmc::rtu::RtuBoard;
-use acc_pmc::{Board, BoardStatus};
-use acc_runtime::config::{LinkSettings, RunConfig};
+use acc_pmc::{Board, BoardProtocol, BoardStatus};
+use acc_runtime::config::{DeviceLostAction, LinkSettings, RunConfig};
 use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
-use acc_runtime::{run, ControlLoop, Drain, Ended, LogSink, RunOptions, RunRecord, SystemClock};
+use acc_runtime::{
+    run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunOptions,
+    RunRecord, SystemClock,
+};
 use anyhow::{bail, Context};
 
 use crate::exit::{ExitAs, RunExit};
@@ -67,6 +73,73 @@ pub fn describe_status(s: &BoardStatus) -> String {
         s.sample_seq,
         s.programmed_feed_mm_min,
     )
+}
+
+/// Run-log / summary name of a protocol (`v1`, `v2`, `unknown`).
+pub fn protocol_name(p: Option<BoardProtocol>) -> &'static str {
+    match p {
+        Some(BoardProtocol::V1) => "v1",
+        Some(BoardProtocol::V2) => "v2",
+        None => "unknown",
+    }
+}
+
+/// The one-time announcement of a v1 board: one warning line on stderr and a
+/// `tracing::warn!`, naming [`BoardProtocol::limitations`]. Returns whether it was made.
+pub fn announce_v1(protocol: Option<BoardProtocol>, device: &str) -> bool {
+    if protocol != Some(BoardProtocol::V1) {
+        return false;
+    }
+    let what = BoardProtocol::V1.limitations();
+    eprintln!("warning: the board on {device} speaks protocol v1 — {what}");
+    tracing::warn!(device, limitations = what, "board protocol v1");
+    true
+}
+
+fn fallback_mode_name(m: FallbackMode) -> &'static str {
+    match m {
+        FallbackMode::ClampOnly => "clamp",
+        FallbackMode::ClampAndFeedHold => "clamp_and_feed_hold",
+    }
+}
+
+/// Open the serial board: port (framing verified), `WATCHDOG_MS`, the first status (which
+/// settles the protocol), and on a v2 board `FALLBACK_MODE`. Used at start and to reopen.
+fn open_rtu(
+    cfg: &RunConfig,
+    rtu_cfg: &acc_pmc::serial::RtuSettings,
+) -> anyhow::Result<(RtuBoard<acc_pmc::serialport::TTYPort>, BoardStatus)> {
+    let port = acc_pmc::serial::open_port(rtu_cfg).exit_as(RunExit::Usage)?;
+    let mut rtu = RtuBoard::new(port, rtu_cfg.link);
+    rtu.write_watchdog_ms(rtu_cfg.watchdog_ms)
+        .with_context(|| {
+            format!(
+                "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
+                cfg.path.display(),
+                rtu_cfg.watchdog_ms,
+                rtu_cfg.link.slave,
+                rtu_cfg.port
+            )
+        })
+        .exit_as(RunExit::BoardNotAnswering)?;
+    let status = rtu
+        .read_status()
+        .with_context(|| format!("reading the board status on {}", rtu_cfg.port))
+        .exit_as(RunExit::BoardNotAnswering)?;
+    if rtu.protocol() == Some(BoardProtocol::V2) {
+        rtu.write_fallback_mode(cfg.fallback_mode)
+            .with_context(|| {
+                format!(
+                    "{}: writing `board.fallback_mode` = \"{}\" (FALLBACK_MODE) to slave {} on {}",
+                    cfg.path.display(),
+                    fallback_mode_name(cfg.fallback_mode),
+                    rtu_cfg.link.slave,
+                    rtu_cfg.port
+                )
+            })
+            .exit_as(RunExit::BoardNotAnswering)?;
+    }
+    Ok((rtu, status))
 }
 
 /// Writes the runtime's [`RunRecord`]s to the run-log CSV (schema v2, the same writer and
@@ -152,57 +225,66 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         .exit_as(RunExit::Usage)?;
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
-            // 2. Open the port (framing verified, nothing sent).
-            let port = acc_pmc::serial::open_port(rtu_cfg).exit_as(RunExit::Usage)?;
-            let mut rtu = RtuBoard::new(port, rtu_cfg.link);
-            // 3. First transaction: the watchdog time; then the status.
-            rtu.write_watchdog_ms(rtu_cfg.watchdog_ms)
-                .with_context(|| {
-                    format!(
-                        "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
-                        cfg.path.display(),
-                        rtu_cfg.watchdog_ms,
-                        rtu_cfg.link.slave,
-                        rtu_cfg.port
-                    )
-                })
-                .exit_as(RunExit::BoardNotAnswering)?;
-            let status = rtu
-                .read_status()
-                .with_context(|| format!("reading the board status on {}", rtu_cfg.port))
-                .exit_as(RunExit::BoardNotAnswering)?;
+            // 2. Open the port (framing verified, nothing sent); 3. first transaction: the
+            // watchdog time; then the status, and FALLBACK_MODE on a v2 board.
+            let (mut pmc, status) = open_rtu(&cfg, rtu_cfg)?;
             println!(
-                "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms",
-                rtu_cfg.link.slave, rtu_cfg.port, rtu_cfg.serial.baud, rtu_cfg.watchdog_ms
+                "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms; protocol {}{}",
+                rtu_cfg.link.slave,
+                rtu_cfg.port,
+                rtu_cfg.serial.baud,
+                rtu_cfg.watchdog_ms,
+                protocol_name(pmc.protocol()),
+                if pmc.protocol() == Some(BoardProtocol::V2) {
+                    format!(
+                        "; FALLBACK_MODE = {}",
+                        fallback_mode_name(cfg.fallback_mode)
+                    )
+                } else {
+                    String::new()
+                }
             );
-            let mut pmc = rtu;
-            drive(args, &cfg, &mut pmc, status, writer)?;
+            let mut reopen = || {
+                open_rtu(&cfg, rtu_cfg)
+                    .map(|(b, _)| b)
+                    .map_err(|e| format!("{e:#}"))
+            };
+            let reopen: Reopen<'_, _> = &mut reopen;
+            let stats = drive(args, &cfg, &mut pmc, status, writer, &rtu_cfg.port, reopen);
             let st = pmc.stats();
             println!(
                 "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
                 st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
             );
-            Ok(())
+            stats
         }
         LinkSettings::Can { iface, link } => {
-            let board = acc_pmc::can::open_socketcan(iface, *link)
-                .map_err(|e| {
+            let open = || {
+                acc_pmc::can::open_socketcan(iface, *link).map_err(|e| {
                     anyhow::anyhow!(
                         "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
                         cfg.path.display()
                     )
                 })
-                .exit_as(RunExit::Usage)?;
-            let mut pmc = board;
+            };
+            let mut pmc = open().exit_as(RunExit::Usage)?;
             let status = pmc
                 .read_status()
                 .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))
                 .exit_as(RunExit::BoardNotAnswering)?;
             println!(
-                "board: CAN node {} on {iface} (board watchdog at its own setting)",
-                link.node
+                "board: CAN node {} on {iface} (board watchdog at its own setting); protocol {}{}",
+                link.node,
+                protocol_name(pmc.protocol()),
+                if pmc.protocol() == Some(BoardProtocol::V2) {
+                    " (FALLBACK_MODE cannot be written over CAN: the board keeps its own)"
+                } else {
+                    ""
+                }
             );
-            drive(args, &cfg, &mut pmc, status, writer)
+            let mut reopen = || open().map_err(|e| format!("{e:#}"));
+            let reopen: Reopen<'_, _> = &mut reopen;
+            drive(args, &cfg, &mut pmc, status, writer, iface, reopen)
         }
     }
 }
@@ -214,7 +296,11 @@ fn drive<P: Board + Send>(
     pmc: &mut P,
     status: BoardStatus,
     writer: RunLogWriter<BufWriter<File>>,
+    device: &str,
+    reopen: Reopen<'_, P>,
 ) -> anyhow::Result<()> {
+    // Once per run: a v1 board and what it cannot do.
+    announce_v1(pmc.protocol(), device);
     let step = status.override_step_pct;
     println!(
         "resolution: OVERRIDE_STEP = {} % ({})",
@@ -259,6 +345,14 @@ fn drive<P: Board + Send>(
             max: std::time::Duration::from_secs_f64(cfg.shutdown.drain_s / cfg.runtime.time_scale),
             air_periods: cfg.shutdown.air_periods,
         }),
+        on_device_lost: match cfg.runtime.on_device_lost {
+            DeviceLostAction::Exit => OnDeviceLost::Exit,
+            DeviceLostAction::Reconnect => OnDeviceLost::Reconnect {
+                timeout: std::time::Duration::from_secs_f64(
+                    cfg.runtime.reconnect_timeout_s / cfg.runtime.time_scale,
+                ),
+            },
+        },
         ..RunOptions::new(cfg.tick_period())
     };
     let device_lost_periods = opts.device_lost_periods.unwrap_or_default();
@@ -270,13 +364,14 @@ fn drive<P: Board + Send>(
         ccfg.force_ref_n,
         args.log.display()
     );
-    let s = run(
+    let s = run_with_reopen(
         pmc,
         &mut control,
         SystemClock::new(),
         &mut sink,
         &stop,
         opts,
+        Some(reopen),
     )
     .exit_as(RunExit::Internal)?;
 
@@ -303,12 +398,30 @@ fn drive<P: Board + Send>(
         s.final_state.name(),
         s.alarms.names()
     );
+    println!(
+        "board protocol: {}; reconnects: {}; longest time without the device: {:.1} s",
+        protocol_name(s.protocol),
+        s.reconnects,
+        s.longest_device_loss.as_secs_f64() * cfg.runtime.time_scale
+    );
+    if s.shutdown_feed_hold && !matches!(s.ended, Ended::FeedHold { .. }) {
+        println!(
+            "shutdown: still cutting on a board without the fallback clamp: feed hold requested before the release; the NC needs cycle start"
+        );
+    }
     match (s.shutdown_ok, s.ended) {
         (ok, Ended::DeviceLost) => Err(ExitWith {
             code: EXIT_DEVICE_LOST,
             message: format!(
-                "the board's device is gone ({} periods in a row without it: port or cable): run ended, run log flushed; final CONTROL write {}; the board's watchdog takes the override",
-                device_lost_periods,
+                "the board's device {device} is gone ({}: port or cable): run ended, run log flushed; final CONTROL write {}; the board's watchdog takes the override",
+                match cfg.runtime.on_device_lost {
+                    DeviceLostAction::Exit =>
+                        format!("{device_lost_periods} periods in a row without it"),
+                    DeviceLostAction::Reconnect => format!(
+                        "not back within reconnect_timeout_s = {} s, reopened every period",
+                        cfg.runtime.reconnect_timeout_s
+                    ),
+                },
                 if ok.is_ok() { "sent" } else { "not possible" }
             ),
         }

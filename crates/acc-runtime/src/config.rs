@@ -9,6 +9,7 @@ use acc_config::{
 };
 use acc_core::ControllerConfig;
 use acc_pmc::can::{CanConfig, CanLinkConfig};
+use acc_pmc::regs::FallbackMode;
 use acc_pmc::serial::{RtuConfig, RtuSettings};
 use acc_spindle::calibrate::SpindleCalibration;
 use acc_spindle::estimate::{EstimatorConfig, SpindleEstimator};
@@ -141,6 +142,24 @@ pub struct RuntimeSection {
     pub time_scale: f64,
     /// Logger queue capacity, records, 1 ..= 1 000 000 (default 1024).
     pub log_queue: usize,
+    /// What a vanished board device (serial port gone, CAN interface down) does: `"exit"`
+    /// (default: end after 20 periods, exit code 4) or `"reconnect"` (keep logging, reopen
+    /// every period, re-arm at the last command; give up after `reconnect_timeout_s`).
+    pub on_device_lost: DeviceLostAction,
+    /// With `on_device_lost = "reconnect"`: longest time without the device, s of machine
+    /// time, 0.1 ..= 600 (default 10).
+    pub reconnect_timeout_s: f64,
+}
+
+/// `[runtime] on_device_lost`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DeviceLostAction {
+    /// End the run (exit code 4).
+    #[default]
+    Exit,
+    /// Reopen the device every period until `reconnect_timeout_s`.
+    Reconnect,
 }
 
 impl Default for RuntimeSection {
@@ -148,6 +167,8 @@ impl Default for RuntimeSection {
         Self {
             time_scale: 1.0,
             log_queue: 1024,
+            on_device_lost: DeviceLostAction::Exit,
+            reconnect_timeout_s: 10.0,
         }
     }
 }
@@ -256,6 +277,24 @@ pub struct RunConfig {
     pub shutdown: ShutdownConfig,
     /// Loop options.
     pub runtime: RuntimeSection,
+    /// `[board] fallback_mode`: written to a v2 board's `FALLBACK_MODE` once at start
+    /// (`"clamp"` or `"clamp_and_feed_hold"`, default the latter; not written to a v1 board).
+    pub fallback_mode: FallbackMode,
+}
+
+/// Parse `[board] fallback_mode` (`"clamp"` | `"clamp_and_feed_hold"`).
+fn fallback_mode(path: &Path, value: &toml::Value) -> Result<FallbackMode, ConfigError> {
+    match value.as_str() {
+        Some("clamp") => Ok(FallbackMode::ClampOnly),
+        Some("clamp_and_feed_hold") => Ok(FallbackMode::ClampAndFeedHold),
+        _ => Err(ConfigError::Invalid {
+            file: path.to_path_buf(),
+            key: "board.fallback_mode".into(),
+            message: format!(
+                "= {value} is not allowed: one of \"clamp\" (a watchdog trip only clamps the override) or \"clamp_and_feed_hold\" (clamp and feed hold, the default)"
+            ),
+        }),
+    }
 }
 
 impl RunConfig {
@@ -293,6 +332,13 @@ impl RunConfig {
         let controller = acc_config::load_controller(resolve_relative(path, &file.controller))
             .map_err(|e| referenced(path, "controller", &file.controller, e))?;
 
+        // [board] fallback_mode (not a link key: taken out before the link is parsed)
+        let mut board_table = file.board.unwrap_or_default();
+        let fallback_mode = match board_table.remove("fallback_mode") {
+            Some(v) => fallback_mode(path, &v)?,
+            None => FallbackMode::default(),
+        };
+
         // [board] or [can]
         let link = match can {
             Some(iface) => {
@@ -305,7 +351,7 @@ impl RunConfig {
                 }
             }
             None => {
-                let mut table = file.board.unwrap_or_default();
+                let mut table = board_table;
                 if let Some(p) = port {
                     table.insert("port".into(), toml::Value::String(p.to_string()));
                 }
@@ -363,6 +409,13 @@ impl RunConfig {
             1.0,
             1_000_000.0,
         )?;
+        check_range(
+            path,
+            "runtime.reconnect_timeout_s",
+            rt.reconnect_timeout_s,
+            0.1,
+            600.0,
+        )?;
 
         Ok(Self {
             path: path.to_path_buf(),
@@ -374,6 +427,7 @@ impl RunConfig {
             policy,
             shutdown,
             runtime: rt,
+            fallback_mode,
         })
     }
 

@@ -127,6 +127,11 @@ impl CycleRecord {
         if self.out.fault {
             r.flag("fault");
         }
+        for e in self.out.events.iter() {
+            if let crate::policy::Event::Rearmed { reason, .. } = e {
+                r.flag(&format!("rearm:{}", reason.as_str()));
+            }
+        }
         r
     }
 }
@@ -336,6 +341,12 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         };
         self.index += 1;
         rec
+    }
+
+    /// The link was reopened (a new port or bus after the device vanished): what the board
+    /// was last given is unknown, so the next period writes `CONTROL` again.
+    pub fn link_reopened(&mut self) {
+        self.control_on_board = None;
     }
 
     /// Report how the plan's writes went (feeds the next period's policy input).

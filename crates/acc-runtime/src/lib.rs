@@ -33,11 +33,12 @@ pub mod ticker;
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use policy::{
-    AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Release,
+    AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Rearm, Release,
 };
 pub use record::{RunLogWriter, RunRecord};
 pub use runner::{
-    run, Drain, Ended, LogSink, RunError, RunOptions, RunSummary, StopRequest, VecSink,
+    run, run_with_reopen, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunError, RunOptions,
+    RunSummary, StopRequest, VecSink,
 };
 pub use stats::LatencyStats;
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};

@@ -21,13 +21,28 @@
 //! - **Watchdog tripped / board reset** (the board dropped `ACC_ACTIVE` while the switch is
 //!   on and nothing else explains it, or never confirmed it within `ack_periods`): release,
 //!   alarm, latch. A latched policy re-arms only after the operator's switch has been seen
-//!   off and then on again; re-arming writes `ALARM_RESET` if the watchdog is still tripped.
+//!   off and then on again; re-arming writes `ALARM_RESET` if the watchdog is still tripped
+//!   or the board reports `BOARD_RESTARTED`.
+//! - **Board restart mid-cut** (v2: `BOARD_RESTARTED`; v1: `ACC_ACTIVE` dropped with no
+//!   watchdog, lock or switch to explain it) while `CYCLE_ACTIVE`: re-armed at once, not
+//!   latched ([`Event::Rearmed`]): `OVERRIDE_CMD` = the last command is written first, then
+//!   `CONTROL` = `ACC_REQUEST | ALARM_RESET` (which clears `BOARD_RESTARTED` and a v2 board's
+//!   power-up feed hold), and control continues from the last command. On a v1 board the
+//!   re-arm is at `min(last command, override applied)`: the one period at the operator's knob
+//!   is already past and the re-arm never raises the feed further. A board that keeps
+//!   restarting (more than `ack_periods` re-arms without a clean confirmation) is released.
+//! - **Link restored while the cut is on**: after a `LinkLost` release (or a watchdog trip
+//!   that followed an outage), the first good status with the switch on, `CYCLE_ACTIVE` and
+//!   the override not locked re-arms the same way, with `ALARM_RESET`, instead of latching.
 //! - **Overload**: force above `overload_force_n` for at least `overload_time_s` → feed-hold
 //!   request and alarm, release and latch (tool-breakage protection).
 //! - **A fault release never raises the feed**: handing the override back to the operator
 //!   moves the board to `OPERATOR_OVERRIDE`; if that knob is above ACC's last command, the
 //!   release also requests feed hold (`hold_on_raising_release`, default on). Every feed-hold
-//!   request stays until the operator re-arms ACC (switch off, then on).
+//!   request stays until the operator re-arms ACC (switch off, then on). On a v2 board (the
+//!   status reports `PROTOCOL_VERSION` ≥ 2) a release engages the board's fallback clamp: the
+//!   applied override becomes `min(knob, last command)`, so no feed hold is needed and none is
+//!   requested; on a v1 board (or before the protocol is known) the rule above applies.
 //! - **`OVERRIDE_LOCKED`** (tapping, threading, override cancel): the law is frozen
 //!   ([`OverrideLaw::set_frozen`]) and not stepped; the last command is held, never fought.
 //! - **Operator knob down** by more than `operator_handback_pct` from its highest position
@@ -39,7 +54,7 @@
 //! than the last one written.
 
 use acc_core::{FeedOverride, ForceSample, Measurement, OverrideLaw, StepOutput};
-use acc_pmc::{BoardErrorKind, BoardStatus, ControlBits};
+use acc_pmc::{BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
 
 /// Parameters of the fault policy. Defaults in each field's doc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -232,6 +247,25 @@ impl Release {
     }
 }
 
+/// Why the policy re-armed by itself ([`Event::Rearmed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rearm {
+    /// The board restarted (v2 `BOARD_RESTARTED`, v1 an unexplained `ACC_ACTIVE` drop).
+    BoardRestart,
+    /// The link came back after an outage, the cut still on.
+    LinkRestored,
+}
+
+impl Rearm {
+    /// Short lower-case name for logs (`board_restart`, `link_restored`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Rearm::BoardRestart => "board_restart",
+            Rearm::LinkRestored => "link_restored",
+        }
+    }
+}
+
 /// ACC state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AccState {
@@ -323,6 +357,14 @@ pub enum Event {
     },
     /// ACC released.
     Released(Release),
+    /// ACC re-armed by itself, mid-cut, at the last command (v1: at most the override
+    /// applied), with `ALARM_RESET`: see the module docs.
+    Rearmed {
+        /// Why.
+        reason: Rearm,
+        /// Override written before `ACC_REQUEST`, percent.
+        at_pct: u16,
+    },
     /// A link error this period (the count of consecutive failures).
     LinkError {
         /// Error kind.
@@ -460,6 +502,12 @@ pub struct FaultPolicy {
     alarm_reset_pulse: bool,
     acc_request: bool,
     board_step: u16,
+    /// The board's protocol as its status reports it (`None` before the first status).
+    protocol: Option<BoardProtocol>,
+    /// Link failures since ACC was last seen confirmed on a clean period.
+    outage: bool,
+    /// Consecutive re-arms without a clean confirmation.
+    rearms: u32,
 }
 
 impl FaultPolicy {
@@ -485,7 +533,22 @@ impl FaultPolicy {
             alarm_reset_pulse: false,
             acc_request: false,
             board_step: 10,
+            protocol: None,
+            outage: false,
+            rearms: 0,
         }
+    }
+
+    /// The board's protocol as the last status reported it (`PROTOCOL_VERSION` ≥ 2: v2),
+    /// `None` before the first status.
+    pub fn protocol(&self) -> Option<BoardProtocol> {
+        self.protocol
+    }
+
+    /// Whether a release engages the board's fallback clamp (a v2 board), so that handing
+    /// the override back can never raise the feed.
+    pub fn board_clamps(&self) -> bool {
+        self.protocol == Some(BoardProtocol::V2)
     }
 
     /// Current state.
@@ -567,10 +630,12 @@ impl FaultPolicy {
             why,
             Release::SwitchOff | Release::OperatorHandback | Release::Overload
         );
-        let raising = match (self.last_operator_pct, self.last_cmd) {
-            (Some(op), Some(cmd)) => op > cmd,
-            _ => true,
-        };
+        // A v2 board clamps the applied override to min(knob, last applied) on a release.
+        let raising = !self.board_clamps()
+            && match (self.last_operator_pct, self.last_cmd) {
+                (Some(op), Some(cmd)) => op > cmd,
+                _ => true,
+            };
         if fault && raising && self.cfg.hold_on_raising_release && !self.feed_hold {
             self.feed_hold = true;
             out.events.push(Event::FeedHold(true));
@@ -641,6 +706,16 @@ impl FaultPolicy {
         let status = input.link.ok();
         if let Some(s) = status.filter(|s| s.override_step_pct > 0) {
             self.board_step = s.override_step_pct;
+        }
+        if let Some(s) = status {
+            self.protocol = Some(if s.is_v2() {
+                BoardProtocol::V2
+            } else {
+                BoardProtocol::V1
+            });
+        }
+        if link_fault.is_some() && self.state != AccState::Idle {
+            self.outage = true;
         }
 
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
@@ -739,8 +814,21 @@ impl FaultPolicy {
                     self.arm(s, &mut out, law);
                 }
             }
-            (AccState::Latched(_), Some(s)) => {
-                if self.switch_seen_off && s.acc_switch && clean {
+            (AccState::Latched(why), Some(s)) => {
+                let knob_kept = u32::from(s.operator_override_pct)
+                    + u32::from(self.cfg.operator_handback_pct)
+                    >= u32::from(self.operator_ref);
+                if why == Release::LinkLost
+                    && !self.switch_seen_off
+                    && s.acc_switch
+                    && s.cycle_active
+                    && !s.override_locked
+                    && link_fault.is_none()
+                    && knob_kept
+                    && self.last_cmd.is_some()
+                {
+                    self.rearm(Rearm::LinkRestored, s, &mut out, law);
+                } else if self.switch_seen_off && s.acc_switch && clean {
                     self.arm(s, &mut out, law);
                 }
             }
@@ -760,8 +848,11 @@ impl FaultPolicy {
             out.events.push(Event::FeedHold(false));
         }
         law.engage(FeedOverride(at));
-        self.alarm_reset_pulse = s.watchdog_tripped;
+        let alarm_reset = s.watchdog_tripped || s.board_restarted;
+        self.alarm_reset_pulse = alarm_reset;
         self.alarms = Alarms::default();
+        self.outage = false;
+        self.rearms = 0;
         self.acc_request = true;
         self.acc_confirmed = false;
         self.arm_age = 0;
@@ -771,9 +862,63 @@ impl FaultPolicy {
         out.write_override = Some(FeedOverride(at));
         out.events.push(Event::Armed {
             at_pct: at,
-            alarm_reset: s.watchdog_tripped,
+            alarm_reset,
         });
         tracing::info!(at_pct = at, "ACC armed");
+    }
+
+    /// Re-arm mid-cut without a period above the last command: `OVERRIDE_CMD` first (the
+    /// last command; on a v1 board at most the override applied now), then `ACC_REQUEST |
+    /// ALARM_RESET` (the loop writes the override before `CONTROL`).
+    fn rearm<L: OverrideLaw + ?Sized>(
+        &mut self,
+        why: Rearm,
+        s: BoardStatus,
+        out: &mut CycleOutput,
+        law: &mut L,
+    ) {
+        out.fault = true;
+        self.rearms = self.rearms.saturating_add(1);
+        if self.rearms > self.cfg.ack_periods {
+            return self.release(Release::BoardReset, out, law);
+        }
+        let applied = self.quantize(s.override_applied_pct, s.override_step_pct);
+        let last = self.held().map_or(applied, |c| c.0);
+        // v2: the board holds the feed (power-up feed hold, or the clamp ≤ last); v1: the
+        // knob is already applied, so never go above it either.
+        let at = if self.board_clamps() {
+            last
+        } else {
+            last.min(applied)
+        };
+        if at != last {
+            law.engage(FeedOverride(at));
+        }
+        if self.frozen {
+            law.set_frozen(false);
+            self.frozen = false;
+        }
+        if self.feed_hold && !self.alarms.overload {
+            self.feed_hold = false;
+            out.events.push(Event::FeedHold(false));
+        }
+        self.alarm_reset_pulse = true;
+        self.alarms = Alarms::default();
+        self.acc_request = true;
+        self.acc_confirmed = false;
+        self.arm_age = 0;
+        self.last_cmd = Some(at);
+        self.state = AccState::Active;
+        out.write_override = Some(FeedOverride(at));
+        out.events.push(Event::Rearmed {
+            reason: why,
+            at_pct: at,
+        });
+        tracing::warn!(
+            reason = why.as_str(),
+            at_pct = at,
+            "ACC re-armed mid-cut at the last command (OVERRIDE_CMD first, then ACC_REQUEST | ALARM_RESET)"
+        );
     }
 
     fn active_step<L: OverrideLaw + ?Sized>(
@@ -797,7 +942,23 @@ impl FaultPolicy {
         // Board-side faults.
         if s.watchdog_tripped {
             out.events.push(Event::WatchdogTripped);
+            // A trip that followed a link outage (the heartbeat could not get through), the
+            // cut still on: re-arm at the last command rather than latch.
+            if self.outage && s.cycle_active && !s.override_locked && self.last_cmd.is_some() {
+                return self.rearm(Rearm::LinkRestored, s, out, law);
+            }
             return self.release(Release::Watchdog, out, law);
+        }
+        // The board restarted under us (v2: BOARD_RESTARTED; v1: ACC_ACTIVE dropped with no
+        // watchdog, lock or switch to explain it).
+        let restarted =
+            self.acc_confirmed && (s.board_restarted || (!s.acc_active && !s.override_locked));
+        if restarted {
+            if s.cycle_active {
+                return self.rearm(Rearm::BoardRestart, s, out, law);
+            }
+            out.fault = true;
+            return self.release(Release::BoardReset, out, law);
         }
         if s.override_locked {
             if !self.frozen {
@@ -815,9 +976,10 @@ impl FaultPolicy {
         }
         if s.acc_active {
             self.acc_confirmed = true;
-        } else if self.acc_confirmed {
-            out.fault = true;
-            return self.release(Release::BoardReset, out, law);
+            if !s.board_restarted && input.write_error.is_none() {
+                self.rearms = 0;
+                self.outage = false;
+            }
         } else {
             self.arm_age = self.arm_age.saturating_add(1);
             if self.arm_age > self.cfg.ack_periods {

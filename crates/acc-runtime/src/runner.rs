@@ -17,12 +17,23 @@
 //! operator's override). A stop while still cutting when the drain runs out, or a second
 //! request, writes feed hold first and then releases with the hold kept ([`Ended`]). The
 //! channels close, the logger drains and flushes, and [`run`] returns a [`RunSummary`].
+//!
+//! On a board without the fallback clamp (a v1 board, or a protocol not yet known) a run that
+//! ends while ACC still drives the override in the cut (`max_periods`, a vanished device)
+//! also requests feed hold before it releases: a release there would hand the feed to the
+//! operator's knob ([`RunSummary::shutdown_feed_hold`]).
+//!
+//! A vanished device ([`BoardErrorKind::Disconnected`]) ends the run after
+//! [`RunOptions::device_lost_periods`] ([`OnDeviceLost::Exit`]), or, with
+//! [`OnDeviceLost::Reconnect`] and a reopen callback ([`run_with_reopen`]), the runner keeps
+//! a row every period and tries to reopen the link every period until the timeout; the
+//! policy re-arms at the last command once the board answers again while the cut is on.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use acc_core::{ForceSource, OverrideLaw};
-use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus};
 use crossbeam_channel::{bounded, RecvTimeoutError, TrySendError};
 
 use crate::clock::Clock;
@@ -82,8 +93,26 @@ pub struct RunOptions {
     /// End the run after this many consecutive periods in which the link reported the
     /// device gone (`BoardErrorKind::Disconnected`: the port or bus vanished), default 20
     /// (`None`: never). The policy has released by then (after `link_hold_periods`); the run
-    /// ends with [`Ended::DeviceLost`] instead of logging "disconnected" forever.
+    /// ends with [`Ended::DeviceLost`] instead of logging "disconnected" forever. Used with
+    /// [`OnDeviceLost::Exit`].
     pub device_lost_periods: Option<u32>,
+    /// What a vanished device does (default [`OnDeviceLost::Exit`]).
+    pub on_device_lost: OnDeviceLost,
+}
+
+/// What the runner does when the board's device vanishes (`[runtime] on_device_lost`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OnDeviceLost {
+    /// End the run after [`RunOptions::device_lost_periods`] ([`Ended::DeviceLost`]).
+    #[default]
+    Exit,
+    /// Keep a row every period (flagged `link:disconnected`) and try to reopen the link
+    /// every period (the callback of [`run_with_reopen`]); after `timeout` (clock time)
+    /// without the device, end as [`OnDeviceLost::Exit`] does.
+    Reconnect {
+        /// Longest time without the device.
+        timeout: Duration,
+    },
 }
 
 /// The shutdown drain (`[shutdown]` of the run config).
@@ -154,6 +183,7 @@ impl RunOptions {
             force_ref_n: None,
             drain: None,
             device_lost_periods: Some(20),
+            on_device_lost: OnDeviceLost::Exit,
         }
     }
 }
@@ -188,6 +218,15 @@ pub struct RunSummary {
     pub shutdown_ok: Result<(), BoardErrorKind>,
     /// The last status read.
     pub last_status: Option<BoardStatus>,
+    /// The board's protocol as the link found it at the end (`None`: never known).
+    pub protocol: Option<BoardProtocol>,
+    /// The shutdown requested feed hold before releasing (a stop or end in the cut: see
+    /// [`Ended::FeedHold`] and the module docs).
+    pub shutdown_feed_hold: bool,
+    /// Times the link was reopened after the device vanished.
+    pub reconnects: u64,
+    /// Longest time without the device during the run (clock time).
+    pub longest_device_loss: Duration,
 }
 
 /// Errors that stop [`run`] before or while it runs.
@@ -212,9 +251,15 @@ struct StatusMsg {
     writes: WriteResult,
     lateness: Duration,
     overrun: bool,
+    reopened: bool,
 }
 
+/// The callback that reopens a vanished link ([`run_with_reopen`]): a fresh link, or why
+/// not.
+pub type Reopen<'a, P> = &'a mut dyn FnMut() -> Result<P, String>;
+
 /// Run the loop until `stop` is set or `opts.max_periods` is reached. See the module docs.
+/// A vanished device is never reopened (see [`run_with_reopen`]).
 pub fn run<P, L, F, C, S, Q>(
     pmc: &mut P,
     control: &mut ControlLoop<L, F>,
@@ -222,6 +267,28 @@ pub fn run<P, L, F, C, S, Q>(
     sink: &mut S,
     stop: &Q,
     opts: RunOptions,
+) -> Result<RunSummary, RunError>
+where
+    P: Board + Send,
+    L: OverrideLaw + Send,
+    F: ForceSource + Send,
+    C: Clock + Clone,
+    S: LogSink + Send,
+    Q: StopRequest + ?Sized,
+{
+    run_with_reopen(pmc, control, clock, sink, stop, opts, None)
+}
+
+/// As [`run`]; with [`OnDeviceLost::Reconnect`], `reopen` is called once per period while
+/// the device is gone and its link replaces `pmc` on success.
+pub fn run_with_reopen<P, L, F, C, S, Q>(
+    pmc: &mut P,
+    control: &mut ControlLoop<L, F>,
+    clock: C,
+    sink: &mut S,
+    stop: &Q,
+    opts: RunOptions,
+    mut reopen: Option<Reopen<'_, P>>,
 ) -> Result<RunSummary, RunError>
 where
     P: Board + Send,
@@ -282,6 +349,9 @@ where
                         let t = msg.t_s - (msg.skipped - k) as f64 * tick_s;
                         offer(control.skip(t * time_scale));
                     }
+                    if msg.reopened {
+                        control.link_reopened();
+                    }
                     control.writes_done(&msg.writes);
                     let rec = control.decide(msg.t_s * time_scale, msg.link);
                     out_of_cut.store(
@@ -322,12 +392,27 @@ where
         let origin = clock.now();
         let mut drain_since: Option<std::time::Duration> = None;
         let mut gone = 0u32;
+        let mut gone_since: Option<Duration> = None;
+        let mut longest_device_loss = Duration::ZERO;
+        let mut reconnects = 0u64;
         let ended = loop {
             if opts.max_periods.is_some_and(|m| periods >= m) {
                 break Ended::Completed;
             }
-            if opts.device_lost_periods.is_some_and(|n| gone >= n.max(1)) {
-                tracing::error!(periods = gone, "the board's device is gone: ending the run");
+            let lost_for = gone_since.map(|t| clock.now().saturating_sub(t));
+            if let Some(d) = lost_for {
+                longest_device_loss = longest_device_loss.max(d);
+            }
+            let lost = match opts.on_device_lost {
+                OnDeviceLost::Exit => opts.device_lost_periods.is_some_and(|n| gone >= n.max(1)),
+                OnDeviceLost::Reconnect { timeout } => lost_for.is_some_and(|d| d >= timeout),
+            };
+            if lost {
+                tracing::error!(
+                    periods = gone,
+                    secs = lost_for.unwrap_or_default().as_secs_f64(),
+                    "the board's device is gone: ending the run"
+                );
                 break Ended::DeviceLost;
             }
             if stop.stop_requested() {
@@ -366,6 +451,21 @@ where
                 );
             }
             let t0 = clock.now();
+            // The device is gone: try to reopen it (once per period) before this read.
+            let mut reopened = false;
+            if gone > 0 && matches!(opts.on_device_lost, OnDeviceLost::Reconnect { .. }) {
+                if let Some(f) = reopen.as_mut() {
+                    match f() {
+                        Ok(fresh) => {
+                            *pmc = fresh;
+                            reopened = true;
+                            reconnects += 1;
+                            tracing::warn!(after_periods = gone, "board link reopened");
+                        }
+                        Err(e) => tracing::debug!(error = %e, "reopening the board link failed"),
+                    }
+                }
+            }
             let link = pmc.read_status().map_err(|e| e.kind());
             if let Ok(s) = link {
                 last_status = Some(s);
@@ -374,6 +474,11 @@ where
                 Err(BoardErrorKind::Disconnected) => gone.saturating_add(1),
                 _ => 0,
             };
+            if gone == 1 {
+                gone_since = Some(t0);
+            } else if gone == 0 {
+                gone_since = None;
+            }
             let msg = StatusMsg {
                 seq: periods,
                 t_s: (tick.deadline.saturating_sub(origin)).as_secs_f64(),
@@ -382,6 +487,7 @@ where
                 writes,
                 lateness: tick.lateness,
                 overrun: tick.overrun,
+                reopened,
             };
             if status_tx.send(msg).is_err() {
                 break Ended::FeedHold {
@@ -416,16 +522,27 @@ where
         drop(status_tx);
         let (logged, log_dropped, skipped, final_state, alarms, control) =
             ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
-        let shutdown_ok = match ended {
-            Ended::FeedHold { .. } => control.hold_and_release(pmc, opts.shutdown_attempts),
-            Ended::Completed | Ended::Released | Ended::DeviceLost => {
-                control.shutdown(pmc, opts.shutdown_attempts)
-            }
+        // Without the board's fallback clamp (v1, or not known), a release while ACC drives
+        // the override in the cut would hand the feed to the operator's knob: hold first.
+        let protocol = pmc.protocol().or(control.policy().protocol());
+        let in_cut = !out_of_cut.load(Ordering::SeqCst);
+        let shutdown_feed_hold = match ended {
+            Ended::FeedHold { .. } => true,
+            Ended::Completed | Ended::DeviceLost => in_cut && protocol != Some(BoardProtocol::V2),
+            Ended::Released => false,
+        };
+        let shutdown_ok = if shutdown_feed_hold {
+            control.hold_and_release(pmc, opts.shutdown_attempts)
+        } else {
+            control.shutdown(pmc, opts.shutdown_attempts)
         };
         match (shutdown_ok, ended) {
             (Ok(()), Ended::FeedHold { reason }) => tracing::warn!(
                 reason,
                 "still cutting: feed hold requested, then ACC_REQUEST cleared with the hold kept"
+            ),
+            (Ok(()), _) if shutdown_feed_hold => tracing::warn!(
+                "still cutting on a board without the fallback clamp: feed hold requested, then ACC_REQUEST cleared with the hold kept"
             ),
             (Ok(()), _) => tracing::info!("ACC_REQUEST cleared; the operator has the override"),
             (Err(k), _) => {
@@ -448,6 +565,10 @@ where
             alarms,
             shutdown_ok,
             last_status,
+            protocol,
+            shutdown_feed_hold,
+            reconnects,
+            longest_device_loss,
         })
     })
 }

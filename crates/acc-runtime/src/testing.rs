@@ -8,9 +8,9 @@ use acc_core::{
     FeedOverride, ForceSample, ForceSource, Measurement, Mode, OverrideLaw, PeriodInput,
     Saturation, StepOutput, Trace,
 };
-use acc_pmc::emu::{BoardLogic, Request};
+use acc_pmc::emu::{BoardLogic, EmulatedProtocol, Request};
 use acc_pmc::regs::{holding, OverrideResolution};
-use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
 
 /// Error of [`ScriptedBoard`]: just the kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -49,9 +49,20 @@ pub struct ScriptedBoard {
 }
 
 impl ScriptedBoard {
-    /// A 10 %-step board with the operator's switch on at 100 %, cycle active.
+    /// A 10 %-step v2 board with the operator's switch on at 100 %, cycle active.
     pub fn new() -> Self {
-        let mut board = BoardLogic::new(OverrideResolution::Percent10);
+        Self::with_protocol(EmulatedProtocol::V2)
+    }
+
+    /// As [`ScriptedBoard::new`], a v1 board (exception 02 for registers 9…14: no fallback
+    /// clamp, no `BOARD_RESTARTED`).
+    pub fn v1() -> Self {
+        Self::with_protocol(EmulatedProtocol::V1Exception)
+    }
+
+    /// As [`ScriptedBoard::new`], speaking `protocol`.
+    pub fn with_protocol(protocol: EmulatedProtocol) -> Self {
+        let mut board = BoardLogic::with_protocol(OverrideResolution::Percent10, protocol);
         board.set_acc_switch(true);
         board.set_operator_override_pct(100);
         board.set_cycle_active(true);
@@ -127,6 +138,15 @@ impl Board for ScriptedBoard {
                 .map_err(|e| ScriptedError(BoardErrorKind::Exception(e.code())))?;
             s.control_writes.push(control);
             Ok(())
+        })
+    }
+
+    /// The emulated board's protocol (as a link would find it).
+    fn protocol(&self) -> Option<BoardProtocol> {
+        Some(if self.board.protocol().is_v2() {
+            BoardProtocol::V2
+        } else {
+            BoardProtocol::V1
         })
     }
 }

@@ -86,6 +86,21 @@ fn bad_values_name_file_and_key() {
             "shutdown.drain_s",
         ),
         ("name = ", "bogus_key = 1\nname = ", "bogus_key"),
+        (
+            "[runtime]",
+            "[runtime]\nreconnect_timeout_s = 0.0",
+            "runtime.reconnect_timeout_s",
+        ),
+        (
+            "[runtime]",
+            "[runtime]\non_device_lost = \"sometimes\"",
+            "on_device_lost",
+        ),
+        (
+            "slave = 1",
+            "slave = 1\nfallback_mode = \"never\"",
+            "board.fallback_mode",
+        ),
     ] {
         assert!(base.contains(from), "{from}");
         let p = dir.path().join("run.toml");
@@ -96,4 +111,46 @@ fn bad_values_name_file_and_key() {
             "{key}: {e}"
         );
     }
+}
+
+#[test]
+fn fallback_mode_and_device_loss_keys() {
+    use acc_pmc::regs::FallbackMode;
+    use acc_runtime::config::DeviceLostAction;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let base = std::fs::read_to_string(cfg("board_sim_fast.toml")).expect("base");
+    let abs = cfg("").canonicalize().expect("configs/runtime");
+    let base = base
+        .replace("\"../presets/", &format!("\"{}/../presets/", abs.display()))
+        .replace(
+            "\"paper_vmc_power.toml\"",
+            &format!("\"{}/paper_vmc_power.toml\"", abs.display()),
+        );
+    let p = dir.path().join("run.toml");
+    std::fs::write(&p, &base).expect("write");
+    let d = RunConfig::load(&p, None).expect("defaults");
+    assert_eq!(d.fallback_mode, FallbackMode::ClampAndFeedHold);
+    assert_eq!(d.runtime.on_device_lost, DeviceLostAction::Exit);
+    assert_eq!(d.runtime.reconnect_timeout_s, 10.0);
+    let text = base
+        .replacen("slave = 1", "slave = 1\nfallback_mode = \"clamp\"", 1)
+        .replacen(
+            "[runtime]",
+            "[runtime]\non_device_lost = \"reconnect\"\nreconnect_timeout_s = 2.5",
+            1,
+        );
+    std::fs::write(&p, text).expect("write");
+    let c = RunConfig::load(&p, None).expect("loads");
+    assert_eq!(c.fallback_mode, FallbackMode::ClampOnly);
+    assert_eq!(c.runtime.on_device_lost, DeviceLostAction::Reconnect);
+    assert_eq!(c.runtime.reconnect_timeout_s, 2.5);
+    let e = {
+        let t = base.replacen("slave = 1", "slave = 1\nfallback_mode = 1", 1);
+        std::fs::write(&p, t).expect("write");
+        RunConfig::load(&p, None).expect_err("a number").to_string()
+    };
+    assert!(
+        e.contains("board.fallback_mode") && e.contains("clamp_and_feed_hold"),
+        "{e}"
+    );
 }

@@ -5,7 +5,7 @@
 
 use acc_core::ForceSample;
 use acc_pmc::{BoardErrorKind, BoardStatus};
-use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Release};
+use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Rearm, Release};
 use acc_runtime::testing::{LinearPowerForce, LinkFault, ScriptedBoard, ScriptedLaw};
 use acc_runtime::{ControlLoop, CycleRecord};
 
@@ -21,7 +21,17 @@ struct Rig {
 }
 
 impl Rig {
+    /// On a v2 board (the `ScriptedBoard` default).
     fn new(cfg: PolicyConfig, script: impl IntoIterator<Item = u16>) -> Self {
+        Self::on(ScriptedBoard::new(), cfg, script)
+    }
+
+    /// On a v1 board (no fallback clamp, no `BOARD_RESTARTED`).
+    fn v1(cfg: PolicyConfig, script: impl IntoIterator<Item = u16>) -> Self {
+        Self::on(ScriptedBoard::v1(), cfg, script)
+    }
+
+    fn on(b: ScriptedBoard, cfg: PolicyConfig, script: impl IntoIterator<Item = u16>) -> Self {
         cfg.validate().expect("valid policy config");
         Self {
             lp: ControlLoop::new(
@@ -30,7 +40,7 @@ impl Rig {
                 LinearPowerForce { n_per_w: N_PER_W },
                 cfg.period_s,
             ),
-            b: ScriptedBoard::new(),
+            b,
             t_s: 0.0,
             power_w: 1200,
             freeze_seq: false,
@@ -54,6 +64,13 @@ impl Rig {
     }
 
     fn status(&self) -> BoardStatus {
+        self.b.board.status()
+    }
+
+    /// The board's status at board time now (its watchdog runs even when no request
+    /// reaches it).
+    fn status_now(&mut self) -> BoardStatus {
+        self.b.board.tick(self.b.now_ms);
         self.b.board.status()
     }
 
@@ -123,7 +140,7 @@ fn arms_bumpless_only_while_the_switch_is_on() {
 }
 
 #[test]
-fn link_timeout_holds_the_last_override_then_releases_with_alarm() {
+fn link_timeout_holds_then_stops_commanding_and_rearms_when_the_link_returns_mid_cut() {
     let cfg = PolicyConfig {
         link_hold_periods: 5,
         ..PolicyConfig::default()
@@ -147,18 +164,74 @@ fn link_timeout_holds_the_last_override_then_releases_with_alarm() {
     );
     assert!(r.out.alarms.link_lost);
     assert!(!r.out.control.acc_request);
-    assert_eq!(r.out.write_override, None);
-    // link back: ACC_REQUEST cleared on the board, the operator has the override
+    assert_eq!(r.out.write_override, None, "no more heartbeat");
+    // v2 board: a release never needs a feed hold (the clamp keeps min(knob, 120))
+    assert!(!r.out.control.feed_hold_request);
+    // nothing is commanded while the link is down: the board's watchdog trips, its clamp
+    // (and, FALLBACK_MODE = 1, its feed hold) takes over
+    let writes_before = rig.b.override_writes.len();
+    let down = rig.run(10);
+    assert!(down.iter().all(|r| r.out.write_override.is_none()));
+    assert_eq!(rig.b.override_writes.len(), writes_before);
+    let st = rig.status_now();
+    assert!(st.watchdog_tripped && st.fallback_active && st.feed_hold_active);
+    assert!(st.override_applied_pct <= 120);
+    // link back, the cut still on: re-armed at the last command (no switch cycle), the
+    // override written before ACC_REQUEST | ALARM_RESET
+    rig.b.faults.clear();
+    let controls_before = rig.b.control_writes.len();
+    let back = rig.run(3);
+    let re = back
+        .iter()
+        .find(|r| {
+            r.out.events.contains(&Event::Rearmed {
+                reason: Rearm::LinkRestored,
+                at_pct: 120,
+            })
+        })
+        .expect("re-armed at 120");
+    assert_eq!(re.plan.override_and_heartbeat.map(|p| p.0), Some(120));
+    let c = re.plan.control.expect("control written");
+    assert!(c.acc_request && c.alarm_reset && !c.feed_hold_request);
+    assert_eq!(rig.b.override_writes.last().map(|w| w.0), Some(120));
+    assert!(rig.b.control_writes[controls_before..]
+        .iter()
+        .any(|c| c.acc_request && c.alarm_reset));
+    assert!(re.record(None).flags.contains("rearm:link_restored"));
+    for r in &back {
+        let s = r.link.expect("link back");
+        assert!(
+            s.override_applied_pct <= 120,
+            "never above the last command"
+        );
+    }
+    let st = rig.status();
+    assert!(!st.watchdog_tripped && !st.feed_hold_active && st.acc_active);
+    assert_eq!(st.override_applied_pct, 120);
+    assert_eq!(rig.state(), AccState::Active);
+    assert!(!rig.lp.policy().alarms().any());
+}
+
+#[test]
+fn link_back_after_the_cut_ended_stays_latched_until_the_switch_cycles() {
+    let cfg = PolicyConfig {
+        link_hold_periods: 3,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [110, 120]);
+    rig.run(4);
+    rig.b
+        .inject(LinkFault::RequestLost(BoardErrorKind::Timeout), 200);
+    rig.run(10);
+    assert_eq!(rig.state(), AccState::Latched(Release::LinkLost));
+    rig.b.board.set_cycle_active(false);
     rig.b.faults.clear();
     rig.run(3);
-    assert!(!rig.b.board.control().acc_request);
-    assert_eq!(rig.status().override_applied_pct, 100);
     assert_eq!(
         rig.state(),
         AccState::Latched(Release::LinkLost),
-        "no re-arm by itself"
+        "no re-arm by itself out of the cut"
     );
-    // the board's own watchdog tripped meanwhile (heartbeat stopped > 500 ms)
     assert!(rig.status().watchdog_tripped);
     // operator cycles the switch: re-armed with ALARM_RESET, alarm cleared
     let (_, on) = rig.cycle_switch();
@@ -170,6 +243,46 @@ fn link_timeout_holds_the_last_override_then_releases_with_alarm() {
     assert!(!rig.status().watchdog_tripped);
     assert!(rig.status().acc_active);
     assert!(!rig.lp.policy().alarms().any());
+}
+
+#[test]
+fn v1_link_loss_rearms_at_most_at_the_knob_when_the_link_returns() {
+    let cfg = PolicyConfig {
+        link_hold_periods: 3,
+        ..PolicyConfig::default()
+    };
+    // ACC at 60 %, the operator's knob at 100 %: a v1 board's watchdog hands the feed to
+    // the knob (no clamp) — unavoidable while nothing gets through
+    let mut rig = Rig::v1(cfg, [60]);
+    rig.run(4);
+    rig.b
+        .inject(LinkFault::RequestLost(BoardErrorKind::Timeout), 200);
+    let recs = rig.run(12);
+    let rel = recs
+        .iter()
+        .find(|r| released(r, Release::LinkLost))
+        .expect("released");
+    assert!(
+        rel.out.control.feed_hold_request,
+        "v1: a raising release asks for feed hold"
+    );
+    let st = rig.status_now();
+    assert!(st.watchdog_tripped && st.override_applied_pct == 100 && !st.feed_hold_active);
+    rig.b.faults.clear();
+    let recs = rig.run(4);
+    let re = recs
+        .iter()
+        .find_map(|r| {
+            r.out.events.iter().find_map(|e| match e {
+                Event::Rearmed { reason, at_pct } => Some((*reason, *at_pct)),
+                _ => None,
+            })
+        })
+        .expect("re-armed");
+    assert_eq!(re, (Rearm::LinkRestored, 60));
+    let st = rig.status();
+    assert!(st.acc_active && !st.feed_hold_active && !st.watchdog_tripped);
+    assert_eq!(st.override_applied_pct, 60);
 }
 
 #[test]
@@ -210,8 +323,8 @@ fn invalid_power_never_raises_the_feed_and_releases_after_n() {
         invalid_power_periods: 4,
         ..PolicyConfig::default()
     };
-    // the law asks for more and more
-    let mut rig = Rig::new(cfg, [80, 90, 100, 110, 120, 130, 140, 150]);
+    // the law asks for more and more (v1 board: a release hands the feed to the knob)
+    let mut rig = Rig::v1(cfg, [80, 90, 100, 110, 120, 130, 140, 150]);
     rig.run(3);
     let before = rig.status().override_applied_pct;
     assert_eq!(before, 90);
@@ -413,11 +526,86 @@ fn watchdog_trip_is_detected_and_rearmed_only_by_the_switch() {
     assert_eq!(rig.state(), AccState::Active);
 }
 
+/// Applied override and feed hold on the board, period by period.
+fn applied(recs: &[CycleRecord]) -> Vec<(u16, bool)> {
+    recs.iter()
+        .filter_map(|r| r.link.ok())
+        .map(|s| (s.override_applied_pct, s.feed_hold_active))
+        .collect()
+}
+
 #[test]
-fn board_reset_mid_cut_is_detected() {
+fn v2_board_restart_mid_cut_rearms_at_the_last_command_without_motion_above_it() {
     let mut rig = Rig::new(PolicyConfig::default(), [70]);
     rig.run(3);
     assert!(rig.status().acc_active);
+    assert_eq!(rig.status().override_applied_pct, 70);
+    rig.b.board.power_cycle();
+    let r = rig.step();
+    // the period that sees the restart: the board is at the knob (100 %) but its power-up
+    // feed hold stops the axes
+    let s = r.link.expect("status");
+    assert!(s.board_restarted && s.feed_hold_active);
+    assert!(r.out.events.contains(&Event::Rearmed {
+        reason: Rearm::BoardRestart,
+        at_pct: 70
+    }));
+    assert!(r.record(None).flags.contains("rearm:board_restart"));
+    assert_eq!(r.plan.override_and_heartbeat.map(|p| p.0), Some(70));
+    let c = r.plan.control.expect("control");
+    assert!(c.acc_request && c.alarm_reset);
+    // override first, then CONTROL
+    assert_eq!(rig.b.override_writes.last().map(|w| w.0), Some(70));
+    let after = rig.run(5);
+    for (pct, hold) in applied(&after) {
+        assert_eq!((pct, hold), (70, false), "continues at the last command");
+    }
+    assert!(!rig.status().board_restarted);
+    assert_eq!(rig.state(), AccState::Active);
+    assert!(after.iter().all(|r| r.out.events.is_empty()));
+}
+
+#[test]
+fn v1_board_restart_mid_cut_rearms_at_once_never_above_the_knob_or_the_last_command() {
+    // knob (100 %) above the last command (70 %): one period at the knob is unavoidable,
+    // the re-arm brings it back to 70 at once
+    let mut rig = Rig::v1(PolicyConfig::default(), [70]);
+    rig.run(3);
+    rig.b.board.power_cycle();
+    let recs = rig.run(4);
+    assert!(recs[0].out.events.contains(&Event::Rearmed {
+        reason: Rearm::BoardRestart,
+        at_pct: 70
+    }));
+    assert_eq!(
+        applied(&recs),
+        vec![(100, false), (70, false), (70, false), (70, false)]
+    );
+    // knob (50 %) below the last command: the re-arm stays at the knob
+    let mut rig = Rig::v1(
+        PolicyConfig {
+            operator_handback_pct: 60,
+            ..PolicyConfig::default()
+        },
+        [70],
+    );
+    rig.run(3);
+    rig.b.board.set_operator_override_pct(50);
+    rig.b.board.power_cycle();
+    let recs = rig.run(4);
+    assert!(recs[0].out.events.contains(&Event::Rearmed {
+        reason: Rearm::BoardRestart,
+        at_pct: 50
+    }));
+    assert!(applied(&recs).iter().all(|(p, _)| *p <= 50));
+}
+
+#[test]
+fn board_reset_out_of_the_cut_is_released_and_latched() {
+    let mut rig = Rig::new(PolicyConfig::default(), [70]);
+    rig.run(3);
+    assert!(rig.status().acc_active);
+    rig.b.board.set_cycle_active(false);
     rig.b.board.power_cycle();
     let r = rig.step();
     assert!(released(&r, Release::BoardReset));
@@ -429,6 +617,50 @@ fn board_reset_mid_cut_is_detected() {
     rig.cycle_switch();
     rig.run(2);
     assert!(rig.status().acc_active);
+}
+
+#[test]
+fn a_board_that_keeps_restarting_is_released() {
+    let mut rig = Rig::new(PolicyConfig::default(), [70]);
+    rig.run(3);
+    let mut recs = Vec::new();
+    for _ in 0..12 {
+        rig.b.board.power_cycle();
+        recs.push(rig.step());
+    }
+    assert!(recs
+        .iter()
+        .any(|r| released(r, Release::BoardReset) || released(r, Release::NoBoardAck)));
+    assert!(applied(&recs).iter().all(|(p, hold)| *p <= 70 || *hold));
+}
+
+#[test]
+fn a_raising_release_holds_the_feed_on_v1_but_not_on_v2() {
+    let cfg = PolicyConfig {
+        invalid_power_periods: 2,
+        ..PolicyConfig::default()
+    };
+    for (v2, mut rig) in [(true, Rig::new(cfg, [60])), (false, Rig::v1(cfg, [60]))] {
+        rig.run(3);
+        assert_eq!(rig.status().override_applied_pct, 60);
+        rig.power_w = u32::MAX;
+        let recs = rig.run(3);
+        let rel = recs
+            .iter()
+            .find(|r| released(r, Release::PowerInvalid))
+            .expect("released");
+        assert_eq!(rel.out.control.feed_hold_request, !v2, "v2 = {v2}");
+        rig.power_w = 1200;
+        let after = rig.run(3);
+        let st = rig.status();
+        if v2 {
+            // the board's clamp: min(knob 100, last 60), no feed hold needed
+            assert!(st.fallback_active && !st.feed_hold_active);
+            assert!(applied(&after).iter().all(|(p, _)| *p <= 60));
+        } else {
+            assert!(st.feed_hold_active && st.override_applied_pct == 100);
+        }
+    }
 }
 
 #[test]

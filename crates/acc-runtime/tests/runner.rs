@@ -51,6 +51,9 @@ impl acc_pmc::Board for LiveBoard {
     fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
         self.0.write_control(c)
     }
+    fn protocol(&self) -> Option<acc_pmc::BoardProtocol> {
+        self.0.protocol()
+    }
 }
 
 #[test]
@@ -77,11 +80,12 @@ fn runs_max_periods_logs_each_and_clears_acc_request() {
         assert!((r.t_s - 0.1 * (k + 1) as f64).abs() < 1e-9);
     }
     assert_eq!(s.final_state, AccState::Active);
-    // A v2 board: the release mid-cycle engages the fallback clamp at the last command
-    // (70 %), below the operator's 100 %.
+    // a v2 board: the release engages its fallback clamp, min(knob 100 %, last 70 %)
     let st = board.0.board.status();
-    assert!(st.fallback_active);
-    assert_eq!(st.override_applied_pct, 70, "clamped, not the operator's");
+    assert_eq!(st.override_applied_pct, 70, "clamped, never the knob's 100");
+    assert!(st.fallback_active && !st.feed_hold_active);
+    assert!(!s.shutdown_feed_hold);
+    assert_eq!(s.protocol, Some(acc_pmc::BoardProtocol::V2));
     assert!(!board.0.board.control().acc_request, "ACC_REQUEST cleared");
     assert!(s.shutdown_ok.is_ok());
     // the law's commands reached the board while running
@@ -692,4 +696,188 @@ fn a_vanished_device_ends_the_run_within_the_configured_periods() {
     // Every period has its row; the policy released (link lost) before the end.
     assert_eq!(sink.0.len() as u64, s.periods);
     assert!(sink.0.last().is_some_and(|r| r.state == "link_lost"));
+}
+
+#[test]
+fn ending_mid_cut_on_a_v1_board_holds_the_feed_before_the_release() {
+    let mut board = LiveBoard(ScriptedBoard::v1(), Vec::new());
+    let mut ctl = control();
+    let mut sink = VecSink::default();
+    let stop = AtomicBool::new(false);
+    let s = run_manual(&mut board, &mut ctl, &mut sink, &stop, 30);
+    assert_eq!(s.ended, acc_runtime::Ended::Completed);
+    assert_eq!(s.protocol, Some(acc_pmc::BoardProtocol::V1));
+    assert!(s.shutdown_feed_hold, "v1, in the cut: feed hold first");
+    let writes = &board.0.control_writes;
+    let n = writes.len();
+    assert!(n >= 2);
+    // feed hold while ACC still drives the override, then the release with the hold kept
+    assert!(writes[n - 2].acc_request && writes[n - 2].feed_hold_request);
+    assert!(!writes[n - 1].acc_request && writes[n - 1].feed_hold_request);
+    let st = board.0.board.status();
+    assert!(
+        st.feed_hold_active,
+        "the knob (100 %) is applied, but the axes stand"
+    );
+}
+
+/// A link to a shared board whose device can vanish: while `dead`, every transaction
+/// answers `Disconnected` (the board itself keeps running: its time advances). The device
+/// vanishes at the read `die_at` (counted on the board, so it does not depend on thread
+/// timing).
+struct Vanishing {
+    board: Arc<Mutex<(ScriptedBoard, bool)>>,
+    reads: Arc<Mutex<u32>>,
+    die_at: u32,
+    /// Applied override and feed hold at every read that answered.
+    seen: Arc<Mutex<Vec<(u16, bool)>>>,
+}
+
+impl acc_pmc::Board for Vanishing {
+    type Error = acc_runtime::testing::ScriptedError;
+    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        let mut g = self.board.lock().expect("board");
+        let (b, dead) = &mut *g;
+        let mut reads = self.reads.lock().expect("reads");
+        *reads += 1;
+        if *reads == self.die_at {
+            *dead = true;
+        }
+        b.board.push_power_sample(1500);
+        b.now_ms += 100;
+        if *dead {
+            b.board.tick(b.now_ms);
+            return Err(acc_runtime::testing::ScriptedError(
+                acc_pmc::BoardErrorKind::Disconnected,
+            ));
+        }
+        let s = b.read_status()?;
+        self.seen
+            .lock()
+            .expect("seen")
+            .push((s.override_applied_pct, s.feed_hold_active));
+        Ok(s)
+    }
+    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+        let mut g = self.board.lock().expect("board");
+        if g.1 {
+            return Err(acc_runtime::testing::ScriptedError(
+                acc_pmc::BoardErrorKind::Disconnected,
+            ));
+        }
+        g.0.write_override(o, hb)
+    }
+    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+        let mut g = self.board.lock().expect("board");
+        if g.1 {
+            return Err(acc_runtime::testing::ScriptedError(
+                acc_pmc::BoardErrorKind::Disconnected,
+            ));
+        }
+        g.0.write_control(c)
+    }
+}
+
+/// Run a board whose device vanishes after 20 periods and comes back at the `back_at`-th
+/// reopen attempt (never with `None`), with `[runtime] on_device_lost = "reconnect"`.
+fn reconnect_run(
+    back_at: Option<u32>,
+    timeout: Duration,
+) -> (
+    acc_runtime::RunSummary,
+    Vec<RunRecord>,
+    Vec<(u16, bool)>,
+    ScriptedBoard,
+    u32,
+) {
+    let shared = Arc::new(Mutex::new((ScriptedBoard::new(), false)));
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let reads = Arc::new(Mutex::new(0u32));
+    let mut board = Vanishing {
+        board: Arc::clone(&shared),
+        reads: Arc::clone(&reads),
+        die_at: 21,
+        seen: Arc::clone(&seen),
+    };
+    let mut sink = VecSink::default();
+    let mut attempts = 0u32;
+    let mut reopen = || -> Result<Vanishing, String> {
+        attempts += 1;
+        if back_at.is_some_and(|n| attempts >= n) {
+            shared.lock().expect("board").1 = false;
+            Ok(Vanishing {
+                board: Arc::clone(&shared),
+                reads: Arc::clone(&reads),
+                die_at: 0,
+                seen: Arc::clone(&seen),
+            })
+        } else {
+            Err("no such device".into())
+        }
+    };
+    let opts = RunOptions {
+        max_periods: Some(80),
+        on_device_lost: acc_runtime::OnDeviceLost::Reconnect { timeout },
+        ..RunOptions::new(Duration::from_millis(100))
+    };
+    let mut ctl = control();
+    let stop = AtomicBool::new(false);
+    let s = acc_runtime::run_with_reopen(
+        &mut board,
+        &mut ctl,
+        ManualClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+        Some(&mut reopen),
+    )
+    .expect("runs");
+    let seen = seen.lock().expect("seen").clone();
+    let b = shared.lock().expect("board").0.clone();
+    (s, sink.0, seen, b, attempts)
+}
+
+#[test]
+fn reconnect_rearms_at_the_last_command_and_logs_every_period() {
+    // gone for 15 periods (past link_hold_periods = 5: the policy released and the board's
+    // watchdog tripped), then the device is back
+    let (s, rows, seen, b, attempts) = reconnect_run(Some(15), Duration::from_secs(10));
+    assert_eq!(s.ended, acc_runtime::Ended::Completed);
+    assert_eq!(s.reconnects, 1);
+    assert_eq!(attempts, 15, "one reopen attempt per period while gone");
+    assert_eq!(rows.len() as u64, s.periods, "a row every period");
+    let gone = rows
+        .iter()
+        .filter(|r| r.has_flag("link:disconnected"))
+        .count();
+    assert_eq!(gone, 15);
+    assert!(rows.iter().any(|r| r.has_flag("rearm:link_restored")));
+    // the law had reached 70 %: never above it again, before, during or after the outage
+    let first70 = seen.iter().position(|p| p.0 == 70).expect("reached 70");
+    for (i, (pct, hold)) in seen.iter().enumerate().skip(first70) {
+        assert!(*pct <= 70 || *hold, "read {i}: {pct} %");
+    }
+    // driving again after the re-arm: at 70 %, the feed hold of the watchdog trip cleared
+    assert!(seen.iter().rev().take(10).all(|p| *p == (70, false)));
+    assert!(!b.board.status().watchdog_tripped);
+    assert_eq!(s.final_state, AccState::Active);
+    assert!(s.longest_device_loss >= Duration::from_millis(1400));
+}
+
+#[test]
+fn reconnect_gives_up_after_the_timeout() {
+    let (s, rows, _, _, attempts) = reconnect_run(None, Duration::from_secs(1));
+    assert_eq!(s.ended, acc_runtime::Ended::DeviceLost);
+    assert_eq!(rows.len() as u64, s.periods, "a row every period");
+    let gone = rows
+        .iter()
+        .rev()
+        .take_while(|r| r.has_flag("link:disconnected"))
+        .count();
+    assert_eq!(
+        gone, 11,
+        "1 s at T = 0.1 s after the first period without it"
+    );
+    assert!(attempts >= 10);
+    assert!(s.longest_device_loss >= Duration::from_secs(1));
 }

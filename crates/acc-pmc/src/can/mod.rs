@@ -3,7 +3,11 @@
 //! in-memory `emu::CanBoardEmulator` in tests and simulations, feature `emulator`).
 //!
 //! The board broadcasts its status (`0x180+n`, then `0x280+n`) with every new power sample;
-//! the PC sends one command frame (`0x200+n`) per cycle. There are no replies and no
+//! the PC sends one command frame (`0x200+n`) per cycle. A v2 board adds the NC-context frame
+//! `0x300+n` to every status pair and the identity frame `0x380+n` once a second; the link
+//! decodes both into [`BoardStatus`] and reports [`BoardProtocol::V2`] once it has seen them,
+//! [`BoardProtocol::V1`] when a status pair arrives without a `0x300+n` frame from a board
+//! that never sent one. There are no replies and no
 //! exceptions on CAN, so [`CanBoard`] refuses an override the board would refuse (above
 //! 150 % or not a multiple of the last reported step) locally, with the same
 //! [`BoardErrorKind::Exception`]`(3)` the RTU board answers.
@@ -19,9 +23,11 @@ use std::time::Duration;
 use embedded_can::{Frame, Id, StandardId};
 
 use crate::clock::{Clock, SystemClock};
-use crate::regs::OVERRIDE_MAX_PCT;
-use crate::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
-use codec::{decode_status, encode_command, CanCodecError, Command, NodeIds};
+use crate::regs::{OVERRIDE_MAX_PCT, PROTOCOL_V2};
+use crate::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
+use codec::{
+    decode_context, decode_identity, decode_status, encode_command, CanCodecError, Command, NodeIds,
+};
 
 /// Tells a receive timeout (no frame yet) apart from a real bus error.
 pub trait ReceiveTimeout {
@@ -129,6 +135,11 @@ pub struct CanBoard<B: embedded_can::blocking::Can> {
     pending_a: Option<[u8; 8]>,
     last: Option<BoardStatus>,
     command: Command,
+    /// `(PROTOCOL_VERSION, PROGRAM_NUMBER)` of the last identity frame (`0x380+n`).
+    identity: Option<(u16, u16)>,
+    /// A v2 frame (`0x300+n` or `0x380+n`) has been seen on this link.
+    v2_seen: bool,
+    protocol: Option<BoardProtocol>,
 }
 
 impl<B: embedded_can::blocking::Can> std::fmt::Debug for CanBoard<B> {
@@ -165,6 +176,9 @@ where
             clock,
             pending_a: None,
             last: None,
+            identity: None,
+            v2_seen: false,
+            protocol: None,
             command: Command {
                 override_pct: 100,
                 control: ControlBits::default(),
@@ -191,10 +205,14 @@ where
     }
 
     /// Receive until a fresh status pair has arrived and the bus is quiet (the newest pair
-    /// wins), or the timeout passes.
+    /// wins), or the timeout passes. A v2 context frame (`0x300+n`) is merged into the pair it
+    /// follows (or precedes), the last identity frame (`0x380+n`) into every status.
     fn receive_status(&mut self) -> Result<BoardStatus, CanError<B::Error>> {
         let deadline = self.clock.now() + self.cfg.timeout;
-        let mut fresh: Option<BoardStatus> = None;
+        // The newest pair and whether a context frame came with it.
+        let mut fresh: Option<(BoardStatus, bool)> = None;
+        // A context frame that arrived before its pair was complete.
+        let mut pending_context: Option<Vec<u8>> = None;
         loop {
             match self.bus.receive() {
                 Ok(frame) => match Self::standard_id(&frame) {
@@ -209,25 +227,62 @@ where
                     }
                     Some(id) if id == self.ids.status_b => {
                         if let Some(a) = self.pending_a.take() {
-                            fresh = Some(decode_status(self.ids, &a, frame.data())?);
+                            let mut s = decode_status(self.ids, &a, frame.data())?;
+                            let with_context = match pending_context.take() {
+                                Some(c) => {
+                                    decode_context(self.ids, &c, &mut s)?;
+                                    true
+                                }
+                                None => false,
+                            };
+                            fresh = Some((s, with_context));
                         }
+                    }
+                    Some(id) if id == self.ids.context => {
+                        self.v2_seen = true;
+                        match fresh.as_mut() {
+                            Some((s, with_context)) if !*with_context => {
+                                decode_context(self.ids, frame.data(), s)?;
+                                *with_context = true;
+                            }
+                            _ => pending_context = Some(frame.data().to_vec()),
+                        }
+                    }
+                    Some(id) if id == self.ids.identity => {
+                        self.v2_seen = true;
+                        self.identity = Some(decode_identity(self.ids, frame.data())?);
                     }
                     _ => {} // other nodes, our own command frames, remote/extended frames
                 },
                 Err(e) if e.is_receive_timeout() => {
-                    if let Some(s) = fresh {
-                        return Ok(s);
+                    if let Some(f) = fresh {
+                        return Ok(self.finish(f));
                     }
                 }
                 Err(e) => return Err(CanError::Bus(e)),
             }
             if self.clock.now() >= deadline {
-                return fresh.ok_or(CanError::Timeout {
+                return fresh.map(|f| self.finish(f)).ok_or(CanError::Timeout {
                     node: self.cfg.node,
                     timeout_ms: u64::try_from(self.cfg.timeout.as_millis()).unwrap_or(u64::MAX),
                 });
             }
         }
+    }
+
+    /// Add the identity to a received pair and settle the protocol: v2 once a v2 frame has
+    /// been seen, v1 when a pair came without a context frame from a board that never sent
+    /// one.
+    fn finish(&mut self, (mut s, with_context): (BoardStatus, bool)) -> BoardStatus {
+        if self.v2_seen || with_context {
+            let (version, program) = self.identity.unwrap_or((PROTOCOL_V2, 0));
+            s.protocol_version = version.max(PROTOCOL_V2);
+            s.program_number = program;
+            self.protocol = Some(BoardProtocol::V2);
+        } else {
+            self.protocol = Some(BoardProtocol::V1);
+        }
+        s
     }
 
     fn send_command(&mut self) -> Result<(), CanError<B::Error>> {
@@ -280,6 +335,12 @@ where
     fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error> {
         self.command.control = control;
         self.send_command()
+    }
+
+    /// V2 once a `0x300+n` / `0x380+n` frame has been seen, V1 when a status pair arrived
+    /// without a `0x300+n` frame; `None` before the first status pair.
+    fn protocol(&self) -> Option<BoardProtocol> {
+        self.protocol
     }
 }
 
