@@ -56,7 +56,7 @@ pub struct FaultMatrixArgs {
     #[arg(long, default_value = "configs/runtime/fault_matrix.toml")]
     pub config: PathBuf,
     /// Machine seconds per wall second for both processes (1 ..= 20).
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 5.0)]
     pub time_scale: f64,
     /// Machine time of the fault, s (paper case III: the 4 mm step runs from about 31 s to
     /// 55 s).
@@ -164,8 +164,8 @@ const FAULTS: &[Fault] = &[
     },
     Fault {
         name: "late",
-        what: "20 replies late (after the timeout)",
-        action: Action::Board("late@{t}:20"),
+        what: "4 replies late (after the timeout: the link resynchronises)",
+        action: Action::Board("late@{t}:4"),
         v1_unsafe: None,
         not_judged: None,
     },
@@ -378,7 +378,7 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
         s("--fault"),
         fault_spec,
         s("--late-ms"),
-        s("30"),
+        s("12"),
     ];
     if protocol == 1 {
         bargs.extend([s("--v1-registers"), s("exception")]);

@@ -43,7 +43,7 @@ pub struct SoakArgs {
     #[arg(long, default_value_t = 2)]
     pub protocol: u8,
     /// `acc run` configuration (its `runtime.time_scale` must equal `--time-scale`).
-    #[arg(long, default_value = "configs/runtime/fault_matrix.toml")]
+    #[arg(long, default_value = "configs/runtime/soak.toml")]
     pub config: PathBuf,
     /// Scenario whose machine, tool, controller and workpiece pattern are repeated.
     #[arg(long, default_value = "configs/scenarios/paper_case3.toml")]
@@ -147,7 +147,7 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
         "--log",
         &machine_log.to_string_lossy(),
         "--late-ms",
-        "30",
+        "8",
     ]
     .iter()
     .map(|s| s.to_string())

@@ -46,7 +46,10 @@
 //! - **`OVERRIDE_LOCKED`** (tapping, threading, override cancel): the law is frozen
 //!   ([`OverrideLaw::set_frozen`]) and not stepped; the last command is held, never fought.
 //! - **Operator knob down** by more than `operator_handback_pct` from its highest position
-//!   since arming → hand back to the operator, latch.
+//!   since arming → hand back to the operator, latch. On a board without the fallback clamp
+//!   (v1) a knob still above ACC's last command is not handed back (the board would move to
+//!   the knob and raise the feed): ACC keeps control with the knob as the ceiling of its
+//!   command, and hands back once the knob is at or below that command.
 //! - **Never above the maximum**: every command is clamped to `[min_override_pct,
 //!   max_override_pct]` and floored to the board's `OVERRIDE_STEP`.
 //!
@@ -508,6 +511,10 @@ pub struct FaultPolicy {
     outage: bool,
     /// Consecutive re-arms without a clean confirmation.
     rearms: u32,
+    /// The operator's knob as a ceiling on ACC's command: set when the knob is turned down
+    /// but handing back would raise the feed (a board without the fallback clamp, knob above
+    /// ACC's last command). Cleared on arming.
+    knob_ceiling: Option<u16>,
 }
 
 impl FaultPolicy {
@@ -536,6 +543,7 @@ impl FaultPolicy {
             protocol: None,
             outage: false,
             rearms: 0,
+            knob_ceiling: None,
         }
     }
 
@@ -853,6 +861,7 @@ impl FaultPolicy {
         self.alarms = Alarms::default();
         self.outage = false;
         self.rearms = 0;
+        self.knob_ceiling = None;
         self.acc_request = true;
         self.acc_confirmed = false;
         self.arm_age = 0;
@@ -937,7 +946,24 @@ impl FaultPolicy {
         if u32::from(s.operator_override_pct) + u32::from(self.cfg.operator_handback_pct)
             < u32::from(self.operator_ref)
         {
-            return self.release(Release::OperatorHandback, out, law);
+            // Handing back moves the board to the knob. Without the fallback clamp (v1) a
+            // knob still above ACC's last command would raise the feed: keep control with the
+            // knob as the ceiling instead, and hand back once the knob is at or below ACC's
+            // command.
+            let raising =
+                !self.board_clamps() && self.last_cmd.is_some_and(|c| s.operator_override_pct > c);
+            if !raising {
+                return self.release(Release::OperatorHandback, out, law);
+            }
+            if self.knob_ceiling != Some(s.operator_override_pct) {
+                tracing::info!(
+                    knob_pct = s.operator_override_pct,
+                    "operator's knob down: it caps ACC's command (handing back would raise the feed on this board)"
+                );
+            }
+            self.knob_ceiling = Some(s.operator_override_pct);
+        } else {
+            self.knob_ceiling = None;
         }
         // Board-side faults.
         if s.watchdog_tripped {
@@ -1017,6 +1043,9 @@ impl FaultPolicy {
         let mut cmd = self.quantize(step.command.0, s.override_step_pct);
         if !force_valid {
             cmd = cmd.min(last);
+        }
+        if let Some(knob) = self.knob_ceiling {
+            cmd = cmd.min(self.quantize(knob, s.override_step_pct));
         }
         self.last_cmd = Some(cmd);
         out.write_override = Some(FeedOverride(cmd));
