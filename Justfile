@@ -51,3 +51,13 @@ ident-sweep:
 # Loop timing: the real ticker for 36 000 periods at T = 1 ms.
 jitter:
     cargo run --release -p acc-runtime --example ticker_jitter -- 1000 36000
+
+# The reliability fault matrix (every fault at the deepest cut, v2 and v1 boards) into
+# docs/reliability.md (~5.5 min).
+fault-matrix:
+    cargo run --release -p acc-cli -- fault-matrix --update-doc docs/reliability.md
+
+# One hour of machine time at 10x against board-sim with a random fault every few seconds
+# (~6 min): memory growth, lost rows, dead threads, into docs/reliability.md.
+soak:
+    cargo run --release -p acc-cli -- soak --update-doc docs/reliability.md
