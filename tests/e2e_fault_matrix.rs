@@ -10,16 +10,7 @@
 
 mod e2e_support;
 
-use e2e_support::{acc_bin, root};
-
-/// The two closed-loop suites of this file run one at a time (2-core machines).
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
+use e2e_support::{acc_bin, one_at_a_time, root};
 
 #[test]
 fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {

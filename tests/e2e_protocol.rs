@@ -7,16 +7,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{spawn_board_sim, Proc};
-
-/// The closed loops of this file run one at a time (2 cores, 4x time).
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
+use e2e_support::{one_at_a_time, spawn_board_sim, Proc};
 
 /// `acc run --duration-s 2` against a board-sim started with `board_args`; returns its
 /// stdout and stderr lines.

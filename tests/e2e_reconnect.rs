@@ -11,16 +11,7 @@ mod e2e_support;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use e2e_support::{field, read_log, root, spawn_board_sim, spawn_run};
-
-/// The closed loops of this file run one at a time (2 cores, 4x time).
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
+use e2e_support::{field, one_at_a_time, read_log, root, spawn_board_sim, spawn_run};
 
 /// `board_sim_fast.toml` with absolute paths and `[runtime]` reconnecting for
 /// `timeout_s` s of machine time.

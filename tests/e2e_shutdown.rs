@@ -9,17 +9,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{read_log, spawn_board_sim, spawn_run};
-
-/// The closed loops of this file run one at a time: two board-sim/acc-run pairs at 4x time
-/// on a 2-core machine would slip each other's timing.
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
+use e2e_support::{one_at_a_time, read_log, spawn_board_sim, spawn_run};
 
 #[test]
 fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force() {

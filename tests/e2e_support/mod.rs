@@ -317,3 +317,12 @@ pub fn peer_ready(what: &str, check: &mut Command) -> bool {
     }
     ok
 }
+
+/// The closed loops of one test file run one at a time: two board-sim/acc-run pairs faster
+/// than real time on a 2-core machine would slip each other's timing.
+pub fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    SERIAL
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}

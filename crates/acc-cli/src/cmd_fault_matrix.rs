@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 use acc_runtime::record::RunRecord;
 use anyhow::{bail, Context};
 
-use crate::harness::{describe, read, Proc};
+use crate::harness::{describe, fault_periods_raising, read, Proc};
 
 /// Arguments of `acc fault-matrix`.
 #[derive(Debug, clap::Args)]
@@ -531,22 +531,7 @@ fn judge(
     let feed_hold_after = after.iter().any(|x| x.feed_hold);
     // Controller side: no period with an unusable force sample or a link fault raised the
     // command above the one before it.
-    let mut raised = 0;
-    let mut prev: Option<u16> = None;
-    for x in r {
-        if x.state != "active" {
-            prev = None;
-            continue;
-        }
-        let Some(c) = x.override_cmd_pct else {
-            continue;
-        };
-        let faulty = !x.force_valid || x.flags.contains("link:");
-        if faulty && prev.is_some_and(|p| c > p) {
-            raised += 1;
-        }
-        prev = Some(c);
-    }
+    let raised = fault_periods_raising(r);
     let log_complete =
         !r.is_empty() && r.windows(2).all(|w| w[1].period == w[0].period + 1) && r[0].period == 0;
 

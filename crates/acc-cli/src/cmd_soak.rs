@@ -22,7 +22,7 @@ use acc_runtime::record::RunRecord;
 use anyhow::{bail, Context};
 use rand::{Rng, SeedableRng};
 
-use crate::harness::{describe, read, rss_kib_and_threads, Proc};
+use crate::harness::{describe, fault_periods_raising, read, rss_kib_and_threads, Proc};
 
 /// Arguments of `acc soak`.
 #[derive(Debug, clap::Args)]
@@ -447,21 +447,7 @@ fn analyse(
     }
     let run_flagged = r.iter().filter(|x| !x.flags.is_empty()).count();
     // The invariant: a period with an unusable force sample never raises the command.
-    let mut raised = 0;
-    let mut prev: Option<u16> = None;
-    for x in r {
-        if x.state != "active" {
-            prev = None;
-            continue;
-        }
-        let Some(c) = x.override_cmd_pct else {
-            continue;
-        };
-        if !x.force_valid && prev.is_some_and(|p| c > p) {
-            raised += 1;
-        }
-        prev = Some(c);
-    }
+    let raised = fault_periods_raising(r);
     if raised > 0 {
         problems.push(format!("{raised} fault periods raised the command"));
     }
