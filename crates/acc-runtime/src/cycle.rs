@@ -115,6 +115,13 @@ impl CycleRecord {
             feed_hold: self.out.control.feed_hold_request,
             ..RunRecord::default()
         };
+        // The NC context of a v2 board (0 = unknown there, an empty cell here).
+        if let Some(s) = status.filter(|s| s.is_v2()) {
+            let known = |v: u16| (v != 0).then_some(v);
+            r.tool = known(s.tool_number);
+            r.program = known(s.program_number);
+            r.block = known(s.block_number);
+        }
         if let Err(k) = self.link {
             r.flag(&format!("link:{}", kind_name(k)));
         }

@@ -1112,3 +1112,23 @@ mod invariant {
         }
     }
 }
+
+#[test]
+fn the_run_log_carries_the_nc_context_of_a_v2_board_only() {
+    let mut rig = Rig::new(PolicyConfig::default(), [80]);
+    rig.b.board.set_tool_number(12);
+    rig.b.board.set_program_number(4711);
+    rig.b.board.set_block_number(230);
+    let row = rig.step().record(None);
+    assert_eq!(
+        (row.tool, row.program, row.block),
+        (Some(12), Some(4711), Some(230))
+    );
+    rig.b.board.set_block_number(0); // 0 = unknown on the board: an empty cell
+    assert_eq!(rig.step().record(None).block, None);
+    // A v1 board has no such registers: the cells stay empty whatever the board holds.
+    let mut rig = Rig::v1(PolicyConfig::default(), [80]);
+    rig.b.board.set_tool_number(12);
+    let row = rig.step().record(None);
+    assert_eq!((row.tool, row.program, row.block), (None, None, None));
+}
