@@ -73,7 +73,13 @@ fn check(wp: usize, tooth: bool, dyn_channel: bool, seed: u64) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+    // A fixed seed: the cases are random but the same on every run (CI never flakes on a
+    // lucky draw; change the seed to explore).
+    #![proptest_config(ProptestConfig {
+        cases: 6,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(20_261_124),
+        ..ProptestConfig::default()
+    })]
     #[test]
     fn null_logs_from_acc_sim_replay_within_the_noise(
         wp in 0usize..5, tooth in any::<bool>(), dyn_channel in any::<bool>(), seed in 1u64..10_000
