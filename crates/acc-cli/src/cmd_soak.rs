@@ -352,10 +352,10 @@ fn fault_schedule(seed: u64, machine_s: f64, every_s: f64) -> Vec<String> {
             )),
             _ => out.push(format!("unplug@{tt}:{:.1}", rng.random_range(0.5..3.0))),
         }
-        // The operator re-arms a latched release: switch off and on again within one period
-        // (a switch held off would hand the cut to the knob, the operator's own act).
+        // The operator re-arms a latched release: switch off, and on 0.5 s later (while
+        // off, the cut runs at the knob: the operator's own act, not a fault).
         out.push(format!("switch@{:.1}:off", t + 3.5));
-        out.push(format!("switch@{:.1}:on", t + 3.6));
+        out.push(format!("switch@{:.1}:on", t + 4.0));
         t += 4.5 + rng.random_range(0.5 * every_s..1.5 * every_s);
     }
     out
@@ -582,8 +582,8 @@ fn plot(samples: &[Sample], m: &[RunRecord], out: &Path) -> anyhow::Result<()> {
             .filter_map(|s| pick(s).map(|(rss, _)| (s.0, rss as f64 / 1024.0)))
             .collect()
     };
-    // Machine log downsampled to one point per 10 s of machine time (largest true force in
-    // periods ACC drove the feed, largest applied override) so the plot stays small.
+    // Machine log downsampled to one point per 10 s of machine time (largest true force,
+    // largest applied override) so the plot stays small.
     let mut force = Vec::new();
     let mut ov = Vec::new();
     for chunk in m.chunks(100) {
@@ -592,7 +592,6 @@ fn plot(samples: &[Sample], m: &[RunRecord], out: &Path) -> anyhow::Result<()> {
             t,
             chunk
                 .iter()
-                .filter(|x| x.state == "acc_active" && !x.feed_hold)
                 .filter_map(|x| x.force_true_n)
                 .fold(0.0, f64::max),
         ));
@@ -620,12 +619,12 @@ fn plot(samples: &[Sample], m: &[RunRecord], out: &Path) -> anyhow::Result<()> {
     };
     time_series(&fig, out.join("soak.svg"))?;
     let fig = Figure {
-        title: "Soak: largest true force (ACC driving) and override per 10 s".into(),
+        title: "Soak: largest true force and override per 10 s (machine time)".into(),
         x_label: "machine time [s]".into(),
         panels: vec![
             Panel {
                 y_label: "force [N]".into(),
-                series: vec![Series::line("max true force, ACC driving", force)],
+                series: vec![Series::line("max true force", force)],
                 hlines: vec![HLine::new("Fr", 800.0)],
                 ..Panel::default()
             },

@@ -49,7 +49,7 @@
 //!   since arming → hand back to the operator, latch. On a board without the fallback clamp
 //!   (v1) a knob still above ACC's last command is not handed back (the board would move to
 //!   the knob and raise the feed): ACC keeps control with the knob as the ceiling of its
-//!   command, and hands back once the knob is at or below that command.
+//!   command, and hands back once the knob is below that command.
 //! - **Never above the maximum**: every command is clamped to `[min_override_pct,
 //!   max_override_pct]` and floored to the board's `OVERRIDE_STEP`.
 //!
@@ -948,10 +948,11 @@ impl FaultPolicy {
         {
             // Handing back moves the board to the knob. Without the fallback clamp (v1) a
             // knob still above ACC's last command would raise the feed: keep control with the
-            // knob as the ceiling instead, and hand back once the knob is at or below ACC's
-            // command.
+            // knob as the ceiling instead, and hand back once the knob is below ACC's command
+            // (at the knob's own value the command may be a dither step above ACC's
+            // regulated level, which a hand-back would hold for good).
             let raising =
-                !self.board_clamps() && self.last_cmd.is_some_and(|c| s.operator_override_pct > c);
+                !self.board_clamps() && self.last_cmd.is_some_and(|c| s.operator_override_pct >= c);
             if !raising {
                 return self.release(Release::OperatorHandback, out, law);
             }
