@@ -11,7 +11,7 @@ mod e2e_support;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use e2e_support::{field, one_at_a_time, read_log, root, spawn_board_sim, spawn_run};
+use e2e_support::{field, one_at_a_time, read_log, root, spawn_board_sim, spawn_run, Proc};
 
 /// `board_sim_fast.toml` with absolute paths and `[runtime]` reconnecting for
 /// `timeout_s` s of machine time.
@@ -44,13 +44,13 @@ fn point(link: &Path, target: &str) {
     std::fs::rename(&tmp, link).expect("rename symlink");
 }
 
-#[test]
-fn acc_run_reopens_the_board_device_when_it_comes_back() {
-    let _serial = one_at_a_time();
-    let dir = tempfile::tempdir().expect("temp dir");
-    let cfg = config(dir.path(), 40.0);
-    let run_log = dir.path().join("run.csv");
-    let dev = dir.path().join("board");
+/// `acc run` (reconnect policy, `reconnect_timeout_s` = `timeout_s`) on a board-sim behind the
+/// symlink `<dir>/board`; at t = 5 s of machine time the board-sim is killed. Returns the
+/// run, the device link and the run log path.
+fn run_until_the_board_dies(dir: &Path, timeout_s: f64) -> (Proc, PathBuf, PathBuf) {
+    let cfg = config(dir, timeout_s);
+    let run_log = dir.join("run.csv");
+    let dev = dir.join("board");
     let (mut board, pty) = spawn_board_sim(&["--fault", "operator@5:100"]);
     point(&dev, &pty);
     let run = spawn_run(&cfg.to_string_lossy(), &dev.to_string_lossy(), &run_log);
@@ -61,6 +61,14 @@ fn acc_run_reopens_the_board_device_when_it_comes_back() {
     );
     board.child.kill().expect("kill board-sim");
     let _ = board.child.wait();
+    (run, dev, run_log)
+}
+
+#[test]
+fn acc_run_reopens_the_board_device_when_it_comes_back() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (run, dev, run_log) = run_until_the_board_dies(dir.path(), 40.0);
     // A second of wall time (4 s of machine time) without the device, then a new board
     // behind the same name.
     std::thread::sleep(Duration::from_secs(1));
@@ -113,19 +121,7 @@ fn acc_run_gives_up_after_the_reconnect_timeout() {
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     // 4 s of machine time = 1 s of wall time at 4x
-    let cfg = config(dir.path(), 4.0);
-    let run_log = dir.path().join("run.csv");
-    let dev = dir.path().join("board");
-    let (mut board, pty) = spawn_board_sim(&["--fault", "operator@5:100"]);
-    point(&dev, &pty);
-    let run = spawn_run(&cfg.to_string_lossy(), &dev.to_string_lossy(), &run_log);
-    assert!(
-        board.wait_for("fault Operator(100)", Duration::from_secs(60)),
-        "board-sim did not reach t = 5 s: {:?}",
-        board.err_lines
-    );
-    board.child.kill().expect("kill board-sim");
-    let _ = board.child.wait();
+    let (run, dev, run_log) = run_until_the_board_dies(dir.path(), 4.0);
     let started = Instant::now();
     let (code, out, err) = run.finish(Duration::from_secs(30));
     let text = format!("{out}\n{}", err.join("\n"));
