@@ -77,7 +77,7 @@ fn main() {
         let (mut lib_n, mut lib_ok, mut cov_n, mut cov_ok) = (0, 0, 0, 0);
         let (mut out_n, mut out_named) = (0, 0);
         for &h in &hidden {
-            if !h.acts_on(ch) {
+            if !h.acts_on(ch, acc_ident::twin::estimator_of(&base).is_some()) {
                 continue;
             }
             for (wi, wp) in workpieces.iter().enumerate() {

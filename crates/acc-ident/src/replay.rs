@@ -42,6 +42,10 @@ pub struct Inputs {
     /// log with `override_applied_pct` and `programmed_feed_mm_min`); `None`: the
     /// period-based feed path below.
     pub plant: Option<PlantInputs>,
+    /// The force estimator's no-load power and its σ per row, W, when the compared force
+    /// is a spindle-power estimate ([`crate::model::Measurement::force_estimator`]): the
+    /// estimator's adaptation replayed on the logged `power_w`.
+    pub estimator_no_load: Option<Vec<(f64, f64)>>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
     cache: std::cell::RefCell<Option<std::rc::Rc<PathCache>>>,
     /// Quadratic fits of the spindle motor's input power against torque, per speed.
@@ -142,6 +146,16 @@ impl Inputs {
             (_, _, Some(c)) if !c.is_empty() => c[0],
             _ => log.feed_mm_min.first().copied().unwrap_or(0.0),
         };
+        let estimator_no_load = match (channel, model.measurement.force_estimator) {
+            (Channel::Force, Some(e)) => {
+                let p = log
+                    .power_w
+                    .as_ref()
+                    .ok_or(ReplayError::MissingChannel("power_w"))?;
+                Some(e.no_load_track(&log.spindle_rpm, p))
+            }
+            _ => None,
+        };
         let period_s = log.median_period_s();
         let mut dt_s = vec![period_s; log.len()];
         for (d, w) in dt_s.iter_mut().skip(1).zip(log.t_s.windows(2)) {
@@ -161,6 +175,7 @@ impl Inputs {
             period_s,
             prior: None,
             plant,
+            estimator_no_load,
             cache: Default::default(),
             motor_curves: Default::default(),
         })
@@ -208,8 +223,9 @@ impl Inputs {
 
     /// Whether an effect can act on these inputs at all (channel, command path, sampling).
     pub fn applicable(&self, kind: EffectKind) -> Result<(), &'static str> {
-        if kind.power_only() && self.channel != Channel::Power {
-            return Err("acts on spindle power only; the compared channel is force");
+        if kind.power_only() && self.channel != Channel::Power && self.estimator_no_load.is_none()
+        {
+            return Err("acts on spindle power only; the compared channel is a force sensor");
         }
         match kind {
             EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime
@@ -429,8 +445,10 @@ fn plant_trace(
     let mut machine = model.machine.clone();
     machine.override_path.delay_s = key.delay_s;
     machine.feed_drive.tau_s = key.tau_s;
-    let motor = match (inp.channel, model.measurement.spindle_motor) {
-        (Channel::Power, Some(m)) => m.config().ok(),
+    // The motor channel: the power, or the power a spindle-power force estimator reads.
+    let power_read = inp.channel == Channel::Power || inp.estimator_no_load.is_some();
+    let motor = match (power_read, model.measurement.spindle_motor) {
+        (true, Some(m)) => m.config().ok(),
         _ => None,
     };
     let channel = acc_sim::replay::ReplayChannel {
@@ -678,9 +696,16 @@ fn replay_plant(
         }
         g
     };
-    let motor = match inp.channel {
-        Channel::Power => model.measurement.spindle_motor,
-        Channel::Force => None,
+    // The force of a spindle-power estimator is replayed through the power it reads.
+    let estimator = match (inp.channel, &inp.estimator_no_load) {
+        (Channel::Force, Some(nl)) => model.measurement.force_estimator.map(|e| (e, nl)),
+        _ => None,
+    };
+    let power_chan = inp.channel == Channel::Power || estimator.is_some();
+    let motor = if power_chan {
+        model.measurement.spindle_motor
+    } else {
+        None
     };
     let t0 = inp.t_s.first().copied().unwrap_or(0.0) - inp.dt_s.first().copied().unwrap_or(0.0);
     let mut cut_min = 0.0;
@@ -715,9 +740,9 @@ fn replay_plant(
         let pc = torque * omega;
         out.cut_power_w[i] = pc;
         let tt = inp.t_s[i] - t0;
-        out.predicted[i] = match inp.channel {
-            Channel::Force => chan_force,
-            Channel::Power if s > 0.0 => {
+        out.predicted[i] = match power_chan {
+            false => chan_force,
+            true if s > 0.0 => {
                 let sp = &model.machine.spindle;
                 let base = match motor {
                     Some(m) => {
@@ -734,13 +759,20 @@ fn replay_plant(
                 base + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
                     + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
             }
-            Channel::Power => 0.0,
+            true => 0.0,
         };
     }
-    if let (Channel::Power, Some(l)) = (inp.channel, model.machine.spindle.sensor_lowpass) {
+    if let (true, Some(l)) = (power_chan, model.machine.spindle.sensor_lowpass) {
         l.filter(&mut out.predicted, &inp.dt_s);
     }
     if let Some(l) = fx.sensor_lowpass {
         l.filter(&mut out.predicted, &inp.dt_s);
+    }
+    // The estimator on the replayed power: its no-load (as it adapted on the logged
+    // power), efficiency curve and dead band.
+    if let Some((e, nl)) = estimator {
+        for i in 0..n {
+            out.predicted[i] = e.force_n(out.predicted[i], inp.spindle_rpm[i], nl[i]);
+        }
     }
 }

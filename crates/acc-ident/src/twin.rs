@@ -25,7 +25,13 @@ pub fn model_for_scenario(scenario: &Scenario, channel: Channel) -> Model {
         MeasurementSpec::Dynamometer { window_s, .. } => (window_s, 0.0, None),
         MeasurementSpec::SpindlePower(spec) => (spec.window_s, spec.window_s, Some(spec.motor)),
     };
-    let motor = if channel == Channel::Power {
+    // The force of a spindle-power channel is the estimator's: the replay then runs the
+    // motor's power through it, so the motor is needed on both channels.
+    let force_estimator = match channel {
+        Channel::Force => estimator_of(scenario),
+        Channel::Power => None,
+    };
+    let motor = if channel == Channel::Power || force_estimator.is_some() {
         motor
     } else {
         None
@@ -49,11 +55,34 @@ pub fn model_for_scenario(scenario: &Scenario, channel: Channel) -> Model {
             },
             spindle_motor: motor,
             power_window_s: if motor.is_some() { power_window_s } else { 0.0 },
+            force_estimator,
         },
         machine,
         tool,
         effects: Effects::default(),
     }
+}
+
+/// The force estimator of `scenario`'s spindle-power channel as commissioned (the
+/// calibration cut of [`acc_sim::motor::SpindlePowerChannel::calibrated_for`] with the
+/// scenario's seed: the installation's calibration file); `None` for a dynamometer or a
+/// current-based method.
+pub fn estimator_of(scenario: &Scenario) -> Option<crate::model::ForceEstimator> {
+    let MeasurementSpec::SpindlePower(spec) = scenario.measurement else {
+        return None;
+    };
+    let law = acc_sim::process::ForceLaw::new(scenario.tool.process);
+    let ch = acc_sim::motor::SpindlePowerChannel::calibrated_for(
+        &spec,
+        &scenario.machine.spindle,
+        scenario.seed,
+        law.torque_nm(1.0, scenario.tool.radius_mm()),
+        scenario.controller.force_ref_n,
+        scenario.tool.radius_mm(),
+        scenario.controller.period_s,
+    )
+    .ok()?;
+    crate::model::ForceEstimator::from_estimator(ch.source().estimator())
 }
 
 /// Run `scenario` with its adaptive law through `acc sim`'s production loop and return the
@@ -148,9 +177,35 @@ impl Hidden {
         }
     }
 
-    /// Whether the effect acts on `channel` at all.
-    pub fn acts_on(self, channel: Channel) -> bool {
-        !matches!(
+    /// Parse `name` or `name=value` (`null`, `tool_wear=0.08`, `feed_drive_lag=0.08`,
+    /// `override_dead_time=0.12`, `copper_loss=0.3`, `noload_drift=120`,
+    /// `sensor_lowpass=0.3`, `runout=0.15`, `depth_exponent=1.15`, `ks_step=1.3`, `tooth`).
+    pub fn parse(s: &str) -> Option<Hidden> {
+        let (k, v) = match s.split_once('=') {
+            Some((k, v)) => (k, v.parse::<f64>().ok()?),
+            None => (s, f64::NAN),
+        };
+        Some(match k {
+            "null" => Hidden::Null,
+            "tooth" => Hidden::ToothModel,
+            "tool_wear" => Hidden::ToolWear(v),
+            "feed_drive_lag" => Hidden::FeedDriveLag(v),
+            "override_dead_time" => Hidden::OverrideDeadTime(v),
+            "copper_loss" => Hidden::CopperLoss(v),
+            "noload_drift" => Hidden::NoloadDrift(v),
+            "sensor_lowpass" => Hidden::SensorLowpass(v),
+            "runout" => Hidden::Runout(v),
+            "depth_exponent" => Hidden::DepthExponent(v),
+            "ks_step" => Hidden::KsStep(v),
+            _ => return None,
+        })
+    }
+
+    /// Whether the effect acts on `channel` at all; `estimated_force`: the force channel is
+    /// a spindle-power estimate (it then sees every power effect).
+    pub fn acts_on(self, channel: Channel, estimated_force: bool) -> bool {
+        estimated_force
+            || !matches!(
             (self, channel),
             (
                 Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
@@ -233,8 +288,13 @@ pub fn run_case(
     channel: Channel,
     seed: u64,
 ) -> Result<Verdict, String> {
-    let (mut sc, model, wp) = hidden_case(base, hidden, channel);
+    let (mut sc, mut model, wp) = hidden_case(base, hidden, channel);
     sc.seed = seed;
+    if model.measurement.force_estimator.is_some() {
+        // The installation's calibration file: the channel as commissioned on this
+        // machine (seed) — what the estimator in the log used.
+        model.measurement.force_estimator = estimator_of(&sc);
+    }
     let log = simulate(&sc)?;
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
