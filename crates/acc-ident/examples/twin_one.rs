@@ -7,7 +7,10 @@ use acc_ident::twin::{run_case, Hidden};
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    let wp = a.first().cloned().unwrap_or_else(|| "interrupted.toml".into());
+    let wp = a
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "interrupted.toml".into());
     let h = a.get(1).cloned().unwrap_or_else(|| "null".into());
     let ch = if a.get(2).map(String::as_str) == Some("power") {
         Channel::Power
@@ -21,6 +24,19 @@ fn main() {
     sc.workpiece = acc_sim::Workpiece::load(dir.join("workpieces").join(&wp)).expect("wp");
     sc.max_time_s = 60.0;
     let t = std::time::Instant::now();
+    let mut s2 = sc.clone();
+    s2.seed = seed;
+    let log = acc_ident::twin::simulate(&s2).expect("sim");
+    println!(
+        "simulate: {:.2} s, {} rows",
+        t.elapsed().as_secs_f64(),
+        log.len()
+    );
+    let t = std::time::Instant::now();
     let v = run_case(&sc, hidden, ch, seed).expect("case");
-    println!("{wp} {} {ch:?} {seed}: {v:?} ({:.1} s)", hidden.label(), t.elapsed().as_secs_f64());
+    println!(
+        "{wp} {} {ch:?} {seed}: {v:?} ({:.1} s)",
+        hidden.label(),
+        t.elapsed().as_secs_f64()
+    );
 }

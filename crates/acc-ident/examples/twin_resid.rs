@@ -6,7 +6,10 @@ use acc_ident::twin;
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    let wp = a.first().cloned().unwrap_or_else(|| "interrupted.toml".into());
+    let wp = a
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "interrupted.toml".into());
     let ch = if a.get(1).map(String::as_str) == Some("power") {
         Channel::Power
     } else {

@@ -223,8 +223,7 @@ impl Inputs {
 
     /// Whether an effect can act on these inputs at all (channel, command path, sampling).
     pub fn applicable(&self, kind: EffectKind) -> Result<(), &'static str> {
-        if kind.power_only() && self.channel != Channel::Power && self.estimator_no_load.is_none()
-        {
+        if kind.power_only() && self.channel != Channel::Power && self.estimator_no_load.is_none() {
             return Err("acts on spindle power only; the compared channel is a force sensor");
         }
         match kind {

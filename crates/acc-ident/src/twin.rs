@@ -142,6 +142,25 @@ pub enum Hidden {
     KsStep(f64),
     /// Out of the library: the tooth-level force model against a mean-force model.
     ToothModel,
+    /// Out of the library: the workpiece's radial depths are this factor of the model's
+    /// (a geometry error of the part), −.
+    DepthScale(f64),
+    /// Out of the library: the part sits this far further along the path than the model's
+    /// workpiece (a fixture offset), mm.
+    PositionOffset(f64),
+    /// Out of the library: hard bands — every other 10 mm of material has `Ks` × this.
+    HardBands(f64),
+    /// Out of the library: each cut starts with a chamfer this long (the depth ramps from 0)
+    /// where the model has a step, mm.
+    EntryChamfer(f64),
+    /// Out of the library: `Ks` grows with cutting time (thermal), 1/min.
+    KsTimeDrift(f64),
+    /// Out of the library, the logging path (applied to the logged measured column after
+    /// the closed-loop run): a gain drift of the logged channel, 1/min.
+    LogGainDrift(f64),
+    /// Out of the library, the logging path: the logged measured column is late by this
+    /// many periods (a pure delay).
+    LogDelay(usize),
 }
 
 impl Hidden {
@@ -174,6 +193,13 @@ impl Hidden {
             Hidden::DepthExponent(v) => format!("depth exponent α={v}"),
             Hidden::KsStep(v) => format!("Ks step ×{v}"),
             Hidden::ToothModel => "tooth-level force".into(),
+            Hidden::DepthScale(v) => format!("depth scale ×{v}"),
+            Hidden::PositionOffset(v) => format!("part offset +{v} mm"),
+            Hidden::HardBands(v) => format!("hard bands ×{v}"),
+            Hidden::EntryChamfer(v) => format!("entry chamfer {v} mm"),
+            Hidden::KsTimeDrift(v) => format!("Ks time drift {v}/min"),
+            Hidden::LogGainDrift(v) => format!("log gain drift {v}/min"),
+            Hidden::LogDelay(k) => format!("log delay {k} periods"),
         }
     }
 
@@ -197,6 +223,13 @@ impl Hidden {
             "runout" => Hidden::Runout(v),
             "depth_exponent" => Hidden::DepthExponent(v),
             "ks_step" => Hidden::KsStep(v),
+            "depth_scale" => Hidden::DepthScale(v),
+            "part_offset" => Hidden::PositionOffset(v),
+            "hard_bands" => Hidden::HardBands(v),
+            "entry_chamfer" => Hidden::EntryChamfer(v),
+            "ks_time_drift" => Hidden::KsTimeDrift(v),
+            "log_gain_drift" => Hidden::LogGainDrift(v),
+            "log_delay" => Hidden::LogDelay(v as usize),
             _ => return None,
         })
     }
@@ -206,12 +239,12 @@ impl Hidden {
     pub fn acts_on(self, channel: Channel, estimated_force: bool) -> bool {
         estimated_force
             || !matches!(
-            (self, channel),
-            (
-                Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
-                Channel::Force
+                (self, channel),
+                (
+                    Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
+                    Channel::Force
+                )
             )
-        )
     }
 }
 
@@ -264,6 +297,67 @@ pub fn hidden_case(
             wp_model = base.workpiece.clone();
         }
         Hidden::ToothModel => sc.force_model = acc_sim::ForceModel::Tooth,
+        Hidden::DepthScale(k) => {
+            for g in sc.workpiece.segments.iter_mut() {
+                g.depth_start_mm *= k;
+                g.depth_end_mm *= k;
+            }
+        }
+        Hidden::PositionOffset(dx) => {
+            for g in sc.workpiece.segments.iter_mut() {
+                g.start_mm += dx;
+                g.end_mm += dx;
+            }
+        }
+        Hidden::HardBands(k) => {
+            let mut out = Vec::new();
+            for g in &sc.workpiece.segments {
+                if !g.is_cut() {
+                    out.push(g.clone());
+                    continue;
+                }
+                let mut a = g.start_mm;
+                while a < g.end_mm - 1e-9 {
+                    let b = (a + 10.0).min(g.end_mm);
+                    let band = ((a - g.start_mm) / 10.0).round() as i64;
+                    out.push(acc_sim::workpiece::Segment {
+                        start_mm: a,
+                        end_mm: b,
+                        depth_start_mm: g.depth_at(a),
+                        depth_end_mm: g.depth_at(b),
+                        ks_factor: g.ks_factor * if band % 2 == 1 { k } else { 1.0 },
+                        ..g.clone()
+                    });
+                    a = b;
+                }
+            }
+            sc.workpiece.segments = out;
+        }
+        Hidden::EntryChamfer(len) => {
+            let mut out: Vec<acc_sim::workpiece::Segment> = Vec::new();
+            for g in &sc.workpiece.segments {
+                let after_air = out.last().is_none_or(|p| !p.is_cut());
+                if g.is_cut() && after_air && g.end_mm - g.start_mm > 2.0 * len {
+                    let m = g.start_mm + len;
+                    out.push(acc_sim::workpiece::Segment {
+                        end_mm: m,
+                        depth_start_mm: 0.0,
+                        depth_end_mm: g.depth_at(m),
+                        ..g.clone()
+                    });
+                    out.push(acc_sim::workpiece::Segment {
+                        start_mm: m,
+                        depth_start_mm: g.depth_at(m),
+                        ..g.clone()
+                    });
+                } else {
+                    out.push(g.clone());
+                }
+            }
+            sc.workpiece.segments = out;
+        }
+        Hidden::KsTimeDrift(g) => sc.wear.growth_per_min += g,
+        Hidden::LogGainDrift(_) | Hidden::LogDelay(_) => {}
     }
     (sc, model, wp_model)
 }
@@ -279,6 +373,10 @@ pub struct Verdict {
     pub unexplained: bool,
     /// Whether the named effect's primary interval covers `truth` (in-library only).
     pub covered: Option<bool>,
+    /// Effects that passed selection but were withheld (structure remained).
+    pub withheld: Vec<String>,
+    /// The report's conclusion.
+    pub conclusion: String,
 }
 
 /// Run one case end to end: simulate through the production loop, analyse.
@@ -295,7 +393,28 @@ pub fn run_case(
         // machine (seed) — what the estimator in the log used.
         model.measurement.force_estimator = estimator_of(&sc);
     }
-    let log = simulate(&sc)?;
+    let mut log = simulate(&sc)?;
+    // The logging-path effects act on the logged measured column after the run.
+    let col = match channel {
+        Channel::Power => log.power_w.as_mut(),
+        Channel::Force => log.force_n.as_mut(),
+    };
+    if let Some(col) = col {
+        match hidden {
+            Hidden::LogGainDrift(g) => {
+                for (v, t) in col.iter_mut().zip(&log.t_s) {
+                    *v *= 1.0 + g * t / 60.0;
+                }
+            }
+            Hidden::LogDelay(k) if k > 0 && col.len() > k => {
+                let orig = col.clone();
+                for i in 0..col.len() {
+                    col[i] = orig[i.saturating_sub(k)];
+                }
+            }
+            _ => {}
+        }
+    }
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
         ..crate::workflow::Options::default()
@@ -331,5 +450,7 @@ pub fn run_case(
         ambiguous: !a.report.ambiguous.is_empty(),
         unexplained: a.report.unexplained.is_some(),
         covered,
+        withheld: a.report.withheld.iter().map(|w| w.effect.clone()).collect(),
+        conclusion: a.report.conclusion.clone(),
     })
 }
