@@ -42,6 +42,14 @@ pub struct Options {
     /// the simulator's workpiece inside each period instead of the logged depths.
     /// Default none.
     pub workpiece: Option<(acc_sim::Workpiece, f64)>,
+    /// Withhold a name when structure remains in the residual after its fit (a biased
+    /// segment, variance above [`STRUCTURE_VARIANCE_RATIO`] × the noise's, a residual still
+    /// following a signal). `None` (default): on when the replay is exact — the simulator's
+    /// plant on the workpiece (`workpiece` given, a log with the applied override) — where
+    /// a correct model leaves only noise; off otherwise (logged depths, a real machine),
+    /// where a model error always remains and the remaining structure is reported as
+    /// "unexplained" next to the name.
+    pub withhold_on_structure: Option<bool>,
 }
 
 impl Default for Options {
@@ -57,6 +65,7 @@ impl Default for Options {
             fit_speed_exponent: false,
             candidates: EffectKind::ALL.to_vec(),
             workpiece: None,
+            withhold_on_structure: None,
         }
     }
 }
@@ -1104,8 +1113,13 @@ fn assemble(
     // noise, a residual still correlated with a signal) means the fit may be borrowing the
     // signature of something outside the library (issue 13).
     let passed = s.named();
+    let exact = matches!(
+        inp.plant.as_ref().map(|p| &p.engagement),
+        Some(acc_sim::replay::ReplayEngagement::Workpiece { .. })
+    );
+    let strict = opts.withhold_on_structure.unwrap_or(exact);
     let withheld: Vec<Withheld> = match &unexplained {
-        Some(u) if !passed.is_empty() && structure_remains(u) => passed
+        Some(u) if strict && !passed.is_empty() && structure_remains(u) => passed
             .iter()
             .map(|e| Withheld {
                 effect: e.clone(),
