@@ -63,7 +63,11 @@ fn the_report_says_what_was_tried_and_why_a_fit_was_withheld() {
     assert!(r.accepted.is_empty(), "{:?}", r.accepted);
     let why = r.explanation.join("\n");
     for k in acc_ident::EffectKind::ALL {
-        assert!(why.contains(&format!("`{}`", k.name())), "{} missing: {why}", k.name());
+        assert!(
+            why.contains(&format!("`{}`", k.name())),
+            "{} missing: {why}",
+            k.name()
+        );
     }
     assert!(why.contains("Round 1: candidates tried"), "{why}");
     assert!(!r.withheld.is_empty(), "{why}");
@@ -73,7 +77,9 @@ fn the_report_says_what_was_tried_and_why_a_fit_was_withheld() {
         r.withheld
     );
     let md = r.to_markdown();
-    assert!(md.contains("## What was done and why") && md.contains("Passed selection but not named"));
+    assert!(
+        md.contains("## What was done and why") && md.contains("Passed selection but not named")
+    );
 }
 
 #[test]
@@ -84,7 +90,8 @@ fn a_test_cut_run_by_the_simulator_separates_two_explanations() {
     let (model, log) = null_log();
     let inp = acc_ident::replay::Inputs::from_log(&log, &model).expect("inputs");
     let mut a = model.clone();
-    a.effects.set(acc_ident::EffectKind::OverrideDeadTime, 0, 0.12);
+    a.effects
+        .set(acc_ident::EffectKind::OverrideDeadTime, 0, 0.12);
     let mut b = model.clone();
     b.effects.set(acc_ident::EffectKind::FeedDriveLag, 0, 0.12);
     let pair = (
@@ -93,7 +100,11 @@ fn a_test_cut_run_by_the_simulator_separates_two_explanations() {
     );
     let c = acc_ident::testcut::run(&inp, &a, &b, pair, 2.0);
     assert!(c.separates && c.max_difference > 20.0, "{c:?}");
-    assert!(c.description.contains("override steps"), "{}", c.description);
+    assert!(
+        c.description.contains("override steps"),
+        "{}",
+        c.description
+    );
     let same = acc_ident::testcut::run(&inp, &a, &a, pair, 2.0);
     assert!(!same.separates && same.rms_difference == 0.0, "{same:?}");
 }
@@ -203,9 +214,18 @@ fn the_replayed_estimator_is_the_one_in_the_loop() {
         let p = nl.0 + dp;
         let want = est
             .estimate(rpm, Some(p), None)
-            .map(|x| if x.above_floor { x.force_n.max(0.0) } else { 0.0 })
+            .map(|x| {
+                if x.above_floor {
+                    x.force_n.max(0.0)
+                } else {
+                    0.0
+                }
+            })
             .unwrap_or(0.0);
         let got = e.force_n(p, rpm, nl);
-        assert!((got - want).abs() < 1e-9 * want.max(1.0), "ΔP {dp}: {got} vs {want}");
+        assert!(
+            (got - want).abs() < 1e-9 * want.max(1.0),
+            "ΔP {dp}: {got} vs {want}"
+        );
     }
 }

@@ -47,7 +47,7 @@ pub struct Inputs {
     /// estimator's adaptation replayed on the logged `power_w`.
     pub estimator_no_load: Option<Vec<(f64, f64)>>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
-    cache: std::cell::RefCell<Option<std::rc::Rc<PathCache>>>,
+    cache: std::cell::RefCell<Vec<std::rc::Rc<PathCache>>>,
     /// Quadratic fits of the spindle motor's input power against torque, per speed.
     motor_curves: std::cell::RefCell<Vec<(f64, [f64; 3])>>,
 }
@@ -188,7 +188,7 @@ impl Inputs {
     pub fn use_workpiece(&mut self, workpiece: acc_sim::Workpiece, x0_mm: f64) {
         if let Some(p) = self.plant.as_mut() {
             p.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
-            *self.cache.borrow_mut() = None;
+            self.cache.borrow_mut().clear();
         }
     }
 
@@ -471,6 +471,17 @@ fn plant_trace(
     )
 }
 
+/// Paths kept per [`Inputs`].
+const PATH_CACHE: usize = 24;
+
+fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
+    let mut v = inp.cache.borrow_mut();
+    if v.len() >= PATH_CACHE {
+        v.remove(0);
+    }
+    v.push(c);
+}
+
 fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
     let fx = &model.effects;
     let p = &model.tool.process;
@@ -494,10 +505,10 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
             p.radial_ratio,
         ],
     };
-    if let Some(c) = inp.cache.borrow().as_ref() {
-        if c.key == key {
-            return c.clone();
-        }
+    // The last few paths: a fit's numerical derivatives and cross-validation folds
+    // alternate between nearby delays and time constants, each a full plant replay.
+    if let Some(c) = inp.cache.borrow().iter().find(|c| c.key == key) {
+        return c.clone();
     }
     if let Some(plant) = &inp.plant {
         let tr = plant_trace(model, inp, plant, &key);
@@ -509,7 +520,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
             unit_window_force: tr.iter().map(|t| t.unit_force_window).collect(),
             plant: Some(tr),
         });
-        *inp.cache.borrow_mut() = Some(c.clone());
+        remember(inp, c.clone());
         return c;
     }
     let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.window_s);
@@ -535,7 +546,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         unit_window_force,
         plant: None,
     });
-    *inp.cache.borrow_mut() = Some(c.clone());
+    remember(inp, c.clone());
     c
 }
 
