@@ -40,10 +40,14 @@ fn library() -> Vec<Hidden> {
         Hidden::SensorLowpass(0.3),
         Hidden::Runout(0.05),
         Hidden::Runout(0.15),
+        Hidden::LogGainDrift(0.02),
+        Hidden::LogGainDrift(0.06),
+        Hidden::LogDelay(1),
+        Hidden::LogDelay(3),
     ]
 }
 
-/// Ten effects outside the library, at several amplitudes.
+/// Ten effects outside the library, at two amplitudes (the tooth model at one).
 fn out_of_library() -> Vec<Hidden> {
     vec![
         Hidden::DepthExponent(0.85),
@@ -61,10 +65,10 @@ fn out_of_library() -> Vec<Hidden> {
         Hidden::EntryChamfer(8.0),
         Hidden::KsTimeDrift(0.05),
         Hidden::KsTimeDrift(0.15),
-        Hidden::LogGainDrift(0.02),
-        Hidden::LogGainDrift(0.06),
-        Hidden::LogDelay(1),
-        Hidden::LogDelay(2),
+        Hidden::SecondOrderDrive(0.05),
+        Hidden::SecondOrderDrive(0.15),
+        Hidden::LogSpikes(0.2),
+        Hidden::LogSpikes(0.5),
     ]
 }
 

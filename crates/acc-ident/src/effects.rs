@@ -38,6 +38,12 @@ pub enum EffectKind {
     Runout,
     /// Thermal drift of the no-load power: first-order rise after start.
     NoloadDrift,
+    /// Gain drift of the measured channel: the logged value is `(1 + g·t)` × the
+    /// channel's (an amplifier or transducer warming up), `t` in minutes from the log's start.
+    SensorGainDrift,
+    /// Pure delay of the measured channel: the logged value is the channel's `d` seconds
+    /// earlier (a buffer, a transport delay), linear between rows.
+    MeasurementDelay,
 }
 
 /// Description of one effect parameter.
@@ -73,6 +79,9 @@ const PHASE_GRID: &[f64] = &[
     3.0 * std::f64::consts::FRAC_PI_2,
     7.0 * std::f64::consts::FRAC_PI_4,
 ];
+const MEAS_DELAY_GRID: &[f64] = &[0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.6, 0.8];
+const P_GAIN_DRIFT: [ParamInfo; 1] = [p("gain_per_min", "1/min", -0.5, 0.5, 0.002, None)];
+const P_MEAS_DELAY: [ParamInfo; 1] = [p("delay_s", "s", 0.0, 1.5, 0.02, Some(MEAS_DELAY_GRID))];
 const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
 const fn p(
@@ -174,7 +183,7 @@ const P_DRIFT: [ParamInfo; 2] = [
 
 impl EffectKind {
     /// All effects, in report order.
-    pub const ALL: [EffectKind; 8] = [
+    pub const ALL: [EffectKind; 10] = [
         EffectKind::ToolWear,
         EffectKind::MotorEfficiency,
         EffectKind::FeedDriveLag,
@@ -183,6 +192,8 @@ impl EffectKind {
         EffectKind::FeedExponent,
         EffectKind::Runout,
         EffectKind::NoloadDrift,
+        EffectKind::SensorGainDrift,
+        EffectKind::MeasurementDelay,
     ];
 
     /// Name used in files and reports.
@@ -196,6 +207,8 @@ impl EffectKind {
             EffectKind::FeedExponent => "feed_exponent",
             EffectKind::Runout => "runout",
             EffectKind::NoloadDrift => "noload_drift",
+            EffectKind::SensorGainDrift => "sensor_gain_drift",
+            EffectKind::MeasurementDelay => "measurement_delay",
         }
     }
 
@@ -216,6 +229,8 @@ impl EffectKind {
             EffectKind::FeedExponent => &P_BETA,
             EffectKind::Runout => &P_RUNOUT,
             EffectKind::NoloadDrift => &P_DRIFT,
+            EffectKind::SensorGainDrift => &P_GAIN_DRIFT,
+            EffectKind::MeasurementDelay => &P_MEAS_DELAY,
         }
     }
 
@@ -233,6 +248,14 @@ impl EffectKind {
             (other, self)
         };
         match pair {
+            (ToolWear, SensorGainDrift) | (NoloadDrift, SensorGainDrift) => {
+                "air-cut pauses early and late in the run: a gain drift scales the air power (or a zero force stays zero), wear only acts while cutting, a no-load drift adds a constant"
+            }
+            (FeedDriveLag, MeasurementDelay)
+            | (SensorLowpass, MeasurementDelay)
+            | (OverrideDeadTime, MeasurementDelay) => {
+                "a depth step (tool entry) at constant feed: a measurement delay shifts it, a lag or low-pass rounds it, an override dead time leaves it in place"
+            }
             (ToolWear, NoloadDrift) => {
                 "an air-cut pause late in the run (spindle on, no engagement): no-load drift raises the air power, tool wear does not"
             }
@@ -339,6 +362,64 @@ pub struct Effects {
     /// No-load thermal drift.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noload_drift: Option<NoloadDrift>,
+    /// Gain drift of the measured channel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_gain_drift: Option<SensorGainDrift>,
+    /// Pure delay of the measured channel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measurement_delay: Option<MeasurementDelay>,
+}
+
+/// Gain drift of the measured channel (`[effects.sensor_gain_drift]`). Null: 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorGainDrift {
+    /// Relative gain change per minute from the log's start, 1/min. Range −0.5 ..= 0.5.
+    pub gain_per_min: f64,
+}
+
+/// Pure delay of the measured channel (`[effects.measurement_delay]`). Null: 0 s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementDelay {
+    /// Delay, s. Range 0 ..= 1.5.
+    pub delay_s: f64,
+}
+
+impl SensorGainDrift {
+    /// Apply to the channel `y` logged at `t_s` (s).
+    pub fn apply(&self, y: &mut [f64], t_s: &[f64]) {
+        let t0 = t_s.first().copied().unwrap_or(0.0);
+        for (v, t) in y.iter_mut().zip(t_s) {
+            *v *= 1.0 + self.gain_per_min * (t - t0) / 60.0;
+        }
+    }
+}
+
+impl MeasurementDelay {
+    /// Apply to the channel `y` logged at `t_s` (s): each row takes the channel at
+    /// `t − delay`, linear between rows, the first row's value before the log.
+    pub fn apply(&self, y: &mut [f64], t_s: &[f64]) {
+        if self.delay_s <= 0.0 || y.is_empty() {
+            return;
+        }
+        let orig = y.to_vec();
+        let mut k = 0usize;
+        for (i, v) in y.iter_mut().enumerate() {
+            let t = t_s[i] - self.delay_s;
+            while k + 1 < orig.len() && t_s[k + 1] <= t {
+                k += 1;
+            }
+            *v = if t <= t_s[0] {
+                orig[0]
+            } else if k + 1 < orig.len() {
+                let w = (t - t_s[k]) / (t_s[k + 1] - t_s[k]).max(1e-12);
+                orig[k] + w.clamp(0.0, 1.0) * (orig[k + 1] - orig[k])
+            } else {
+                orig[k]
+            };
+        }
+    }
 }
 
 impl Effects {
@@ -358,6 +439,8 @@ impl Effects {
             EffectKind::FeedExponent => self.feed_exponent.is_some(),
             EffectKind::Runout => self.runout.is_some(),
             EffectKind::NoloadDrift => self.noload_drift.is_some(),
+            EffectKind::SensorGainDrift => self.sensor_gain_drift.is_some(),
+            EffectKind::MeasurementDelay => self.measurement_delay.is_some(),
         }
     }
 
@@ -380,6 +463,8 @@ impl Effects {
             EffectKind::FeedExponent => self.feed_exponent = None,
             EffectKind::Runout => self.runout = None,
             EffectKind::NoloadDrift => self.noload_drift = None,
+            EffectKind::SensorGainDrift => self.sensor_gain_drift = None,
+            EffectKind::MeasurementDelay => self.measurement_delay = None,
         }
     }
 
@@ -399,6 +484,8 @@ impl Effects {
             (EffectKind::Runout, 1) => self.runout.map(|e| e.phase_rad),
             (EffectKind::NoloadDrift, 0) => self.noload_drift.map(|e| e.delta_w),
             (EffectKind::NoloadDrift, 1) => self.noload_drift.map(|e| e.tau_s),
+            (EffectKind::SensorGainDrift, 0) => self.sensor_gain_drift.map(|e| e.gain_per_min),
+            (EffectKind::MeasurementDelay, 0) => self.measurement_delay.map(|e| e.delay_s),
             _ => None,
         }
         .unwrap_or(null)
@@ -461,6 +548,12 @@ impl Effects {
                 |e| &mut e.delta_w,
                 |e| &mut e.tau_s,
             ),
+            EffectKind::SensorGainDrift => {
+                self.sensor_gain_drift = Some(SensorGainDrift { gain_per_min: v })
+            }
+            EffectKind::MeasurementDelay => {
+                self.measurement_delay = Some(MeasurementDelay { delay_s: v })
+            }
         }
     }
 

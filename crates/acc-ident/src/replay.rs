@@ -576,6 +576,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let cached = path(model, inp);
     if let Some(tr) = &cached.plant {
         replay_plant(model, inp, tr, &mut out);
+        measurement_chain(model, inp, &mut out.predicted);
         return out;
     }
     out.feed_mm_min.copy_from_slice(&cached.feed);
@@ -662,7 +663,19 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     if let Some(l) = fx.sensor_lowpass {
         l.filter(&mut out.predicted, &inp.dt_s);
     }
+    measurement_chain(model, inp, &mut out.predicted);
     out
+}
+
+/// The candidate measurement-chain effects on the logged column: a pure delay, then a
+/// gain drift.
+fn measurement_chain(model: &Model, inp: &Inputs, y: &mut [f64]) {
+    if let Some(d) = model.effects.measurement_delay {
+        d.apply(y, &inp.t_s);
+    }
+    if let Some(g) = model.effects.sensor_gain_drift {
+        g.apply(y, &inp.t_s);
+    }
 }
 
 /// [`replay`] on the simulator's plant trace: the trace is at unit force scale, so `Ks`

@@ -155,12 +155,17 @@ pub enum Hidden {
     EntryChamfer(f64),
     /// Out of the library: `Ks` grows with cutting time (thermal), 1/min.
     KsTimeDrift(f64),
-    /// Out of the library, the logging path (applied to the logged measured column after
-    /// the closed-loop run): a gain drift of the logged channel, 1/min.
+    /// In the library (`sensor_gain_drift`), the logging path (applied to the logged
+    /// measured column after the closed-loop run): a gain drift of the logged channel, 1/min.
     LogGainDrift(f64),
-    /// Out of the library, the logging path: the logged measured column is late by this
-    /// many periods (a pure delay).
+    /// In the library (`measurement_delay`), the logging path: the logged measured column
+    /// is late by this many periods (a pure delay).
     LogDelay(usize),
+    /// Out of the library: a second-order feed drive (a second lag of this τ in series), s.
+    SecondOrderDrive(f64),
+    /// Out of the library, the logging path: spikes of ± this fraction of the channel's
+    /// median on 2 % of the logged rows.
+    LogSpikes(f64),
 }
 
 impl Hidden {
@@ -175,6 +180,8 @@ impl Hidden {
             Hidden::NoloadDrift(_) => K::NoloadDrift,
             Hidden::SensorLowpass(_) => K::SensorLowpass,
             Hidden::Runout(_) => K::Runout,
+            Hidden::LogGainDrift(_) => K::SensorGainDrift,
+            Hidden::LogDelay(_) => K::MeasurementDelay,
             _ => return None,
         })
     }
@@ -200,6 +207,8 @@ impl Hidden {
             Hidden::KsTimeDrift(v) => format!("Ks time drift {v}/min"),
             Hidden::LogGainDrift(v) => format!("log gain drift {v}/min"),
             Hidden::LogDelay(k) => format!("log delay {k} periods"),
+            Hidden::SecondOrderDrive(v) => format!("second-order drive τ₂={v} s"),
+            Hidden::LogSpikes(v) => format!("log spikes ±{v}"),
         }
     }
 
@@ -230,6 +239,8 @@ impl Hidden {
             "ks_time_drift" => Hidden::KsTimeDrift(v),
             "log_gain_drift" => Hidden::LogGainDrift(v),
             "log_delay" => Hidden::LogDelay(v as usize),
+            "second_order_drive" => Hidden::SecondOrderDrive(v),
+            "log_spikes" => Hidden::LogSpikes(v),
             _ => return None,
         })
     }
@@ -357,7 +368,8 @@ pub fn hidden_case(
             sc.workpiece.segments = out;
         }
         Hidden::KsTimeDrift(g) => sc.wear.growth_per_min += g,
-        Hidden::LogGainDrift(_) | Hidden::LogDelay(_) => {}
+        Hidden::SecondOrderDrive(t) => sc.machine.feed_drive.tau2_s = t,
+        Hidden::LogGainDrift(_) | Hidden::LogDelay(_) | Hidden::LogSpikes(_) => {}
     }
     (sc, model, wp_model)
 }
@@ -412,6 +424,17 @@ pub fn run_case(
                     col[i] = orig[i.saturating_sub(k)];
                 }
             }
+            Hidden::LogSpikes(a) => {
+                // 2 % of the rows, alternating sign, a fraction `a` of the median |value|.
+                let mut m: Vec<f64> = col.iter().map(|v| v.abs()).collect();
+                m.sort_by(f64::total_cmp);
+                let med = m.get(m.len() / 2).copied().unwrap_or(0.0);
+                let mut sign = 1.0;
+                for i in (17..col.len()).step_by(50) {
+                    col[i] += sign * a * med;
+                    sign = -sign;
+                }
+            }
             _ => {}
         }
     }
@@ -433,7 +456,9 @@ pub fn run_case(
         | Hidden::CopperLoss(v)
         | Hidden::NoloadDrift(v)
         | Hidden::SensorLowpass(v)
-        | Hidden::Runout(v) => Some(v),
+        | Hidden::Runout(v)
+        | Hidden::LogGainDrift(v) => Some(v),
+        Hidden::LogDelay(k) => Some(k as f64 * base.controller.period_s),
         _ => None,
     };
     let covered = match (hidden.library(), truth) {

@@ -175,7 +175,8 @@ fn effect_grid(kind: EffectKind) -> Vec<Free> {
 /// trades off against the curve's exponent; acceptance uses the delta-method interval of
 /// [`WEAR_SIZE`]), the no-load drift (ΔP against τ), runout (amplitude against phase) and
 /// the delays and time constants.
-const PROFILED: [EffectKind; 6] = [
+const PROFILED: [EffectKind; 7] = [
+    EffectKind::MeasurementDelay,
     EffectKind::ToolWear,
     EffectKind::NoloadDrift,
     EffectKind::Runout,
