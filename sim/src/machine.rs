@@ -505,6 +505,31 @@ mod tests {
         out
     }
 
+    /// Feed (period means) after an override step 0 → 100 % at t = 0 in air, with the
+    /// drive's second lag `tau2_s`.
+    fn feed_step(tau2_s: f64) -> Vec<f64> {
+        let dir = configs_dir();
+        let mut spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        spec.feed_drive.tau2_s = tau2_s;
+        let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+        let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
+        let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
+        m.set_override_input_pct(100);
+        (0..20).map(|_| m.advance(0.05).feed_mean_mm_min).collect()
+    }
+
+    #[test]
+    fn a_second_order_drive_is_slower_and_off_at_zero() {
+        let first = feed_step(0.0);
+        let second = feed_step(0.1);
+        // Off at 0: the first-order drive, bit for bit (the default of machine files).
+        let spec = MachineSpec::load(configs_dir().join("machines/paper_vmc.toml")).expect("m");
+        assert_eq!(spec.feed_drive.tau2_s, 0.0);
+        // The second lag delays the rise, and both settle at the programmed feed.
+        assert!(second[1] < first[1] - 5.0, "{second:?} vs {first:?}");
+        assert!((second[19] - 200.0).abs() < 2.0 && (first[19] - 200.0).abs() < 1.0);
+    }
+
     #[test]
     fn runout_multiplies_the_force_by_its_step_mean_and_is_off_at_null() {
         let truth = force_samples(None);

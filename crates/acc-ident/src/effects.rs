@@ -599,3 +599,43 @@ fn set_pair<T: Copy>(
     } = v;
     *slot = Some(e);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_measurement_delay_shifts_the_channel_and_a_gain_drift_scales_it() {
+        let t: Vec<f64> = (1..=10).map(|i| 0.1 * f64::from(i)).collect();
+        let y0: Vec<f64> = (0..10).map(f64::from).collect();
+        let mut y = y0.clone();
+        MeasurementDelay { delay_s: 0.15 }.apply(&mut y, &t);
+        // 1.5 rows late, linear between rows; the first rows hold the first value.
+        assert_eq!(y[0], 0.0);
+        assert_eq!(y[1], 0.0);
+        assert!((y[5] - 3.5).abs() < 1e-9, "{y:?}");
+        let mut y = y0.clone();
+        MeasurementDelay { delay_s: 0.0 }.apply(&mut y, &t);
+        assert_eq!(y, y0);
+        let mut y = vec![100.0; 10];
+        SensorGainDrift { gain_per_min: 0.6 }.apply(&mut y, &t);
+        // 0.9 s after the first row: × (1 + 0.6 · 0.9/60).
+        assert!((y[9] - 100.9).abs() < 1e-9 && y[0] == 100.0, "{y:?}");
+    }
+
+    #[test]
+    fn the_new_effects_are_in_the_library_with_their_names() {
+        for (k, n) in [
+            (EffectKind::SensorGainDrift, "sensor_gain_drift"),
+            (EffectKind::MeasurementDelay, "measurement_delay"),
+        ] {
+            assert!(EffectKind::ALL.contains(&k));
+            assert_eq!(EffectKind::from_name(n), Some(k));
+            let mut e = Effects::default();
+            e.set(k, 0, 0.1);
+            assert!(e.is_on(k) && e.get(k, 0) == 0.1);
+            e.remove(k);
+            assert!(!e.is_on(k));
+        }
+    }
+}
