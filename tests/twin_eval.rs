@@ -56,6 +56,7 @@ fn the_report_says_what_was_tried_and_why_a_fit_was_withheld() {
     let log = twin::simulate(&sc).expect("log");
     let opts = workflow::Options {
         workpiece: Some((wp, 0.0)),
+        candidates: acc_ident::EffectKind::ALL.to_vec(),
         ..workflow::Options::default()
     };
     let a = workflow::analyse(&model, &log, &opts).expect("analysed");

@@ -182,6 +182,22 @@ const P_DRIFT: [ParamInfo; 2] = [
 ];
 
 impl EffectKind {
+    /// The workflow's default candidates: every effect but the measurement-chain
+    /// additions of issue 13 ([`EffectKind::SensorGainDrift`],
+    /// [`EffectKind::MeasurementDelay`]), which are asked for explicitly (`--effects`,
+    /// `Options::candidates`): a gain drift cannot be told from tool wear in a log without
+    /// air stretches early and late, and the real turning logs have none.
+    pub const DEFAULT: [EffectKind; 8] = [
+        EffectKind::ToolWear,
+        EffectKind::MotorEfficiency,
+        EffectKind::FeedDriveLag,
+        EffectKind::SensorLowpass,
+        EffectKind::OverrideDeadTime,
+        EffectKind::FeedExponent,
+        EffectKind::Runout,
+        EffectKind::NoloadDrift,
+    ];
+
     /// All effects, in report order.
     pub const ALL: [EffectKind; 10] = [
         EffectKind::ToolWear,

@@ -440,6 +440,8 @@ pub fn run_case(
     }
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
+        // The whole library, the measurement-chain additions included.
+        candidates: crate::EffectKind::ALL.to_vec(),
         ..crate::workflow::Options::default()
     };
     let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;

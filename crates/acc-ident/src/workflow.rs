@@ -35,7 +35,7 @@ pub struct Options {
     /// Fit the speed exponent γ with every candidate when the cutting speed varies.
     /// Default false.
     pub fit_speed_exponent: bool,
-    /// Candidate effects. Default: all.
+    /// Candidate effects. Default: [`EffectKind::DEFAULT`].
     pub candidates: Vec<EffectKind>,
     /// The workpiece the log was cut on and the tool-centre position when it began, mm:
     /// a plant replay ([`crate::replay::Inputs::plant`]) then takes the engagement from
@@ -63,7 +63,7 @@ impl Default for Options {
             min_segment_s: 1.0,
             min_gain_pct: 5.0,
             fit_speed_exponent: false,
-            candidates: EffectKind::ALL.to_vec(),
+            candidates: EffectKind::DEFAULT.to_vec(),
             workpiece: None,
             withhold_on_structure: None,
         }
