@@ -76,25 +76,18 @@ pub fn cut_log(inp: &Inputs) -> (RunLog, String) {
             log.radial_depth_mm.push(d);
             log.axial_depth_mm.push(if d > 0.0 { axial } else { 0.0 });
             log.spindle_rpm.push(rpm);
-            for c in [
-                &mut log.programmed_feed_mm_min,
-                &mut log.override_cmd_pct,
-                &mut log.override_applied_pct,
+            for (v, x) in [
+                (&mut log.programmed_feed_mm_min, prog),
+                (&mut log.override_cmd_pct, ov),
+                (&mut log.override_applied_pct, ov),
+                (&mut log.force_n, 0.0),
+                (&mut log.power_w, 0.0),
             ] {
-                c.as_mut().map(|v| v.push(0.0));
-            }
-            if let Some(v) = log.programmed_feed_mm_min.as_mut() {
-                *v.last_mut().expect("pushed") = prog;
-            }
-            for v in [&mut log.override_cmd_pct, &mut log.override_applied_pct]
-                .into_iter()
-                .flatten()
-            {
-                *v.last_mut().expect("pushed") = ov;
+                if let Some(v) = v.as_mut() {
+                    v.push(x);
+                }
             }
             log.feed_mm_min.push(prog * ov / 100.0);
-            log.force_n.as_mut().map(|v| v.push(0.0));
-            log.power_w.as_mut().map(|v| v.push(0.0));
         }
     }
     let desc = format!(

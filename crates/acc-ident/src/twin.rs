@@ -324,7 +324,7 @@ pub fn hidden_case(
             let mut out = Vec::new();
             for g in &sc.workpiece.segments {
                 if !g.is_cut() {
-                    out.push(g.clone());
+                    out.push(*g);
                     continue;
                 }
                 let mut a = g.start_mm;
@@ -337,7 +337,7 @@ pub fn hidden_case(
                         depth_start_mm: g.depth_at(a),
                         depth_end_mm: g.depth_at(b),
                         ks_factor: g.ks_factor * if band % 2 == 1 { k } else { 1.0 },
-                        ..g.clone()
+                        ..*g
                     });
                     a = b;
                 }
@@ -354,15 +354,15 @@ pub fn hidden_case(
                         end_mm: m,
                         depth_start_mm: 0.0,
                         depth_end_mm: g.depth_at(m),
-                        ..g.clone()
+                        ..*g
                     });
                     out.push(acc_sim::workpiece::Segment {
                         start_mm: m,
                         depth_start_mm: g.depth_at(m),
-                        ..g.clone()
+                        ..*g
                     });
                 } else {
-                    out.push(g.clone());
+                    out.push(*g);
                 }
             }
             sc.workpiece.segments = out;
