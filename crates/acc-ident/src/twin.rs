@@ -391,22 +391,10 @@ pub struct Verdict {
     pub conclusion: String,
 }
 
-/// Run one case end to end: simulate through the production loop, analyse.
-pub fn run_case(
-    base: &Scenario,
-    hidden: Hidden,
-    channel: Channel,
-    seed: u64,
-) -> Result<Verdict, String> {
-    let (mut sc, mut model, wp) = hidden_case(base, hidden, channel);
-    sc.seed = seed;
-    if model.measurement.force_estimator.is_some() {
-        // The installation's calibration file: the channel as commissioned on this
-        // machine (seed) — what the estimator in the log used.
-        model.measurement.force_estimator = estimator_of(&sc);
-    }
-    let mut log = simulate(&sc)?;
-    // The logging-path effects act on the logged measured column after the run.
+/// The logging-path effects ([`Hidden::LogGainDrift`], [`Hidden::LogDelay`],
+/// [`Hidden::LogSpikes`]) on the logged measured column of `channel`, after the run.
+pub fn apply_logging_path(hidden: Hidden, channel: Channel, log: &mut RunLog) {
+    let t_s = log.t_s.clone();
     let col = match channel {
         Channel::Power => log.power_w.as_mut(),
         Channel::Force => log.force_n.as_mut(),
@@ -414,7 +402,7 @@ pub fn run_case(
     if let Some(col) = col {
         match hidden {
             Hidden::LogGainDrift(g) => {
-                for (v, t) in col.iter_mut().zip(&log.t_s) {
+                for (v, t) in col.iter_mut().zip(&t_s) {
                     *v *= 1.0 + g * t / 60.0;
                 }
             }
@@ -438,6 +426,24 @@ pub fn run_case(
             _ => {}
         }
     }
+}
+
+/// Run one case end to end: simulate through the production loop, analyse.
+pub fn run_case(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+) -> Result<Verdict, String> {
+    let (mut sc, mut model, wp) = hidden_case(base, hidden, channel);
+    sc.seed = seed;
+    if model.measurement.force_estimator.is_some() {
+        // The installation's calibration file: the channel as commissioned on this
+        // machine (seed) — what the estimator in the log used.
+        model.measurement.force_estimator = estimator_of(&sc);
+    }
+    let mut log = simulate(&sc)?;
+    apply_logging_path(hidden, channel, &mut log);
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
         // The whole library, the measurement-chain additions included.
