@@ -95,7 +95,8 @@ fn main() {
             for (wi, w) in WORKPIECES.iter().enumerate() {
                 let seed = 1000 + 7 * wi as u64;
                 let mut sc = base.clone();
-                sc.workpiece = acc_sim::Workpiece::load(dir.join("workpieces").join(w)).expect("wp");
+                sc.workpiece =
+                    acc_sim::Workpiece::load(dir.join("workpieces").join(w)).expect("wp");
                 let r0 = residual(&sc, Hidden::Null, ch, seed);
                 let rh = residual(&sc, h, ch, seed);
                 let (a, b, s) = (rms(&rh), rms(&r0), sigma(&r0).max(1e-9));
@@ -105,7 +106,10 @@ fn main() {
                 println!("{ch:?},{},{w},{seed},{enr:.2},{o},{c}", h.label());
                 if enr >= 4.0 {
                     n += 1;
-                    let want = h.library().map(|k| k.name().to_string()).unwrap_or_default();
+                    let want = h
+                        .library()
+                        .map(|k| k.name().to_string())
+                        .unwrap_or_default();
                     ok += usize::from(o == want);
                     if c.starts_with("Some") {
                         cov_n += 1;

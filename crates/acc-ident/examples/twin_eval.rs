@@ -104,6 +104,15 @@ fn main() {
     let max_time = num("--max-time", 60) as f64;
     // --wp-limit N: the first N shipped workpieces only (a quick look).
     let nwp = num("--wp-limit", 5).clamp(1, 5) as usize;
+    // --channels power|force (default both); --skip LABEL-PREFIX[,…]: leave effects out.
+    let channels: Vec<Channel> = match get("--channels").as_deref() {
+        Some("power") => vec![Channel::Power],
+        Some("force") => vec![Channel::Force],
+        _ => vec![Channel::Power, Channel::Force],
+    };
+    let skip: Vec<String> = get("--skip")
+        .map(|s| s.split(',').map(str::to_string).collect())
+        .unwrap_or_default();
     let out = std::path::PathBuf::from(get("--out").unwrap_or_else(|| "out/twin".into()));
     let doc = get("--update-doc");
     std::fs::create_dir_all(&out).expect("out dir");
@@ -119,13 +128,13 @@ fn main() {
     // The cases: (channel, hidden, workpiece, seed). Null seeds are spread over the
     // workpieces (null_seeds per channel in all).
     let mut cases: Vec<(Channel, Hidden, usize, u64)> = Vec::new();
-    for ch in [Channel::Power, Channel::Force] {
+    for &ch in &channels {
         for k in 0..null_seeds {
             cases.push((ch, Hidden::Null, (k as usize) % nwp, 5000 + k));
         }
         for (set, seeds) in [(library(), lib_seeds), (out_of_library(), oob_seeds)] {
             for h in set {
-                if !h.acts_on(ch, estimated) {
+                if !h.acts_on(ch, estimated) || skip.iter().any(|p| h.label().starts_with(p)) {
                     continue;
                 }
                 for wi in 0..nwp {
@@ -150,13 +159,22 @@ fn main() {
                 s.workpiece = wps[wi].clone();
                 let v = run_case(&s, h, ch, seed);
                 match &v {
+                    // The progress line ends with the case's CSV row (`case,…`), so a run
+                    // stopped early can still be summarised.
                     Ok(v) => eprintln!(
-                        "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {}",
+                        "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} | case,{ch:?},{},{},{seed},{},{},{},{},{:?}",
                         cases.len(),
                         t0.elapsed().as_secs_f64(),
                         h.label(),
                         WORKPIECES[wi],
-                        outcome(v)
+                        outcome(v),
+                        h.label(),
+                        WORKPIECES[wi],
+                        outcome(v),
+                        v.ambiguous,
+                        v.unexplained,
+                        v.withheld.join("+"),
+                        v.covered
                     ),
                     Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
                 }
@@ -172,7 +190,7 @@ fn main() {
     let mut csv = String::from(
         "channel,hidden,workpiece,seed,outcome,ambiguous,unexplained,withheld,covered\n",
     );
-    for ch in [Channel::Power, Channel::Force] {
+    for &ch in &channels {
         let mut conf: BTreeMap<(u8, String), BTreeMap<String, usize>> = BTreeMap::new();
         let (mut null_n, mut null_named, mut null_unexpl) = (0, 0, 0);
         let (mut lib_n, mut lib_ok, mut cov_n, mut cov_ok) = (0, 0, 0, 0);
