@@ -57,6 +57,7 @@ fn the_report_says_what_was_tried_and_why_a_fit_was_withheld() {
     let opts = workflow::Options {
         workpiece: Some((wp, 0.0)),
         candidates: acc_ident::EffectKind::ALL.to_vec(),
+        withhold_on_structure: Some(true),
         ..workflow::Options::default()
     };
     let a = workflow::analyse(&model, &log, &opts).expect("analysed");

@@ -448,6 +448,7 @@ pub fn run_case(
         workpiece: Some((wp, 0.0)),
         // The whole library, the measurement-chain additions included.
         candidates: crate::EffectKind::ALL.to_vec(),
+        withhold_on_structure: Some(true),
         ..crate::workflow::Options::default()
     };
     let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;
