@@ -51,22 +51,33 @@ fn check(wp: usize, tooth: bool, dyn_channel: bool, seed: u64) {
         let n = r.len() as f64;
         let rms = (r.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
         let mean = r.iter().sum::<f64>() / n;
-        // The floor: the board's whole watts (1/√12 W) or a noise-free channel.
-        let s = sigma(&r).max(0.5);
+        // The floor: the board's whole watts (1/√12 W) or a noise-free channel. Rows the
+        // spindle-power estimator reports as exactly 0 (air, dead band) are replayed as 0
+        // and carry no noise: σ is that of the other rows.
+        let live: Vec<f64> = r.iter().copied().filter(|x| *x != 0.0).collect();
+        let s = sigma(if live.len() > 20 { &live } else { &r }).max(0.5);
         let tag = format!(
             "{} tooth={tooth} dyn={dyn_channel} seed {seed} {ch:?}",
             WORKPIECES[wp]
         );
-        // The spindle-power channel's force is the power estimator's output: its model
-        // error at entries is the estimator's, not the plant's (looser bound).
+        // The spindle-power channel's force is the power estimator's output, replayed
+        // through the estimator (acc_ident::model::ForceEstimator): RMS ≈ 1.2 N against
+        // 3.3 N before; the dead band's edge rows add to it (bound 2σ instead of 1.6σ).
         let k = if ch == Channel::Force && !dyn_channel {
-            2.5
+            2.0
         } else {
             1.6
         };
         assert!(rms <= k * s, "{tag}: replay RMS {rms:.2} vs noise σ {s:.2}");
+        // The estimated force with the tooth model carries a bias of ≈ 0.7 N (≈ 0.1 % of
+        // the cutting force: the dead band's edge rows, the ripple's mean square).
+        let b = if ch == Channel::Force && !dyn_channel {
+            1.0
+        } else {
+            0.3
+        };
         assert!(
-            mean.abs() <= 0.5 * s + 0.3,
+            mean.abs() <= 0.5 * s + b,
             "{tag}: bias {mean:.2} vs σ {s:.2}"
         );
     }

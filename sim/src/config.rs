@@ -169,6 +169,15 @@ pub struct FeedDriveSpec {
     /// Time constant τ of the feed drive's first-order lag, s (seed 002, eq. 5; the paper
     /// assumes T ≫ τ, eq. 6).
     pub tau_s: f64,
+    /// Time constant of a second first-order lag in series, s (default 0: the first-order
+    /// drive of seed 002; > 0: a second-order drive, e.g. a velocity loop behind the
+    /// position loop). Range 0 ..= 1.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub tau2_s: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// `[override_path]` table: from the board's register to the interpolator.
@@ -258,6 +267,7 @@ impl MachineSpec {
         check_range(f, "spindle.efficiency", self.spindle.efficiency, 0.05, 1.0)?;
         self.spindle.validate_effects(f, "spindle")?;
         check_range(f, "feed_drive.tau_s", self.feed_drive.tau_s, 0.0, 1.0)?;
+        check_range(f, "feed_drive.tau2_s", self.feed_drive.tau2_s, 0.0, 1.0)?;
         check_range(
             f,
             "override_path.delay_s",

@@ -152,6 +152,9 @@ pub struct Machine {
     workpiece: Workpiece,
     radius_mm: f64,
     tau_s: f64,
+    /// Second lag of a second-order feed drive (0: first order), s, and its state, mm/min.
+    tau2_s: f64,
+    feed_inner_mm_min: f64,
     programmed_feed_mm_min: f64,
     rate_hz: f64,
     spindle: Box<dyn SpindleModel>,
@@ -222,6 +225,8 @@ impl Machine {
             radius_mm: tool.radius_mm(),
             workpiece,
             tau_s: machine.feed_drive.tau_s,
+            tau2_s: machine.feed_drive.tau2_s,
+            feed_inner_mm_min: 0.0,
             programmed_feed_mm_min,
             rate_hz,
             spindle: Box::new(ConstantSpeedSpindle::new(machine.spindle)),
@@ -355,6 +360,7 @@ impl Machine {
         let n = ((period_s * self.rate_hz).round() as usize).max(1);
         let dt = period_s / n as f64;
         let alpha = FirstOrderLag::new(self.tau_s).alpha(dt);
+        let alpha2 = FirstOrderLag::new(self.tau2_s).alpha(dt);
         let ap = self
             .engagement_override
             .map_or(self.workpiece.axial_depth_mm, |(_, a)| a);
@@ -376,7 +382,13 @@ impl Machine {
                 self.programmed_feed_mm_min * f64::from(ov) / 100.0
             };
             let f_old = self.feed_mm_min;
-            self.feed_mm_min = FirstOrderLag::advance(self.feed_mm_min, target, alpha);
+            self.feed_mm_min = if self.tau2_s > 0.0 {
+                self.feed_inner_mm_min =
+                    FirstOrderLag::advance(self.feed_inner_mm_min, target, alpha);
+                FirstOrderLag::advance(self.feed_mm_min, self.feed_inner_mm_min, alpha2)
+            } else {
+                FirstOrderLag::advance(self.feed_mm_min, target, alpha)
+            };
             let dx = 0.5 * (f_old + self.feed_mm_min) * dt / 60.0;
             self.x_mm += dx;
             let rpm = self.spindle.speed_rpm();
@@ -491,6 +503,31 @@ mod tests {
             out.extend(rec.samples.iter().map(|s| (s.t_s, s.force_n)));
         }
         out
+    }
+
+    /// Feed (period means) after an override step 0 → 100 % at t = 0 in air, with the
+    /// drive's second lag `tau2_s`.
+    fn feed_step(tau2_s: f64) -> Vec<f64> {
+        let dir = configs_dir();
+        let mut spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        spec.feed_drive.tau2_s = tau2_s;
+        let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+        let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
+        let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
+        m.set_override_input_pct(100);
+        (0..20).map(|_| m.advance(0.05).feed_mean_mm_min).collect()
+    }
+
+    #[test]
+    fn a_second_order_drive_is_slower_and_off_at_zero() {
+        let first = feed_step(0.0);
+        let second = feed_step(0.1);
+        // Off at 0: the first-order drive, bit for bit (the default of machine files).
+        let spec = MachineSpec::load(configs_dir().join("machines/paper_vmc.toml")).expect("m");
+        assert_eq!(spec.feed_drive.tau2_s, 0.0);
+        // The second lag delays the rise, and both settle at the programmed feed.
+        assert!(second[1] < first[1] - 5.0, "{second:?} vs {first:?}");
+        assert!((second[19] - 200.0).abs() < 2.0 && (first[19] - 200.0).abs() < 1.0);
     }
 
     #[test]

@@ -38,6 +38,12 @@ pub enum EffectKind {
     Runout,
     /// Thermal drift of the no-load power: first-order rise after start.
     NoloadDrift,
+    /// Gain drift of the measured channel: the logged value is `(1 + g·t)` × the
+    /// channel's (an amplifier or transducer warming up), `t` in minutes from the log's start.
+    SensorGainDrift,
+    /// Pure delay of the measured channel: the logged value is the channel's `d` seconds
+    /// earlier (a buffer, a transport delay), linear between rows.
+    MeasurementDelay,
 }
 
 /// Description of one effect parameter.
@@ -73,6 +79,9 @@ const PHASE_GRID: &[f64] = &[
     3.0 * std::f64::consts::FRAC_PI_2,
     7.0 * std::f64::consts::FRAC_PI_4,
 ];
+const MEAS_DELAY_GRID: &[f64] = &[0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.6, 0.8];
+const P_GAIN_DRIFT: [ParamInfo; 1] = [p("gain_per_min", "1/min", -0.5, 0.5, 0.002, None)];
+const P_MEAS_DELAY: [ParamInfo; 1] = [p("delay_s", "s", 0.0, 1.5, 0.02, Some(MEAS_DELAY_GRID))];
 const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
 const fn p(
@@ -173,8 +182,12 @@ const P_DRIFT: [ParamInfo; 2] = [
 ];
 
 impl EffectKind {
-    /// All effects, in report order.
-    pub const ALL: [EffectKind; 8] = [
+    /// The workflow's default candidates: every effect but the measurement-chain
+    /// additions of issue 13 ([`EffectKind::SensorGainDrift`],
+    /// [`EffectKind::MeasurementDelay`]), which are asked for explicitly (`--effects`,
+    /// `Options::candidates`): a gain drift cannot be told from tool wear in a log without
+    /// air stretches early and late, and the real turning logs have none.
+    pub const DEFAULT: [EffectKind; 8] = [
         EffectKind::ToolWear,
         EffectKind::MotorEfficiency,
         EffectKind::FeedDriveLag,
@@ -183,6 +196,20 @@ impl EffectKind {
         EffectKind::FeedExponent,
         EffectKind::Runout,
         EffectKind::NoloadDrift,
+    ];
+
+    /// All effects, in report order.
+    pub const ALL: [EffectKind; 10] = [
+        EffectKind::ToolWear,
+        EffectKind::MotorEfficiency,
+        EffectKind::FeedDriveLag,
+        EffectKind::SensorLowpass,
+        EffectKind::OverrideDeadTime,
+        EffectKind::FeedExponent,
+        EffectKind::Runout,
+        EffectKind::NoloadDrift,
+        EffectKind::SensorGainDrift,
+        EffectKind::MeasurementDelay,
     ];
 
     /// Name used in files and reports.
@@ -196,6 +223,8 @@ impl EffectKind {
             EffectKind::FeedExponent => "feed_exponent",
             EffectKind::Runout => "runout",
             EffectKind::NoloadDrift => "noload_drift",
+            EffectKind::SensorGainDrift => "sensor_gain_drift",
+            EffectKind::MeasurementDelay => "measurement_delay",
         }
     }
 
@@ -216,6 +245,8 @@ impl EffectKind {
             EffectKind::FeedExponent => &P_BETA,
             EffectKind::Runout => &P_RUNOUT,
             EffectKind::NoloadDrift => &P_DRIFT,
+            EffectKind::SensorGainDrift => &P_GAIN_DRIFT,
+            EffectKind::MeasurementDelay => &P_MEAS_DELAY,
         }
     }
 
@@ -233,6 +264,14 @@ impl EffectKind {
             (other, self)
         };
         match pair {
+            (ToolWear, SensorGainDrift) | (NoloadDrift, SensorGainDrift) => {
+                "air-cut pauses early and late in the run: a gain drift scales the air power (or a zero force stays zero), wear only acts while cutting, a no-load drift adds a constant"
+            }
+            (FeedDriveLag, MeasurementDelay)
+            | (SensorLowpass, MeasurementDelay)
+            | (OverrideDeadTime, MeasurementDelay) => {
+                "a depth step (tool entry) at constant feed: a measurement delay shifts it, a lag or low-pass rounds it, an override dead time leaves it in place"
+            }
             (ToolWear, NoloadDrift) => {
                 "an air-cut pause late in the run (spindle on, no engagement): no-load drift raises the air power, tool wear does not"
             }
@@ -339,6 +378,64 @@ pub struct Effects {
     /// No-load thermal drift.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noload_drift: Option<NoloadDrift>,
+    /// Gain drift of the measured channel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_gain_drift: Option<SensorGainDrift>,
+    /// Pure delay of the measured channel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measurement_delay: Option<MeasurementDelay>,
+}
+
+/// Gain drift of the measured channel (`[effects.sensor_gain_drift]`). Null: 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorGainDrift {
+    /// Relative gain change per minute from the log's start, 1/min. Range −0.5 ..= 0.5.
+    pub gain_per_min: f64,
+}
+
+/// Pure delay of the measured channel (`[effects.measurement_delay]`). Null: 0 s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementDelay {
+    /// Delay, s. Range 0 ..= 1.5.
+    pub delay_s: f64,
+}
+
+impl SensorGainDrift {
+    /// Apply to the channel `y` logged at `t_s` (s).
+    pub fn apply(&self, y: &mut [f64], t_s: &[f64]) {
+        let t0 = t_s.first().copied().unwrap_or(0.0);
+        for (v, t) in y.iter_mut().zip(t_s) {
+            *v *= 1.0 + self.gain_per_min * (t - t0) / 60.0;
+        }
+    }
+}
+
+impl MeasurementDelay {
+    /// Apply to the channel `y` logged at `t_s` (s): each row takes the channel at
+    /// `t − delay`, linear between rows, the first row's value before the log.
+    pub fn apply(&self, y: &mut [f64], t_s: &[f64]) {
+        if self.delay_s <= 0.0 || y.is_empty() {
+            return;
+        }
+        let orig = y.to_vec();
+        let mut k = 0usize;
+        for (i, v) in y.iter_mut().enumerate() {
+            let t = t_s[i] - self.delay_s;
+            while k + 1 < orig.len() && t_s[k + 1] <= t {
+                k += 1;
+            }
+            *v = if t <= t_s[0] {
+                orig[0]
+            } else if k + 1 < orig.len() {
+                let w = (t - t_s[k]) / (t_s[k + 1] - t_s[k]).max(1e-12);
+                orig[k] + w.clamp(0.0, 1.0) * (orig[k + 1] - orig[k])
+            } else {
+                orig[k]
+            };
+        }
+    }
 }
 
 impl Effects {
@@ -358,6 +455,8 @@ impl Effects {
             EffectKind::FeedExponent => self.feed_exponent.is_some(),
             EffectKind::Runout => self.runout.is_some(),
             EffectKind::NoloadDrift => self.noload_drift.is_some(),
+            EffectKind::SensorGainDrift => self.sensor_gain_drift.is_some(),
+            EffectKind::MeasurementDelay => self.measurement_delay.is_some(),
         }
     }
 
@@ -380,6 +479,8 @@ impl Effects {
             EffectKind::FeedExponent => self.feed_exponent = None,
             EffectKind::Runout => self.runout = None,
             EffectKind::NoloadDrift => self.noload_drift = None,
+            EffectKind::SensorGainDrift => self.sensor_gain_drift = None,
+            EffectKind::MeasurementDelay => self.measurement_delay = None,
         }
     }
 
@@ -399,6 +500,8 @@ impl Effects {
             (EffectKind::Runout, 1) => self.runout.map(|e| e.phase_rad),
             (EffectKind::NoloadDrift, 0) => self.noload_drift.map(|e| e.delta_w),
             (EffectKind::NoloadDrift, 1) => self.noload_drift.map(|e| e.tau_s),
+            (EffectKind::SensorGainDrift, 0) => self.sensor_gain_drift.map(|e| e.gain_per_min),
+            (EffectKind::MeasurementDelay, 0) => self.measurement_delay.map(|e| e.delay_s),
             _ => None,
         }
         .unwrap_or(null)
@@ -461,6 +564,12 @@ impl Effects {
                 |e| &mut e.delta_w,
                 |e| &mut e.tau_s,
             ),
+            EffectKind::SensorGainDrift => {
+                self.sensor_gain_drift = Some(SensorGainDrift { gain_per_min: v })
+            }
+            EffectKind::MeasurementDelay => {
+                self.measurement_delay = Some(MeasurementDelay { delay_s: v })
+            }
         }
     }
 
@@ -505,4 +614,44 @@ fn set_pair<T: Copy>(
         second(&mut e)
     } = v;
     *slot = Some(e);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_measurement_delay_shifts_the_channel_and_a_gain_drift_scales_it() {
+        let t: Vec<f64> = (1..=10).map(|i| 0.1 * f64::from(i)).collect();
+        let y0: Vec<f64> = (0..10).map(f64::from).collect();
+        let mut y = y0.clone();
+        MeasurementDelay { delay_s: 0.15 }.apply(&mut y, &t);
+        // 1.5 rows late, linear between rows; the first rows hold the first value.
+        assert_eq!(y[0], 0.0);
+        assert_eq!(y[1], 0.0);
+        assert!((y[5] - 3.5).abs() < 1e-9, "{y:?}");
+        let mut y = y0.clone();
+        MeasurementDelay { delay_s: 0.0 }.apply(&mut y, &t);
+        assert_eq!(y, y0);
+        let mut y = vec![100.0; 10];
+        SensorGainDrift { gain_per_min: 0.6 }.apply(&mut y, &t);
+        // 0.9 s after the first row: × (1 + 0.6 · 0.9/60).
+        assert!((y[9] - 100.9).abs() < 1e-9 && y[0] == 100.0, "{y:?}");
+    }
+
+    #[test]
+    fn the_new_effects_are_in_the_library_with_their_names() {
+        for (k, n) in [
+            (EffectKind::SensorGainDrift, "sensor_gain_drift"),
+            (EffectKind::MeasurementDelay, "measurement_delay"),
+        ] {
+            assert!(EffectKind::ALL.contains(&k));
+            assert_eq!(EffectKind::from_name(n), Some(k));
+            let mut e = Effects::default();
+            e.set(k, 0, 0.1);
+            assert!(e.is_on(k) && e.get(k, 0) == 0.1);
+            e.remove(k);
+            assert!(!e.is_on(k));
+        }
+    }
 }

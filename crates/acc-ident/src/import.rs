@@ -231,7 +231,10 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
         machine: Machine {
             name: machine.into(),
             spindle,
-            feed_drive: FeedDrive { tau_s: 0.0 },
+            feed_drive: FeedDrive {
+                tau_s: 0.0,
+                tau2_s: 0.0,
+            },
             override_path: OverridePath {
                 delay_s: 0.0,
                 step_pct: 1,

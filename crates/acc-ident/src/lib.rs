@@ -31,6 +31,7 @@ pub mod runlog;
 pub mod segment;
 pub mod stats;
 pub mod synth;
+pub mod testcut;
 pub mod twin;
 pub mod workflow;
 

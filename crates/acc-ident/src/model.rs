@@ -98,6 +98,127 @@ pub struct Measurement {
     /// the whole period; the simulator's spindle-power channel reads the last 0.05 s).
     #[serde(default)]
     pub power_window_s: f64,
+    /// The spindle-power force estimator whose output the log's `force_n` holds (the
+    /// simulator's `[measurement] kind = "spindle-power"` channel, `acc_spindle`'s
+    /// `power` / `power-efficiency` method): absent, `force_n` is a force sensor. With it,
+    /// the force channel is replayed as the estimator sees the spindle: the model's power
+    /// (motor `spindle_motor`, window `power_window_s`, drift, losses, sensor low-pass)
+    /// through the estimator's no-load subtraction (its adaptation replayed on the logged
+    /// `power_w`), efficiency curve and dead band.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_estimator: Option<ForceEstimator>,
+}
+
+/// `[measurement.force_estimator]`: the installation's spindle-power force estimator
+/// (its calibration file): `F = T(P − P_air)/r` with `T` the root of
+/// `c·T² + a·ω·T = ΔP` (`acc_spindle::calibrate::PowerEfficiency`), forces within
+/// `noise_floor_sigma·σ_air/(a·ω·r)` reported as 0, a load below
+/// `−max(negative_sigma·σ_air, 0.05·P_air)` invalid (logged as 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceEstimator {
+    /// `a`: input power per unit of cutting power at light load, −.
+    pub gain: f64,
+    /// `c`: load losses per squared cutting torque, W/(N·m)².
+    pub loss_w_per_nm2: f64,
+    /// Tool radius the estimator divides the torque by, mm.
+    pub tool_radius_mm: f64,
+    /// The learned air-cut point (speed, `P_air`, its σ).
+    pub no_load: acc_spindle::NoLoadPoint,
+    /// The no-load adaptation rule (`None`: fixed no-load).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adapt: Option<acc_spindle::AdaptRule>,
+    /// Dead band in σ of the air-cut power, −.
+    pub noise_floor_sigma: f64,
+    /// Negative-load limit in σ of the air-cut power, −.
+    pub negative_sigma: f64,
+}
+
+impl ForceEstimator {
+    /// The estimator of a calibrated `acc_spindle` estimator (`power` or
+    /// `power-efficiency` method, one learned speed); `None` for the current methods.
+    pub fn from_estimator(est: &acc_spindle::SpindleEstimator) -> Option<ForceEstimator> {
+        let cfg = est.config();
+        let pe = match cfg.method {
+            acc_spindle::Method::Power => acc_spindle::calibrate::PowerEfficiency {
+                gain: 1.0,
+                loss_w_per_nm2: 0.0,
+            },
+            acc_spindle::Method::PowerEfficiency => est.constants().power_efficiency?,
+            _ => return None,
+        };
+        let no_load = est.no_load().points().next()?;
+        let (adapt, floor) = match cfg.no_load {
+            acc_spindle::NoLoadMode::Off => return None,
+            acc_spindle::NoLoadMode::Fixed => (None, cfg.noise_floor_sigma),
+            acc_spindle::NoLoadMode::Adaptive => (
+                est.no_load().rule().enabled.then(|| *est.no_load().rule()),
+                cfg.noise_floor_sigma,
+            ),
+        };
+        Some(ForceEstimator {
+            gain: pe.gain,
+            loss_w_per_nm2: pe.loss_w_per_nm2,
+            tool_radius_mm: cfg.tool_radius_mm,
+            no_load,
+            adapt,
+            noise_floor_sigma: floor,
+            negative_sigma: cfg.negative_sigma,
+        })
+    }
+
+    /// The no-load power and its σ in force at each logged row: the adaptation replayed on
+    /// the logged power (`lookup` before `observe`, as the estimator does), W.
+    pub fn no_load_track(&self, rpm: &[f64], power_w: &[f64]) -> Vec<(f64, f64)> {
+        let rule = self.adapt.unwrap_or(acc_spindle::AdaptRule {
+            enabled: false,
+            ..acc_spindle::AdaptRule::default()
+        });
+        let Ok(mut m) = acc_spindle::NoLoadModel::from_points(&[self.no_load], rule) else {
+            return vec![(self.no_load.power_w, self.no_load.sigma_power_w); rpm.len()];
+        };
+        m.set_adapt(self.adapt.is_some());
+        rpm.iter()
+            .zip(power_w)
+            .map(|(&s, &p)| {
+                let nl = m
+                    .lookup(s)
+                    .map_or((self.no_load.power_w, self.no_load.sigma_power_w), |n| {
+                        (n.power_w, n.sigma_power_w)
+                    });
+                if s > 0.0 && p.is_finite() {
+                    m.observe(s, p, f64::NAN);
+                }
+                nl
+            })
+            .collect()
+    }
+
+    /// The force the estimator reports for the input power `p_w` (W) at `rpm` with the
+    /// no-load `(P_air, σ)`, N (0 in the dead band, when invalid or the spindle stands).
+    pub fn force_n(&self, p_w: f64, rpm: f64, no_load: (f64, f64)) -> f64 {
+        if rpm <= 0.0 || !p_w.is_finite() {
+            return 0.0;
+        }
+        let omega = 2.0 * std::f64::consts::PI * rpm / 60.0;
+        let dp = p_w - no_load.0;
+        let limit = (self.negative_sigma * no_load.1).max(0.05 * no_load.0);
+        if dp < -limit {
+            return 0.0;
+        }
+        let pe = acc_spindle::calibrate::PowerEfficiency {
+            gain: self.gain,
+            loss_w_per_nm2: self.loss_w_per_nm2,
+        };
+        let r_m = self.tool_radius_mm * 1e-3;
+        let f = pe.torque_nm(dp, omega) / r_m;
+        let floor = self.noise_floor_sigma * no_load.1 / (self.gain * omega) / r_m;
+        if f > floor {
+            f
+        } else {
+            0.0
+        }
+    }
 }
 
 /// Force model of the replayed plant (`measurement.force_model`).

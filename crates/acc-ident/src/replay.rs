@@ -42,8 +42,12 @@ pub struct Inputs {
     /// log with `override_applied_pct` and `programmed_feed_mm_min`); `None`: the
     /// period-based feed path below.
     pub plant: Option<PlantInputs>,
+    /// The force estimator's no-load power and its σ per row, W, when the compared force
+    /// is a spindle-power estimate ([`crate::model::Measurement::force_estimator`]): the
+    /// estimator's adaptation replayed on the logged `power_w`.
+    pub estimator_no_load: Option<Vec<(f64, f64)>>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
-    cache: std::cell::RefCell<Option<std::rc::Rc<PathCache>>>,
+    cache: std::cell::RefCell<Vec<std::rc::Rc<PathCache>>>,
     /// Quadratic fits of the spindle motor's input power against torque, per speed.
     motor_curves: std::cell::RefCell<Vec<(f64, [f64; 3])>>,
 }
@@ -142,6 +146,16 @@ impl Inputs {
             (_, _, Some(c)) if !c.is_empty() => c[0],
             _ => log.feed_mm_min.first().copied().unwrap_or(0.0),
         };
+        let estimator_no_load = match (channel, model.measurement.force_estimator) {
+            (Channel::Force, Some(e)) => {
+                let p = log
+                    .power_w
+                    .as_ref()
+                    .ok_or(ReplayError::MissingChannel("power_w"))?;
+                Some(e.no_load_track(&log.spindle_rpm, p))
+            }
+            _ => None,
+        };
         let period_s = log.median_period_s();
         let mut dt_s = vec![period_s; log.len()];
         for (d, w) in dt_s.iter_mut().skip(1).zip(log.t_s.windows(2)) {
@@ -161,6 +175,7 @@ impl Inputs {
             period_s,
             prior: None,
             plant,
+            estimator_no_load,
             cache: Default::default(),
             motor_curves: Default::default(),
         })
@@ -173,7 +188,7 @@ impl Inputs {
     pub fn use_workpiece(&mut self, workpiece: acc_sim::Workpiece, x0_mm: f64) {
         if let Some(p) = self.plant.as_mut() {
             p.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
-            *self.cache.borrow_mut() = None;
+            self.cache.borrow_mut().clear();
         }
     }
 
@@ -208,8 +223,8 @@ impl Inputs {
 
     /// Whether an effect can act on these inputs at all (channel, command path, sampling).
     pub fn applicable(&self, kind: EffectKind) -> Result<(), &'static str> {
-        if kind.power_only() && self.channel != Channel::Power {
-            return Err("acts on spindle power only; the compared channel is force");
+        if kind.power_only() && self.channel != Channel::Power && self.estimator_no_load.is_none() {
+            return Err("acts on spindle power only; the compared channel is a force sensor");
         }
         match kind {
             EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime
@@ -429,8 +444,10 @@ fn plant_trace(
     let mut machine = model.machine.clone();
     machine.override_path.delay_s = key.delay_s;
     machine.feed_drive.tau_s = key.tau_s;
-    let motor = match (inp.channel, model.measurement.spindle_motor) {
-        (Channel::Power, Some(m)) => m.config().ok(),
+    // The motor channel: the power, or the power a spindle-power force estimator reads.
+    let power_read = inp.channel == Channel::Power || inp.estimator_no_load.is_some();
+    let motor = match (power_read, model.measurement.spindle_motor) {
+        (true, Some(m)) => m.config().ok(),
         _ => None,
     };
     let channel = acc_sim::replay::ReplayChannel {
@@ -452,6 +469,17 @@ fn plant_trace(
         &drive,
         &channel,
     )
+}
+
+/// Paths kept per [`Inputs`].
+const PATH_CACHE: usize = 24;
+
+fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
+    let mut v = inp.cache.borrow_mut();
+    if v.len() >= PATH_CACHE {
+        v.remove(0);
+    }
+    v.push(c);
 }
 
 fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
@@ -477,10 +505,10 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
             p.radial_ratio,
         ],
     };
-    if let Some(c) = inp.cache.borrow().as_ref() {
-        if c.key == key {
-            return c.clone();
-        }
+    // The last few paths: a fit's numerical derivatives and cross-validation folds
+    // alternate between nearby delays and time constants, each a full plant replay.
+    if let Some(c) = inp.cache.borrow().iter().find(|c| c.key == key) {
+        return c.clone();
     }
     if let Some(plant) = &inp.plant {
         let tr = plant_trace(model, inp, plant, &key);
@@ -492,7 +520,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
             unit_window_force: tr.iter().map(|t| t.unit_force_window).collect(),
             plant: Some(tr),
         });
-        *inp.cache.borrow_mut() = Some(c.clone());
+        remember(inp, c.clone());
         return c;
     }
     let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.window_s);
@@ -518,7 +546,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         unit_window_force,
         plant: None,
     });
-    *inp.cache.borrow_mut() = Some(c.clone());
+    remember(inp, c.clone());
     c
 }
 
@@ -548,6 +576,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let cached = path(model, inp);
     if let Some(tr) = &cached.plant {
         replay_plant(model, inp, tr, &mut out);
+        measurement_chain(model, inp, &mut out.predicted);
         return out;
     }
     out.feed_mm_min.copy_from_slice(&cached.feed);
@@ -634,7 +663,19 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     if let Some(l) = fx.sensor_lowpass {
         l.filter(&mut out.predicted, &inp.dt_s);
     }
+    measurement_chain(model, inp, &mut out.predicted);
     out
+}
+
+/// The candidate measurement-chain effects on the logged column: a pure delay, then a
+/// gain drift.
+fn measurement_chain(model: &Model, inp: &Inputs, y: &mut [f64]) {
+    if let Some(d) = model.effects.measurement_delay {
+        d.apply(y, &inp.t_s);
+    }
+    if let Some(g) = model.effects.sensor_gain_drift {
+        g.apply(y, &inp.t_s);
+    }
 }
 
 /// [`replay`] on the simulator's plant trace: the trace is at unit force scale, so `Ks`
@@ -678,9 +719,16 @@ fn replay_plant(
         }
         g
     };
-    let motor = match inp.channel {
-        Channel::Power => model.measurement.spindle_motor,
-        Channel::Force => None,
+    // The force of a spindle-power estimator is replayed through the power it reads.
+    let estimator = match (inp.channel, &inp.estimator_no_load) {
+        (Channel::Force, Some(nl)) => model.measurement.force_estimator.map(|e| (e, nl)),
+        _ => None,
+    };
+    let power_chan = inp.channel == Channel::Power || estimator.is_some();
+    let motor = if power_chan {
+        model.measurement.spindle_motor
+    } else {
+        None
     };
     let t0 = inp.t_s.first().copied().unwrap_or(0.0) - inp.dt_s.first().copied().unwrap_or(0.0);
     let mut cut_min = 0.0;
@@ -715,9 +763,9 @@ fn replay_plant(
         let pc = torque * omega;
         out.cut_power_w[i] = pc;
         let tt = inp.t_s[i] - t0;
-        out.predicted[i] = match inp.channel {
-            Channel::Force => chan_force,
-            Channel::Power if s > 0.0 => {
+        out.predicted[i] = match power_chan {
+            false => chan_force,
+            true if s > 0.0 => {
                 let sp = &model.machine.spindle;
                 let base = match motor {
                     Some(m) => {
@@ -734,13 +782,20 @@ fn replay_plant(
                 base + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
                     + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
             }
-            Channel::Power => 0.0,
+            true => 0.0,
         };
     }
-    if let (Channel::Power, Some(l)) = (inp.channel, model.machine.spindle.sensor_lowpass) {
+    if let (true, Some(l)) = (power_chan, model.machine.spindle.sensor_lowpass) {
         l.filter(&mut out.predicted, &inp.dt_s);
     }
     if let Some(l) = fx.sensor_lowpass {
         l.filter(&mut out.predicted, &inp.dt_s);
+    }
+    // The estimator on the replayed power: its no-load (as it adapted on the logged
+    // power), efficiency curve and dead band.
+    if let Some((e, nl)) = estimator {
+        for i in 0..n {
+            out.predicted[i] = e.force_n(out.predicted[i], inp.spindle_rpm[i], nl[i]);
+        }
     }
 }

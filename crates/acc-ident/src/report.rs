@@ -152,6 +152,38 @@ pub struct Ambiguity {
     pub effects: [String; 2],
     /// The experiment that would separate them.
     pub experiment: String,
+    /// That experiment run by the simulator's plant with each explanation fitted (absent
+    /// when the pair's fitted models were not available).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub test_cut: Option<TestCut>,
+}
+
+/// A separating test cut replayed by the simulator's plant ([`acc_sim::replay`]) under the
+/// two fitted explanations of an ambiguous pair: how far apart their predictions are.
+#[derive(Debug, Clone, Serialize)]
+pub struct TestCut {
+    /// What the cut is (depths, feeds, override steps, pauses).
+    pub description: String,
+    /// Rows of the cut (one per control period).
+    pub rows: usize,
+    /// RMS difference of the two predictions over the cut, channel unit.
+    pub rms_difference: f64,
+    /// Largest absolute difference, channel unit.
+    pub max_difference: f64,
+    /// The log's noise σ, channel unit.
+    pub noise_sigma: f64,
+    /// Whether the cut separates them: the summed squared difference over the cut
+    /// exceeds 25 σ² (a 5σ likelihood-ratio test on one such cut).
+    pub separates: bool,
+}
+
+/// An effect that passed the selection criteria but is not named, and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct Withheld {
+    /// The effect.
+    pub effect: String,
+    /// Why it is not named (structure remaining after its fit, an ambiguity …).
+    pub reason: String,
 }
 
 /// The residual that no candidate explains.
@@ -218,6 +250,13 @@ pub struct Report {
     pub accepted: Vec<String>,
     /// Pairs that cannot be told apart.
     pub ambiguous: Vec<Ambiguity>,
+    /// Effects that passed selection but are not named, with the reason.
+    #[serde(default)]
+    pub withheld: Vec<Withheld>,
+    /// What the workflow did and why: the candidates tried, why the named effect won,
+    /// or why nothing was named.
+    #[serde(default)]
+    pub explanation: Vec<String>,
     /// Residual left unexplained, and where.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<Unexplained>,
@@ -245,6 +284,13 @@ impl Report {
         let u = &self.input.unit;
         let _ = writeln!(s, "# Model discrepancy report\n");
         let _ = writeln!(s, "{}\n", self.conclusion);
+        if !self.explanation.is_empty() {
+            let _ = writeln!(s, "## What was done and why\n");
+            for e in &self.explanation {
+                let _ = writeln!(s, "- {e}");
+            }
+            let _ = writeln!(s);
+        }
         for w in &self.warnings {
             let _ = writeln!(s, "- **Warning**: {w}");
         }
@@ -390,6 +436,24 @@ impl Report {
                     "- ambiguous between `{}` and `{}`: {}",
                     a.effects[0], a.effects[1], a.experiment
                 );
+                if let Some(c) = &a.test_cut {
+                    let _ = writeln!(
+                        s,
+                        "  - simulated test cut ({}; {} rows): the two fitted explanations differ by {:.3} {u} RMS, {:.3} {u} at most (noise σ {:.3} {u}) → {}",
+                        c.description,
+                        c.rows,
+                        c.rms_difference,
+                        c.max_difference,
+                        c.noise_sigma,
+                        if c.separates { "it separates them" } else { "it does not separate them" }
+                    );
+                }
+            }
+        }
+        if !self.withheld.is_empty() {
+            let _ = writeln!(s, "\n## Passed selection but not named\n");
+            for w in &self.withheld {
+                let _ = writeln!(s, "- `{}`: {}", w.effect, w.reason);
             }
         }
         if let Some(un) = &self.unexplained {

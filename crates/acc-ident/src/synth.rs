@@ -102,7 +102,10 @@ pub fn nominal_model(case: &Case) -> Model {
         machine: Machine {
             name: "paper VMC".into(),
             spindle: Spindle::new(case.rpm, 500.0, 0.85),
-            feed_drive: FeedDrive { tau_s: 0.05 },
+            feed_drive: FeedDrive {
+                tau_s: 0.05,
+                tau2_s: 0.0,
+            },
             override_path: OverridePath {
                 delay_s: 0.1,
                 step_pct: 10,

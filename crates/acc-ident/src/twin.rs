@@ -25,7 +25,13 @@ pub fn model_for_scenario(scenario: &Scenario, channel: Channel) -> Model {
         MeasurementSpec::Dynamometer { window_s, .. } => (window_s, 0.0, None),
         MeasurementSpec::SpindlePower(spec) => (spec.window_s, spec.window_s, Some(spec.motor)),
     };
-    let motor = if channel == Channel::Power {
+    // The force of a spindle-power channel is the estimator's: the replay then runs the
+    // motor's power through it, so the motor is needed on both channels.
+    let force_estimator = match channel {
+        Channel::Force => estimator_of(scenario),
+        Channel::Power => None,
+    };
+    let motor = if channel == Channel::Power || force_estimator.is_some() {
         motor
     } else {
         None
@@ -49,11 +55,34 @@ pub fn model_for_scenario(scenario: &Scenario, channel: Channel) -> Model {
             },
             spindle_motor: motor,
             power_window_s: if motor.is_some() { power_window_s } else { 0.0 },
+            force_estimator,
         },
         machine,
         tool,
         effects: Effects::default(),
     }
+}
+
+/// The force estimator of `scenario`'s spindle-power channel as commissioned (the
+/// calibration cut of [`acc_sim::motor::SpindlePowerChannel::calibrated_for`] with the
+/// scenario's seed: the installation's calibration file); `None` for a dynamometer or a
+/// current-based method.
+pub fn estimator_of(scenario: &Scenario) -> Option<crate::model::ForceEstimator> {
+    let MeasurementSpec::SpindlePower(spec) = scenario.measurement else {
+        return None;
+    };
+    let law = acc_sim::process::ForceLaw::new(scenario.tool.process);
+    let ch = acc_sim::motor::SpindlePowerChannel::calibrated_for(
+        &spec,
+        &scenario.machine.spindle,
+        scenario.seed,
+        law.torque_nm(1.0, scenario.tool.radius_mm()),
+        scenario.controller.force_ref_n,
+        scenario.tool.radius_mm(),
+        scenario.controller.period_s,
+    )
+    .ok()?;
+    crate::model::ForceEstimator::from_estimator(ch.source().estimator())
 }
 
 /// Run `scenario` with its adaptive law through `acc sim`'s production loop and return the
@@ -113,6 +142,30 @@ pub enum Hidden {
     KsStep(f64),
     /// Out of the library: the tooth-level force model against a mean-force model.
     ToothModel,
+    /// Out of the library: the workpiece's radial depths are this factor of the model's
+    /// (a geometry error of the part), −.
+    DepthScale(f64),
+    /// Out of the library: the part sits this far further along the path than the model's
+    /// workpiece (a fixture offset), mm.
+    PositionOffset(f64),
+    /// Out of the library: hard bands — every other 10 mm of material has `Ks` × this.
+    HardBands(f64),
+    /// Out of the library: each cut starts with a chamfer this long (the depth ramps from 0)
+    /// where the model has a step, mm.
+    EntryChamfer(f64),
+    /// Out of the library: `Ks` grows with cutting time (thermal), 1/min.
+    KsTimeDrift(f64),
+    /// In the library (`sensor_gain_drift`), the logging path (applied to the logged
+    /// measured column after the closed-loop run): a gain drift of the logged channel, 1/min.
+    LogGainDrift(f64),
+    /// In the library (`measurement_delay`), the logging path: the logged measured column
+    /// is late by this many periods (a pure delay).
+    LogDelay(usize),
+    /// Out of the library: a second-order feed drive (a second lag of this τ in series), s.
+    SecondOrderDrive(f64),
+    /// Out of the library, the logging path: spikes of ± this fraction of the channel's
+    /// median on 2 % of the logged rows.
+    LogSpikes(f64),
 }
 
 impl Hidden {
@@ -127,6 +180,8 @@ impl Hidden {
             Hidden::NoloadDrift(_) => K::NoloadDrift,
             Hidden::SensorLowpass(_) => K::SensorLowpass,
             Hidden::Runout(_) => K::Runout,
+            Hidden::LogGainDrift(_) => K::SensorGainDrift,
+            Hidden::LogDelay(_) => K::MeasurementDelay,
             _ => return None,
         })
     }
@@ -145,18 +200,62 @@ impl Hidden {
             Hidden::DepthExponent(v) => format!("depth exponent α={v}"),
             Hidden::KsStep(v) => format!("Ks step ×{v}"),
             Hidden::ToothModel => "tooth-level force".into(),
+            Hidden::DepthScale(v) => format!("depth scale ×{v}"),
+            Hidden::PositionOffset(v) => format!("part offset +{v} mm"),
+            Hidden::HardBands(v) => format!("hard bands ×{v}"),
+            Hidden::EntryChamfer(v) => format!("entry chamfer {v} mm"),
+            Hidden::KsTimeDrift(v) => format!("Ks time drift {v}/min"),
+            Hidden::LogGainDrift(v) => format!("log gain drift {v}/min"),
+            Hidden::LogDelay(k) => format!("log delay {k} periods"),
+            Hidden::SecondOrderDrive(v) => format!("second-order drive τ₂={v} s"),
+            Hidden::LogSpikes(v) => format!("log spikes ±{v}"),
         }
     }
 
-    /// Whether the effect acts on `channel` at all.
-    pub fn acts_on(self, channel: Channel) -> bool {
-        !matches!(
-            (self, channel),
-            (
-                Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
-                Channel::Force
+    /// Parse `name` or `name=value` (`null`, `tool_wear=0.08`, `feed_drive_lag=0.08`,
+    /// `override_dead_time=0.12`, `copper_loss=0.3`, `noload_drift=120`,
+    /// `sensor_lowpass=0.3`, `runout=0.15`, `depth_exponent=1.15`, `ks_step=1.3`, `tooth`).
+    pub fn parse(s: &str) -> Option<Hidden> {
+        let (k, v) = match s.split_once('=') {
+            Some((k, v)) => (k, v.parse::<f64>().ok()?),
+            None => (s, f64::NAN),
+        };
+        Some(match k {
+            "null" => Hidden::Null,
+            "tooth" => Hidden::ToothModel,
+            "tool_wear" => Hidden::ToolWear(v),
+            "feed_drive_lag" => Hidden::FeedDriveLag(v),
+            "override_dead_time" => Hidden::OverrideDeadTime(v),
+            "copper_loss" => Hidden::CopperLoss(v),
+            "noload_drift" => Hidden::NoloadDrift(v),
+            "sensor_lowpass" => Hidden::SensorLowpass(v),
+            "runout" => Hidden::Runout(v),
+            "depth_exponent" => Hidden::DepthExponent(v),
+            "ks_step" => Hidden::KsStep(v),
+            "depth_scale" => Hidden::DepthScale(v),
+            "part_offset" => Hidden::PositionOffset(v),
+            "hard_bands" => Hidden::HardBands(v),
+            "entry_chamfer" => Hidden::EntryChamfer(v),
+            "ks_time_drift" => Hidden::KsTimeDrift(v),
+            "log_gain_drift" => Hidden::LogGainDrift(v),
+            "log_delay" => Hidden::LogDelay(v as usize),
+            "second_order_drive" => Hidden::SecondOrderDrive(v),
+            "log_spikes" => Hidden::LogSpikes(v),
+            _ => return None,
+        })
+    }
+
+    /// Whether the effect acts on `channel` at all; `estimated_force`: the force channel is
+    /// a spindle-power estimate (it then sees every power effect).
+    pub fn acts_on(self, channel: Channel, estimated_force: bool) -> bool {
+        estimated_force
+            || !matches!(
+                (self, channel),
+                (
+                    Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
+                    Channel::Force
+                )
             )
-        )
     }
 }
 
@@ -209,6 +308,68 @@ pub fn hidden_case(
             wp_model = base.workpiece.clone();
         }
         Hidden::ToothModel => sc.force_model = acc_sim::ForceModel::Tooth,
+        Hidden::DepthScale(k) => {
+            for g in sc.workpiece.segments.iter_mut() {
+                g.depth_start_mm *= k;
+                g.depth_end_mm *= k;
+            }
+        }
+        Hidden::PositionOffset(dx) => {
+            for g in sc.workpiece.segments.iter_mut() {
+                g.start_mm += dx;
+                g.end_mm += dx;
+            }
+        }
+        Hidden::HardBands(k) => {
+            let mut out = Vec::new();
+            for g in &sc.workpiece.segments {
+                if !g.is_cut() {
+                    out.push(*g);
+                    continue;
+                }
+                let mut a = g.start_mm;
+                while a < g.end_mm - 1e-9 {
+                    let b = (a + 10.0).min(g.end_mm);
+                    let band = ((a - g.start_mm) / 10.0).round() as i64;
+                    out.push(acc_sim::workpiece::Segment {
+                        start_mm: a,
+                        end_mm: b,
+                        depth_start_mm: g.depth_at(a),
+                        depth_end_mm: g.depth_at(b),
+                        ks_factor: g.ks_factor * if band % 2 == 1 { k } else { 1.0 },
+                        ..*g
+                    });
+                    a = b;
+                }
+            }
+            sc.workpiece.segments = out;
+        }
+        Hidden::EntryChamfer(len) => {
+            let mut out: Vec<acc_sim::workpiece::Segment> = Vec::new();
+            for g in &sc.workpiece.segments {
+                let after_air = out.last().is_none_or(|p| !p.is_cut());
+                if g.is_cut() && after_air && g.end_mm - g.start_mm > 2.0 * len {
+                    let m = g.start_mm + len;
+                    out.push(acc_sim::workpiece::Segment {
+                        end_mm: m,
+                        depth_start_mm: 0.0,
+                        depth_end_mm: g.depth_at(m),
+                        ..*g
+                    });
+                    out.push(acc_sim::workpiece::Segment {
+                        start_mm: m,
+                        depth_start_mm: g.depth_at(m),
+                        ..*g
+                    });
+                } else {
+                    out.push(*g);
+                }
+            }
+            sc.workpiece.segments = out;
+        }
+        Hidden::KsTimeDrift(g) => sc.wear.growth_per_min += g,
+        Hidden::SecondOrderDrive(t) => sc.machine.feed_drive.tau2_s = t,
+        Hidden::LogGainDrift(_) | Hidden::LogDelay(_) | Hidden::LogSpikes(_) => {}
     }
     (sc, model, wp_model)
 }
@@ -224,6 +385,47 @@ pub struct Verdict {
     pub unexplained: bool,
     /// Whether the named effect's primary interval covers `truth` (in-library only).
     pub covered: Option<bool>,
+    /// Effects that passed selection but were withheld (structure remained).
+    pub withheld: Vec<String>,
+    /// The report's conclusion.
+    pub conclusion: String,
+}
+
+/// The logging-path effects ([`Hidden::LogGainDrift`], [`Hidden::LogDelay`],
+/// [`Hidden::LogSpikes`]) on the logged measured column of `channel`, after the run.
+pub fn apply_logging_path(hidden: Hidden, channel: Channel, log: &mut RunLog) {
+    let t_s = log.t_s.clone();
+    let col = match channel {
+        Channel::Power => log.power_w.as_mut(),
+        Channel::Force => log.force_n.as_mut(),
+    };
+    if let Some(col) = col {
+        match hidden {
+            Hidden::LogGainDrift(g) => {
+                for (v, t) in col.iter_mut().zip(&t_s) {
+                    *v *= 1.0 + g * t / 60.0;
+                }
+            }
+            Hidden::LogDelay(k) if k > 0 && col.len() > k => {
+                let orig = col.clone();
+                for i in 0..col.len() {
+                    col[i] = orig[i.saturating_sub(k)];
+                }
+            }
+            Hidden::LogSpikes(a) => {
+                // 2 % of the rows, alternating sign, a fraction `a` of the median |value|.
+                let mut m: Vec<f64> = col.iter().map(|v| v.abs()).collect();
+                m.sort_by(f64::total_cmp);
+                let med = m.get(m.len() / 2).copied().unwrap_or(0.0);
+                let mut sign = 1.0;
+                for i in (17..col.len()).step_by(50) {
+                    col[i] += sign * a * med;
+                    sign = -sign;
+                }
+            }
+            _ => {}
+        }
+    }
 }
 
 /// Run one case end to end: simulate through the production loop, analyse.
@@ -233,11 +435,20 @@ pub fn run_case(
     channel: Channel,
     seed: u64,
 ) -> Result<Verdict, String> {
-    let (mut sc, model, wp) = hidden_case(base, hidden, channel);
+    let (mut sc, mut model, wp) = hidden_case(base, hidden, channel);
     sc.seed = seed;
-    let log = simulate(&sc)?;
+    if model.measurement.force_estimator.is_some() {
+        // The installation's calibration file: the channel as commissioned on this
+        // machine (seed) — what the estimator in the log used.
+        model.measurement.force_estimator = estimator_of(&sc);
+    }
+    let mut log = simulate(&sc)?;
+    apply_logging_path(hidden, channel, &mut log);
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
+        // The whole library, the measurement-chain additions included.
+        candidates: crate::EffectKind::ALL.to_vec(),
+        withhold_on_structure: Some(true),
         ..crate::workflow::Options::default()
     };
     let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;
@@ -254,7 +465,9 @@ pub fn run_case(
         | Hidden::CopperLoss(v)
         | Hidden::NoloadDrift(v)
         | Hidden::SensorLowpass(v)
-        | Hidden::Runout(v) => Some(v),
+        | Hidden::Runout(v)
+        | Hidden::LogGainDrift(v) => Some(v),
+        Hidden::LogDelay(k) => Some(k as f64 * base.controller.period_s),
         _ => None,
     };
     let covered = match (hidden.library(), truth) {
@@ -271,5 +484,7 @@ pub fn run_case(
         ambiguous: !a.report.ambiguous.is_empty(),
         unexplained: a.report.unexplained.is_some(),
         covered,
+        withheld: a.report.withheld.iter().map(|w| w.effect.clone()).collect(),
+        conclusion: a.report.conclusion.clone(),
     })
 }

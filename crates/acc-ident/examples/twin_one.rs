@@ -1,0 +1,42 @@
+//! One evaluation case end to end (development aid): workpiece, hidden effect label,
+//! channel, seed → the verdict and the time it took.
+//!
+//! cargo run --release -p acc-ident --example twin_one -- interrupted.toml null force 1007
+use acc_ident::model::Channel;
+use acc_ident::twin::{run_case, Hidden};
+
+fn main() {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let wp = a
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "interrupted.toml".into());
+    let h = a.get(1).cloned().unwrap_or_else(|| "null".into());
+    let ch = if a.get(2).map(String::as_str) == Some("power") {
+        Channel::Power
+    } else {
+        Channel::Force
+    };
+    let seed: u64 = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(1000);
+    let hidden = Hidden::parse(&h).expect("hidden effect label");
+    let dir = acc_sim::run::configs_dir();
+    let mut sc = acc_sim::Scenario::load(dir.join("scenarios/paper_case3.toml")).expect("sc");
+    sc.workpiece = acc_sim::Workpiece::load(dir.join("workpieces").join(&wp)).expect("wp");
+    sc.max_time_s = 60.0;
+    let t = std::time::Instant::now();
+    let mut s2 = sc.clone();
+    s2.seed = seed;
+    let log = acc_ident::twin::simulate(&s2).expect("sim");
+    println!(
+        "simulate: {:.2} s, {} rows",
+        t.elapsed().as_secs_f64(),
+        log.len()
+    );
+    let t = std::time::Instant::now();
+    let v = run_case(&sc, hidden, ch, seed).expect("case");
+    println!(
+        "{wp} {} {ch:?} {seed}: {v:?} ({:.1} s)",
+        hidden.label(),
+        t.elapsed().as_secs_f64()
+    );
+}

@@ -1,0 +1,42 @@
+//! Residual of the nominal replay of one null log, row by row (development aid).
+//!
+//! cargo run --release -p acc-ident --example twin_resid -- interrupted.toml force 1007
+use acc_ident::model::Channel;
+use acc_ident::twin;
+
+fn main() {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let wp = a
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "interrupted.toml".into());
+    let ch = if a.get(1).map(String::as_str) == Some("power") {
+        Channel::Power
+    } else {
+        Channel::Force
+    };
+    let seed: u64 = a.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000);
+    let dir = acc_sim::run::configs_dir();
+    let mut sc = acc_sim::Scenario::load(dir.join("scenarios/paper_case3.toml")).expect("sc");
+    sc.workpiece = acc_sim::Workpiece::load(dir.join("workpieces").join(&wp)).expect("wp");
+    sc.max_time_s = 60.0;
+    sc.seed = seed;
+    let log = twin::simulate(&sc).expect("log");
+    let m = twin::model_for_scenario(&sc, ch);
+    let r = twin::replay_residual(&m, &log, Some((&sc.workpiece, 0.0))).expect("replay");
+    let meas = match ch {
+        Channel::Force => log.force_n.clone().unwrap_or_default(),
+        Channel::Power => log.power_w.clone().unwrap_or_default(),
+    };
+    for (i, x) in r.iter().enumerate() {
+        println!(
+            "{i} t {:.2} ov {:.0} meas {:.1} resid {:.2} P {:.1} depth {:.2}",
+            log.t_s[i],
+            log.override_applied_pct.as_ref().map_or(0.0, |o| o[i]),
+            meas[i],
+            x,
+            log.power_w.as_ref().map_or(0.0, |p| p[i]),
+            log.radial_depth_mm[i]
+        );
+    }
+}
