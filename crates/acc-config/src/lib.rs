@@ -17,11 +17,13 @@ use serde::de::DeserializeOwned;
 
 pub mod diagnose;
 pub mod preset;
+pub mod tools;
 
 /// The one out-of-range error of the workspace (defined in `acc-core`, the lowest crate, so
 /// that the control core reports its parameter ranges with it too).
 pub use acc_core::RangeError;
 pub use diagnose::{from_table, KeyRange};
+pub use tools::{EntrySpec, OverloadReaction, ToolLimits, ToolTable};
 pub use preset::{load_controller, load_preset, parse_preset, resolve_preset, Preset, PresetFile};
 
 /// A configuration error: which file, which key, what is wrong.
