@@ -155,6 +155,13 @@ impl OverrideLaw for RateLimited {
         "rate-limited"
     }
 
+    /// A tool change: the force limit follows the tool table's Fr.
+    fn set_force_ref_n(&mut self, force_ref_n: f64) {
+        if force_ref_n.is_finite() && force_ref_n > 0.0 {
+            self.core.force_ref_n = force_ref_n;
+        }
+    }
+
     fn engage(&mut self, current: FeedOverride) {
         self.core.engage(current);
     }
@@ -197,6 +204,13 @@ impl Proportional {
 impl OverrideLaw for Proportional {
     fn name(&self) -> &str {
         "proportional"
+    }
+
+    /// A tool change: the force limit follows the tool table's Fr.
+    fn set_force_ref_n(&mut self, force_ref_n: f64) {
+        if force_ref_n.is_finite() && force_ref_n > 0.0 {
+            self.core.force_ref_n = force_ref_n;
+        }
     }
 
     fn engage(&mut self, current: FeedOverride) {

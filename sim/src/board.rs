@@ -38,20 +38,48 @@ pub struct NcContext {
     /// Segment `i` (0-based) of the workpiece runs as block `block_step × (i + 1)` (low 16
     /// bits, as `BLOCK_NUMBER` carries them).
     pub block_step: u16,
+    /// Tool changes along the path (`[[nc.tool_change]]`), in order of position: from
+    /// `x_um` (tool centre, µm) on the board reports `tool`.
+    pub tool_changes: [Option<ToolChange>; NcContext::MAX_TOOL_CHANGES],
+}
+
+/// One tool change of the simulated program: from tool-centre position `x_um` (µm) on,
+/// `TOOL_NUMBER` = `tool`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ToolChange {
+    /// Tool-centre position of the change, µm.
+    pub x_um: i64,
+    /// Tool number from there on.
+    pub tool: u16,
 }
 
 impl Default for NcContext {
-    /// Tool 1, program 1000, blocks N10, N20, …
+    /// Tool 1, program 1000, blocks N10, N20, …, no tool change.
     fn default() -> Self {
         NcContext {
             tool_number: 1,
             program_number: 1000,
             block_step: 10,
+            tool_changes: [None; NcContext::MAX_TOOL_CHANGES],
         }
     }
 }
 
 impl NcContext {
+    /// Most tool changes a scenario may list.
+    pub const MAX_TOOL_CHANGES: usize = 16;
+
+    /// `TOOL_NUMBER` with the tool centre at `x_mm`.
+    pub fn tool_at(&self, x_mm: f64) -> u16 {
+        let x_um = (x_mm * 1000.0).round() as i64;
+        self.tool_changes
+            .iter()
+            .flatten()
+            .filter(|c| c.x_um <= x_um)
+            .last()
+            .map_or(self.tool_number, |c| c.tool)
+    }
+
     /// `BLOCK_NUMBER` while the tool is in segment `index` (0-based).
     pub fn block_number(&self, index: usize) -> u16 {
         let n = u64::from(self.block_step) * (index as u64 + 1);
@@ -193,7 +221,7 @@ impl SimBoard {
             };
             b.set_actual_feed_mm_min(feed);
             let segment = segment_at(&self.segment_ends_mm, rec.x_mm);
-            b.set_tool_number(self.nc.tool_number);
+            b.set_tool_number(self.nc.tool_at(rec.x_mm));
             b.set_program_number(self.nc.program_number);
             b.set_block_number(self.nc.block_number(segment));
         }
@@ -202,8 +230,9 @@ impl SimBoard {
 
     fn publish_machine_inputs_no_sample(&mut self) {
         let segment = segment_at(&self.segment_ends_mm, self.machine.x_mm());
+        let tool = self.nc.tool_at(self.machine.x_mm());
         let mut b = lock_board(&self.logic);
-        b.set_tool_number(self.nc.tool_number);
+        b.set_tool_number(tool);
         b.set_program_number(self.nc.program_number);
         b.set_block_number(self.nc.block_number(segment));
     }
@@ -495,6 +524,7 @@ mod tests {
             tool_number: 12,
             program_number: 4711,
             block_step: 5,
+            ..NcContext::default()
         });
         arm(&mut b, 150);
         let segments = b.machine().workpiece().segments.clone();

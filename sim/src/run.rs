@@ -92,7 +92,20 @@ pub fn run_with_channel<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
+    log: Option<&mut RunLogWriter<W>>,
+) -> Result<RunResult, SimError> {
+    run_with_shop(scenario, law, channel, log, scenario.tools.is_some())
+}
+
+/// [`run_with_channel`], with the scenario's tool table (`[tools]`, the shop layer of the
+/// production loop: per-tool limits and entry control) only if `shop` (and the scenario
+/// has one).
+pub fn run_with_shop<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
     mut log: Option<&mut RunLogWriter<W>>,
+    shop: bool,
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
@@ -103,6 +116,9 @@ pub fn run_with_channel<W: Write>(
         sensor.clone(),
         period_s,
     );
+    if let Some(table) = scenario.tools.clone().filter(|_| shop) {
+        control = control.with_shop(acc_runtime::ShopControl::new(table, period_s));
+    }
     let mut board = scenario.build_board();
     let max_periods = (scenario.max_time_s / period_s).ceil() as usize;
     let mut rows = Vec::with_capacity(max_periods.min(1 << 20));
@@ -155,7 +171,10 @@ impl Scenario {
     /// Build law `kind`, run it without a log file, and summarise the run.
     pub fn run_law(&self, kind: LawKind) -> Result<(RunResult, Summary), SimError> {
         let mut law = self.build_law(kind)?;
-        let result = run::<std::io::Sink>(self, law.as_mut(), None)?;
+        let mut channel = self.build_channel()?;
+        let shop = self.tools.is_some() && (kind == LawKind::Ours || self.tools_for_baselines);
+        let result =
+            run_with_shop::<std::io::Sink>(self, law.as_mut(), channel.as_mut(), None, shop)?;
         let summary = summarize(&result, self);
         Ok((result, summary))
     }

@@ -129,7 +129,7 @@ fn default_settle() -> f64 {
 /// `[nc]` table: the NC context the simulated board reports in its v2 registers
 /// (`TOOL_NUMBER`, `PROGRAM_NUMBER`, `BLOCK_NUMBER`). All keys optional; numbers are read
 /// wide so that a negative or too large value gets a range error naming the key.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct NcSpec {
     /// Active tool (T word), 0…65535 (default 1).
@@ -142,6 +142,32 @@ pub struct NcSpec {
     /// `block_step × (i + 1)`, 1…1000 (default 10).
     #[serde(default = "default_block_step")]
     pub block_step: i64,
+    /// Tool changes along the path, `[[nc.tool_change]]` with `x_mm` (tool-centre position,
+    /// mm, -1e5..=1e5, increasing) and `tool` (0…65535); at most 16.
+    #[serde(default)]
+    pub tool_change: Vec<ToolChangeSpec>,
+}
+
+/// One `[[nc.tool_change]]` entry.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ToolChangeSpec {
+    /// Tool-centre position from which `tool` is reported, mm.
+    pub x_mm: f64,
+    /// Tool number reported from there on.
+    pub tool: i64,
+}
+
+/// `[tools]` table: the shop tool table the production loop runs with.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ToolsSpec {
+    /// Tool table file, relative to the scenario (see `configs/tooltable.toml`).
+    pub file: PathBuf,
+    /// Whether `acc compare`'s baselines run with the tool table's entry control too
+    /// (default false: only "ours"; the tool table's Fr applies to every law either way).
+    #[serde(default)]
+    pub baselines: bool,
 }
 
 fn default_tool_number() -> i64 {
@@ -162,6 +188,7 @@ impl Default for NcSpec {
             tool_number: default_tool_number(),
             program_number: default_program_number(),
             block_step: default_block_step(),
+            tool_change: Vec::new(),
         }
     }
 }
@@ -174,10 +201,30 @@ impl NcSpec {
             check_range(file, key, v as f64, f64::from(lo), f64::from(hi))?;
             Ok(u16::try_from(v).unwrap_or(hi))
         };
+        let max = crate::board::NcContext::MAX_TOOL_CHANGES;
+        if self.tool_change.len() > max {
+            return Err(ConfigError::Invalid {
+                file: file.to_path_buf(),
+                key: "nc.tool_change".into(),
+                message: format!("{} entries: allowed at most {max}", self.tool_change.len()),
+            });
+        }
+        let mut tool_changes = [None; crate::board::NcContext::MAX_TOOL_CHANGES];
+        let mut prev = f64::NEG_INFINITY;
+        for (i, c) in self.tool_change.iter().enumerate() {
+            let lo = if prev.is_finite() { prev } else { -1e5 };
+            let x = check_range(file, &format!("nc.tool_change[{i}].x_mm"), c.x_mm, lo, 1e5)?;
+            prev = x;
+            tool_changes[i] = Some(crate::board::ToolChange {
+                x_um: (x * 1000.0).round() as i64,
+                tool: get(&format!("nc.tool_change[{i}].tool"), c.tool, 0, u16::MAX)?,
+            });
+        }
         Ok(crate::board::NcContext {
             tool_number: get("nc.tool_number", self.tool_number, 0, u16::MAX)?,
             program_number: get("nc.program_number", self.program_number, 0, u16::MAX)?,
             block_step: get("nc.block_step", self.block_step, 1, 1000)?,
+            tool_changes,
         })
     }
 }
@@ -237,6 +284,10 @@ pub struct ScenarioFile {
     /// NC context of the simulated board (tool, program, block numbering).
     #[serde(default)]
     pub nc: NcSpec,
+    /// Shop tool table (`[tools] file = "..."`): per-tool limits by `TOOL_NUMBER` and entry
+    /// control in the production loop (default: none, the preset's Fr for every tool).
+    #[serde(default)]
+    pub tools: Option<ToolsSpec>,
 }
 
 fn default_max_time() -> f64 {
@@ -366,6 +417,11 @@ pub struct Scenario {
     pub policy: acc_runtime::PolicyConfig,
     /// NC context the simulated board reports (`[nc]`, validated).
     pub nc: crate::board::NcContext,
+    /// The shop tool table (`[tools] file`), if any.
+    pub tools: Option<acc_config::ToolTable>,
+    /// `[tools] baselines`: the baselines of `acc compare` run with the tool table's entry
+    /// control too.
+    pub tools_for_baselines: bool,
 }
 
 /// The laws `acc compare` runs.
@@ -462,6 +518,17 @@ impl Scenario {
         file.measurement.check_period(path, controller.period_s)?;
         let policy = file.policy.resolve_in(path, &controller)?;
         let nc = file.nc.resolve(path)?;
+        let tools = match &file.tools {
+            Some(t) => {
+                let p = resolve_relative(path, &t.file);
+                Some(
+                    acc_config::ToolTable::load(&p)
+                        .map_err(|e| acc_config::referenced(path, "tools.file", &t.file, e))?,
+                )
+            }
+            None => None,
+        };
+        let tools_for_baselines = file.tools.as_ref().is_some_and(|t| t.baselines);
         Ok(Scenario {
             path: path.to_path_buf(),
             name: file.name,
@@ -481,6 +548,8 @@ impl Scenario {
             settle_s: file.summary.settle_s,
             policy,
             nc,
+            tools,
+            tools_for_baselines,
         })
     }
 

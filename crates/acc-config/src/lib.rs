@@ -23,8 +23,8 @@ pub mod tools;
 /// that the control core reports its parameter ranges with it too).
 pub use acc_core::RangeError;
 pub use diagnose::{from_table, KeyRange};
-pub use tools::{EntrySpec, OverloadReaction, ToolLimits, ToolTable};
 pub use preset::{load_controller, load_preset, parse_preset, resolve_preset, Preset, PresetFile};
+pub use tools::{EntrySpec, OverloadReaction, ToolLimits, ToolTable};
 
 /// A configuration error: which file, which key, what is wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -388,7 +388,9 @@ fn resolve_tool(
     let breakage_drop_pct = check_range(
         file,
         &k("breakage_drop_pct"),
-        t.breakage_drop_pct.or(base.breakage_drop_pct).unwrap_or(60.0),
+        t.breakage_drop_pct
+            .or(base.breakage_drop_pct)
+            .unwrap_or(60.0),
         1.0,
         100.0,
     )?;
@@ -480,14 +482,25 @@ overload_reaction = "warning"
         assert!(e.contains("t.toml") && e.contains("tool.12.fr_n"), "{e}");
         assert!(e.contains("-3") && e.contains("1 ..= 100000"), "{e}");
         let e = err("[default]\nfr_n = 800.0\nmax_override_pct = 200\n");
-        assert!(e.contains("default.max_override_pct") && e.contains("200"), "{e}");
+        assert!(
+            e.contains("default.max_override_pct") && e.contains("200"),
+            "{e}"
+        );
         assert!(e.contains("1 ..= 150"), "{e}");
-        let e = err("[default]\nfr_n = 800.0\n[tool.3]\nmax_override_pct = 100\nair_override_pct = 120\n");
-        assert!(e.contains("tool.3.air_override_pct") && e.contains("1 ..= 100"), "{e}");
+        let e = err(
+            "[default]\nfr_n = 800.0\n[tool.3]\nmax_override_pct = 100\nair_override_pct = 120\n",
+        );
+        assert!(
+            e.contains("tool.3.air_override_pct") && e.contains("1 ..= 100"),
+            "{e}"
+        );
         let e = err("[default]\nfr_n = 800.0\n[tool.x]\nfr_n = 3.0\n");
         assert!(e.contains("tool.x") && e.contains("1 ..= 65535"), "{e}");
         let e = err("[default]\nfr_n = 800.0\n[entry]\nair_pct = 40.0\n");
-        assert!(e.contains("entry.air_pct") && e.contains("0.5 ..= 15"), "{e}");
+        assert!(
+            e.contains("entry.air_pct") && e.contains("0.5 ..= 15"),
+            "{e}"
+        );
         let e = err("[default]\nmax_override_pct = 100\n");
         assert!(e.contains("default.fr_n") && e.contains("missing"), "{e}");
     }

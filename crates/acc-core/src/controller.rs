@@ -174,6 +174,16 @@ pub trait OverrideLaw {
     fn step(&mut self, m: &Measurement) -> StepOutput;
     /// Freeze integrators (e.g. `OVERRIDE_LOCKED`): the next steps hold state.
     fn set_frozen(&mut self, frozen: bool);
+    /// Change the force reference Fr, N (a tool change; default: ignored). Values that are
+    /// not finite and > 0 are ignored.
+    fn set_force_ref_n(&mut self, _force_ref_n: f64) {}
+    /// The law's process-gain estimate Kc_hat, N/(mm/min), if it keeps one (default: none).
+    fn kc_estimate(&self) -> Option<f64> {
+        None
+    }
+    /// Restart the process-gain estimate at `kc_hat`, N/(mm/min) (a tool change; default:
+    /// ignored).
+    fn reset_kc_estimate(&mut self, _kc_hat: f64) {}
 }
 
 impl<T: OverrideLaw + ?Sized> OverrideLaw for &mut T {
@@ -188,6 +198,15 @@ impl<T: OverrideLaw + ?Sized> OverrideLaw for &mut T {
     }
     fn set_frozen(&mut self, frozen: bool) {
         (**self).set_frozen(frozen)
+    }
+    fn set_force_ref_n(&mut self, force_ref_n: f64) {
+        (**self).set_force_ref_n(force_ref_n)
+    }
+    fn kc_estimate(&self) -> Option<f64> {
+        (**self).kc_estimate()
+    }
+    fn reset_kc_estimate(&mut self, kc_hat: f64) {
+        (**self).reset_kc_estimate(kc_hat)
     }
 }
 
@@ -392,6 +411,19 @@ impl OverrideLaw for Controller {
     /// keeps learning because it compares the force with the applied feed.
     fn set_frozen(&mut self, frozen: bool) {
         self.frozen = frozen;
+    }
+
+    fn set_force_ref_n(&mut self, force_ref_n: f64) {
+        Controller::set_force_ref_n(self, force_ref_n);
+    }
+
+    fn kc_estimate(&self) -> Option<f64> {
+        Some(self.estimator.kc_hat())
+    }
+
+    /// The estimator restarts at `kc_hat` (clamped to its bounds); the gains follow at once.
+    fn reset_kc_estimate(&mut self, kc_hat: f64) {
+        self.estimator.reset(kc_hat);
     }
 }
 

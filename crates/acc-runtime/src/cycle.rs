@@ -12,6 +12,7 @@ use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
+use crate::shop::{ShopControl, ShopState, ShopStep};
 
 /// The writes one period asks of the link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -66,6 +67,8 @@ pub struct CycleRecord {
     pub out: CycleOutput,
     /// The writes asked for.
     pub plan: WritePlan,
+    /// What the shop layer (tool table, entry control) did, if the loop has one.
+    pub shop: Option<ShopStep>,
 }
 
 /// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
@@ -134,6 +137,17 @@ impl CycleRecord {
         if self.out.fault {
             r.flag("fault");
         }
+        if let Some(sh) = self.shop {
+            if sh.state == ShopState::Entry {
+                r.flag("entry");
+            }
+            if sh.tool_changed {
+                r.flag("tool_change");
+            }
+            if sh.limited {
+                r.flag("limit");
+            }
+        }
         for e in self.out.events.iter() {
             if let crate::policy::Event::Rearmed { reason, .. } = e {
                 r.flag(&format!("rearm:{}", reason.as_str()));
@@ -195,6 +209,7 @@ pub struct ControlLoop<L, F> {
     last_feed_mm_min: f64,
     air_force_n: f64,
     air_run: u32,
+    shop: Option<ShopControl>,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -213,7 +228,20 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             last_feed_mm_min: 0.0,
             air_force_n: 0.0,
             air_run: 0,
+            shop: None,
         }
+    }
+
+    /// Run with the shop layer (tool table by `TOOL_NUMBER`, entry control): see
+    /// [`crate::shop`].
+    pub fn with_shop(mut self, shop: ShopControl) -> Self {
+        self.shop = Some(shop);
+        self
+    }
+
+    /// The shop layer, if any.
+    pub fn shop(&self) -> Option<&ShopControl> {
+        self.shop.as_ref()
     }
 
     /// Count a period as out of the cut when the force sample is valid and below
@@ -316,7 +344,20 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             programmed_feed_mm_min: feeds.map_or(0.0, |f| f.0),
             feed_mm_min: feeds.map_or(0.0, |f| f.1),
         };
+        if let Some(sh) = self.shop.as_mut() {
+            let lim = sh.before(
+                link.as_ref().ok(),
+                &force,
+                self.policy.last_command(),
+                &mut self.law,
+            );
+            self.policy.set_command_limits(lim);
+        }
         let out = self.policy.step(&input, &mut self.law);
+        let shop = self.shop.as_mut().and_then(|sh| {
+            sh.after(out.write_override.map(|o| o.0));
+            sh.last()
+        });
         let air = link.is_ok_and(|s| {
             !s.cycle_active
                 || (force.valid && force.force_n.is_finite() && force.force_n < self.air_force_n)
@@ -345,6 +386,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             force,
             out,
             plan,
+            shop,
         };
         self.index += 1;
         rec

@@ -8,6 +8,8 @@
 //! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
+//! - [`shop`]: the tool table per `TOOL_NUMBER` and entry/exit control (limits on the law's
+//!   command);
 //! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v2, v1 migration;
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
@@ -24,6 +26,7 @@ pub mod cycle;
 pub mod policy;
 pub mod record;
 pub mod runner;
+pub mod shop;
 pub mod shutdown;
 pub mod stats;
 #[cfg(feature = "testing")]
@@ -33,12 +36,14 @@ pub mod ticker;
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use policy::{
-    AccState, Alarms, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig, Rearm, Release,
+    AccState, Alarms, CommandLimits, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig,
+    Rearm, Release,
 };
 pub use record::{RunLogWriter, RunRecord};
 pub use runner::{
     run, run_with_reopen, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunError, RunOptions,
     RunSummary, StopRequest, VecSink,
 };
+pub use shop::{ShopControl, ShopState};
 pub use stats::LatencyStats;
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};

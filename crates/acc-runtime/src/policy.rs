@@ -515,6 +515,21 @@ pub struct FaultPolicy {
     /// but handing back would raise the feed (a board without the fallback clamp, knob above
     /// ACC's last command). Cleared on arming.
     knob_ceiling: Option<u16>,
+    /// Command limits of the shop layer for the next step ([`FaultPolicy::set_command_limits`]).
+    shop_limits: CommandLimits,
+}
+
+/// Limits on the law's command set from outside the law for one period (the tool table and
+/// entry control of [`crate::shop`]): applied after the board-step quantization, the cap
+/// last. A command the limits change re-engages the law at the written value (bumpless,
+/// no windup against the limit).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CommandLimits {
+    /// Highest command this period, percent (floored to the board step).
+    pub cap_pct: Option<u16>,
+    /// Lowest command this period while the force sample is valid, percent (rounded up to
+    /// the board step; never above the cap).
+    pub floor_pct: Option<u16>,
 }
 
 impl FaultPolicy {
@@ -544,7 +559,14 @@ impl FaultPolicy {
             outage: false,
             rearms: 0,
             knob_ceiling: None,
+            shop_limits: CommandLimits::default(),
         }
+    }
+
+    /// Limits on the law's command for the next [`FaultPolicy::step`] (replaces the
+    /// previous ones; see [`CommandLimits`]).
+    pub fn set_command_limits(&mut self, limits: CommandLimits) {
+        self.shop_limits = limits;
     }
 
     /// The board's protocol as the last status reported it (`PROTOCOL_VERSION` ≥ 2: v2),
@@ -1047,6 +1069,22 @@ impl FaultPolicy {
         }
         if let Some(knob) = self.knob_ceiling {
             cmd = cmd.min(self.quantize(knob, s.override_step_pct));
+        }
+        let law_cmd = cmd;
+        let lim = self.shop_limits;
+        if let Some(f) = lim.floor_pct.filter(|_| force_valid) {
+            let step_pct = if s.override_step_pct == 0 {
+                10
+            } else {
+                s.override_step_pct
+            };
+            cmd = cmd.max(self.quantize(f.div_ceil(step_pct) * step_pct, step_pct));
+        }
+        if let Some(c) = lim.cap_pct {
+            cmd = cmd.min(self.quantize(c, s.override_step_pct));
+        }
+        if cmd != law_cmd {
+            law.engage(FeedOverride(cmd));
         }
         self.last_cmd = Some(cmd);
         out.write_override = Some(FeedOverride(cmd));

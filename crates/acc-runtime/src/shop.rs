@@ -1,0 +1,383 @@
+//! The shop layer of the production loop: the tool table chosen by the board's
+//! `TOOL_NUMBER`, and entry/exit control. It never writes the override itself: once per
+//! period, before the fault policy steps the law, it sets [`CommandLimits`] (a cap and a
+//! floor) that the policy applies to the law's command, and it tells the law the tool's
+//! force reference and Kc. Everything it does can only lower the command below what the
+//! law asks, except the tool's minimum override while cutting (the setter's floor).
+//!
+//! **Tool selection.** Tool = `TOOL_NUMBER` on a v2 board, 0 (`[default]`) on a v1 board or
+//! when the board reports 0. On a change (and at the first status): the law's Fr becomes the
+//! tool's `fr_n`; Kc_hat restarts at the value this tool had when it was last used in this
+//! run, else at the tool's `kc_init`, else it carries over from the previous tool. A change
+//! mid-run never raises the override at once: the cap starts at the last command and rises
+//! by at most [`SWITCH_RAMP_PCT_PER_S`] (so the new tool's higher Fr is approached by
+//! regulation, a lower Fr takes effect at once).
+//!
+//! **Entry and exit control** (`[entry] enabled = true`). States [`ShopState`]:
+//! - `Air`: the cap is the tool's `air_override_pct`. Air → cut when the estimated force
+//!   rises above `detect_pct` % of Fr (or above `air_pct` % in a period whose block number
+//!   changed: the block change confirms an entry the force alone does not yet show).
+//! - At the entry period the command drops at once to the **entry override**: the one that
+//!   settled at the last entry of this (tool, block), else of this tool in any block, else
+//!   the tool table's `entry_override_pct`, else nothing (the law alone). The law is
+//!   re-engaged there (bumpless) and regulates from it.
+//! - The entry override caps the command until the force reaches 95 % of Fr
+//!   ([`ENTRY_REACHED`]: the engagement is complete) or `settle_s` has passed.
+//! - `Entry` for `settle_s`: the mean over its second half of applied × Fr / F (the override that gives Fr at that engagement) is learned for the
+//!   (tool, block) of the entry and for the tool.
+//! - `Cut` after that; cut → air after 2 periods below `air_pct` % of Fr.
+//! - Force limiter (`limiter = true`) in `Entry` and `Cut`: a force above
+//!   Fr × (1 + `limit_pct`/100) caps the command at once at applied × Fr / F (the force is
+//!   proportional to the feed, so this is the override that would give Fr). This takes the
+//!   entry and hard-spot peaks off faster than the (near-integral) PI can.
+//!
+//! The learned entries live in memory for the run ([`ShopControl::learned_entry`]).
+
+use std::collections::BTreeMap;
+
+use acc_config::{ToolLimits, ToolTable};
+use acc_core::{ForceSample, OverrideLaw};
+use acc_pmc::BoardStatus;
+
+use crate::policy::CommandLimits;
+
+/// After a tool change the cap on the command rises by at most this rate, percent/s.
+pub const SWITCH_RAMP_PCT_PER_S: f64 = 50.0;
+
+/// The entry override holds until the force reaches this share of Fr.
+pub const ENTRY_REACHED: f64 = 0.95;
+
+/// Entry-control state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShopState {
+    /// Out of the cut (force below the air threshold).
+    Air,
+    /// Entered the cut less than `settle_s` ago.
+    Entry,
+    /// In the cut.
+    Cut,
+}
+
+impl ShopState {
+    /// Name for logs (`air`, `entry`, `cut`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ShopState::Air => "air",
+            ShopState::Entry => "entry",
+            ShopState::Cut => "cut",
+        }
+    }
+}
+
+/// What the shop layer did in one period (for the run log).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShopStep {
+    /// Tool in use (0: the `[default]` entry).
+    pub tool: u16,
+    /// Force reference of the tool, N.
+    pub fr_n: f64,
+    /// State after this period.
+    pub state: ShopState,
+    /// The tool changed this period.
+    pub tool_changed: bool,
+    /// Air → cut this period.
+    pub entered: bool,
+    /// The force limiter capped the command this period.
+    pub limited: bool,
+    /// The limits handed to the policy.
+    pub limits: CommandLimits,
+}
+
+/// The per-tool numbers the loop needs every period (no allocation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ToolParams {
+    tool: u16,
+    fr_n: f64,
+    min_pct: u16,
+    max_pct: u16,
+    air_pct: u16,
+    entry_pct: Option<u16>,
+    kc_init: Option<f64>,
+}
+
+impl From<&ToolLimits> for ToolParams {
+    fn from(t: &ToolLimits) -> Self {
+        Self {
+            tool: t.tool,
+            fr_n: t.fr_n,
+            min_pct: t.min_override_pct,
+            max_pct: t.max_override_pct,
+            air_pct: t.air_override_pct,
+            entry_pct: t.entry_override_pct,
+            kc_init: t.kc_init,
+        }
+    }
+}
+
+/// The shop layer's state: see the module docs.
+#[derive(Debug, Clone)]
+pub struct ShopControl {
+    table: ToolTable,
+    period_s: f64,
+    tool: Option<u16>,
+    params: ToolParams,
+    state: ShopState,
+    block: Option<u16>,
+    entry_block: u16,
+    entry_age: u32,
+    entry_sum: f64,
+    entry_n: u32,
+    below_air: u32,
+    prev_k: Option<f64>,
+    entry_cap: Option<f64>,
+    switch_cap: Option<f64>,
+    learned: BTreeMap<(u16, u16), u16>,
+    learned_tool: BTreeMap<u16, u16>,
+    kc_by_tool: BTreeMap<u16, f64>,
+    last: Option<ShopStep>,
+}
+
+impl ShopControl {
+    /// A shop layer on `table` for a loop of period `period_s`, s.
+    pub fn new(table: ToolTable, period_s: f64) -> Self {
+        let params = ToolParams::from(&table.default);
+        Self {
+            table,
+            period_s,
+            tool: None,
+            params,
+            state: ShopState::Air,
+            block: None,
+            entry_block: 0,
+            entry_age: 0,
+            entry_sum: 0.0,
+            entry_n: 0,
+            below_air: 0,
+            prev_k: None,
+            entry_cap: None,
+            switch_cap: None,
+            learned: BTreeMap::new(),
+            learned_tool: BTreeMap::new(),
+            kc_by_tool: BTreeMap::new(),
+            last: None,
+        }
+    }
+
+    /// The tool table.
+    pub fn table(&self) -> &ToolTable {
+        &self.table
+    }
+
+    /// The tool in use (`None` before the first status).
+    pub fn tool(&self) -> Option<u16> {
+        self.tool
+    }
+
+    /// The entry state.
+    pub fn state(&self) -> ShopState {
+        self.state
+    }
+
+    /// What the last period did.
+    pub fn last(&self) -> Option<ShopStep> {
+        self.last
+    }
+
+    /// The entry override learned for (`tool`, `block`) in this run, percent.
+    pub fn learned_entry(&self, tool: u16, block: u16) -> Option<u16> {
+        self.learned.get(&(tool, block)).copied()
+    }
+
+    /// The entry override the next entry of (`tool`, `block`) starts from, percent.
+    pub fn entry_override(&self, tool: u16, block: u16) -> Option<u16> {
+        self.learned_entry(tool, block)
+            .or_else(|| self.learned_tool.get(&tool).copied())
+            .or(self.params.entry_pct)
+    }
+
+    /// Before the policy steps: pick the tool, set the law's Fr and Kc on a change, run
+    /// entry detection, and return the limits for this period's command. `last_cmd` is the
+    /// policy's last written command, percent.
+    pub fn before<L: OverrideLaw + ?Sized>(
+        &mut self,
+        status: Option<&BoardStatus>,
+        force: &ForceSample,
+        last_cmd: Option<u16>,
+        law: &mut L,
+    ) -> CommandLimits {
+        let Some(s) = status else {
+            self.last = None;
+            return CommandLimits::default();
+        };
+        // 1. The tool.
+        let tool = if s.is_v2() { s.tool_number } else { 0 };
+        let tool_changed = self.tool.is_some_and(|t| t != tool);
+        if self.tool != Some(tool) {
+            if let (Some(old), Some(kc)) = (self.tool, law.kc_estimate()) {
+                self.kc_by_tool.insert(old, kc);
+            }
+            self.params = ToolParams::from(self.table.get(tool));
+            law.set_force_ref_n(self.params.fr_n);
+            if let Some(kc) = self.kc_by_tool.get(&tool).copied().or(self.params.kc_init) {
+                law.reset_kc_estimate(kc);
+            }
+            if tool_changed {
+                self.switch_cap = last_cmd.map(f64::from);
+                tracing::info!(
+                    tool,
+                    fr_n = self.params.fr_n,
+                    "tool change: limits switched"
+                );
+            }
+            self.tool = Some(tool);
+        }
+        let p = self.params;
+        let mut cap = f64::from(p.max_pct);
+        if let Some(c) = self.switch_cap {
+            // Rises by regulation only, at a bounded rate; done once it clears the maximum.
+            if !tool_changed {
+                let c = c + SWITCH_RAMP_PCT_PER_S * self.period_s;
+                self.switch_cap = (c < f64::from(p.max_pct)).then_some(c);
+            }
+            cap = cap.min(c);
+        }
+        let block = s.is_v2().then_some(s.block_number).filter(|b| *b != 0);
+        let block_changed = block.is_some() && self.block.is_some() && block != self.block;
+        if block.is_some() {
+            self.block = block;
+        }
+
+        // 2. Entry and exit.
+        let e = self.table.entry;
+        let f = (force.valid && force.force_n.is_finite()).then_some(force.force_n);
+        let mut entered = false;
+        let mut limited = false;
+        let mut floor = None;
+        if e.enabled {
+            let detect = e.detect_pct / 100.0 * p.fr_n;
+            let air = e.air_pct / 100.0 * p.fr_n;
+            match self.state {
+                ShopState::Air => {
+                    let rising = f.is_some_and(|f| f > detect || (block_changed && f > air));
+                    if rising {
+                        entered = true;
+                        self.state = ShopState::Entry;
+                        self.entry_block = self.block.unwrap_or(0);
+                        self.entry_age = 0;
+                        self.entry_sum = 0.0;
+                        self.entry_n = 0;
+                        self.below_air = 0;
+                        self.entry_cap = self.entry_override(tool, self.entry_block).map(f64::from);
+                        if let Some(ov) = self.entry_cap {
+                            cap = cap.min(ov);
+                        }
+                    } else {
+                        cap = cap.min(f64::from(p.air_pct));
+                    }
+                }
+                ShopState::Entry | ShopState::Cut => {
+                    if f.is_some_and(|f| f < air) {
+                        self.below_air += 1;
+                    } else if f.is_some() {
+                        self.below_air = 0;
+                    }
+                    if self.below_air >= 2 {
+                        self.state = ShopState::Air;
+                        cap = cap.min(f64::from(p.air_pct));
+                    } else if self.state == ShopState::Entry {
+                        // The entry override holds until the force has reached Fr (the
+                        // engagement complete) or the window ends.
+                        let k_now = f
+                            .filter(|_| s.override_applied_pct > 0)
+                            .map(|f| f / f64::from(s.override_applied_pct));
+                        let grown =
+                            matches!((k_now, self.prev_k), (Some(k), Some(k0)) if k <= 1.02 * k0);
+                        if grown || f.is_some_and(|f| f >= ENTRY_REACHED * p.fr_n) {
+                            self.entry_cap = None;
+                        }
+                        // Learn the override that gives Fr at this period's engagement.
+                        let half = (0.5 * e.settle_s / self.period_s).floor() as u32;
+                        if let Some(k) = k_now.filter(|_| self.entry_age >= half) {
+                            self.entry_sum += p.fr_n / k;
+                            self.entry_n += 1;
+                        }
+                        if let Some(ov) = self.entry_cap {
+                            cap = cap.min(ov);
+                        }
+                        self.entry_age += 1;
+                        if f64::from(self.entry_age) * self.period_s >= e.settle_s - 1e-9 {
+                            self.learn(tool);
+                            self.entry_cap = None;
+                            self.state = ShopState::Cut;
+                        }
+                    }
+                }
+            }
+            let applied = f64::from(s.override_applied_pct);
+            // Force per percent of override this period, N/%: the engagement's growth from
+            // one period to the next (an entry) shows as its rise.
+            let k = f
+                .filter(|_| applied > 0.0 && !s.feed_hold_active)
+                .map(|f| f / applied);
+            if self.state != ShopState::Air {
+                if p.min_pct > 0 {
+                    floor = Some(p.min_pct);
+                }
+                let limit = p.fr_n * (1.0 + e.limit_pct / 100.0);
+                if let Some(f) = f.filter(|f| e.limiter && *f > limit) {
+                    let c = applied * p.fr_n / f;
+                    if c < cap {
+                        cap = c;
+                        limited = true;
+                    }
+                }
+                // While entering, the engagement still grows: extrapolate one period of its
+                // growth (at most ×2) and keep the next period's force at Fr.
+                if let (true, Some(k), Some(k0)) =
+                    (e.limiter && self.state == ShopState::Entry, k, self.prev_k)
+                {
+                    let g = (k / k0).clamp(1.0, 2.0);
+                    let c = p.fr_n / (k * g);
+                    if g > 1.0 && c < cap && k * g * cap > limit {
+                        cap = c;
+                        limited = true;
+                    }
+                }
+                self.prev_k = k.or(self.prev_k);
+            } else {
+                self.prev_k = None;
+            }
+        } else if p.min_pct > 0 && f.is_some_and(|f| f > 0.5 * p.fr_n) {
+            floor = Some(p.min_pct);
+        }
+        let limits = CommandLimits {
+            cap_pct: Some(cap.floor().clamp(0.0, 150.0) as u16),
+            floor_pct: floor,
+        };
+        self.last = Some(ShopStep {
+            tool,
+            fr_n: p.fr_n,
+            state: self.state,
+            tool_changed,
+            entered,
+            limited,
+            limits,
+        });
+        limits
+    }
+
+    /// After the policy stepped: the command written this period (for learning).
+    /// (Learning uses the force per override of the periods themselves, so the command
+    /// is not needed; kept for symmetry with `before`.)
+    pub fn after(&mut self, _written: Option<u16>) {}
+
+    fn learn(&mut self, tool: u16) {
+        if self.entry_n == 0 {
+            return;
+        }
+        let ov = (self.entry_sum / f64::from(self.entry_n)).floor() as u16;
+        self.learned.insert((tool, self.entry_block), ov);
+        self.learned_tool.insert(tool, ov);
+        tracing::debug!(tool, block = self.entry_block, ov, "entry override learned");
+    }
+}
