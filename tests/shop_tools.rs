@@ -42,17 +42,17 @@ fn two_tools_switch_mid_program_without_a_bump() {
 #[test]
 fn a_bad_tool_table_names_file_key_value_and_range() {
     let dir = std::env::temp_dir().join(format!("acc_shop_tools_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(&dir).expect("ok");
     let table = dir.join("tools.toml");
     let scenario = dir.join("s.toml");
-    let text = std::fs::read_to_string(configs().join("scenarios/two_tools.toml")).unwrap();
+    let text = std::fs::read_to_string(configs().join("scenarios/two_tools.toml")).expect("ok");
     let c = configs();
     let text = text
         .replace("../machines", &format!("{}/machines", c.display()))
         .replace("../workpieces", &format!("{}/workpieces", c.display()))
         .replace("../presets", &format!("{}/presets", c.display()))
         .replace("../tooltable.toml", "tools.toml");
-    std::fs::write(&scenario, text).unwrap();
+    std::fs::write(&scenario, text).expect("ok");
     for (bad, key, value, range) in [
         (
             "[default]\nfr_n = 800.0\n[tool.2]\nfr_n = 0.0\n",
@@ -79,8 +79,8 @@ fn a_bad_tool_table_names_file_key_value_and_range() {
             "20 ..= 1000",
         ),
     ] {
-        std::fs::write(&table, bad).unwrap();
-        let e = Scenario::load(&scenario).unwrap_err().to_string();
+        std::fs::write(&table, bad).expect("ok");
+        let e = Scenario::load(&scenario).expect_err("fails").to_string();
         assert!(e.contains("tools.toml"), "{e}");
         assert!(
             e.contains(key) && e.contains(value) && e.contains(range),
@@ -91,11 +91,11 @@ fn a_bad_tool_table_names_file_key_value_and_range() {
         &table,
         "[default]\nfr_n = 800.0\n[tool.2]\nmax_overide_pct = 100\n",
     )
-    .unwrap();
-    let e = Scenario::load(&scenario).unwrap_err().to_string();
+    .expect("ok");
+    let e = Scenario::load(&scenario).expect_err("fails").to_string();
     assert!(e.contains("did you mean `tool.2.max_override_pct`"), "{e}");
-    std::fs::remove_file(&table).unwrap();
-    let e = Scenario::load(&scenario).unwrap_err().to_string();
+    std::fs::remove_file(&table).expect("ok");
+    let e = Scenario::load(&scenario).expect_err("fails").to_string();
     assert!(e.contains("tools.file"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -75,8 +75,7 @@ impl NcContext {
         self.tool_changes
             .iter()
             .flatten()
-            .filter(|c| c.x_um <= x_um)
-            .last()
+            .rfind(|c| c.x_um <= x_um)
             .map_or(self.tool_number, |c| c.tool)
     }
 

@@ -456,12 +456,14 @@ overload_reaction = "warning"
 "#;
 
     fn err(text: &str) -> String {
-        ToolTable::parse("t.toml", text).unwrap_err().to_string()
+        ToolTable::parse("t.toml", text)
+            .expect_err("fails")
+            .to_string()
     }
 
     #[test]
     fn parses_and_inherits_the_default() {
-        let t = ToolTable::parse("t.toml", GOOD).unwrap();
+        let t = ToolTable::parse("t.toml", GOOD).expect("ok");
         assert!(t.entry.enabled);
         assert_eq!(t.entry.detect_pct, 20.0);
         assert_eq!(t.get(2).fr_n, 500.0);
