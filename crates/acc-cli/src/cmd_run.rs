@@ -329,6 +329,9 @@ fn drive<P: Board + Send>(
     let source = cfg.force_source()?;
     let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s)
         .with_air_force_n(cfg.shutdown.air_force_n);
+    if let Some(table) = cfg.tools.clone() {
+        control = control.with_shop(acc_runtime::ShopControl::new(table, period_s));
+    }
 
     // Run log (created before the port was opened) and the signals: the first Ctrl-C or
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.

@@ -240,6 +240,17 @@ pub struct RunFile {
     /// Loop options.
     #[serde(default)]
     pub runtime: RuntimeSection,
+    /// Shop tool table (`[tools] file = "..."`, relative to this file): per-tool limits
+    /// chosen by the board's `TOOL_NUMBER` and entry control (docs/shop.md).
+    pub tools: Option<ToolsRef>,
+}
+
+/// `[tools]` of a run config.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolsRef {
+    /// Tool table file, relative to the run config (see `configs/tooltable.toml`).
+    pub file: PathBuf,
 }
 
 /// Which link drives the board.
@@ -280,6 +291,8 @@ pub struct RunConfig {
     /// `[board] fallback_mode`: written to a v2 board's `FALLBACK_MODE` once at start
     /// (`"clamp"` or `"clamp_and_feed_hold"`, default the latter; not written to a v1 board).
     pub fallback_mode: FallbackMode,
+    /// The shop tool table (`[tools] file`), if any: loaded and validated with the config.
+    pub tools: Option<acc_config::ToolTable>,
 }
 
 /// Parse `[board] fallback_mode` (`"clamp"` | `"clamp_and_feed_hold"`).
@@ -417,6 +430,15 @@ impl RunConfig {
             600.0,
         )?;
 
+        // [tools]
+        let tools = match &file.tools {
+            Some(t) => Some(
+                acc_config::ToolTable::load(resolve_relative(path, &t.file))
+                    .map_err(|e| referenced(path, "tools.file", &t.file, e))?,
+            ),
+            None => None,
+        };
+
         Ok(Self {
             path: path.to_path_buf(),
             name: file.name,
@@ -428,6 +450,7 @@ impl RunConfig {
             shutdown,
             runtime: rt,
             fallback_mode,
+            tools,
         })
     }
 
