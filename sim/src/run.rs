@@ -92,7 +92,19 @@ pub fn run_with_channel<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
+    log: Option<&mut RunLogWriter<W>>,
+) -> Result<RunResult, SimError> {
+    run_prepared(scenario, law, channel, log, &mut |_| {})
+}
+
+/// [`run_with_channel`] with `prepare` applied to the fresh simulated board before the
+/// first period (the what-if replay sets the recorded engagement or the start position).
+pub fn run_prepared<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
     mut log: Option<&mut RunLogWriter<W>>,
+    prepare: &mut dyn FnMut(&mut crate::SimBoard),
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
@@ -104,6 +116,7 @@ pub fn run_with_channel<W: Write>(
         period_s,
     );
     let mut board = scenario.build_board();
+    prepare(&mut board);
     let max_periods = (scenario.max_time_s / period_s).ceil() as usize;
     let mut rows = Vec::with_capacity(max_periods.min(1 << 20));
     let mut finished = false;
