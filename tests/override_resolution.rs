@@ -20,7 +20,10 @@ fn case3(board_step: u16, preset: OverrideSpec) -> Scenario {
 fn check(board_step: u16, preset: OverrideSpec) {
     let sc = case3(board_step, preset);
     let (r, s) = sc.run_law(LawKind::Ours).expect("run");
-    let tag = format!("board {board_step} %, preset step {} %, {:?}", preset.step_pct, preset.quantizer);
+    let tag = format!(
+        "board {board_step} %, preset step {} %, {:?}",
+        preset.step_pct, preset.quantizer
+    );
     assert!(r.finished, "{tag}: unfinished");
     assert!(s.cycle_time_s.is_some(), "{tag}");
     let mut written = 0;
@@ -51,15 +54,24 @@ fn check(board_step: u16, preset: OverrideSpec) {
 #[test]
 fn ten_percent_board_round_and_sigma_delta() {
     check(10, OverrideSpec::paper());
-    check(10, OverrideSpec::paper().with_quantizer(Quantizer::SigmaDelta));
+    check(
+        10,
+        OverrideSpec::paper().with_quantizer(Quantizer::SigmaDelta),
+    );
 }
 
 #[test]
 fn one_percent_board_round_and_sigma_delta() {
     check(1, OverrideSpec::byte_board());
-    check(1, OverrideSpec::byte_board().with_quantizer(Quantizer::SigmaDelta));
+    check(
+        1,
+        OverrideSpec::byte_board().with_quantizer(Quantizer::SigmaDelta),
+    );
     // A 10 % preset on a 1 % board keeps its own (coarser) grid.
-    check(1, OverrideSpec::paper().with_quantizer(Quantizer::SigmaDelta));
+    check(
+        1,
+        OverrideSpec::paper().with_quantizer(Quantizer::SigmaDelta),
+    );
 }
 
 /// A 1 % preset on a 10 % board is refused at load, naming the key.
@@ -77,7 +89,10 @@ fn finer_preset_than_the_board_is_refused() {
     std::fs::write(dir.path().join("s.toml"), sc).expect("write");
     let e = Scenario::load(dir.path().join("s.toml")).expect_err("1 % preset on a 10 % board");
     let msg = e.to_string();
-    assert!(msg.contains("controller") && msg.contains("board step"), "{msg}");
+    assert!(
+        msg.contains("controller") && msg.contains("board step"),
+        "{msg}"
+    );
 }
 
 /// `[override] quantizer`: "sigma_delta" loads; an unknown name and a hysteresis with
@@ -93,21 +108,42 @@ fn preset_quantizer_key() {
     };
     let ok = write(
         "sd.toml",
-        base.replace("hysteresis_pct = 0.0", "hysteresis_pct = 0.0\nquantizer = \"sigma_delta\""),
+        base.replace(
+            "hysteresis_pct = 0.0",
+            "hysteresis_pct = 0.0\nquantizer = \"sigma_delta\"",
+        ),
     );
     let c = acc_config::load_controller(&ok).expect("sigma_delta preset");
     assert_eq!(c.override_spec.quantizer, Quantizer::SigmaDelta);
     let unknown = write(
         "bad.toml",
-        base.replace("hysteresis_pct = 0.0", "hysteresis_pct = 0.0\nquantizer = \"dither\""),
+        base.replace(
+            "hysteresis_pct = 0.0",
+            "hysteresis_pct = 0.0\nquantizer = \"dither\"",
+        ),
     );
-    let msg = acc_config::load_controller(&unknown).expect_err("unknown").to_string();
-    assert!(msg.contains("bad.toml") && msg.contains("quantizer") && msg.contains("dither"), "{msg}");
+    let msg = acc_config::load_controller(&unknown)
+        .expect_err("unknown")
+        .to_string();
+    assert!(
+        msg.contains("bad.toml") && msg.contains("quantizer") && msg.contains("dither"),
+        "{msg}"
+    );
     assert!(msg.contains("sigma_delta"), "allowed values named: {msg}");
     let both = write(
         "both.toml",
-        base.replace("hysteresis_pct = 0.0", "hysteresis_pct = 2.0\nquantizer = \"sigma_delta\""),
+        base.replace(
+            "hysteresis_pct = 0.0",
+            "hysteresis_pct = 2.0\nquantizer = \"sigma_delta\"",
+        ),
     );
-    let msg = acc_config::load_controller(&both).expect_err("both").to_string();
-    assert!(msg.contains("both.toml") && msg.contains("override.hysteresis_pct") && msg.contains("sigma_delta"), "{msg}");
+    let msg = acc_config::load_controller(&both)
+        .expect_err("both")
+        .to_string();
+    assert!(
+        msg.contains("both.toml")
+            && msg.contains("override.hysteresis_pct")
+            && msg.contains("sigma_delta"),
+        "{msg}"
+    );
 }

@@ -16,8 +16,7 @@ use acc_runtime::record::{read_run_log, RunLogWriter, RunRecord};
 use acc_sim::process::ForceLaw;
 use acc_sim::run::configs_dir;
 use acc_sim::whatif::{
-    cut_metrics, force_difference_rms_n, run_what_if, CutGeometry, EngagementProfile,
-    WhatIfError,
+    cut_metrics, force_difference_rms_n, run_what_if, CutGeometry, EngagementProfile, WhatIfError,
 };
 use acc_sim::{LawKind, Scenario};
 
@@ -40,8 +39,8 @@ fn recorded(sc: &Scenario) -> Vec<RunRecord> {
 
 fn profile(sc: &Scenario, rows: &[RunRecord]) -> CutGeometry {
     let law = ForceLaw::new(sc.tool.process);
-    let p = EngagementProfile::from_rows(std::path::Path::new("run.csv"), rows, &law)
-        .expect("profile");
+    let p =
+        EngagementProfile::from_rows(std::path::Path::new("run.csv"), rows, &law).expect("profile");
     CutGeometry::Logged(Arc::new(p))
 }
 
@@ -51,12 +50,24 @@ fn same_preset_reproduces_the_recorded_cut() {
     let rows = recorded(&sc);
     let wi = run_what_if(&sc, &profile(&sc, &rows), sc.controller).expect("what-if");
     assert!(wi.finished);
-    let (a, b) = (cut_metrics(&rows), cut_metrics(&wi.rows));
+    let (a, b) = (cut_metrics(&rows, true), cut_metrics(&wi.rows, true));
     let rel = |x: f64, y: f64| (y - x).abs() / x;
-    assert!(rel(a.peak_force_n, b.peak_force_n) < 0.03, "peak {a:?} vs {b:?}");
-    assert!(rel(a.mean_force_cut_n, b.mean_force_cut_n) < 0.02, "mean {a:?} vs {b:?}");
-    assert!((a.cycle_time_s - b.cycle_time_s).abs() <= 0.3, "cycle {a:?} vs {b:?}");
-    assert!(rel(a.rms_error_n, b.rms_error_n) < 0.15, "rms {a:?} vs {b:?}");
+    assert!(
+        rel(a.peak_force_n, b.peak_force_n) < 0.03,
+        "peak {a:?} vs {b:?}"
+    );
+    assert!(
+        rel(a.mean_force_cut_n, b.mean_force_cut_n) < 0.02,
+        "mean {a:?} vs {b:?}"
+    );
+    assert!(
+        (a.cycle_time_s - b.cycle_time_s).abs() <= 0.3,
+        "cycle {a:?} vs {b:?}"
+    );
+    assert!(
+        rel(a.rms_error_n, b.rms_error_n) < 0.15,
+        "rms {a:?} vs {b:?}"
+    );
     let d = force_difference_rms_n(&rows, &wi.rows);
     assert!(d < 100.0, "period-by-period force difference {d:.1} N");
     // The profile reproduces the plant: every engaged period of the recorded run has its
@@ -78,11 +89,20 @@ fn gentler_preset_lowers_the_force_and_takes_longer() {
     gentle.force_ref_n = 640.0;
     let wi = run_what_if(&sc, &profile(&sc, &rows), gentle).expect("what-if");
     assert!(wi.finished);
-    let (a, b) = (cut_metrics(&rows), cut_metrics(&wi.rows));
+    let (a, b) = (cut_metrics(&rows, true), cut_metrics(&wi.rows, true));
     assert_eq!(b.force_ref_n, 640.0);
-    assert!(b.peak_force_n < a.peak_force_n - 50.0, "peak {a:?} vs {b:?}");
-    assert!(b.mean_force_cut_n < a.mean_force_cut_n - 100.0, "mean {a:?} vs {b:?}");
-    assert!(b.cycle_time_s > a.cycle_time_s + 3.0, "cycle {a:?} vs {b:?}");
+    assert!(
+        b.peak_force_n < a.peak_force_n - 50.0,
+        "peak {a:?} vs {b:?}"
+    );
+    assert!(
+        b.mean_force_cut_n < a.mean_force_cut_n - 100.0,
+        "mean {a:?} vs {b:?}"
+    );
+    assert!(
+        b.cycle_time_s > a.cycle_time_s + 3.0,
+        "cycle {a:?} vs {b:?}"
+    );
     // Closed loop: the gentler run reaches the same places later, so it has more rows.
     assert!(wi.rows.len() > rows.len());
 }
@@ -95,9 +115,22 @@ fn a_log_without_plant_truth_names_the_column_and_row() {
     let law = ForceLaw::new(sc.tool.process);
     let e = EngagementProfile::from_rows(std::path::Path::new("prod.csv"), &rows, &law)
         .expect_err("missing truth");
-    assert!(matches!(e, WhatIfError::Missing { row: 5, column: "force_true_n", .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            WhatIfError::Missing {
+                row: 5,
+                column: "force_true_n",
+                ..
+            }
+        ),
+        "{e}"
+    );
     let msg = e.to_string();
-    assert!(msg.contains("prod.csv") && msg.contains("CSV line 6") && msg.contains("--workpiece"), "{msg}");
+    assert!(
+        msg.contains("prod.csv") && msg.contains("CSV line 6") && msg.contains("--workpiece"),
+        "{msg}"
+    );
     rows[4].force_true_n = Some(1.0);
     rows[7].x_true_mm = Some(-5.0);
     let msg = EngagementProfile::from_rows(std::path::Path::new("prod.csv"), &rows, &law)
@@ -114,7 +147,11 @@ fn acc_replay_cli() {
     let root = e2e_support::root();
     let acc = e2e_support::acc_bin();
     let run = |args: &[&str]| {
-        let o = Command::new(&acc).args(args).current_dir(&root).output().expect("acc");
+        let o = Command::new(&acc)
+            .args(args)
+            .current_dir(&root)
+            .output()
+            .expect("acc");
         (
             o.status.success(),
             String::from_utf8_lossy(&o.stdout).into_owned(),
@@ -143,7 +180,10 @@ fn acc_replay_cli() {
         out.to_str().expect("utf8"),
     ]);
     assert!(ok, "{err}");
-    assert!(stdout.contains("| peak force [N] |") && stdout.contains("| 800.0 | 640.0 |"), "{stdout}");
+    assert!(
+        stdout.contains("| peak force [N] |") && stdout.contains("| 800.0 | 640.0 |"),
+        "{stdout}"
+    );
     for f in ["whatif.csv", "replay.md", "replay.svg", "replay.png"] {
         assert!(out.join(f).is_file(), "{f}");
     }
@@ -153,15 +193,25 @@ fn acc_replay_cli() {
     let bad = dir.path().join("bad.toml");
     std::fs::write(
         &bad,
-        std::fs::read_to_string(&gentle).expect("read").replace("force_ref_n = 640.0", "force_ref_n = -1.0"),
+        std::fs::read_to_string(&gentle)
+            .expect("read")
+            .replace("force_ref_n = 640.0", "force_ref_n = -1.0"),
     )
     .expect("write");
     let (ok, _, err) = run(&[
-        "replay", "--log", log.to_str().expect("utf8"), "--scenario", "interrupted",
-        "--preset", bad.to_str().expect("utf8"),
+        "replay",
+        "--log",
+        log.to_str().expect("utf8"),
+        "--scenario",
+        "interrupted",
+        "--preset",
+        bad.to_str().expect("utf8"),
     ]);
     assert!(!ok);
-    assert!(err.contains("bad.toml") && err.contains("force_ref_n"), "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("force_ref_n"),
+        "{err}"
+    );
     // A production log (no plant truth) without --workpiece: the column and the way out.
     let text = std::fs::read_to_string(&log).expect("log");
     let mut lines = text.lines();
@@ -191,15 +241,33 @@ fn acc_replay_cli() {
     let prod_log = dir.path().join("prod.csv");
     std::fs::write(&prod_log, prod).expect("write");
     let (ok, _, err) = run(&[
-        "replay", "--log", prod_log.to_str().expect("utf8"), "--scenario", "interrupted",
-        "--preset", gentle.to_str().expect("utf8"),
+        "replay",
+        "--log",
+        prod_log.to_str().expect("utf8"),
+        "--scenario",
+        "interrupted",
+        "--preset",
+        gentle.to_str().expect("utf8"),
     ]);
     assert!(!ok);
-    assert!(err.contains("prod.csv") && err.contains("x_true_mm") && err.contains("row 1") && err.contains("--workpiece"), "{err}");
+    assert!(
+        err.contains("prod.csv")
+            && err.contains("x_true_mm")
+            && err.contains("row 1")
+            && err.contains("--workpiece"),
+        "{err}"
+    );
     // With the workpiece it runs.
     let (ok, stdout, err) = run(&[
-        "replay", "--log", prod_log.to_str().expect("utf8"), "--scenario", "interrupted",
-        "--preset", gentle.to_str().expect("utf8"), "--workpiece", "configs/workpieces/interrupted.toml",
+        "replay",
+        "--log",
+        prod_log.to_str().expect("utf8"),
+        "--scenario",
+        "interrupted",
+        "--preset",
+        gentle.to_str().expect("utf8"),
+        "--workpiece",
+        "configs/workpieces/interrupted.toml",
     ]);
     assert!(ok, "{err}");
     assert!(stdout.contains("workpiece"), "{stdout}");

@@ -116,13 +116,14 @@ impl EngagementProfile {
             let force = need(r.force_true_n, "force_true_n")?;
             let feed = need(r.feed_true_mm_min, "feed_true_mm_min")?;
             let rpm = need(r.spindle_rpm, "spindle_rpm")?;
-            let range = |column: &'static str, value: f64, allowed: &'static str| WhatIfError::Range {
-                file: file.to_path_buf(),
-                column,
-                row,
-                value,
-                allowed,
-            };
+            let range =
+                |column: &'static str, value: f64, allowed: &'static str| WhatIfError::Range {
+                    file: file.to_path_buf(),
+                    column,
+                    row,
+                    value,
+                    allowed,
+                };
             if radial < 0.0 {
                 return Err(range("radial_depth_mm", radial, ">= 0"));
             }
@@ -234,7 +235,11 @@ pub enum CutGeometry {
 
 /// The twin scenario: `base` with the geometry of `geometry` (a logged profile: an air
 /// workpiece as long as the recorded path, wear growth and runout off) and `controller`.
-pub fn twin_scenario(base: &Scenario, geometry: &CutGeometry, controller: ControllerConfig) -> Scenario {
+pub fn twin_scenario(
+    base: &Scenario,
+    geometry: &CutGeometry,
+    controller: ControllerConfig,
+) -> Scenario {
     let mut sc = base.clone();
     sc.controller = controller;
     match geometry {
@@ -242,7 +247,11 @@ pub fn twin_scenario(base: &Scenario, geometry: &CutGeometry, controller: Contro
             let axial = p.points.iter().fold(0.0f64, |m, q| m.max(q.axial_mm));
             sc.workpiece = Workpiece {
                 name: "recorded cut".into(),
-                axial_depth_mm: if axial > 0.0 { axial } else { base.workpiece.axial_depth_mm },
+                axial_depth_mm: if axial > 0.0 {
+                    axial
+                } else {
+                    base.workpiece.axial_depth_mm
+                },
                 segments: vec![Segment {
                     kind: SegmentKind::Air,
                     start_mm: 0.0,
@@ -287,8 +296,7 @@ pub fn run_what_if(
 pub struct CutMetrics {
     /// Force reference of the run (its last logged Fr), N.
     pub force_ref_n: f64,
-    /// Periods in cut (radial depth > 0 where the truth is logged, else measured force
-    /// above a quarter of Fr).
+    /// Periods in cut (see [`cut_metrics`]).
     pub cut_periods: usize,
     /// RMS of measured force − Fr over the periods in cut, N.
     pub rms_error_n: f64,
@@ -302,8 +310,15 @@ pub struct CutMetrics {
     pub override_switches: usize,
 }
 
-/// [`CutMetrics`] of `rows`.
-pub fn cut_metrics(rows: &[RunRecord]) -> CutMetrics {
+/// Whether every row of `rows` has the plant's radial depth (an `acc sim` log).
+pub fn has_truth(rows: &[RunRecord]) -> bool {
+    rows.iter().all(|r| r.radial_depth_mm.is_some())
+}
+
+/// [`CutMetrics`] of `rows`. A period is in cut when its radial depth is > 0 (`by_truth`:
+/// both runs compared have the plant truth) or else when its measured force is above a
+/// quarter of Fr (the same rule must be used on both sides of a comparison).
+pub fn cut_metrics(rows: &[RunRecord], by_truth: bool) -> CutMetrics {
     let fr = rows
         .iter()
         .rev()
@@ -323,9 +338,9 @@ pub fn cut_metrics(rows: &[RunRecord]) -> CutMetrics {
             continue;
         };
         peak = peak.max(f);
-        let in_cut = match r.radial_depth_mm {
-            Some(d) => d > 0.0,
-            None => f > 0.25 * fr,
+        let in_cut = match (by_truth, r.radial_depth_mm) {
+            (true, Some(d)) => d > 0.0,
+            _ => f > 0.25 * r.force_ref_n.unwrap_or(fr),
         };
         if in_cut {
             n += 1;
@@ -362,9 +377,8 @@ pub fn force_difference_rms_n(a: &[RunRecord], b: &[RunRecord]) -> f64 {
 
 /// The `acc replay` table: recorded and what-if side by side with the difference.
 pub fn side_by_side(rec: &CutMetrics, wi: &CutMetrics) -> String {
-    let mut out = format!(
-        "| figure | recorded | what-if | difference |\n| --- | ---: | ---: | ---: |\n"
-    );
+    let mut out =
+        "| figure | recorded | what-if | difference |\n| --- | ---: | ---: | ---: |\n".to_string();
     let mut row = |name: &str, a: f64, b: f64, digits: usize| {
         out.push_str(&format!(
             "| {name} | {a:.digits$} | {b:.digits$} | {:+.digits$} |\n",
@@ -372,9 +386,19 @@ pub fn side_by_side(rec: &CutMetrics, wi: &CutMetrics) -> String {
         ));
     };
     row("force reference Fr [N]", rec.force_ref_n, wi.force_ref_n, 1);
-    row("force RMS error in cut [N]", rec.rms_error_n, wi.rms_error_n, 1);
+    row(
+        "force RMS error in cut [N]",
+        rec.rms_error_n,
+        wi.rms_error_n,
+        1,
+    );
     row("peak force [N]", rec.peak_force_n, wi.peak_force_n, 1);
-    row("mean force in cut [N]", rec.mean_force_cut_n, wi.mean_force_cut_n, 1);
+    row(
+        "mean force in cut [N]",
+        rec.mean_force_cut_n,
+        wi.mean_force_cut_n,
+        1,
+    );
     row("cycle time [s]", rec.cycle_time_s, wi.cycle_time_s, 1);
     row(
         "override switches",

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use acc_plot::{time_series, Figure, HLine, Panel, Series};
 use acc_runtime::record::{read_run_log, RunLogWriter, RunRecord};
 use acc_sim::whatif::{
-    cut_metrics, force_difference_rms_n, run_what_if, side_by_side, CutGeometry,
+    cut_metrics, force_difference_rms_n, has_truth, run_what_if, side_by_side, CutGeometry,
     EngagementProfile,
 };
 use acc_sim::{Scenario, Workpiece};
@@ -97,8 +97,9 @@ pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
     let rows = read_log(&args.log)?;
     let geo = geometry(args, &sc, &rows)?;
     let wi = run_what_if(&sc, &geo, controller)?;
-    let rec_m = cut_metrics(&rows);
-    let wi_m = cut_metrics(&wi.rows);
+    let by_truth = has_truth(&rows) && has_truth(&wi.rows);
+    let rec_m = cut_metrics(&rows, by_truth);
+    let wi_m = cut_metrics(&wi.rows, by_truth);
     let table = side_by_side(&rec_m, &wi_m);
     println!(
         "what-if: {} on the twin of `{}` (geometry: {}), closed loop",
@@ -110,6 +111,14 @@ pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
                 format!("workpiece `{}` from x0 = {x0_mm} mm", workpiece.name),
         }
     );
+    println!(
+        "in cut: {}",
+        if by_truth {
+            "radial depth > 0 (both runs have the plant truth)"
+        } else {
+            "measured force above Fr/4 (the recorded log has no plant truth)"
+        }
+    );
     print!("{table}");
     let diff = force_difference_rms_n(&rows, &wi.rows);
     println!("period-by-period RMS of the measured-force difference: {diff:.1} N");
@@ -117,7 +126,8 @@ pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
         println!("note: the what-if run did not reach the end of the recorded path");
     }
     if let Some(out) = &args.out {
-        std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("{}: cannot create", out.display()))?;
         let csv = out.join("whatif.csv");
         let f = File::create(&csv).with_context(|| format!("{}: cannot create", csv.display()))?;
         let mut w = RunLogWriter::new(BufWriter::new(f))?;
@@ -133,7 +143,13 @@ pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
         );
         std::fs::write(out.join("replay.md"), md)
             .with_context(|| format!("{}: cannot write", out.display()))?;
-        let w = plot(&rows, &wi.rows, rec_m.force_ref_n, wi_m.force_ref_n, &out.join("replay.svg"))?;
+        let w = plot(
+            &rows,
+            &wi.rows,
+            rec_m.force_ref_n,
+            wi_m.force_ref_n,
+            &out.join("replay.svg"),
+        )?;
         println!(
             "wrote {}, {}, {} and {}",
             csv.display(),
@@ -179,7 +195,10 @@ fn plot(
             Panel {
                 y_label: "override [%]".into(),
                 series: vec![
-                    Series::line("recorded", along(rec, |r| r.override_cmd_pct.map(f64::from))),
+                    Series::line(
+                        "recorded",
+                        along(rec, |r| r.override_cmd_pct.map(f64::from)),
+                    ),
                     Series::line("what-if", along(wi, |r| r.override_cmd_pct.map(f64::from))),
                 ],
                 ..Panel::default()

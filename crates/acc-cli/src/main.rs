@@ -4,10 +4,10 @@ use clap::{Parser, Subcommand};
 
 mod cmd_board_sim;
 mod cmd_compare;
-mod cmd_replay;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
+mod cmd_replay;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_soak;

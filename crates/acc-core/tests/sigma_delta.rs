@@ -108,9 +108,17 @@ fn controller_dither_is_bounded_and_held_steps_do_not_raise() {
         let o = ctl.step(&m);
         if valid {
             let u = o.trace.unquantized_pct.clamp(0.0, 150.0);
-            assert!(f64::from(o.command.pct()) <= u + 10.0 + 1e-9, "{i}: {:?} u {u}", o.command);
+            assert!(
+                f64::from(o.command.pct()) <= u + 10.0 + 1e-9,
+                "{i}: {:?} u {u}",
+                o.command
+            );
         } else {
-            assert!(o.command <= last, "{i}: held step raised {last:?} → {:?}", o.command);
+            assert!(
+                o.command <= last,
+                "{i}: held step raised {last:?} → {:?}",
+                o.command
+            );
         }
         last = o.command;
         feed = o.command.feed_mm_min(fp);
