@@ -101,6 +101,10 @@ fn finer_preset_than_the_board_is_refused() {
 fn preset_quantizer_key() {
     let dir = tempfile::tempdir().expect("tmp");
     let base = std::fs::read_to_string(configs_dir().join("presets/case3.toml")).expect("preset");
+    assert!(
+        base.contains("quantizer = \"round\""),
+        "case3 names its quantizer"
+    );
     let write = |name: &str, text: String| {
         let p = dir.path().join(name);
         std::fs::write(&p, text).expect("write");
@@ -108,19 +112,13 @@ fn preset_quantizer_key() {
     };
     let ok = write(
         "sd.toml",
-        base.replace(
-            "hysteresis_pct = 0.0",
-            "hysteresis_pct = 0.0\nquantizer = \"sigma_delta\"",
-        ),
+        base.replace("quantizer = \"round\"", "quantizer = \"sigma_delta\""),
     );
     let c = acc_config::load_controller(&ok).expect("sigma_delta preset");
     assert_eq!(c.override_spec.quantizer, Quantizer::SigmaDelta);
     let unknown = write(
         "bad.toml",
-        base.replace(
-            "hysteresis_pct = 0.0",
-            "hysteresis_pct = 0.0\nquantizer = \"dither\"",
-        ),
+        base.replace("quantizer = \"round\"", "quantizer = \"dither\""),
     );
     let msg = acc_config::load_controller(&unknown)
         .expect_err("unknown")
@@ -132,10 +130,8 @@ fn preset_quantizer_key() {
     assert!(msg.contains("sigma_delta"), "allowed values named: {msg}");
     let both = write(
         "both.toml",
-        base.replace(
-            "hysteresis_pct = 0.0",
-            "hysteresis_pct = 2.0\nquantizer = \"sigma_delta\"",
-        ),
+        base.replace("quantizer = \"round\"", "quantizer = \"sigma_delta\"")
+            .replace("hysteresis_pct = 0.0", "hysteresis_pct = 2.0"),
     );
     let msg = acc_config::load_controller(&both)
         .expect_err("both")

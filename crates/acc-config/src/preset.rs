@@ -20,6 +20,7 @@
 //! min_pct = 0
 //! max_pct = 150
 //! hysteresis_pct = 0.0     # optional (default 0 = round-to-nearest; 0 ..= step_pct/2)
+//! quantizer = "round"      # optional: "round" (default) or "sigma_delta" (needs hysteresis 0)
 //! [estimator]
 //! kc_initial = 4.0
 //! kc_min = 0.05
