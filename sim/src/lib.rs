@@ -40,6 +40,7 @@ pub mod replay;
 pub mod run;
 pub mod scenario;
 pub mod summary;
+pub mod whatif;
 pub mod workpiece;
 
 pub use board::SimBoard;

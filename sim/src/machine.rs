@@ -172,6 +172,9 @@ pub struct Machine {
     /// Engagement forced from outside (radial depth, axial depth, mm), replacing the
     /// workpiece's (the replay of a log that records its engagement, [`crate::replay`]).
     engagement_override: Option<(f64, f64)>,
+    /// Engagement along the path recorded in a run log (the what-if replay,
+    /// [`crate::whatif`]): radial depth, axial depth and `Ks` factor as functions of `x`.
+    engagement_profile: Option<std::sync::Arc<crate::whatif::EngagementProfile>>,
     t_s: f64,
     x_mm: f64,
     feed_mm_min: f64,
@@ -238,6 +241,7 @@ impl Machine {
             feed_hold: false,
             hardness_factor: 1.0,
             engagement_override: None,
+            engagement_profile: None,
             t_s: 0.0,
             x_mm: 0.0,
             feed_mm_min: 0.0,
@@ -288,6 +292,16 @@ impl Machine {
     /// [`crate::replay`] on logs that record their depths but name no workpiece.
     pub fn set_engagement_override(&mut self, depths_mm: Option<(f64, f64)>) {
         self.engagement_override = depths_mm;
+    }
+
+    /// Take the engagement (radial, axial depth, `Ks` factor) from `profile` at the tool's
+    /// position, sample by sample, instead of the workpiece's; `None` returns to the
+    /// workpiece. A forced engagement ([`Machine::set_engagement_override`]) wins.
+    pub fn set_engagement_profile(
+        &mut self,
+        profile: Option<std::sync::Arc<crate::whatif::EngagementProfile>>,
+    ) {
+        self.engagement_profile = profile;
     }
 
     /// Move the tool centre to path position `x_mm` (a replay starting part-way along the
@@ -361,9 +375,11 @@ impl Machine {
         let dt = period_s / n as f64;
         let alpha = FirstOrderLag::new(self.tau_s).alpha(dt);
         let alpha2 = FirstOrderLag::new(self.tau2_s).alpha(dt);
-        let ap = self
-            .engagement_override
-            .map_or(self.workpiece.axial_depth_mm, |(_, a)| a);
+        let ap = match (self.engagement_override, &self.engagement_profile) {
+            (Some((_, a)), _) => a,
+            (None, Some(p)) => p.at(self.x_mm).axial_mm,
+            (None, None) => self.workpiece.axial_depth_mm,
+        };
         let t0 = self.t_s;
         self.samples.clear();
         let mut sums = [0.0f64; 5];
@@ -392,12 +408,19 @@ impl Machine {
             let dx = 0.5 * (f_old + self.feed_mm_min) * dt / 60.0;
             self.x_mm += dx;
             let rpm = self.spindle.speed_rpm();
-            let eng = match self.engagement_override {
-                Some((d, _)) => crate::workpiece::Engagement {
+            let eng = match (self.engagement_override, &self.engagement_profile) {
+                (Some((d, _)), _) => crate::workpiece::Engagement {
                     depth_mm: d,
                     ks_factor: 1.0,
                 },
-                None => self.workpiece.engagement(self.x_mm, self.radius_mm),
+                (None, Some(p)) => {
+                    let e = p.at(self.x_mm);
+                    crate::workpiece::Engagement {
+                        depth_mm: e.radial_mm,
+                        ks_factor: e.ks_factor,
+                    }
+                }
+                (None, None) => self.workpiece.engagement(self.x_mm, self.radius_mm),
             };
             self.depth_mm = eng.depth_mm;
             let mean = self.law.mean_force_n_memo(

@@ -104,8 +104,21 @@ pub fn run_with_shop<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
+    log: Option<&mut RunLogWriter<W>>,
+    shop: bool,
+) -> Result<RunResult, SimError> {
+    run_prepared(scenario, law, channel, log, shop, &mut |_| {})
+}
+
+/// [`run_with_shop`] with `prepare` applied to the fresh simulated board before the
+/// first period (the what-if replay sets the recorded engagement or the start position).
+pub fn run_prepared<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
     mut log: Option<&mut RunLogWriter<W>>,
     shop: bool,
+    prepare: &mut dyn FnMut(&mut crate::SimBoard),
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
@@ -120,6 +133,7 @@ pub fn run_with_shop<W: Write>(
         control = control.with_shop(acc_runtime::ShopControl::new(table, period_s));
     }
     let mut board = scenario.build_board();
+    prepare(&mut board);
     let max_periods = (scenario.max_time_s / period_s).ceil() as usize;
     let mut rows = Vec::with_capacity(max_periods.min(1 << 20));
     let mut finished = false;

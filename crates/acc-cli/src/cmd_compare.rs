@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use acc_core::Quantizer;
 use acc_plot::{time_series, Figure, HLine, Panel, Series, Shade, Written};
 use acc_sim::summary::comparison_table;
 use acc_sim::{LawKind, RunResult, Scenario, Summary};
@@ -43,6 +44,63 @@ pub fn compare(sc: &Scenario) -> anyhow::Result<Vec<(RunResult, Summary)>> {
         .collect()
 }
 
+/// Ours with each quantizer (`round`, `sigma_delta`) on `sc`, the preset's gains and board
+/// step otherwise unchanged.
+pub fn quantizer_runs(sc: &Scenario) -> anyhow::Result<Vec<(Quantizer, Summary)>> {
+    [Quantizer::Round, Quantizer::SigmaDelta]
+        .iter()
+        .map(|&q| {
+            let mut s = sc.clone();
+            s.controller.override_spec = s
+                .controller
+                .override_spec
+                .with_hysteresis(0.0)
+                .with_quantizer(q);
+            let (_, sum) = s.run_law(LawKind::Ours)?;
+            Ok((q, sum))
+        })
+        .collect()
+}
+
+/// Settled mean force error per cut segment that reaches Fr, N (the summary's
+/// `mean_error_n`, mean measured force − Fr after settling), in path order.
+pub fn settled_errors(s: &Summary) -> Vec<f64> {
+    s.segments
+        .iter()
+        .filter(|g| g.is_cut && g.reaches_ref && g.settled_periods > 0)
+        .map(|g| g.mean_error_n)
+        .collect()
+}
+
+/// The quantizer table of `acc compare`: per quantizer the settled mean force error per cut
+/// segment (N and % of Fr, worst first), force RMS error while cutting, peak, cycle time and
+/// override switches.
+pub fn quantizer_table(rows: &[(Quantizer, Summary)]) -> String {
+    let mut out = format!(
+        "{:<12} {:>16} {:>12} {:>10} {:>9} {:>9}  settled mean error per segment [N]\n",
+        "quantizer", "worst_settled_%Fr", "rms_err_N", "peak_F_N", "cycle_s", "switches"
+    );
+    for (q, s) in rows {
+        let errs = settled_errors(s);
+        let worst = errs.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+        let cycle = s
+            .cycle_time_s
+            .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1}"));
+        let list: Vec<String> = errs.iter().map(|e| format!("{e:+.1}")).collect();
+        out.push_str(&format!(
+            "{:<12} {:>16.2} {:>12.1} {:>10.1} {:>9} {:>9}  {}\n",
+            q.name(),
+            100.0 * worst / s.force_ref_n,
+            s.rms_error_cut_n,
+            s.peak_force_n,
+            cycle,
+            s.override_switches,
+            list.join(" ")
+        ));
+    }
+    out
+}
+
 /// Run `acc compare`.
 pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
     let sc = load_scenario(&args.scenario, args.seed)?;
@@ -59,6 +117,12 @@ pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
     );
     let summaries: Vec<Summary> = results.iter().map(|(_, s)| s.clone()).collect();
     print!("{}", comparison_table(&summaries));
+    let q = quantizer_runs(&sc)?;
+    println!(
+        "quantizer (ours, the preset's gains, board step {} %):",
+        sc.controller.override_spec.step_pct
+    );
+    print!("{}", quantizer_table(&q));
     if summaries.iter().any(|s| s.feed_hold_at_s.is_some()) {
         println!(
             "hold@t: every law runs in the production loop; its fault policy held the feed at t s \

@@ -26,7 +26,7 @@ use acc_runtime::{
     run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunOptions,
     RunRecord, SystemClock,
 };
-use anyhow::{bail, Context};
+use anyhow::Context;
 
 use crate::exit::{ExitAs, RunExit};
 
@@ -167,25 +167,18 @@ impl LogSink for RunLogSink {
     }
 }
 
-/// The controller's override resolution on this board: the preset's step if it is a
-/// multiple of the board's, otherwise the board's (commands must be multiples of
-/// `OVERRIDE_STEP` or the board answers exception 03). A preset hysteresis larger than half
-/// the replacing step is refused with a message naming both steps.
+/// The controller's override resolution on this board ([`OverrideSpec::for_board`]): the
+/// preset's step if it is a multiple of the board's, otherwise the board's (commands must be
+/// multiples of `OVERRIDE_STEP` or the board answers exception 03). A preset hysteresis
+/// larger than half the replacing step is refused with a message naming both steps.
 fn spec_for_board(spec: OverrideSpec, board_step: u16) -> anyhow::Result<OverrideSpec> {
-    if board_step == 0 || spec.step_pct.is_multiple_of(board_step) {
-        return Ok(spec);
-    }
-    let half = f64::from(board_step) / 2.0;
-    if spec.hysteresis_pct > half {
-        bail!(
-            "preset `[override] hysteresis_pct` = {} exceeds half the board's override step: the board steps {board_step} %, which replaces the preset's {} % (not a multiple of it); allowed 0 ..= {half}",
+    spec.for_board(board_step).map_err(|e| {
+        anyhow::anyhow!(
+            "preset `[override] hysteresis_pct` = {} exceeds half the board's override step: the board steps {board_step} %, which replaces the preset's {} % (not a multiple of it); allowed 0 ..= {} ({e})",
             spec.hysteresis_pct,
-            spec.step_pct
-        );
-    }
-    Ok(OverrideSpec {
-        step_pct: board_step,
-        ..spec
+            spec.step_pct,
+            f64::from(board_step) / 2.0
+        )
     })
 }
 

@@ -7,6 +7,7 @@ mod cmd_compare;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
+mod cmd_replay;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_soak;
@@ -41,6 +42,10 @@ enum Command {
     /// Compare a model with a measured run log (open-loop replay), name the missing
     /// effect, write report.json/.md, plots and model.updated.toml.
     Discrepancy(cmd_discrepancy::DiscrepancyArgs),
+    /// What-if on a recorded cut: the production loop with another preset (gains, Fr,
+    /// override limits, quantizer) closed loop on the twin whose cut geometry comes from
+    /// the run log; recorded and what-if side by side (table, overlay plot).
+    Replay(cmd_replay::ReplayArgs),
     /// The production loop against the PMC interface board (Modbus RTU): fault policy,
     /// operator priority, run log (CSV, same schema as `acc sim`). Ctrl-C mid-cut keeps
     /// control until the cut ends (at most `[shutdown] drain_s`), then releases; still
@@ -125,6 +130,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
         Command::Sim(args) => cmd_sim::run_cmd(&args),
         Command::Compare(args) => cmd_compare::run_cmd(&args),
+        Command::Replay(args) => cmd_replay::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),

@@ -20,6 +20,7 @@
 //! min_pct = 0
 //! max_pct = 150
 //! hysteresis_pct = 0.0     # optional (default 0 = round-to-nearest; 0 ..= step_pct/2)
+//! quantizer = "round"      # optional: "round" (default) or "sigma_delta" (needs hysteresis 0)
 //! [estimator]
 //! kc_initial = 4.0
 //! kc_min = 0.05
@@ -174,6 +175,31 @@ pub struct OverrideSection {
     /// round-to-nearest), see [`OverrideSpec::quantize_hysteresis`].
     #[serde(default)]
     pub hysteresis_pct: f64,
+    /// `"round"` (default: nearest position, with the hysteresis) or `"sigma_delta"`
+    /// (error feedback: the time-average override follows the continuous command; needs
+    /// `hysteresis_pct = 0`), see [`acc_core::SigmaDelta`].
+    #[serde(default)]
+    pub quantizer: QuantizerName,
+}
+
+/// `[override] quantizer`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QuantizerName {
+    /// Round to the nearest board position.
+    #[default]
+    Round,
+    /// First-order σ-Δ error feedback.
+    SigmaDelta,
+}
+
+impl From<QuantizerName> for acc_core::Quantizer {
+    fn from(q: QuantizerName) -> Self {
+        match q {
+            QuantizerName::Round => acc_core::Quantizer::Round,
+            QuantizerName::SigmaDelta => acc_core::Quantizer::SigmaDelta,
+        }
+    }
 }
 
 /// Estimator gain kind.
@@ -328,11 +354,22 @@ impl OverrideSection {
             0.0,
             f64::from(step) / 2.0,
         )?;
+        if self.quantizer == QuantizerName::SigmaDelta && self.hysteresis_pct != 0.0 {
+            return Err(ConfigError::OutOfRange(
+                RangeError::new(
+                    "override.hysteresis_pct",
+                    self.hysteresis_pct.to_string(),
+                    "0 with quantizer = \"sigma_delta\" (the dither replaces the deadband)",
+                )
+                .in_file(file),
+            ));
+        }
         Ok(OverrideSpec {
             step_pct: step,
             min_pct: self.min_pct,
             max_pct: self.max_pct,
             hysteresis_pct: self.hysteresis_pct,
+            quantizer: self.quantizer.into(),
         })
     }
 }
@@ -477,6 +514,7 @@ pub const PRESET_KEY_RANGES: &[KeyRange] = &[
     KeyRange::new("override.min_pct", "a multiple of step_pct, <= max_pct"),
     KeyRange::new("override.max_pct", "a multiple of step_pct, <= 150"),
     KeyRange::new("override.hysteresis_pct", "0 ..= step_pct / 2"),
+    KeyRange::new("override.quantizer", "\"round\" or \"sigma_delta\""),
     KeyRange::new("estimator.kc_initial", "kc_min ..= kc_max"),
     KeyRange::new("estimator.kc_min", "0 < x < 10000"),
     KeyRange::new("estimator.kc_max", "kc_min < x <= 10000"),

@@ -18,6 +18,15 @@
 //!    sample, no programmed feed) only ever hold, so no lowering is delayed by it. The
 //!    anti-windup acts only at the limits, where the written value *is* the limit; inside
 //!    the range a held position is bounded to one step, like the quantization itself.
+//! 6. Or the σ-Δ quantizer (`override_spec.quantizer = SigmaDelta`, [`crate::SigmaDelta`]):
+//!    inside the range the written position dithers between the two neighbours of the
+//!    continuous command so that its time average equals the command. The PI sees only the
+//!    continuous command (its integrator keeps the unquantized value, as with rounding); the
+//!    residue is reset at a limit (saturation writes the limit at once), at engage, and a
+//!    held step (invalid sample, no programmed feed) holds the last position without
+//!    touching the residue, so the dither never raises the feed on a held step. The written
+//!    position is never more than one step above the continuous command; the fault policy's
+//!    clamps act after it.
 //!
 //! ```
 //! use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
@@ -44,7 +53,9 @@ use crate::estimator::KcEstimator;
 use crate::pi::PiState;
 use crate::poles::{self, PiGains};
 use crate::RangeError;
-use crate::{CoreError, DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec};
+use crate::{
+    CoreError, DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec, Quantizer, SigmaDelta,
+};
 
 /// What the controller sees once per period `T`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -224,6 +235,7 @@ pub struct Controller {
     last_command: FeedOverride,
     last_saturation: Saturation,
     frozen: bool,
+    sigma_delta: SigmaDelta,
 }
 
 impl Controller {
@@ -248,6 +260,7 @@ impl Controller {
             last_command: FeedOverride::NOMINAL,
             last_saturation: Saturation::None,
             frozen: false,
+            sigma_delta: SigmaDelta::new(),
         })
     }
 
@@ -351,6 +364,7 @@ impl OverrideLaw for Controller {
         self.pending_engage = Some(current);
         self.last_command = current;
         self.last_saturation = Saturation::None;
+        self.sigma_delta.reset();
     }
 
     /// One period. An invalid or non-finite measurement, or a programmed feed that is not
@@ -378,13 +392,20 @@ impl OverrideLaw for Controller {
             self.cfg.anti_windup,
             !self.frozen,
         ); // eq. 4
-        let command = match s.saturation {
-            Saturation::None => self
-                .cfg
-                .override_spec
-                .quantize_hysteresis(s.unquantized_pct, self.last_command),
-            // Saturated: the limit is written at once (never held back by the deadband).
-            Saturation::Low | Saturation::High => s.command,
+        let spec = self.cfg.override_spec;
+        let command = match (s.saturation, spec.quantizer) {
+            (Saturation::None, Quantizer::Round) => {
+                spec.quantize_hysteresis(s.unquantized_pct, self.last_command)
+            }
+            (Saturation::None, Quantizer::SigmaDelta) => {
+                self.sigma_delta.step(&spec, s.unquantized_pct)
+            }
+            // Saturated: the limit is written at once (never held back by the deadband or
+            // the dither).
+            (Saturation::Low | Saturation::High, _) => {
+                self.sigma_delta.reset();
+                s.command
+            }
         };
         self.last_command = command;
         self.last_saturation = s.saturation;

@@ -63,7 +63,7 @@ pub use controller::{
     Saturation, StepOutput, Trace,
 };
 pub use estimator::{EstimatorConfig, EstimatorGain, KcEstimator};
-pub use override_spec::{FeedOverride, OverrideSpec};
+pub use override_spec::{FeedOverride, OverrideSpec, Quantizer, SigmaDelta};
 pub use poles::{DesiredPoles, PiGains, PoleError};
 pub use source::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
 

@@ -5,7 +5,11 @@
 //! controller's continuous override into what the board can actually apply;
 //! [`OverrideSpec::quantize_hysteresis`] does the same with an optional deadband around the
 //! midpoints (`hysteresis_pct`, default 0 = plain round-to-nearest) so that a command sitting
-//! between two positions does not dither between them.
+//! between two positions does not dither between them. [`SigmaDelta`] is the other choice
+//! ([`Quantizer::SigmaDelta`]): a first-order error-feedback quantizer that carries the
+//! rounding residue from one period to the next, so that the *time average* of the written
+//! positions equals the continuous command (a command of 64 % on a 10 % board is written as
+//! 60, 70, 60, 70, 60, 60, 70, … with a mean of 64 %).
 
 use crate::CoreError;
 use crate::RangeError;
@@ -57,6 +61,98 @@ pub struct OverrideSpec {
     /// Quantizer hysteresis `h`, percent of the override (0 ..= `step_pct`/2; default 0 =
     /// plain round-to-nearest). See [`OverrideSpec::quantize_hysteresis`].
     pub hysteresis_pct: f64,
+    /// How the continuous command becomes a board position (default
+    /// [`Quantizer::Round`]).
+    pub quantizer: Quantizer,
+}
+
+/// How the controller turns its continuous override command into a board position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Quantizer {
+    /// Round to the nearest position (with the optional hysteresis,
+    /// [`OverrideSpec::quantize_hysteresis`]): the paper's behaviour.
+    #[default]
+    Round,
+    /// First-order error feedback (σ-Δ, [`SigmaDelta`]): the time average of the written
+    /// positions follows the continuous command; needs `hysteresis_pct = 0`.
+    SigmaDelta,
+}
+
+impl Quantizer {
+    /// The configuration name: `"round"` or `"sigma_delta"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantizer::Round => "round",
+            Quantizer::SigmaDelta => "sigma_delta",
+        }
+    }
+}
+
+/// First-order σ-Δ (error-feedback) step scheduler: pure, allocation-free state of one
+/// quantizer (the residue, percent).
+///
+/// Per period, with the continuous command `u` clamped to `[min_pct, max_pct]` and the
+/// residue `e` carried from the last period (|e| ≤ step/2):
+///
+/// ```text
+/// v = u + e            q = quantize(v)  (nearest position, clamped to the range)
+/// e' = v − q
+/// ```
+///
+/// So `Σq = Σu + e₀ − e_N`: over N periods the mean written override is within
+/// `step/N` of the mean command (`step/(2N)` from a reset). The output is always a
+/// position in `[min_pct, max_pct]` and never more than one step above (or below) `u`:
+/// `|q − u| ≤ |q − v| + |e| ≤ step`. A NaN command writes `min_pct` and resets the
+/// residue (the safe side).
+///
+/// ```
+/// use acc_core::{OverrideSpec, SigmaDelta};
+/// let spec = OverrideSpec::paper();
+/// let mut sd = SigmaDelta::new();
+/// let out: Vec<u16> = (0..10).map(|_| sd.step(&spec, 64.0).pct()).collect();
+/// assert_eq!(out.iter().map(|&q| u32::from(q)).sum::<u32>(), 640); // mean 64 %
+/// assert!(out.iter().all(|&q| q == 60 || q == 70));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SigmaDelta {
+    residue_pct: f64,
+}
+
+impl SigmaDelta {
+    /// A quantizer with zero residue.
+    pub const fn new() -> Self {
+        Self { residue_pct: 0.0 }
+    }
+
+    /// The carried residue `e`, percent (|e| ≤ step/2).
+    pub fn residue_pct(&self) -> f64 {
+        self.residue_pct
+    }
+
+    /// Forget the residue (engage, saturation, held periods).
+    pub fn reset(&mut self) {
+        self.residue_pct = 0.0;
+    }
+
+    /// One period: the board position for the continuous command `pct`, percent.
+    pub fn step(&mut self, spec: &OverrideSpec, pct: f64) -> FeedOverride {
+        if pct.is_nan() {
+            self.reset();
+            return FeedOverride(spec.min_pct);
+        }
+        let u = spec.clamp_pct(pct);
+        let half = f64::from(spec.step_pct.max(1)) / 2.0;
+        let e = if self.residue_pct.is_finite() {
+            self.residue_pct.clamp(-half, half)
+        } else {
+            0.0
+        };
+        let v = u + e;
+        let q = spec.quantize(v);
+        // |v − q| ≤ step/2 inside the range; at a limit the clamp keeps the residue bounded.
+        self.residue_pct = (v - f64::from(q.pct())).clamp(-half, half);
+        q
+    }
 }
 
 impl OverrideSpec {
@@ -70,6 +166,7 @@ impl OverrideSpec {
             min_pct: 0,
             max_pct: 150,
             hysteresis_pct: 0.0,
+            quantizer: Quantizer::Round,
         }
     }
 
@@ -80,6 +177,7 @@ impl OverrideSpec {
             min_pct: 0,
             max_pct: 150,
             hysteresis_pct: 0.0,
+            quantizer: Quantizer::Round,
         }
     }
 
@@ -90,6 +188,38 @@ impl OverrideSpec {
             hysteresis_pct,
             ..self
         }
+    }
+
+    /// The same board with quantizer `quantizer`.
+    pub const fn with_quantizer(self, quantizer: Quantizer) -> Self {
+        Self { quantizer, ..self }
+    }
+
+    /// This spec on a board whose `OVERRIDE_STEP` is `board_step` percent: unchanged when
+    /// the spec's step is a multiple of the board's (or `board_step` is 0 = unknown),
+    /// otherwise the board's step (commands must be multiples of `OVERRIDE_STEP`), with the
+    /// limits floored (max) and ceiled (min) onto the new grid. A hysteresis above half the
+    /// replacing step is refused (`override.hysteresis_pct`).
+    pub fn for_board(self, board_step: u16) -> Result<Self, CoreError> {
+        if board_step == 0 || self.step_pct.is_multiple_of(board_step) {
+            return Ok(self);
+        }
+        let half = f64::from(board_step) / 2.0;
+        if self.hysteresis_pct > half {
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "override.hysteresis_pct",
+                self.hysteresis_pct,
+                "0 ..= half the board's OVERRIDE_STEP",
+            )));
+        }
+        let max_pct = self.max_pct - self.max_pct % board_step;
+        let min_pct = self.min_pct.div_ceil(board_step) * board_step;
+        Ok(Self {
+            step_pct: board_step,
+            min_pct: min_pct.min(max_pct),
+            max_pct,
+            ..self
+        })
     }
 
     /// Check the spec: `step_pct` in 1 ..= 50, `min_pct <= max_pct <= 150`, both limits on
@@ -123,6 +253,13 @@ impl OverrideSpec {
                 "override.hysteresis_pct",
                 h,
                 "0 ..= step_pct/2",
+            )));
+        }
+        if self.quantizer == Quantizer::SigmaDelta && h != 0.0 {
+            return Err(CoreError::OutOfRange(RangeError::new(
+                "override.hysteresis_pct",
+                h,
+                "0 with quantizer = \"sigma_delta\"",
             )));
         }
         Ok(())
@@ -256,24 +393,28 @@ mod tests {
                 min_pct: 0,
                 max_pct: 150,
                 hysteresis_pct: 0.0,
+                quantizer: Quantizer::Round,
             },
             OverrideSpec {
                 step_pct: 10,
                 min_pct: 0,
                 max_pct: 160,
                 hysteresis_pct: 0.0,
+                quantizer: Quantizer::Round,
             },
             OverrideSpec {
                 step_pct: 10,
                 min_pct: 0,
                 max_pct: 145,
                 hysteresis_pct: 0.0,
+                quantizer: Quantizer::Round,
             },
             OverrideSpec {
                 step_pct: 10,
                 min_pct: 100,
                 max_pct: 50,
                 hysteresis_pct: 0.0,
+                quantizer: Quantizer::Round,
             },
             OverrideSpec::paper().with_hysteresis(5.5),
             OverrideSpec::paper().with_hysteresis(-0.1),
@@ -292,6 +433,7 @@ mod tests {
             min_pct: 20,
             max_pct: 120,
             hysteresis_pct: 0.0,
+            quantizer: Quantizer::Round,
         };
         assert_eq!(s.quantize(0.0), FeedOverride(20));
         assert_eq!(s.quantize(500.0), FeedOverride(120));
@@ -316,6 +458,7 @@ mod tests {
             min_pct: 20,
             max_pct: 120,
             hysteresis_pct: 5.0,
+            quantizer: Quantizer::Round,
         };
         // u exactly at the lower limit: the band edge would be 30 − 5 − 5 = 20 (not < 20).
         assert_eq!(

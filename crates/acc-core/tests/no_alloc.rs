@@ -17,16 +17,22 @@ fn step_does_not_allocate() {
     let probe = allocations();
     let v = std::hint::black_box(vec![1u8; 16]);
     assert!(allocations() > probe && v.len() == 16);
-    // (case, quantizer hysteresis in percent)
-    for (case, h) in [
-        (PaperCase::FixedGain, 0.0),
-        (PaperCase::I, 0.0),
-        (PaperCase::III, 0.0),
-        (PaperCase::III, 4.0),
+    // (case, quantizer hysteresis in percent, σ-Δ quantizer)
+    for (case, h, sd) in [
+        (PaperCase::FixedGain, 0.0, false),
+        (PaperCase::I, 0.0, false),
+        (PaperCase::III, 0.0, false),
+        (PaperCase::III, 4.0, false),
+        (PaperCase::III, 0.0, true),
     ] {
         let cfg = ControllerConfig::paper_case(case);
+        let q = if sd {
+            acc_core::Quantizer::SigmaDelta
+        } else {
+            acc_core::Quantizer::Round
+        };
         let cfg = ControllerConfig {
-            override_spec: cfg.override_spec.with_hysteresis(h),
+            override_spec: cfg.override_spec.with_hysteresis(h).with_quantizer(q),
             ..cfg
         };
         let mut ctl = Controller::new(cfg).unwrap();
@@ -55,7 +61,7 @@ fn step_does_not_allocate() {
         assert_eq!(
             after - before,
             0,
-            "{case:?}, h = {h}: Controller::step allocated"
+            "{case:?}, h = {h}, σ-Δ {sd}: Controller::step allocated"
         );
     }
 }

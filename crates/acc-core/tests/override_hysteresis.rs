@@ -10,7 +10,7 @@ mod common;
 
 use acc_core::{
     Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, OverrideSpec, PaperCase,
-    Saturation,
+    Quantizer, Saturation,
 };
 use common::{run, PROGRAMMED};
 use proptest::prelude::*;
@@ -31,6 +31,7 @@ fn spec_strategy() -> impl Strategy<Value = (OverrideSpec, f64)> {
                 min_pct: lo - lo % step,
                 max_pct: hi - hi % step,
                 hysteresis_pct: h_frac * f64::from(step) / 2.0,
+                quantizer: Quantizer::Round,
             };
             (spec, h_frac)
         })
