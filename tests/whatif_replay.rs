@@ -87,7 +87,10 @@ fn gentler_preset_lowers_the_force_and_takes_longer() {
     let rows = recorded(&sc);
     let mut gentle = sc.controller;
     gentle.force_ref_n = 640.0;
-    let wi = run_what_if(&sc, &profile(&sc, &rows), gentle).expect("what-if");
+    // The preset alone: the scenario's tool table would set its own Fr (800 N).
+    let mut alone = sc.clone();
+    alone.tools = None;
+    let wi = run_what_if(&alone, &profile(&sc, &rows), gentle).expect("what-if");
     assert!(wi.finished);
     let (a, b) = (cut_metrics(&rows, true), cut_metrics(&wi.rows, true));
     assert_eq!(b.force_ref_n, 640.0);
@@ -176,6 +179,8 @@ fn acc_replay_cli() {
         "interrupted",
         "--preset",
         gentle.to_str().expect("utf8"),
+        "--tools",
+        "none",
         "--out",
         out.to_str().expect("utf8"),
     ]);

@@ -40,6 +40,11 @@ pub struct ReplayArgs {
     /// With `--workpiece`: tool-centre position at the log's first row, mm.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub x0_mm: f64,
+    /// The shop tool table of the what-if: a file (configs/tooltable.toml keys), or `none`
+    /// to run the preset alone (its Fr and override range). Default: the scenario's own
+    /// `[tools]` table, whose per-tool Fr and limits then take precedence over the preset's.
+    #[arg(long, value_name = "TOOLTABLE.TOML|none")]
+    pub tools: Option<String>,
     /// Output directory: `whatif.csv` (the what-if run log), `replay.md` (the table),
     /// `replay.svg/.png` (force and override along the path, recorded and what-if).
     #[arg(long, value_name = "DIR")]
@@ -83,8 +88,13 @@ pub fn geometry(
 
 /// Run `acc replay`.
 pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
-    let sc = load_scenario(&args.scenario, None)?;
+    let mut sc = load_scenario(&args.scenario, None)?;
     let controller = acc_config::load_controller(&args.preset)?;
+    match args.tools.as_deref() {
+        None => {}
+        Some("none") => sc.tools = None,
+        Some(p) => sc.tools = Some(acc_config::ToolTable::load(p).context("--tools")?),
+    }
     let board = sc.machine.override_path.step_pct;
     if !controller.override_spec.step_pct.is_multiple_of(board) {
         bail!(
@@ -95,6 +105,16 @@ pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
         );
     }
     let rows = read_log(&args.log)?;
+    if let Some(table) = &sc.tools {
+        let tool = rows.iter().find_map(|r| r.tool).unwrap_or(0);
+        let fr = table.get(tool).fr_n;
+        if fr != controller.force_ref_n {
+            println!(
+                "note: the tool table's Fr {fr} N (tool {tool}) applies, not the preset's {} N; `--tools none` runs the preset alone",
+                controller.force_ref_n
+            );
+        }
+    }
     let geo = geometry(args, &sc, &rows)?;
     let wi = run_what_if(&sc, &geo, controller)?;
     let by_truth = has_truth(&rows) && has_truth(&wi.rows);
