@@ -237,6 +237,35 @@ pub struct ScenarioFile {
     /// NC context of the simulated board (tool, program, block numbering).
     #[serde(default)]
     pub nc: NcSpec,
+    /// A tool breakage event (`[breakage] at_s`, `force_factor`), default none.
+    #[serde(default)]
+    pub breakage: Option<BreakageSpec>,
+}
+
+/// `[breakage]` table of a scenario: the tool breaks at `at_s` and the cutting force is
+/// multiplied by `force_factor` from then on (wear and breakage watch, docs/shop.md).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BreakageSpec {
+    /// Machine time of the break, s (0..=86400).
+    pub at_s: f64,
+    /// Force multiplier after the break, 1 (0..=10; default 0.05: the tool is gone and only
+    /// rubs; above 1: a spike).
+    #[serde(default = "default_breakage_factor")]
+    pub force_factor: f64,
+}
+
+fn default_breakage_factor() -> f64 {
+    0.05
+}
+
+impl BreakageSpec {
+    /// Check the ranges (errors name `file` and `breakage.<key>`).
+    pub fn validate(&self, file: &Path) -> Result<(), ConfigError> {
+        check_range(file, "breakage.at_s", self.at_s, 0.0, 86_400.0)?;
+        check_range(file, "breakage.force_factor", self.force_factor, 0.0, 10.0)?;
+        Ok(())
+    }
 }
 
 fn default_max_time() -> f64 {
@@ -366,6 +395,8 @@ pub struct Scenario {
     pub policy: acc_runtime::PolicyConfig,
     /// NC context the simulated board reports (`[nc]`, validated).
     pub nc: crate::board::NcContext,
+    /// Tool breakage event (`[breakage]`, validated), if any.
+    pub breakage: Option<BreakageSpec>,
 }
 
 /// The laws `acc compare` runs.
@@ -462,6 +493,9 @@ impl Scenario {
         file.measurement.check_period(path, controller.period_s)?;
         let policy = file.policy.resolve_in(path, &controller)?;
         let nc = file.nc.resolve(path)?;
+        if let Some(b) = &file.breakage {
+            b.validate(path)?;
+        }
         Ok(Scenario {
             path: path.to_path_buf(),
             name: file.name,
@@ -481,6 +515,7 @@ impl Scenario {
             settle_s: file.summary.settle_s,
             policy,
             nc,
+            breakage: file.breakage,
         })
     }
 
@@ -552,7 +587,7 @@ impl Scenario {
 
     /// A fresh simulated board speaking `protocol` with the machine behind it.
     pub fn build_board_with(&self, protocol: acc_pmc::emu::EmulatedProtocol) -> SimBoard {
-        let machine = Machine::new(
+        let mut machine = Machine::new(
             &self.machine,
             &self.tool,
             self.wear,
@@ -560,6 +595,9 @@ impl Scenario {
             self.force_model,
             self.programmed_feed_mm_min,
         );
+        if let Some(b) = self.breakage {
+            machine.set_breakage(b.at_s, b.force_factor);
+        }
         let mut board =
             SimBoard::with_protocol(machine, self.machine.override_path.step_pct, protocol);
         board.set_nc_context(self.nc);

@@ -17,7 +17,7 @@
 //! let mut d = BreakageDetector::new(WatchLimits::default());
 //! let s = |f: f64| BreakageSample { force_n: f, force_ref_n: 800.0, cycle_active: true,
 //!     feed_hold_active: false, tool: 1, block: 20 };
-//! for _ in 0..10 { assert_eq!(d.observe(&s(800.0)), None); }
+//! for _ in 0..12 { assert_eq!(d.observe(&s(800.0)), None); }
 //! // The tool broke: the force falls to a tenth within one period.
 //! assert!(matches!(d.observe(&s(80.0)), Some(Breakage::Drop { .. })));
 //! ```
@@ -249,21 +249,35 @@ impl BreakageDetector {
         (self.limits.breakage_history_periods as usize).clamp(3, Self::CAPACITY)
     }
 
+    /// Ring size: the reference plus the last two samples.
+    fn ring_len(&self) -> usize {
+        self.history_len() + 2
+    }
+
     fn push(&mut self, f: f64) {
-        let n = self.history_len();
+        let n = self.ring_len();
         self.ring[self.head % n] = f;
         self.head = (self.head + 1) % n;
         self.len = (self.len + 1).min(n);
     }
 
-    /// Median and minimum of the history (full history only).
-    fn median_min(&self) -> Option<(f64, f64)> {
+    /// The sample `back` periods before the newest (0: newest).
+    fn back(&self, back: usize) -> f64 {
+        let n = self.ring_len();
+        self.ring[(self.head + n - 1 - back) % n]
+    }
+
+    /// Median and minimum of the reference (the ring without its two newest samples; full
+    /// ring only), and the sample two periods back from the one being judged.
+    fn median_min(&self) -> Option<(f64, f64, f64)> {
         let n = self.history_len();
-        if self.len < n {
+        if self.len < self.ring_len() {
             return None;
         }
         let mut buf = [0.0f64; Self::CAPACITY];
-        buf[..n].copy_from_slice(&self.ring[..n]);
+        for (i, slot) in buf.iter_mut().enumerate().take(n) {
+            *slot = self.back(2 + i);
+        }
         let s = &mut buf[..n];
         s.sort_by(f64::total_cmp);
         let med = if n % 2 == 1 {
@@ -271,7 +285,7 @@ impl BreakageDetector {
         } else {
             0.5 * (s[n / 2 - 1] + s[n / 2])
         };
-        Some((med, s[0]))
+        Some((med, s[0], self.back(1)))
     }
 
     /// Judge one valid sample against the history, then add it. `None`: nothing unusual.
@@ -290,10 +304,12 @@ impl BreakageDetector {
             return None;
         }
         let mut verdict = None;
-        if let Some((med, min)) = self.median_min() {
+        if let Some((med, min, two_back)) = self.median_min() {
             // Judge only against a history of steady cutting.
             if min >= cut_n && med > 0.0 {
-                if s.block != 0 && s.force_n < med * (1.0 - self.limits.breakage_drop_pct / 100.0)
+                if s.block != 0
+                    && s.force_n < med * (1.0 - self.limits.breakage_drop_pct / 100.0)
+                    && two_back >= 0.8 * med
                 {
                     verdict = Some(Breakage::Drop {
                         force_n: s.force_n,
@@ -503,7 +519,7 @@ mod tests {
     #[test]
     fn drop_and_spike_against_history() {
         let mut d = BreakageDetector::new(WatchLimits::default());
-        for i in 0..10 {
+        for i in 0..12 {
             assert_eq!(d.observe(&s(800.0 + f64::from(i), 10)), None);
         }
         assert_eq!(d.observe(&s(700.0, 10)), None, "a 12 % dip is no breakage");
@@ -513,6 +529,24 @@ mod tests {
         ));
         // After a verdict the history starts again.
         assert_eq!(d.observe(&s(50.0, 10)), None);
+    }
+
+    #[test]
+    fn a_gradual_exit_is_no_breakage_but_a_two_period_fall_is() {
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..12 {
+            d.observe(&s(800.0, 40));
+        }
+        // The tool leaves the workpiece over 8 periods.
+        for f in [760.0, 700.0, 620.0, 530.0, 430.0, 330.0, 240.0, 150.0] {
+            assert_eq!(d.observe(&s(f, 40)), None, "{f}");
+        }
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..12 {
+            d.observe(&s(800.0, 40));
+        }
+        assert_eq!(d.observe(&s(450.0, 40)), None, "the break inside the period");
+        assert!(matches!(d.observe(&s(40.0, 40)), Some(Breakage::Drop { .. })));
     }
 
     #[test]
