@@ -53,7 +53,7 @@ fn a_force_spike_is_answered_with_feed_hold_within_2_periods() {
     let at_s = 25.0;
     sc.breakage = Some(acc_sim::scenario::BreakageSpec {
         at_s,
-        force_factor: 3.0,
+        force_factor: 4.0,
     });
     let rows = run(&sc);
     let (delay, row) = hold_delay(&rows, at_s, sc.controller.period_s);

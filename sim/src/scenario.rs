@@ -240,6 +240,10 @@ pub struct ScenarioFile {
     /// A tool breakage event (`[breakage] at_s`, `force_factor`), default none.
     #[serde(default)]
     pub breakage: Option<BreakageSpec>,
+    /// Wear and breakage watch limits (`[watch]`, acc run's keys; `history` is ignored
+    /// here: `acc sim --history`).
+    #[serde(default)]
+    pub watch: acc_runtime::watch::WatchSection,
 }
 
 /// `[breakage]` table of a scenario: the tool breaks at `at_s` and the cutting force is
@@ -397,6 +401,8 @@ pub struct Scenario {
     pub nc: crate::board::NcContext,
     /// Tool breakage event (`[breakage]`, validated), if any.
     pub breakage: Option<BreakageSpec>,
+    /// Wear and breakage limits the fault policy runs with (`[watch]`, validated).
+    pub watch: acc_runtime::watch::WatchLimits,
 }
 
 /// The laws `acc compare` runs.
@@ -516,6 +522,7 @@ impl Scenario {
             policy,
             nc,
             breakage: file.breakage,
+            watch: file.watch.resolve(path)?,
         })
     }
 

@@ -14,6 +14,7 @@ mod cmd_stability;
 mod configs;
 mod exit;
 mod harness;
+mod watch_cli;
 
 /// Adaptive feedrate-override control for CNC milling.
 #[derive(Parser)]

@@ -41,7 +41,8 @@ pub struct WatchLimits {
     /// breakage (tool gone), percent (default 60: below 0.4 × the median).
     pub breakage_drop_pct: f64,
     /// A force sample above this factor × the median of the recent history is a breakage
-    /// (chipped insert, crash), 1 (default 2.0).
+    /// (chipped insert, crash), 1 (default 3.0: a hard spot of 2.5 × Ks is ridden by the
+    /// controller, as in the fault matrix).
     pub breakage_spike_factor: f64,
     /// Periods of steady cut the history must hold before a sample is judged (default 10,
     /// 1 s at T = 0.1 s; at most [`BreakageDetector::CAPACITY`]).
@@ -64,7 +65,7 @@ impl Default for WatchLimits {
             wear_warn_pct: 25.0,
             wear_limit_pct: 50.0,
             breakage_drop_pct: 60.0,
-            breakage_spike_factor: 2.0,
+            breakage_spike_factor: 3.0,
             breakage_history_periods: 10,
             cut_force_fraction: 0.25,
             steady_band_pct: 15.0,
@@ -151,6 +152,69 @@ impl WatchLimits {
             ));
         }
         Ok(())
+    }
+}
+
+/// `[watch]` table of a run config or scenario: every key optional, defaults of
+/// [`WatchLimits`]; `history` is the tool-history file (relative to the config file;
+/// default `acc-history.sqlite` beside the run log).
+#[derive(Debug, Clone, serde::Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct WatchSection {
+    /// Tool-history SQLite file, relative to the config file.
+    pub history: Option<std::path::PathBuf>,
+    /// [`WatchLimits::breakage_enabled`].
+    pub breakage: Option<bool>,
+    /// [`WatchLimits::wear_warn_pct`], percent.
+    pub wear_warn_pct: Option<f64>,
+    /// [`WatchLimits::wear_limit_pct`], percent.
+    pub wear_limit_pct: Option<f64>,
+    /// [`WatchLimits::breakage_drop_pct`], percent.
+    pub breakage_drop_pct: Option<f64>,
+    /// [`WatchLimits::breakage_spike_factor`], 1.
+    pub breakage_spike_factor: Option<f64>,
+    /// [`WatchLimits::breakage_history_periods`], periods.
+    pub breakage_history_periods: Option<u32>,
+    /// [`WatchLimits::cut_force_fraction`], 1.
+    pub cut_force_fraction: Option<f64>,
+    /// [`WatchLimits::steady_band_pct`], percent.
+    pub steady_band_pct: Option<f64>,
+    /// [`WatchLimits::wear_window_periods`], periods.
+    pub wear_window_periods: Option<u32>,
+}
+
+impl WatchSection {
+    /// The limits (defaults for the keys not given), validated; errors name `file` and
+    /// `watch.<key>`.
+    pub fn resolve(&self, file: &std::path::Path) -> Result<WatchLimits, acc_config::ConfigError> {
+        let d = WatchLimits::default();
+        let l = WatchLimits {
+            breakage_enabled: self.breakage.unwrap_or(d.breakage_enabled),
+            wear_warn_pct: self.wear_warn_pct.unwrap_or(d.wear_warn_pct),
+            wear_limit_pct: self.wear_limit_pct.unwrap_or(d.wear_limit_pct),
+            breakage_drop_pct: self.breakage_drop_pct.unwrap_or(d.breakage_drop_pct),
+            breakage_spike_factor: self.breakage_spike_factor.unwrap_or(d.breakage_spike_factor),
+            breakage_history_periods: self
+                .breakage_history_periods
+                .unwrap_or(d.breakage_history_periods),
+            cut_force_fraction: self.cut_force_fraction.unwrap_or(d.cut_force_fraction),
+            steady_band_pct: self.steady_band_pct.unwrap_or(d.steady_band_pct),
+            wear_window_periods: self.wear_window_periods.unwrap_or(d.wear_window_periods),
+        };
+        l.validate()
+            .map_err(|e| acc_config::ConfigError::OutOfRange(e.prefixed("watch").in_file(file)))?;
+        Ok(l)
+    }
+
+    /// The history file: `history` relative to `file`, else `default`.
+    pub fn history_path(
+        &self,
+        file: &std::path::Path,
+        default: std::path::PathBuf,
+    ) -> std::path::PathBuf {
+        self.history
+            .as_ref()
+            .map_or(default, |h| acc_config::resolve_relative(file, h))
     }
 }
 
@@ -524,7 +588,7 @@ mod tests {
         }
         assert_eq!(d.observe(&s(700.0, 10)), None, "a 12 % dip is no breakage");
         assert!(matches!(
-            d.observe(&s(1700.0, 10)),
+            d.observe(&s(2500.0, 10)),
             Some(Breakage::Spike { .. })
         ));
         // After a verdict the history starts again.

@@ -1,0 +1,105 @@
+//! The wear and breakage watch and the tool history in the commands: `acc sim` stores the
+//! run's cuts, Kc trend and alarms after the run; `acc run` runs the watch on its logger
+//! thread and stores through the history writer thread (never on the control thread).
+
+use std::path::{Path, PathBuf};
+
+use acc_runtime::history::{History, HistoryWriter, Watch, WatchItem, DEFAULT_FILE};
+use acc_runtime::record::RunRecord;
+use acc_runtime::watch::WatchLimits;
+use anyhow::Context as _;
+
+/// The history file: `explicit` (from `--history` or a config), else `acc-history.sqlite`
+/// beside `log`.
+pub fn history_path(explicit: Option<&Path>, log: &Path) -> PathBuf {
+    explicit.map_or_else(|| log.with_file_name(DEFAULT_FILE), Path::to_path_buf)
+}
+
+/// Open the history at `path` (refusing a newer schema), start a run labelled `label`, and
+/// a watch that continues the stored trend.
+pub fn open(
+    path: &Path,
+    label: &str,
+    limits: WatchLimits,
+    period_s: f64,
+) -> anyhow::Result<(Watch, History, i64)> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create its folder", path.display()))?;
+    }
+    let mut h = History::open(path)?;
+    let mut watch = Watch::new(limits, period_s);
+    watch.continue_from(&h)?;
+    let run = h.begin_run(label)?;
+    Ok((watch, h, run))
+}
+
+/// Live: the watch and a writer thread on the history (for [`acc_runtime::history::WatchSink`]).
+pub fn open_live(
+    path: &Path,
+    label: &str,
+    limits: WatchLimits,
+    period_s: f64,
+) -> anyhow::Result<(Watch, HistoryWriter)> {
+    let (watch, h, run) = open(path, label, limits, period_s)?;
+    Ok((watch, HistoryWriter::spawn(h, run)))
+}
+
+/// Offline: run the watch over a whole run and store its items; returns them.
+pub fn store_run(
+    path: &Path,
+    label: &str,
+    limits: WatchLimits,
+    period_s: f64,
+    rows: &[RunRecord],
+) -> anyhow::Result<Vec<WatchItem>> {
+    let (mut watch, mut h, run) = open(path, label, limits, period_s)?;
+    let items = watch.run_all(rows);
+    for it in &items {
+        h.add(run, it)?;
+    }
+    Ok(items)
+}
+
+/// Print what the watch found: cuts, time saved, last trend point per tool, alarms.
+pub fn print_summary(items: &[WatchItem], history: &Path) {
+    let cuts: Vec<_> = items
+        .iter()
+        .filter_map(|i| match i {
+            WatchItem::Cut(c) => Some(c),
+            _ => None,
+        })
+        .collect();
+    let saved: f64 = cuts.iter().map(|c| c.time_saved_s).sum();
+    println!(
+        "watch: {} cuts, time saved against the programmed feed {:+.1} s; history {}",
+        cuts.len(),
+        saved,
+        history.display()
+    );
+    let mut last = std::collections::BTreeMap::new();
+    for i in items {
+        match i {
+            WatchItem::Wear(s) => {
+                last.insert(s.tool, s.clone());
+            }
+            WatchItem::Alarm {
+                tool,
+                t_s,
+                kind,
+                detail,
+            } => println!("watch alarm: tool {tool} at {t_s:.1} s: {kind} ({detail})"),
+            WatchItem::Cut(_) => {}
+        }
+    }
+    for s in last.values() {
+        println!(
+            "wear: tool {}: Kc_hat {:.3} N/(mm/min), {:+.1} % over the fresh reference {:.3} ({})",
+            s.tool,
+            s.kc,
+            s.rise_pct,
+            s.kc_ref,
+            s.level.as_str()
+        );
+    }
+}
