@@ -86,9 +86,10 @@ pub struct CutRecord {
     /// Periods per override bin: bin `i` holds applied overrides in
     /// `[i·bin, (i+1)·bin)`, the last bin 150 %. Sums to the number of cutting periods.
     pub override_hist: Vec<u32>,
-    /// Alarm bits seen during the cut (OR of the rows' `alarms`).
+    /// Alarm bits seen during the cut and the gap that closed it (OR of the rows'
+    /// `alarms`).
     pub alarm_bits: u8,
-    /// Periods with a feed-hold request during the cut.
+    /// Periods with a feed-hold request during the cut (and its closing gap).
     pub feed_hold_periods: u32,
     /// Time at 100 % for the same path minus the actual time, s (negative: slower than
     /// programmed).
@@ -178,6 +179,12 @@ impl CutRecorder {
         }
         if !self.is_cutting(r) {
             if let Some(o) = self.open.as_mut() {
+                // An alarm or a feed hold in the gap belongs to the cut (a breakage drops
+                // the force out of the cut in the very period it is raised).
+                o.rec.alarm_bits |= r.alarms;
+                if r.feed_hold {
+                    o.rec.feed_hold_periods += 1;
+                }
                 o.gap += 1;
                 if o.gap >= self.gap_periods {
                     ended = self.close().or(ended);
