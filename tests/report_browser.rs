@@ -21,7 +21,9 @@ fn chromium() -> Option<&'static str> {
     if std::env::var_os("CI").is_some() {
         panic!("{bin} is not installed but CI is set: run `bash .ci/deps`");
     }
-    eprintln!("SKIP: {bin} is not installed (run `bash .ci/deps`); acc report not opened in a browser");
+    eprintln!(
+        "SKIP: {bin} is not installed (run `bash .ci/deps`); acc report not opened in a browser"
+    );
     None
 }
 
@@ -80,7 +82,11 @@ fn acc_report_of_an_acc_sim_log_renders_in_headless_chromium() {
         .output()
         .expect("run chromium");
     let dom = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "chromium failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "chromium failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // The per-cut table: one cut (the long 3 mm cut, ended by the breakage), with its alarm.
     let cut_rows = dom.matches("<tr class=\"cut\">").count();
     assert_eq!(cut_rows, 1, "cut rows in the DOM");

@@ -32,7 +32,10 @@ fn a_broken_tool_is_answered_with_feed_hold_within_2_periods() {
     // Cutting steadily until the break, no hold before it.
     assert!(rows.iter().filter(|r| r.t_s < b.at_s).all(|r| !r.feed_hold));
     let (delay, row) = hold_delay(&rows, b.at_s, sc.controller.period_s);
-    assert!(delay > 0.0 && delay <= 2.0 + 1e-9, "feed hold {delay:.2} periods after the break");
+    assert!(
+        delay > 0.0 && delay <= 2.0 + 1e-9,
+        "feed hold {delay:.2} periods after the break"
+    );
     assert_eq!(row.alarms & BREAKAGE_BIT, BREAKAGE_BIT, "{row:?}");
     assert_eq!(row.state, "breakage");
     assert!(row.has_flag("fault"));
@@ -57,7 +60,10 @@ fn a_force_spike_is_answered_with_feed_hold_within_2_periods() {
     });
     let rows = run(&sc);
     let (delay, row) = hold_delay(&rows, at_s, sc.controller.period_s);
-    assert!(delay > 0.0 && delay <= 2.0 + 1e-9, "feed hold {delay:.2} periods after the spike");
+    assert!(
+        delay > 0.0 && delay <= 2.0 + 1e-9,
+        "feed hold {delay:.2} periods after the spike"
+    );
     assert_eq!(row.alarms & BREAKAGE_BIT, BREAKAGE_BIT, "{row:?}");
 }
 
@@ -72,10 +78,14 @@ fn shipped_scenarios_raise_no_breakage_alarm() {
         "hard_inclusion",
         "tool_wear",
     ] {
-        let sc = Scenario::load(configs_dir().join(format!("scenarios/{name}.toml")))
-            .expect("scenario");
+        let sc =
+            Scenario::load(configs_dir().join(format!("scenarios/{name}.toml"))).expect("scenario");
         let rows = run(&sc);
         let hit = rows.iter().find(|r| r.alarms & BREAKAGE_BIT != 0);
-        assert!(hit.is_none(), "{name}: false breakage alarm at {:?}", hit.map(|r| r.t_s));
+        assert!(
+            hit.is_none(),
+            "{name}: false breakage alarm at {:?}",
+            hit.map(|r| r.t_s)
+        );
     }
 }

@@ -27,7 +27,10 @@ fn the_wear_trend_continues_across_a_restart() {
         }
         let t = h.wear_trend(1).expect("trend");
         assert!(t.len() >= 5, "{} trend points", t.len());
-        assert!(t[0].rise_pct.abs() < 1e-9, "the first point is the fresh reference");
+        assert!(
+            t[0].rise_pct.abs() < 1e-9,
+            "the first point is the fresh reference"
+        );
         t.last().expect("point").rise_pct
     };
 
@@ -56,12 +59,20 @@ fn the_wear_trend_continues_across_a_restart() {
     assert!(last.rise_pct > 30.0, "Kc rise {:.1} %", last.rise_pct);
     assert_eq!(last.level, WearLevel::Warn.as_str());
     assert!(h.count("cuts").expect("cuts") >= 2);
-    assert!(h.count("alarms").expect("alarms") >= 1, "the wear warning is stored");
+    assert!(
+        h.count("alarms").expect("alarms") >= 1,
+        "the wear warning is stored"
+    );
     drop(h);
 
     // A newer schema version (a file written by a newer acc) is refused.
     rusqlite::Connection::open(&path)
-        .and_then(|c| c.execute("UPDATE schema_version SET version = ?1", [SCHEMA_VERSION + 1]))
+        .and_then(|c| {
+            c.execute(
+                "UPDATE schema_version SET version = ?1",
+                [SCHEMA_VERSION + 1],
+            )
+        })
         .expect("bump the schema version");
     let e = History::open(&path).expect_err("newer schema refused");
     let msg = e.to_string();

@@ -21,6 +21,10 @@ use acc_runtime::record::RunRecord;
 use acc_runtime::watch::{WatchLimits, WearTracker};
 use acc_spindle::datasets::read_turning;
 
+/// (Kc trend point, Vb at the window's end in µm, rise over the fresh reference in %), per
+/// (tool, block).
+type Point = (f64, f64, f64);
+
 fn pearson(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len() as f64;
     let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
@@ -45,8 +49,7 @@ fn the_kc_trend_rises_with_flank_wear_on_real_turning_data() {
         ..WatchLimits::default()
     };
     let mut tracker = WearTracker::new(limits);
-    // (tool, block) → [(Kc trend point, Vb at the window's end, rise %)]
-    let mut groups: BTreeMap<(u16, u16), Vec<(f64, f64, f64)>> = BTreeMap::new();
+    let mut groups: BTreeMap<(u16, u16), Vec<Point>> = BTreeMap::new();
     for (i, r) in rows.iter().enumerate() {
         let block = (r.speed / 1e6).round() as u16;
         let rec = RunRecord {
@@ -97,7 +100,10 @@ fn the_kc_trend_rises_with_flank_wear_on_real_turning_data() {
             correlated += 1;
         }
     }
-    assert!(judged >= 12, "{judged} tool conditions with measurable wear");
+    assert!(
+        judged >= 12,
+        "{judged} tool conditions with measurable wear"
+    );
     // The trend rises with the flank wear in every condition, and follows it closely
     // (r > 0.5) in nearly all.
     assert_eq!(rising, judged, "the Kc trend rose in {rising} of {judged}");

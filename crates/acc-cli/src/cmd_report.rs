@@ -95,9 +95,7 @@ fn inline_svg(path: &Path) -> anyhow::Result<String> {
 }
 
 fn along_path(rows: &[RunRecord], f: impl Fn(&RunRecord) -> Option<f64>) -> Vec<(f64, f64)> {
-    rows.iter()
-        .filter_map(|r| Some((r.x_mm?, f(r)?)))
-        .collect()
+    rows.iter().filter_map(|r| Some((r.x_mm?, f(r)?))).collect()
 }
 
 /// Run `acc report`.
@@ -116,7 +114,13 @@ pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
         p.is_file().then_some(p)
     });
     let data = ReportData::of(rows);
-    let page = write_report(&data, &args.run_log, &args.out, history.as_deref(), args.overload_force_n)?;
+    let page = write_report(
+        &data,
+        &args.run_log,
+        &args.out,
+        history.as_deref(),
+        args.overload_force_n,
+    )?;
     println!(
         "report: {} ({} cuts, {} alarms, {} trend points)",
         page.display(),

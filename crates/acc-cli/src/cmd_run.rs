@@ -23,8 +23,8 @@ use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
 use acc_runtime::{
-    history::WatchSink, run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunOptions,
-    RunRecord, SystemClock,
+    history::WatchSink, run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen,
+    RunOptions, RunRecord, SystemClock,
 };
 use anyhow::{bail, Context};
 
@@ -240,7 +240,12 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     )
     .with_context(|| "the tool history (--history or [watch] history)".to_string())
     .exit_as(RunExit::Usage)?;
-    let live = (history, watch, history_writer);
+    let sinks = RunSinks {
+        log: writer,
+        history,
+        watch,
+        history_writer,
+    };
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
             // 2. Open the port (framing verified, nothing sent); 3. first transaction: the
@@ -268,7 +273,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                     .map_err(|e| format!("{e:#}"))
             };
             let reopen: Reopen<'_, _> = &mut reopen;
-            let stats = drive(args, &cfg, &mut pmc, status, writer, live, &rtu_cfg.port, reopen);
+            let stats = drive(args, &cfg, &mut pmc, status, sinks, &rtu_cfg.port, reopen);
             let st = pmc.stats();
             println!(
                 "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
@@ -302,9 +307,17 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             );
             let mut reopen = || open().map_err(|e| format!("{e:#}"));
             let reopen: Reopen<'_, _> = &mut reopen;
-            drive(args, &cfg, &mut pmc, status, writer, live, iface, reopen)
+            drive(args, &cfg, &mut pmc, status, sinks, iface, reopen)
         }
     }
+}
+
+/// Where a run's records go: the run log, and the watch with its tool-history writer.
+struct RunSinks {
+    log: RunLogWriter<BufWriter<File>>,
+    history: PathBuf,
+    watch: acc_runtime::history::Watch,
+    history_writer: acc_runtime::history::HistoryWriter,
 }
 
 /// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
@@ -313,12 +326,7 @@ fn drive<P: Board + Send>(
     cfg: &RunConfig,
     pmc: &mut P,
     status: BoardStatus,
-    writer: RunLogWriter<BufWriter<File>>,
-    live: (
-        PathBuf,
-        acc_runtime::history::Watch,
-        acc_runtime::history::HistoryWriter,
-    ),
+    sinks: RunSinks,
     device: &str,
     reopen: Reopen<'_, P>,
 ) -> anyhow::Result<()> {
@@ -362,7 +370,12 @@ fn drive<P: Board + Send>(
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
     // The wear and breakage watch and the tool history run on the logger thread, the
     // database writes on their own thread (bounded queue, never waited on).
-    let (history, watch, history_writer) = live;
+    let RunSinks {
+        log: writer,
+        history,
+        watch,
+        history_writer,
+    } = sinks;
     let mut sink = WatchSink {
         inner: RunLogSink::new(writer),
         watch,

@@ -333,7 +333,12 @@ mod tests {
         // Cut 2 at 120 %, blocks 40 and 50, with a 2-period dip that does not split it.
         for i in 30..60 {
             let f = if (40..42).contains(&i) { 10.0 } else { 900.0 };
-            rows.push(row(f64::from(i) * 0.1, f, 120, if i < 45 { 40 } else { 50 }));
+            rows.push(row(
+                f64::from(i) * 0.1,
+                f,
+                120,
+                if i < 45 { 40 } else { 50 },
+            ));
         }
         let cuts = CutRecorder::cuts_of(0.1, 10, &rows);
         assert_eq!(cuts.len(), 2, "{cuts:#?}");

@@ -127,7 +127,8 @@ impl History {
             // New file (or an older schema: version 1 is the first, so only a new file).
             _ => {
                 conn.execute_batch(SCHEMA_V1).map_err(sql)?;
-                conn.execute("DELETE FROM schema_version", []).map_err(sql)?;
+                conn.execute("DELETE FROM schema_version", [])
+                    .map_err(sql)?;
                 conn.execute(
                     "INSERT INTO schema_version (version) VALUES (?1)",
                     [SCHEMA_VERSION],

@@ -681,10 +681,7 @@ impl FaultPolicy {
         };
         let fault = !matches!(
             why,
-            Release::SwitchOff
-                | Release::OperatorHandback
-                | Release::Overload
-                | Release::Breakage
+            Release::SwitchOff | Release::OperatorHandback | Release::Overload | Release::Breakage
         );
         // A v2 board clamps the applied override to min(knob, last applied) on a release.
         let raising = !self.board_clamps()

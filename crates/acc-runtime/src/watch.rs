@@ -79,8 +79,7 @@ impl WatchLimits {
     pub fn validate(&self) -> Result<(), acc_config::RangeError> {
         use acc_config::RangeError;
         let fin = |x: f64| x.is_finite();
-        if !(fin(self.wear_warn_pct) && self.wear_warn_pct > 0.0 && self.wear_warn_pct <= 1000.0)
-        {
+        if !(fin(self.wear_warn_pct) && self.wear_warn_pct > 0.0 && self.wear_warn_pct <= 1000.0) {
             return Err(RangeError::new(
                 "wear_warn_pct",
                 self.wear_warn_pct.to_string(),
@@ -136,7 +135,9 @@ impl WatchLimits {
                 "0 < x < 1",
             ));
         }
-        if !(fin(self.steady_band_pct) && self.steady_band_pct > 0.0 && self.steady_band_pct <= 100.0)
+        if !(fin(self.steady_band_pct)
+            && self.steady_band_pct > 0.0
+            && self.steady_band_pct <= 100.0)
         {
             return Err(RangeError::new(
                 "steady_band_pct",
@@ -193,7 +194,9 @@ impl WatchSection {
             wear_warn_pct: self.wear_warn_pct.unwrap_or(d.wear_warn_pct),
             wear_limit_pct: self.wear_limit_pct.unwrap_or(d.wear_limit_pct),
             breakage_drop_pct: self.breakage_drop_pct.unwrap_or(d.breakage_drop_pct),
-            breakage_spike_factor: self.breakage_spike_factor.unwrap_or(d.breakage_spike_factor),
+            breakage_spike_factor: self
+                .breakage_spike_factor
+                .unwrap_or(d.breakage_spike_factor),
             breakage_history_periods: self
                 .breakage_history_periods
                 .unwrap_or(d.breakage_history_periods),
@@ -609,8 +612,15 @@ mod tests {
         for _ in 0..12 {
             d.observe(&s(800.0, 40));
         }
-        assert_eq!(d.observe(&s(450.0, 40)), None, "the break inside the period");
-        assert!(matches!(d.observe(&s(40.0, 40)), Some(Breakage::Drop { .. })));
+        assert_eq!(
+            d.observe(&s(450.0, 40)),
+            None,
+            "the break inside the period"
+        );
+        assert!(matches!(
+            d.observe(&s(40.0, 40)),
+            Some(Breakage::Drop { .. })
+        ));
     }
 
     #[test]
@@ -671,7 +681,10 @@ mod tests {
             out.extend(w.observe(&steady(f64::from(i) * 0.1, kc)));
         }
         assert_eq!(out.len(), 10);
-        assert!(out[0].rise_pct.abs() < 1e-9, "first window is the reference");
+        assert!(
+            out[0].rise_pct.abs() < 1e-9,
+            "first window is the reference"
+        );
         assert_eq!(out[0].level, WearLevel::Ok);
         assert!(out.iter().any(|s| s.level == WearLevel::Warn));
         assert_eq!(out.last().map(|s| s.level), Some(WearLevel::Limit));
