@@ -310,3 +310,66 @@ pub fn write_report(
     std::fs::write(&page, html).with_context(|| format!("{}: cannot write", page.display()))?;
     Ok(page)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bad_run_log_is_an_error_naming_file_line_and_column() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let log = dir.path().join("bad.csv");
+        let header = acc_runtime::record::columns().join(",");
+        let mut row = vec![""; acc_runtime::record::columns().len()];
+        row[0] = "0.1";
+        row[1] = "x";
+        std::fs::write(&log, format!("{header}\n{}\n", row.join(","))).expect("write");
+        let args = ReportArgs {
+            run_log: log.clone(),
+            out: dir.path().join("r"),
+            history: None,
+            overload_force_n: None,
+        };
+        let e = format!("{:#}", run(&args).expect_err("bad log"));
+        assert!(
+            e.contains("bad.csv") && e.contains("line 2") && e.contains("period"),
+            "{e}"
+        );
+        std::fs::write(&log, "a,b\n1,2\n").expect("write");
+        let e = format!("{:#}", run(&args).expect_err("not a run log"));
+        assert!(e.contains("not an acc run log"), "{e}");
+    }
+
+    #[test]
+    fn the_page_has_one_row_per_cut_and_no_external_reference() {
+        let row = |t: f64, f: f64| RunRecord {
+            t_s: t,
+            period: (t * 10.0).round() as u64,
+            tool: Some(4),
+            program: Some(7),
+            block: Some(30),
+            x_mm: Some(t * 5.0),
+            force_n: Some(f),
+            force_valid: true,
+            force_ref_n: Some(800.0),
+            kc_hat: Some(6.0),
+            override_cmd_pct: Some(80),
+            override_applied_pct: Some(80),
+            ..RunRecord::default()
+        };
+        let mut rows = Vec::new();
+        for i in 0..100 {
+            let t = f64::from(i) * 0.1;
+            let f = if (30..60).contains(&i) { 0.0 } else { 800.0 };
+            rows.push(row(t, f));
+        }
+        let dir = tempfile::tempdir().expect("tmp");
+        let d = ReportData::of(rows);
+        assert_eq!(d.cuts.len(), 2);
+        let page = write_report(&d, Path::new("run.csv"), dir.path(), None, None).expect("page");
+        let html = std::fs::read_to_string(page).expect("html");
+        assert_eq!(html.matches("<tr class=\"cut\">").count(), 2);
+        assert!(html.contains("<svg") && !html.contains("<script"));
+        assert!(!html.contains("src=\"http") && !html.contains("href=\"http"));
+    }
+}

@@ -263,6 +263,12 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         &self.policy
     }
 
+    /// Switch the policy's wear and breakage limits (the tool table, on a tool change:
+    /// [`FaultPolicy::set_watch_limits`]).
+    pub fn set_watch_limits(&mut self, limits: crate::watch::WatchLimits) {
+        self.policy.set_watch_limits(limits);
+    }
+
     /// The law.
     pub fn law(&self) -> &L {
         &self.law
