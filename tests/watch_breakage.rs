@@ -39,6 +39,8 @@ fn a_broken_tool_is_answered_with_feed_hold_within_2_periods() {
     assert_eq!(row.alarms & BREAKAGE_BIT, BREAKAGE_BIT, "{row:?}");
     assert_eq!(row.state, "breakage");
     assert!(row.has_flag("fault"));
+    assert!(row.has_flag("breakage"), "{}", row.flags);
+    assert!(row.flags.contains("breakage:drop"), "{}", row.flags);
     // The release never raised the override.
     let before = rows
         .iter()
@@ -65,6 +67,7 @@ fn a_force_spike_is_answered_with_feed_hold_within_2_periods() {
         "feed hold {delay:.2} periods after the spike"
     );
     assert_eq!(row.alarms & BREAKAGE_BIT, BREAKAGE_BIT, "{row:?}");
+    assert!(row.flags.contains("breakage:spike"), "{}", row.flags);
 }
 
 #[test]

@@ -135,8 +135,12 @@ impl CycleRecord {
             r.flag("fault");
         }
         for e in self.out.events.iter() {
-            if let crate::policy::Event::Rearmed { reason, .. } = e {
-                r.flag(&format!("rearm:{}", reason.as_str()));
+            match e {
+                crate::policy::Event::Rearmed { reason, .. } => {
+                    r.flag(&format!("rearm:{}", reason.as_str()));
+                }
+                crate::policy::Event::Breakage(b) => r.flag(&format!("breakage:{}", b.kind())),
+                _ => {}
             }
         }
         r
