@@ -92,3 +92,34 @@ fn shipped_scenarios_raise_no_breakage_alarm() {
         );
     }
 }
+
+#[test]
+fn bad_breakage_and_watch_keys_name_file_key_and_range() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let base = std::fs::read_to_string(configs_dir().join("scenarios/tool_breakage.toml"))
+        .expect("scenario");
+    let abs = configs_dir().join("scenarios").canonicalize().expect("dir");
+    let base = base.replace("\"../", &format!("\"{}/../", abs.display()));
+    for (from, to, key) in [
+        ("at_s = 30.0", "at_s = -1.0", "breakage.at_s"),
+        (
+            "force_factor = 0.05",
+            "force_factor = 11.0",
+            "breakage.force_factor",
+        ),
+        (
+            "[summary]",
+            "[watch]\nbreakage_spike_factor = 0.5\n[summary]",
+            "watch.breakage_spike_factor",
+        ),
+    ] {
+        assert!(base.contains(from), "{from}");
+        let p = dir.path().join("s.toml");
+        std::fs::write(&p, base.replacen(from, to, 1)).expect("write");
+        let e = Scenario::load(&p).expect_err(key).to_string();
+        assert!(
+            e.contains(&p.display().to_string()) && e.contains(key),
+            "{key}: {e}"
+        );
+    }
+}
