@@ -89,6 +89,9 @@ pub struct CutRecord {
     /// Alarm bits seen during the cut and the gap that closed it (OR of the rows'
     /// `alarms`).
     pub alarm_bits: u8,
+    /// Alarms of the watch beside the loop raised during the cut (`wear_warn`,
+    /// `wear_limit`), in order, each once.
+    pub watch_alarms: Vec<String>,
     /// Periods with a feed-hold request during the cut (and its closing gap).
     pub feed_hold_periods: u32,
     /// Time at 100 % for the same path minus the actual time, s (negative: slower than
@@ -97,9 +100,11 @@ pub struct CutRecord {
 }
 
 impl CutRecord {
-    /// Names of the alarms seen.
-    pub fn alarms(&self) -> Vec<&'static str> {
-        alarm_names(self.alarm_bits)
+    /// Names of the alarms seen: the run log's alarm bits, then the watch's.
+    pub fn alarms(&self) -> Vec<&str> {
+        let mut v = alarm_names(self.alarm_bits);
+        v.extend(self.watch_alarms.iter().map(String::as_str));
+        v
     }
 
     /// Block range as text (`N20`, `N20–N40`, `?`).
@@ -211,6 +216,7 @@ impl CutRecorder {
                 hist_bin_pct: self.hist_bin_pct,
                 override_hist: vec![0; bins],
                 alarm_bits: 0,
+                watch_alarms: Vec::new(),
                 feed_hold_periods: 0,
                 time_saved_s: 0.0,
             },
@@ -256,6 +262,15 @@ impl CutRecorder {
         rec.force_mean_n = o.sum_f / n;
         rec.force_rms_error_n = (o.sum_e2 / n).sqrt();
         Some(rec)
+    }
+
+    /// Note an alarm of the watch (`wear_warn`, …) on the open cut, if any.
+    pub fn note_alarm(&mut self, name: &str) {
+        if let Some(o) = self.open.as_mut() {
+            if !o.rec.watch_alarms.iter().any(|a| a == name) {
+                o.rec.watch_alarms.push(name.to_string());
+            }
+        }
     }
 
     /// End of the stream: the cut still open, if any.

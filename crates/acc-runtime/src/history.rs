@@ -422,6 +422,13 @@ impl Watch {
         if let Some(c) = self.cuts.push(r) {
             out.push(WatchItem::Cut(c));
         }
+        for it in &out {
+            if let WatchItem::Alarm { kind, .. } = it {
+                if kind.starts_with("wear_") {
+                    self.cuts.note_alarm(kind);
+                }
+            }
+        }
         out
     }
 
