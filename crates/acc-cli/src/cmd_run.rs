@@ -380,7 +380,7 @@ fn drive<P: Board + Send>(
         inner: RunLogSink::new(writer),
         watch,
         writer: Some(history_writer),
-        items: Vec::new(),
+        summary: Default::default(),
     };
     let stop = install_stop_signals().context("installing the Ctrl-C handler")?;
     let opts = RunOptions {
@@ -451,7 +451,7 @@ fn drive<P: Board + Send>(
             Err(e) => eprintln!("history: {e}"),
         }
     }
-    crate::watch_cli::print_summary(&sink.items, &history);
+    crate::watch_cli::print_summary(&sink.summary, &history);
     println!(
         "final state: {}; alarms: {}",
         s.final_state.name(),

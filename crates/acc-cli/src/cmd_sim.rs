@@ -118,7 +118,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         sc.controller.period_s,
         &result.rows,
     )?;
-    crate::watch_cli::print_summary(&items, &history);
+    crate::watch_cli::print_summary(&acc_runtime::history::WatchSummary::of(&items), &history);
     if !args.no_plot {
         let w = plot_run(&sc, &result, &out.join("run.svg"))?;
         println!("plot: {} and {}", w.svg.display(), w.png.display());

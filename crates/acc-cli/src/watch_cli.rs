@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acc_runtime::history::{History, HistoryWriter, Watch, WatchItem, DEFAULT_FILE};
+use acc_runtime::history::{History, HistoryWriter, Watch, WatchItem, WatchSummary, DEFAULT_FILE};
 use acc_runtime::record::RunRecord;
 use acc_runtime::watch::WatchLimits;
 use anyhow::Context as _;
@@ -62,44 +62,26 @@ pub fn store_run(
 }
 
 /// Print what the watch found: cuts, time saved, last trend point per tool, alarms.
-pub fn print_summary(items: &[WatchItem], history: &Path) {
-    let cuts: Vec<_> = items
-        .iter()
-        .filter_map(|i| match i {
-            WatchItem::Cut(c) => Some(c),
-            _ => None,
-        })
-        .collect();
-    let saved: f64 = cuts.iter().map(|c| c.time_saved_s).sum();
+pub fn print_summary(s: &WatchSummary, history: &Path) {
     println!(
-        "watch: {} cuts, time saved against the programmed feed {:+.1} s; history {}",
-        cuts.len(),
-        saved,
+        "watch: {} cuts, time saved against the programmed feed {:+.1} s; {} trend points, {} alarms; history {}",
+        s.cuts,
+        s.time_saved_s,
+        s.wear_samples,
+        s.alarm_count,
         history.display()
     );
-    let mut last = std::collections::BTreeMap::new();
-    for i in items {
-        match i {
-            WatchItem::Wear(s) => {
-                last.insert(s.tool, s.clone());
-            }
-            WatchItem::Alarm {
-                tool,
-                t_s,
-                kind,
-                detail,
-            } => println!("watch alarm: tool {tool} at {t_s:.1} s: {kind} ({detail})"),
-            WatchItem::Cut(_) => {}
-        }
+    for (tool, t_s, kind, detail) in &s.alarms {
+        println!("watch alarm: tool {tool} at {t_s:.1} s: {kind} ({detail})");
     }
-    for s in last.values() {
+    for w in s.last_wear.values() {
         println!(
             "wear: tool {}: Kc_hat {:.3} N/(mm/min), {:+.1} % over the fresh reference {:.3} ({})",
-            s.tool,
-            s.kc,
-            s.rise_pct,
-            s.kc_ref,
-            s.level.as_str()
+            w.tool,
+            w.kc,
+            w.rise_pct,
+            w.kc_ref,
+            w.level.as_str()
         );
     }
 }

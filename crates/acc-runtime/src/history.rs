@@ -108,6 +108,10 @@ impl History {
             source,
         };
         let conn = Connection::open(&path).map_err(sql)?;
+        // A small page cache: a run of hours must not grow the process by SQLite's default
+        // 2 MiB cache.
+        conn.execute_batch("PRAGMA cache_size = -256;")
+            .map_err(sql)?;
         conn.execute_batch("CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL);")
             .map_err(sql)?;
         let found: Option<i64> = conn
@@ -512,8 +516,67 @@ pub struct WatchSink<S> {
     pub watch: Watch,
     /// The writer (`None`: watch without storage).
     pub writer: Option<HistoryWriter>,
-    /// Every item (for the end-of-run report).
-    pub items: Vec<WatchItem>,
+    /// What the watch found, bounded (for the end-of-run summary; a run of hours does
+    /// not grow it).
+    pub summary: WatchSummary,
+}
+
+/// A bounded summary of the watch's items: counts, time saved, the last trend point per
+/// tool and the first [`WatchSummary::MAX_ALARMS`] alarms.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WatchSummary {
+    /// Cuts ended.
+    pub cuts: u64,
+    /// Sum of the cuts' time saved, s.
+    pub time_saved_s: f64,
+    /// Trend points.
+    pub wear_samples: u64,
+    /// Last trend point per tool.
+    pub last_wear: std::collections::BTreeMap<u16, WearSample>,
+    /// Alarms `(tool, t_s, kind, detail)`, the first [`WatchSummary::MAX_ALARMS`].
+    pub alarms: Vec<(u16, f64, String, String)>,
+    /// Alarms in all.
+    pub alarm_count: u64,
+}
+
+impl WatchSummary {
+    /// Alarms kept in [`WatchSummary::alarms`].
+    pub const MAX_ALARMS: usize = 100;
+
+    /// Account for one item.
+    pub fn add(&mut self, item: &WatchItem) {
+        match item {
+            WatchItem::Cut(c) => {
+                self.cuts += 1;
+                self.time_saved_s += c.time_saved_s;
+            }
+            WatchItem::Wear(w) => {
+                self.wear_samples += 1;
+                self.last_wear.insert(w.tool, w.clone());
+            }
+            WatchItem::Alarm {
+                tool,
+                t_s,
+                kind,
+                detail,
+            } => {
+                self.alarm_count += 1;
+                if self.alarms.len() < Self::MAX_ALARMS {
+                    self.alarms
+                        .push((*tool, *t_s, kind.clone(), detail.clone()));
+                }
+            }
+        }
+    }
+
+    /// The summary of `items`.
+    pub fn of(items: &[WatchItem]) -> Self {
+        let mut s = Self::default();
+        for i in items {
+            s.add(i);
+        }
+        s
+    }
 }
 
 impl<S: LogSink> LogSink for WatchSink<S> {
@@ -521,19 +584,19 @@ impl<S: LogSink> LogSink for WatchSink<S> {
     fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
         self.inner.write(rec)?;
         for item in self.watch.push(rec) {
+            self.summary.add(&item);
             if let Some(w) = self.writer.as_mut() {
-                w.send(item.clone());
+                w.send(item);
             }
-            self.items.push(item);
         }
         Ok(())
     }
     fn flush(&mut self) -> Result<(), Self::Error> {
         for item in self.watch.finish() {
+            self.summary.add(&item);
             if let Some(w) = self.writer.as_mut() {
-                w.send(item.clone());
+                w.send(item);
             }
-            self.items.push(item);
         }
         self.inner.flush()
     }
