@@ -847,6 +847,7 @@ impl FaultPolicy {
                     feed_hold_active: s.feed_hold_active || self.feed_hold,
                     tool: if s.is_v2() { s.tool_number } else { 0 },
                     block: if s.is_v2() { s.block_number } else { 0 },
+                    override_pct: s.override_applied_pct,
                 };
                 if let Some(b) = self.breakage.observe(&sample) {
                     out.events.push(Event::Breakage(b));

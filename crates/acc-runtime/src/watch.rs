@@ -16,7 +16,7 @@
 //! use acc_runtime::watch::{BreakageDetector, BreakageSample, WatchLimits, Breakage};
 //! let mut d = BreakageDetector::new(WatchLimits::default());
 //! let s = |f: f64| BreakageSample { force_n: f, force_ref_n: 800.0, cycle_active: true,
-//!     feed_hold_active: false, tool: 1, block: 20 };
+//!     feed_hold_active: false, tool: 1, block: 20, override_pct: 60 };
 //! for _ in 0..12 { assert_eq!(d.observe(&s(800.0)), None); }
 //! // The tool broke: the force falls to a tenth within one period.
 //! assert!(matches!(d.observe(&s(80.0)), Some(Breakage::Drop { .. })));
@@ -267,6 +267,10 @@ pub struct BreakageSample {
     /// `BLOCK_NUMBER` (0: unknown). A drop is judged only while the board reports the block
     /// (the NC says the cut continues in the same block); a spike always.
     pub block: u16,
+    /// Override in force (`OVERRIDE_APPLIED`), percent. A drop is judged only when it is at
+    /// least 0.8 × its value two periods back (the feed was not cut: an operator turning the
+    /// knob down is no breakage), a spike only when it is at most 1.25 × that + 10 %.
+    pub override_pct: u16,
 }
 
 /// Breakage detector: a ring of the last [`WatchLimits::breakage_history_periods`] force
@@ -279,6 +283,8 @@ pub struct BreakageDetector {
     len: usize,
     head: usize,
     context: Option<(u16, u16)>,
+    /// Applied override of the last three periods (newest last), percent.
+    overrides: [u16; 3],
 }
 
 impl BreakageDetector {
@@ -293,6 +299,7 @@ impl BreakageDetector {
             len: 0,
             head: 0,
             context: None,
+            overrides: [0; 3],
         }
     }
 
@@ -366,6 +373,10 @@ impl BreakageDetector {
             self.reset();
         }
         let cut_n = self.limits.cut_force_fraction * s.force_ref_n;
+        self.overrides = [self.overrides[1], self.overrides[2], s.override_pct];
+        let (ov_now, ov_before) = (u32::from(s.override_pct), u32::from(self.overrides[0]));
+        let feed_kept = ov_now * 5 >= ov_before * 4;
+        let feed_not_raised = ov_now * 4 <= ov_before * 5 + 40;
         if !s.cycle_active || s.feed_hold_active || !s.force_n.is_finite() {
             self.reset();
             return None;
@@ -375,6 +386,7 @@ impl BreakageDetector {
             // Judge only against a history of steady cutting.
             if min >= cut_n && med > 0.0 {
                 if s.block != 0
+                    && feed_kept
                     && s.force_n < med * (1.0 - self.limits.breakage_drop_pct / 100.0)
                     && two_back >= 0.8 * med
                 {
@@ -382,7 +394,7 @@ impl BreakageDetector {
                         force_n: s.force_n,
                         reference_n: med,
                     });
-                } else if s.force_n > med * self.limits.breakage_spike_factor {
+                } else if feed_not_raised && s.force_n > med * self.limits.breakage_spike_factor {
                     verdict = Some(Breakage::Spike {
                         force_n: s.force_n,
                         reference_n: med,
@@ -580,6 +592,7 @@ mod tests {
             feed_hold_active: false,
             tool: 1,
             block,
+            override_pct: 60,
         }
     }
 
@@ -621,6 +634,22 @@ mod tests {
             d.observe(&s(40.0, 40)),
             Some(Breakage::Drop { .. })
         ));
+    }
+
+    #[test]
+    fn the_operator_cutting_the_feed_is_no_breakage() {
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..12 {
+            d.observe(&s(800.0, 40));
+        }
+        // Knob from 60 % to 20 %: the force follows within a period.
+        let knob = |f: f64| BreakageSample {
+            override_pct: 20,
+            ..s(f, 40)
+        };
+        for f in [260.0, 250.0, 255.0, 262.0] {
+            assert_eq!(d.observe(&knob(f)), None, "{f}");
+        }
     }
 
     #[test]
