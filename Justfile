@@ -24,6 +24,11 @@ demo:
 sim scenario:
     cargo run --release -p acc-cli -- sim {{scenario}} --out out/sim
 
+# The tool-breakage scenario and its one-page HTML report (docs/shop.md).
+report:
+    cargo run --release -p acc-cli -- sim tool_breakage --out out/breakage --no-plot
+    cargo run --release -p acc-cli -- report out/breakage/run.csv --out out/breakage/report
+
 # All baselines and ours on one scenario.
 compare scenario:
     cargo run --release -p acc-cli -- compare {{scenario}} --out out/compare

@@ -169,6 +169,9 @@ pub struct Machine {
     /// Multiplier on the material's `Ks` (a hard spot injected by a fault schedule), 1 =
     /// the workpiece as specified.
     hardness_factor: f64,
+    /// Tool breakage: from this time on (s) the cutting force is multiplied by the factor
+    /// (a broken tool that no longer cuts: < 1; a chipped edge that rubs: > 1).
+    breakage: Option<(f64, f64)>,
     /// Engagement forced from outside (radial depth, axial depth, mm), replacing the
     /// workpiece's (the replay of a log that records its engagement, [`crate::replay`]).
     engagement_override: Option<(f64, f64)>,
@@ -240,6 +243,7 @@ impl Machine {
             override_input_pct: 100,
             feed_hold: false,
             hardness_factor: 1.0,
+            breakage: None,
             engagement_override: None,
             engagement_profile: None,
             t_s: 0.0,
@@ -276,6 +280,15 @@ impl Machine {
     pub fn set_hardness_factor(&mut self, factor: f64) {
         if factor.is_finite() && factor > 0.0 {
             self.hardness_factor = factor;
+        }
+    }
+
+    /// Break the tool at machine time `at_s` (s): from then on the cutting force is
+    /// multiplied by `force_factor` (e.g. 0.05: the tool is gone; 3: a spike). Non-finite
+    /// or negative values are ignored.
+    pub fn set_breakage(&mut self, at_s: f64, force_factor: f64) {
+        if at_s.is_finite() && at_s >= 0.0 && force_factor.is_finite() && force_factor >= 0.0 {
+            self.breakage = Some((at_s, force_factor));
         }
     }
 
@@ -431,6 +444,11 @@ impl Machine {
                 rpm,
                 eng.ks_factor * self.wear.factor() * self.hardness_factor,
             );
+            let t_step = t0 + (k + 1) as f64 * dt;
+            let mean = match self.breakage {
+                Some((at_s, factor)) if t_step >= at_s => mean * factor,
+                _ => mean,
+            };
             let th0 = self.spindle_angle_rad;
             let th1 = th0 + rpm / 60.0 * 2.0 * PI * dt;
             self.spindle_angle_rad = crate::exact::rem_tau(th1);

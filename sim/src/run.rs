@@ -124,7 +124,7 @@ pub fn run_prepared<W: Write>(
     let name = law.name().to_string();
     let sensor = PlantSensor::default();
     let mut control = ControlLoop::new(
-        FaultPolicy::new(scenario.policy),
+        FaultPolicy::new(scenario.policy).with_watch_limits(scenario.watch),
         law,
         sensor.clone(),
         period_s,

@@ -288,6 +288,39 @@ pub struct ScenarioFile {
     /// control in the production loop (default: none, the preset's Fr for every tool).
     #[serde(default)]
     pub tools: Option<ToolsSpec>,
+    /// A tool breakage event (`[breakage] at_s`, `force_factor`), default none.
+    #[serde(default)]
+    pub breakage: Option<BreakageSpec>,
+    /// Wear and breakage watch limits (`[watch]`, acc run's keys; `history` is ignored
+    /// here: `acc sim --history`).
+    #[serde(default)]
+    pub watch: acc_runtime::watch::WatchSection,
+}
+
+/// `[breakage]` table of a scenario: the tool breaks at `at_s` and the cutting force is
+/// multiplied by `force_factor` from then on (wear and breakage watch, docs/shop.md).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BreakageSpec {
+    /// Machine time of the break, s (0..=86400).
+    pub at_s: f64,
+    /// Force multiplier after the break, 1 (0..=10; default 0.05: the tool is gone and only
+    /// rubs; above 1: a spike).
+    #[serde(default = "default_breakage_factor")]
+    pub force_factor: f64,
+}
+
+fn default_breakage_factor() -> f64 {
+    0.05
+}
+
+impl BreakageSpec {
+    /// Check the ranges (errors name `file` and `breakage.<key>`).
+    pub fn validate(&self, file: &Path) -> Result<(), ConfigError> {
+        check_range(file, "breakage.at_s", self.at_s, 0.0, 86_400.0)?;
+        check_range(file, "breakage.force_factor", self.force_factor, 0.0, 10.0)?;
+        Ok(())
+    }
 }
 
 fn default_max_time() -> f64 {
@@ -422,6 +455,10 @@ pub struct Scenario {
     /// `[tools] baselines`: the baselines of `acc compare` run with the tool table's entry
     /// control too.
     pub tools_for_baselines: bool,
+    /// Tool breakage event (`[breakage]`, validated), if any.
+    pub breakage: Option<BreakageSpec>,
+    /// Wear and breakage limits the fault policy runs with (`[watch]`, validated).
+    pub watch: acc_runtime::watch::WatchLimits,
 }
 
 /// The laws `acc compare` runs.
@@ -529,6 +566,9 @@ impl Scenario {
             None => None,
         };
         let tools_for_baselines = file.tools.as_ref().is_some_and(|t| t.baselines);
+        if let Some(b) = &file.breakage {
+            b.validate(path)?;
+        }
         Ok(Scenario {
             path: path.to_path_buf(),
             name: file.name,
@@ -550,6 +590,8 @@ impl Scenario {
             nc,
             tools,
             tools_for_baselines,
+            breakage: file.breakage,
+            watch: file.watch.resolve(path)?,
         })
     }
 
@@ -621,7 +663,7 @@ impl Scenario {
 
     /// A fresh simulated board speaking `protocol` with the machine behind it.
     pub fn build_board_with(&self, protocol: acc_pmc::emu::EmulatedProtocol) -> SimBoard {
-        let machine = Machine::new(
+        let mut machine = Machine::new(
             &self.machine,
             &self.tool,
             self.wear,
@@ -629,6 +671,9 @@ impl Scenario {
             self.force_model,
             self.programmed_feed_mm_min,
         );
+        if let Some(b) = self.breakage {
+            machine.set_breakage(b.at_s, b.force_factor);
+        }
         let mut board =
             SimBoard::with_protocol(machine, self.machine.override_path.step_pct, protocol);
         board.set_nc_context(self.nc);

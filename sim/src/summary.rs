@@ -70,6 +70,9 @@ pub struct Summary {
     /// The production loop's fault policy stopped the machine with a feed hold (overload:
     /// the tool-breakage protection) at this time, s, and the run ended there.
     pub feed_hold_at_s: Option<f64>,
+    /// Why the policy held the feed (the state of the first feed-hold period: `overload`,
+    /// `breakage`, …); empty without a feed hold.
+    pub feed_hold_reason: String,
     /// Cycle time at the programmed feed (100 % throughout), s.
     pub programmed_cycle_time_s: f64,
     /// Metal removed, cm³.
@@ -211,6 +214,13 @@ pub fn summarize(result: &RunResult, scenario: &Scenario) -> Summary {
         feed_hold_at_s: result
             .ended_in_feed_hold
             .then(|| rows.iter().find(|r| r.feed_hold).map_or(0.0, |r| r.t_s)),
+        feed_hold_reason: if result.ended_in_feed_hold {
+            rows.iter()
+                .find(|r| r.feed_hold)
+                .map_or_else(String::new, |r| r.state.clone())
+        } else {
+            String::new()
+        },
         programmed_cycle_time_s: workpiece.length_mm() / programmed_feed_mm_min * 60.0,
         volume_cm3: result.volume_mm3 * 1e-3,
         rms_error_cut_n: rms(cut_rows.map(|r| force(r) - fr)),
@@ -277,7 +287,14 @@ impl fmt::Display for Summary {
         }
         let cycle = self.cycle_time_s.map_or_else(
             || match self.feed_hold_at_s {
-                Some(t) => format!("not finished: overload feed hold at {t:.1} s"),
+                Some(t) => format!(
+                    "not finished: {} feed hold at {t:.1} s",
+                    if self.feed_hold_reason.is_empty() {
+                        "fault"
+                    } else {
+                        &self.feed_hold_reason
+                    }
+                ),
                 None => "not finished".to_string(),
             },
             |c| format!("{c:.1} s"),

@@ -23,8 +23,8 @@ use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
 use acc_runtime::{
-    run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunOptions,
-    RunRecord, SystemClock,
+    history::WatchSink, run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen,
+    RunOptions, RunRecord, SystemClock,
 };
 use anyhow::Context;
 
@@ -49,6 +49,10 @@ pub struct RunArgs {
     /// Stop after this much machine time, s (default: run until Ctrl-C).
     #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
+    /// Tool-history database (SQLite): cuts, Kc trend per tool and alarms, kept across runs
+    /// (default: `[watch] history` of the config, else `acc-history.sqlite` beside the log).
+    #[arg(long, value_name = "FILE")]
+    pub history: Option<PathBuf>,
     /// Events as JSON lines on stderr (filter: `ACC_LOG`, e.g. `ACC_LOG=debug`).
     #[arg(long)]
     pub json: bool,
@@ -216,6 +220,26 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     let writer = RunLogWriter::new(BufWriter::new(file))
         .with_context(|| format!("--log {}: cannot write the run log", args.log.display()))
         .exit_as(RunExit::Usage)?;
+    // The tool history likewise (a newer schema version is refused here).
+    let history = crate::watch_cli::history_path(
+        args.history.as_deref().or(cfg.history.as_deref()),
+        &args.log,
+    );
+    let (watch, history_writer) = crate::watch_cli::open_live(
+        &history,
+        &format!("acc run {}", cfg.name),
+        cfg.watch,
+        cfg.tools.as_ref(),
+        cfg.controller.period_s,
+    )
+    .with_context(|| "the tool history (--history or [watch] history)".to_string())
+    .exit_as(RunExit::Usage)?;
+    let sinks = RunSinks {
+        log: writer,
+        history,
+        watch,
+        history_writer,
+    };
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
             // 2. Open the port (framing verified, nothing sent); 3. first transaction: the
@@ -243,7 +267,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
                     .map_err(|e| format!("{e:#}"))
             };
             let reopen: Reopen<'_, _> = &mut reopen;
-            let stats = drive(args, &cfg, &mut pmc, status, writer, &rtu_cfg.port, reopen);
+            let stats = drive(args, &cfg, &mut pmc, status, sinks, &rtu_cfg.port, reopen);
             let st = pmc.stats();
             println!(
                 "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
@@ -277,9 +301,17 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
             );
             let mut reopen = || open().map_err(|e| format!("{e:#}"));
             let reopen: Reopen<'_, _> = &mut reopen;
-            drive(args, &cfg, &mut pmc, status, writer, iface, reopen)
+            drive(args, &cfg, &mut pmc, status, sinks, iface, reopen)
         }
     }
+}
+
+/// Where a run's records go: the run log, and the watch with its tool-history writer.
+struct RunSinks {
+    log: RunLogWriter<BufWriter<File>>,
+    history: PathBuf,
+    watch: acc_runtime::history::Watch,
+    history_writer: acc_runtime::history::HistoryWriter,
 }
 
 /// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
@@ -288,7 +320,7 @@ fn drive<P: Board + Send>(
     cfg: &RunConfig,
     pmc: &mut P,
     status: BoardStatus,
-    writer: RunLogWriter<BufWriter<File>>,
+    sinks: RunSinks,
     device: &str,
     reopen: Reopen<'_, P>,
 ) -> anyhow::Result<()> {
@@ -320,15 +352,33 @@ fn drive<P: Board + Send>(
     })?;
     let period_s = ccfg.period_s;
     let source = cfg.force_source()?;
-    let mut control = ControlLoop::new(FaultPolicy::new(cfg.policy), law, source, period_s)
-        .with_air_force_n(cfg.shutdown.air_force_n);
+    let mut control = ControlLoop::new(
+        FaultPolicy::new(cfg.policy).with_watch_limits(cfg.watch),
+        law,
+        source,
+        period_s,
+    )
+    .with_air_force_n(cfg.shutdown.air_force_n);
     if let Some(table) = cfg.tools.clone() {
         control = control.with_shop(acc_runtime::ShopControl::new(table, period_s));
     }
 
     // Run log (created before the port was opened) and the signals: the first Ctrl-C or
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
-    let mut sink = RunLogSink::new(writer);
+    // The wear and breakage watch and the tool history run on the logger thread, the
+    // database writes on their own thread (bounded queue, never waited on).
+    let RunSinks {
+        log: writer,
+        history,
+        watch,
+        history_writer,
+    } = sinks;
+    let mut sink = WatchSink {
+        inner: RunLogSink::new(writer),
+        watch,
+        writer: Some(history_writer),
+        summary: Default::default(),
+    };
     let stop = install_stop_signals().context("installing the Ctrl-C handler")?;
     let opts = RunOptions {
         max_periods: args
@@ -389,6 +439,16 @@ fn drive<P: Board + Send>(
         s.log_dropped,
         s.log_errors
     );
+    if let Some(w) = sink.writer.as_mut() {
+        match w.finish() {
+            Ok(n) => println!(
+                "history: {n} items stored, {} dropped (queue full)",
+                w.dropped()
+            ),
+            Err(e) => eprintln!("history: {e}"),
+        }
+    }
+    crate::watch_cli::print_summary(&sink.summary, &history);
     println!(
         "final state: {}; alarms: {}",
         s.final_state.name(),

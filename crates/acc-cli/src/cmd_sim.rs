@@ -35,6 +35,10 @@ pub struct SimArgs {
     /// Do not draw plots.
     #[arg(long)]
     pub no_plot: bool,
+    /// Tool-history database (SQLite) the run's cuts, Kc trend and alarms are added to
+    /// (default `acc-history.sqlite` in the output directory).
+    #[arg(long, value_name = "FILE")]
+    pub history: Option<PathBuf>,
 }
 
 /// Parse a law name of `--law`.
@@ -106,6 +110,16 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     );
     print!("{summary}");
     println!("run log: {}", log_path.display());
+    let history = crate::watch_cli::history_path(args.history.as_deref(), &log_path);
+    let items = crate::watch_cli::store_run(
+        &history,
+        &format!("acc sim {}", sc.path.display()),
+        sc.watch,
+        sc.tools.as_ref(),
+        sc.controller.period_s,
+        &result.rows,
+    )?;
+    crate::watch_cli::print_summary(&acc_runtime::history::WatchSummary::of(&items), &history);
     if !args.no_plot {
         let w = plot_run(&sc, &result, &out.join("run.svg"))?;
         println!("plot: {} and {}", w.svg.display(), w.png.display());
@@ -227,6 +241,7 @@ mod tests {
             model: None,
             law: LawKind::Ours,
             no_plot: false,
+            history: None,
         };
         run_cmd(&args).expect("acc sim");
         let log = std::fs::read_to_string(dir.join("run.csv")).expect("run log");

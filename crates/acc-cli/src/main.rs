@@ -8,6 +8,7 @@ mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
 mod cmd_replay;
+mod cmd_report;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_soak;
@@ -15,6 +16,7 @@ mod cmd_stability;
 mod configs;
 mod exit;
 mod harness;
+mod watch_cli;
 
 /// Adaptive feedrate-override control for CNC milling.
 #[derive(Parser)]
@@ -64,6 +66,11 @@ enum Command {
     /// An hour of machine time (by default) of `acc run` against `acc board-sim` with a
     /// random board fault every few seconds: memory growth, lost rows, dead threads.
     Soak(cmd_soak::SoakArgs),
+    /// One self-contained HTML page of a run log: force along the path with Fr and limit
+    /// lines, override (commanded/applied), Kc_hat trend, the per-cut table (tool, program,
+    /// blocks, time in cut, force statistics, override histogram, alarms, time saved) and
+    /// the alarms. Opens with no network access.
+    Report(cmd_report::ReportArgs),
 }
 
 /// Exit code for a failed command other than `acc run` (bad config, bad file, ...).
@@ -136,5 +143,6 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),
         Command::FaultMatrix(args) => cmd_fault_matrix::run_cmd(&args),
         Command::Soak(args) => cmd_soak::run_cmd(&args),
+        Command::Report(args) => cmd_report::run(&args),
     }
 }

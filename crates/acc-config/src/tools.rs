@@ -374,8 +374,8 @@ fn resolve_tool(
     let wear_warn_pct = check_range(
         file,
         &k("wear_warn_pct"),
-        t.wear_warn_pct.or(base.wear_warn_pct).unwrap_or(30.0),
-        0.0,
+        t.wear_warn_pct.or(base.wear_warn_pct).unwrap_or(25.0),
+        1.0,
         1000.0,
     )?;
     let wear_limit_pct = check_range(
@@ -392,13 +392,13 @@ fn resolve_tool(
             .or(base.breakage_drop_pct)
             .unwrap_or(60.0),
         1.0,
-        100.0,
+        99.0,
     )?;
     let breakage_spike_x = check_range(
         file,
         &k("breakage_spike_x"),
-        t.breakage_spike_x.or(base.breakage_spike_x).unwrap_or(2.0),
-        1.0,
+        t.breakage_spike_x.or(base.breakage_spike_x).unwrap_or(3.0),
+        1.1,
         20.0,
     )?;
     let kc_init = match t.kc_init {

@@ -215,6 +215,16 @@ pub const RUN_KEY_RANGES: &[KeyRange] = &[
     ),
     KeyRange::new("runtime.time_scale", "0.1 ..= 100"),
     KeyRange::new("runtime.log_queue", "1 ..= 1000000"),
+    KeyRange::new("watch.history", "a file path (string)"),
+    KeyRange::new("watch.breakage", "true or false"),
+    KeyRange::new("watch.wear_warn_pct", "0 < x <= 1000"),
+    KeyRange::new("watch.wear_limit_pct", "wear_warn_pct <= x <= 1000"),
+    KeyRange::new("watch.breakage_drop_pct", "0 < x < 100"),
+    KeyRange::new("watch.breakage_spike_factor", "1 < x <= 100"),
+    KeyRange::new("watch.breakage_history_periods", "3 ..= 32"),
+    KeyRange::new("watch.cut_force_fraction", "0 < x < 1"),
+    KeyRange::new("watch.steady_band_pct", "0 < x <= 100"),
+    KeyRange::new("watch.wear_window_periods", "1 ..= 10000"),
 ];
 
 /// The run config as written.
@@ -240,6 +250,9 @@ pub struct RunFile {
     /// Loop options.
     #[serde(default)]
     pub runtime: RuntimeSection,
+    /// Wear and breakage watch, tool history (`[watch]`, all keys optional).
+    #[serde(default)]
+    pub watch: crate::watch::WatchSection,
     /// Shop tool table (`[tools] file = "..."`, relative to this file): per-tool limits
     /// chosen by the board's `TOOL_NUMBER` and entry control (docs/shop.md).
     pub tools: Option<ToolsRef>,
@@ -293,6 +306,12 @@ pub struct RunConfig {
     pub fallback_mode: FallbackMode,
     /// The shop tool table (`[tools] file`), if any: loaded and validated with the config.
     pub tools: Option<acc_config::ToolTable>,
+    /// Wear and breakage limits (`[watch]`, validated; defaults of
+    /// [`crate::watch::WatchLimits`]).
+    pub watch: crate::watch::WatchLimits,
+    /// `[watch] history`: the tool-history file, relative paths resolved against the config
+    /// file (`None`: `acc-history.sqlite` beside the run log).
+    pub history: Option<PathBuf>,
 }
 
 /// Parse `[board] fallback_mode` (`"clamp"` | `"clamp_and_feed_hold"`).
@@ -451,6 +470,12 @@ impl RunConfig {
             runtime: rt,
             fallback_mode,
             tools,
+            watch: file.watch.resolve(path)?,
+            history: file
+                .watch
+                .history
+                .as_ref()
+                .map(|h| resolve_relative(path, h)),
         })
     }
 

@@ -149,8 +149,12 @@ impl CycleRecord {
             }
         }
         for e in self.out.events.iter() {
-            if let crate::policy::Event::Rearmed { reason, .. } = e {
-                r.flag(&format!("rearm:{}", reason.as_str()));
+            match e {
+                crate::policy::Event::Rearmed { reason, .. } => {
+                    r.flag(&format!("rearm:{}", reason.as_str()));
+                }
+                crate::policy::Event::Breakage(b) => r.flag(&format!("breakage:{}", b.kind())),
+                _ => {}
             }
         }
         r
@@ -209,6 +213,8 @@ pub struct ControlLoop<L, F> {
     last_feed_mm_min: f64,
     air_force_n: f64,
     air_run: u32,
+    /// The tool whose wear and breakage limits the policy runs with (shop layer).
+    watch_tool: Option<u16>,
     shop: Option<ShopControl>,
 }
 
@@ -229,6 +235,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             air_force_n: 0.0,
             air_run: 0,
             shop: None,
+            watch_tool: None,
         }
     }
 
@@ -289,6 +296,12 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// The policy (state, alarms).
     pub fn policy(&self) -> &FaultPolicy {
         &self.policy
+    }
+
+    /// Switch the policy's wear and breakage limits (the tool table, on a tool change:
+    /// [`FaultPolicy::set_watch_limits`]).
+    pub fn set_watch_limits(&mut self, limits: crate::watch::WatchLimits) {
+        self.policy.set_watch_limits(limits);
     }
 
     /// The law.
@@ -352,6 +365,12 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
                 &mut self.law,
             );
             self.policy.set_command_limits(lim);
+            // The tool's own wear and breakage limits (tool table) once it is selected.
+            if let Some(tool) = sh.tool().filter(|t| self.watch_tool != Some(*t)) {
+                let limits = self.policy.watch_limits().with_tool(sh.table().get(tool));
+                self.policy.set_watch_limits(limits);
+                self.watch_tool = Some(tool);
+            }
         }
         let out = self.policy.step(&input, &mut self.law);
         let shop = self.shop.as_mut().and_then(|sh| {

@@ -12,6 +12,9 @@
 //!   command);
 //! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v2, v1 migration;
+//! - [`watch`]: wear and breakage watch (Kc trend, breakage detector the policy steps);
+//! - [`cuts`]: per-cut records from a stream of run-log records;
+//! - [`history`]: the tool history (SQLite) and the watch beside the loop;
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
 //! - `testing` (feature `testing`, which enables acc-pmc's `emulator`): a scripted board,
@@ -22,7 +25,9 @@
 /// and the emulator use it too); re-exported here.
 pub use acc_pmc::clock;
 pub mod config;
+pub mod cuts;
 pub mod cycle;
+pub mod history;
 pub mod policy;
 pub mod record;
 pub mod runner;
@@ -32,6 +37,7 @@ pub mod stats;
 #[cfg(feature = "testing")]
 pub mod testing;
 pub mod ticker;
+pub mod watch;
 
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};

@@ -50,6 +50,12 @@
 //!   (v1) a knob still above ACC's last command is not handed back (the board would move to
 //!   the knob and raise the feed): ACC keeps control with the knob as the ceiling of its
 //!   command, and hands back once the knob is below that command.
+//! - **Breakage** (the wear and breakage watch, [`crate::watch`]): a valid force sample far
+//!   below (tool gone) or far above (spike) the median of the tool's own recent steady-cut
+//!   history, while the NC says the cut continues (cycle on, same tool and block, no feed
+//!   hold) → feed-hold request in the same period, [`Alarms::breakage`],
+//!   [`Event::Breakage`], release and latch. Limits: [`WatchLimits`], per tool through
+//!   [`FaultPolicy::set_watch_limits`].
 //! - **Never above the maximum**: every command is clamped to `[min_override_pct,
 //!   max_override_pct]` and floored to the board's `OVERRIDE_STEP`.
 //!
@@ -58,6 +64,8 @@
 
 use acc_core::{FeedOverride, ForceSample, Measurement, OverrideLaw, StepOutput};
 use acc_pmc::{BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
+
+use crate::watch::{Breakage, BreakageDetector, BreakageSample, WatchLimits};
 
 /// Parameters of the fault policy. Defaults in each field's doc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -227,6 +235,8 @@ pub enum Release {
     NoBoardAck,
     /// Force above the overload limit for too long (feed hold requested).
     Overload,
+    /// Tool breakage suspected: a sudden force drop or spike (feed hold requested).
+    Breakage,
 }
 
 impl Release {
@@ -241,6 +251,7 @@ impl Release {
             Release::BoardReset => "board_reset",
             Release::NoBoardAck => "no_board_ack",
             Release::Overload => "overload",
+            Release::Breakage => "breakage",
         }
     }
 
@@ -304,12 +315,19 @@ pub struct Alarms {
     pub board_reset: bool,
     /// Overload: feed hold requested.
     pub overload: bool,
+    /// Tool breakage suspected (sudden force drop or spike): feed hold requested.
+    pub breakage: bool,
 }
 
 impl Alarms {
     /// Any alarm set.
     pub fn any(&self) -> bool {
-        self.link_lost || self.power_invalid || self.watchdog || self.board_reset || self.overload
+        self.link_lost
+            || self.power_invalid
+            || self.watchdog
+            || self.board_reset
+            || self.overload
+            || self.breakage
     }
 
     /// The alarms in force by name, comma-separated (`none` when there are none): `link_lost`,
@@ -328,6 +346,7 @@ impl Alarms {
             (self.watchdog, "watchdog"),
             (self.board_reset, "board_reset"),
             (self.overload, "overload"),
+            (self.breakage, "breakage"),
         ];
         let on: Vec<&str> = all.iter().filter(|(b, _)| *b).map(|(_, n)| *n).collect();
         if on.is_empty() {
@@ -338,13 +357,14 @@ impl Alarms {
     }
 
     /// Compact bit code for the run log: bit 0 link, 1 power, 2 watchdog, 3 board reset,
-    /// 4 overload.
+    /// 4 overload, 5 breakage.
     pub fn bits(&self) -> u8 {
         u8::from(self.link_lost)
             | u8::from(self.power_invalid) << 1
             | u8::from(self.watchdog) << 2
             | u8::from(self.board_reset) << 3
             | u8::from(self.overload) << 4
+            | u8::from(self.breakage) << 5
     }
 }
 
@@ -388,6 +408,8 @@ pub enum Event {
     FeedHold(bool),
     /// The board's watchdog was seen tripped.
     WatchdogTripped,
+    /// Tool breakage suspected (the feed hold follows in the same period).
+    Breakage(Breakage),
 }
 
 /// Up to [`Events::CAPACITY`] events of one period, without allocation.
@@ -515,6 +537,10 @@ pub struct FaultPolicy {
     /// but handing back would raise the feed (a board without the fallback clamp, knob above
     /// ACC's last command). Cleared on arming.
     knob_ceiling: Option<u16>,
+    /// The breakage watch (fixed size, no allocation).
+    breakage: BreakageDetector,
+    /// Fr of the law's last step, N (the breakage watch's cut threshold).
+    force_ref_n: Option<f64>,
     /// Command limits of the shop layer for the next step ([`FaultPolicy::set_command_limits`]).
     shop_limits: CommandLimits,
 }
@@ -560,6 +586,8 @@ impl FaultPolicy {
             rearms: 0,
             knob_ceiling: None,
             shop_limits: CommandLimits::default(),
+            breakage: BreakageDetector::new(WatchLimits::default()),
+            force_ref_n: None,
         }
     }
 
@@ -567,6 +595,23 @@ impl FaultPolicy {
     /// previous ones; see [`CommandLimits`]).
     pub fn set_command_limits(&mut self, limits: CommandLimits) {
         self.shop_limits = limits;
+    }
+
+    /// This policy with wear and breakage limits `limits` (default [`WatchLimits::default`]).
+    pub fn with_watch_limits(mut self, limits: WatchLimits) -> Self {
+        self.breakage.set_limits(limits);
+        self
+    }
+
+    /// Switch the breakage limits (the tool table on a tool change); the history is kept and
+    /// restarts by itself on the new tool number.
+    pub fn set_watch_limits(&mut self, limits: WatchLimits) {
+        self.breakage.set_limits(limits);
+    }
+
+    /// The wear and breakage limits in use.
+    pub fn watch_limits(&self) -> &WatchLimits {
+        self.breakage.limits()
     }
 
     /// The board's protocol as the last status reported it (`PROTOCOL_VERSION` ≥ 2: v2),
@@ -658,7 +703,7 @@ impl FaultPolicy {
         };
         let fault = !matches!(
             why,
-            Release::SwitchOff | Release::OperatorHandback | Release::Overload
+            Release::SwitchOff | Release::OperatorHandback | Release::Overload | Release::Breakage
         );
         // A v2 board clamps the applied override to min(knob, last applied) on a release.
         let raising = !self.board_clamps()
@@ -680,6 +725,7 @@ impl FaultPolicy {
             Release::Watchdog => self.alarms.watchdog = true,
             Release::BoardReset | Release::NoBoardAck => self.alarms.board_reset = true,
             Release::Overload => self.alarms.overload = true,
+            Release::Breakage => self.alarms.breakage = true,
             Release::SwitchOff | Release::OperatorHandback => {}
         }
     }
@@ -813,6 +859,38 @@ impl FaultPolicy {
                 }
             } else {
                 self.overload_count = 0;
+            }
+            // Breakage watch (tool gone / spike), judged on valid samples only.
+            if let (true, Some(fr)) = (force_valid, self.force_ref_n) {
+                let sample = BreakageSample {
+                    force_n: f.force_n,
+                    force_ref_n: fr,
+                    cycle_active: s.cycle_active,
+                    feed_hold_active: s.feed_hold_active || self.feed_hold,
+                    tool: if s.is_v2() { s.tool_number } else { 0 },
+                    block: if s.is_v2() { s.block_number } else { 0 },
+                    override_pct: s.override_applied_pct,
+                };
+                if let Some(b) = self.breakage.observe(&sample) {
+                    out.events.push(Event::Breakage(b));
+                    tracing::warn!(
+                        kind = b.kind(),
+                        force_n = f.force_n,
+                        "tool breakage suspected: feed hold requested"
+                    );
+                    out.fault = true;
+                    if !self.feed_hold {
+                        self.feed_hold = true;
+                        out.events.push(Event::FeedHold(true));
+                    }
+                    if self.state == AccState::Active {
+                        self.release(Release::Breakage, &mut out, law);
+                    } else {
+                        self.alarms.breakage = true;
+                        self.state = AccState::Latched(Release::Breakage);
+                        self.switch_seen_off = !s.acc_switch;
+                    }
+                }
             }
         }
 
@@ -1063,6 +1141,7 @@ impl FaultPolicy {
             valid: force_valid,
         };
         let step = law.step(&m);
+        self.force_ref_n = Some(step.trace.force_ref_n);
         let mut cmd = self.quantize(step.command.0, s.override_step_pct);
         if !force_valid {
             cmd = cmd.min(last);

@@ -51,8 +51,9 @@ pub struct RunRecord {
     /// What was unusual in this period, `;`-separated (empty when nothing): `skipped`
     /// (no cycle ran: the ticker overran), `late` (the tick came after its deadline),
     /// `link:<kind>` (the status read failed), `write:<kind>` (the previous writes failed),
-    /// `force_invalid`, `fault` (a fault input: the command could only go down), `no_log`
-    /// (reserved).
+    /// `force_invalid`, `fault` (a fault input: the command could only go down),
+    /// `rearm:<reason>`, `breakage:drop` / `breakage:spike` (the breakage watch requested
+    /// feed hold this period), `no_log` (reserved).
     pub flags: String,
     /// Lateness of the tick against its deadline, ms (0 on a stepped clock).
     pub late_ms: f64,

@@ -154,3 +154,67 @@ fn fallback_mode_and_device_loss_keys() {
         "{e}"
     );
 }
+
+#[test]
+fn watch_keys_resolve_and_bad_ones_name_file_key_value_and_range() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let base = std::fs::read_to_string(cfg("board_sim_fast.toml")).expect("base");
+    let abs = cfg("").canonicalize().expect("configs/runtime");
+    let base = base
+        .replace("\"../presets/", &format!("\"{}/../presets/", abs.display()))
+        .replace(
+            "\"paper_vmc_power.toml\"",
+            &format!("\"{}/paper_vmc_power.toml\"", abs.display()),
+        );
+    let p = dir.path().join("run.toml");
+    std::fs::write(&p, &base).expect("write");
+    let d = RunConfig::load(&p, None).expect("defaults");
+    assert_eq!(d.watch, acc_runtime::watch::WatchLimits::default());
+    assert_eq!(d.history, None);
+    std::fs::write(
+        &p,
+        format!("{base}\n[watch]\nhistory = \"hist/tools.sqlite\"\nwear_warn_pct = 20.0\nbreakage_spike_factor = 4.0\n"),
+    )
+    .expect("write");
+    let c = RunConfig::load(&p, None).expect("watch keys");
+    assert_eq!(c.watch.wear_warn_pct, 20.0);
+    assert_eq!(c.watch.breakage_spike_factor, 4.0);
+    assert_eq!(c.history, Some(dir.path().join("hist/tools.sqlite")));
+    for (table, key, value, allowed) in [
+        (
+            "wear_limit_pct = 10.0",
+            "watch.wear_limit_pct",
+            "10",
+            "wear_warn_pct <= x <= 1000",
+        ),
+        (
+            "breakage_drop_pct = 100.0",
+            "watch.breakage_drop_pct",
+            "100",
+            "0 < x < 100",
+        ),
+        (
+            "breakage_history_periods = 40",
+            "watch.breakage_history_periods",
+            "40",
+            "3 ..= 32",
+        ),
+    ] {
+        std::fs::write(&p, format!("{base}\n[watch]\n{table}\n")).expect("write");
+        let e = RunConfig::load(&p, None).expect_err(key).to_string();
+        assert!(
+            e.contains(&p.display().to_string())
+                && e.contains(key)
+                && e.contains(value)
+                && e.contains(allowed),
+            "{key}: {e}"
+        );
+    }
+    // An unknown key is named, with a suggestion.
+    std::fs::write(&p, format!("{base}\n[watch]\nwear_warn = 20.0\n")).expect("write");
+    let e = RunConfig::load(&p, None).expect_err("unknown").to_string();
+    assert!(
+        e.contains("wear_warn") && e.contains("wear_warn_pct"),
+        "{e}"
+    );
+}

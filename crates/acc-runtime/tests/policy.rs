@@ -1121,3 +1121,48 @@ fn the_run_log_carries_the_nc_context_of_a_v2_board_only() {
     let row = rig.step().record(None);
     assert_eq!((row.tool, row.program, row.block), (None, None, None));
 }
+
+/// The tool table's wear and breakage levels reach the fault policy's breakage watch for the
+/// tool the board reports (and `[default]`'s for a tool it does not list).
+#[test]
+fn the_tools_breakage_limits_follow_the_tool_number() {
+    use acc_pmc::BoardStatus;
+    use acc_runtime::testing::{LinearPowerForce, ScriptedLaw};
+    use acc_runtime::{ControlLoop, FaultPolicy, PolicyConfig, ShopControl};
+    let text = "[default]\nfr_n = 800.0\nbreakage_spike_x = 3.0\nbreakage_drop_pct = 60.0\n\
+                [tool.2]\nfr_n = 500.0\nbreakage_spike_x = 1.8\nbreakage_drop_pct = 45.0\n\
+                wear_warn_pct = 10.0\nwear_limit_pct = 20.0\n";
+    let table = acc_config::ToolTable::parse("t.toml", text).expect("table");
+    let mut control = ControlLoop::new(
+        FaultPolicy::new(PolicyConfig::default()),
+        ScriptedLaw::new([100]),
+        LinearPowerForce { n_per_w: 1.0 },
+        0.1,
+    )
+    .with_shop(ShopControl::new(table, 0.1));
+    let status = |tool: u16| BoardStatus {
+        protocol_version: acc_pmc::regs::PROTOCOL_V2,
+        tool_number: tool,
+        spindle_rpm: 500,
+        spindle_power_w: 100,
+        programmed_feed_mm_min: 200,
+        override_applied_pct: 100,
+        operator_override_pct: 100,
+        cycle_active: true,
+        ..BoardStatus::default()
+    };
+    control.decide(0.0, Ok(status(2)));
+    let l = *control.policy().watch_limits();
+    assert_eq!(
+        (
+            l.breakage_spike_factor,
+            l.breakage_drop_pct,
+            l.wear_warn_pct,
+            l.wear_limit_pct
+        ),
+        (1.8, 45.0, 10.0, 20.0)
+    );
+    control.decide(0.1, Ok(status(7)));
+    let l = *control.policy().watch_limits();
+    assert_eq!((l.breakage_spike_factor, l.breakage_drop_pct), (3.0, 60.0));
+}
