@@ -495,9 +495,19 @@ pub struct WearTracker {
     limits: WatchLimits,
     per_tool: std::collections::BTreeMap<u16, WatchLimits>,
     refs: std::collections::BTreeMap<RefKey, f64>,
+    /// The last trend point of each cut in this run (a step against it is a new cut
+    /// condition, not wear).
+    last: std::collections::BTreeMap<RefKey, f64>,
     window: Vec<f64>,
     key: Option<RefKey>,
 }
+
+/// A change of Kc_hat between two consecutive trend points of one cut larger than this,
+/// percent, is a change of the cut condition (depth, width, material: the same NC block can
+/// cut a step), not wear, which grows by far less in one window (3 s): the fresh reference is
+/// moved with the step, keeping the rise accumulated before it. Across runs (a reference from
+/// the history) there is no previous point, so a tool that comes back worn still counts.
+pub const CONDITION_STEP_PCT: f64 = 10.0;
 
 impl WearTracker {
     /// A tracker with `limits` for every tool.
@@ -562,7 +572,14 @@ impl WearTracker {
         }
         let kc = median(&mut self.window);
         self.window.clear();
-        let kc_ref = *self.refs.entry(key).or_insert(kc);
+        let mut kc_ref = *self.refs.entry(key).or_insert(kc);
+        if let Some(prev) = self.last.insert(key, kc) {
+            if (kc / prev - 1.0).abs() * 100.0 > CONDITION_STEP_PCT {
+                // Keep the wear accumulated so far: rise(after) = rise(before the step).
+                kc_ref *= kc / prev;
+                self.refs.insert(key, kc_ref);
+            }
+        }
         let rise_pct = (kc / kc_ref - 1.0) * 100.0;
         Some(WearSample {
             tool: key.0,
@@ -733,5 +750,33 @@ mod tests {
         let mut r = steady(100.0, 9.0);
         r.force_n = Some(400.0);
         assert!(!WearTracker::is_steady(&r, &WatchLimits::default()));
+    }
+
+    #[test]
+    fn a_step_in_the_cut_condition_is_not_wear_but_a_worn_tool_from_the_history_is() {
+        // 2 mm then 4 mm in one block (Kc 4 -> 8) with a slow 1 % per window drift: the step
+        // moves the reference, the drift stays the rise.
+        let mut w = WearTracker::new(WatchLimits::default());
+        let mut out = Vec::new();
+        for i in 0..300 {
+            let depth = if i < 150 { 4.0 } else { 8.0 };
+            let kc = depth * (1.0 + 0.01 * f64::from(i / 30));
+            out.extend(w.observe(&steady(f64::from(i) * 0.1, kc)));
+        }
+        assert_eq!(out.len(), 10);
+        let last = out.last().expect("points");
+        // 9 % of drift, less the one window's drift hidden in the step.
+        assert!((7.0..=9.5).contains(&last.rise_pct), "{last:?}");
+        assert!(out.iter().all(|s| s.level == WearLevel::Ok), "{out:?}");
+        // The same cut in a later run with a worn tool: no previous point in this run, the
+        // stored reference stands.
+        let mut w = WearTracker::new(WatchLimits::default());
+        w.set_reference((3, 1000, 20), 4.0);
+        let mut out = Vec::new();
+        for i in 0..30 {
+            out.extend(w.observe(&steady(f64::from(i) * 0.1, 5.6)));
+        }
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].level, WearLevel::Warn, "{out:?}");
     }
 }
