@@ -47,6 +47,13 @@ pub const SWITCH_RAMP_PCT_PER_S: f64 = 50.0;
 /// The entry override holds until the force reaches this share of Fr.
 pub const ENTRY_REACHED: f64 = 0.95;
 
+/// Smoothing of the force per percent of override learned over a cut (EMA weight per
+/// period).
+pub const K_EMA: f64 = 0.2;
+
+/// The entry growth model's learned under-prediction is applied up to this factor.
+pub const MAX_ENTRY_MARGIN: f64 = 1.5;
+
 /// Entry-control state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ShopState {
@@ -125,10 +132,15 @@ pub struct ShopControl {
     block: Option<u16>,
     entry_block: u16,
     entry_age: u32,
-    entry_sum: f64,
-    entry_n: u32,
+    k_ema: Option<f64>,
+    k_max: f64,
+    k_full: Option<f64>,
+    k_pred: Option<f64>,
+    r_max: f64,
+    margin: f64,
+    learned_margin: BTreeMap<(u16, u16), f64>,
     below_air: u32,
-    prev_k: Option<f64>,
+    k_prev: Option<f64>,
     entry_cap: Option<f64>,
     switch_cap: Option<f64>,
     learned: BTreeMap<(u16, u16), u16>,
@@ -150,10 +162,15 @@ impl ShopControl {
             block: None,
             entry_block: 0,
             entry_age: 0,
-            entry_sum: 0.0,
-            entry_n: 0,
+            k_ema: None,
+            k_max: 0.0,
+            k_full: None,
+            k_pred: None,
+            r_max: 1.0,
+            margin: 1.0,
+            learned_margin: BTreeMap::new(),
             below_air: 0,
-            prev_k: None,
+            k_prev: None,
             entry_cap: None,
             switch_cap: None,
             learned: BTreeMap::new(),
@@ -250,12 +267,19 @@ impl ShopControl {
         // 2. Entry and exit.
         let e = self.table.entry;
         let f = (force.valid && force.force_n.is_finite()).then_some(force.force_n);
+        let applied = f64::from(s.override_applied_pct);
+        // Force per percent of override this period, N/%: the engagement (and the
+        // material) as the loop sees it; its growth from one period to the next is an entry.
+        let k = f
+            .filter(|_| applied > 0.0 && !s.feed_hold_active)
+            .map(|f| f / applied);
         let mut entered = false;
         let mut limited = false;
         let mut floor = None;
         if e.enabled {
             let detect = e.detect_pct / 100.0 * p.fr_n;
             let air = e.air_pct / 100.0 * p.fr_n;
+            let limit = p.fr_n * (1.0 + e.limit_pct / 100.0);
             match self.state {
                 ShopState::Air => {
                     let rising = f.is_some_and(|f| f > detect || (block_changed && f > air));
@@ -264,13 +288,25 @@ impl ShopControl {
                         self.state = ShopState::Entry;
                         self.entry_block = self.block.unwrap_or(0);
                         self.entry_age = 0;
-                        self.entry_sum = 0.0;
-                        self.entry_n = 0;
                         self.below_air = 0;
-                        self.entry_cap = self.entry_override(tool, self.entry_block).map(f64::from);
-                        if let Some(ov) = self.entry_cap {
-                            cap = cap.min(ov);
-                        }
+                        self.k_ema = None;
+                        self.k_max = 0.0;
+                        let learned = self.learned_override(tool, self.entry_block);
+                        // The full engagement's force per percent, N/%, from the override
+                        // learned at the last entry (it gave Fr there).
+                        self.k_full = learned.map(|ov| p.fr_n / f64::from(ov.max(1)));
+                        self.k_pred = None;
+                        self.r_max = 1.0;
+                        self.margin = self
+                            .learned_margin
+                            .get(&(tool, self.entry_block))
+                            .copied()
+                            .unwrap_or(1.0);
+                        self.entry_cap = if learned.is_none() {
+                            p.entry_pct.map(f64::from)
+                        } else {
+                            None
+                        };
                     } else {
                         cap = cap.min(f64::from(p.air_pct));
                     }
@@ -282,73 +318,94 @@ impl ShopControl {
                         self.below_air = 0;
                     }
                     if self.below_air >= 2 {
+                        // Cut -> air: learn the settled engagement of this cut.
+                        self.learn(tool);
                         self.state = ShopState::Air;
+                        self.k_full = None;
+                        self.entry_cap = None;
                         cap = cap.min(f64::from(p.air_pct));
-                    } else if self.state == ShopState::Entry {
-                        // The entry override holds until the force has reached Fr (the
-                        // engagement complete) or the window ends.
-                        let k_now = f
-                            .filter(|_| s.override_applied_pct > 0)
-                            .map(|f| f / f64::from(s.override_applied_pct));
-                        let grown =
-                            matches!((k_now, self.prev_k), (Some(k), Some(k0)) if k <= 1.02 * k0);
-                        if grown || f.is_some_and(|f| f >= ENTRY_REACHED * p.fr_n) {
-                            self.entry_cap = None;
-                        }
-                        // Learn the override that gives Fr at this period's engagement.
-                        let half = (0.5 * e.settle_s / self.period_s).floor() as u32;
-                        if let Some(k) = k_now.filter(|_| self.entry_age >= half) {
-                            self.entry_sum += p.fr_n / k;
-                            self.entry_n += 1;
-                        }
-                        if let Some(ov) = self.entry_cap {
-                            cap = cap.min(ov);
-                        }
+                    } else {
                         self.entry_age += 1;
-                        if f64::from(self.entry_age) * self.period_s >= e.settle_s - 1e-9 {
-                            self.learn(tool);
-                            self.entry_cap = None;
+                        if self.state == ShopState::Entry
+                            && f64::from(self.entry_age) * self.period_s >= e.settle_s - 1e-9
+                        {
                             self.state = ShopState::Cut;
+                            self.entry_cap = None;
                         }
                     }
                 }
             }
-            let applied = f64::from(s.override_applied_pct);
-            // Force per percent of override this period, N/%: the engagement's growth from
-            // one period to the next (an entry) shows as its rise.
-            let k = f
-                .filter(|_| applied > 0.0 && !s.feed_hold_active)
-                .map(|f| f / applied);
             if self.state != ShopState::Air {
                 if p.min_pct > 0 {
                     floor = Some(p.min_pct);
                 }
-                let limit = p.fr_n * (1.0 + e.limit_pct / 100.0);
-                if let Some(f) = f.filter(|f| e.limiter && *f > limit) {
-                    let c = applied * p.fr_n / f;
-                    if c < cap {
-                        cap = c;
-                        limited = true;
+                if let Some(ov) = self.entry_cap {
+                    if f.is_some_and(|f| f >= ENTRY_REACHED * p.fr_n) {
+                        self.entry_cap = None;
+                    } else {
+                        cap = cap.min(ov);
                     }
                 }
-                // While entering, the engagement still grows: extrapolate one period of its
-                // growth (at most ×2) and keep the next period's force at Fr.
-                if let (true, Some(k), Some(k0)) =
-                    (e.limiter && self.state == ShopState::Entry, k, self.prev_k)
-                {
-                    let g = (k / k0).clamp(1.0, 2.0);
-                    let c = p.fr_n / (k * g);
-                    if g > 1.0 && c < cap && k * g * cap > limit {
-                        cap = c;
-                        limited = true;
+                if let Some(k) = k {
+                    // Learning: the largest smoothed force per percent of the cut.
+                    let ema = self.k_ema.map_or(k, |m| m + K_EMA * (k - m));
+                    self.k_ema = Some(ema);
+                    if self.entry_age * 2 >= self.settle_periods() {
+                        self.k_max = self.k_max.max(ema);
                     }
                 }
-                self.prev_k = k.or(self.prev_k);
-            } else {
-                self.prev_k = None;
+                if e.limiter {
+                    // Reactive: above the limit, the override that gives Fr at this k.
+                    if let Some(f) = f.filter(|f| *f > limit) {
+                        let c = applied * p.fr_n / f;
+                        if c < cap {
+                            cap = c;
+                            limited = true;
+                        }
+                    }
+                    // Predictive, while the engagement grows: the command written now is
+                    // applied in the next period, at the next period's engagement. Predict
+                    // its force per percent by one period of growth (bounded by the
+                    // learned full engagement) and keep the next force under the limit.
+                    // In the cut (engagement settled) no growth is assumed: a step up
+                    // of the override must not take the force above the limit.
+                    if let Some(k) = k {
+                        let entering = self.state == ShopState::Entry;
+                        let grow = if entering {
+                            (k - self.k_prev.unwrap_or(0.0)).max(0.0)
+                        } else {
+                            0.0
+                        };
+                        let mut k_next = k + grow;
+                        if let Some(kf) = self.k_full {
+                            k_next = k_next.min(kf.max(k));
+                        }
+                        if entering {
+                            // How far the growth model under-predicted this entry so far
+                            // (learned for the next entry of this (tool, block)).
+                            if let Some(kp) = self.k_pred.filter(|kp| *kp > 0.0) {
+                                self.r_max = self.r_max.max(k / kp);
+                            }
+                            self.k_pred = Some(k_next);
+                            k_next *= self.margin;
+                        } else {
+                            self.k_pred = None;
+                        }
+                        if k_next > 0.0 {
+                            let c = limit / k_next;
+                            if c < cap {
+                                cap = c;
+                                limited = true;
+                            }
+                        }
+                    }
+                }
             }
         } else if p.min_pct > 0 && f.is_some_and(|f| f > 0.5 * p.fr_n) {
             floor = Some(p.min_pct);
+        }
+        if f.is_some() {
+            self.k_prev = k;
         }
         let limits = CommandLimits {
             cap_pct: Some(cap.floor().clamp(0.0, 150.0) as u16),
@@ -371,12 +428,26 @@ impl ShopControl {
     /// is not needed; kept for symmetry with `before`.)
     pub fn after(&mut self, _written: Option<u16>) {}
 
+    fn settle_periods(&self) -> u32 {
+        (self.table.entry.settle_s / self.period_s).round() as u32
+    }
+
+    /// The entry override learned for (`tool`, `block`), else for the tool in any block.
+    fn learned_override(&self, tool: u16, block: u16) -> Option<u16> {
+        self.learned_entry(tool, block)
+            .or_else(|| self.learned_tool.get(&tool).copied())
+    }
+
     fn learn(&mut self, tool: u16) {
-        if self.entry_n == 0 {
+        if self.k_max <= 0.0 || self.entry_age < self.settle_periods() {
             return;
         }
-        let ov = (self.entry_sum / f64::from(self.entry_n)).floor() as u16;
+        let ov = (self.params.fr_n / self.k_max).floor().clamp(1.0, 150.0) as u16;
         self.learned.insert((tool, self.entry_block), ov);
+        self.learned_margin.insert(
+            (tool, self.entry_block),
+            self.r_max.clamp(1.0, MAX_ENTRY_MARGIN),
+        );
         self.learned_tool.insert(tool, ov);
         tracing::debug!(tool, block = self.entry_block, ov, "entry override learned");
     }
