@@ -54,6 +54,10 @@ pub const K_EMA: f64 = 0.2;
 /// The entry growth model's learned under-prediction is applied up to this factor.
 pub const MAX_ENTRY_MARGIN: f64 = 1.5;
 
+/// The growth model's under-prediction is learned from entry periods with a force of at
+/// least this share of Fr (below, an under-prediction cannot overshoot).
+pub const MARGIN_FROM: f64 = 0.8;
+
 /// Entry-control state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ShopState {
@@ -180,6 +184,24 @@ impl ShopControl {
         }
     }
 
+    /// A fresh shop layer for a new run that starts from what `previous` learned (the
+    /// entry overrides and the entry growth margins per (tool, block), the settled
+    /// overrides per tool, the tools' last Kc): the next run's entries start from the
+    /// last run's. The table and period are this one's.
+    pub fn with_learned_from(mut self, previous: &ShopControl) -> Self {
+        self.learned = previous.learned.clone();
+        self.learned_tool = previous.learned_tool.clone();
+        self.learned_margin = previous.learned_margin.clone();
+        self.kc_by_tool = previous.kc_by_tool.clone();
+        self
+    }
+
+    /// The entry growth model's learned under-prediction for (`tool`, `block`) (≥ 1; the
+    /// next entry there multiplies its predicted engagement by it).
+    pub fn learned_margin(&self, tool: u16, block: u16) -> Option<f64> {
+        self.learned_margin.get(&(tool, block)).copied()
+    }
+
     /// The tool table.
     pub fn table(&self) -> &ToolTable {
         &self.table
@@ -302,11 +324,15 @@ impl ShopControl {
                             .get(&(tool, self.entry_block))
                             .copied()
                             .unwrap_or(1.0);
-                        self.entry_cap = if learned.is_none() {
-                            p.entry_pct.map(f64::from)
+                        // The entry cap: the tool table's entry override while nothing is
+                        // learned; without the predictive limiter, the learned override
+                        // (the next entry starts from the last one's settled override).
+                        self.entry_cap = if e.limiter {
+                            p.entry_pct.filter(|_| learned.is_none())
                         } else {
-                            None
-                        };
+                            learned.or(p.entry_pct)
+                        }
+                        .map(f64::from);
                     } else {
                         cap = cap.min(f64::from(p.air_pct));
                     }
@@ -383,7 +409,9 @@ impl ShopControl {
                         if entering {
                             // How far the growth model under-predicted this entry so far
                             // (learned for the next entry of this (tool, block)).
-                            if let Some(kp) = self.k_pred.filter(|kp| *kp > 0.0) {
+                            // Counted where it matters: at forces near Fr.
+                            let near = f.is_some_and(|f| f >= MARGIN_FROM * p.fr_n);
+                            if let Some(kp) = self.k_pred.filter(|kp| near && *kp > 0.0) {
                                 self.r_max = self.r_max.max(k / kp);
                             }
                             self.k_pred = Some(k_next);
