@@ -134,25 +134,25 @@ fn figures(sc: &Scenario) -> (f64, f64, f64, f64) {
 
 #[test]
 fn golden_entry_figures_on_the_interrupted_cut() {
-    // Measured (acc compare configs/scenarios/interrupted.toml): RMS 105.1 N, peak 856.2 N,
-    // cycle 46.7 s; best baseline (proportional) 104.2 N. Today without entry control:
+    // Measured (acc compare configs/scenarios/interrupted.toml): RMS 106.3 N, peak 856.8 N,
+    // cycle 46.8 s; best baseline (proportional) 104.2 N. Today without entry control:
     // 108.8 N, 992.9 N, 46.4 s.
     let (rms, peak, cycle, best) = figures(&scenario("interrupted"));
     assert!((best - 104.2).abs() < 0.1, "best baseline {best}");
     assert!(peak <= 880.0, "peak {peak:.1} N above 1.10 Fr");
-    assert!(rms <= 105.1 * 1.02, "RMS {rms:.1} N");
+    assert!(rms <= 106.3 * 1.02, "RMS {rms:.1} N");
     assert!(cycle <= 46.4 * 1.02, "cycle {cycle:.1} s, more than 2 % over 46.4 s");
 }
 
 #[test]
 fn golden_entry_figures_on_the_hard_inclusion() {
-    // Measured: RMS 68.4 N, peak 875.6 N, cycle 54.9 s; best baseline (rate-limited)
+    // Measured: RMS 68.8 N, peak 867.1 N, cycle 55.0 s; best baseline (rate-limited)
     // 118.0 N, 0.7x = 82.6 N. Today: 70.3 N, 939.4 N, 54.8 s.
     let (rms, peak, cycle, best) = figures(&scenario("hard_inclusion"));
     assert!((best - 118.0).abs() < 0.1, "best baseline {best}");
     assert!(peak <= 880.0, "peak {peak:.1} N above 1.10 Fr");
     assert!(rms <= 0.7 * best, "RMS {rms:.1} N above 0.7 x {best:.1} N");
-    assert!(rms <= 68.4 * 1.02, "RMS {rms:.1} N");
+    assert!(rms <= 68.8 * 1.02, "RMS {rms:.1} N");
     assert!(cycle <= 54.8 * 1.02, "cycle {cycle:.1} s, more than 2 % over 54.8 s");
 }
 

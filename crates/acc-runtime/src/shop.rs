@@ -145,6 +145,7 @@ pub struct ShopControl {
     learned_margin: BTreeMap<(u16, u16), f64>,
     below_air: u32,
     k_prev: Option<f64>,
+    k_prev2: Option<f64>,
     entry_cap: Option<f64>,
     switch_cap: Option<f64>,
     learned: BTreeMap<(u16, u16), u16>,
@@ -175,6 +176,7 @@ impl ShopControl {
             learned_margin: BTreeMap::new(),
             below_air: 0,
             k_prev: None,
+            k_prev2: None,
             entry_cap: None,
             switch_cap: None,
             learned: BTreeMap::new(),
@@ -397,8 +399,12 @@ impl ShopControl {
                     // of the override must not take the force above the limit.
                     if let Some(k) = k {
                         let entering = self.state == ShopState::Entry;
+                        // Growth per period: the larger of the last two (a period whose
+                        // override stepped down can hide one period's growth).
                         let grow = if entering {
-                            (k - self.k_prev.unwrap_or(0.0)).max(0.0)
+                            let k1 = self.k_prev.unwrap_or(0.0);
+                            let g_prev = self.k_prev2.map_or(0.0, |k2| k1 - k2);
+                            (k - k1).max(g_prev).max(0.0)
                         } else {
                             0.0
                         };
@@ -433,6 +439,7 @@ impl ShopControl {
             floor = Some(p.min_pct);
         }
         if f.is_some() {
+            self.k_prev2 = self.k_prev;
             self.k_prev = k;
         }
         let limits = CommandLimits {
