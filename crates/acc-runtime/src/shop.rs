@@ -13,25 +13,29 @@
 //! by at most [`SWITCH_RAMP_PCT_PER_S`] (so the new tool's higher Fr is approached by
 //! regulation, a lower Fr takes effect at once).
 //!
-//! **Entry and exit control** (`[entry] enabled = true`). States [`ShopState`]:
-//! - `Air`: the cap is the tool's `air_override_pct`. Air → cut when the estimated force
+//! **Entry and exit control** (`[entry] enabled = true`; docs/shop.md "Entry control").
+//! It works with k = F / applied override, N/%: the force per percent of override this
+//! period (the engagement and the material as the loop sees them). A command written now
+//! is applied next period, at next period's engagement. States [`ShopState`]:
+//! - `Air`: the cap is the tool's `air_override_pct`. Air → entry when the estimated force
 //!   rises above `detect_pct` % of Fr (or above `air_pct` % in a period whose block number
 //!   changed: the block change confirms an entry the force alone does not yet show).
-//! - At the entry period the command drops at once to the **entry override**: the one that
-//!   settled at the last entry of this (tool, block), else of this tool in any block, else
-//!   the tool table's `entry_override_pct`, else nothing (the law alone). The law is
-//!   re-engaged there (bumpless) and regulates from it.
-//! - The entry override caps the command until the force reaches 95 % of Fr
-//!   ([`ENTRY_REACHED`]: the engagement is complete) or `settle_s` has passed.
-//! - `Entry` for `settle_s`: the mean over its second half of applied × Fr / F (the override that gives Fr at that engagement) is learned for the
-//!   (tool, block) of the entry and for the tool.
-//! - `Cut` after that; cut → air after 2 periods below `air_pct` % of Fr.
-//! - Force limiter (`limiter = true`) in `Entry` and `Cut`: a force above
-//!   Fr × (1 + `limit_pct`/100) caps the command at once at applied × Fr / F (the force is
-//!   proportional to the feed, so this is the override that would give Fr). This takes the
-//!   entry and hard-spot peaks off faster than the (near-integral) PI can.
+//! - `Entry` for `settle_s`: the predictive limiter caps the command at
+//!   Fr·(1 + `limit_pct`/100) / k_next, k_next = k + g·m with g the larger of the last two
+//!   periods' growths of k, bounded by the learned full engagement, and m the learned
+//!   margin of this (tool, block) (1 ..= [`MAX_ENTRY_MARGIN`]).
+//! - `Cut`: a step-up guard, the cap limit / k (no growth); cut → air after 2 periods below
+//!   `air_pct` % of Fr.
+//! - In `Entry` and `Cut` (`limiter = true`) a force above the limit caps the command at
+//!   once at applied × Fr / F.
+//! - Learning at the exit: Fr / (the largest smoothed k of the cut) as the entry override of
+//!   (tool, block of the entry) and of the tool, and the growth model's largest
+//!   under-prediction at forces ≥ [`MARGIN_FROM`] Fr as the (tool, block)'s margin. With
+//!   `limiter = false` the learned override caps the next entry until the force reaches
+//!   [`ENTRY_REACHED`] of Fr; `entry_override_pct` does while nothing is learned.
 //!
-//! The learned entries live in memory for the run ([`ShopControl::learned_entry`]).
+//! The learned entries live in memory for the run ([`ShopControl::learned_entry`]);
+//! [`ShopControl::with_learned_from`] carries them into the next run.
 
 use std::collections::BTreeMap;
 
