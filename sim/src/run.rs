@@ -116,10 +116,47 @@ pub fn run_prepared<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
-    mut log: Option<&mut RunLogWriter<W>>,
+    log: Option<&mut RunLogWriter<W>>,
     shop: bool,
     prepare: &mut dyn FnMut(&mut crate::SimBoard),
 ) -> Result<RunResult, SimError> {
+    let period_s = scenario.controller.period_s;
+    let shop = scenario
+        .tools
+        .clone()
+        .filter(|_| shop)
+        .map(|table| acc_runtime::ShopControl::new(table, period_s));
+    run_inner(scenario, law, channel, log, shop, prepare).map(|(r, _)| r)
+}
+
+/// [`run_with_shop`] with a given shop layer (e.g. one that starts from what an earlier
+/// run learned, [`acc_runtime::ShopControl::with_learned_from`]); returns the run and the
+/// shop layer as the run left it (what it learned).
+pub fn run_with_shop_control(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
+    shop: acc_runtime::ShopControl,
+) -> Result<(RunResult, acc_runtime::ShopControl), SimError> {
+    let (r, sh) = run_inner::<std::io::Sink>(
+        scenario,
+        law,
+        channel,
+        None,
+        Some(shop.clone()),
+        &mut |_| {},
+    )?;
+    Ok((r, sh.unwrap_or(shop)))
+}
+
+fn run_inner<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
+    mut log: Option<&mut RunLogWriter<W>>,
+    shop: Option<acc_runtime::ShopControl>,
+    prepare: &mut dyn FnMut(&mut crate::SimBoard),
+) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
     let sensor = PlantSensor::default();
@@ -129,8 +166,8 @@ pub fn run_prepared<W: Write>(
         sensor.clone(),
         period_s,
     );
-    if let Some(table) = scenario.tools.clone().filter(|_| shop) {
-        control = control.with_shop(acc_runtime::ShopControl::new(table, period_s));
+    if let Some(sh) = shop {
+        control = control.with_shop(sh);
     }
     let mut board = scenario.build_board();
     prepare(&mut board);
@@ -172,13 +209,17 @@ pub fn run_prepared<W: Write>(
             break;
         }
     }
-    Ok(RunResult {
-        law: name,
-        rows,
-        finished,
-        volume_mm3: board.machine().volume_mm3(),
-        ended_in_feed_hold,
-    })
+    let shop = control.shop().cloned();
+    Ok((
+        RunResult {
+            law: name,
+            rows,
+            finished,
+            volume_mm3: board.machine().volume_mm3(),
+            ended_in_feed_hold,
+        },
+        shop,
+    ))
 }
 
 impl Scenario {

@@ -105,11 +105,14 @@ pub struct EntrySpec {
     /// Cut → air when the force falls below this share of Fr, percent
     /// (0.5 ..= `detect_pct`, default 8).
     pub air_pct: f64,
-    /// Time after an entry over which the settled override is learned, s (0.2 ..= 30,
-    /// default 1.5); the mean command over its second half is remembered.
+    /// Length of the entry state after air → cut, s (0.2 ..= 30, default 1.5): the
+    /// predictive limiter extrapolates the engagement's growth during it; the settled
+    /// engagement is learned from its second half to the exit (docs/shop.md).
     pub settle_s: f64,
-    /// Force limiter while cutting: above Fr × (1 + `limit_pct`/100) the override is cut at
-    /// once to applied × Fr / F (percent, 0 ..= 100, default 3; the limiter only lowers).
+    /// Force limit while cutting, percent over Fr (0 ..= 100, default 3): the predictive
+    /// limiter keeps the next period's predicted force under Fr × (1 + `limit_pct`/100),
+    /// and above it the override is cut at once to applied × Fr / F (the limiter only
+    /// lowers; docs/shop.md).
     pub limit_pct: f64,
     /// The limiter on (default true).
     pub limiter: bool,
