@@ -87,9 +87,13 @@ fn gentler_preset_lowers_the_force_and_takes_longer() {
     let rows = recorded(&sc);
     let mut gentle = sc.controller;
     gentle.force_ref_n = 640.0;
-    // The preset alone: the scenario's tool table would set its own Fr (800 N).
+    // The tool table sets each tool's Fr (800 N): the what-if lowers it there too (the same
+    // entry control, a gentler limit).
     let mut alone = sc.clone();
-    alone.tools = None;
+    if let Some(t) = alone.tools.as_mut() {
+        t.default.fr_n = 640.0;
+        t.tools.values_mut().for_each(|l| l.fr_n = 640.0);
+    }
     let wi = run_what_if(&alone, &profile(&sc, &rows), gentle).expect("what-if");
     assert!(wi.finished);
     let (a, b) = (cut_metrics(&rows, true), cut_metrics(&wi.rows, true));

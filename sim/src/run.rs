@@ -120,13 +120,28 @@ pub fn run_prepared<W: Write>(
     shop: bool,
     prepare: &mut dyn FnMut(&mut crate::SimBoard),
 ) -> Result<RunResult, SimError> {
+    run_observed(scenario, law, channel, log, shop, prepare, &mut |_| {})
+}
+
+/// [`run_prepared`] with `observe` called with every period's record right after it was
+/// logged (`acc sim --shdr/--mqtt` publishes it on the telemetry tap there and paces the
+/// run to wall time with `--time-scale`).
+pub fn run_observed<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
+    log: Option<&mut RunLogWriter<W>>,
+    shop: bool,
+    prepare: &mut dyn FnMut(&mut crate::SimBoard),
+    observe: &mut dyn FnMut(&RunRecord),
+) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let shop = scenario
         .tools
         .clone()
         .filter(|_| shop)
         .map(|table| acc_runtime::ShopControl::new(table, period_s));
-    run_inner(scenario, law, channel, log, shop, prepare).map(|(r, _)| r)
+    run_inner(scenario, law, channel, log, shop, prepare, observe).map(|(r, _)| r)
 }
 
 /// [`run_with_shop`] with a given shop layer (e.g. one that starts from what an earlier
@@ -145,6 +160,7 @@ pub fn run_with_shop_control(
         None,
         Some(shop.clone()),
         &mut |_| {},
+        &mut |_| {},
     )?;
     Ok((r, sh.unwrap_or(shop)))
 }
@@ -156,6 +172,7 @@ fn run_inner<W: Write>(
     mut log: Option<&mut RunLogWriter<W>>,
     shop: Option<acc_runtime::ShopControl>,
     prepare: &mut dyn FnMut(&mut crate::SimBoard),
+    observe: &mut dyn FnMut(&RunRecord),
 ) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
@@ -197,6 +214,7 @@ fn run_inner<W: Write>(
         if let Some(w) = log.as_deref_mut() {
             w.write(&row)?;
         }
+        observe(&row);
         let held = row.feed_hold && row.state != "active";
         rows.push(row);
         if board.machine().finished() {

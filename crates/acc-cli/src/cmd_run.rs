@@ -56,6 +56,9 @@ pub struct RunArgs {
     /// Events as JSON lines on stderr (filter: `ACC_LOG`, e.g. `ACC_LOG=debug`).
     #[arg(long)]
     pub json: bool,
+    /// Telemetry (`--shdr`, `--mqtt`; over the config's `[telemetry]`).
+    #[command(flatten)]
+    pub telemetry: crate::telemetry::TelemetryArgs,
 }
 
 /// One-line description of a status block.
@@ -365,6 +368,10 @@ fn drive<P: Board + Send>(
 
     // Run log (created before the port was opened) and the signals: the first Ctrl-C or
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
+    // Telemetry: the logger thread publishes each record on the tap just before writing it
+    // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry), false)
+        .exit_as(RunExit::Usage)?;
     // The wear and breakage watch and the tool history run on the logger thread, the
     // database writes on their own thread (bounded queue, never waited on).
     let RunSinks {
@@ -374,7 +381,10 @@ fn drive<P: Board + Send>(
         history_writer,
     } = sinks;
     let mut sink = WatchSink {
-        inner: RunLogSink::new(writer),
+        inner: acc_runtime::TapSink {
+            inner: RunLogSink::new(writer),
+            tap: tel.tap.clone(),
+        },
         watch,
         writer: Some(history_writer),
         summary: Default::default(),
@@ -420,6 +430,9 @@ fn drive<P: Board + Send>(
         Some(reopen),
     )
     .exit_as(RunExit::Internal)?;
+    // The run log and the tap (the watch's summary and history writer are used below).
+    drop(sink.inner);
+    tel.finish();
 
     // Summary.
     // Every period has a run-log row: the cycles run plus the ones the ticker skipped.

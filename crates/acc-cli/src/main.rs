@@ -16,6 +16,7 @@ mod cmd_stability;
 mod configs;
 mod exit;
 mod harness;
+mod telemetry;
 mod watch_cli;
 
 /// Adaptive feedrate-override control for CNC milling.

@@ -295,13 +295,22 @@ pub struct BreakageDetector {
     len: usize,
     head: usize,
     context: Option<(u16, u16)>,
-    /// Applied override of the last three periods (newest last), percent.
-    overrides: [u16; 3],
+    /// Applied override of the last [`BreakageDetector::LAG_PERIODS`] periods (newest last),
+    /// percent.
+    overrides: [u16; BreakageDetector::LAG_PERIODS],
 }
 
 impl BreakageDetector {
     /// Largest history, periods.
     pub const CAPACITY: usize = 32;
+
+    /// How far back an override change can still explain a change of force, periods
+    /// (0.6 s at T = 0.1 s: the feed drive's lag and the NC's override delay). A drop is a
+    /// breakage only if the applied override was not lowered by more than 20 % anywhere in
+    /// this window, a spike only if it was not raised by more than 25 %: a loop that
+    /// oscillates through a slow feed path (override cut, force falls three periods later)
+    /// is not a broken tool.
+    pub const LAG_PERIODS: usize = 6;
 
     /// A detector with an empty history.
     pub fn new(limits: WatchLimits) -> Self {
@@ -311,7 +320,7 @@ impl BreakageDetector {
             len: 0,
             head: 0,
             context: None,
-            overrides: [0; 3],
+            overrides: [0; Self::LAG_PERIODS],
         }
     }
 
@@ -385,10 +394,13 @@ impl BreakageDetector {
             self.reset();
         }
         let cut_n = self.limits.cut_force_fraction * s.force_ref_n;
-        self.overrides = [self.overrides[1], self.overrides[2], s.override_pct];
-        let (ov_now, ov_before) = (u32::from(s.override_pct), u32::from(self.overrides[0]));
-        let feed_kept = ov_now * 5 >= ov_before * 4;
-        let feed_not_raised = ov_now * 4 <= ov_before * 5 + 40;
+        self.overrides.rotate_left(1);
+        self.overrides[Self::LAG_PERIODS - 1] = s.override_pct;
+        let ov_now = u32::from(s.override_pct);
+        let ov_max = self.overrides.iter().copied().max().map_or(0, u32::from);
+        let ov_min = self.overrides.iter().copied().min().map_or(0, u32::from);
+        let feed_kept = ov_now * 5 >= ov_max * 4;
+        let feed_not_raised = ov_now * 4 <= ov_min * 5 + 40;
         if !s.cycle_active || s.feed_hold_active || !s.force_n.is_finite() {
             self.reset();
             return None;
@@ -778,5 +790,29 @@ mod tests {
         }
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].level, WearLevel::Warn, "{out:?}");
+    }
+
+    #[test]
+    fn a_force_fall_explained_by_an_override_cut_a_few_periods_back_is_no_breakage() {
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        let at = |f: f64, ov: u16| BreakageSample {
+            override_pct: ov,
+            ..s(f, 10)
+        };
+        for i in 0..12 {
+            assert_eq!(d.observe(&at(800.0 + f64::from(i), 90)), None);
+        }
+        // The loop cuts the override hard; the force follows three periods later (a slow
+        // feed path), and falls by 80 % while the override is already low and kept.
+        for (f, ov) in [
+            (1200.0, 50),
+            (1200.0, 20),
+            (1200.0, 10),
+            (731.0, 10),
+            (407.0, 20),
+        ] {
+            assert_eq!(d.observe(&at(f, ov)), None);
+        }
+        assert_eq!(d.observe(&at(165.0, 20)), None);
     }
 }
