@@ -154,6 +154,7 @@ impl CycleRecord {
                     r.flag(&format!("rearm:{}", reason.as_str()));
                 }
                 crate::policy::Event::Breakage(b) => r.flag(&format!("breakage:{}", b.kind())),
+                crate::policy::Event::SpindleStopRequest => r.flag("overload:spindle_stop"),
                 _ => {}
             }
         }
@@ -367,8 +368,11 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             self.policy.set_command_limits(lim);
             // The tool's own wear and breakage limits (tool table) once it is selected.
             if let Some(tool) = sh.tool().filter(|t| self.watch_tool != Some(*t)) {
-                let limits = self.policy.watch_limits().with_tool(sh.table().get(tool));
+                let t = sh.table().get(tool);
+                let limits = self.policy.watch_limits().with_tool(t);
                 self.policy.set_watch_limits(limits);
+                self.policy
+                    .set_overload(t.overload_n, t.overload_time_s, t.overload_reaction);
                 self.watch_tool = Some(tool);
             }
         }

@@ -380,6 +380,9 @@ pub enum Event {
     },
     /// ACC released.
     Released(Release),
+    /// The tool's overload reaction is `spindle_stop`: feed hold is requested and the
+    /// spindle should stop (logged `overload:spindle_stop`; the board has no such output).
+    SpindleStopRequest,
     /// ACC re-armed by itself, mid-cut, at the last command (v1: at most the override
     /// applied), with `ALARM_RESET`: see the module docs.
     Rearmed {
@@ -537,6 +540,8 @@ pub struct FaultPolicy {
     /// but handing back would raise the feed (a board without the fallback clamp, knob above
     /// ACC's last command). Cleared on arming.
     knob_ceiling: Option<u16>,
+    /// Reaction to an overload (the tool table's `overload_reaction`; default feed hold).
+    overload_reaction: acc_config::OverloadReaction,
     /// The breakage watch (fixed size, no allocation).
     breakage: BreakageDetector,
     /// Fr of the law's last step, N (the breakage watch's cut threshold).
@@ -585,6 +590,7 @@ impl FaultPolicy {
             outage: false,
             rearms: 0,
             knob_ceiling: None,
+            overload_reaction: acc_config::OverloadReaction::FeedHold,
             shop_limits: CommandLimits::default(),
             breakage: BreakageDetector::new(WatchLimits::default()),
             force_ref_n: None,
@@ -601,6 +607,25 @@ impl FaultPolicy {
     pub fn with_watch_limits(mut self, limits: WatchLimits) -> Self {
         self.breakage.set_limits(limits);
         self
+    }
+
+    /// The overload limit of the tool in use (the tool table on a tool change): force above
+    /// `force_n`, N, for `time_s`, s → `reaction`. `Warning` raises the overload alarm while
+    /// the force is above and keeps regulating; `FeedHold` requests feed hold, releases and
+    /// latches; `SpindleStop` does the same and logs `overload:spindle_stop` (board protocol
+    /// v2 has no spindle-stop output: the request is for the PMC ladder, docs/shop.md).
+    /// Non-finite or negative values are ignored (the tool table is validated on load).
+    pub fn set_overload(
+        &mut self,
+        force_n: f64,
+        time_s: f64,
+        reaction: acc_config::OverloadReaction,
+    ) {
+        if force_n.is_finite() && force_n > 0.0 && time_s.is_finite() && time_s >= 0.0 {
+            self.cfg.overload_force_n = force_n;
+            self.cfg.overload_time_s = time_s;
+            self.overload_reaction = reaction;
+        }
     }
 
     /// Switch the breakage limits (the tool table on a tool change); the history is kept and
@@ -844,7 +869,16 @@ impl FaultPolicy {
             // Overload (tool-breakage protection), in any state.
             if force_valid && f.force_n > self.cfg.overload_force_n {
                 self.overload_count = self.overload_count.saturating_add(1);
-                if self.overload_count >= self.cfg.overload_periods() && !self.feed_hold {
+                let tripped = self.overload_count >= self.cfg.overload_periods();
+                if tripped && self.overload_reaction == acc_config::OverloadReaction::Warning {
+                    if !self.alarms.overload {
+                        tracing::warn!(force_n = f.force_n, "overload: warning (tool table)");
+                    }
+                    self.alarms.overload = true;
+                } else if tripped && !self.feed_hold {
+                    if self.overload_reaction == acc_config::OverloadReaction::SpindleStop {
+                        out.events.push(Event::SpindleStopRequest);
+                    }
                     self.feed_hold = true;
                     out.events.push(Event::FeedHold(true));
                     tracing::warn!(force_n = f.force_n, "overload: feed hold requested");
@@ -859,6 +893,11 @@ impl FaultPolicy {
                 }
             } else {
                 self.overload_count = 0;
+                if self.overload_reaction == acc_config::OverloadReaction::Warning
+                    && self.state != AccState::Latched(Release::Overload)
+                {
+                    self.alarms.overload = false;
+                }
             }
             // Breakage watch (tool gone / spike), judged on valid samples only.
             if let (true, Some(fr)) = (force_valid, self.force_ref_n) {

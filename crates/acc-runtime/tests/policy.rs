@@ -1166,3 +1166,61 @@ fn the_tools_breakage_limits_follow_the_tool_number() {
     let l = *control.policy().watch_limits();
     assert_eq!((l.breakage_spike_factor, l.breakage_drop_pct), (3.0, 60.0));
 }
+
+/// The tool table's overload limit and reaction follow the tool: `warning` raises the alarm
+/// and keeps regulating, `spindle_stop` requests feed hold and logs the spindle-stop request.
+#[test]
+fn the_tools_overload_limit_and_reaction_follow_the_tool_number() {
+    use acc_pmc::BoardStatus;
+    use acc_runtime::testing::{LinearPowerForce, ScriptedLaw};
+    use acc_runtime::{ControlLoop, FaultPolicy, PolicyConfig, ShopControl};
+    let text = "[default]\nfr_n = 800.0\n\
+                [tool.2]\noverload_n = 900.0\noverload_time_s = 0.1\noverload_reaction = \"warning\"\n\
+                [tool.3]\noverload_n = 900.0\noverload_time_s = 0.1\noverload_reaction = \"spindle_stop\"\n";
+    let table = acc_config::ToolTable::parse("t.toml", text).expect("table");
+    let run = |tool: u16| {
+        let mut control = ControlLoop::new(
+            FaultPolicy::new(PolicyConfig::default()),
+            ScriptedLaw::new([100]),
+            LinearPowerForce { n_per_w: 1.0 },
+            0.1,
+        )
+        .with_shop(ShopControl::new(table.clone(), 0.1));
+        let status = |seq: u16| BoardStatus {
+            protocol_version: acc_pmc::regs::PROTOCOL_V2,
+            tool_number: tool,
+            sample_seq: seq,
+            spindle_rpm: 500,
+            spindle_power_w: 1000, // 1000 N: above the tool's 900 N, below the default 1600 N
+            programmed_feed_mm_min: 200,
+            override_applied_pct: 100,
+            operator_override_pct: 100,
+            cycle_active: true,
+            ..BoardStatus::default()
+        };
+        let recs: Vec<_> = (0..5u16)
+            .map(|i| {
+                control
+                    .decide(f64::from(i) * 0.1, Ok(status(i + 1)))
+                    .record(None)
+            })
+            .collect();
+        (control.policy().alarms().overload, recs)
+    };
+    let (alarm, recs) = run(2);
+    assert!(alarm, "warning: the overload alarm is raised");
+    assert!(recs.iter().all(|r| !r.feed_hold), "warning: no feed hold");
+    let (alarm, recs) = run(3);
+    assert!(alarm);
+    assert!(recs.iter().any(|r| r.feed_hold), "spindle_stop: feed hold");
+    assert!(
+        recs.iter()
+            .any(|r| r.flags.contains("overload:spindle_stop")),
+        "spindle_stop: the request is logged"
+    );
+    let (alarm, recs) = run(7);
+    assert!(
+        !alarm && recs.iter().all(|r| !r.feed_hold),
+        "default: 1600 N"
+    );
+}
