@@ -13,6 +13,7 @@
 //! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v2, v1 migration;
 //! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
+//! - [`tap`]: fan-out of every period's record to telemetry subscribers (never blocks);
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
 //! - `testing` (feature `testing`, which enables acc-pmc's `emulator`): a scripted board,
 //!   law and force source for tests.
@@ -29,6 +30,7 @@ pub mod runner;
 pub mod shop;
 pub mod shutdown;
 pub mod stats;
+pub mod tap;
 #[cfg(feature = "testing")]
 pub mod testing;
 pub mod ticker;
@@ -46,4 +48,5 @@ pub use runner::{
 };
 pub use shop::{ShopControl, ShopState};
 pub use stats::LatencyStats;
+pub use tap::{Subscriber, Tap, TapSink};
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};
