@@ -173,6 +173,158 @@ impl Default for RuntimeSection {
     }
 }
 
+/// `[telemetry]`: what the shop-floor network hears (docs/telemetry.md). Every key optional;
+/// nothing is published without them (or `--shdr` / `--mqtt`).
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct TelemetrySection {
+    /// MTConnect SHDR adapter address, `host:port` (e.g. `"0.0.0.0:7878"`).
+    pub shdr: Option<String>,
+    /// MQTT publisher.
+    pub mqtt: Option<MqttSection>,
+}
+
+/// `[telemetry.mqtt]`.
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MqttSection {
+    /// Broker, `mqtt://host[:port][/prefix]` (port 1883 by default).
+    pub url: String,
+    /// Topic prefix (replaces the URL's path; default `acc`).
+    pub topic_prefix: Option<String>,
+    /// QoS of the period and cut messages, 0 or 1 (default 0).
+    pub qos: Option<u8>,
+    /// MQTT client id (default `acc-<pid>`).
+    pub client_id: Option<String>,
+}
+
+/// A validated MQTT destination (`--mqtt URL` or `[telemetry.mqtt]`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MqttSettings {
+    /// Broker host.
+    pub host: String,
+    /// Broker port.
+    pub port: u16,
+    /// Topic prefix, no trailing `/`.
+    pub prefix: String,
+    /// QoS 0 or 1.
+    pub qos: u8,
+    /// Client id.
+    pub client_id: String,
+}
+
+impl MqttSettings {
+    /// Parse `mqtt://host[:port][/prefix]` (`tcp://` too); the error says what is allowed.
+    pub fn from_url(url: &str) -> Result<Self, String> {
+        let rest = url
+            .strip_prefix("mqtt://")
+            .or_else(|| url.strip_prefix("tcp://"))
+            .ok_or_else(|| {
+                format!("\"{url}\" is not an MQTT URL: allowed mqtt://host[:port][/prefix]")
+            })?;
+        let (hostport, prefix) = rest.split_once('/').unwrap_or((rest, ""));
+        let (host, port) = match hostport.rsplit_once(':') {
+            Some((h, p)) => (
+                h,
+                p.parse::<u16>()
+                    .ok()
+                    .filter(|p| *p > 0)
+                    .ok_or_else(|| format!("\"{url}\": port `{p}`: allowed 1 ..= 65535"))?,
+            ),
+            None => (hostport, 1883),
+        };
+        if host.is_empty() {
+            return Err(format!(
+                "\"{url}\" has no host: allowed mqtt://host[:port][/prefix]"
+            ));
+        }
+        let prefix = prefix.trim_matches('/');
+        Ok(Self {
+            host: host.to_string(),
+            port,
+            prefix: if prefix.is_empty() {
+                "acc".into()
+            } else {
+                prefix.to_string()
+            },
+            qos: 0,
+            client_id: format!("acc-{}", std::process::id()),
+        })
+    }
+
+    /// `<prefix>/<leaf>`.
+    pub fn topic(&self, leaf: &str) -> String {
+        format!("{}/{leaf}", self.prefix)
+    }
+}
+
+/// The validated `[telemetry]` of a run config.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct TelemetryConfig {
+    /// SHDR adapter address.
+    pub shdr: Option<std::net::SocketAddr>,
+    /// MQTT destination.
+    pub mqtt: Option<MqttSettings>,
+}
+
+/// Parse an SHDR listen address (`--shdr`, `[telemetry] shdr`): `host:port` with an IP
+/// host, e.g. `0.0.0.0:7878` or `127.0.0.1:0`.
+pub fn parse_shdr_addr(s: &str) -> Result<std::net::SocketAddr, String> {
+    s.parse().map_err(|_| {
+        format!("\"{s}\" is not a listen address: allowed IP:PORT, e.g. \"0.0.0.0:7878\" (port 0 ..= 65535)")
+    })
+}
+
+impl TelemetrySection {
+    /// Validate; an error names `file`, the key under `telemetry.`, the value and what is
+    /// allowed.
+    pub fn resolve_in(&self, file: &Path) -> Result<TelemetryConfig, ConfigError> {
+        let invalid = |key: &str, message: String| ConfigError::Invalid {
+            file: file.to_path_buf(),
+            key: key.to_string(),
+            message,
+        };
+        let shdr = match &self.shdr {
+            Some(a) => {
+                Some(parse_shdr_addr(a).map_err(|m| invalid("telemetry.shdr", format!("= {m}")))?)
+            }
+            None => None,
+        };
+        let mqtt = match &self.mqtt {
+            Some(m) => {
+                let mut s = MqttSettings::from_url(&m.url)
+                    .map_err(|e| invalid("telemetry.mqtt.url", format!("= {e}")))?;
+                if let Some(p) = &m.topic_prefix {
+                    let p = p.trim_matches('/');
+                    if p.is_empty() || p.contains(['#', '+']) {
+                        return Err(invalid(
+                            "telemetry.mqtt.topic_prefix",
+                            format!("= \"{p}\": allowed a non-empty topic without `#` or `+`"),
+                        ));
+                    }
+                    s.prefix = p.to_string();
+                }
+                if let Some(q) = m.qos {
+                    check_range(file, "telemetry.mqtt.qos", f64::from(q), 0.0, 1.0)?;
+                    s.qos = q;
+                }
+                if let Some(id) = &m.client_id {
+                    if id.is_empty() || id.len() > 23 {
+                        return Err(invalid(
+                            "telemetry.mqtt.client_id",
+                            format!("= \"{id}\": allowed 1 ..= 23 characters"),
+                        ));
+                    }
+                    s.client_id = id.clone();
+                }
+                Some(s)
+            }
+            None => None,
+        };
+        Ok(TelemetryConfig { shdr, mqtt })
+    }
+}
+
 /// The allowed range of every numeric key of a run config (what the validation checks),
 /// shown also when a value does not deserialize at all (`link_hold_periods = -1`,
 /// `time_scale = "fast"`). `tests/configs_load.rs` checks that every numeric key of the
@@ -215,6 +367,7 @@ pub const RUN_KEY_RANGES: &[KeyRange] = &[
     ),
     KeyRange::new("runtime.time_scale", "0.1 ..= 100"),
     KeyRange::new("runtime.log_queue", "1 ..= 1000000"),
+    KeyRange::new("telemetry.mqtt.qos", "0 or 1"),
 ];
 
 /// The run config as written.
@@ -243,6 +396,9 @@ pub struct RunFile {
     /// Shop tool table (`[tools] file = "..."`, relative to this file): per-tool limits
     /// chosen by the board's `TOOL_NUMBER` and entry control (docs/shop.md).
     pub tools: Option<ToolsRef>,
+    /// Telemetry: MTConnect SHDR and MQTT (docs/telemetry.md).
+    #[serde(default)]
+    pub telemetry: TelemetrySection,
 }
 
 /// `[tools]` of a run config.
@@ -293,6 +449,8 @@ pub struct RunConfig {
     pub fallback_mode: FallbackMode,
     /// The shop tool table (`[tools] file`), if any: loaded and validated with the config.
     pub tools: Option<acc_config::ToolTable>,
+    /// `[telemetry]`: SHDR and MQTT destinations (validated).
+    pub telemetry: TelemetryConfig,
 }
 
 /// Parse `[board] fallback_mode` (`"clamp"` | `"clamp_and_feed_hold"`).
@@ -439,6 +597,9 @@ impl RunConfig {
             None => None,
         };
 
+        // [telemetry]
+        let telemetry = file.telemetry.resolve_in(path)?;
+
         Ok(Self {
             path: path.to_path_buf(),
             name: file.name,
@@ -451,6 +612,7 @@ impl RunConfig {
             runtime: rt,
             fallback_mode,
             tools,
+            telemetry,
         })
     }
 

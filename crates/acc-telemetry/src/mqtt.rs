@@ -1,0 +1,378 @@
+//! MQTT publisher (rumqttc): the data items of every period as one JSON message on
+//! `<prefix>/period`, the per-cut records on `<prefix>/cut`, and `online` / `offline`
+//! (retained; `offline` is also the broker-sent last will) on `<prefix>/status`.
+//!
+//! Threads: the publisher reads a [`Subscriber`] of the runtime's tap and hands each message
+//! to rumqttc's bounded request queue with `try_publish` (a full queue — broker down, slow
+//! network — drops and counts, [`MqttStats::dropped`]); the connection thread drives
+//! rumqttc's event loop and, when the broker is gone, retries every
+//! [`RECONNECT_DELAY`] until it is back (then `online` is published again).
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use acc_runtime::tap::Subscriber;
+use acc_runtime::RunRecord;
+use crossbeam_channel::RecvTimeoutError;
+use rumqttc::{Client, Event, LastWill, MqttOptions, Packet, QoS};
+use serde::Serialize;
+
+use crate::items::{available, execution, levels, Level, CONDITIONS};
+
+/// Pause between two connection attempts while the broker is down.
+pub const RECONNECT_DELAY: Duration = Duration::from_millis(500);
+
+/// Messages rumqttc queues before `try_publish` drops.
+pub const REQUEST_QUEUE: usize = 256;
+
+/// Where and how to publish (`--mqtt URL`, `[telemetry.mqtt]`): the run config's
+/// validated settings.
+pub use acc_runtime::config::MqttSettings as MqttConfig;
+
+fn qos(c: &MqttConfig) -> QoS {
+    if c.qos >= 1 {
+        QoS::AtLeastOnce
+    } else {
+        QoS::AtMostOnce
+    }
+}
+
+/// One alarm in a period message.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct AlarmJson {
+    /// Condition name (`overload_cond`, …).
+    pub name: &'static str,
+    /// `WARNING` or `FAULT`.
+    pub level: &'static str,
+    /// Native code (`OVERLOAD`, …).
+    pub code: &'static str,
+}
+
+/// The JSON of `<prefix>/period`: the same items as the SHDR adapter, with units in the
+/// names; `null` when unknown.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct PeriodJson {
+    /// Period index.
+    pub period: u64,
+    /// Machine time of the period, s since the run began.
+    pub t_s: f64,
+    /// `AVAILABLE` / `UNAVAILABLE` (the board link).
+    pub availability: &'static str,
+    /// MTConnect execution: `ACTIVE`, `FEED_HOLD`, `READY`.
+    pub execution: &'static str,
+    /// ACC policy state (`active`, `idle`, latched reason).
+    pub acc_state: String,
+    /// Override in force on the PMC, %.
+    pub override_applied_pct: Option<u16>,
+    /// Override ACC commanded, %.
+    pub override_cmd_pct: Option<u16>,
+    /// Operator's knob, %.
+    pub override_operator_pct: Option<u16>,
+    /// Actual path feed, mm/min.
+    pub feed_mm_min: Option<f64>,
+    /// Spindle speed, rpm.
+    pub spindle_rpm: Option<f64>,
+    /// Spindle power (spindle load), W.
+    pub spindle_power_w: Option<f64>,
+    /// Estimated cutting force, N.
+    pub force_n: Option<f64>,
+    /// Force reference Fr, N.
+    pub force_ref_n: Option<f64>,
+    /// Estimated process gain Kc_hat, N/(mm/min).
+    pub kc_hat: Option<f64>,
+    /// Tool number.
+    pub tool: Option<u16>,
+    /// Program number.
+    pub program: Option<u16>,
+    /// Block number.
+    pub block: Option<u16>,
+    /// Feed hold requested by ACC.
+    pub feed_hold: bool,
+    /// Alarm bit code (as the run log).
+    pub alarm_bits: u8,
+    /// Alarms in force.
+    pub alarms: Vec<AlarmJson>,
+}
+
+impl PeriodJson {
+    /// The message of record `r`.
+    pub fn of(r: &RunRecord) -> Self {
+        let alarms = levels(r)
+            .into_iter()
+            .zip(CONDITIONS)
+            .filter(|(l, _)| *l != Level::Normal)
+            .map(|(l, (name, _, _, code, _))| AlarmJson {
+                name,
+                level: l.name(),
+                code,
+            })
+            .collect();
+        let fin = |v: Option<f64>| v.filter(|x| x.is_finite());
+        Self {
+            period: r.period,
+            t_s: r.t_s,
+            availability: if available(r) {
+                "AVAILABLE"
+            } else {
+                "UNAVAILABLE"
+            },
+            execution: execution(r),
+            acc_state: r.state.clone(),
+            override_applied_pct: r.override_applied_pct,
+            override_cmd_pct: r.override_cmd_pct,
+            override_operator_pct: r.override_operator_pct,
+            feed_mm_min: fin(r.feed_mm_min),
+            spindle_rpm: fin(r.spindle_rpm),
+            spindle_power_w: fin(r.power_w),
+            force_n: fin(r.force_n),
+            force_ref_n: fin(r.force_ref_n),
+            kc_hat: fin(r.kc_hat),
+            tool: r.tool,
+            program: r.program,
+            block: r.block,
+            feed_hold: r.feed_hold,
+            alarm_bits: r.alarms,
+            alarms,
+        }
+    }
+}
+
+/// A per-cut record as published on `<prefix>/cut` (plain data: whoever computes the
+/// per-cut records — issue 14's report — fills it and calls [`MqttPublisher::publish_cut`]).
+#[derive(Debug, Clone, Serialize, PartialEq, Default)]
+pub struct CutJson {
+    /// Tool number.
+    pub tool: Option<u16>,
+    /// Program number.
+    pub program: Option<u16>,
+    /// First block of the cut.
+    pub block_first: Option<u16>,
+    /// Last block of the cut.
+    pub block_last: Option<u16>,
+    /// Start, s of machine time.
+    pub t_start_s: f64,
+    /// Time in cut, s.
+    pub time_in_cut_s: f64,
+    /// Mean force, N.
+    pub force_mean_n: f64,
+    /// Peak force, N.
+    pub force_max_n: f64,
+    /// Time saved against the programmed feed, s.
+    pub time_saved_s: f64,
+    /// Alarms raised in the cut (names).
+    pub alarms: Vec<String>,
+}
+
+/// Counters of a running publisher.
+#[derive(Debug, Default)]
+pub struct MqttStats {
+    /// Messages handed to rumqttc.
+    pub queued: AtomicU64,
+    /// Messages dropped (rumqttc's queue full: broker down or slow).
+    pub dropped: AtomicU64,
+    /// Connections acknowledged by the broker (1 + reconnects).
+    pub connects: AtomicU64,
+    /// Connection errors seen (each followed by a retry).
+    pub conn_errors: AtomicU64,
+    /// Connected now.
+    pub connected: AtomicBool,
+}
+
+/// A running MQTT publisher; [`MqttPublisher::stop`] publishes `offline` and disconnects.
+pub struct MqttPublisher {
+    cfg: MqttConfig,
+    client: Client,
+    stats: Arc<MqttStats>,
+    stop: Arc<AtomicBool>,
+    threads: Vec<JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for MqttPublisher {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MqttPublisher")
+            .field("cfg", &self.cfg)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl MqttPublisher {
+    /// Start publishing the records of `sub` to the broker of `cfg`. Never fails for a broker
+    /// that is down: the connection thread keeps trying.
+    pub fn start(cfg: MqttConfig, sub: Subscriber) -> std::io::Result<Self> {
+        let status = cfg.topic("status");
+        let mut opts = MqttOptions::new(cfg.client_id.clone(), cfg.host.clone(), cfg.port);
+        opts.set_keep_alive(Duration::from_secs(5));
+        opts.set_last_will(LastWill::new(
+            status.clone(),
+            "offline",
+            QoS::AtLeastOnce,
+            true,
+        ));
+        let (client, mut connection) = Client::new(opts, REQUEST_QUEUE);
+        let stats = Arc::new(MqttStats::default());
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut threads = Vec::new();
+        {
+            let (client, stats, stop) = (client.clone(), stats.clone(), stop.clone());
+            threads.push(std::thread::Builder::new().name("mqtt-conn".into()).spawn(
+                move || {
+                    while !stop.load(Ordering::SeqCst) {
+                        match connection.recv_timeout(Duration::from_millis(100)) {
+                            Ok(Ok(Event::Incoming(Packet::ConnAck(_)))) => {
+                                stats.connects.fetch_add(1, Ordering::SeqCst);
+                                stats.connected.store(true, Ordering::SeqCst);
+                                tracing::info!("MQTT broker connected");
+                                let _ = client.try_publish(
+                                    status.clone(),
+                                    QoS::AtLeastOnce,
+                                    true,
+                                    "online",
+                                );
+                            }
+                            Ok(Ok(_)) => {}
+                            Ok(Err(e)) => {
+                                if stats.connected.swap(false, Ordering::SeqCst) {
+                                    tracing::warn!(error = %e, "MQTT broker lost: retrying");
+                                }
+                                stats.conn_errors.fetch_add(1, Ordering::SeqCst);
+                                std::thread::sleep(RECONNECT_DELAY);
+                            }
+                            Err(rumqttc::RecvTimeoutError::Timeout) => {}
+                            Err(rumqttc::RecvTimeoutError::Disconnected) => break,
+                        }
+                    }
+                    // Drive the event loop a little longer so `offline` and DISCONNECT go out.
+                    for _ in 0..10 {
+                        match connection.recv_timeout(Duration::from_millis(50)) {
+                            Ok(Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect))) | Ok(Err(_)) => {
+                                break
+                            }
+                            Err(rumqttc::RecvTimeoutError::Disconnected) => break,
+                            _ => {}
+                        }
+                    }
+                },
+            )?);
+        }
+        {
+            let (client, stats, stop, cfg) =
+                (client.clone(), stats.clone(), stop.clone(), cfg.clone());
+            threads.push(
+                std::thread::Builder::new()
+                    .name("mqtt-pub".into())
+                    .spawn(move || {
+                        let topic = cfg.topic("period");
+                        loop {
+                            match sub.recv_timeout(Duration::from_millis(50)) {
+                                Ok(r) => {
+                                    let Ok(body) = serde_json::to_vec(&PeriodJson::of(&r)) else {
+                                        continue;
+                                    };
+                                    match client.try_publish(topic.clone(), qos(&cfg), false, body)
+                                    {
+                                        Ok(()) => stats.queued.fetch_add(1, Ordering::Relaxed),
+                                        Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
+                                    };
+                                }
+                                Err(RecvTimeoutError::Timeout) => {
+                                    if stop.load(Ordering::SeqCst) {
+                                        break;
+                                    }
+                                }
+                                Err(RecvTimeoutError::Disconnected) => {
+                                    if stop.load(Ordering::SeqCst) {
+                                        break;
+                                    }
+                                    std::thread::sleep(Duration::from_millis(50));
+                                }
+                            }
+                        }
+                    })?,
+            );
+        }
+        tracing::info!(host = %cfg.host, port = cfg.port, prefix = %cfg.prefix, "MQTT publisher started");
+        Ok(Self {
+            cfg,
+            client,
+            stats,
+            stop,
+            threads,
+        })
+    }
+
+    /// Publish one per-cut record on `<prefix>/cut` (never waits: a full queue drops).
+    pub fn publish_cut(&self, cut: &CutJson) -> bool {
+        let Ok(body) = serde_json::to_vec(cut) else {
+            return false;
+        };
+        let ok = self
+            .client
+            .try_publish(self.cfg.topic("cut"), qos(&self.cfg), false, body)
+            .is_ok();
+        let c = if ok {
+            &self.stats.queued
+        } else {
+            &self.stats.dropped
+        };
+        c.fetch_add(1, Ordering::Relaxed);
+        ok
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> &MqttStats {
+        &self.stats
+    }
+
+    /// Stop: the queued records are handed on, `offline` is published (retained) and the
+    /// client disconnects.
+    pub fn stop(mut self) {
+        self.shutdown();
+    }
+
+    fn shutdown(&mut self) {
+        if self.stop.swap(true, Ordering::SeqCst) {
+            return;
+        }
+        // The publisher first (it drains its queue), then `offline` and DISCONNECT.
+        if let Some(p) = self.threads.pop() {
+            let _ = p.join();
+        }
+        let _ =
+            self.client
+                .try_publish(self.cfg.topic("status"), QoS::AtLeastOnce, true, "offline");
+        let _ = self.client.try_disconnect();
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for MqttPublisher {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn period_json_carries_values_and_alarms() {
+        let r = RunRecord {
+            period: 3,
+            force_n: Some(f64::NAN),
+            kc_hat: Some(6.5),
+            alarms: 1 << 4,
+            ..RunRecord::default()
+        };
+        let v = serde_json::to_value(PeriodJson::of(&r)).expect("json");
+        assert_eq!(v["period"], 3);
+        assert!(v["force_n"].is_null());
+        assert_eq!(v["kc_hat"], 6.5);
+        assert_eq!(v["alarms"][0]["code"], "OVERLOAD");
+    }
+}
