@@ -116,9 +116,24 @@ pub fn run_prepared<W: Write>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
+    log: Option<&mut RunLogWriter<W>>,
+    shop: bool,
+    prepare: &mut dyn FnMut(&mut crate::SimBoard),
+) -> Result<RunResult, SimError> {
+    run_observed(scenario, law, channel, log, shop, prepare, &mut |_| {})
+}
+
+/// [`run_prepared`] with `observe` called with every period's record right after it was
+/// logged (`acc sim --shdr/--mqtt` publishes it on the telemetry tap there and paces the
+/// run to wall time with `--time-scale`).
+pub fn run_observed<W: Write>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
     mut log: Option<&mut RunLogWriter<W>>,
     shop: bool,
     prepare: &mut dyn FnMut(&mut crate::SimBoard),
+    observe: &mut dyn FnMut(&RunRecord),
 ) -> Result<RunResult, SimError> {
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
@@ -160,6 +175,7 @@ pub fn run_prepared<W: Write>(
         if let Some(w) = log.as_deref_mut() {
             w.write(&row)?;
         }
+        observe(&row);
         let held = row.feed_hold && row.state != "active";
         rows.push(row);
         if board.machine().finished() {

@@ -118,6 +118,10 @@ pub struct BoardSimArgs {
     /// The board's clock (its watchdog): `wall` time or `machine` time (wall × time scale).
     #[arg(long, value_enum, default_value_t = WatchdogTime::Wall)]
     pub watchdog_time: WatchdogTime,
+    /// Telemetry of the machine side (`--shdr`, `--mqtt`): the board's registers and the
+    /// plant's truth every period.
+    #[command(flatten)]
+    pub telemetry: crate::telemetry::TelemetryArgs,
 }
 
 /// Which time the emulated board's watchdog counts.
@@ -446,6 +450,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         None => None,
     };
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()))?;
     if args.wait_for_controller {
         while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
             std::thread::sleep(Duration::from_millis(2));
@@ -590,6 +595,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         if let Some(w) = log.as_mut() {
             w.write(&row)?;
         }
+        tel.tap.publish(&row);
         if sim.machine().finished() && done_at.is_none() {
             done_at = Some(sim.machine().t_s());
             eprintln!(
@@ -603,6 +609,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             }
         }
     }
+    tel.finish();
     let st = ticker.stats();
     eprintln!(
         "board-sim: {} periods; sim ticker jitter {}; overruns {}",

@@ -52,6 +52,9 @@ pub struct RunArgs {
     /// Events as JSON lines on stderr (filter: `ACC_LOG`, e.g. `ACC_LOG=debug`).
     #[arg(long)]
     pub json: bool,
+    /// Telemetry (`--shdr`, `--mqtt`; over the config's `[telemetry]`).
+    #[command(flatten)]
+    pub telemetry: crate::telemetry::TelemetryArgs,
 }
 
 /// One-line description of a status block.
@@ -328,7 +331,14 @@ fn drive<P: Board + Send>(
 
     // Run log (created before the port was opened) and the signals: the first Ctrl-C or
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
-    let mut sink = RunLogSink::new(writer);
+    // Telemetry: the logger thread publishes each record on the tap just before writing it
+    // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry))
+        .exit_as(RunExit::Usage)?;
+    let mut sink = acc_runtime::TapSink {
+        inner: RunLogSink::new(writer),
+        tap: tel.tap.clone(),
+    };
     let stop = install_stop_signals().context("installing the Ctrl-C handler")?;
     let opts = RunOptions {
         max_periods: args
@@ -370,6 +380,8 @@ fn drive<P: Board + Send>(
         Some(reopen),
     )
     .exit_as(RunExit::Internal)?;
+    drop(sink);
+    tel.finish();
 
     // Summary.
     // Every period has a run-log row: the cycles run plus the ones the ticker skipped.

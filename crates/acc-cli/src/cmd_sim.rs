@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use acc_plot::{time_series, Figure, HLine, Panel, Series, Shade, Style, Written};
 use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_sim::summary::attribute_rows;
-use acc_sim::{run, summarize, LawKind, RunResult, Scenario};
+use acc_sim::{summarize, LawKind, RunResult, Scenario};
 use anyhow::Context as _;
 
 /// Arguments of `acc sim`.
@@ -35,6 +35,13 @@ pub struct SimArgs {
     /// Do not draw plots.
     #[arg(long)]
     pub no_plot: bool,
+    /// Pace the run to wall time: machine seconds per wall second (default: as fast as
+    /// possible); e.g. `1` for real time while `--shdr` / `--mqtt` clients watch.
+    #[arg(long, value_name = "X")]
+    pub time_scale: Option<f64>,
+    /// Telemetry (`--shdr`, `--mqtt`).
+    #[command(flatten)]
+    pub telemetry: crate::telemetry::TelemetryArgs,
 }
 
 /// Parse a law name of `--law`.
@@ -92,7 +99,37 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot create", log_path.display()))?;
     let mut writer = RunLogWriter::new(BufWriter::new(file))?;
     let mut law = sc.build_law(args.law)?;
-    let result = run(&sc, law.as_mut(), Some(&mut writer))?;
+    if let Some(x) = args.time_scale {
+        if !(x.is_finite() && (0.01..=1000.0).contains(&x)) {
+            anyhow::bail!("--time-scale {x}: allowed 0.01 ..= 1000 (machine s per wall s)");
+        }
+    }
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()))?;
+    let pace = args
+        .time_scale
+        .map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));
+    let t0 = std::time::Instant::now();
+    let mut n = 0u32;
+    let mut observe = |r: &RunRecord| {
+        tel.tap.publish(r);
+        if let Some(p) = pace {
+            n += 1;
+            if let Some(wait) = (p * n).checked_sub(t0.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+    };
+    let mut channel = sc.build_channel()?;
+    let result = acc_sim::run::run_observed(
+        &sc,
+        law.as_mut(),
+        channel.as_mut(),
+        Some(&mut writer),
+        sc.tools.is_some(),
+        &mut |_| {},
+        &mut observe,
+    )?;
+    tel.finish();
     let summary = summarize(&result, &sc);
     println!("scenario: {} ({})", sc.name, sc.path.display());
     if let Some(model) = &args.model {
@@ -227,6 +264,8 @@ mod tests {
             model: None,
             law: LawKind::Ours,
             no_plot: false,
+            time_scale: None,
+            telemetry: Default::default(),
         };
         run_cmd(&args).expect("acc sim");
         let log = std::fs::read_to_string(dir.join("run.csv")).expect("run log");

@@ -15,6 +15,7 @@ mod cmd_stability;
 mod configs;
 mod exit;
 mod harness;
+mod telemetry;
 
 /// Adaptive feedrate-override control for CNC milling.
 #[derive(Parser)]

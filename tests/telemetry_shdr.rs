@@ -1,0 +1,159 @@
+//! The MTConnect SHDR adapter of `acc sim --shdr` against an independent SHDR reader
+//! (`tests/peers/shdr_reader.py`, written from the SHDR line format, not from our code):
+//! the snapshot has every item, each period's values equal the run log's row, the tool
+//! change shows, conditions parse, and `* PING` is answered `* PONG 10000`.
+
+mod e2e_support;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use e2e_support::{acc_bin, peer_ready, read_log, root};
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+const CONDITIONS: &str = "link_cond,power_cond,watchdog_cond,board_reset_cond,overload_cond";
+
+#[test]
+fn acc_sim_shdr_against_an_independent_reader() {
+    if !peer_ready("python3", Command::new("python3").arg("--version")) {
+        return;
+    }
+    let bin = acc_bin();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    // The reader first (it retries until the adapter listens), then the run: 46 s of
+    // machine time at 25× takes about 2 s.
+    let reader = Command::new("python3")
+        .arg(root().join("tests/peers/shdr_reader.py"))
+        .args(["127.0.0.1", &port.to_string(), "--conditions", CONDITIONS])
+        .args(["--seconds", "30"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 reader");
+    let t0 = Instant::now();
+    let sim = Command::new(&bin)
+        .args(["sim", "two_tools", "--no-plot", "--time-scale", "25", "--shdr", &addr])
+        .arg("--out")
+        .arg(dir.path())
+        .current_dir(root())
+        .output()
+        .expect("acc sim");
+    let wall = t0.elapsed();
+    let stdout = String::from_utf8_lossy(&sim.stdout);
+    assert!(
+        sim.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+    let out = reader.wait_with_output().expect("reader output");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let v: serde_json::Value = serde_json::from_str(text.trim()).unwrap_or_else(|e| {
+        panic!(
+            "reader printed no JSON ({e}): {text}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    let rows = read_log(&dir.path().join("run.csv"));
+    let n = rows.len();
+    assert!(n > 300, "{n} rows");
+    // Paced: about n × 4 ms of wall time, not slowed by the client.
+    assert!(
+        wall < Duration::from_secs_f64(n as f64 * 0.004 * 2.0 + 3.0),
+        "{wall:?}"
+    );
+
+    assert_eq!(v["errors"].as_array().map(Vec::len), Some(0), "{v}");
+    assert_eq!(v["pong_ms"], 10000, "{v}");
+    // The snapshot: every item.
+    let first = v["first"].as_object().expect("snapshot line");
+    for item in [
+        "avail", "execution", "acc_state", "Fovr", "Fovr_cmd", "Fovr_op", "path_feedrate",
+        "Srpm", "Spower", "Fc", "Fr", "Kc", "Tool", "program", "line", "feed_hold",
+        "acc_period",
+    ] {
+        assert!(first.contains_key(item), "snapshot lacks {item}: {first:?}");
+    }
+    // Every condition was sent (in the snapshot at least) with a valid level.
+    for c in CONDITIONS.split(',') {
+        let levels = v["conditions"][c].as_array().expect("condition sent");
+        assert!(levels.iter().all(|l| ["NORMAL", "WARNING", "FAULT"]
+            .contains(&l[0].as_str().unwrap_or(""))));
+    }
+    // The states after each period, rebuilt from the changes, equal the run log.
+    let periods: Vec<u64> = v["items"]["acc_period"]
+        .as_array()
+        .expect("periods")
+        .iter()
+        .filter_map(|p| p.as_str()?.parse().ok())
+        .collect();
+    assert!(periods.len() > n / 2, "{} of {n} periods seen", periods.len());
+    // No period lost after the reader connected: consecutive indices.
+    let tail = &periods[1..];
+    assert!(
+        tail.windows(2).all(|w| w[1] == w[0] + 1),
+        "periods not consecutive"
+    );
+    assert_eq!(*periods.last().expect("last"), rows[n - 1].period);
+    // The last value of each item equals the last row.
+    let last = |item: &str| -> String {
+        v["items"][item]
+            .as_array()
+            .and_then(|a| a.last())
+            .and_then(|x| x.as_str())
+            .unwrap_or("")
+            .to_string()
+    };
+    let r = &rows[n - 1];
+    let f1 = |x: Option<f64>| x.map_or("UNAVAILABLE".to_string(), |x| format!("{x:.1}"));
+    assert_eq!(last("Fc"), f1(r.force_n));
+    assert_eq!(last("Fr"), f1(r.force_ref_n));
+    assert_eq!(
+        last("Fovr_cmd"),
+        r.override_cmd_pct.map_or("UNAVAILABLE".into(), |x| x.to_string())
+    );
+    // Both tools of the program appeared, in the log's order.
+    let tools_seen: Vec<String> = v["items"]["Tool"]
+        .as_array()
+        .expect("tool")
+        .iter()
+        .filter_map(|x| Some(x.as_str()?.to_string()))
+        .collect();
+    let mut log_tools: Vec<String> = Vec::new();
+    for t in rows.iter().filter_map(|r| r.tool) {
+        if log_tools.last() != Some(&t.to_string()) {
+            log_tools.push(t.to_string());
+        }
+    }
+    assert!(log_tools.len() >= 2, "two_tools has a tool change: {log_tools:?}");
+    assert!(
+        tools_seen.ends_with(&log_tools[1..]),
+        "SHDR tools {tools_seen:?} vs log {log_tools:?}"
+    );
+    // Value by value: the number of Fc changes equals the number of distinct consecutive
+    // Fc values in the rows the reader saw.
+    let seen_from = periods[0] as usize;
+    let mut changes = 0;
+    let mut prev: Option<String> = None;
+    for r in &rows[seen_from..] {
+        let s = f1(r.force_n);
+        if prev.as_ref() != Some(&s) {
+            changes += 1;
+            prev = Some(s);
+        }
+    }
+    let got = v["items"]["Fc"].as_array().map_or(0, Vec::len);
+    // The snapshot's value counts once more when it equals the first row's.
+    assert!(
+        got == changes || got == changes + 1,
+        "{got} Fc values over SHDR, {changes} in the log"
+    );
+    assert!(stdout.contains("telemetry: SHDR"), "{stdout}");
+}
