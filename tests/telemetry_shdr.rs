@@ -40,7 +40,15 @@ fn acc_sim_shdr_against_an_independent_reader() {
         .expect("python3 reader");
     let t0 = Instant::now();
     let sim = Command::new(&bin)
-        .args(["sim", "two_tools", "--no-plot", "--time-scale", "25", "--shdr", &addr])
+        .args([
+            "sim",
+            "two_tools",
+            "--no-plot",
+            "--time-scale",
+            "25",
+            "--shdr",
+            &addr,
+        ])
         .arg("--out")
         .arg(dir.path())
         .current_dir(root())
@@ -75,8 +83,22 @@ fn acc_sim_shdr_against_an_independent_reader() {
     // The snapshot: every item.
     let first = v["first"].as_object().expect("snapshot line");
     for item in [
-        "avail", "execution", "acc_state", "Fovr", "Fovr_cmd", "Fovr_op", "path_feedrate",
-        "Srpm", "Spower", "Fc", "Fr", "Kc", "Tool", "program", "line", "feed_hold",
+        "avail",
+        "execution",
+        "acc_state",
+        "Fovr",
+        "Fovr_cmd",
+        "Fovr_op",
+        "path_feedrate",
+        "Srpm",
+        "Spower",
+        "Fc",
+        "Fr",
+        "Kc",
+        "Tool",
+        "program",
+        "line",
+        "feed_hold",
         "acc_period",
     ] {
         assert!(first.contains_key(item), "snapshot lacks {item}: {first:?}");
@@ -84,8 +106,9 @@ fn acc_sim_shdr_against_an_independent_reader() {
     // Every condition was sent (in the snapshot at least) with a valid level.
     for c in CONDITIONS.split(',') {
         let levels = v["conditions"][c].as_array().expect("condition sent");
-        assert!(levels.iter().all(|l| ["NORMAL", "WARNING", "FAULT"]
-            .contains(&l[0].as_str().unwrap_or(""))));
+        assert!(levels
+            .iter()
+            .all(|l| ["NORMAL", "WARNING", "FAULT"].contains(&l[0].as_str().unwrap_or(""))));
     }
     // The states after each period, rebuilt from the changes, equal the run log.
     let periods: Vec<u64> = v["items"]["acc_period"]
@@ -94,7 +117,11 @@ fn acc_sim_shdr_against_an_independent_reader() {
         .iter()
         .filter_map(|p| p.as_str()?.parse().ok())
         .collect();
-    assert!(periods.len() > n / 2, "{} of {n} periods seen", periods.len());
+    assert!(
+        periods.len() > n / 2,
+        "{} of {n} periods seen",
+        periods.len()
+    );
     // No period lost after the reader connected: consecutive indices.
     let tail = &periods[1..];
     assert!(
@@ -117,7 +144,8 @@ fn acc_sim_shdr_against_an_independent_reader() {
     assert_eq!(last("Fr"), f1(r.force_ref_n));
     assert_eq!(
         last("Fovr_cmd"),
-        r.override_cmd_pct.map_or("UNAVAILABLE".into(), |x| x.to_string())
+        r.override_cmd_pct
+            .map_or("UNAVAILABLE".into(), |x| x.to_string())
     );
     // Both tools of the program appeared, in the log's order.
     let tools_seen: Vec<String> = v["items"]["Tool"]
@@ -132,7 +160,10 @@ fn acc_sim_shdr_against_an_independent_reader() {
             log_tools.push(t.to_string());
         }
     }
-    assert!(log_tools.len() >= 2, "two_tools has a tool change: {log_tools:?}");
+    assert!(
+        log_tools.len() >= 2,
+        "two_tools has a tool change: {log_tools:?}"
+    );
     assert!(
         tools_seen.ends_with(&log_tools[1..]),
         "SHDR tools {tools_seen:?} vs log {log_tools:?}"

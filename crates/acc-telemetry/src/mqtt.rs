@@ -178,12 +178,14 @@ pub struct MqttStats {
     pub conn_errors: AtomicU64,
     /// Connected now.
     pub connected: AtomicBool,
+    /// `online` still to be published after a (re)connection.
+    pub online_pending: AtomicBool,
 }
 
 /// A running MQTT publisher; [`MqttPublisher::stop`] publishes `offline` and disconnects.
 pub struct MqttPublisher {
     cfg: MqttConfig,
-    client: Client,
+    client: Option<Client>,
     stats: Arc<MqttStats>,
     stop: Arc<AtomicBool>,
     threads: Vec<JoinHandle<()>>,
@@ -202,11 +204,10 @@ impl MqttPublisher {
     /// Start publishing the records of `sub` to the broker of `cfg`. Never fails for a broker
     /// that is down: the connection thread keeps trying.
     pub fn start(cfg: MqttConfig, sub: Subscriber) -> std::io::Result<Self> {
-        let status = cfg.topic("status");
         let mut opts = MqttOptions::new(cfg.client_id.clone(), cfg.host.clone(), cfg.port);
         opts.set_keep_alive(Duration::from_secs(5));
         opts.set_last_will(LastWill::new(
-            status.clone(),
+            cfg.topic("status"),
             "offline",
             QoS::AtLeastOnce,
             true,
@@ -216,42 +217,36 @@ impl MqttPublisher {
         let stop = Arc::new(AtomicBool::new(false));
         let mut threads = Vec::new();
         {
-            let (client, stats, stop) = (client.clone(), stats.clone(), stop.clone());
+            let (stats, stop) = (stats.clone(), stop.clone());
             threads.push(std::thread::Builder::new().name("mqtt-conn".into()).spawn(
                 move || {
-                    while !stop.load(Ordering::SeqCst) {
-                        match connection.recv_timeout(Duration::from_millis(100)) {
+                    // Blocking `recv`: a timeout would cancel a connection attempt half-way
+                    // (the broker then publishes the will, `offline`, for it).
+                    loop {
+                        match connection.recv() {
                             Ok(Ok(Event::Incoming(Packet::ConnAck(_)))) => {
                                 stats.connects.fetch_add(1, Ordering::SeqCst);
                                 stats.connected.store(true, Ordering::SeqCst);
                                 tracing::info!("MQTT broker connected");
-                                let _ = client.try_publish(
-                                    status.clone(),
-                                    QoS::AtLeastOnce,
-                                    true,
-                                    "online",
-                                );
+                                // The publisher thread sends `online` first thing (the
+                                // request queue may still be full of what piled up while
+                                // the broker was down).
+                                stats.online_pending.store(true, Ordering::SeqCst);
                             }
+                            Ok(Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect))) => break,
                             Ok(Ok(_)) => {}
                             Ok(Err(e)) => {
                                 if stats.connected.swap(false, Ordering::SeqCst) {
                                     tracing::warn!(error = %e, "MQTT broker lost: retrying");
                                 }
                                 stats.conn_errors.fetch_add(1, Ordering::SeqCst);
+                                if stop.load(Ordering::SeqCst) {
+                                    break;
+                                }
                                 std::thread::sleep(RECONNECT_DELAY);
                             }
-                            Err(rumqttc::RecvTimeoutError::Timeout) => {}
-                            Err(rumqttc::RecvTimeoutError::Disconnected) => break,
-                        }
-                    }
-                    // Drive the event loop a little longer so `offline` and DISCONNECT go out.
-                    for _ in 0..10 {
-                        match connection.recv_timeout(Duration::from_millis(50)) {
-                            Ok(Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect))) | Ok(Err(_)) => {
-                                break
-                            }
-                            Err(rumqttc::RecvTimeoutError::Disconnected) => break,
-                            _ => {}
+                            // Every client handle is gone.
+                            Err(_) => break,
                         }
                     }
                 },
@@ -265,7 +260,15 @@ impl MqttPublisher {
                     .name("mqtt-pub".into())
                     .spawn(move || {
                         let topic = cfg.topic("period");
+                        let status = cfg.topic("status");
                         loop {
+                            if stats.online_pending.load(Ordering::SeqCst)
+                                && client
+                                    .try_publish(status.clone(), QoS::AtLeastOnce, true, "online")
+                                    .is_ok()
+                            {
+                                stats.online_pending.store(false, Ordering::SeqCst);
+                            }
                             match sub.recv_timeout(Duration::from_millis(50)) {
                                 Ok(r) => {
                                     let Ok(body) = serde_json::to_vec(&PeriodJson::of(&r)) else {
@@ -296,7 +299,7 @@ impl MqttPublisher {
         tracing::info!(host = %cfg.host, port = cfg.port, prefix = %cfg.prefix, "MQTT publisher started");
         Ok(Self {
             cfg,
-            client,
+            client: Some(client),
             stats,
             stop,
             threads,
@@ -308,10 +311,10 @@ impl MqttPublisher {
         let Ok(body) = serde_json::to_vec(cut) else {
             return false;
         };
-        let ok = self
-            .client
-            .try_publish(self.cfg.topic("cut"), qos(&self.cfg), false, body)
-            .is_ok();
+        let ok = self.client.as_ref().is_some_and(|c| {
+            c.try_publish(self.cfg.topic("cut"), qos(&self.cfg), false, body)
+                .is_ok()
+        });
         let c = if ok {
             &self.stats.queued
         } else {
@@ -340,10 +343,11 @@ impl MqttPublisher {
         if let Some(p) = self.threads.pop() {
             let _ = p.join();
         }
-        let _ =
-            self.client
-                .try_publish(self.cfg.topic("status"), QoS::AtLeastOnce, true, "offline");
-        let _ = self.client.try_disconnect();
+        if let Some(c) = self.client.take() {
+            let _ = c.try_publish(self.cfg.topic("status"), QoS::AtLeastOnce, true, "offline");
+            let _ = c.try_disconnect();
+            // Dropping the last handle ends the event loop once it has sent what is queued.
+        }
         for t in self.threads.drain(..) {
             let _ = t.join();
         }

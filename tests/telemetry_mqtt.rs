@@ -1,0 +1,274 @@
+//! The MQTT publisher of `acc sim --mqtt` against a real `mosquitto` broker the test starts
+//! on a free port, with `mosquitto_sub` as the independent subscriber: the period messages
+//! carry the run log's values, `online`/`offline` are published (retained) on the status
+//! topic, and after the broker is killed and restarted mid-run publishing resumes while the
+//! run keeps its pace.
+
+mod e2e_support;
+
+use std::io::Write as _;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use e2e_support::{acc_bin, peer_ready, read_log, root};
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// `mosquitto` on PATH, or Debian's `/usr/sbin/mosquitto` (not on a user's PATH).
+fn mosquitto() -> String {
+    let on_path = Command::new("sh")
+        .args(["-c", "command -v mosquitto"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    on_path.unwrap_or_else(|| "/usr/sbin/mosquitto".into())
+}
+
+struct Broker {
+    child: Child,
+}
+
+impl Broker {
+    fn start(conf: &std::path::Path, port: u16) -> Self {
+        let child = Command::new(mosquitto())
+            .arg("-c")
+            .arg(conf)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("mosquitto");
+        let t0 = Instant::now();
+        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+            assert!(
+                t0.elapsed() < Duration::from_secs(5),
+                "mosquitto did not start"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Self { child }
+    }
+}
+
+impl Drop for Broker {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// `mosquitto_sub -v` on `topic`, its output read on a thread (a full pipe would stall it).
+struct Sub {
+    child: Child,
+    lines: std::thread::JoinHandle<Vec<String>>,
+}
+
+fn subscribe(port: u16, topic: &str) -> Sub {
+    // Line-buffered (coreutils `stdbuf`): the subscriber is killed at the end.
+    let mut child = Command::new("stdbuf")
+        .args([
+            "-oL",
+            "mosquitto_sub",
+            "-h",
+            "127.0.0.1",
+            "-p",
+            &port.to_string(),
+        ])
+        .args(["-v", "-t", topic])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("mosquitto_sub");
+    let out = child.stdout.take().expect("stdout");
+    let lines = std::thread::spawn(move || {
+        std::io::BufRead::lines(std::io::BufReader::new(out))
+            .map_while(Result::ok)
+            .collect()
+    });
+    Sub { child, lines }
+}
+
+/// Kill a subscriber and return its `topic payload` lines.
+fn lines_of(mut s: Sub) -> Vec<(String, String)> {
+    std::thread::sleep(Duration::from_millis(300));
+    let _ = s.child.kill();
+    let _ = s.child.wait();
+    s.lines
+        .join()
+        .expect("reader thread")
+        .iter()
+        .filter_map(|l| {
+            let (t, p) = l.split_once(' ')?;
+            Some((t.to_string(), p.to_string()))
+        })
+        .collect()
+}
+
+#[test]
+fn acc_sim_mqtt_to_mosquitto_survives_a_broker_restart() {
+    let has = |bin: &str| {
+        let mut c = Command::new("sh");
+        c.args(["-c", &format!("command -v {bin}")]);
+        c
+    };
+    if !peer_ready(
+        "mosquitto (apt package mosquitto)",
+        Command::new("test").args(["-x", &mosquitto()]),
+    ) || !peer_ready(
+        "mosquitto_sub (apt package mosquitto-clients)",
+        &mut has("mosquitto_sub"),
+    ) {
+        return;
+    }
+    let _ = acc_bin(); // built before the broker starts
+    let dir = tempfile::tempdir().expect("tempdir");
+    let port = free_port();
+    let conf = dir.path().join("mosquitto.conf");
+    let mut f = std::fs::File::create(&conf).expect("conf");
+    writeln!(
+        f,
+        "listener {port} 127.0.0.1\nallow_anonymous true\npersistence false"
+    )
+    .expect("conf");
+    drop(f);
+    let broker = Broker::start(&conf, port);
+    let sub1 = subscribe(port, "acctest/#");
+    std::thread::sleep(Duration::from_millis(300));
+
+    // 60 s of machine time at 10×: about 6 s.
+    let out_dir = dir.path().join("run");
+    let url = format!("mqtt://127.0.0.1:{port}/acctest");
+    let bin = acc_bin();
+    let t0 = Instant::now();
+    let sim = Command::new(bin)
+        .args([
+            "sim",
+            "paper_case1",
+            "--no-plot",
+            "--time-scale",
+            "10",
+            "--mqtt",
+            &url,
+        ])
+        .arg("--out")
+        .arg(&out_dir)
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("acc sim");
+    // Kill the broker after 1.5 s, restart it 1 s later.
+    std::thread::sleep(Duration::from_millis(1500));
+    drop(broker);
+    let before = lines_of(sub1);
+    std::thread::sleep(Duration::from_millis(1000));
+    let broker = Broker::start(&conf, port);
+    let sub2 = subscribe(port, "acctest/#");
+    let sim = sim.wait_with_output().expect("acc sim output");
+    let wall = t0.elapsed();
+    let stdout = String::from_utf8_lossy(&sim.stdout).to_string();
+    assert!(
+        sim.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+    let after = lines_of(sub2);
+    // The status after the clean end: `offline`, retained.
+    let st = Command::new("mosquitto_sub")
+        .args([
+            "-h",
+            "127.0.0.1",
+            "-p",
+            &port.to_string(),
+            "-t",
+            "acctest/status",
+        ])
+        .args(["-C", "1", "-W", "3"])
+        .output()
+        .expect("mosquitto_sub status");
+    drop(broker);
+
+    let rows = read_log(&out_dir.join("run.csv"));
+    let n = rows.len();
+    assert!(n > 500, "{n} rows");
+    // The loop kept its pace with the broker down: n × 10 ms, plus start and plots.
+    assert!(
+        wall < Duration::from_secs_f64(n as f64 * 0.010 * 1.25 + 2.0),
+        "{wall:?} for {n} periods"
+    );
+    let periods = |lines: &[(String, String)]| -> Vec<serde_json::Value> {
+        lines
+            .iter()
+            .filter(|(t, _)| t == "acctest/period")
+            .map(|(_, p)| serde_json::from_str(p).expect("period JSON"))
+            .collect()
+    };
+    let (p1, p2) = (periods(&before), periods(&after));
+    assert!(
+        p1.len() > 50,
+        "{} messages before the broker went down",
+        p1.len()
+    );
+    assert!(p2.len() > 50, "{} messages after it came back", p2.len());
+    assert!(
+        before
+            .iter()
+            .any(|(t, p)| t == "acctest/status" && p == "online"),
+        "no online status"
+    );
+    assert!(
+        after
+            .iter()
+            .any(|(t, p)| t == "acctest/status" && p == "online"),
+        "no online status after the reconnect: {:?}",
+        after
+            .iter()
+            .filter(|(t, _)| t != "acctest/period")
+            .collect::<Vec<_>>()
+    );
+    // What piled up while the broker was down (about 1 s: 100 periods, under rumqttc's
+    // queue of 256) went out after the reconnect: nearly every period arrived.
+    let mut seen: Vec<u64> = p1
+        .iter()
+        .chain(&p2)
+        .filter_map(|m| m["period"].as_u64())
+        .collect();
+    seen.sort_unstable();
+    seen.dedup();
+    assert!(
+        seen.len() * 10 >= n * 9,
+        "{} of {n} periods arrived",
+        seen.len()
+    );
+    assert_eq!(
+        p2.last().and_then(|m| m["period"].as_u64()),
+        Some(rows[n - 1].period),
+        "publishing resumed up to the last period"
+    );
+    // Every message carries its row's values.
+    for m in p1.iter().chain(&p2) {
+        let i = m["period"].as_u64().expect("period") as usize;
+        let r = &rows[i];
+        assert_eq!(r.period as usize, i);
+        let close = |a: &serde_json::Value, b: Option<f64>| match (a.as_f64(), b) {
+            (Some(x), Some(y)) => (x - y).abs() <= 1e-9 * y.abs().max(1.0),
+            (None, None) => true,
+            _ => false,
+        };
+        assert!(close(&m["force_n"], r.force_n), "{m} vs {r:?}");
+        assert!(close(&m["kc_hat"], r.kc_hat), "{m} vs {r:?}");
+        assert_eq!(
+            m["override_cmd_pct"].as_u64(),
+            r.override_cmd_pct.map(u64::from),
+            "{m}"
+        );
+        assert_eq!(m["acc_state"], r.state.as_str());
+    }
+    assert_eq!(String::from_utf8_lossy(&st.stdout).trim(), "offline");
+    assert!(stdout.contains("telemetry: MQTT"), "{stdout}");
+}
