@@ -650,3 +650,57 @@ fn build_source(
     let e = SpindleEstimator::new(est, cal.constants, no_load)?;
     SpindleSource::new(SpindleInput::BoardPower, e)
 }
+
+#[cfg(test)]
+mod telemetry_tests {
+    use super::*;
+
+    fn section(text: &str) -> Result<TelemetryConfig, String> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct F {
+            telemetry: TelemetrySection,
+        }
+        let p = Path::new("run.toml");
+        let f: F =
+            acc_config::parse_toml_with(p, text, RUN_KEY_RANGES).map_err(|e| e.to_string())?;
+        f.telemetry.resolve_in(p).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn telemetry_section_resolves_and_every_error_names_file_key_value_and_range() {
+        let ok = section(
+            "[telemetry]\nshdr = \"0.0.0.0:7878\"\n[telemetry.mqtt]\nurl = \"mqtt://broker:1884/x\"\ntopic_prefix = \"shop/vmc1\"\nqos = 1\nclient_id = \"vmc1\"\n",
+        )
+        .expect("valid");
+        assert_eq!(ok.shdr.map(|a| a.port()), Some(7878));
+        let m = ok.mqtt.expect("mqtt");
+        assert_eq!((m.host.as_str(), m.port, m.qos), ("broker", 1884, 1));
+        assert_eq!(m.topic("period"), "shop/vmc1/period");
+        assert_eq!(m.client_id, "vmc1");
+
+        let e = section("[telemetry]\nshdr = \"localhost\"\n").expect_err("bad address");
+        assert!(
+            e.contains("run.toml")
+                && e.contains("telemetry.shdr")
+                && e.contains("localhost")
+                && e.contains("IP:PORT"),
+            "{e}"
+        );
+        let e = section("[telemetry.mqtt]\nurl = \"http://b\"\n").expect_err("bad url");
+        assert!(
+            e.contains("telemetry.mqtt.url") && e.contains("http://b") && e.contains("mqtt://host"),
+            "{e}"
+        );
+        let e = section("[telemetry.mqtt]\nurl = \"mqtt://b\"\nqos = 2\n").expect_err("qos 2");
+        assert!(
+            e.contains("telemetry.mqtt.qos") && e.contains('2') && e.contains("0 ..= 1"),
+            "{e}"
+        );
+        let e = section("[telemetry.mqtt]\nurl = \"mqtt://b\"\ntopic_prefix = \"a/#\"\n")
+            .expect_err("wildcard");
+        assert!(e.contains("telemetry.mqtt.topic_prefix"), "{e}");
+        let e = section("[telemetry]\nshdr_addr = \"0.0.0.0:7878\"\n").expect_err("unknown key");
+        assert!(e.contains("shdr_addr") && e.contains("shdr"), "{e}");
+    }
+}
