@@ -8,7 +8,7 @@ mod e2e_support;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use e2e_support::{acc_bin, peer_ready, read_log, root};
+use e2e_support::{acc_bin, peer_ready, read_log, root, spawn_board_sim, Proc};
 
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
@@ -187,4 +187,110 @@ fn acc_sim_shdr_against_an_independent_reader() {
         "{got} Fc values over SHDR, {changes} in the log"
     );
     assert!(stdout.contains("telemetry: SHDR"), "{stdout}");
+}
+
+/// Start the independent reader on `port` for at most `seconds`.
+fn reader(port: u16, seconds: u32) -> std::process::Child {
+    Command::new("python3")
+        .arg(root().join("tests/peers/shdr_reader.py"))
+        .args(["127.0.0.1", &port.to_string(), "--conditions", CONDITIONS])
+        .args(["--seconds", &seconds.to_string()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 reader")
+}
+
+fn reader_json(c: std::process::Child) -> serde_json::Value {
+    let out = c.wait_with_output().expect("reader output");
+    let text = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(text.trim()).unwrap_or_else(|e| {
+        panic!(
+            "reader printed no JSON ({e}): {text}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    })
+}
+
+/// `acc run --shdr` (the threaded runtime: the logger thread publishes on the tap) against
+/// `acc board-sim --shdr` over a pty, 4× time, 12 s of machine time: both adapters serve the
+/// reader; the controller's adapter ends on the run log's last row.
+#[test]
+fn acc_run_and_board_sim_shdr_over_a_pty() {
+    if !peer_ready("python3", Command::new("python3").arg("--version")) {
+        return;
+    }
+    let _ = acc_bin();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (p_run, p_board) = (free_port(), free_port());
+    let board_addr = format!("127.0.0.1:{p_board}");
+    let (board, pty) = spawn_board_sim(&["--shdr", &board_addr]);
+    let r_board = reader(p_board, 8);
+    let r_run = reader(p_run, 30);
+    let log = dir.path().join("run.csv");
+    let run_addr = format!("127.0.0.1:{p_run}");
+    let log_s = log.to_string_lossy().to_string();
+    let run = Proc::spawn(
+        &[
+            "run",
+            "--config",
+            "configs/runtime/board_sim_fast.toml",
+            "--port",
+            &pty,
+            "--log",
+            &log_s,
+            "--duration-s",
+            "12",
+            "--shdr",
+            &run_addr,
+        ],
+        false,
+    );
+    let (code, out, err) = run.finish(Duration::from_secs(30));
+    assert_eq!(code, Some(0), "{out}\n{err:?}");
+    drop(board);
+    let v = reader_json(r_run);
+    let rows = read_log(&log);
+    let n = rows.len();
+    assert!(n >= 100, "{n} rows");
+    assert_eq!(v["errors"].as_array().map(Vec::len), Some(0), "{v}");
+    assert_eq!(v["pong_ms"], 10000);
+    let periods: Vec<u64> = v["items"]["acc_period"]
+        .as_array()
+        .expect("periods")
+        .iter()
+        .filter_map(|p| p.as_str()?.parse().ok())
+        .collect();
+    assert!(periods.len() * 10 >= n * 9, "{} of {n}", periods.len());
+    assert_eq!(periods.last().copied(), Some(rows[n - 1].period));
+    let last = |item: &str| {
+        v["items"][item]
+            .as_array()
+            .and_then(|a| a.last())
+            .and_then(|x| x.as_str())
+            .unwrap_or("")
+            .to_string()
+    };
+    let r = &rows[n - 1];
+    assert_eq!(
+        last("Fovr"),
+        r.override_applied_pct
+            .map_or("UNAVAILABLE".into(), |x| x.to_string())
+    );
+    assert_eq!(
+        last("Tool"),
+        r.tool.map_or("UNAVAILABLE".into(), |x| x.to_string())
+    );
+    assert!(
+        v["items"]["execution"]
+            .as_array()
+            .is_some_and(|a| a.iter().any(|x| x == "ACTIVE")),
+        "ACC drove the override: {v}"
+    );
+    assert!(out.contains("telemetry: SHDR"), "{out}");
+    // The machine side served the reader too (board registers every period).
+    let b = reader_json(r_board);
+    assert_eq!(b["errors"].as_array().map(Vec::len), Some(0), "{b}");
+    let bp = b["items"]["acc_period"].as_array().map_or(0, Vec::len);
+    assert!(bp > 50, "{bp} board-sim periods over SHDR");
 }
