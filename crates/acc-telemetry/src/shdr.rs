@@ -464,4 +464,43 @@ mod tests {
         assert_eq!(line.trim_end(), format!("* PONG {PONG_MS}"));
         srv.stop();
     }
+
+    #[test]
+    fn a_client_that_never_reads_does_not_slow_the_publisher() {
+        let tap = Tap::new();
+        let sub = tap.subscribe(64);
+        let srv = ShdrServer::start("127.0.0.1:0", sub.clone()).expect("bind");
+        let _stalled = TcpStream::connect(srv.local_addr()).expect("connect");
+        let t0 = std::time::Instant::now();
+        while srv.clients() == 0 && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let t0 = std::time::Instant::now();
+        for p in 0..50_000u64 {
+            tap.publish(&RunRecord {
+                period: p,
+                force_n: Some(p as f64),
+                kc_hat: Some(p as f64 / 7.0),
+                ..RunRecord::default()
+            });
+        }
+        let took = t0.elapsed();
+        assert!(
+            took < Duration::from_secs(2),
+            "50 000 publishes took {took:?}"
+        );
+        // The stalled client's queue and socket filled up: lines or records were dropped.
+        std::thread::sleep(Duration::from_millis(200));
+        let lost = srv.stats().lines_dropped.load(Ordering::Relaxed) + sub.dropped();
+        assert!(lost > 0, "nothing dropped for a client that never reads");
+        drop(sub);
+        let t1 = std::time::Instant::now();
+        drop(tap);
+        srv.stop();
+        assert!(
+            t1.elapsed() < Duration::from_secs(5),
+            "stop took {:?}",
+            t1.elapsed()
+        );
+    }
 }
