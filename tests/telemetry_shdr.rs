@@ -8,7 +8,7 @@ mod e2e_support;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use e2e_support::{acc_bin, peer_ready, read_log, root, spawn_board_sim, Proc};
+use e2e_support::{acc_bin, one_at_a_time, peer_ready, read_log, root, spawn_board_sim, Proc};
 
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
@@ -24,6 +24,7 @@ fn acc_sim_shdr_against_an_independent_reader() {
     if !peer_ready("python3", Command::new("python3").arg("--version")) {
         return;
     }
+    let _serial = one_at_a_time();
     let bin = acc_bin();
     let dir = tempfile::tempdir().expect("tempdir");
     let port = free_port();
@@ -214,12 +215,15 @@ fn reader_json(c: std::process::Child) -> serde_json::Value {
 
 /// `acc run --shdr` (the threaded runtime: the logger thread publishes on the tap) against
 /// `acc board-sim --shdr` over a pty, 4× time, 12 s of machine time: both adapters serve the
-/// reader; the controller's adapter ends on the run log's last row.
+/// reader; the controller's adapter ends on the run log's last row; `--mqtt` to a port
+/// where no broker listens does not cost the run a period.
 #[test]
 fn acc_run_and_board_sim_shdr_over_a_pty() {
     if !peer_ready("python3", Command::new("python3").arg("--version")) {
         return;
     }
+    // Alone (a pty closed loop at 4× is timing-sensitive on 2 cores).
+    let _serial = one_at_a_time();
     let _ = acc_bin();
     let dir = tempfile::tempdir().expect("tempdir");
     let (p_run, p_board) = (free_port(), free_port());
@@ -230,6 +234,7 @@ fn acc_run_and_board_sim_shdr_over_a_pty() {
     let log = dir.path().join("run.csv");
     let run_addr = format!("127.0.0.1:{p_run}");
     let log_s = log.to_string_lossy().to_string();
+    let no_broker = format!("mqtt://127.0.0.1:{}/acc", free_port());
     let run = Proc::spawn(
         &[
             "run",
@@ -243,6 +248,9 @@ fn acc_run_and_board_sim_shdr_over_a_pty() {
             "12",
             "--shdr",
             &run_addr,
+            // No broker there: the run keeps its period, telemetry keeps retrying.
+            "--mqtt",
+            &no_broker,
         ],
         false,
     );
@@ -288,6 +296,13 @@ fn acc_run_and_board_sim_shdr_over_a_pty() {
         "ACC drove the override: {v}"
     );
     assert!(out.contains("telemetry: SHDR"), "{out}");
+    // Every period has its row (12 s of machine time = 120 periods) with the broker absent.
+    let periods_line: usize = e2e_support::field(&out, "periods")
+        .and_then(|v| v.parse().ok())
+        .expect("summary line `periods: N`");
+    assert_eq!(n, periods_line);
+    assert!((118..=122).contains(&n), "{n} periods for 12 s");
+    assert!(out.contains(", 0 connections"), "{out}");
     // The machine side served the reader too (board registers every period).
     let b = reader_json(r_board);
     assert_eq!(b["errors"].as_array().map(Vec::len), Some(0), "{b}");

@@ -450,7 +450,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         None => None,
     };
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
-    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()))?;
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()), true)?;
     if args.wait_for_controller {
         while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
             std::thread::sleep(Duration::from_millis(2));

@@ -333,7 +333,7 @@ fn drive<P: Board + Send>(
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
     // Telemetry: the logger thread publishes each record on the tap just before writing it
     // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
-    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry))
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry), false)
         .exit_as(RunExit::Usage)?;
     let mut sink = acc_runtime::TapSink {
         inner: RunLogSink::new(writer),

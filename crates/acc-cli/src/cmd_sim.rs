@@ -104,7 +104,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
             anyhow::bail!("--time-scale {x}: allowed 0.01 ..= 1000 (machine s per wall s)");
         }
     }
-    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()))?;
+    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()), false)?;
     let pace = args
         .time_scale
         .map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));

@@ -49,18 +49,33 @@ pub struct Telemetry {
     pub tap: Tap,
     shdr: Option<(ShdrServer, acc_runtime::tap::Subscriber)>,
     mqtt: Option<(MqttPublisher, acc_runtime::tap::Subscriber)>,
+    stderr: bool,
+}
+
+/// A status line on stdout, or on stderr (`acc board-sim`: its stdout carries the pty path
+/// only).
+fn say(stderr: bool, line: &str) {
+    if stderr {
+        eprintln!("{line}");
+    } else {
+        println!("{line}");
+    }
 }
 
 impl Telemetry {
-    /// Start what `cfg` asks for (nothing: a tap without subscribers).
-    pub fn start(cfg: &TelemetryConfig) -> anyhow::Result<Self> {
+    /// Start what `cfg` asks for (nothing: a tap without subscribers); status lines on
+    /// stderr if `stderr`.
+    pub fn start(cfg: &TelemetryConfig, stderr: bool) -> anyhow::Result<Self> {
         let tap = Tap::new();
         let shdr = match cfg.shdr {
             Some(a) => {
                 let sub = tap.subscribe(SUBSCRIBER_QUEUE);
                 let srv = ShdrServer::start(&a.to_string(), sub.clone())
                     .with_context(|| format!("--shdr {a}: cannot listen"))?;
-                println!("telemetry: MTConnect SHDR adapter on {}", srv.local_addr());
+                say(
+                    stderr,
+                    &format!("telemetry: MTConnect SHDR adapter on {}", srv.local_addr()),
+                );
                 Some((srv, sub))
             }
             None => None,
@@ -70,30 +85,43 @@ impl Telemetry {
                 let sub = tap.subscribe(SUBSCRIBER_QUEUE);
                 let p = MqttPublisher::start(m.clone(), sub.clone())
                     .context("starting the MQTT publisher")?;
-                println!(
-                    "telemetry: MQTT to {}:{} under `{}/` (period, cut, status)",
-                    m.host, m.port, m.prefix
+                say(
+                    stderr,
+                    &format!(
+                        "telemetry: MQTT to {}:{} under `{}/` (period, cut, status)",
+                        m.host, m.port, m.prefix
+                    ),
                 );
                 Some((p, sub))
             }
             None => None,
         };
-        Ok(Self { tap, shdr, mqtt })
+        Ok(Self {
+            tap,
+            shdr,
+            mqtt,
+            stderr,
+        })
     }
 
     /// Stop the adapters (queued records go out first) and print their counters.
     pub fn finish(self) {
-        let Telemetry { tap, shdr, mqtt } = self;
+        let Telemetry {
+            tap,
+            shdr,
+            mqtt,
+            stderr,
+        } = self;
         drop(tap);
         if let Some((srv, sub)) = shdr {
             let st = srv.stats();
-            println!(
+            say(stderr, &format!(
                 "telemetry: SHDR {} records, {} clients served, {} lines dropped (slow client), {} records dropped (queue full)",
                 st.records.load(std::sync::atomic::Ordering::Relaxed),
                 st.accepted.load(std::sync::atomic::Ordering::Relaxed),
                 st.lines_dropped.load(std::sync::atomic::Ordering::Relaxed),
                 sub.dropped()
-            );
+            ));
             drop(sub);
             srv.stop();
         }
@@ -106,7 +134,10 @@ impl Telemetry {
                 st.connects.load(std::sync::atomic::Ordering::Relaxed),
             );
             p.stop();
-            println!("telemetry: MQTT {q} messages queued, {d} dropped, {c} connections");
+            say(
+                stderr,
+                &format!("telemetry: MQTT {q} messages queued, {d} dropped, {c} connections"),
+            );
         }
     }
 }
