@@ -335,6 +335,10 @@ fn drive<P: Board + Send>(
     // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
     let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry))
         .exit_as(RunExit::Usage)?;
+    tel.set_live_info(acc_telemetry::LiveInfo {
+        title: format!("acc run: {}", args.config.display()),
+        overload_n: Some(cfg.policy.overload_force_n),
+    });
     let mut sink = acc_runtime::TapSink {
         inner: RunLogSink::new(writer),
         tap: tel.tap.clone(),

@@ -1,12 +1,12 @@
-//! `--shdr ADDR` and `--mqtt URL` of `acc run`, `acc sim` and `acc board-sim`: the runtime's
-//! [`Tap`] with the MTConnect SHDR adapter and the MQTT publisher subscribed to it
+//! `--shdr ADDR`, `--mqtt URL` and `--live ADDR` of `acc run`, `acc sim` and `acc board-sim`: the runtime's
+//! [`Tap`] with the MTConnect SHDR adapter, the MQTT publisher and the live view subscribed to it
 //! (docs/telemetry.md). The loop only ever calls [`Tap::publish`], which never waits.
 
 use std::net::SocketAddr;
 
 use acc_runtime::config::{parse_shdr_addr, MqttSettings, TelemetryConfig};
 use acc_runtime::tap::Tap;
-use acc_telemetry::{MqttPublisher, ShdrServer};
+use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, ShdrServer};
 use anyhow::Context as _;
 
 /// Queue of the SHDR and MQTT subscribers, records (25 s at T = 0.1 s).
@@ -23,6 +23,10 @@ pub struct TelemetryArgs {
     /// `[telemetry.mqtt] url`).
     #[arg(long, value_name = "URL", value_parser = MqttSettings::from_url)]
     pub mqtt: Option<MqttSettings>,
+    /// Live view in the browser on this address, e.g. `127.0.0.1:8080` (replaces
+    /// `[telemetry] live`; docs/telemetry.md "Live view").
+    #[arg(long, value_name = "IP:PORT", value_parser = parse_shdr_addr)]
+    pub live: Option<SocketAddr>,
 }
 
 impl TelemetryArgs {
@@ -31,6 +35,7 @@ impl TelemetryArgs {
     pub fn over(&self, cfg: &TelemetryConfig) -> TelemetryConfig {
         TelemetryConfig {
             shdr: self.shdr.or(cfg.shdr),
+            live: self.live.or(cfg.live),
             mqtt: match (&self.mqtt, &cfg.mqtt) {
                 (Some(a), Some(c)) => Some(MqttSettings {
                     qos: c.qos,
@@ -49,6 +54,7 @@ pub struct Telemetry {
     pub tap: Tap,
     shdr: Option<(ShdrServer, acc_runtime::tap::Subscriber)>,
     mqtt: Option<(MqttPublisher, acc_runtime::tap::Subscriber)>,
+    live: Option<LiveServer>,
 }
 
 impl Telemetry {
@@ -78,13 +84,56 @@ impl Telemetry {
             }
             None => None,
         };
-        Ok(Self { tap, shdr, mqtt })
+        let live = match cfg.live {
+            Some(a) => {
+                let srv = LiveServer::start(
+                    &a.to_string(),
+                    tap.subscribe(SUBSCRIBER_QUEUE),
+                    LiveInfo::default(),
+                )
+                .with_context(|| format!("--live {a}: cannot listen"))?;
+                println!("telemetry: live view on http://{}/", srv.local_addr());
+                Some(srv)
+            }
+            None => None,
+        };
+        Ok(Self {
+            tap,
+            shdr,
+            mqtt,
+            live,
+        })
     }
+
+    /// Whether the live view runs (`acc sim` then paces to real time by default).
+    pub fn has_live(&self) -> bool {
+        self.live.is_some()
+    }
+
+    /// What the live view shows beside the records (title, overload line).
+    pub fn set_live_info(&self, info: LiveInfo) {
+        if let Some(l) = &self.live {
+            l.set_info(info);
+        }
+    }
+
 
     /// Stop the adapters (queued records go out first) and print their counters.
     pub fn finish(self) {
-        let Telemetry { tap, shdr, mqtt } = self;
+        self.finish_lingering(0.0);
+    }
+
+    /// [`Telemetry::finish`], but a live view keeps serving `secs` after the run (its pages
+    /// keep their plots and say the run ended) before it stops.
+    pub fn finish_lingering(self, secs: f64) {
+        let Telemetry {
+            tap,
+            shdr,
+            mqtt,
+            live,
+        } = self;
         drop(tap);
+
         if let Some((srv, sub)) = shdr {
             let st = srv.stats();
             println!(
@@ -107,6 +156,21 @@ impl Telemetry {
             );
             p.stop();
             println!("telemetry: MQTT {q} messages queued, {d} dropped, {c} connections");
+        }
+        if let Some(l) = live {
+            if secs > 0.0 {
+                println!("telemetry: live view stays up {secs} s");
+                std::thread::sleep(std::time::Duration::from_secs_f64(secs));
+            }
+            let st = l.stats();
+            println!(
+                "telemetry: live view {} records, {} clients served, {} records dropped (slow clients), {} acknowledges (view only)",
+                st.records.load(std::sync::atomic::Ordering::Relaxed),
+                st.accepted.load(std::sync::atomic::Ordering::Relaxed),
+                st.dropped.load(std::sync::atomic::Ordering::Relaxed),
+                st.acks.load(std::sync::atomic::Ordering::Relaxed),
+            );
+            l.stop();
         }
     }
 }
