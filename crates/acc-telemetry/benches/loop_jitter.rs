@@ -304,11 +304,25 @@ fn main() {
         }
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let (off, on) = (mean(&p99s[0]), mean(&p99s[1]));
-    println!(
-        "p99 lateness, mean of rounds: off {off:.0} us, on {on:.0} us; on/off = {:.2}",
-        on / off.max(1e-9)
-    );
+    let median = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n == 0 {
+            0.0
+        } else if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            (v[n / 2 - 1] + v[n / 2]) / 2.0
+        }
+    };
+    for (what, f) in [("mean", &mean as &dyn Fn(&[f64]) -> f64), ("median", &median)] {
+        let (off, on) = (f(&p99s[0]), f(&p99s[1]));
+        println!(
+            "p99 lateness, {what} of rounds: off {off:.0} us, on {on:.0} us; on/off = {:.2}",
+            on / off.max(1e-9)
+        );
+    }
     if let Some((mut c, _)) = broker {
         let _ = c.kill();
         let _ = c.wait();
