@@ -157,7 +157,12 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     let profile = dir.path().join("profile");
 
     // 1. The page loads from the binary and updates from the stream, while the run goes on.
-    let dom1 = browse(&chromium, &profile, &format!("{url}?updates=6"), "--dump-dom");
+    let dom1 = browse(
+        &chromium,
+        &profile,
+        &format!("{url}?updates=6"),
+        "--dump-dom",
+    );
     assert!(dom1.contains("acc live view") && dom1.contains("<canvas id=\"cForce\""));
     assert!(num(&dom1, "updates") >= 6, "{}", by_id(&dom1, "updates"));
     let p1 = num(&dom1, "period");
@@ -166,7 +171,12 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     assert_eq!(by_id(&dom1, "ovl"), "950", "the scenario's overload limit");
     assert!(by_id(&dom1, "title").contains("overload alarm"));
     std::thread::sleep(Duration::from_millis(500));
-    let dom2 = browse(&chromium, &profile, &format!("{url}?updates=6"), "--dump-dom");
+    let dom2 = browse(
+        &chromium,
+        &profile,
+        &format!("{url}?updates=6"),
+        "--dump-dom",
+    );
     let p2 = num(&dom2, "period");
     assert!(p2 > p1, "the period shown did not advance: {p1} then {p2}");
     assert!(
@@ -205,7 +215,11 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
         &format!("--screenshot={}", shot.display()),
     );
     let png = std::fs::read(&shot).expect("screenshot written");
-    assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000, "{} bytes", png.len());
+    assert!(
+        png.starts_with(b"\x89PNG") && png.len() > 10_000,
+        "{} bytes",
+        png.len()
+    );
     eprintln!("screenshot: {}", shot.display());
 
     // The run log has the alarm the page showed, and the sim ran paced (not slowed).

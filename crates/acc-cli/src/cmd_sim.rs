@@ -118,8 +118,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     });
     // The operator watches the live view at real time unless --time-scale says otherwise.
     let time_scale = args.time_scale.or(tel.has_live().then_some(1.0));
-    let pace = time_scale
-        .map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));
+    let pace = time_scale.map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));
     let t0 = std::time::Instant::now();
     let mut n = 0u32;
     let mut observe = |r: &RunRecord| {

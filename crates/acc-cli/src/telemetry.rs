@@ -117,7 +117,6 @@ impl Telemetry {
         }
     }
 
-
     /// Stop the adapters (queued records go out first) and print their counters.
     pub fn finish(self) {
         self.finish_lingering(0.0);

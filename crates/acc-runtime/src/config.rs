@@ -295,10 +295,9 @@ impl TelemetrySection {
             None => None,
         };
         let live = match &self.live {
-            Some(a) => Some(
-                parse_shdr_addr(a)
-                    .map_err(|m| invalid("telemetry.live", format!("= {}", m.replace("7878", "8080"))))?,
-            ),
+            Some(a) => Some(parse_shdr_addr(a).map_err(|m| {
+                invalid("telemetry.live", format!("= {}", m.replace("7878", "8080")))
+            })?),
             None => None,
         };
         let mqtt = match &self.mqtt {

@@ -27,12 +27,12 @@ use std::time::{Duration, Instant};
 
 use acc_core::{Controller, ControllerConfig};
 use acc_pmc::{Board, BoardStatus, ControlBits};
-use acc_runtime::SystemClock;
 use acc_runtime::config::MqttSettings;
 use acc_runtime::policy::{FaultPolicy, PolicyConfig};
 use acc_runtime::record::RunLogWriter;
 use acc_runtime::tap::{Tap, TapSink};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard};
+use acc_runtime::SystemClock;
 use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord};
 use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, ShdrServer};
 
@@ -178,8 +178,8 @@ fn one_round(a: &Args, on: bool, dir: &std::path::Path, mqtt_port: u16) -> Round
             .expect("live view");
         let shdr_sub = tap.subscribe(256);
         let shdr = ShdrServer::start("127.0.0.1:0", shdr_sub).expect("shdr");
-        let mut m = MqttSettings::from_url(&format!("mqtt://127.0.0.1:{mqtt_port}/bench"))
-            .expect("url");
+        let mut m =
+            MqttSettings::from_url(&format!("mqtt://127.0.0.1:{mqtt_port}/bench")).expect("url");
         m.client_id = format!("acc-bench-{}", std::process::id());
         let mqtt = MqttPublisher::start(m, tap.subscribe(256)).expect("mqtt");
         for _ in 0..3 {
@@ -316,7 +316,10 @@ fn main() {
             (v[n / 2 - 1] + v[n / 2]) / 2.0
         }
     };
-    for (what, f) in [("mean", &mean as &dyn Fn(&[f64]) -> f64), ("median", &median)] {
+    for (what, f) in [
+        ("mean", &mean as &dyn Fn(&[f64]) -> f64),
+        ("median", &median),
+    ] {
         let (off, on) = (f(&p99s[0]), f(&p99s[1]));
         println!(
             "p99 lateness, {what} of rounds: off {off:.0} us, on {on:.0} us; on/off = {:.2}",

@@ -581,7 +581,10 @@ mod tests {
         .expect("listen");
         let a = srv.local_addr();
         let page = get(a, "GET / HTTP/1.1\r\nHost: x\r\n\r\n");
-        assert!(page.starts_with("HTTP/1.1 200 OK") && page.contains("<canvas"), "{page:.200}");
+        assert!(
+            page.starts_with("HTTP/1.1 200 OK") && page.contains("<canvas"),
+            "{page:.200}"
+        );
         assert!(page.contains("does not change the machine"));
         assert!(get(a, "GET /nope HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 404"));
 
@@ -594,11 +597,15 @@ mod tests {
             std::thread::sleep(Duration::from_millis(10));
         }
         let mut sse = TcpStream::connect(a).expect("connect");
-        sse.write_all(b"GET /events HTTP/1.1\r\n\r\n").expect("write");
+        sse.write_all(b"GET /events HTTP/1.1\r\n\r\n")
+            .expect("write");
         let got = read_until(&mut sse, |g| g.contains("\"p\":4"));
         assert!(got.contains("text/event-stream"), "{got}");
         assert!(got.contains("\"overload_n\":1600.0") && got.contains("\"title\":\"unit\""));
-        assert!(got.contains("\"p\":0") && got.contains("\"p\":4"), "history: {got}");
+        assert!(
+            got.contains("\"p\":0") && got.contains("\"p\":4"),
+            "history: {got}"
+        );
 
         tap.publish(&rec(5, 0b1_0000));
         let got = read_until(&mut sse, |g| g.contains("\"p\":5"));
@@ -618,7 +625,8 @@ mod tests {
         // A client that never reads: publishing stays immediate, its records are dropped
         // and counted, the first client still gets the newest record.
         let mut slow = TcpStream::connect(a).expect("connect");
-        slow.write_all(b"GET /events HTTP/1.1\r\n\r\n").expect("write");
+        slow.write_all(b"GET /events HTTP/1.1\r\n\r\n")
+            .expect("write");
         let t0 = Instant::now();
         while srv.stats().clients.load(Ordering::Relaxed) < 2 && t0.elapsed().as_secs() < 5 {
             std::thread::sleep(Duration::from_millis(10));
@@ -634,7 +642,10 @@ mod tests {
         drain(&mut sse);
         tap.publish(&rec(99_999, 0));
         let got = read_until(&mut sse, |g| g.contains("\"p\":99999"));
-        assert!(got.contains("\"p\":99999"), "reading client lags: {got:.300}");
+        assert!(
+            got.contains("\"p\":99999"),
+            "reading client lags: {got:.300}"
+        );
         let t0 = Instant::now();
         while srv.stats().dropped.load(Ordering::Relaxed) == 0 && t0.elapsed().as_secs() < 10 {
             std::thread::sleep(Duration::from_millis(10));
