@@ -9,6 +9,10 @@
 //! Chromium `--dump-dom` / `--screenshot` wait until the page's network is idle: the page's
 //! `?updates=N` closes its event stream after N updates (or the stream ends with the run).
 //! Skips with a printed reason without Chromium; fails under `CI`.
+//!
+//! `acc run --live` (the logger thread publishes through `TapSink`) and `acc board-sim
+//! --live` over a pty are checked with plain SSE readers (no browser needed): every period
+//! of the run log reaches the view, in order, then the `end` event.
 
 mod e2e_support;
 
@@ -18,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use e2e_support::{root, Proc};
+use e2e_support::{acc_bin, one_at_a_time, read_log, root, spawn_board_sim, Proc};
 
 fn chromium() -> Option<PathBuf> {
     let cands = [
@@ -123,6 +127,7 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     let Some(chromium) = chromium() else {
         return;
     };
+    let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("tempdir");
     let port = free_port();
     let addr = format!("127.0.0.1:{port}");
@@ -228,4 +233,112 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     let _ = sim.child.kill();
     let _ = sim.child.wait();
     let _ = root();
+}
+
+/// A plain SSE reader of `http://127.0.0.1:port/events` (retrying until it listens): all it
+/// read when the stream ended or `within` passed.
+fn sse_reader(port: u16, within: Duration) -> std::thread::JoinHandle<String> {
+    std::thread::spawn(move || {
+        let end = Instant::now() + within;
+        let mut s = loop {
+            match TcpStream::connect(("127.0.0.1", port)) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < end => std::thread::sleep(Duration::from_millis(20)),
+                Err(e) => panic!("live view on {port}: {e}"),
+            }
+        };
+        s.write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
+            .expect("request");
+        s.set_read_timeout(Some(Duration::from_millis(200)))
+            .expect("timeout");
+        let mut got = Vec::new();
+        let mut buf = [0u8; 16384];
+        while Instant::now() < end {
+            match s.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => got.extend_from_slice(&buf[..n]),
+                Err(_) => {}
+            }
+            if got.windows(10).any(|w| w == b"event: end") {
+                break;
+            }
+        }
+        String::from_utf8_lossy(&got).into_owned()
+    })
+}
+
+/// The periods of the records in an SSE transcript, in order.
+fn periods(sse: &str) -> Vec<u64> {
+    sse.lines()
+        .filter_map(|l| l.strip_prefix("data: "))
+        .filter_map(|d| serde_json::from_str::<serde_json::Value>(d).ok())
+        .filter_map(|v| v["recs"].as_array().cloned())
+        .flatten()
+        .filter_map(|r| r["p"].as_u64())
+        .collect()
+}
+
+#[test]
+fn acc_run_and_board_sim_serve_every_period_to_the_live_view() {
+    let _ = acc_bin();
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (p_run, p_board) = (free_port(), free_port());
+    let board_addr = format!("127.0.0.1:{p_board}");
+    let (board, pty) = spawn_board_sim(&["--live", &board_addr]);
+    let r_board = sse_reader(p_board, Duration::from_secs(20));
+    let r_run = sse_reader(p_run, Duration::from_secs(40));
+    let log = dir.path().join("run.csv");
+    let run_addr = format!("127.0.0.1:{p_run}");
+    let log_s = log.to_string_lossy().to_string();
+    let run = Proc::spawn(
+        &[
+            "run",
+            "--config",
+            "configs/runtime/board_sim_fast.toml",
+            "--port",
+            &pty,
+            "--log",
+            &log_s,
+            "--duration-s",
+            "8",
+            "--live",
+            &run_addr,
+        ],
+        false,
+    );
+    let (code, out, err) = run.finish(Duration::from_secs(30));
+    assert_eq!(code, Some(0), "{out}\n{err:?}");
+    drop(board);
+    let sse = r_run.join().expect("run reader");
+    assert!(sse.contains("text/event-stream") && sse.contains("event: hello"));
+    assert!(sse.contains("\"title\":\"acc run:"), "{sse:.400}");
+    assert!(
+        sse.contains("event: end"),
+        "no end event: {:.400}",
+        &sse[sse.len().saturating_sub(400)..]
+    );
+    let rows = read_log(&log);
+    let n = rows.len();
+    assert!(n >= 50, "{n} rows");
+    let got = periods(&sse);
+    // The reader connected while the run started: it has the history, then every period,
+    // in order, up to the run log's last.
+    let want: Vec<u64> = rows.iter().map(|r| r.period).collect();
+    let first = got.first().copied().expect("records");
+    assert_eq!(
+        got,
+        want.into_iter()
+            .skip_while(|p| *p < first)
+            .collect::<Vec<_>>(),
+        "the view's periods against the run log"
+    );
+    assert!(out.contains("telemetry: live view"), "{out}");
+    // The machine side: board-sim's records, the period advancing.
+    let b = periods(&r_board.join().expect("board reader"));
+    assert!(
+        b.len() > 20 && b.windows(2).all(|w| w[1] > w[0]),
+        "{} board-sim records",
+        b.len()
+    );
 }

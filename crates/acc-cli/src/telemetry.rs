@@ -2,6 +2,7 @@
 //! [`Tap`] with the MTConnect SHDR adapter, the MQTT publisher and the live view subscribed to it
 //! (docs/telemetry.md). The loop only ever calls [`Tap::publish`], which never waits.
 
+use std::io::Write as _;
 use std::net::SocketAddr;
 
 use acc_runtime::config::{parse_shdr_addr, MqttSettings, TelemetryConfig};
@@ -92,7 +93,13 @@ impl Telemetry {
                     LiveInfo::default(),
                 )
                 .with_context(|| format!("--live {a}: cannot listen"))?;
-                println!("telemetry: live view on http://{}/", srv.local_addr());
+                // Not println!: `acc board-sim`'s stdout may be a pipe whose reader took the
+                // pty line and went away; a closed stdout must not stop the machine.
+                let _ = writeln!(
+                    std::io::stdout(),
+                    "telemetry: live view on http://{}/",
+                    srv.local_addr()
+                );
                 Some(srv)
             }
             None => None,
@@ -158,11 +165,12 @@ impl Telemetry {
         }
         if let Some(l) = live {
             if secs > 0.0 {
-                println!("telemetry: live view stays up {secs} s");
+                let _ = writeln!(std::io::stdout(), "telemetry: live view stays up {secs} s");
                 std::thread::sleep(std::time::Duration::from_secs_f64(secs));
             }
             let st = l.stats();
-            println!(
+            let _ = writeln!(
+                std::io::stdout(),
                 "telemetry: live view {} records, {} clients served, {} records dropped (slow clients), {} acknowledges (view only)",
                 st.records.load(std::sync::atomic::Ordering::Relaxed),
                 st.accepted.load(std::sync::atomic::Ordering::Relaxed),

@@ -218,12 +218,26 @@ impl LiveServer {
         self.ctx.lock().info = info;
     }
 
-    /// Stop serving and join the threads (connection threads end at their next write).
+    /// Stop serving and join the threads (connection threads end at their next write). When
+    /// the tap is gone (the run is over), the clients first get the last records and the
+    /// `end` event.
     pub fn stop(mut self) {
         self.shutdown();
     }
 
     fn shutdown(&mut self) {
+        if self.threads.is_empty() {
+            return;
+        }
+        // Once the run is over (every tap clone dropped), let the hub hand out the last
+        // records and the clients write them and the `end` event (at most ~0.6 s).
+        let t0 = Instant::now();
+        while !self.ctx.lock().ended && t0.elapsed() < Duration::from_millis(500) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        if self.ctx.lock().ended {
+            std::thread::sleep(Duration::from_millis(2 * BATCH_MS));
+        }
         self.ctx.stop.store(true, Ordering::Relaxed);
         for t in self.threads.drain(..) {
             let _ = t.join();
