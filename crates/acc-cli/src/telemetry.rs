@@ -168,7 +168,7 @@ impl Telemetry {
                 let _ = writeln!(std::io::stdout(), "telemetry: live view stays up {secs} s");
                 std::thread::sleep(std::time::Duration::from_secs_f64(secs));
             }
-            let st = l.stats();
+            let st = l.stop();
             let _ = writeln!(
                 std::io::stdout(),
                 "telemetry: live view {} records, {} clients served, {} records dropped (slow clients), {} acknowledges (view only)",
@@ -177,7 +177,6 @@ impl Telemetry {
                 st.dropped.load(std::sync::atomic::Ordering::Relaxed),
                 st.acks.load(std::sync::atomic::Ordering::Relaxed),
             );
-            l.stop();
         }
     }
 }

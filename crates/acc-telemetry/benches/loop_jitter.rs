@@ -243,14 +243,14 @@ fn one_round(a: &Args, on: bool, dir: &std::path::Path, mqtt_port: u16) -> Round
     stop_clients.store(true, Ordering::Relaxed);
     let read: u64 = clients.into_iter().map(|c| c.join().unwrap_or(0)).sum();
     if let Some((live, shdr, mqtt)) = servers {
+        let st = live.stop();
         eprintln!(
             "  on: clients read {} kB; live view {} records, {} dropped; MQTT {} messages",
             read / 1000,
-            live.stats().records.load(Ordering::Relaxed),
-            live.stats().dropped.load(Ordering::Relaxed),
+            st.records.load(Ordering::Relaxed),
+            st.dropped.load(Ordering::Relaxed),
             mqtt.stats().queued.load(Ordering::Relaxed),
         );
-        live.stop();
         shdr.stop();
         mqtt.stop();
     }

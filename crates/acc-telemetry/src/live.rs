@@ -220,9 +220,10 @@ impl LiveServer {
 
     /// Stop serving and join the threads (connection threads end at their next write). When
     /// the tap is gone (the run is over), the clients first get the last records and the
-    /// `end` event.
-    pub fn stop(mut self) {
+    /// `end` event. Returns the final counters.
+    pub fn stop(mut self) -> Arc<LiveStats> {
         self.shutdown();
+        self.ctx.stats.clone()
     }
 
     fn shutdown(&mut self) {
