@@ -451,6 +451,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     };
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
     let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()), true)?;
+    tel.set_live_info(acc_telemetry::LiveInfo {
+        title: "acc board-sim (the simulated machine, as the board sees it)".into(),
+        overload_n: None,
+    });
     if args.wait_for_controller {
         while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
             std::thread::sleep(Duration::from_millis(2));

@@ -372,6 +372,10 @@ fn drive<P: Board + Send>(
     // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
     let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry), false)
         .exit_as(RunExit::Usage)?;
+    tel.set_live_info(acc_telemetry::LiveInfo {
+        title: format!("acc run: {}", args.config.display()),
+        overload_n: Some(cfg.policy.overload_force_n),
+    });
     // The wear and breakage watch and the tool history run on the logger thread, the
     // database writes on their own thread (bounded queue, never waited on).
     let RunSinks {

@@ -40,10 +40,14 @@ pub struct SimArgs {
     #[arg(long, value_name = "FILE")]
     pub history: Option<PathBuf>,
     /// Pace the run to wall time: machine seconds per wall second (default: as fast as
-    /// possible); e.g. `1` for real time while `--shdr` / `--mqtt` clients watch.
+    /// possible, or real time (`1`) with `--live`); e.g. `1` for real time while `--shdr` /
+    /// `--mqtt` clients watch.
     #[arg(long, value_name = "X")]
     pub time_scale: Option<f64>,
-    /// Telemetry (`--shdr`, `--mqtt`).
+    /// With `--live`: keep serving the page this long after the run ends, s (0 ..= 86400).
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    pub live_keep: f64,
+    /// Telemetry (`--shdr`, `--mqtt`, `--live`).
     #[command(flatten)]
     pub telemetry: crate::telemetry::TelemetryArgs,
 }
@@ -108,10 +112,17 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
             anyhow::bail!("--time-scale {x}: allowed 0.01 ..= 1000 (machine s per wall s)");
         }
     }
+    if !(args.live_keep.is_finite() && (0.0..=86_400.0).contains(&args.live_keep)) {
+        anyhow::bail!("--live-keep {}: allowed 0 ..= 86400 s", args.live_keep);
+    }
     let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()), false)?;
-    let pace = args
-        .time_scale
-        .map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));
+    tel.set_live_info(acc_telemetry::LiveInfo {
+        title: format!("acc sim: {}", sc.name),
+        overload_n: Some(sc.policy.overload_force_n),
+    });
+    // The operator watches the live view at real time unless --time-scale says otherwise.
+    let time_scale = args.time_scale.or(tel.has_live().then_some(1.0));
+    let pace = time_scale.map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));
     let t0 = std::time::Instant::now();
     let mut n = 0u32;
     let mut observe = |r: &RunRecord| {
@@ -133,7 +144,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         &mut |_| {},
         &mut observe,
     )?;
-    tel.finish();
+    tel.finish_lingering(args.live_keep);
     let summary = summarize(&result, &sc);
     println!("scenario: {} ({})", sc.name, sc.path.display());
     if let Some(model) = &args.model {
@@ -280,6 +291,7 @@ mod tests {
             no_plot: false,
             history: None,
             time_scale: None,
+            live_keep: 0.0,
             telemetry: Default::default(),
         };
         run_cmd(&args).expect("acc sim");

@@ -180,6 +180,8 @@ impl Default for RuntimeSection {
 pub struct TelemetrySection {
     /// MTConnect SHDR adapter address, `host:port` (e.g. `"0.0.0.0:7878"`).
     pub shdr: Option<String>,
+    /// Live view in the browser, listen address `host:port` (e.g. `"0.0.0.0:8080"`).
+    pub live: Option<String>,
     /// MQTT publisher.
     pub mqtt: Option<MqttSection>,
 }
@@ -263,6 +265,8 @@ impl MqttSettings {
 pub struct TelemetryConfig {
     /// SHDR adapter address.
     pub shdr: Option<std::net::SocketAddr>,
+    /// Live view address (docs/telemetry.md "Live view").
+    pub live: Option<std::net::SocketAddr>,
     /// MQTT destination.
     pub mqtt: Option<MqttSettings>,
 }
@@ -288,6 +292,12 @@ impl TelemetrySection {
             Some(a) => {
                 Some(parse_shdr_addr(a).map_err(|m| invalid("telemetry.shdr", format!("= {m}")))?)
             }
+            None => None,
+        };
+        let live = match &self.live {
+            Some(a) => Some(parse_shdr_addr(a).map_err(|m| {
+                invalid("telemetry.live", format!("= {}", m.replace("7878", "8080")))
+            })?),
             None => None,
         };
         let mqtt = match &self.mqtt {
@@ -321,7 +331,7 @@ impl TelemetrySection {
             }
             None => None,
         };
-        Ok(TelemetryConfig { shdr, mqtt })
+        Ok(TelemetryConfig { shdr, live, mqtt })
     }
 }
 
@@ -725,6 +735,13 @@ mod telemetry_tests {
         let e = section("[telemetry.mqtt]\nurl = \"mqtt://b\"\ntopic_prefix = \"a/#\"\n")
             .expect_err("wildcard");
         assert!(e.contains("telemetry.mqtt.topic_prefix"), "{e}");
+        let ok = section("[telemetry]\nlive = \"127.0.0.1:8080\"\n").expect("live");
+        assert_eq!(ok.live.map(|a| a.port()), Some(8080));
+        let e = section("[telemetry]\nlive = \"localhost:80\"\n").expect_err("bad live address");
+        assert!(
+            e.contains("telemetry.live") && e.contains("localhost:80") && e.contains("IP:PORT"),
+            "{e}"
+        );
         let e = section("[telemetry]\nshdr_addr = \"0.0.0.0:7878\"\n").expect_err("unknown key");
         assert!(e.contains("shdr_addr") && e.contains("shdr"), "{e}");
     }
