@@ -17,8 +17,11 @@ fn run_manual<P: acc_pmc::Board + Send, S: LogSink + Send>(
     stop: &AtomicBool,
     max: u64,
 ) -> acc_runtime::RunSummary {
+    // On the manual clock the control thread runs flat out; a queue that holds every period
+    // keeps a starved logger thread (a loaded test machine) from dropping rows.
     let opts = RunOptions {
         max_periods: Some(max),
+        log_queue: 1 << 20,
         ..RunOptions::new(Duration::from_millis(100))
     };
     run(pmc, ctl, ManualClock::new(), sink, stop, opts).expect("runs")
