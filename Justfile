@@ -70,4 +70,4 @@ soak:
 # Period jitter of the threaded loop, telemetry off vs live view + SHDR + MQTT with clients
 # (docs/telemetry.md "Live view"; dev profile: the jitter is the scheduler's, not the code's).
 live-jitter:
-    cargo bench --profile dev -p acc-telemetry --bench loop_jitter -- --periods 1000 --period-ms 10 --rounds 4
+    cargo bench --profile dev -p acc-telemetry --bench loop_jitter -- --periods 1000 --period-ms 10 --rounds 6
