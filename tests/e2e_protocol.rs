@@ -7,7 +7,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{one_at_a_time, spawn_board_sim, Proc};
+use e2e_support::{one_at_a_time, spawn_board_sim, spawn_run_for};
 
 /// `acc run --duration-s 2` against a board-sim started with `board_args`; returns its
 /// stdout and stderr lines.
@@ -15,21 +15,7 @@ fn short_run(board_args: &[&str]) -> (String, Vec<String>) {
     let dir = tempfile::tempdir().expect("temp dir");
     let log = dir.path().join("run.csv");
     let (board, pty) = spawn_board_sim(board_args);
-    let log_s = log.to_string_lossy().to_string();
-    let run = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            "configs/runtime/board_sim_fast.toml",
-            "--port",
-            &pty,
-            "--log",
-            &log_s,
-            "--duration-s",
-            "2",
-        ],
-        false,
-    );
+    let run = spawn_run_for("configs/runtime/board_sim_fast.toml", &pty, &log, "2", &[]);
     let (code, out, err) = run.finish(Duration::from_secs(30));
     assert_eq!(code, Some(0), "stdout:\n{out}\nstderr:\n{err:#?}");
     board.sigint();

@@ -8,7 +8,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{cmd, read_log, root, spawn_board_sim_on, Proc};
+use e2e_support::{cmd, read_log, root, spawn_board_sim_on, spawn_run_for};
 
 /// `configs/runtime/board_sim_fast.toml` with `[tools] file = configs/tooltable.toml`, written
 /// to `dir` with its relative paths made absolute.
@@ -39,20 +39,7 @@ fn acc_run_switches_the_force_limit_with_the_boards_tool_number() {
     let run_log = dir.path().join("run.csv");
     let (board, pty) = spawn_board_sim_on("configs/scenarios/two_tools.toml", &[]);
     // 15 mm of air at 150 %, then tool 1 to x = 60 mm (about 20 s), then tool 2.
-    let run = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            &config.to_string_lossy(),
-            "--port",
-            &pty,
-            "--log",
-            &run_log.to_string_lossy(),
-            "--duration-s",
-            "50",
-        ],
-        false,
-    );
+    let run = spawn_run_for(&config.to_string_lossy(), &pty, &run_log, "50", &[]);
     let (code, out, err) = run.finish(Duration::from_secs(60));
     drop(board);
     assert_eq!(

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use e2e_support::{acc_bin, one_at_a_time, read_log, root, spawn_board_sim, Proc};
+use e2e_support::{acc_bin, one_at_a_time, read_log, root, spawn_board_sim, spawn_run_for, Proc};
 
 fn chromium() -> Option<PathBuf> {
     let cands = [
@@ -290,22 +290,12 @@ fn acc_run_and_board_sim_serve_every_period_to_the_live_view() {
     let r_run = sse_reader(p_run, Duration::from_secs(40));
     let log = dir.path().join("run.csv");
     let run_addr = format!("127.0.0.1:{p_run}");
-    let log_s = log.to_string_lossy().to_string();
-    let run = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            "configs/runtime/board_sim_fast.toml",
-            "--port",
-            &pty,
-            "--log",
-            &log_s,
-            "--duration-s",
-            "8",
-            "--live",
-            &run_addr,
-        ],
-        false,
+    let run = spawn_run_for(
+        "configs/runtime/board_sim_fast.toml",
+        &pty,
+        &log,
+        "8",
+        &["--live", &run_addr],
     );
     let (code, out, err) = run.finish(Duration::from_secs(30));
     assert_eq!(code, Some(0), "{out}\n{err:?}");

@@ -8,7 +8,9 @@ mod e2e_support;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use e2e_support::{acc_bin, one_at_a_time, peer_ready, read_log, root, spawn_board_sim, Proc};
+use e2e_support::{
+    acc_bin, one_at_a_time, peer_ready, read_log, root, spawn_board_sim, spawn_run_for,
+};
 
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
@@ -233,26 +235,14 @@ fn acc_run_and_board_sim_shdr_over_a_pty() {
     let r_run = reader(p_run, 30);
     let log = dir.path().join("run.csv");
     let run_addr = format!("127.0.0.1:{p_run}");
-    let log_s = log.to_string_lossy().to_string();
     let no_broker = format!("mqtt://127.0.0.1:{}/acc", free_port());
-    let run = Proc::spawn(
-        &[
-            "run",
-            "--config",
-            "configs/runtime/board_sim_fast.toml",
-            "--port",
-            &pty,
-            "--log",
-            &log_s,
-            "--duration-s",
-            "12",
-            "--shdr",
-            &run_addr,
-            // No broker there: the run keeps its period, telemetry keeps retrying.
-            "--mqtt",
-            &no_broker,
-        ],
-        false,
+    // No broker at --mqtt: the run keeps its period, telemetry keeps retrying.
+    let run = spawn_run_for(
+        "configs/runtime/board_sim_fast.toml",
+        &pty,
+        &log,
+        "12",
+        &["--shdr", &run_addr, "--mqtt", &no_broker],
     );
     let (code, out, err) = run.finish(Duration::from_secs(30));
     assert_eq!(code, Some(0), "{out}\n{err:?}");

@@ -289,6 +289,25 @@ pub fn spawn_run(config: &str, pty: &str, log: &Path) -> Proc {
     )
 }
 
+/// Start `acc run --config <config> --port <pty> --log <log> --duration-s <secs>` plus
+/// `extra` arguments (it ends by itself after `secs` of machine time).
+pub fn spawn_run_for(config: &str, pty: &str, log: &Path, secs: &str, extra: &[&str]) -> Proc {
+    let log = log.to_string_lossy();
+    let mut args = vec![
+        "run",
+        "--config",
+        config,
+        "--port",
+        pty,
+        "--log",
+        &log,
+        "--duration-s",
+        secs,
+    ];
+    args.extend_from_slice(extra);
+    Proc::spawn(&args, false)
+}
+
 /// Ctrl-C to `acc run`; it must exit 0. Returns its stdout and stderr lines.
 pub fn interrupt_expect_clean_exit(run: Proc) -> (String, Vec<String>) {
     run.sigint();
