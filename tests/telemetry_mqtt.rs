@@ -231,6 +231,31 @@ fn acc_sim_mqtt_to_mosquitto_survives_a_broker_restart() {
             .filter(|(t, _)| t != "acctest/period")
             .collect::<Vec<_>>()
     );
+    // The per-cut record, computed by the publisher with the same `CutRecorder` as
+    // `acc report`, matches the one computed offline from the run log.
+    let cuts: Vec<serde_json::Value> = before
+        .iter()
+        .chain(&after)
+        .filter(|(t, _)| t == "acctest/cut")
+        .map(|(_, p)| serde_json::from_str(p).expect("cut JSON"))
+        .collect();
+    let mut rec = acc_runtime::cuts::CutRecorder::new(0.1);
+    let mut offline: Vec<_> = rows.iter().filter_map(|r| rec.push(r)).collect();
+    offline.extend(rec.finish());
+    assert!(!offline.is_empty(), "the run has a cut");
+    assert_eq!(cuts.len(), offline.len(), "cut messages: {cuts:?}");
+    for (m, c) in cuts.iter().zip(&offline) {
+        let near = |key: &str, want: f64| {
+            let got = m[key].as_f64().unwrap_or(f64::NAN);
+            assert!(
+                (got - want).abs() <= 0.02 * want.abs().max(1.0),
+                "{key}: {got} published, {want} offline"
+            );
+        };
+        near("time_in_cut_s", c.time_in_cut_s);
+        near("force_mean_n", c.force_mean_n);
+        near("time_saved_s", c.time_saved_s);
+    }
     // What piled up while the broker was down (about 1 s: 100 periods, under rumqttc's
     // queue of 256) went out after the reconnect: nearly every period arrived.
     let mut seen: Vec<u64> = p1

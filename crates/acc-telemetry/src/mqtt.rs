@@ -139,8 +139,9 @@ impl PeriodJson {
     }
 }
 
-/// A per-cut record as published on `<prefix>/cut` (plain data: whoever computes the
-/// per-cut records — issue 14's report — fills it and calls [`MqttPublisher::publish_cut`]).
+/// A per-cut record as published on `<prefix>/cut`: the publisher's thread computes them
+/// from the records it receives ([`CutJson::of`]); [`MqttPublisher::publish_cut`] publishes
+/// one from elsewhere.
 #[derive(Debug, Clone, Serialize, PartialEq, Default)]
 pub struct CutJson {
     /// Tool number.
@@ -163,6 +164,80 @@ pub struct CutJson {
     pub time_saved_s: f64,
     /// Alarms raised in the cut (names).
     pub alarms: Vec<String>,
+}
+
+impl CutJson {
+    /// The published form of a per-cut record (0 = unknown becomes `null`; alarm names from
+    /// the run log's alarm bits, then the watch's).
+    pub fn of(c: &acc_runtime::cuts::CutRecord) -> Self {
+        let known = |v: u16| (v != 0).then_some(v);
+        let names = [
+            "link",
+            "power",
+            "watchdog",
+            "board_reset",
+            "overload",
+            "breakage",
+        ];
+        let mut alarms: Vec<String> = names
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| c.alarm_bits & (1 << i) != 0)
+            .map(|(_, n)| (*n).to_string())
+            .collect();
+        alarms.extend(c.watch_alarms.iter().cloned());
+        CutJson {
+            tool: known(c.tool),
+            program: known(c.program),
+            block_first: known(c.block_first),
+            block_last: known(c.block_last),
+            t_start_s: c.t_start_s,
+            time_in_cut_s: c.time_in_cut_s,
+            force_mean_n: c.force_mean_n,
+            force_max_n: c.force_max_n,
+            time_saved_s: c.time_saved_s,
+            alarms,
+        }
+    }
+}
+
+/// A [`acc_runtime::cuts::CutRecorder`] whose period is taken from the first two records'
+/// times (the publisher is not told the loop's period).
+#[derive(Debug, Default)]
+struct CutFeed {
+    first_t_s: Option<f64>,
+    pending: Vec<RunRecord>,
+    rec: Option<acc_runtime::cuts::CutRecorder>,
+}
+
+impl CutFeed {
+    fn push(&mut self, r: &RunRecord) -> Option<acc_runtime::cuts::CutRecord> {
+        if self.rec.is_none() {
+            match self.first_t_s {
+                None => {
+                    self.first_t_s = Some(r.t_s);
+                    self.pending.push(r.clone());
+                    return None;
+                }
+                Some(t0) => {
+                    let dt = r.t_s - t0;
+                    let period_s = if dt.is_finite() && dt > 0.0 { dt } else { 0.1 };
+                    let mut rec = acc_runtime::cuts::CutRecorder::new(period_s);
+                    for p in self.pending.drain(..) {
+                        let _ = rec.push(&p);
+                    }
+                    self.rec = Some(rec);
+                }
+            }
+        }
+        self.rec.as_mut().and_then(|rec| rec.push(r))
+    }
+
+    fn finish(&mut self) -> Option<acc_runtime::cuts::CutRecord> {
+        self.rec
+            .as_mut()
+            .and_then(acc_runtime::cuts::CutRecorder::finish)
+    }
 }
 
 /// Counters of a running publisher.
@@ -260,7 +335,20 @@ impl MqttPublisher {
                     .name("mqtt-pub".into())
                     .spawn(move || {
                         let topic = cfg.topic("period");
+                        let cut_topic = cfg.topic("cut");
                         let status = cfg.topic("status");
+                        // The per-cut records, from the records this thread receives (the
+                        // same `CutRecorder` as `acc report` and the tool history).
+                        let mut cuts = CutFeed::default();
+                        let publish_cut = |c: &acc_runtime::cuts::CutRecord| {
+                            let Ok(body) = serde_json::to_vec(&CutJson::of(c)) else {
+                                return;
+                            };
+                            match client.try_publish(cut_topic.clone(), qos(&cfg), false, body) {
+                                Ok(()) => stats.queued.fetch_add(1, Ordering::Relaxed),
+                                Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
+                            };
+                        };
                         loop {
                             if stats.online_pending.load(Ordering::SeqCst)
                                 && client
@@ -271,6 +359,9 @@ impl MqttPublisher {
                             }
                             match sub.recv_timeout(Duration::from_millis(50)) {
                                 Ok(r) => {
+                                    if let Some(c) = cuts.push(&r) {
+                                        publish_cut(&c);
+                                    }
                                     let Ok(body) = serde_json::to_vec(&PeriodJson::of(&r)) else {
                                         continue;
                                     };
@@ -282,11 +373,17 @@ impl MqttPublisher {
                                 }
                                 Err(RecvTimeoutError::Timeout) => {
                                     if stop.load(Ordering::SeqCst) {
+                                        if let Some(c) = cuts.finish() {
+                                            publish_cut(&c);
+                                        }
                                         break;
                                     }
                                 }
                                 Err(RecvTimeoutError::Disconnected) => {
                                     if stop.load(Ordering::SeqCst) {
+                                        if let Some(c) = cuts.finish() {
+                                            publish_cut(&c);
+                                        }
                                         break;
                                     }
                                     std::thread::sleep(Duration::from_millis(50));
