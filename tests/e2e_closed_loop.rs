@@ -55,15 +55,7 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
 
     // The machine's log, judged like `acc sim`.
     let sc = Scenario::load(&scenario).expect("scenario");
-    let sim_rows = read_log(&sim_log);
-    let result = RunResult {
-        law: "acc run over a pty".into(),
-        finished: true,
-        volume_mm3: 0.0,
-        rows: sim_rows,
-        ended_in_feed_hold: false,
-    };
-    let summary = summarize(&result, &sc);
+    let summary = e2e_support::machine_summary(&sim_log, &sc, "acc run over a pty");
     let fr = sc.controller.force_ref_n;
     let mut judged = 0;
     for seg in summary.segments.iter().filter(|s| s.reaches_ref) {

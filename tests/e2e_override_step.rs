@@ -8,7 +8,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use acc_sim::{summarize, RunResult, Scenario};
+use acc_sim::Scenario;
 use e2e_support::{
     assert_faults_never_raise, interrupt_expect_clean_exit, read_log, root, spawn_board_sim_on,
     spawn_run,
@@ -96,15 +96,7 @@ fn acc_run_drives_a_one_percent_board_with_sigma_delta() {
         "no command off the board's grid"
     );
 
-    let sim_rows = read_log(&sim_log);
-    let result = RunResult {
-        law: "acc run, 1 % board, σ-Δ".into(),
-        finished: true,
-        volume_mm3: 0.0,
-        rows: sim_rows,
-        ended_in_feed_hold: false,
-    };
-    let summary = summarize(&result, &sc);
+    let summary = e2e_support::machine_summary(&sim_log, &sc, "acc run, 1 % board, σ-Δ");
     let fr = sc.controller.force_ref_n;
     let mut judged = 0;
     for seg in summary.segments.iter().filter(|s| s.reaches_ref) {

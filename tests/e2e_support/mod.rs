@@ -187,6 +187,19 @@ impl Drop for Proc {
     }
 }
 
+/// The simulator's summary of a machine-side run log (`acc board-sim --log`) of `scenario`,
+/// judged like `acc sim` judges its own runs.
+pub fn machine_summary(log: &Path, scenario: &acc_sim::Scenario, law: &str) -> acc_sim::Summary {
+    let result = acc_sim::RunResult {
+        law: law.into(),
+        finished: true,
+        volume_mm3: 0.0,
+        rows: read_log(log),
+        ended_in_feed_hold: false,
+    };
+    acc_sim::summarize(&result, scenario)
+}
+
 /// Read a run log.
 pub fn read_log(path: &Path) -> Vec<RunRecord> {
     let f = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -7,7 +7,7 @@ use acc_runtime::watch::{BreakageDetector, BreakageSample, WatchLimits};
 
 // A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
 #[allow(unsafe_code)]
-#[path = "support/counting_alloc.rs"]
+#[path = "../../acc-core/tests/support/counting_alloc.rs"]
 mod counting_alloc;
 use counting_alloc::allocations;
 
