@@ -34,6 +34,11 @@ fn main() {
     );
     let t = std::time::Instant::now();
     let v = run_case(&sc, hidden, ch, seed).expect("case");
+    if std::env::var_os("TWIN_EXPLAIN").is_some() {
+        for l in &v.explanation {
+            println!("  {l}");
+        }
+    }
     println!(
         "{wp} {} {ch:?} {seed}: {v:?} ({:.1} s)",
         hidden.label(),

@@ -167,6 +167,71 @@ pub fn pooled_noise_diff(stretches: &[&[f64]]) -> Noise {
     }
 }
 
+/// Lags over which [`pooled_noise_variogram`] averages the semivariogram, rows.
+pub const PLATEAU_LAGS: std::ops::RangeInclusive<usize> = 4..=10;
+
+/// Pooled noise from the semivariogram's plateau: `γ(k) = ½·E[(e_{t+k} − e_t)²]` within
+/// each stretch, averaged over the lags [`PLATEAU_LAGS`], is `σ²(1 − ρ_k)` → `σ²` once the
+/// lags are past the noise's correlation. Unlike the lag-1 AR(1) correction of
+/// [`pooled_noise_diff`] it holds for noise that is coloured beyond AR(1) — the
+/// spindle-power channel's residual wanders with a period of ≈ 8 rows (lag-4
+/// autocorrelation ≈ −0.6, lag-8 ≈ +0.6), which the AR(1) estimate puts at ≈ 0.6× its
+/// variance (docs/twin.md). Within each stretch differences remove its level; per lag,
+/// differences beyond 4.5 robust σ (1.4826·MAD) are left out (spikes). The result is the
+/// larger of this and [`pooled_noise_diff`]; ρ is `1 − γ(1)/σ²` (the lag-1 correlation
+/// the segment tests use). Stretches shorter than 12 rows only enter the lag-1 estimate.
+pub fn pooled_noise_variogram(stretches: &[&[f64]]) -> Noise {
+    let base = pooled_noise_diff(stretches);
+    let long: Vec<&[f64]> = stretches
+        .iter()
+        .copied()
+        .filter(|s| s.len() >= 12)
+        .collect();
+    let mut gammas = Vec::new();
+    let mut g1 = None;
+    for k in std::iter::once(1).chain(PLATEAU_LAGS) {
+        let mut d: Vec<f64> = long
+            .iter()
+            .flat_map(|s| (k..s.len()).map(move |i| s[i] - s[i - k]))
+            .collect();
+        if d.len() < 30 {
+            continue;
+        }
+        let mut a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
+        let mid = a.len() / 2;
+        let (_, m, _) = a.select_nth_unstable_by(mid, f64::total_cmp);
+        let limit = if *m > 0.0 {
+            4.5 * 1.4826 * *m
+        } else {
+            f64::INFINITY
+        };
+        d.retain(|v| v.abs() <= limit);
+        if d.is_empty() {
+            continue;
+        }
+        let g = 0.5 * d.iter().map(|v| v * v).sum::<f64>() / d.len() as f64;
+        if k == 1 {
+            g1 = Some(g);
+        } else {
+            gammas.push(g);
+        }
+    }
+    if gammas.is_empty() {
+        return base;
+    }
+    let plateau = gammas.iter().sum::<f64>() / gammas.len() as f64;
+    let s2 = plateau.max(base.sigma * base.sigma);
+    if s2 <= 0.0 {
+        return base;
+    }
+    let rho = g1.map_or(base.rho, |g| (1.0 - g / s2).clamp(-0.9, 0.95));
+    Noise {
+        sigma: s2.sqrt(),
+        rho,
+        samples: base.samples,
+    }
+}
+
 /// Pearson correlation of `x` and `y` and its two-sided p-value, with the effective
 /// sample size of two AR(1) series (Bretherton et al. 1999, eq. 31).
 pub fn correlation(x: &[f64], y: &[f64]) -> (f64, f64) {

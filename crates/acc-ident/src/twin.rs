@@ -389,6 +389,8 @@ pub struct Verdict {
     pub withheld: Vec<String>,
     /// The report's conclusion.
     pub conclusion: String,
+    /// The report's "what was done and why" (`report.explanation`).
+    pub explanation: Vec<String>,
 }
 
 /// The logging-path effects ([`Hidden::LogGainDrift`], [`Hidden::LogDelay`],
@@ -486,5 +488,6 @@ pub fn run_case(
         covered,
         withheld: a.report.withheld.iter().map(|w| w.effect.clone()).collect(),
         conclusion: a.report.conclusion.clone(),
+        explanation: a.report.explanation.clone(),
     })
 }

@@ -355,11 +355,16 @@ fn noise_raw(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
     use crate::segment::Regime;
     let stretches: Vec<&[f64]> = segs
         .iter()
-        .filter(|s| matches!(s.regime, Regime::Air | Regime::SteadyCut) && s.end <= n)
+        .filter(|s| {
+            matches!(
+                s.regime,
+                Regime::Air | Regime::SteadyCut | Regime::OverrideStep
+            ) && s.end <= n
+        })
         .filter(|s| s.end - s.start >= 8)
         .map(|s| &residual[s.start..s.end])
         .collect();
-    let nz = stats::pooled_noise_diff(&stretches);
+    let nz = stats::pooled_noise_variogram(&stretches);
     if nz.samples >= 30 && nz.sigma > 0.0 {
         return nz;
     }
