@@ -60,7 +60,10 @@ fn the_replay_with_the_new_candidates_at_the_truth_is_the_simulator() {
         EffectKind::DepthExponent,
         &|b| vec![(0, 1.15 - b.tool.process.alpha)],
     );
-    assert!(before > 10.0 * s, "depth exponent: nominal {before:.2} vs σ {s:.2}");
+    assert!(
+        before > 10.0 * s,
+        "depth exponent: nominal {before:.2} vs σ {s:.2}"
+    );
     assert!(after <= 1.6 * s, "depth exponent: {after:.2} vs σ {s:.2}");
     // Second-order drive τ₂ = 0.15 s.
     let (before, after, s) = replay_with(
@@ -107,8 +110,16 @@ fn the_replay_with_the_new_candidates_at_the_truth_is_the_simulator() {
     assert!((b - b_true).abs() < 1e-9, "{b} vs {b_true}");
     let r0 = twin::replay_residual(&model, &log, Some((&wp, 0.0))).expect("replay");
     let s = sigma(&res).max(0.5);
-    assert!(rms(&r0) > 10.0 * s, "ks step: nominal {:.2} vs σ {s:.2}", rms(&r0));
-    assert!(rms(&res) <= 1.6 * s, "ks step: {:.2} vs σ {s:.2}", rms(&res));
+    assert!(
+        rms(&r0) > 10.0 * s,
+        "ks step: nominal {:.2} vs σ {s:.2}",
+        rms(&r0)
+    );
+    assert!(
+        rms(&res) <= 1.6 * s,
+        "ks step: {:.2} vs σ {s:.2}",
+        rms(&res)
+    );
 }
 
 #[test]

@@ -102,7 +102,14 @@ const P_KS_STEP: [ParamInfo; 2] = [
     p("delta", "1", -0.6, 1.5, 0.02, None),
     ParamInfo {
         null: 0.5,
-        ..p("boundary_frac", "1", 0.01, 0.99, 0.005, Some(KS_BOUNDARY_GRID))
+        ..p(
+            "boundary_frac",
+            "1",
+            0.01,
+            0.99,
+            0.005,
+            Some(KS_BOUNDARY_GRID),
+        )
     },
 ];
 /// Coarse grid of the second lag (each point is a full plant replay); LM refines.

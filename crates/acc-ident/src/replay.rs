@@ -272,10 +272,7 @@ impl Inputs {
         }
         d.sort_by(f64::total_cmp);
         let med = d[d.len() / 2];
-        let near = d
-            .iter()
-            .filter(|x| (*x - med).abs() <= 0.05 * med)
-            .count();
+        let near = d.iter().filter(|x| (*x - med).abs() <= 0.05 * med).count();
         near >= MIN_SIDE_ROWS && d.len() - near >= MIN_SIDE_ROWS
     }
 
@@ -516,13 +513,7 @@ impl KsStepShape<'_> {
 }
 
 /// The replayed feed (period mean and force-window mean), mm/min.
-fn feed_path(
-    inp: &Inputs,
-    delay_s: f64,
-    tau: f64,
-    tau2: f64,
-    window: f64,
-) -> (Vec<f64>, Vec<f64>) {
+fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, tau2: f64, window: f64) -> (Vec<f64>, Vec<f64>) {
     let n = inp.len();
     let mut feed = vec![0.0; n];
     let mut window_feed = vec![0.0; n];
@@ -688,8 +679,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         delay_s: model.machine.override_path.delay_s
             + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
         tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
-        tau2_s: model.machine.feed_drive.tau2_s
-            + fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
+        tau2_s: model.machine.feed_drive.tau2_s + fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
         window_s: if inp.plant.is_some() {
             channel_window_s(model, inp)
         } else {
@@ -859,7 +849,11 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         }
         out.force_n[i] = force;
         chan_force[i] = if windowed {
-            force_at(out.window_feed_mm_min[i], cached.unit_window_force[i], ks_win)
+            force_at(
+                out.window_feed_mm_min[i],
+                cached.unit_window_force[i],
+                ks_win,
+            )
         } else {
             force
         };
