@@ -44,16 +44,18 @@ fn library() -> Vec<Hidden> {
         Hidden::LogGainDrift(0.06),
         Hidden::LogDelay(1),
         Hidden::LogDelay(3),
-    ]
-}
-
-/// Ten effects outside the library, at two amplitudes (the tooth model at one).
-fn out_of_library() -> Vec<Hidden> {
-    vec![
         Hidden::DepthExponent(0.85),
         Hidden::DepthExponent(1.15),
         Hidden::KsStep(0.8),
         Hidden::KsStep(1.3),
+        Hidden::SecondOrderDrive(0.05),
+        Hidden::SecondOrderDrive(0.15),
+    ]
+}
+
+/// Effects outside the library, at two amplitudes (the tooth model at one).
+fn out_of_library() -> Vec<Hidden> {
+    vec![
         Hidden::ToothModel,
         Hidden::DepthScale(0.9),
         Hidden::DepthScale(1.1),
@@ -65,8 +67,6 @@ fn out_of_library() -> Vec<Hidden> {
         Hidden::EntryChamfer(8.0),
         Hidden::KsTimeDrift(0.05),
         Hidden::KsTimeDrift(0.15),
-        Hidden::SecondOrderDrive(0.05),
-        Hidden::SecondOrderDrive(0.15),
         Hidden::LogSpikes(0.2),
         Hidden::LogSpikes(0.5),
     ]

@@ -44,6 +44,16 @@ pub enum EffectKind {
     /// Pure delay of the measured channel: the logged value is the channel's `d` seconds
     /// earlier (a buffer, a transport delay), linear between rows.
     MeasurementDelay,
+    /// Depth exponent α ≠ nominal: the force law's radial-depth exponent becomes
+    /// `α + Δα` with `Ks` re-solved at the calibration point (physics.md eq. (1), the
+    /// simulator's `tool.process.alpha`).
+    DepthExponent,
+    /// A `Ks` step at a material boundary: `Ks × (1 + δ)` for the material after a
+    /// boundary on the tool path (the simulator's segment `ks_factor`).
+    KsStep,
+    /// A second-order feed drive: a second first-order lag `τ₂` in series with the drive
+    /// lag (the simulator's `feed_drive.tau2_s`).
+    SecondOrderDrive,
 }
 
 /// Description of one effect parameter.
@@ -82,6 +92,29 @@ const PHASE_GRID: &[f64] = &[
 const MEAS_DELAY_GRID: &[f64] = &[0.0, 0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.6, 0.8];
 const P_GAIN_DRIFT: [ParamInfo; 1] = [p("gain_per_min", "1/min", -0.5, 0.5, 0.002, None)];
 const P_MEAS_DELAY: [ParamInfo; 1] = [p("delay_s", "s", 0.0, 1.5, 0.02, Some(MEAS_DELAY_GRID))];
+const P_DEPTH_EXP: [ParamInfo; 1] = [p("delta_alpha", "1", -0.5, 0.5, 0.02, None)];
+/// Boundary of a [`KsStep`] as a fraction of the cut path (see [`KsStep::boundary_frac`]).
+const KS_BOUNDARY_GRID: &[f64] = &[
+    0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85,
+    0.9, 0.95,
+];
+const P_KS_STEP: [ParamInfo; 2] = [
+    p("delta", "1", -0.6, 1.5, 0.02, None),
+    ParamInfo {
+        null: 0.5,
+        ..p(
+            "boundary_frac",
+            "1",
+            0.01,
+            0.99,
+            0.005,
+            Some(KS_BOUNDARY_GRID),
+        )
+    },
+];
+/// Coarse grid of the second lag (each point is a full plant replay); LM refines.
+const TAU2_GRID: &[f64] = &[0.0, 0.05, 0.12, 0.25, 0.45];
+const P_TAU2: [ParamInfo; 1] = [p("tau2_s", "s", 0.0, 0.99, 0.02, Some(TAU2_GRID))];
 const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
 const fn p(
@@ -199,7 +232,7 @@ impl EffectKind {
     ];
 
     /// All effects, in report order.
-    pub const ALL: [EffectKind; 10] = [
+    pub const ALL: [EffectKind; 13] = [
         EffectKind::ToolWear,
         EffectKind::MotorEfficiency,
         EffectKind::FeedDriveLag,
@@ -210,6 +243,9 @@ impl EffectKind {
         EffectKind::NoloadDrift,
         EffectKind::SensorGainDrift,
         EffectKind::MeasurementDelay,
+        EffectKind::DepthExponent,
+        EffectKind::KsStep,
+        EffectKind::SecondOrderDrive,
     ];
 
     /// Name used in files and reports.
@@ -225,6 +261,9 @@ impl EffectKind {
             EffectKind::NoloadDrift => "noload_drift",
             EffectKind::SensorGainDrift => "sensor_gain_drift",
             EffectKind::MeasurementDelay => "measurement_delay",
+            EffectKind::DepthExponent => "depth_exponent",
+            EffectKind::KsStep => "ks_step",
+            EffectKind::SecondOrderDrive => "second_order_drive",
         }
     }
 
@@ -247,6 +286,9 @@ impl EffectKind {
             EffectKind::NoloadDrift => &P_DRIFT,
             EffectKind::SensorGainDrift => &P_GAIN_DRIFT,
             EffectKind::MeasurementDelay => &P_MEAS_DELAY,
+            EffectKind::DepthExponent => &P_DEPTH_EXP,
+            EffectKind::KsStep => &P_KS_STEP,
+            EffectKind::SecondOrderDrive => &P_TAU2,
         }
     }
 
@@ -295,6 +337,30 @@ impl EffectKind {
             }
             (MotorEfficiency, NoloadDrift) => {
                 "air-cut pauses at the start and end: drift moves the air power, load-dependent losses do not"
+            }
+            (MotorEfficiency, DepthExponent) => {
+                "constant-feed passes at two radial depths and, at one depth, two feeds: the depth exponent changes the force ratio between depths only, load-dependent losses follow the load whichever input changes it"
+            }
+            (FeedExponent, DepthExponent) => {
+                "a constant-feed pass at two radial depths (override fixed): only the depth exponent changes the force ratio; then a feed step at one depth: only the feed exponent responds"
+            }
+            (ToolWear, DepthExponent) => {
+                "two radial depths cut alternately (shallow, deep, shallow, deep) on a fresh tool: the depth exponent repeats the same ratio every time, wear drifts both up with removed volume"
+            }
+            (ToolWear, KsStep) => {
+                "a pass over the boundary and back (or the boundary cut first on a fresh tool): a material step sits at a place and jumps there, wear grows smoothly with removed volume"
+            }
+            (KsStep, SensorGainDrift) => {
+                "air-cut pauses before and after the boundary, and the boundary region cut again later: a material step acts only while cutting and at its place, a gain drift scales with time everywhere"
+            }
+            (NoloadDrift, KsStep) => {
+                "an air-cut pause just before and just after the boundary: a no-load drift moves the air power, a material step only the cutting power"
+            }
+            (FeedDriveLag, SecondOrderDrive)
+            | (OverrideDeadTime, SecondOrderDrive)
+            | (SensorLowpass, SecondOrderDrive)
+            | (SecondOrderDrive, MeasurementDelay) => {
+                "a large override step (≥ 30 %) held for several seconds, then a depth step at constant feed: a second-order drive starts the feed response with zero slope (an S-curve) and leaves the depth step sharp; a first-order lag starts it at full slope, a dead time shifts it unrounded, a sensor low-pass or a measurement delay also smears or shifts the depth step"
             }
             _ => {
                 "a run with an air-cut pause, an override step and a depth step at constant feed: each excites a different pair of effects"
@@ -350,6 +416,71 @@ pub struct FeedExponent {
     pub feed_ref_mm_min: f64,
 }
 
+/// Depth exponent change (`[effects.depth_exponent]`): the force law's radial-depth
+/// exponent becomes `α + Δα`, `Ks` re-solved at the calibration point (the simulator's
+/// [`acc_sim::process::ForceLaw::new`]). Null: `Δα = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepthExponent {
+    /// Exponent change Δα, 1. Range −0.5 ..= 0.5.
+    pub delta_alpha: f64,
+}
+
+/// A `Ks` step at a material boundary (`[effects.ks_step]`): the force is `× (1 + δ)` once
+/// the tool centre has passed the boundary. The boundary is placed as a fraction of the
+/// log's cut path — from the tool-centre position where the first cutting row begins to
+/// where the last one ends — so a fit can grid it without knowing the part; the replay
+/// states it in mm ([`crate::replay::Replay::ks_step_boundary_mm`]). Null: `δ = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KsStep {
+    /// Relative `Ks` change after the boundary, 1. Range −0.6 ..= 1.5.
+    pub delta: f64,
+    /// Boundary as a fraction of the cut path, 1. Range 0.01 ..= 0.99 (default 0.5).
+    #[serde(default = "half")]
+    pub boundary_frac: f64,
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+impl KsStep {
+    /// Boundary position, mm, on a cut path from `x_first_mm` to `x_last_mm`.
+    pub fn boundary_mm(&self, x_first_mm: f64, x_last_mm: f64) -> f64 {
+        x_first_mm + self.boundary_frac * (x_last_mm - x_first_mm)
+    }
+
+    /// The `Ks` factor averaged over a stretch of path `[x0_mm, x1_mm]` (tool-centre
+    /// positions, mm) for a boundary at `b_mm`: `1 + δ·(part of the stretch past b)`.
+    pub fn mean_factor(&self, b_mm: f64, x0_mm: f64, x1_mm: f64) -> f64 {
+        let (lo, hi) = if x0_mm <= x1_mm {
+            (x0_mm, x1_mm)
+        } else {
+            (x1_mm, x0_mm)
+        };
+        let past = if hi - lo < 1e-12 {
+            if lo >= b_mm {
+                1.0
+            } else {
+                0.0
+            }
+        } else {
+            ((hi - b_mm) / (hi - lo)).clamp(0.0, 1.0)
+        };
+        1.0 + self.delta * past
+    }
+}
+
+/// A second lag in series with the feed drive (`[effects.second_order_drive]`), added to
+/// the machine's `feed_drive.tau2_s`. Null: 0 s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SecondOrderDrive {
+    /// Second time constant, s. Range 0 ..= 0.99 (the simulator allows τ₂ ≤ 1 s).
+    pub tau2_s: f64,
+}
+
 /// The `[effects]` section: each effect absent (off) or present with its parameters.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -384,6 +515,15 @@ pub struct Effects {
     /// Pure delay of the measured channel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measurement_delay: Option<MeasurementDelay>,
+    /// Depth exponent change.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_exponent: Option<DepthExponent>,
+    /// `Ks` step at a material boundary.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ks_step: Option<KsStep>,
+    /// Second-order feed drive.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub second_order_drive: Option<SecondOrderDrive>,
 }
 
 /// Gain drift of the measured channel (`[effects.sensor_gain_drift]`). Null: 0.
@@ -457,6 +597,9 @@ impl Effects {
             EffectKind::NoloadDrift => self.noload_drift.is_some(),
             EffectKind::SensorGainDrift => self.sensor_gain_drift.is_some(),
             EffectKind::MeasurementDelay => self.measurement_delay.is_some(),
+            EffectKind::DepthExponent => self.depth_exponent.is_some(),
+            EffectKind::KsStep => self.ks_step.is_some(),
+            EffectKind::SecondOrderDrive => self.second_order_drive.is_some(),
         }
     }
 
@@ -481,6 +624,9 @@ impl Effects {
             EffectKind::NoloadDrift => self.noload_drift = None,
             EffectKind::SensorGainDrift => self.sensor_gain_drift = None,
             EffectKind::MeasurementDelay => self.measurement_delay = None,
+            EffectKind::DepthExponent => self.depth_exponent = None,
+            EffectKind::KsStep => self.ks_step = None,
+            EffectKind::SecondOrderDrive => self.second_order_drive = None,
         }
     }
 
@@ -502,6 +648,10 @@ impl Effects {
             (EffectKind::NoloadDrift, 1) => self.noload_drift.map(|e| e.tau_s),
             (EffectKind::SensorGainDrift, 0) => self.sensor_gain_drift.map(|e| e.gain_per_min),
             (EffectKind::MeasurementDelay, 0) => self.measurement_delay.map(|e| e.delay_s),
+            (EffectKind::DepthExponent, 0) => self.depth_exponent.map(|e| e.delta_alpha),
+            (EffectKind::KsStep, 0) => self.ks_step.map(|e| e.delta),
+            (EffectKind::KsStep, 1) => self.ks_step.map(|e| e.boundary_frac),
+            (EffectKind::SecondOrderDrive, 0) => self.second_order_drive.map(|e| e.tau2_s),
             _ => None,
         }
         .unwrap_or(null)
@@ -569,6 +719,23 @@ impl Effects {
             }
             EffectKind::MeasurementDelay => {
                 self.measurement_delay = Some(MeasurementDelay { delay_s: v })
+            }
+            EffectKind::DepthExponent => {
+                self.depth_exponent = Some(DepthExponent { delta_alpha: v })
+            }
+            EffectKind::KsStep => set_pair(
+                &mut self.ks_step,
+                KsStep {
+                    delta: 0.0,
+                    boundary_frac: 0.5,
+                },
+                i,
+                v,
+                |e| &mut e.delta,
+                |e| &mut e.boundary_frac,
+            ),
+            EffectKind::SecondOrderDrive => {
+                self.second_order_drive = Some(SecondOrderDrive { tau2_s: v })
             }
         }
     }

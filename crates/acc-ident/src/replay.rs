@@ -234,7 +234,9 @@ impl Inputs {
             return Err("acts on spindle power only; the compared channel is a force sensor");
         }
         match kind {
-            EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime
+            EffectKind::FeedDriveLag
+            | EffectKind::OverrideDeadTime
+            | EffectKind::SecondOrderDrive
                 if self.feed_cmd_mm_min.is_none() =>
             {
                 Err("needs the feed command (programmed_feed_mm_min, override_cmd_pct)")
@@ -242,14 +244,43 @@ impl Inputs {
             EffectKind::Runout if self.runout_visibility() < 0.05 => {
                 Err("not observable: the sampling averages whole spindle revolutions")
             }
-            EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime if !self.command_steps() => {
+            EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime | EffectKind::SecondOrderDrive
+                if !self.command_steps() =>
+            {
                 Err("not excited: the feed command never changes")
+            }
+            EffectKind::DepthExponent if !self.two_depths() => {
+                Err("not excited: the cut rows hold one radial depth (needs at least two, ≥ 10 rows each)")
+            }
+            EffectKind::KsStep if self.cut_rows() < 2 * MIN_SIDE_ROWS => {
+                Err("too few cutting rows to place a material boundary with cut rows on both sides")
             }
             EffectKind::FeedExponent if self.cut_feed_cv() < 0.02 => {
                 Err("not excited: the feed hardly varies while cutting")
             }
             _ => Ok(()),
         }
+    }
+
+    /// Number of cutting rows.
+    fn cut_rows(&self) -> usize {
+        (0..self.len()).filter(|&i| self.is_cut(i)).count()
+    }
+
+    /// Whether the cutting rows hold at least two radial depths: ≥ 10 rows within 5 % of
+    /// the median cut depth and ≥ 10 rows further from it.
+    fn two_depths(&self) -> bool {
+        let mut d: Vec<f64> = (0..self.len())
+            .filter(|&i| self.is_cut(i))
+            .map(|i| self.radial_depth_mm[i])
+            .collect();
+        if d.len() < 2 * MIN_SIDE_ROWS {
+            return false;
+        }
+        d.sort_by(f64::total_cmp);
+        let med = d[d.len() / 2];
+        let near = d.iter().filter(|x| (*x - med).abs() <= 0.05 * med).count();
+        near >= MIN_SIDE_ROWS && d.len() - near >= MIN_SIDE_ROWS
     }
 
     /// Whether the feed command steps by more than 1 % anywhere.
@@ -299,6 +330,9 @@ impl Inputs {
         }
     }
 }
+
+/// Cutting rows needed on each side of a contrast (two depths, a material boundary).
+const MIN_SIDE_ROWS: usize = 10;
 
 /// Sub-steps per period of the replayed feed path.
 const SUBSTEPS: usize = 10;
@@ -351,10 +385,149 @@ pub struct Replay {
     pub cut_power_w: Vec<f64>,
     /// Spindle angle at the end of each period, rad.
     pub spindle_angle_rad: Vec<f64>,
+    /// Position of the `ks_step` candidate's boundary on the replayed tool path (the
+    /// workpiece's x when the replay runs on a workpiece, else the path length from the
+    /// log's start), mm; `None` without the candidate or without cutting rows.
+    pub ks_step_boundary_mm: Option<f64>,
+}
+
+/// The `ks_step` candidate's `Ks` factors per row over the period and over the channel's
+/// window (the last `win_frac` of the period), with the tool centre moving from
+/// `x_start[i]` to `x_end[i]` (mm) in row `i`; the boundary (mm) is placed on the path from
+/// where the first cutting row (`cut`) begins to where the last one ends. The factor at a
+/// tool-centre position is `at(x, b)` (the simulator's engagement-weighted `Ks` factor,
+/// see [`KsStepShape`]), averaged over [`KS_SUB`] positions per period. `None`: no
+/// candidate or no cutting row.
+fn ks_step_factors(
+    step: Option<crate::effects::KsStep>,
+    x_start: &[f64],
+    x_end: &[f64],
+    cut: &[bool],
+    win_frac: &[f64],
+    shape: &KsStepShape<'_>,
+) -> Option<(f64, Vec<f64>, Vec<f64>)> {
+    let step = step?;
+    let first = cut.iter().position(|c| *c)?;
+    let last = cut.iter().rposition(|c| *c)?;
+    let b = step.boundary_mm(x_start[first], x_end[last]);
+    let stepped = shape.stepped(b, step.delta);
+    let n = x_end.len();
+    let mut mean = vec![1.0; n];
+    let mut win = vec![1.0; n];
+    for i in 0..n {
+        let (x0, x1) = (x_start[i], x_end[i]);
+        let w = win_frac[i].clamp(0.0, 1.0);
+        let (mut s, mut sw, mut nw) = (0.0, 0.0, 0usize);
+        for j in 0..KS_SUB {
+            let u = (j as f64 + 0.5) / KS_SUB as f64;
+            let g = shape.factor(stepped.as_ref(), x0 + u * (x1 - x0), b, step.delta, i);
+            s += g;
+            if u >= 1.0 - w {
+                sw += g;
+                nw += 1;
+            }
+        }
+        mean[i] = s / KS_SUB as f64;
+        win[i] = if nw > 0 { sw / nw as f64 } else { mean[i] };
+    }
+    Some((b, mean, win))
+}
+
+/// Positions per period at which the `ks_step` factor is evaluated.
+const KS_SUB: usize = 8;
+
+/// How a material boundary meets the tool: the simulator's engagement over the tool's
+/// arc ([`acc_sim::Workpiece::engagement`], the `Ks` factor weighted by lateral extent)
+/// when the replay runs on the workpiece, else the same arc geometry with the logged
+/// radial depth of the row.
+enum KsStepShape<'a> {
+    /// The workpiece the replay runs on.
+    Workpiece(&'a acc_sim::Workpiece, f64),
+    /// Logged radial depths per row, mm, and the tool radius, mm.
+    Logged(&'a [f64], f64),
+}
+
+impl KsStepShape<'_> {
+    /// The workpiece with the material from `b` on (mm) at `Ks × (1 + δ)`.
+    fn stepped(&self, b: f64, delta: f64) -> Option<acc_sim::Workpiece> {
+        let KsStepShape::Workpiece(wp, _) = self else {
+            return None;
+        };
+        let mut out = (*wp).clone();
+        out.segments.clear();
+        for g in &wp.segments {
+            if g.end_mm <= b {
+                out.segments.push(*g);
+            } else if g.start_mm >= b {
+                out.segments.push(acc_sim::workpiece::Segment {
+                    ks_factor: g.ks_factor * (1.0 + delta),
+                    ..*g
+                });
+            } else {
+                let d = g.depth_at(b);
+                out.segments.push(acc_sim::workpiece::Segment {
+                    end_mm: b,
+                    depth_end_mm: d,
+                    ..*g
+                });
+                out.segments.push(acc_sim::workpiece::Segment {
+                    start_mm: b,
+                    depth_start_mm: d,
+                    ks_factor: g.ks_factor * (1.0 + delta),
+                    ..*g
+                });
+            }
+        }
+        Some(out)
+    }
+
+    /// Factor on the replayed force with the tool centre at `x` (row `i`), boundary `b`.
+    fn factor(
+        &self,
+        stepped: Option<&acc_sim::Workpiece>,
+        x: f64,
+        b: f64,
+        delta: f64,
+        i: usize,
+    ) -> f64 {
+        let r = match self {
+            KsStepShape::Workpiece(_, r) | KsStepShape::Logged(_, r) => *r,
+        };
+        // The engaged arc lies ahead of the tool centre, within one radius.
+        if x >= b {
+            return 1.0 + delta;
+        }
+        if x + r <= b {
+            return 1.0;
+        }
+        match (self, stepped) {
+            (KsStepShape::Workpiece(wp, _), Some(st)) => {
+                let e0 = wp.engagement(x, r);
+                let e1 = st.engagement(x, r);
+                if e0.depth_mm > 0.0 && e0.ks_factor > 0.0 {
+                    e1.ks_factor / e0.ks_factor
+                } else {
+                    1.0
+                }
+            }
+            (KsStepShape::Logged(depth, _), _) => {
+                // Lateral extent y of the arc sits (r² − (r − y)²)^½ ahead of the centre:
+                // past the boundary for y > r − (r² − (b − x)²)^½.
+                let d = depth.get(i).copied().unwrap_or(0.0);
+                if d <= 0.0 {
+                    return 1.0;
+                }
+                let off = b - x;
+                let y = r - (r * r - off * off).max(0.0).sqrt();
+                1.0 + delta * ((d - y) / d).clamp(0.0, 1.0)
+            }
+            _ => 1.0,
+        }
+    }
 }
 
 /// The replayed feed (period mean and force-window mean), mm/min.
-fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Vec<f64>) {
+fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, tau2: f64, window: f64) -> (Vec<f64>, Vec<f64>) {
     let n = inp.len();
     let mut feed = vec![0.0; n];
     let mut window_feed = vec![0.0; n];
@@ -364,10 +537,14 @@ fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Ve
     match &inp.feed_cmd_mm_min {
         Some(cmd) if n > 0 => {
             let mut f = inp.feed_cmd_initial_mm_min;
+            // The second lag's input (the first lag's output) when `tau2 > 0`, as in the
+            // simulator's drive.
+            let mut f_inner = f;
             let mut k = 0usize;
             for i in 0..n {
                 let h = inp.dt_s[i] / SUBSTEPS as f64;
                 let alpha = FirstOrderLag::new(tau).alpha(h);
+                let alpha2 = FirstOrderLag::new(tau2).alpha(h);
                 let t_start = inp.t_s[i] - inp.dt_s[i];
                 let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
                 for j in 0..SUBSTEPS {
@@ -399,7 +576,12 @@ fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Ve
                         kk = next;
                     }
                     let u = u / h;
-                    f = FirstOrderLag::advance(f, u, alpha);
+                    f = if tau2 > 0.0 {
+                        f_inner = FirstOrderLag::advance(f_inner, u, alpha);
+                        FirstOrderLag::advance(f, f_inner, alpha2)
+                    } else {
+                        FirstOrderLag::advance(f, u, alpha)
+                    };
                     sum += f;
                     if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {
                         sum_w += f;
@@ -424,6 +606,8 @@ fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, window: f64) -> (Vec<f64>, Ve
 struct PathKey {
     delay_s: f64,
     tau_s: f64,
+    /// Second lag of the feed drive, s (0: first-order drive).
+    tau2_s: f64,
     window_s: f64,
     process: [f64; 8],
 }
@@ -458,6 +642,10 @@ fn plant_trace(
     let mut machine = model.machine.clone();
     machine.override_path.delay_s = key.delay_s;
     machine.feed_drive.tau_s = key.tau_s;
+    machine.feed_drive.tau2_s = key.tau2_s;
+    // The process constants of the key (the depth-exponent candidate changes α).
+    let mut tool = model.tool.clone();
+    tool.process.alpha = key.process[4];
     // The motor channel: the power, or the power a spindle-power force estimator reads.
     let power_read = inp.channel == Channel::Power || inp.estimator_no_load.is_some();
     let motor = match (power_read, model.measurement.spindle_motor) {
@@ -477,7 +665,7 @@ fn plant_trace(
     };
     acc_sim::replay::trace(
         &machine,
-        &model.tool,
+        &tool,
         model.measurement.force_model.sim(),
         &plant.engagement,
         &drive,
@@ -498,11 +686,14 @@ fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
 
 fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
     let fx = &model.effects;
-    let p = &model.tool.process;
+    let mut proc = model.tool.process;
+    proc.alpha += fx.get(EffectKind::DepthExponent, 0);
+    let p = &proc;
     let key = PathKey {
         delay_s: model.machine.override_path.delay_s
             + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
         tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
+        tau2_s: model.machine.feed_drive.tau2_s + fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
         window_s: if inp.plant.is_some() {
             channel_window_s(model, inp)
         } else {
@@ -537,7 +728,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
         remember(inp, c.clone());
         return c;
     }
-    let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.window_s);
+    let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.tau2_s, key.window_s);
     let mut unit = *p;
     unit.calib_force_n = 1.0;
     let law = physics::force_law(&unit);
@@ -586,6 +777,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         volume_mm3: vec![0.0; n],
         cut_power_w: vec![0.0; n],
         spindle_angle_rad: vec![0.0; n],
+        ks_step_boundary_mm: None,
     };
     let cached = path(model, inp);
     if let Some(tr) = &cached.plant {
@@ -610,6 +802,33 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let dbeta = fx.get(EffectKind::FeedExponent, 0);
     let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
     let windowed = inp.channel == Channel::Force && model.measurement.force_window_s > 0.0;
+    // The material step: tool-centre positions integrated from the replayed feed.
+    let steps = fx.ks_step.and_then(|_| {
+        let mut x_start = vec![0.0; n];
+        let mut x_end = vec![0.0; n];
+        let mut x = 0.0;
+        for i in 0..n {
+            x_start[i] = x;
+            x += out.feed_mm_min[i] * inp.dt_s[i] / 60.0;
+            x_end[i] = x;
+        }
+        let cut: Vec<bool> = cached.unit_force.iter().map(|u| *u > 0.0).collect();
+        let wf: Vec<f64> = inp
+            .dt_s
+            .iter()
+            .map(|d| {
+                let w = model.measurement.force_window_s;
+                if windowed && *d > 0.0 {
+                    w / d
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let shape = KsStepShape::Logged(&inp.radial_depth_mm, model.tool.radius_mm());
+        ks_step_factors(fx.ks_step, &x_start, &x_end, &cut, &wf, &shape)
+    });
+    out.ks_step_boundary_mm = steps.as_ref().map(|s| s.0);
     let mut chan_force = vec![0.0; n];
     let mut vol = 0.0;
     let mut cut_min = 0.0;
@@ -623,8 +842,9 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         let f = out.feed_mm_min[i];
         let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
         let factor = wear.factor(vol / 1000.0, cut_min);
-        let force_at = |f: f64, unit: f64| -> f64 {
-            let mut force = calib_force * factor * unit;
+        let (ks_mean, ks_win) = steps.as_ref().map_or((1.0, 1.0), |s| (s.1[i], s.2[i]));
+        let force_at = |f: f64, unit: f64, ks: f64| -> f64 {
+            let mut force = calib_force * factor * ks * unit;
             if force > 0.0 {
                 if dbeta != 0.0 {
                     force *= (f / fref).powf(dbeta);
@@ -636,14 +856,18 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
             }
             force
         };
-        let force = force_at(f, cached.unit_force[i]);
+        let force = force_at(f, cached.unit_force[i], ks_mean);
         if force > 0.0 {
             vol += d * a * f / 60.0 * inp.dt_s[i];
             cut_min += inp.dt_s[i] / 60.0;
         }
         out.force_n[i] = force;
         chan_force[i] = if windowed {
-            force_at(out.window_feed_mm_min[i], cached.unit_window_force[i])
+            force_at(
+                out.window_feed_mm_min[i],
+                cached.unit_window_force[i],
+                ks_win,
+            )
         } else {
             force
         };
@@ -745,10 +969,43 @@ fn replay_plant(
         None
     };
     let t0 = inp.t_s.first().copied().unwrap_or(0.0) - inp.dt_s.first().copied().unwrap_or(0.0);
+    // The material step: per-row factors from the plant's tool-centre positions.
+    let window_s = channel_window_s(model, inp);
+    let steps = fx.ks_step.and_then(|_| {
+        let x_end: Vec<f64> = tr.iter().map(|t| t.x_mm).collect();
+        let x_start: Vec<f64> = (0..n)
+            .map(|i| match i {
+                0 => x_end[0] - tr[0].feed_mean_mm_min * inp.dt_s[0] / 60.0,
+                _ => x_end[i - 1],
+            })
+            .collect();
+        let cut: Vec<bool> = tr.iter().map(|t| t.unit_force_mean > 0.0).collect();
+        let wf: Vec<f64> = inp
+            .dt_s
+            .iter()
+            .map(|d| {
+                if window_s > 0.0 && *d > 0.0 {
+                    window_s / d
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let r = model.tool.radius_mm();
+        let shape = match &inp.plant.as_ref().map(|p| &p.engagement) {
+            Some(acc_sim::replay::ReplayEngagement::Workpiece { workpiece, .. }) => {
+                KsStepShape::Workpiece(workpiece, r)
+            }
+            _ => KsStepShape::Logged(&inp.radial_depth_mm, r),
+        };
+        ks_step_factors(fx.ks_step, &x_start, &x_end, &cut, &wf, &shape)
+    });
+    out.ks_step_boundary_mm = steps.as_ref().map(|s| s.0);
     let mut cut_min = 0.0;
     let mut theta = 0.0;
     for i in 0..n {
         let t = &tr[i];
+        let (ks_mean, ks_win) = steps.as_ref().map_or((1.0, 1.0), |s| (s.1[i], s.2[i]));
         let s = inp.spindle_rpm[i];
         theta += 2.0 * std::f64::consts::PI * s / 60.0 * inp.dt_s[i];
         out.spindle_angle_rad[i] = theta;
@@ -766,8 +1023,8 @@ fn replay_plant(
                 1.0
             }
         };
-        let k_mean = calib * factor * fb(t.feed_mean_mm_min);
-        let k_win = calib * factor * fb(t.feed_window_mm_min);
+        let k_mean = calib * factor * ks_mean * fb(t.feed_mean_mm_min);
+        let k_win = calib * factor * ks_win * fb(t.feed_window_mm_min);
         out.force_n[i] = k_mean * t.unit_force_mean * runout_gain(t.unit_force_mean, t.runout_mean);
         let g_win = runout_gain(t.unit_force_window, t.runout_window);
         let chan_force = k_win * t.unit_force_window * g_win;

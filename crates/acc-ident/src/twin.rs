@@ -136,9 +136,11 @@ pub enum Hidden {
     SensorLowpass(f64),
     /// In the library: runout amplitude.
     Runout(f64),
-    /// Out of the library: depth exponent α of the force law.
+    /// In the library (`depth_exponent`, Δα = α − the model's α): depth exponent α of the
+    /// force law.
     DepthExponent(f64),
-    /// Out of the library: a `Ks` step at a material boundary (factor from mid-part).
+    /// In the library (`ks_step`, δ = factor − 1): a `Ks` step at a material boundary
+    /// (factor from mid-part).
     KsStep(f64),
     /// Out of the library: the tooth-level force model against a mean-force model.
     ToothModel,
@@ -161,7 +163,8 @@ pub enum Hidden {
     /// In the library (`measurement_delay`), the logging path: the logged measured column
     /// is late by this many periods (a pure delay).
     LogDelay(usize),
-    /// Out of the library: a second-order feed drive (a second lag of this τ in series), s.
+    /// In the library (`second_order_drive`): a second-order feed drive (a second lag of
+    /// this τ in series), s.
     SecondOrderDrive(f64),
     /// Out of the library, the logging path: spikes of ± this fraction of the channel's
     /// median on 2 % of the logged rows.
@@ -182,6 +185,9 @@ impl Hidden {
             Hidden::Runout(_) => K::Runout,
             Hidden::LogGainDrift(_) => K::SensorGainDrift,
             Hidden::LogDelay(_) => K::MeasurementDelay,
+            Hidden::DepthExponent(_) => K::DepthExponent,
+            Hidden::KsStep(_) => K::KsStep,
+            Hidden::SecondOrderDrive(_) => K::SecondOrderDrive,
             _ => return None,
         })
     }
@@ -468,8 +474,11 @@ pub fn run_case(
         | Hidden::NoloadDrift(v)
         | Hidden::SensorLowpass(v)
         | Hidden::Runout(v)
-        | Hidden::LogGainDrift(v) => Some(v),
+        | Hidden::LogGainDrift(v)
+        | Hidden::SecondOrderDrive(v) => Some(v),
         Hidden::LogDelay(k) => Some(k as f64 * base.controller.period_s),
+        Hidden::DepthExponent(a) => Some(a - base.tool.process.alpha),
+        Hidden::KsStep(k) => Some(k - 1.0),
         _ => None,
     };
     let covered = match (hidden.library(), truth) {
