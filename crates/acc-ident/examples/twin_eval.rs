@@ -10,8 +10,8 @@
 //! cargo run --release -p acc-ident --example twin_eval -- --null-seeds 200 \
 //!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin.md
 //!
-//! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`, `--wp-limit N`,
-//! `--max-time S`.
+//! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`,
+//! `--only LABEL-PREFIX[,…]`, `--wp-limit N`, `--max-time S`.
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -369,6 +369,10 @@ fn main() {
     let skip: Vec<String> = get("--skip")
         .map(|s| s.split(',').map(str::to_string).collect())
         .unwrap_or_default();
+    // --only LABEL-PREFIX[,…]: only these effects (and the nulls) — a quick look.
+    let only: Vec<String> = get("--only")
+        .map(|s| s.split(',').map(str::to_string).collect())
+        .unwrap_or_default();
     let out = std::path::PathBuf::from(get("--out").unwrap_or_else(|| "out/twin".into()));
     let doc = get("--update-doc");
     std::fs::create_dir_all(&out).expect("out dir");
@@ -390,7 +394,11 @@ fn main() {
         }
         for (set, seeds) in [(library(), lib_seeds), (out_of_library(), oob_seeds)] {
             for h in set {
-                if !h.acts_on(ch, estimated) || skip.iter().any(|p| h.label().starts_with(p)) {
+                let l = h.label();
+                if !h.acts_on(ch, estimated)
+                    || skip.iter().any(|p| l.starts_with(p))
+                    || (!only.is_empty() && !only.iter().any(|p| l.starts_with(p)))
+                {
                     continue;
                 }
                 for wi in 0..nwp {
@@ -509,7 +517,7 @@ fn main() {
     let finished = results.iter().filter(|r| r.is_some()).count();
     let _ = writeln!(
         md,
-        "{null_seeds} null seeds per channel (spread over the 5 shipped workpieces), {lib_seeds} seed(s) × 5 workpieces per in-library cell, {oob_seeds} seed(s) × 5 workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.",
+        "{null_seeds} null seeds per channel (spread over {nwp} shipped workpieces), {lib_seeds} seed(s) × {nwp} workpieces per in-library cell, {oob_seeds} seed(s) × {nwp} workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.",
         cases.len()
     );
     std::fs::write(out.join("twin.md"), &md).expect("write");
