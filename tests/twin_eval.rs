@@ -259,7 +259,11 @@ fn each_new_out_of_library_effect_changes_the_log_on_both_channels() {
             let (a, b) = (a.expect("column"), b.expect("column"));
             let changed = a.iter().zip(b).filter(|(x, y)| x != y).count();
             // Every effect touches a good part of the rows (clipping: the cut's top).
-            assert!(changed >= 10, "{} {ch:?}: {changed} rows changed", h.label());
+            assert!(
+                changed >= 10,
+                "{} {ch:?}: {changed} rows changed",
+                h.label()
+            );
             // Only the measured column: the commands and the engagement are the loop's.
             assert_eq!(l.feed_mm_min, log.feed_mm_min);
             assert_eq!(l.radial_depth_mm, log.radial_depth_mm);

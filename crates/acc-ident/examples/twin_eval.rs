@@ -301,7 +301,11 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
             .or_default() += 1;
         enrs.entry(l.clone()).or_default().push(r.enr);
         if r.named.len() > 1 {
-            *several.entry(l).or_default().entry(r.outcome()).or_default() += 1;
+            *several
+                .entry(l)
+                .or_default()
+                .entry(r.outcome())
+                .or_default() += 1;
         }
     }
     order.sort_by_key(|(g, _)| *g);
@@ -338,7 +342,11 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
                 format!("{l}: {}", c.join(", "))
             })
             .collect();
-        let _ = writeln!(md, "\"several\" (more than one effect named): {}.", s.join("; "));
+        let _ = writeln!(
+            md,
+            "\"several\" (more than one effect named): {}.",
+            s.join("; ")
+        );
     }
     let _ = writeln!(md);
     md
@@ -453,35 +461,34 @@ fn main() {
     let fresh: Mutex<Vec<(usize, Row)>> = Mutex::new(Vec::new());
     std::thread::scope(|sc| {
         for _ in 0..threads {
-            sc.spawn(|| loop {
-                let Some(&i) = todo.get(next.fetch_add(1, Ordering::Relaxed)) else {
-                    break;
-                };
-                let (ch, h, wi, seed) = cases[i];
-                let mut s = base.clone();
-                s.workpiece = wps[wi].clone();
-                match run_case(&s, h, ch, seed) {
-                    Ok(v) => {
-                        let row = Row::of(&v);
-                        let line = csv_row(&key_of(&cases[i]), &row);
-                        eprintln!(
-                            "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} (ENR {:.1})",
-                            cases.len(),
-                            t0.elapsed().as_secs_f64(),
-                            h.label(),
-                            WORKPIECES[wi],
-                            row.outcome(),
-                            row.enr
-                        );
-                        if let Ok(mut f) = csv_file.lock() {
-                            let _ = writeln!(f, "{line}");
-                            let _ = f.flush();
+            sc.spawn(|| {
+                while let Some(&i) = todo.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let (ch, h, wi, seed) = cases[i];
+                    let mut s = base.clone();
+                    s.workpiece = wps[wi].clone();
+                    match run_case(&s, h, ch, seed) {
+                        Ok(v) => {
+                            let row = Row::of(&v);
+                            let line = csv_row(&key_of(&cases[i]), &row);
+                            eprintln!(
+                                "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} (ENR {:.1})",
+                                cases.len(),
+                                t0.elapsed().as_secs_f64(),
+                                h.label(),
+                                WORKPIECES[wi],
+                                row.outcome(),
+                                row.enr
+                            );
+                            if let Ok(mut f) = csv_file.lock() {
+                                let _ = writeln!(f, "{line}");
+                                let _ = f.flush();
+                            }
+                            if let Ok(mut r) = fresh.lock() {
+                                r.push((i, row));
+                            }
                         }
-                        if let Ok(mut r) = fresh.lock() {
-                            r.push((i, row));
-                        }
+                        Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
                     }
-                    Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
                 }
             });
         }
