@@ -327,3 +327,34 @@ fn a_sensor_zero_shift_is_not_named_as_a_library_effect() {
         assert!(v.enr > 10.0, "{wp} {ch:?}: ENR {}", v.enr);
     }
 }
+
+#[test]
+fn a_force_rise_above_a_depth_threshold_acts_only_where_the_part_is_deeper() {
+    // Out of the library: Ks × (1 + k·(d − 2.5 mm)/2.5 mm) above 2.5 mm radial depth,
+    // set on the simulated part. On steps 1-2-3 only the 3 mm block changes; the 1 and 2 mm
+    // blocks and the air keep their factor, and the model's workpiece is the nominal one.
+    let base = scenario("steps_1_2_3.toml");
+    let (sc, _, wp) = twin::hidden_case(&base, Hidden::DepthThreshold(0.3), Channel::Power);
+    assert_eq!(wp, base.workpiece);
+    for x in [5.0, 30.0, 70.0, 100.0, 130.0, 150.0] {
+        let (d, k) = (base.workpiece.depth_at(x), sc.workpiece.ks_factor_at(x));
+        let want = if d > twin::DEPTH_THRESHOLD_MM {
+            base.workpiece.ks_factor_at(x) * (1.0 + 0.3 * (d - 2.5) / 2.5)
+        } else {
+            base.workpiece.ks_factor_at(x)
+        };
+        assert!(
+            (k - want).abs() < 1e-12,
+            "x {x} mm, depth {d}: {k} vs {want}"
+        );
+        assert_eq!(sc.workpiece.depth_at(x), d, "x {x} mm");
+    }
+    // The closed-loop log changes (the loop sees a harder 3 mm block) …
+    let null = twin::simulate(&base).expect("null log");
+    let log = twin::simulate(&sc).expect("log");
+    assert_ne!(null.feed_mm_min, log.feed_mm_min);
+    // … clearly above the noise.
+    let enr = twin::effect_to_noise(&base, Hidden::DepthThreshold(0.3), Channel::Power, 1000)
+        .expect("enr");
+    assert!(enr > 4.0, "ENR {enr}");
+}

@@ -60,7 +60,7 @@ fn library() -> Vec<Hidden> {
     ]
 }
 
-/// Fifteen effects outside the library, at two amplitudes (the tooth model at one).
+/// Sixteen effects outside the library, at two amplitudes (the tooth model at one).
 fn out_of_library() -> Vec<Hidden> {
     vec![
         Hidden::DepthExponent(0.85),
@@ -92,6 +92,8 @@ fn out_of_library() -> Vec<Hidden> {
         Hidden::LogQuantize(0.05),
         Hidden::LogStale(0.05),
         Hidden::LogStale(0.2),
+        Hidden::DepthThreshold(0.1),
+        Hidden::DepthThreshold(0.3),
     ]
 }
 

@@ -182,7 +182,15 @@ pub enum Hidden {
     /// Out of the library, the logging path: the logger repeats the previous sample on
     /// this fraction of the rows (stale samples: a bus read that missed its slot).
     LogStale(f64),
+    /// Out of the library: the force rises above a radial depth of
+    /// [`DEPTH_THRESHOLD_MM`] (chatter, a built-up edge): `Ks × (1 + k·(d − d₀)/d₀)` where
+    /// the part's depth `d` exceeds `d₀`; `k` here, −. Set on the workpiece's `Ks` factor
+    /// (a ramp in pieces of 2 mm at their middle depth).
+    DepthThreshold(f64),
 }
+
+/// The radial depth above which [`Hidden::DepthThreshold`] raises the force, mm.
+pub const DEPTH_THRESHOLD_MM: f64 = 2.5;
 
 impl Hidden {
     /// The library effect this hidden effect is (None: null or out of library).
@@ -230,6 +238,7 @@ impl Hidden {
             Hidden::LogClip(v) => format!("log clipped at {v}·max"),
             Hidden::LogQuantize(v) => format!("log quantised {v}"),
             Hidden::LogStale(v) => format!("log stale samples {v}"),
+            Hidden::DepthThreshold(v) => format!("force rise above {DEPTH_THRESHOLD_MM} mm ×{v}"),
         }
     }
 
@@ -269,6 +278,7 @@ impl Hidden {
             "log_clip" => Hidden::LogClip(v),
             "log_quantize" => Hidden::LogQuantize(v),
             "log_stale" => Hidden::LogStale(v),
+            "depth_threshold" => Hidden::DepthThreshold(v),
             _ => return None,
         })
     }
@@ -396,6 +406,34 @@ pub fn hidden_case(
             sc.workpiece.segments = out;
         }
         Hidden::KsTimeDrift(g) => sc.wear.growth_per_min += g,
+        Hidden::DepthThreshold(k) => {
+            let d0 = DEPTH_THRESHOLD_MM;
+            let mut out = Vec::new();
+            for g in &sc.workpiece.segments {
+                let ramp = (g.depth_end_mm - g.depth_start_mm).abs() > 1e-9;
+                if !g.is_cut() || g.depth_start_mm.max(g.depth_end_mm) <= d0 {
+                    out.push(*g);
+                    continue;
+                }
+                let step = if ramp { 2.0 } else { g.end_mm - g.start_mm };
+                let mut a = g.start_mm;
+                while a < g.end_mm - 1e-9 {
+                    let b = (a + step).min(g.end_mm);
+                    let d = g.depth_at(0.5 * (a + b));
+                    let f = if d > d0 { 1.0 + k * (d - d0) / d0 } else { 1.0 };
+                    out.push(acc_sim::workpiece::Segment {
+                        start_mm: a,
+                        end_mm: b,
+                        depth_start_mm: g.depth_at(a),
+                        depth_end_mm: g.depth_at(b),
+                        ks_factor: g.ks_factor * f,
+                        ..*g
+                    });
+                    a = b;
+                }
+            }
+            sc.workpiece.segments = out;
+        }
         Hidden::SecondOrderDrive(t) => sc.machine.feed_drive.tau2_s = t,
         Hidden::LogGainDrift(_)
         | Hidden::LogDelay(_)
