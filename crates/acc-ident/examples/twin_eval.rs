@@ -1,19 +1,26 @@
 //! The honest twin's evaluation (issue 13): logs made by `acc sim`'s production loop
 //! (`acc_sim::run`, the same `ControlLoop` as `acc run`) on the shipped workpieces, with
 //! hidden effects in the simulated machine — in the library, out of it, none — analysed by
-//! the discrepancy workflow on both channels; confusion matrix per channel, false
-//! discovery, recovery, interval coverage, out-of-library naming. Cases run in parallel on
-//! `--threads` std threads.
+//! the discrepancy workflow on both channels; per channel the confusion matrix (hidden
+//! effect × verdict), false discovery, recovery (overall and at effect/noise ≥ 4),
+//! interval coverage, out-of-library naming. Cases run in parallel on `--threads` std
+//! threads; each finished case's row is appended to `<out>/cases.csv` at once, and
+//! `--resume FILE` (a `cases.csv` of a run stopped early) skips the cases already in it.
 //!
 //! cargo run --release -p acc-ident --example twin_eval -- --null-seeds 200 \
 //!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin.md
-use std::collections::BTreeMap;
+//!
+//! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`,
+//! `--only LABEL-PREFIX[,…]`, `--wp-limit N`, `--max-time S`.
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use acc_ident::model::Channel;
 use acc_ident::twin::{run_case, Hidden, Verdict};
+use acc_ident::EffectKind;
 
 const WORKPIECES: [&str; 5] = [
     "steps_1_2_3.toml",
@@ -22,6 +29,12 @@ const WORKPIECES: [&str; 5] = [
     "interrupted.toml",
     "hard_inclusion.toml",
 ];
+
+/// The effect-to-noise ratio above which recovery is required (issue 13).
+const ENR_MIN: f64 = 4.0;
+
+const CSV_HEADER: &str =
+    "channel,hidden,workpiece,seed,enr,outcome,ambiguous,unexplained,withheld,covered";
 
 /// In-library effects at two amplitudes.
 fn library() -> Vec<Hidden> {
@@ -69,23 +82,276 @@ fn out_of_library() -> Vec<Hidden> {
         Hidden::KsTimeDrift(0.15),
         Hidden::LogSpikes(0.2),
         Hidden::LogSpikes(0.5),
+        Hidden::LogZeroShift(0.02),
+        Hidden::LogZeroShift(0.05),
+        Hidden::LogInterference(0.01),
+        Hidden::LogInterference(0.03),
+        Hidden::LogClip(0.9),
+        Hidden::LogClip(0.75),
+        Hidden::LogQuantize(0.02),
+        Hidden::LogQuantize(0.05),
+        Hidden::LogStale(0.05),
+        Hidden::LogStale(0.2),
+        Hidden::DepthThreshold(0.1),
+        Hidden::DepthThreshold(0.3),
     ]
 }
 
-fn outcome(v: &Verdict) -> String {
-    if !v.named.is_empty() {
-        v.named
-            .iter()
-            .map(|k| k.name())
-            .collect::<Vec<_>>()
-            .join("+")
-    } else if v.ambiguous {
-        "ambiguous".into()
-    } else if v.unexplained {
-        "unexplained".into()
-    } else {
-        "none".into()
+/// What one finished case said: the fields of its `cases.csv` row.
+#[derive(Debug, Clone)]
+struct Row {
+    named: Vec<EffectKind>,
+    ambiguous: bool,
+    unexplained: bool,
+    withheld: String,
+    covered: Option<bool>,
+    enr: f64,
+}
+
+impl Row {
+    fn of(v: &Verdict) -> Row {
+        Row {
+            named: v.named.clone(),
+            ambiguous: v.ambiguous,
+            unexplained: v.unexplained,
+            withheld: v.withheld.join("+"),
+            covered: v.covered,
+            enr: v.enr,
+        }
     }
+
+    /// "A", "A+B", "ambiguous", "unexplained" or "none".
+    fn outcome(&self) -> String {
+        if !self.named.is_empty() {
+            self.named
+                .iter()
+                .map(|k| k.name())
+                .collect::<Vec<_>>()
+                .join("+")
+        } else if self.ambiguous {
+            "ambiguous".into()
+        } else if self.unexplained {
+            "unexplained".into()
+        } else {
+            "none".into()
+        }
+    }
+
+    /// The confusion matrix's column: the effect named alone, "several", "ambiguous",
+    /// "unexplained" or "nothing".
+    fn column(&self) -> String {
+        match self.named.len() {
+            1 => self.named[0].name().into(),
+            n if n > 1 => "several".into(),
+            _ if self.ambiguous => "ambiguous".into(),
+            _ if self.unexplained => "unexplained".into(),
+            _ => "nothing".into(),
+        }
+    }
+}
+
+type Key = (String, String, String, u64);
+
+fn csv_row(key: &Key, r: &Row) -> String {
+    let covered = match r.covered {
+        Some(true) => "true",
+        Some(false) => "false",
+        None => "",
+    };
+    format!(
+        "{},{},{},{},{:.3},{},{},{},{},{covered}",
+        key.0,
+        key.1,
+        key.2,
+        key.3,
+        r.enr,
+        r.outcome(),
+        r.ambiguous,
+        r.unexplained,
+        r.withheld
+    )
+}
+
+fn parse_row(line: &str) -> Option<(Key, Row)> {
+    let f: Vec<&str> = line.split(',').collect();
+    if f.len() != 10 || f[0] == "channel" {
+        return None;
+    }
+    let named = match f[5] {
+        "ambiguous" | "unexplained" | "none" => Vec::new(),
+        o => o
+            .split('+')
+            .map(EffectKind::from_name)
+            .collect::<Option<Vec<_>>>()?,
+    };
+    let key = (f[0].into(), f[1].into(), f[2].into(), f[3].parse().ok()?);
+    Some((
+        key,
+        Row {
+            named,
+            ambiguous: f[6].parse().ok()?,
+            unexplained: f[7].parse().ok()?,
+            withheld: f[8].into(),
+            covered: match f[9] {
+                "true" => Some(true),
+                "false" => Some(false),
+                _ => None,
+            },
+            enr: f[4].parse().ok()?,
+        },
+    ))
+}
+
+fn pct(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        f64::NAN
+    } else {
+        100.0 * a as f64 / b as f64
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v[v.len() / 2]
+    }
+}
+
+/// The summary and confusion matrix of one channel.
+fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
+    let mut md = String::new();
+    let group = |h: &Hidden| match (h, h.library()) {
+        (Hidden::Null, _) => 0usize,
+        (_, Some(_)) => 1,
+        _ => 2,
+    };
+    let exact = |h: &Hidden, r: &Row| h.library().is_some_and(|k| r.named == [k]);
+    let count = |f: &dyn Fn(&Hidden, &Row) -> bool| rows.iter().filter(|(h, r)| f(h, r)).count();
+    let null_n = count(&|h, _| group(h) == 0);
+    let null_named = count(&|h, r| group(h) == 0 && !r.named.is_empty());
+    let null_unex = count(&|h, r| group(h) == 0 && r.named.is_empty() && r.unexplained);
+    let lib_n = count(&|h, _| group(h) == 1);
+    let lib_ok = count(&|h, r| group(h) == 1 && exact(h, r));
+    let lib4_n = count(&|h, r| group(h) == 1 && r.enr >= ENR_MIN);
+    let lib4_ok = count(&|h, r| group(h) == 1 && r.enr >= ENR_MIN && exact(h, r));
+    let cov_n = count(&|h, r| group(h) == 1 && r.covered.is_some());
+    let cov_ok = count(&|h, r| group(h) == 1 && r.covered == Some(true));
+    let cov4_n = count(&|h, r| group(h) == 1 && r.enr >= ENR_MIN && r.covered.is_some());
+    let cov4_ok = count(&|h, r| group(h) == 1 && r.enr >= ENR_MIN && r.covered == Some(true));
+    let oob_n = count(&|h, _| group(h) == 2);
+    let oob_named = count(&|h, r| group(h) == 2 && !r.named.is_empty());
+    let oob_col = |c: &str| count(&|h, r| group(h) == 2 && r.column() == c);
+    let oob4_n = count(&|h, r| group(h) == 2 && r.enr >= ENR_MIN);
+    let oob4_named = count(&|h, r| group(h) == 2 && r.enr >= ENR_MIN && !r.named.is_empty());
+    let _ = writeln!(md, "### Channel `{name}`\n");
+    let _ = writeln!(
+        md,
+        "- false discovery (an effect named on a null log): **{null_named} of {null_n}** ({:.1} %); \"unexplained\" on null logs: {null_unex} of {null_n} ({:.1} %)",
+        pct(null_named, null_n),
+        pct(null_unex, null_n)
+    );
+    let _ = writeln!(
+        md,
+        "- recovery (exactly the hidden in-library effect named): **{lib_ok} of {lib_n}** ({:.1} %) overall; at effect/noise ≥ {ENR_MIN}: **{lib4_ok} of {lib4_n}** ({:.1} %)",
+        pct(lib_ok, lib_n),
+        pct(lib4_ok, lib4_n)
+    );
+    let _ = writeln!(
+        md,
+        "- interval covers the true amplitude (cases naming the hidden effect): **{cov_ok} of {cov_n}** ({:.1} %); at effect/noise ≥ {ENR_MIN}: {cov4_ok} of {cov4_n} ({:.1} %)",
+        pct(cov_ok, cov_n),
+        pct(cov4_ok, cov4_n)
+    );
+    let _ = writeln!(
+        md,
+        "- out-of-library effects named as a library effect: **{oob_named} of {oob_n}** ({:.1} %); ambiguous {}, unexplained {}, nothing {}; at effect/noise ≥ {ENR_MIN}: {oob4_named} of {oob4_n} ({:.1} %)\n",
+        pct(oob_named, oob_n),
+        oob_col("ambiguous"),
+        oob_col("unexplained"),
+        oob_col("nothing"),
+        pct(oob4_named, oob4_n)
+    );
+    // Columns: the library effects named alone at least once on this channel (library
+    // order), then several / ambiguous / unexplained / nothing.
+    let mut cols: Vec<String> = EffectKind::ALL
+        .iter()
+        .filter(|k| rows.iter().any(|(_, r)| r.named == [**k]))
+        .map(|k| k.name().to_string())
+        .collect();
+    let never: Vec<&str> = EffectKind::ALL
+        .iter()
+        .map(|k| k.name())
+        .filter(|n| !cols.iter().any(|c| c == n))
+        .collect();
+    cols.extend(["several", "ambiguous", "unexplained", "nothing"].map(String::from));
+    // Rows in the evaluation's order (null, in library, out of library).
+    let mut order: Vec<(usize, String)> = Vec::new();
+    let mut cells: HashMap<String, BTreeMap<String, usize>> = HashMap::new();
+    let mut enrs: HashMap<String, Vec<f64>> = HashMap::new();
+    let mut several: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
+    for (h, r) in rows {
+        let l = h.label();
+        if !order.iter().any(|(_, o)| *o == l) {
+            order.push((group(h), l.clone()));
+        }
+        *cells
+            .entry(l.clone())
+            .or_default()
+            .entry(r.column())
+            .or_default() += 1;
+        enrs.entry(l.clone()).or_default().push(r.enr);
+        if r.named.len() > 1 {
+            *several
+                .entry(l)
+                .or_default()
+                .entry(r.outcome())
+                .or_default() += 1;
+        }
+    }
+    order.sort_by_key(|(g, _)| *g);
+    let _ = writeln!(
+        md,
+        "| group | hidden effect | cases | median ENR | {} |",
+        cols.join(" | ")
+    );
+    let _ = writeln!(md, "|---|---|---:|---:|{}", "---:|".repeat(cols.len()));
+    for (g, l) in &order {
+        let m = &cells[l];
+        let n: usize = m.values().sum();
+        let e = median(enrs.get_mut(l).map(|v| v.as_mut_slice()).unwrap_or(&mut []));
+        let c: Vec<String> = cols
+            .iter()
+            .map(|c| m.get(c).map(|x| x.to_string()).unwrap_or_default())
+            .collect();
+        let gname = ["null", "in library", "out of library"][*g];
+        let _ = writeln!(md, "| {gname} | {l} | {n} | {e:.1} | {} |", c.join(" | "));
+    }
+    let _ = writeln!(md);
+    if !never.is_empty() {
+        let _ = writeln!(
+            md,
+            "Library effects never named alone on this channel (no column): {}.",
+            never.join(", ")
+        );
+    }
+    if !several.is_empty() {
+        let s: Vec<String> = several
+            .iter()
+            .map(|(l, m)| {
+                let c: Vec<String> = m.iter().map(|(o, n)| format!("{o} ×{n}")).collect();
+                format!("{l}: {}", c.join(", "))
+            })
+            .collect();
+        let _ = writeln!(
+            md,
+            "\"several\" (more than one effect named): {}.",
+            s.join("; ")
+        );
+    }
+    let _ = writeln!(md);
+    md
 }
 
 fn main() {
@@ -113,6 +379,10 @@ fn main() {
     let skip: Vec<String> = get("--skip")
         .map(|s| s.split(',').map(str::to_string).collect())
         .unwrap_or_default();
+    // --only LABEL-PREFIX[,…]: only these effects (and the nulls) — a quick look.
+    let only: Vec<String> = get("--only")
+        .map(|s| s.split(',').map(str::to_string).collect())
+        .unwrap_or_default();
     let out = std::path::PathBuf::from(get("--out").unwrap_or_else(|| "out/twin".into()));
     let doc = get("--update-doc");
     std::fs::create_dir_all(&out).expect("out dir");
@@ -134,7 +404,11 @@ fn main() {
         }
         for (set, seeds) in [(library(), lib_seeds), (out_of_library(), oob_seeds)] {
             for h in set {
-                if !h.acts_on(ch, estimated) || skip.iter().any(|p| h.label().starts_with(p)) {
+                let l = h.label();
+                if !h.acts_on(ch, estimated)
+                    || skip.iter().any(|p| l.starts_with(p))
+                    || (!only.is_empty() && !only.iter().any(|p| l.starts_with(p)))
+                {
                     continue;
                 }
                 for wi in 0..nwp {
@@ -145,147 +419,117 @@ fn main() {
             }
         }
     }
+    let key_of = |&(ch, h, wi, seed): &(Channel, Hidden, usize, u64)| -> Key {
+        (
+            format!("{ch:?}"),
+            h.label(),
+            WORKPIECES[wi].to_string(),
+            seed,
+        )
+    };
+    // --resume FILE: the rows of a run stopped early; their cases are not run again.
+    let mut done: HashMap<Key, Row> = HashMap::new();
+    if let Some(f) = get("--resume") {
+        let text = std::fs::read_to_string(&f).unwrap_or_else(|e| panic!("--resume {f}: {e}"));
+        done.extend(text.lines().filter_map(parse_row));
+    }
+    let mut results: Vec<Option<Row>> = cases.iter().map(|c| done.remove(&key_of(c))).collect();
+    let resumed = results.iter().filter(|r| r.is_some()).count();
+    // cases.csv: the header and the resumed rows now, every further case as it finishes.
+    let csv_path = out.join("cases.csv");
+    let mut csv = String::from(CSV_HEADER);
+    csv.push('\n');
+    for (c, r) in cases.iter().zip(&results) {
+        if let Some(r) = r {
+            csv.push_str(&csv_row(&key_of(c), r));
+            csv.push('\n');
+        }
+    }
+    std::fs::write(&csv_path, &csv).expect("write cases.csv");
+    let csv_file = Mutex::new(
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(&csv_path)
+            .expect("open cases.csv"),
+    );
+    let todo: Vec<usize> = (0..cases.len()).filter(|&i| results[i].is_none()).collect();
+    eprintln!(
+        "{} cases, {resumed} resumed from earlier rows, {} to run on {threads} threads",
+        cases.len(),
+        todo.len()
+    );
     let t0 = std::time::Instant::now();
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Verdict>>> = Mutex::new(vec![None; cases.len()]);
+    let fresh: Mutex<Vec<(usize, Row)>> = Mutex::new(Vec::new());
     std::thread::scope(|sc| {
         for _ in 0..threads {
-            sc.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(ch, h, wi, seed)) = cases.get(i) else {
-                    break;
-                };
-                let mut s = base.clone();
-                s.workpiece = wps[wi].clone();
-                let v = run_case(&s, h, ch, seed);
-                match &v {
-                    // The progress line ends with the case's CSV row (`case,…`), so a run
-                    // stopped early can still be summarised.
-                    Ok(v) => eprintln!(
-                        "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} | case,{ch:?},{},{},{seed},{},{},{},{},{:?}",
-                        cases.len(),
-                        t0.elapsed().as_secs_f64(),
-                        h.label(),
-                        WORKPIECES[wi],
-                        outcome(v),
-                        h.label(),
-                        WORKPIECES[wi],
-                        outcome(v),
-                        v.ambiguous,
-                        v.unexplained,
-                        v.withheld.join("+"),
-                        v.covered
-                    ),
-                    Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
-                }
-                if let Ok(mut r) = results.lock() {
-                    r[i] = v.ok();
+            sc.spawn(|| {
+                while let Some(&i) = todo.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let (ch, h, wi, seed) = cases[i];
+                    let mut s = base.clone();
+                    s.workpiece = wps[wi].clone();
+                    match run_case(&s, h, ch, seed) {
+                        Ok(v) => {
+                            let row = Row::of(&v);
+                            let line = csv_row(&key_of(&cases[i]), &row);
+                            eprintln!(
+                                "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} (ENR {:.1})",
+                                cases.len(),
+                                t0.elapsed().as_secs_f64(),
+                                h.label(),
+                                WORKPIECES[wi],
+                                row.outcome(),
+                                row.enr
+                            );
+                            if let Ok(mut f) = csv_file.lock() {
+                                let _ = writeln!(f, "{line}");
+                                let _ = f.flush();
+                            }
+                            if let Ok(mut r) = fresh.lock() {
+                                r.push((i, row));
+                            }
+                        }
+                        Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
+                    }
                 }
             });
         }
     });
-    let results = results.into_inner().expect("results");
+    for (i, r) in fresh.into_inner().expect("results") {
+        results[i] = Some(r);
+    }
     let elapsed = t0.elapsed().as_secs_f64();
     let mut md = String::new();
-    let mut csv = String::from(
-        "channel,hidden,workpiece,seed,outcome,ambiguous,unexplained,withheld,covered\n",
+    let _ = writeln!(
+        md,
+        "Columns: the library effect named (alone); \"several\": more than one named (the \
+         combinations are listed under the table); \"ambiguous\": nothing named, two \
+         candidates explain the same residual; \"unexplained\": nothing named, structure \
+         remains; \"nothing\": nothing named and the nominal model explains the log. ENR: \
+         the case's effect-to-noise ratio (`twin::effect_to_noise`: the nominal replay's \
+         residual on the log with vs without the effect, same workpiece and seed).\n"
     );
     for &ch in &channels {
-        let mut conf: BTreeMap<(u8, String), BTreeMap<String, usize>> = BTreeMap::new();
-        let (mut null_n, mut null_named, mut null_unexpl) = (0, 0, 0);
-        let (mut lib_n, mut lib_ok, mut cov_n, mut cov_ok) = (0, 0, 0, 0);
-        let (mut oob_n, mut oob_named, mut oob_amb, mut oob_unex) = (0, 0, 0, 0);
-        for ((c, h, wi, seed), v) in cases.iter().zip(&results) {
-            if *c != ch {
-                continue;
-            }
-            let Some(v) = v else { continue };
-            let o = outcome(v);
-            let _ = writeln!(
-                csv,
-                "{ch:?},{},{},{seed},{o},{},{},{},{:?}",
-                h.label(),
-                WORKPIECES[*wi],
-                v.ambiguous,
-                v.unexplained,
-                v.withheld.join("+"),
-                v.covered
-            );
-            let group = match (h, h.library()) {
-                (Hidden::Null, _) => 0,
-                (_, Some(_)) => 1,
-                _ => 2,
-            };
-            let cell = if group == 2 && !v.named.is_empty() {
-                format!("named {o}")
-            } else {
-                o.clone()
-            };
-            *conf
-                .entry((group, h.label()))
-                .or_default()
-                .entry(cell)
-                .or_default() += 1;
-            match group {
-                0 => {
-                    null_n += 1;
-                    null_named += usize::from(!v.named.is_empty());
-                    null_unexpl += usize::from(v.unexplained);
-                }
-                1 => {
-                    lib_n += 1;
-                    lib_ok += usize::from(Some(v.named.clone()) == h.library().map(|k| vec![k]));
-                    if let Some(c) = v.covered {
-                        cov_n += 1;
-                        cov_ok += usize::from(c);
-                    }
-                }
-                _ => {
-                    oob_n += 1;
-                    if !v.named.is_empty() {
-                        oob_named += 1;
-                    } else if v.ambiguous {
-                        oob_amb += 1;
-                    } else if v.unexplained {
-                        oob_unex += 1;
-                    }
-                }
-            }
-        }
-        let pct = |a: usize, b: usize| {
-            if b == 0 {
-                f64::NAN
-            } else {
-                100.0 * a as f64 / b as f64
-            }
-        };
+        let rows: Vec<(Hidden, &Row)> = cases
+            .iter()
+            .zip(&results)
+            .filter(|(c, _)| c.0 == ch)
+            .filter_map(|(c, r)| r.as_ref().map(|r| (c.1, r)))
+            .collect();
         let name = if ch == Channel::Power {
             "power"
         } else {
             "force"
         };
-        let _ = writeln!(md, "### Channel `{name}`\n");
-        let _ = writeln!(md, "- false discovery (an effect named on a null log): **{null_named} of {null_n}** ({:.1} %); \"unexplained\" on null logs: {null_unexpl} of {null_n} ({:.1} %)", pct(null_named, null_n), pct(null_unexpl, null_n));
-        let _ = writeln!(md, "- recovery (exactly the hidden in-library effect named): **{lib_ok} of {lib_n}** ({:.1} %); interval covers the truth: {cov_ok} of {cov_n} ({:.1} %)", pct(lib_ok, lib_n), pct(cov_ok, cov_n));
-        let _ = writeln!(md, "- out-of-library effects named as a library effect: **{oob_named} of {oob_n}** ({:.1} %); ambiguous {oob_amb}, unexplained {oob_unex}, nothing {}\n", pct(oob_named, oob_n), oob_n - oob_named - oob_amb - oob_unex);
-        let _ = writeln!(
-            md,
-            "| group | hidden \\ verdict | verdicts (count) |\n| --- | --- | --- |"
-        );
-        for ((g, h), m) in &conf {
-            let cells: Vec<String> = m.iter().map(|(o, c)| format!("{o}: {c}")).collect();
-            let gname = ["null", "in library", "out of library"][*g as usize];
-            let _ = writeln!(md, "| {gname} | {h} | {} |", cells.join(", "));
-        }
-        let _ = writeln!(md);
+        md.push_str(&channel_md(name, &rows));
     }
+    let finished = results.iter().filter(|r| r.is_some()).count();
     let _ = writeln!(
         md,
-        "{null_seeds} null seeds per channel (spread over the 5 shipped workpieces), {lib_seeds} seed(s) × 5 workpieces per in-library cell, {oob_seeds} seed(s) × 5 workpieces per out-of-library cell; {} cases, {elapsed:.0} s on {threads} threads (release build).",
+        "{null_seeds} null seeds per channel (spread over {nwp} shipped workpieces), {lib_seeds} seed(s) × {nwp} workpieces per in-library cell, {oob_seeds} seed(s) × {nwp} workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.",
         cases.len()
     );
     std::fs::write(out.join("twin.md"), &md).expect("write");
-    std::fs::write(out.join("cases.csv"), &csv).expect("write");
     println!("{md}");
     if let Some(doc) = doc {
         let text = std::fs::read_to_string(&doc).unwrap_or_default();
@@ -296,4 +540,8 @@ fn main() {
         };
         std::fs::write(&doc, new).expect("write doc");
     }
+    println!(
+        "total time: {elapsed:.1} s for {} cases run ({resumed} resumed)",
+        todo.len()
+    );
 }

@@ -191,7 +191,8 @@ pub struct Withheld {
 pub struct Unexplained {
     /// Segments whose bias stays significant with the updated model.
     pub segments: Vec<SegmentBias>,
-    /// Residual variance over the noise variance (selection part).
+    /// Residual variance over the noise variance (selection part; the sealed part when
+    /// only the sealed part is biased).
     pub variance_ratio: f64,
     /// z of the variance ratio against 1.
     pub variance_z: f64,

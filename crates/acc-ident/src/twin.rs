@@ -169,7 +169,31 @@ pub enum Hidden {
     /// Out of the library, the logging path: spikes of ± this fraction of the channel's
     /// median on 2 % of the logged rows.
     LogSpikes(f64),
+    /// Out of the library, the logging path: a zero shift of the sensor half-way through
+    /// the log — from then on the logged column is offset by this fraction of the
+    /// channel's median |value| (a step, where `noload_drift` is a first-order drift).
+    LogZeroShift(f64),
+    /// Out of the library, the logging path: a 0.3 Hz interference on the logged column,
+    /// amplitude this fraction of the channel's median |value| (mains beat, a fan).
+    LogInterference(f64),
+    /// Out of the library, the logging path: the logged column saturates at this
+    /// fraction of its largest value (an amplifier or ADC range set too low).
+    LogClip(f64),
+    /// Out of the library, the logging path: the logged column is quantised to steps of
+    /// this fraction of the channel's median |value| (a coarse ADC or an integer register).
+    LogQuantize(f64),
+    /// Out of the library, the logging path: the logger repeats the previous sample on
+    /// this fraction of the rows (stale samples: a bus read that missed its slot).
+    LogStale(f64),
+    /// Out of the library: the force rises above a radial depth of
+    /// [`DEPTH_THRESHOLD_MM`] (chatter, a built-up edge): `Ks × (1 + k·(d − d₀)/d₀)` where
+    /// the part's depth `d` exceeds `d₀`; `k` here, −. Set on the workpiece's `Ks` factor
+    /// (a ramp in pieces of 2 mm at their middle depth).
+    DepthThreshold(f64),
 }
+
+/// The radial depth above which [`Hidden::DepthThreshold`] raises the force, mm.
+pub const DEPTH_THRESHOLD_MM: f64 = 2.5;
 
 impl Hidden {
     /// The library effect this hidden effect is (None: null or out of library).
@@ -215,12 +239,20 @@ impl Hidden {
             Hidden::LogDelay(k) => format!("log delay {k} periods"),
             Hidden::SecondOrderDrive(v) => format!("second-order drive τ₂={v} s"),
             Hidden::LogSpikes(v) => format!("log spikes ±{v}"),
+            Hidden::LogZeroShift(v) => format!("log zero shift {v}"),
+            Hidden::LogInterference(v) => format!("log 0.3 Hz interference {v}"),
+            Hidden::LogClip(v) => format!("log clipped at {v}·max"),
+            Hidden::LogQuantize(v) => format!("log quantised {v}"),
+            Hidden::LogStale(v) => format!("log stale samples {v}"),
+            Hidden::DepthThreshold(v) => format!("force rise above {DEPTH_THRESHOLD_MM} mm ×{v}"),
         }
     }
 
     /// Parse `name` or `name=value` (`null`, `tool_wear=0.08`, `feed_drive_lag=0.08`,
     /// `override_dead_time=0.12`, `copper_loss=0.3`, `noload_drift=120`,
-    /// `sensor_lowpass=0.3`, `runout=0.15`, `depth_exponent=1.15`, `ks_step=1.3`, `tooth`).
+    /// `sensor_lowpass=0.3`, `runout=0.15`, `depth_exponent=1.15`, `ks_step=1.3`, `tooth`,
+    /// `log_zero_shift=0.05`, `log_interference=0.03`, `log_clip=0.75`,
+    /// `log_quantize=0.05`, `log_stale=0.2`, …: the keys below).
     pub fn parse(s: &str) -> Option<Hidden> {
         let (k, v) = match s.split_once('=') {
             Some((k, v)) => (k, v.parse::<f64>().ok()?),
@@ -247,6 +279,12 @@ impl Hidden {
             "log_delay" => Hidden::LogDelay(v as usize),
             "second_order_drive" => Hidden::SecondOrderDrive(v),
             "log_spikes" => Hidden::LogSpikes(v),
+            "log_zero_shift" => Hidden::LogZeroShift(v),
+            "log_interference" => Hidden::LogInterference(v),
+            "log_clip" => Hidden::LogClip(v),
+            "log_quantize" => Hidden::LogQuantize(v),
+            "log_stale" => Hidden::LogStale(v),
+            "depth_threshold" => Hidden::DepthThreshold(v),
             _ => return None,
         })
     }
@@ -374,8 +412,43 @@ pub fn hidden_case(
             sc.workpiece.segments = out;
         }
         Hidden::KsTimeDrift(g) => sc.wear.growth_per_min += g,
+        Hidden::DepthThreshold(k) => {
+            let d0 = DEPTH_THRESHOLD_MM;
+            let mut out = Vec::new();
+            for g in &sc.workpiece.segments {
+                let ramp = (g.depth_end_mm - g.depth_start_mm).abs() > 1e-9;
+                if !g.is_cut() || g.depth_start_mm.max(g.depth_end_mm) <= d0 {
+                    out.push(*g);
+                    continue;
+                }
+                let step = if ramp { 2.0 } else { g.end_mm - g.start_mm };
+                let mut a = g.start_mm;
+                while a < g.end_mm - 1e-9 {
+                    let b = (a + step).min(g.end_mm);
+                    let d = g.depth_at(0.5 * (a + b));
+                    let f = if d > d0 { 1.0 + k * (d - d0) / d0 } else { 1.0 };
+                    out.push(acc_sim::workpiece::Segment {
+                        start_mm: a,
+                        end_mm: b,
+                        depth_start_mm: g.depth_at(a),
+                        depth_end_mm: g.depth_at(b),
+                        ks_factor: g.ks_factor * f,
+                        ..*g
+                    });
+                    a = b;
+                }
+            }
+            sc.workpiece.segments = out;
+        }
         Hidden::SecondOrderDrive(t) => sc.machine.feed_drive.tau2_s = t,
-        Hidden::LogGainDrift(_) | Hidden::LogDelay(_) | Hidden::LogSpikes(_) => {}
+        Hidden::LogGainDrift(_)
+        | Hidden::LogDelay(_)
+        | Hidden::LogSpikes(_)
+        | Hidden::LogZeroShift(_)
+        | Hidden::LogInterference(_)
+        | Hidden::LogClip(_)
+        | Hidden::LogQuantize(_)
+        | Hidden::LogStale(_) => {}
     }
     (sc, model, wp_model)
 }
@@ -397,10 +470,14 @@ pub struct Verdict {
     pub conclusion: String,
     /// The report's "what was done and why" (`report.explanation`).
     pub explanation: Vec<String>,
+    /// The case's effect-to-noise ratio ([`effect_to_noise`]), − (0 for a null case).
+    pub enr: f64,
 }
 
 /// The logging-path effects ([`Hidden::LogGainDrift`], [`Hidden::LogDelay`],
-/// [`Hidden::LogSpikes`]) on the logged measured column of `channel`, after the run.
+/// [`Hidden::LogSpikes`], [`Hidden::LogZeroShift`], [`Hidden::LogInterference`],
+/// [`Hidden::LogClip`], [`Hidden::LogQuantize`], [`Hidden::LogStale`]) on the logged
+/// measured column of `channel`, after the run.
 pub fn apply_logging_path(hidden: Hidden, channel: Channel, log: &mut RunLog) {
     let t_s = log.t_s.clone();
     let col = match channel {
@@ -431,18 +508,63 @@ pub fn apply_logging_path(hidden: Hidden, channel: Channel, log: &mut RunLog) {
                     sign = -sign;
                 }
             }
+            Hidden::LogZeroShift(a) => {
+                let med = median_abs(col);
+                let t_mid = 0.5 * (t_s.first().unwrap_or(&0.0) + t_s.last().unwrap_or(&0.0));
+                for (v, t) in col.iter_mut().zip(&t_s) {
+                    if *t >= t_mid {
+                        *v += a * med;
+                    }
+                }
+            }
+            Hidden::LogInterference(a) => {
+                let med = median_abs(col);
+                for (v, t) in col.iter_mut().zip(&t_s) {
+                    *v += a * med * (2.0 * std::f64::consts::PI * 0.3 * t).sin();
+                }
+            }
+            Hidden::LogClip(a) => {
+                let top = a * col.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                for v in col.iter_mut() {
+                    *v = v.min(top);
+                }
+            }
+            Hidden::LogQuantize(a) => {
+                let q = a * median_abs(col);
+                if q > 0.0 {
+                    for v in col.iter_mut() {
+                        *v = (*v / q).round() * q;
+                    }
+                }
+            }
+            Hidden::LogStale(a) if a > 0.0 => {
+                // Every k-th row (k = 1/a, from row 11) repeats the row before it.
+                let k = (1.0 / a).round().max(1.0) as usize;
+                for i in (11..col.len()).step_by(k) {
+                    col[i] = col[i - 1];
+                }
+            }
             _ => {}
         }
     }
 }
 
-/// Run one case end to end: simulate through the production loop, analyse.
-pub fn run_case(
+/// Median of |v| over `col` (0 when empty).
+fn median_abs(col: &[f64]) -> f64 {
+    let mut m: Vec<f64> = col.iter().map(|v| v.abs()).collect();
+    m.sort_by(f64::total_cmp);
+    m.get(m.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The log of one case (the scenario with `hidden` in the simulated machine, run with
+/// `seed` through the production loop, the logging-path effect applied), the nominal
+/// model with the installation's estimator, and the workpiece the replay uses.
+pub fn case_log(
     base: &Scenario,
     hidden: Hidden,
     channel: Channel,
     seed: u64,
-) -> Result<Verdict, String> {
+) -> Result<(RunLog, Model, acc_sim::Workpiece), String> {
     let (mut sc, mut model, wp) = hidden_case(base, hidden, channel);
     sc.seed = seed;
     if model.measurement.force_estimator.is_some() {
@@ -452,6 +574,74 @@ pub fn run_case(
     }
     let mut log = simulate(&sc)?;
     apply_logging_path(hidden, channel, &mut log);
+    Ok((log, model, wp))
+}
+
+fn rms(r: &[f64]) -> f64 {
+    (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt()
+}
+
+/// Noise σ of a residual from its first differences (1.4826·MAD/√2) over the rows where
+/// it is not exactly 0 (air rows of a dynamometer channel), in the residual's unit.
+pub fn difference_sigma(r: &[f64]) -> f64 {
+    let live: Vec<f64> = r.iter().copied().filter(|x| *x != 0.0).collect();
+    let mut d: Vec<f64> = live.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(0.0) / 0.6745 / 2f64.sqrt()
+}
+
+/// Effect-to-noise ratio of a case from the nominal replay's residuals on the log with
+/// the hidden effect (`with`, RMS `r_h`) and on the null log of the same scenario,
+/// workpiece and seed (`without`, RMS `r_0`, difference σ `σ_0`):
+/// `ENR = √max(0, r_h² − r_0²) / σ_0`, − (the part of the residual the effect adds, in
+/// noise σ).
+pub fn enr_of_residuals(with: &[f64], without: &[f64]) -> f64 {
+    let (a, b) = (rms(with), rms(without));
+    let s = difference_sigma(without).max(1e-9);
+    (a * a - b * b).max(0.0).sqrt() / s
+}
+
+/// Effect-to-noise ratio of one case ([`enr_of_residuals`]): the case's log and the null
+/// log of the same workpiece and seed, both replayed by the nominal model on the
+/// workpiece; 0 for [`Hidden::Null`].
+pub fn effect_to_noise(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+) -> Result<f64, String> {
+    let (log, model, wp) = case_log(base, hidden, channel, seed)?;
+    enr_for_log(base, hidden, channel, seed, &log, &model, &wp)
+}
+
+fn enr_for_log(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+    log: &RunLog,
+    model: &Model,
+    wp: &acc_sim::Workpiece,
+) -> Result<f64, String> {
+    if hidden == Hidden::Null {
+        return Ok(0.0);
+    }
+    let (log0, model0, wp0) = case_log(base, Hidden::Null, channel, seed)?;
+    let rh = replay_residual(model, log, Some((wp, 0.0))).map_err(|e| e.to_string())?;
+    let r0 = replay_residual(&model0, &log0, Some((&wp0, 0.0))).map_err(|e| e.to_string())?;
+    Ok(enr_of_residuals(&rh, &r0))
+}
+
+/// Run one case end to end: simulate through the production loop, analyse; the verdict
+/// carries the case's effect-to-noise ratio ([`effect_to_noise`]).
+pub fn run_case(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+) -> Result<Verdict, String> {
+    let (log, model, wp) = case_log(base, hidden, channel, seed)?;
+    let enr = enr_for_log(base, hidden, channel, seed, &log, &model, &wp)?;
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
         // The whole library, the measurement-chain additions included.
@@ -498,5 +688,6 @@ pub fn run_case(
         withheld: a.report.withheld.iter().map(|w| w.effect.clone()).collect(),
         conclusion: a.report.conclusion.clone(),
         explanation: a.report.explanation.clone(),
+        enr,
     })
 }

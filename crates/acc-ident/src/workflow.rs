@@ -595,6 +595,9 @@ struct Prepared {
     nominal_replay: crate::replay::Replay,
     /// Quantization floor of the noise σ.
     q_floor: f64,
+    /// The noise σ measured from the data before the quantization floor; below
+    /// `q_floor` the log's rounding, not its noise, sets the residual.
+    raw_sigma: f64,
     /// Noise of the nominal residual over the selection part.
     noise0: Noise,
     /// Candidate signals the residual is correlated with.
@@ -651,6 +654,7 @@ impl Prepared {
             .map(|i| inp.measured[i] - nominal_replay.predicted[i])
             .collect();
         let q_floor = quantization_sigma(&inp.measured);
+        let raw_sigma = noise_raw(&r0_full, &sel_segs, n_sel).sigma;
         let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
         let sigs = signals(&inp, &nominal_replay);
         inp.prior = Some(crate::fit::Prior::around(model, noise0.sigma.max(1e-9)));
@@ -670,6 +674,7 @@ impl Prepared {
             sel_segs,
             nominal_replay,
             q_floor,
+            raw_sigma,
             noise0,
             sigs,
             locate,
@@ -1126,6 +1131,25 @@ fn assemble(
     // Only asked for (the twin's evaluation): `acc run` logs replayed on the workpiece
     // still leave the board's wall-clock timing as structure (tests/e2e_twin_production.rs).
     let strict = opts.withhold_on_structure == Some(true) && exact;
+    // The sealed part is the last word: a named fit that leaves a significantly biased
+    // stretch there does not predict beyond the rows it was fitted on (a sensor zero shift
+    // fitted as a Ks step over the cut, still visible in the air after it).
+    let sealed_biased: Vec<String> = sealed
+        .updated
+        .segments
+        .iter()
+        .filter(|b| b.significant)
+        .map(|b| {
+            format!(
+                "{} {:.1}–{:.1} s: {:+.3} {unit} (z {:.1})",
+                b.regime.name(),
+                b.t_start_s,
+                b.t_end_s,
+                b.bias,
+                b.z
+            )
+        })
+        .collect();
     let withheld: Vec<Withheld> = match &unexplained {
         Some(u) if strict && !passed.is_empty() && structure_remains(u) => passed
             .iter()
@@ -1137,19 +1161,65 @@ fn assemble(
                 ),
             })
             .collect(),
+        // A log rounded coarser than its noise: the residual after any fit is the
+        // rounding (a bias per steady stretch that follows the level), not noise, so no
+        // significance test holds.
+        _ if !passed.is_empty() && p.q_floor > p.raw_sigma => passed
+            .iter()
+            .map(|e| Withheld {
+                effect: e.clone(),
+                reason: format!(
+                    "the log is quantized in steps of {:.3} {unit} (rounding σ {:.3} {unit} above the noise {:.3} {unit}): the residual is rounding that follows the level, not noise, so no effect is named from it",
+                    p.q_floor * 12f64.sqrt(),
+                    p.q_floor,
+                    p.raw_sigma
+                ),
+            })
+            .collect(),
+        _ if strict && !passed.is_empty() && !sealed_biased.is_empty() => passed
+            .iter()
+            .map(|e| Withheld {
+                effect: e.clone(),
+                reason: format!(
+                    "the updated model does not predict the sealed part ({}): the fit explains the rows it saw but not the ones it did not, so it may be borrowing the signature of an effect outside the library",
+                    sealed_biased.join("; ")
+                ),
+            })
+            .collect(),
         _ => Vec::new(),
     };
     let named: Vec<String> = passed
         .into_iter()
         .filter(|e| !withheld.iter().any(|w| &w.effect == e))
         .collect();
+    // Withheld for the sealed part alone: that is where the structure remains.
+    let unexplained = match unexplained {
+        None if !withheld.is_empty() => Some(Unexplained {
+            segments: sealed
+                .updated
+                .segments
+                .iter()
+                .filter(|b| b.significant)
+                .cloned()
+                .collect(),
+            variance_ratio: if p.noise0.sigma > 0.0 {
+                (sealed.updated.rms / p.noise0.sigma).powi(2)
+            } else {
+                1.0
+            },
+            variance_z: 0.0,
+            correlations: Vec::new(),
+        }),
+        u => u,
+    };
     let mut conclusion =
         conclusion_with_notes(inp, &s, &named, unexplained.as_ref(), &sealed, unit);
     if !withheld.is_empty() {
         let list: Vec<&str> = withheld.iter().map(|w| w.effect.as_str()).collect();
         conclusion = format!(
-            "Not named: {} passed selection, but structure remains after the fit. {}",
+            "Not named: {} passed selection, but {}. {}",
             list.join(", "),
+            withheld[0].reason,
             conclusion.replace(
                 "No candidate effect is supported by held-out prediction. ",
                 ""
