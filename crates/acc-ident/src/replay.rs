@@ -1038,20 +1038,34 @@ fn replay_plant(
             false => chan_force,
             true if s > 0.0 => {
                 let sp = &model.machine.spindle;
-                let base = match motor {
+                let drift_w = sp.noload_drift.map_or(0.0, |d| d.power_w(tt))
+                    + fx.noload_drift.map_or(0.0, |d| d.power_w(tt));
+                match motor {
                     Some(m) => {
                         let c = inp.motor_curve(m, s);
                         let kk = k_win * g_win;
+                        // The simulator's motor carries the drift as bearing friction
+                        // T_d = P_drift/ω on the shaft (`acc_sim::motor::MotorEffects`):
+                        // the input rises by P_in(T + T_d) − P_in(T), more under load
+                        // (copper loss), not by P_drift alone.
+                        let td = if omega > 1e-6 { drift_w / omega } else { 0.0 };
+                        let pc_rms = omega * kk * t.unit_torque_sq_window.max(0.0).sqrt();
                         sp.no_load_power_w
-                            + c[1] * torque
-                            + c[2] * kk * kk * t.unit_torque_sq_window
-                            + sp.noload_drift.map_or(0.0, |d| d.power_w(tt))
-                            + sp.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                            + c[1] * (torque + td)
+                            + c[2]
+                                * (kk * kk * t.unit_torque_sq_window + 2.0 * torque * td + td * td)
+                            // The copper loss of the simulator's motor is taken sample by
+                            // sample on the instantaneous torque: its mean is c·⟨P_c²⟩, the
+                            // tooth ripple's mean square included, not c·⟨P_c⟩².
+                            + sp.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
+                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
                     }
-                    None => physics::input_power_w(sp, torque, s, tt),
-                };
-                base + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
-                    + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                    None => {
+                        physics::input_power_w(sp, torque, s, tt)
+                            + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
+                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                    }
+                }
             }
             true => 0.0,
         };
