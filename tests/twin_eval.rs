@@ -368,18 +368,34 @@ fn a_force_rise_above_a_depth_threshold_acts_only_where_the_part_is_deeper() {
 fn a_log_rounded_coarser_than_its_noise_names_nothing() {
     // The logger rounds the channel to 2 % / 5 % of its median: the residual after any fit
     // is rounding that follows the level (a bias per steady stretch), not noise, so what
-    // passes selection is withheld and the report says why.
+    // passes selection is withheld (or nothing passes) and the report says why.
     for (wp, ch, amp, seed) in [
         ("steps_2_3_4.toml", Channel::Power, 0.05, 1000),
         ("interrupted.toml", Channel::Force, 0.02, 1000),
     ] {
         let v = run_case(&scenario(wp), Hidden::LogQuantize(amp), ch, seed).expect("case");
         assert!(v.named.is_empty(), "{wp} {ch:?}: named {:?}", v.named);
-        assert!(!v.withheld.is_empty(), "{wp} {ch:?}: {}", v.conclusion);
         assert!(
             v.conclusion.contains("quantized in steps of"),
             "{wp} {ch:?}: {}",
             v.conclusion
         );
     }
+}
+
+#[test]
+fn a_structure_smaller_than_the_noise_gets_no_name() {
+    // The tooth-level force replayed by the mean-force model on the power channel: a
+    // systematic difference of about the noise's size (ENR ≈ 2) that several candidates
+    // reduce significantly (30 % held-out gain, p < 1e-4) with effects of 0.4–0.6 σ.
+    // Which one "wins" depends on the seed; none is named, and the report says why.
+    let v = run_case(
+        &scenario("steps_1_2_3.toml"),
+        Hidden::ToothModel,
+        Channel::Power,
+        1007,
+    )
+    .expect("case");
+    assert!(v.named.is_empty(), "named {:?}: {}", v.named, v.conclusion);
+    assert!(v.conclusion.contains("below the noise"), "{}", v.conclusion);
 }

@@ -499,6 +499,55 @@ pub fn fit(base: &Model, free: &[Free], grid: &[Free], inp: &Inputs, rows: &[usi
     finish(base, free, theta, inp, rows)
 }
 
+/// `(JᵀJ)⁻¹` with the parameters the data do not determine marked, not guessed: on the
+/// correlation-scaled matrix `D^-½·JᵀJ·D^-½`, eigen-directions with eigenvalue below
+/// 1e-10 × the largest are unidentified (a ks_step boundary inside an air gap moves
+/// nothing); a parameter with more than 1 % of its weight on them gets NaN (an infinite
+/// standard error), the others the pseudo-inverse over the identified directions. A plain
+/// inverse of a near-singular `JᵀJ` returned negative variances, clamped to zero: a
+/// zero-width interval around a parameter the log cannot see.
+fn covariance_of(jtj: &DMatrix<f64>) -> DMatrix<f64> {
+    let p = jtj.nrows();
+    let d: Vec<f64> = (0..p).map(|k| jtj[(k, k)]).collect();
+    let scale: Vec<f64> = d
+        .iter()
+        .map(|&v| {
+            if v > 0.0 && v.is_finite() {
+                1.0 / v.sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(p, p, |a, b| jtj[(a, b)] * scale[a] * scale[b]);
+    if scaled.iter().any(|v| !v.is_finite()) {
+        return DMatrix::from_element(p, p, f64::NAN);
+    }
+    let eig = nalgebra::SymmetricEigen::new(scaled);
+    let top = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    let tol = 1e-10 * top.max(f64::MIN_POSITIVE);
+    let mut cov = DMatrix::zeros(p, p);
+    let mut lost = vec![0.0; p];
+    for (i, &l) in eig.eigenvalues.iter().enumerate() {
+        let v = eig.eigenvectors.column(i);
+        if l > tol {
+            cov += (v * v.transpose()) / l;
+        } else {
+            for k in 0..p {
+                lost[k] += v[k] * v[k];
+            }
+        }
+    }
+    let mut cov = DMatrix::from_fn(p, p, |a, b| cov[(a, b)] * scale[a] * scale[b]);
+    for k in 0..p {
+        if scale[k] == 0.0 || lost[k] > 0.01 {
+            cov.row_mut(k).fill(f64::NAN);
+            cov.column_mut(k).fill(f64::NAN);
+        }
+    }
+    cov
+}
+
 fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[usize]) -> Fit {
     let model = apply(base, free, &theta);
     let problem = Problem::new(base, free, inp, rows, theta.clone());
@@ -513,10 +562,7 @@ fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[us
     let infl = (1.0 + rho) / (1.0 - rho);
     let j = problem.jac(&theta);
     let jtj = j.transpose() * &j;
-    let cov = jtj
-        .clone()
-        .try_inverse()
-        .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+    let cov = covariance_of(&jtj);
     let tc = t_critical(0.95, (ne - p as f64).max(1.0));
     let params = free
         .iter()
@@ -547,5 +593,33 @@ fn finish(base: &Model, free: &[Free], theta: Vec<f64>, inp: &Inputs, rows: &[us
         s2_inflated: s2 * infl,
         sse,
         n,
+    }
+}
+
+#[cfg(test)]
+mod covariance_tests {
+    use super::covariance_of;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn a_well_posed_matrix_inverts_exactly() {
+        let a = DMatrix::from_row_slice(2, 2, &[4.0, 1.0, 1.0, 3.0]);
+        let c = covariance_of(&a);
+        let i = a.clone().try_inverse().expect("invertible");
+        assert!((c - i).abs().max() < 1e-12);
+    }
+
+    #[test]
+    fn a_parameter_the_data_do_not_see_gets_no_variance_and_the_others_theirs() {
+        // The second parameter has a zero column: unidentified; the first keeps 1/4.
+        let a = DMatrix::from_row_slice(2, 2, &[4.0, 0.0, 0.0, 0.0]);
+        let c = covariance_of(&a);
+        assert!((c[(0, 0)] - 0.25).abs() < 1e-12);
+        assert!(c[(1, 1)].is_nan());
+        // Two exactly collinear parameters: neither is determined alone.
+        let b = DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 2.0]);
+        let c = covariance_of(&b);
+        assert!(c[(0, 0)].is_nan() && c[(1, 1)].is_nan());
+        assert!((c[(2, 2)] - 0.5).abs() < 1e-12);
     }
 }

@@ -342,9 +342,24 @@ pub fn hidden_case(
         Hidden::KsStep(k) => {
             // The material changes half-way along the cut; the model's workpiece does not
             // know it.
-            let cut: Vec<usize> = (0..sc.workpiece.segments.len())
+            let mut cut: Vec<usize> = (0..sc.workpiece.segments.len())
                 .filter(|&i| sc.workpiece.segments[i].is_cut())
                 .collect();
+            // One cut segment (the ramp): the boundary is at its middle, not before it (a
+            // factor on the whole cut is a calibration, which the refit absorbs).
+            if let [i] = cut[..] {
+                let g = sc.workpiece.segments[i];
+                let mid = 0.5 * (g.start_mm + g.end_mm);
+                let d = g.depth_at(mid);
+                let mut second = g;
+                second.start_mm = mid;
+                second.depth_start_mm = d;
+                let first = &mut sc.workpiece.segments[i];
+                first.end_mm = mid;
+                first.depth_end_mm = d;
+                sc.workpiece.segments.insert(i + 1, second);
+                cut = vec![i, i + 1];
+            }
             let half = cut.len() / 2;
             for &i in &cut[half..] {
                 sc.workpiece.segments[i].ks_factor *= k;

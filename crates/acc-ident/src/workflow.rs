@@ -32,6 +32,12 @@ pub struct Options {
     pub min_segment_s: f64,
     /// Smallest held-out MSE reduction that counts, % of the base model's. Default 5.
     pub min_gain_pct: f64,
+    /// Smallest effect worth a name: the RMS of the candidate's contribution to the
+    /// prediction over the noise σ. Default 1. A structure smaller than the noise is
+    /// matched about equally by several effects' shapes (the tooth-level force replayed
+    /// by the mean model — ENR 1–2 — passed as `ks_step`, `depth_exponent` or
+    /// `override_dead_time` depending on the seed), so a name there is not a measurement.
+    pub min_effect_to_noise: f64,
     /// Fit the speed exponent γ with every candidate when the cutting speed varies.
     /// Default false.
     pub fit_speed_exponent: bool,
@@ -62,6 +68,7 @@ impl Default for Options {
             transient_s: 1.0,
             min_segment_s: 1.0,
             min_gain_pct: 5.0,
+            min_effect_to_noise: 1.0,
             fit_speed_exponent: false,
             candidates: EffectKind::DEFAULT.to_vec(),
             workpiece: None,
@@ -941,8 +948,21 @@ fn screen_candidate(
         f64::INFINITY
     };
     let sig_gone = p_after > 0.01 || sig_ratio <= 0.25;
-    let enr = if base.noise.sigma > 0.0 {
-        stats::rms(&contrib) / base.noise.sigma
+    // The effect's size against the noise. The base model's residual carries the effect
+    // itself (a delayed override step is an override-step stretch), so its σ can be
+    // inflated by it; the candidate's own residual, once it explains the log, is noise.
+    let fit_sigma = noise_of(
+        &(0..p.n)
+            .map(|i| inp.measured[i] - with.predicted[i])
+            .collect::<Vec<_>>(),
+        &p.sel_segs,
+        n_sel,
+        p.q_floor,
+    )
+    .sigma;
+    let sigma_ref = base.noise.sigma.min(fit_sigma);
+    let enr = if sigma_ref > 0.0 {
+        stats::rms(&contrib) / sigma_ref
     } else {
         0.0
     };
@@ -954,6 +974,7 @@ fn screen_candidate(
     };
     let others_pass = folds_improved + 1 >= ctx.folds.len()
         && gain_pct >= opts.min_gain_pct
+        && enr >= opts.min_effect_to_noise
         && p_adj < opts.alpha
         && sig_gone;
     // The primary parameter's interval: profile likelihood for the parameters that
@@ -1168,12 +1189,7 @@ fn assemble(
             .iter()
             .map(|e| Withheld {
                 effect: e.clone(),
-                reason: format!(
-                    "the log is quantized in steps of {:.3} {unit} (rounding σ {:.3} {unit} above the noise {:.3} {unit}): the residual is rounding that follows the level, not noise, so no effect is named from it",
-                    p.q_floor * 12f64.sqrt(),
-                    p.q_floor,
-                    p.raw_sigma
-                ),
+                reason: quantized_text(&p, unit),
             })
             .collect(),
         _ if strict && !passed.is_empty() && !sealed_biased.is_empty() => passed
@@ -1225,6 +1241,37 @@ fn assemble(
                 ""
             )
         );
+    }
+    // Nothing named although candidates predicted better: say when their effects were
+    // only too small to name (the one criterion they failed), not "nothing supported".
+    if named.is_empty() && withheld.is_empty() && s.ambiguous.is_empty() {
+        if let Some(r) = s.rounds.first() {
+            let mut small: Vec<&CandidateResult> = r
+                .candidates
+                .iter()
+                .filter(|c| c.applicable && c.effect_to_noise < opts.min_effect_to_noise)
+                .filter(|c| fail_reasons(c, opts.folds, opts).len() == 1)
+                .collect();
+            small.sort_by(|a, b| b.effect_to_noise.total_cmp(&a.effect_to_noise));
+            if let Some(top) = small.first() {
+                let list: Vec<&str> = small.iter().map(|c| c.effect.as_str()).collect();
+                conclusion = conclusion.replace(
+                    "No candidate effect is supported by held-out prediction.",
+                    &format!(
+                        "Not named: {} predict the held-out part better, but each one's effect \
+                         is below the noise (largest: `{}` at {:.1}×, a name needs {:.1}×): a \
+                         structure this small fits several effects' shapes about equally.",
+                        list.join(", "),
+                        top.effect,
+                        top.effect_to_noise,
+                        opts.min_effect_to_noise
+                    ),
+                );
+            }
+        }
+    }
+    if named.is_empty() && withheld.is_empty() && p.q_floor > p.raw_sigma {
+        conclusion = format!("Note: {}. {conclusion}", quantized_text(&p, unit));
     }
     let series = plot_series(&p, &upd_replay, &sealed);
     let explanation = explain(&s, &named, &withheld, unexplained.as_ref(), opts);
@@ -1511,6 +1558,16 @@ fn structure_text(u: &Unexplained, unit: &str) -> String {
     parts.join("; ")
 }
 
+/// The note on a log rounded coarser than its noise.
+fn quantized_text(p: &Prepared, unit: &str) -> String {
+    format!(
+        "the log is quantized in steps of {:.3} {unit} (rounding σ {:.3} {unit} above the noise {:.3} {unit}): the residual is rounding that follows the level, not noise, so no effect is named from it",
+        p.q_floor * 12f64.sqrt(),
+        p.q_floor,
+        p.raw_sigma
+    )
+}
+
 /// Why a candidate failed, in words (empty when it passed).
 fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) -> Vec<String> {
     let mut v = Vec::new();
@@ -1521,6 +1578,12 @@ fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) -> Vec<String
         v.push(format!(
             "held-out gain {:.1} % < {:.0} %",
             c.heldout_gain_pct, opts.min_gain_pct
+        ));
+    }
+    if c.effect_to_noise < opts.min_effect_to_noise {
+        v.push(format!(
+            "its effect is {:.1}× the noise, below the {:.1}× a name needs",
+            c.effect_to_noise, opts.min_effect_to_noise
         ));
     }
     if c.p_adjusted >= opts.alpha {
