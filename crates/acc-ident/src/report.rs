@@ -97,6 +97,11 @@ pub struct CandidateResult {
     pub signature_gone: bool,
     /// Effect-to-noise ratio: RMS of the effect's contribution over σ.
     pub effect_to_noise: f64,
+    /// Other candidates that passed in the same round while this one's effect is below
+    /// [`crate::workflow::Options::min_effect_to_noise`]: it is then not named (empty
+    /// otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contested_by: Vec<String>,
     /// All criteria met.
     pub passed: bool,
 }

@@ -32,11 +32,13 @@ pub struct Options {
     pub min_segment_s: f64,
     /// Smallest held-out MSE reduction that counts, % of the base model's. Default 5.
     pub min_gain_pct: f64,
-    /// Smallest effect worth a name: the RMS of the candidate's contribution to the
-    /// prediction over the noise σ. Default 1. A structure smaller than the noise is
-    /// matched about equally by several effects' shapes (the tooth-level force replayed
-    /// by the mean model — ENR 1–2 — passed as `ks_step`, `depth_exponent` or
-    /// `override_dead_time` depending on the seed), so a name there is not a measurement.
+    /// Below this effect-to-noise ratio (RMS of the candidate's contribution to the
+    /// prediction over the noise σ) a candidate is named only if no other candidate
+    /// passes in its round. Default 1. A structure smaller than the noise is matched about
+    /// equally by several effects' shapes (the tooth-level force replayed by the mean
+    /// model — ENR 1–2 — passed as `tool_wear`, `sensor_gain_drift`, `depth_exponent` and
+    /// `ks_step` at once, and the encompassing test picked one), so a name there is not a
+    /// measurement; a small effect that alone fits (early tool wear) still is.
     pub min_effect_to_noise: f64,
     /// Fit the speed exponent γ with every candidate when the cutting speed varies.
     /// Default false.
@@ -818,6 +820,26 @@ impl Selection {
             results.push(result);
             scored.extend(passed);
         }
+        // An effect below the noise is named only if it alone fits (see
+        // `Options::min_effect_to_noise`).
+        let passing: Vec<String> = results
+            .iter()
+            .filter(|r| r.passed)
+            .map(|r| r.effect.clone())
+            .collect();
+        if passing.len() >= 2 {
+            for r in results.iter_mut() {
+                if r.passed && r.effect_to_noise < opts.min_effect_to_noise {
+                    r.passed = false;
+                    r.contested_by = passing
+                        .iter()
+                        .filter(|e| **e != r.effect)
+                        .cloned()
+                        .collect();
+                    scored.retain(|sc| sc.0.name() != r.effect);
+                }
+            }
+        }
         scored.sort_by(|a, b| a.3.total_cmp(&b.3));
         let base_names: Vec<String> = self.accepted.iter().map(|k| k.name().to_string()).collect();
         let Some((best, best_fit, verdict, encompassing)) = choose_best(
@@ -887,6 +909,7 @@ fn screen_candidate(
             signature_ratio: f64::INFINITY,
             signature_gone: false,
             effect_to_noise: 0.0,
+            contested_by: Vec::new(),
             passed: false,
         };
         return (skipped, None);
@@ -974,7 +997,6 @@ fn screen_candidate(
     };
     let others_pass = folds_improved + 1 >= ctx.folds.len()
         && gain_pct >= opts.min_gain_pct
-        && enr >= opts.min_effect_to_noise
         && p_adj < opts.alpha
         && sig_gone;
     // The primary parameter's interval: profile likelihood for the parameters that
@@ -1018,6 +1040,7 @@ fn screen_candidate(
         signature_ratio: sig_ratio,
         signature_gone: sig_gone,
         effect_to_noise: enr,
+        contested_by: Vec::new(),
         passed,
     };
     (result, passed.then_some((kind, cv, f, mse)))
@@ -1249,8 +1272,7 @@ fn assemble(
             let mut small: Vec<&CandidateResult> = r
                 .candidates
                 .iter()
-                .filter(|c| c.applicable && c.effect_to_noise < opts.min_effect_to_noise)
-                .filter(|c| fail_reasons(c, opts.folds, opts).len() == 1)
+                .filter(|c| !c.contested_by.is_empty())
                 .collect();
             small.sort_by(|a, b| b.effect_to_noise.total_cmp(&a.effect_to_noise));
             if let Some(top) = small.first() {
@@ -1258,9 +1280,10 @@ fn assemble(
                 conclusion = conclusion.replace(
                     "No candidate effect is supported by held-out prediction.",
                     &format!(
-                        "Not named: {} predict the held-out part better, but each one's effect \
-                         is below the noise (largest: `{}` at {:.1}×, a name needs {:.1}×): a \
-                         structure this small fits several effects' shapes about equally.",
+                        "Not named: {} each predict the held-out part better, but each one's \
+                         effect is below the noise (largest: `{}` at {:.1}×; below {:.1}× a \
+                         name needs to be the only fit): a structure this small fits several \
+                         effects' shapes about equally.",
                         list.join(", "),
                         top.effect,
                         top.effect_to_noise,
@@ -1580,10 +1603,12 @@ fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) -> Vec<String
             c.heldout_gain_pct, opts.min_gain_pct
         ));
     }
-    if c.effect_to_noise < opts.min_effect_to_noise {
+    if !c.contested_by.is_empty() {
         v.push(format!(
-            "its effect is {:.1}× the noise, below the {:.1}× a name needs",
-            c.effect_to_noise, opts.min_effect_to_noise
+            "its effect is {:.1}× the noise (below {:.1}× a name needs to be the only fit) and {} fit as well",
+            c.effect_to_noise,
+            opts.min_effect_to_noise,
+            c.contested_by.join(", ")
         ));
     }
     if c.p_adjusted >= opts.alpha {
@@ -1662,6 +1687,7 @@ fn explain(
     if named.is_empty() && withheld.is_empty() && s.ambiguous.is_empty() {
         out.push(match unexplained {
             Some(_) => "Nothing named: no candidate passed every criterion, and structure remains in the residual (see Unexplained): something outside the library, or an effect the log does not excite enough.".into(),
+            None if s.rounds.iter().any(|r| r.candidates.iter().any(|c| !c.contested_by.is_empty())) => "Nothing named: the candidates that passed every other criterion were each below the noise and not the only fit; what remains is at the noise's level.".into(),
             None => "Nothing named: no candidate passed every criterion and the nominal model explains the log down to the noise.".into(),
         });
     } else {
