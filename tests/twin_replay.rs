@@ -135,3 +135,17 @@ fn spindle_drift_and_copper_loss_replay_as_the_simulator_makes_them() {
         }
     }
 }
+
+/// A slow override path (dead time 0.136 s, longer than a control period) replays as the
+/// simulator runs it: the model with the true delay leaves noise (0.67 W against σ 0.50 W
+/// on ramp_2_4, seed 1014). The workflow's fit of that delay lands 2.7 ms off (see
+/// docs/twin.md, "Not done"); the replay is not the cause.
+#[test]
+fn a_dead_time_longer_than_a_period_replays_as_the_simulator_makes_it() {
+    fn effects(sc: &mut Scenario) {
+        sc.machine.override_path.delay_s += 0.12;
+    }
+    for wp in [2, 4] {
+        check_with(wp, false, false, 1014, effects);
+    }
+}

@@ -52,6 +52,11 @@ pub struct DiscrepancyArgs {
     /// Also fit the speed exponent γ with every candidate when the speed varies.
     #[arg(long)]
     pub fit_speed_exponent: bool,
+    /// Below this effect-to-noise ratio an effect is named only if no other candidate
+    /// passes in its round (0..=10; default 0 = off; the twin's evaluation uses 1 with
+    /// `--effects` all — see docs/twin.md).
+    #[arg(long, default_value_t = 0.0)]
+    pub min_enr: f64,
     /// Workpiece the measured run cut (`configs/workpieces/*.toml`, or the scenario file
     /// that names it): the engagement of a production log (`acc run`, no depth columns) is
     /// rebuilt from it at the logged path position `x_mm`, for the model's tool diameter.
@@ -153,6 +158,7 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
         sealed_fraction: args.sealed,
         max_effects: args.max_effects.min(EffectKind::ALL.len()),
         fit_speed_exponent: args.fit_speed_exponent,
+        min_effect_to_noise: args.min_enr,
         ..workflow::Options::default()
     };
     if let Some(list) = &args.effects {

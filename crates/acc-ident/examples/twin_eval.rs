@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use acc_ident::model::Channel;
-use acc_ident::twin::{run_case, Hidden, Verdict};
+use acc_ident::twin::{self, run_case, Hidden, Verdict};
 use acc_ident::EffectKind;
 
 const WORKPIECES: [&str; 5] = [
@@ -34,7 +34,7 @@ const WORKPIECES: [&str; 5] = [
 const ENR_MIN: f64 = 4.0;
 
 const CSV_HEADER: &str =
-    "channel,hidden,workpiece,seed,enr,outcome,ambiguous,unexplained,withheld,covered";
+    "channel,hidden,workpiece,seed,enr,outcome,ambiguous,unexplained,withheld,covered,enr_calibrated";
 
 /// In-library effects at two amplitudes.
 fn library() -> Vec<Hidden> {
@@ -106,6 +106,9 @@ struct Row {
     withheld: String,
     covered: Option<bool>,
     enr: f64,
+    /// Effect-to-noise ratio after calibration (`None`: a resumed row of an older run,
+    /// computed before the tables are made).
+    enr_cal: Option<f64>,
 }
 
 impl Row {
@@ -117,6 +120,7 @@ impl Row {
             withheld: v.withheld.join("+"),
             covered: v.covered,
             enr: v.enr,
+            enr_cal: Some(v.enr_calibrated),
         }
     }
 
@@ -159,7 +163,7 @@ fn csv_row(key: &Key, r: &Row) -> String {
         None => "",
     };
     format!(
-        "{},{},{},{},{:.3},{},{},{},{},{covered}",
+        "{},{},{},{},{:.3},{},{},{},{},{covered},{}",
         key.0,
         key.1,
         key.2,
@@ -168,13 +172,14 @@ fn csv_row(key: &Key, r: &Row) -> String {
         r.outcome(),
         r.ambiguous,
         r.unexplained,
-        r.withheld
+        r.withheld,
+        r.enr_cal.map(|e| format!("{e:.3}")).unwrap_or_default()
     )
 }
 
 fn parse_row(line: &str) -> Option<(Key, Row)> {
     let f: Vec<&str> = line.split(',').collect();
-    if f.len() != 10 || f[0] == "channel" {
+    if !(10..=11).contains(&f.len()) || f[0] == "channel" {
         return None;
     }
     let named = match f[5] {
@@ -198,8 +203,34 @@ fn parse_row(line: &str) -> Option<(Key, Row)> {
                 _ => None,
             },
             enr: f[4].parse().ok()?,
+            enr_cal: f.get(10).and_then(|e| e.parse().ok()),
         },
     ))
+}
+
+/// Run `f(i)` for every index of `todo` on `threads` std threads (work shared by a counter).
+fn parallel(todo: &[usize], threads: usize, f: impl Fn(usize) + Sync) {
+    let next = AtomicUsize::new(0);
+    std::thread::scope(|sc| {
+        for _ in 0..threads {
+            sc.spawn(|| {
+                while let Some(&i) = todo.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    f(i);
+                }
+            });
+        }
+    });
+}
+
+/// `cases.csv`: the header and one line per finished case.
+fn csv_text<'a>(rows: impl Iterator<Item = (Key, &'a Row)>) -> String {
+    let mut csv = String::from(CSV_HEADER);
+    csv.push('\n');
+    for (k, r) in rows {
+        csv.push_str(&csv_row(&k, r));
+        csv.push('\n');
+    }
+    csv
 }
 
 fn pct(a: usize, b: usize) -> f64 {
@@ -240,6 +271,13 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     let cov_ok = count(&|h, r| group(h) == 1 && r.covered == Some(true));
     let cov4_n = count(&|h, r| group(h) == 1 && r.enr >= ENR_MIN && r.covered.is_some());
     let cov4_ok = count(&|h, r| group(h) == 1 && r.enr >= ENR_MIN && r.covered == Some(true));
+    let cal4 = |r: &Row| r.enr_cal.is_some_and(|e| e >= ENR_MIN);
+    let libc_n = count(&|h, r| group(h) == 1 && cal4(r));
+    let libc_ok = count(&|h, r| group(h) == 1 && cal4(r) && exact(h, r));
+    let covc_n = count(&|h, r| group(h) == 1 && cal4(r) && r.covered.is_some());
+    let covc_ok = count(&|h, r| group(h) == 1 && cal4(r) && r.covered == Some(true));
+    let oobc_n = count(&|h, r| group(h) == 2 && cal4(r));
+    let oobc_named = count(&|h, r| group(h) == 2 && cal4(r) && !r.named.is_empty());
     let oob_n = count(&|h, _| group(h) == 2);
     let oob_named = count(&|h, r| group(h) == 2 && !r.named.is_empty());
     let oob_col = |c: &str| count(&|h, r| group(h) == 2 && r.column() == c);
@@ -266,12 +304,19 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     );
     let _ = writeln!(
         md,
-        "- out-of-library effects named as a library effect: **{oob_named} of {oob_n}** ({:.1} %); ambiguous {}, unexplained {}, nothing {}; at effect/noise ≥ {ENR_MIN}: {oob4_named} of {oob4_n} ({:.1} %)\n",
+        "- out-of-library effects named as a library effect: **{oob_named} of {oob_n}** ({:.1} %); ambiguous {}, unexplained {}, nothing {}; at effect/noise ≥ {ENR_MIN}: {oob4_named} of {oob4_n} ({:.1} %)",
         pct(oob_named, oob_n),
         oob_col("ambiguous"),
         oob_col("unexplained"),
         oob_col("nothing"),
         pct(oob4_named, oob4_n)
+    );
+    let _ = writeln!(
+        md,
+        "- at effect/noise after calibration ≥ {ENR_MIN} (the part of the effect a refit of `Ks` and the no-load offset cannot absorb): recovery **{libc_ok} of {libc_n}** ({:.1} %), interval coverage **{covc_ok} of {covc_n}** ({:.1} %), out-of-library named {oobc_named} of {oobc_n} ({:.1} %)\n",
+        pct(libc_ok, libc_n),
+        pct(covc_ok, covc_n),
+        pct(oobc_named, oobc_n)
     );
     // Columns: the library effects named alone at least once on this channel (library
     // order), then several / ambiguous / unexplained / nothing.
@@ -290,6 +335,7 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     let mut order: Vec<(usize, String)> = Vec::new();
     let mut cells: HashMap<String, BTreeMap<String, usize>> = HashMap::new();
     let mut enrs: HashMap<String, Vec<f64>> = HashMap::new();
+    let mut enrs_cal: HashMap<String, Vec<f64>> = HashMap::new();
     let mut several: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     for (h, r) in rows {
         let l = h.label();
@@ -302,6 +348,9 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
             .entry(r.column())
             .or_default() += 1;
         enrs.entry(l.clone()).or_default().push(r.enr);
+        if let Some(e) = r.enr_cal {
+            enrs_cal.entry(l.clone()).or_default().push(e);
+        }
         if r.named.len() > 1 {
             *several
                 .entry(l)
@@ -313,20 +362,30 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     order.sort_by_key(|(g, _)| *g);
     let _ = writeln!(
         md,
-        "| group | hidden effect | cases | median ENR | {} |",
+        "| group | hidden effect | cases | median ENR | median ENR after calibration | {} |",
         cols.join(" | ")
     );
-    let _ = writeln!(md, "|---|---|---:|---:|{}", "---:|".repeat(cols.len()));
+    let _ = writeln!(md, "|---|---|---:|---:|---:|{}", "---:|".repeat(cols.len()));
     for (g, l) in &order {
         let m = &cells[l];
         let n: usize = m.values().sum();
         let e = median(enrs.get_mut(l).map(|v| v.as_mut_slice()).unwrap_or(&mut []));
+        let ec = median(
+            enrs_cal
+                .get_mut(l)
+                .map(|v| v.as_mut_slice())
+                .unwrap_or(&mut []),
+        );
         let c: Vec<String> = cols
             .iter()
             .map(|c| m.get(c).map(|x| x.to_string()).unwrap_or_default())
             .collect();
         let gname = ["null", "in library", "out of library"][*g];
-        let _ = writeln!(md, "| {gname} | {l} | {n} | {e:.1} | {} |", c.join(" | "));
+        let _ = writeln!(
+            md,
+            "| {gname} | {l} | {n} | {e:.1} | {ec:.1} | {} |",
+            c.join(" | ")
+        );
     }
     let _ = writeln!(md);
     if !never.is_empty() {
@@ -437,15 +496,17 @@ fn main() {
     let resumed = results.iter().filter(|r| r.is_some()).count();
     // cases.csv: the header and the resumed rows now, every further case as it finishes.
     let csv_path = out.join("cases.csv");
-    let mut csv = String::from(CSV_HEADER);
-    csv.push('\n');
-    for (c, r) in cases.iter().zip(&results) {
-        if let Some(r) = r {
-            csv.push_str(&csv_row(&key_of(c), r));
-            csv.push('\n');
-        }
-    }
-    std::fs::write(&csv_path, &csv).expect("write cases.csv");
+    let finished = |results: &[Option<Row>]| {
+        csv_text(
+            cases
+                .iter()
+                .zip(results)
+                .filter_map(|(c, r)| r.as_ref().map(|r| (key_of(c), r)))
+                .collect::<Vec<_>>()
+                .into_iter(),
+        )
+    };
+    std::fs::write(&csv_path, finished(&results)).expect("write cases.csv");
     let csv_file = Mutex::new(
         std::fs::OpenOptions::new()
             .append(true)
@@ -459,44 +520,70 @@ fn main() {
         todo.len()
     );
     let t0 = std::time::Instant::now();
-    let next = AtomicUsize::new(0);
+    // The case's scenario: the base on its workpiece.
+    let scenario_of = |wi: usize| {
+        let mut s = base.clone();
+        s.workpiece = wps[wi].clone();
+        s
+    };
     let fresh: Mutex<Vec<(usize, Row)>> = Mutex::new(Vec::new());
-    std::thread::scope(|sc| {
-        for _ in 0..threads {
-            sc.spawn(|| {
-                while let Some(&i) = todo.get(next.fetch_add(1, Ordering::Relaxed)) {
-                    let (ch, h, wi, seed) = cases[i];
-                    let mut s = base.clone();
-                    s.workpiece = wps[wi].clone();
-                    match run_case(&s, h, ch, seed) {
-                        Ok(v) => {
-                            let row = Row::of(&v);
-                            let line = csv_row(&key_of(&cases[i]), &row);
-                            eprintln!(
-                                "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} (ENR {:.1})",
-                                cases.len(),
-                                t0.elapsed().as_secs_f64(),
-                                h.label(),
-                                WORKPIECES[wi],
-                                row.outcome(),
-                                row.enr
-                            );
-                            if let Ok(mut f) = csv_file.lock() {
-                                let _ = writeln!(f, "{line}");
-                                let _ = f.flush();
-                            }
-                            if let Ok(mut r) = fresh.lock() {
-                                r.push((i, row));
-                            }
-                        }
-                        Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
-                    }
+    parallel(&todo, threads, |i| {
+        let (ch, h, wi, seed) = cases[i];
+        match run_case(&scenario_of(wi), h, ch, seed) {
+            Ok(v) => {
+                let row = Row::of(&v);
+                let line = csv_row(&key_of(&cases[i]), &row);
+                eprintln!(
+                    "[{i}/{}] {:.0} s {ch:?} {} {} seed {seed}: {} (ENR {:.1})",
+                    cases.len(),
+                    t0.elapsed().as_secs_f64(),
+                    h.label(),
+                    WORKPIECES[wi],
+                    row.outcome(),
+                    row.enr
+                );
+                if let Ok(mut f) = csv_file.lock() {
+                    let _ = writeln!(f, "{line}");
+                    let _ = f.flush();
                 }
-            });
+                if let Ok(mut r) = fresh.lock() {
+                    r.push((i, row));
+                }
+            }
+            Err(e) => eprintln!("{ch:?} {} {} {seed}: {e}", h.label(), WORKPIECES[wi]),
         }
     });
     for (i, r) in fresh.into_inner().expect("results") {
         results[i] = Some(r);
+    }
+    // Resumed rows of an older run lack the ENR after calibration: compute it (their
+    // verdicts are not re-run) and rewrite cases.csv with it.
+    let missing: Vec<usize> = (0..cases.len())
+        .filter(|&i| results[i].as_ref().is_some_and(|r| r.enr_cal.is_none()))
+        .collect();
+    if !missing.is_empty() {
+        eprintln!(
+            "{} resumed rows without the ENR after calibration: computing it",
+            missing.len()
+        );
+        let got: Mutex<Vec<(usize, f64)>> = Mutex::new(Vec::new());
+        parallel(&missing, threads, |i| {
+            let (ch, h, wi, seed) = cases[i];
+            match twin::calibrated_effect_to_noise(&scenario_of(wi), h, ch, seed) {
+                Ok(e) => {
+                    if let Ok(mut g) = got.lock() {
+                        g.push((i, e));
+                    }
+                }
+                Err(e) => eprintln!("{ch:?} {} {}: {e}", h.label(), WORKPIECES[wi]),
+            }
+        });
+        for (i, e) in got.into_inner().expect("results") {
+            if let Some(r) = results[i].as_mut() {
+                r.enr_cal = Some(e);
+            }
+        }
+        std::fs::write(&csv_path, finished(&results)).expect("write cases.csv");
     }
     let elapsed = t0.elapsed().as_secs_f64();
     let mut md = String::new();
@@ -507,7 +594,9 @@ fn main() {
          candidates explain the same residual; \"unexplained\": nothing named, structure \
          remains; \"nothing\": nothing named and the nominal model explains the log. ENR: \
          the case's effect-to-noise ratio (`twin::effect_to_noise`: the nominal replay's \
-         residual on the log with vs without the effect, same workpiece and seed).\n"
+         residual on the log with vs without the effect, same workpiece and seed); after \
+         calibration: the same with `Ks` and the no-load offset refitted to each log \
+         (`twin::calibrated_effect_to_noise`).\n"
     );
     for &ch in &channels {
         let rows: Vec<(Hidden, &Row)> = cases
