@@ -495,8 +495,71 @@ pub fn fit(base: &Model, free: &[Free], grid: &[Free], inp: &Inputs, rows: &[usi
             }
         }
     }
-    let theta = lm(base, free, &best, inp, rows);
+    let mut theta = lm(base, free, &best, inp, rows);
+    for k in 0..free.len() {
+        if free[k] == Free::Effect(EffectKind::OverrideDeadTime, 0) {
+            theta = pattern_search(base, free, theta, k, inp, rows);
+        }
+    }
     finish(base, free, theta, inp, rows)
+}
+
+/// Steps of [`pattern_search`], s: down to the simulator's 1 ms plant step.
+const DELAY_STEPS: [f64; 5] = [0.016, 0.008, 0.004, 0.002, 0.001];
+
+/// Refine parameter `k` of `theta` by a pattern search (each trial value with the other
+/// parameters refitted by LM) in [`DELAY_STEPS`]. The override dead time acts in whole
+/// steps of the simulator's plant (1 ms at its mean-model rate), so the sum of squares is
+/// piecewise constant in it: LM's numerical derivative sees a flat step (or a cliff) and
+/// stops wherever the grid left it — a +0.12 s delay fitted from the 0.1 s grid point
+/// landed 2–3 ms short and left a residual that a second effect then absorbed.
+fn pattern_search(
+    base: &Model,
+    free: &[Free],
+    theta: Vec<f64>,
+    k: usize,
+    inp: &Inputs,
+    rows: &[usize],
+) -> Vec<f64> {
+    let others: Vec<usize> = (0..free.len()).filter(|&j| j != k).collect();
+    let other_free: Vec<Free> = others.iter().map(|&j| free[j]).collect();
+    let (lo, hi) = free[k].bounds();
+    // The others are relative to `base` (the trial only changes the delay), so their
+    // refitted values stay in `theta`'s coordinates.
+    let trial = |v: f64, from: &[f64]| -> (f64, Vec<f64>) {
+        let fixed = apply(base, &[free[k]], &[v]);
+        let start: Vec<f64> = others.iter().map(|&j| from[j]).collect();
+        let th = lm(&fixed, &other_free, &start, inp, rows);
+        let mut full = from.to_vec();
+        full[k] = v;
+        for (j, &o) in others.iter().enumerate() {
+            full[o] = th[j];
+        }
+        (sse(&apply(base, free, &full), inp, rows), full)
+    };
+    let mut best_sse = sse(&apply(base, free, &theta), inp, rows);
+    let mut best = theta;
+    for step in DELAY_STEPS {
+        loop {
+            let mut moved = false;
+            for dir in [-1.0, 1.0] {
+                let v = (best[k] + dir * step).clamp(lo, hi);
+                if v == best[k] {
+                    continue;
+                }
+                let (s, full) = trial(v, &best);
+                if s < best_sse {
+                    (best_sse, best) = (s, full);
+                    moved = true;
+                    break;
+                }
+            }
+            if !moved {
+                break;
+            }
+        }
+    }
+    best
 }
 
 /// `(JᵀJ)⁻¹` with the parameters the data do not determine marked, not guessed: on the
