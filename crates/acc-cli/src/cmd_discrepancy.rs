@@ -44,9 +44,12 @@ pub struct DiscrepancyArgs {
     /// At most this many effects are added (0..=8).
     #[arg(long, default_value_t = 3)]
     pub max_effects: usize,
-    /// Comma-separated candidate effects (default: all): tool_wear, motor_efficiency,
-    /// feed_drive_lag, sensor_lowpass, override_dead_time, feed_exponent, runout,
-    /// noload_drift.
+    /// Comma-separated candidate effects, or `all` (the 13 the twin's evaluation uses).
+    /// Default: tool_wear, motor_efficiency, feed_drive_lag, sensor_lowpass,
+    /// override_dead_time, feed_exponent, runout, noload_drift. Asked for by name:
+    /// sensor_gain_drift, measurement_delay (confusable with tool wear and the drive
+    /// effects on a log without air cuts early and late), depth_exponent, ks_step,
+    /// second_order_drive.
     #[arg(long)]
     pub effects: Option<String>,
     /// Also fit the speed exponent γ with every candidate when the speed varies.
@@ -54,7 +57,7 @@ pub struct DiscrepancyArgs {
     pub fit_speed_exponent: bool,
     /// Below this effect-to-noise ratio an effect is named only if no other candidate
     /// passes in its round (0..=10; default 0 = off; the twin's evaluation uses 1 with
-    /// `--effects` all — see docs/twin.md).
+    /// `--effects all` — see docs/twin.md).
     #[arg(long, default_value_t = 0.0)]
     pub min_enr: f64,
     /// Workpiece the measured run cut (`configs/workpieces/*.toml`, or the scenario file
@@ -153,6 +156,9 @@ fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
 }
 
 fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
+    if !(0.0..=10.0).contains(&args.min_enr) {
+        bail!("--min-enr {}: allowed 0 ..= 10", args.min_enr);
+    }
     let mut o = workflow::Options {
         folds: args.folds,
         sealed_fraction: args.sealed,
@@ -161,13 +167,15 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
         min_effect_to_noise: args.min_enr,
         ..workflow::Options::default()
     };
-    if let Some(list) = &args.effects {
+    if args.effects.as_deref().map(str::trim) == Some("all") {
+        o.candidates = EffectKind::ALL.to_vec();
+    } else if let Some(list) = &args.effects {
         o.candidates = list
             .split(',')
             .map(|s| {
                 EffectKind::from_name(s.trim()).with_context(|| {
                     format!(
-                        "--effects: unknown effect `{}`; allowed: {}",
+                        "--effects: unknown effect `{}`; allowed: all, or any of {}",
                         s.trim(),
                         EffectKind::ALL.map(|k| k.name()).join(", ")
                     )
@@ -180,8 +188,9 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
 
 /// Run `acc discrepancy`.
 pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
-    let (model, log) = load_inputs(args)?;
+    // Flags first: a bad flag is reported before any file is read.
     let mut opts = options(args)?;
+    let (model, log) = load_inputs(args)?;
     // A plant replay (a log with the applied override) takes the engagement from the
     // workpiece inside each period, as the simulator does.
     if let Some(eng) = path_engagement(args, Some(&model))? {
@@ -289,4 +298,48 @@ fn plots(a: &workflow::Analysis, out: &Path, unit: &str) -> anyhow::Result<()> {
     };
     grouped_bars(&bars, out.join("sealed_bias.svg"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(extra: &[&str]) -> DiscrepancyArgs {
+        #[derive(clap::Parser)]
+        struct P {
+            #[command(flatten)]
+            a: DiscrepancyArgs,
+        }
+        let mut v = vec!["acc", "--measured", "m.csv", "--out", "o"];
+        v.extend_from_slice(extra);
+        <P as clap::Parser>::try_parse_from(v).expect("parse").a
+    }
+
+    #[test]
+    fn flags_map_to_options_and_bad_ones_name_the_flag() {
+        let o = options(&args(&[])).expect("defaults");
+        assert_eq!(o.candidates, EffectKind::DEFAULT.to_vec());
+        assert_eq!(o.min_effect_to_noise, 0.0);
+        let o = options(&args(&["--effects", "all", "--min-enr", "1"])).expect("all");
+        assert_eq!(o.candidates, EffectKind::ALL.to_vec());
+        assert_eq!(o.min_effect_to_noise, 1.0);
+        let o = options(&args(&["--effects", "ks_step, depth_exponent"])).expect("two");
+        assert_eq!(
+            o.candidates,
+            [EffectKind::KsStep, EffectKind::DepthExponent]
+        );
+        let e = options(&args(&["--min-enr", "20"]))
+            .expect_err("a bad flag")
+            .to_string();
+        assert!(e.contains("--min-enr 20: allowed 0 ..= 10"), "{e}");
+        let e = format!(
+            "{:#}",
+            options(&args(&["--effects", "wear"])).expect_err("a bad flag")
+        );
+        assert!(
+            e.contains("unknown effect `wear`") && e.contains("all, or any of"),
+            "{e}"
+        );
+        assert!(e.contains("second_order_drive"), "{e}");
+    }
 }
