@@ -106,7 +106,9 @@ pub struct BoardSimArgs {
     #[arg(long, default_value_t = 0.5)]
     pub linger_s: f64,
     /// Hold the machine at t = 0 until the controller sets `ACC_REQUEST` (so that machine
-    /// time and the controller's time share their origin).
+    /// time and the controller's time share their origin, to half a period: the board's
+    /// ticks then fall half a period after the controller's, so that a write never races
+    /// the tick that takes it into the machine).
     #[arg(long)]
     pub wait_for_controller: bool,
     /// Board protocol to emulate: 2 (fallback clamp, feed holds, NC context) or 1.
@@ -459,6 +461,14 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
             std::thread::sleep(Duration::from_millis(2));
         }
+        // The request arrived a write's time after the controller's tick, and so would
+        // every tick of ours: a slow write would then sometimes land after the tick that
+        // starts the next period, and the override the controller reads back
+        // (OVERRIDE_APPLIED, changed on the write) would not be the one that drove the
+        // power sample it reads with it — the discrepancy workflow's replay of `acc run`'s
+        // log went 0.033 mm off in position at every such row (docs/twin.md). Half a period
+        // later the writes land mid-period.
+        std::thread::sleep(Duration::from_secs_f64(0.5 * period_s / args.time_scale));
         eprintln!("board-sim: controller connected (ACC_REQUEST set); machine time starts");
     }
     let mut ticker = Ticker::new(

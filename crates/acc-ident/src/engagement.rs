@@ -11,12 +11,13 @@
 //! **The offset `x0_mm`.** The workpiece coordinate `u` is 0 at the start of the workpiece's
 //! first segment, and the simulated machine (`acc_sim::machine::Machine::new`) starts its
 //! tool centre exactly there, at rest. Under `acc board-sim --wait-for-controller` the
-//! machine's time starts when `acc run` arms, so `x_mm = 0` is `u = 0` and the default
-//! [`DEFAULT_X0_MM`] = 0 is right up to the feed of one or two periods: `x_mm` of a row
-//! already counts the feed of the period it opens, and the power register the row read
-//! was published by the board up to one period earlier (measured on
-//! `configs/scenarios/hidden_wear.toml` at 4x: `x_mm` leads the machine by 0.5–0.8 mm, which
-//! moves the entry and exit ramps of the engagement by less than one period). On a real
+//! machine's first period starts after `acc run` arms: `acc run`'s first row reads the
+//! board's sample 0 while the machine is still held, and the plant replay runs that
+//! sample as one period at the override then applied, so `x0_mm = −(one period of feed)`
+//! (−0.333 mm at 200 mm/min, `configs/scenarios/hidden_wear.toml`;
+//! `tests/e2e_twin_production.rs`). The positions of a plant replay come from its own
+//! feed, not from the logged `x_mm` (which only places the engagement of a period-based
+//! replay and of the depth columns). On a real
 //! machine the run starts wherever the operator pressed cycle start: `--x0-mm` is the
 //! workpiece coordinate of the tool centre at that moment (negative: before the first
 //! segment).

@@ -49,6 +49,16 @@ pub struct Inputs {
     /// The window the compared channel averages at the end of each period, s (0: the
     /// whole period): the model's `force_window_s` or `power_window_s`.
     pub window_s: f64,
+    /// The board's sample each row read, counted from the first row's (from
+    /// [`crate::runlog::RunLog::sample_advance`]: `acc run`'s `seq_repeat` / `seq_skip:<n>` flags), when
+    /// some row did not read the next sample. The plant replay then runs on the board's
+    /// periods and gives each row the sample it read: a repeated read the same sample
+    /// again, a late read the newer one, a missed period driven by the override the row
+    /// before or the row after it found applied (see `plant_trace`). `None`: row `k` read
+    /// sample `k` — or the board samples faster
+    /// than the control period (most rows moved by more than one sample), where the
+    /// periods are the rows'.
+    pub board_sample: Option<Vec<usize>>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
     cache: std::cell::RefCell<Vec<std::rc::Rc<PathCache>>>,
     /// Quadratic fits of the spindle motor's input power against torque, per speed.
@@ -183,6 +193,23 @@ impl Inputs {
                 Channel::Force => model.measurement.force_window_s,
                 Channel::Power => model.measurement.power_window_s,
             },
+            // Only for a board that samples once per control period (most rows moved by
+            // one): a board sampling faster moves by several every row.
+            board_sample: log
+                .sample_advance
+                .as_ref()
+                .filter(|adv| 2 * adv.iter().filter(|&&a| a == 1).count() > adv.len())
+                .map(|adv| {
+                    adv.iter()
+                        .enumerate()
+                        .scan(0usize, |s, (i, &a)| {
+                            if i > 0 {
+                                *s += a as usize;
+                            }
+                            Some(*s)
+                        })
+                        .collect()
+                }),
             cache: Default::default(),
             motor_curves: Default::default(),
         })
@@ -657,20 +684,51 @@ fn plant_trace(
         torque_lag_s: motor.as_ref().map_or(0.0, |c| c.drive.torque_lag_s),
         daq_rate_hz: motor.as_ref().map_or(0.0, |c| c.sensors.sample_rate_hz),
     };
-    let drive = acc_sim::replay::ReplayDrive {
-        period_s: &inp.dt_s,
-        override_applied_pct: &plant.override_applied_pct,
-        programmed_feed_mm_min: &plant.programmed_feed_mm_min,
-        feed_hold: None,
+    let run = |drive: &acc_sim::replay::ReplayDrive<'_>| {
+        acc_sim::replay::trace(
+            &machine,
+            &tool,
+            model.measurement.force_model.sim(),
+            &plant.engagement,
+            drive,
+            &channel,
+        )
     };
-    acc_sim::replay::trace(
-        &machine,
-        &tool,
-        model.measurement.force_model.sim(),
-        &plant.engagement,
-        &drive,
-        &channel,
-    )
+    let Some(sample) = inp.board_sample.as_ref().filter(|s| s.len() == inp.len()) else {
+        return run(&acc_sim::replay::ReplayDrive {
+            period_s: &inp.dt_s,
+            override_applied_pct: &plant.override_applied_pct,
+            programmed_feed_mm_min: &plant.programmed_feed_mm_min,
+            feed_hold: None,
+        });
+    };
+    // On the board's periods. The override register a row reads is the one that drove the
+    // sample it reads (the board takes a period at its tick, with the register as it is
+    // then; the write of the row before landed well before that tick). A period no row
+    // read lies between row k−1 and row k: if row k−1 read the same sample as the row
+    // before it, the board's tick was late and fired just after row k−1's read — most
+    // likely before that row's write landed, so the period ran on what row k−1 read; if
+    // not, row k read late, and the period ran on what row k reads.
+    let periods = sample.last().map_or(0, |&s| s + 1);
+    let mut ov = Vec::with_capacity(periods);
+    let mut prog = Vec::with_capacity(periods);
+    let mut row = 0;
+    for s in 0..periods {
+        while sample[row] < s {
+            row += 1;
+        }
+        let late_tick = row >= 2 && sample[row] > s && sample[row - 1] == sample[row - 2];
+        let from = if late_tick { row - 1 } else { row };
+        ov.push(plant.override_applied_pct[from]);
+        prog.push(plant.programmed_feed_mm_min[from]);
+    }
+    let grid = run(&acc_sim::replay::ReplayDrive {
+        period_s: &vec![inp.period_s; periods],
+        override_applied_pct: &ov,
+        programmed_feed_mm_min: &prog,
+        feed_hold: None,
+    });
+    sample.iter().map(|&s| grid[s]).collect()
 }
 
 /// Paths kept per [`Inputs`].

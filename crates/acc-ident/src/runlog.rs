@@ -121,6 +121,10 @@ pub struct RunLog {
     pub wear_vb_um: Option<Vec<f64>>,
     /// Machining phase label per row (importers), e.g. `Layer 1 Up`.
     pub phase: Option<Vec<String>>,
+    /// How many board samples each row's power read moved on from the previous row's
+    /// (`acc run`'s flags: `seq_repeat` = 0, `seq_skip:<n>` = n, otherwise 1); `None` when
+    /// every row moved by one.
+    pub sample_advance: Option<Vec<u32>>,
 }
 
 /// The columns a run log must have.
@@ -175,6 +179,10 @@ impl RunLog {
                 .phase
                 .as_ref()
                 .map(|v| keep.iter().map(|&i| v[i].clone()).collect()),
+            sample_advance: self
+                .sample_advance
+                .as_ref()
+                .map(|v| keep.iter().map(|&i| v[i]).collect()),
         }
     }
 
@@ -472,7 +480,26 @@ pub fn from_records_with(
         power_w: has(&power).then(|| carry(rows, power)),
         wear_vb_um: None,
         phase: None,
+        sample_advance: {
+            let adv: Vec<u32> = rows.iter().map(|r| sample_advance(&r.flags)).collect();
+            adv.iter().any(|&a| a != 1).then_some(adv)
+        },
     })
+}
+
+/// Board samples a row's power read moved on from the previous row's, from its flags
+/// (`seq_repeat`: 0, `seq_skip:<n>`: n, otherwise 1). A row whose status read failed
+/// (`link:<kind>`) read nothing: 0 (its power cell carries the last sample; the next
+/// good read's `seq_skip` counts the samples it missed).
+fn sample_advance(flags: &str) -> u32 {
+    flags
+        .split(';')
+        .find_map(|f| match f {
+            "seq_repeat" => Some(0),
+            _ if f.starts_with("link:") => Some(0),
+            _ => f.strip_prefix("seq_skip:").and_then(|n| n.parse().ok()),
+        })
+        .unwrap_or(1)
 }
 
 /// Column `f` of the records; an empty cell carries the previous row's value (the first
@@ -642,7 +669,23 @@ pub fn read_csv_from_with(
         power_w: take(5)?,
         wear_vb_um: take(6)?,
         phase: idx_phase.map(|_| phase),
+        sample_advance: None,
     };
     log.validate(path)?;
     Ok(log)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_advance_is_read_from_the_flags() {
+        assert_eq!(sample_advance(""), 1);
+        assert_eq!(sample_advance("late"), 1);
+        assert_eq!(sample_advance("seq_repeat"), 0);
+        assert_eq!(sample_advance("late;seq_skip:3;force_invalid"), 3);
+        assert_eq!(sample_advance("seq_skip:x"), 1);
+        assert_eq!(sample_advance("link:timeout;fault"), 0);
+    }
 }

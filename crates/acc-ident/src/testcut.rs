@@ -65,6 +65,7 @@ pub fn cut_log(inp: &Inputs) -> (RunLog, String) {
         power_w: Some(Vec::new()),
         wear_vb_um: None,
         phase: None,
+        sample_advance: None,
     };
     let mut t = 0.0;
     for (dur, depth, ov) in PLAN {

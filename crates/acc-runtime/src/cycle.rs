@@ -14,6 +14,10 @@ use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
 use crate::shop::{ShopControl, ShopState, ShopStep};
 
+/// The largest `SAMPLE_SEQ` advance logged as `seq_skip:<n>` (ten seconds of samples at
+/// T = 0.1 s; a larger jump is a board restart, not missed samples).
+pub const SEQ_SKIP_MAX: u16 = 100;
+
 /// The writes one period asks of the link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct WritePlan {
@@ -130,6 +134,13 @@ impl CycleRecord {
         }
         if let Some(k) = self.write_error {
             r.flag(&format!("write:{}", kind_name(k)));
+        }
+        // Where the power sample sits in the board's sequence (a board restart starts it
+        // again: a jump of more than `SEQ_SKIP_MAX` is not logged as a skip).
+        match self.out.sample_advance {
+            Some(0) => r.flag("seq_repeat"),
+            Some(n) if (2..=SEQ_SKIP_MAX).contains(&n) => r.flag(&format!("seq_skip:{n}")),
+            _ => {}
         }
         if status.is_some() && !self.out.force_valid {
             r.flag("force_invalid");

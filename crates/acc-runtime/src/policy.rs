@@ -505,6 +505,12 @@ pub struct CycleOutput {
     /// This period had a fault input (link, power, watchdog, reset, lock): the written
     /// override, if any, is not above the previous one.
     pub fault: bool,
+    /// How far the board's `SAMPLE_SEQ` moved since the last successful read (wrapping):
+    /// 1 normally, 0 when the power read is the previous sample again, more when samples
+    /// were missed (a late read, failed reads). `None` without a status now or before.
+    /// Logged as the flags `seq_repeat` / `seq_skip:<n>`; the discrepancy workflow's replay
+    /// maps each row to the board's sample with it.
+    pub sample_advance: Option<u16>,
 }
 
 /// The fault-policy state machine.
@@ -789,6 +795,7 @@ impl FaultPolicy {
             measurement: None,
             force_valid: false,
             fault: false,
+            sample_advance: None,
         };
 
         // 1. Link health: read errors and last period's write errors.
@@ -822,6 +829,7 @@ impl FaultPolicy {
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
         let mut stale = false;
         if let Some(s) = status {
+            out.sample_advance = self.last_seq.map(|l| s.sample_seq.wrapping_sub(l));
             if self.last_seq == Some(s.sample_seq) {
                 self.seq_unchanged = self.seq_unchanged.saturating_add(1);
             } else {

@@ -479,9 +479,13 @@ fn frozen_sample_seq_is_stale_power() {
         ..PolicyConfig::default()
     };
     let mut rig = Rig::new(cfg, [80, 90, 100, 110, 120, 130, 140, 150]);
-    rig.run(2);
+    let first = rig.run(2);
+    // Where the sample sits in the board's sequence (logged as seq_repeat / seq_skip:n).
+    assert_eq!(first[0].out.sample_advance, None, "no read before");
+    assert_eq!(first[1].out.sample_advance, Some(1));
     rig.freeze_seq = true;
     let recs = rig.run(10);
+    assert!(recs.iter().all(|r| r.out.sample_advance == Some(0)));
     // seq unchanged for 1, 2 periods: still valid; from the 3rd on stale
     assert!(recs[0].out.force_valid && recs[1].out.force_valid);
     assert!(!recs[2].out.force_valid);

@@ -1,0 +1,68 @@
+//! Residual of the nominal replay of a run log file (`acc run`, `acc board-sim`, `acc sim`)
+//! on a workpiece, row by row; with `POS=1` the replayed tool position per row instead
+//! (development aid: compare it with `acc board-sim --log`'s `x_true_mm`).
+//!
+//! cargo run --release -p acc-ident --example log_resid -- RUN.csv MODEL.toml WORKPIECE.toml X0 power
+use acc_ident::model::Channel;
+use acc_ident::twin;
+use std::path::Path;
+
+fn main() {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let mut m = acc_ident::Model::load(Path::new(&a[1])).expect("model");
+    let x0: f64 = a[3].parse().expect("x0");
+    let eng = acc_ident::engagement::PathEngagement::load(Path::new(&a[2]), m.tool.diameter_mm, x0)
+        .expect("wp");
+    let log = acc_ident::runlog::read_csv_with(Path::new(&a[0]), Some(&eng)).expect("log");
+    let wp = eng.workpiece.clone();
+    m.measurement.channel = if a.get(4).map(String::as_str) == Some("force") {
+        Channel::Force
+    } else {
+        Channel::Power
+    };
+    if std::env::var("POS").is_ok() {
+        positions(&m, &log, &wp, x0);
+        return;
+    }
+    let r = twin::replay_residual(&m, &log, Some((&wp, x0))).expect("replay");
+    for (i, x) in r.iter().enumerate() {
+        println!(
+            "{i} t {:.3} ov {:.0} x {:.2} P {:.1} resid {:.2}",
+            log.t_s[i],
+            log.override_applied_pct.as_ref().map_or(0.0, |o| o[i]),
+            log.x_mm.as_ref().map_or(0.0, |o| o[i]),
+            log.power_w.as_ref().map_or(0.0, |p| p[i]),
+            x
+        );
+    }
+}
+
+/// Replayed tool position (mm), applied override (%) and period (s) per row.
+fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpiece, x0: f64) {
+    let inp = acc_ident::replay::Inputs::from_log(log, m).expect("inputs");
+    let p = inp.plant.as_ref().expect("plant");
+    let drive = acc_sim::replay::ReplayDrive {
+        period_s: &inp.dt_s,
+        override_applied_pct: &p.override_applied_pct,
+        programmed_feed_mm_min: &p.programmed_feed_mm_min,
+        feed_hold: None,
+    };
+    let eng = acc_sim::replay::ReplayEngagement::Workpiece {
+        workpiece: wp.clone(),
+        x0_mm: x0,
+    };
+    let tr = acc_sim::replay::trace(
+        &m.machine,
+        &m.tool,
+        acc_sim::ForceModel::Mean,
+        &eng,
+        &drive,
+        &acc_sim::replay::ReplayChannel::default(),
+    );
+    for (i, t) in tr.iter().enumerate() {
+        println!(
+            "X {i} {:.4} {:.3} {:.4}",
+            t.x_mm, p.override_applied_pct[i], inp.dt_s[i]
+        );
+    }
+}
