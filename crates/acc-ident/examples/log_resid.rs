@@ -37,7 +37,9 @@ fn main() {
     }
 }
 
-/// Replayed tool position (mm), applied override (%) and period (s) per row.
+/// Replayed tool position (mm), applied override (%) and period (s) per row, on the
+/// rows' periods (a log with `seq_repeat` / `seq_skip` flags is replayed on the board's
+/// samples instead: compare row by row only where there are none).
 fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpiece, x0: f64) {
     let inp = acc_ident::replay::Inputs::from_log(log, m).expect("inputs");
     let p = inp.plant.as_ref().expect("plant");

@@ -50,14 +50,13 @@ pub struct Inputs {
     /// whole period): the model's `force_window_s` or `power_window_s`.
     pub window_s: f64,
     /// The board's sample each row read, counted from the first row's (from
-    /// [`crate::runlog::RunLog::sample_advance`]: `acc run`'s `seq_repeat` / `seq_skip:<n>` flags), when
-    /// some row did not read the next sample. The plant replay then runs on the board's
-    /// periods and gives each row the sample it read: a repeated read the same sample
-    /// again, a late read the newer one, a missed period driven by the override the row
-    /// before or the row after it found applied (see `plant_trace`). `None`: row `k` read
-    /// sample `k` — or the board samples faster
-    /// than the control period (most rows moved by more than one sample), where the
-    /// periods are the rows'.
+    /// [`crate::runlog::RunLog::sample_advance`], `acc run`'s `seq_repeat` /
+    /// `seq_skip:<n>` flags), when some row did not read the next sample. The plant replay
+    /// then runs on the board's periods and gives each row the sample it read: a repeated
+    /// read the same sample again, a late read the newer one, a missed period driven by
+    /// the override the row before or the row after it found applied (see `plant_trace`).
+    /// `None`: row `k` read sample `k` — or the board samples faster than the control
+    /// period (most rows moved by more than one sample), where the periods are the rows'.
     pub board_sample: Option<Vec<usize>>,
     /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
     cache: std::cell::RefCell<Vec<std::rc::Rc<PathCache>>>,
@@ -200,14 +199,13 @@ impl Inputs {
                 .as_ref()
                 .filter(|adv| 2 * adv.iter().filter(|&&a| a == 1).count() > adv.len())
                 .map(|adv| {
-                    adv.iter()
-                        .enumerate()
-                        .scan(0usize, |s, (i, &a)| {
-                            if i > 0 {
-                                *s += a as usize;
-                            }
-                            Some(*s)
-                        })
+                    // The first row's advance counts from before the log: not a period.
+                    let mut s = 0usize;
+                    std::iter::once(0)
+                        .chain(adv.iter().skip(1).map(|&a| {
+                            s += a as usize;
+                            s
+                        }))
                         .collect()
                 }),
             cache: Default::default(),

@@ -628,7 +628,7 @@ pub fn effect_to_noise(
     seed: u64,
 ) -> Result<f64, String> {
     let (log, model, wp) = case_log(base, hidden, channel, seed)?;
-    enr_for_log(base, hidden, channel, seed, &log, &model, &wp)
+    Ok(enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, false)?.0)
 }
 
 /// Effect-to-noise ratio after calibration: [`enr_of_residuals`] of the case's log and
@@ -643,21 +643,15 @@ pub fn calibrated_effect_to_noise(
     channel: Channel,
     seed: u64,
 ) -> Result<f64, String> {
-    if hidden == Hidden::Null {
-        return Ok(0.0);
-    }
-    let res = |h: Hidden| -> Result<Vec<f64>, String> {
-        let (log, model, wp) = case_log(base, h, channel, seed)?;
-        let opts = crate::workflow::Options {
-            workpiece: Some((wp, 0.0)),
-            ..crate::workflow::Options::default()
-        };
-        crate::workflow::calibrated_residual(&model, &log, &opts).map_err(|e| e.to_string())
-    };
-    Ok(enr_of_residuals(&res(hidden)?, &res(Hidden::Null)?))
+    let (log, model, wp) = case_log(base, hidden, channel, seed)?;
+    Ok(enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, true)?.1)
 }
 
-fn enr_for_log(
+/// The case's [`effect_to_noise`] and, with `calibrated`, its
+/// [`calibrated_effect_to_noise`] (else 0), on the case's log already made: the null log
+/// is simulated once for both.
+#[allow(clippy::too_many_arguments)]
+fn enrs_for_log(
     base: &Scenario,
     hidden: Hidden,
     channel: Channel,
@@ -665,14 +659,29 @@ fn enr_for_log(
     log: &RunLog,
     model: &Model,
     wp: &acc_sim::Workpiece,
-) -> Result<f64, String> {
+    calibrated: bool,
+) -> Result<(f64, f64), String> {
     if hidden == Hidden::Null {
-        return Ok(0.0);
+        return Ok((0.0, 0.0));
     }
     let (log0, model0, wp0) = case_log(base, Hidden::Null, channel, seed)?;
     let rh = replay_residual(model, log, Some((wp, 0.0))).map_err(|e| e.to_string())?;
     let r0 = replay_residual(&model0, &log0, Some((&wp0, 0.0))).map_err(|e| e.to_string())?;
-    Ok(enr_of_residuals(&rh, &r0))
+    let enr = enr_of_residuals(&rh, &r0);
+    if !calibrated {
+        return Ok((enr, 0.0));
+    }
+    let cal = |m: &Model, l: &RunLog, w: &acc_sim::Workpiece| {
+        let opts = crate::workflow::Options {
+            workpiece: Some((w.clone(), 0.0)),
+            ..crate::workflow::Options::default()
+        };
+        crate::workflow::calibrated_residual(m, l, &opts).map_err(|e| e.to_string())
+    };
+    Ok((
+        enr,
+        enr_of_residuals(&cal(model, log, wp)?, &cal(&model0, &log0, &wp0)?),
+    ))
 }
 
 /// Run one case end to end: simulate through the production loop, analyse; the verdict
@@ -684,7 +693,7 @@ pub fn run_case(
     seed: u64,
 ) -> Result<Verdict, String> {
     let (log, model, wp) = case_log(base, hidden, channel, seed)?;
-    let enr = enr_for_log(base, hidden, channel, seed, &log, &model, &wp)?;
+    let (enr, enr_calibrated) = enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, true)?;
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
         // The whole library, the measurement-chain additions included.
@@ -734,6 +743,6 @@ pub fn run_case(
         conclusion: a.report.conclusion.clone(),
         explanation: a.report.explanation.clone(),
         enr,
-        enr_calibrated: calibrated_effect_to_noise(base, hidden, channel, seed)?,
+        enr_calibrated,
     })
 }

@@ -830,7 +830,7 @@ impl FaultPolicy {
         let mut stale = false;
         if let Some(s) = status {
             out.sample_advance = self.last_seq.map(|l| s.sample_seq.wrapping_sub(l));
-            if self.last_seq == Some(s.sample_seq) {
+            if out.sample_advance == Some(0) {
                 self.seq_unchanged = self.seq_unchanged.saturating_add(1);
             } else {
                 self.seq_unchanged = 0;
