@@ -52,8 +52,15 @@ pub fn acc_bin() -> PathBuf {
             .max();
         if built.is_none() || src > built {
             let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            // The binary of this test's own profile (`cargo test --release` runs
+            // target/release/acc, which a plain `cargo build` would leave stale).
+            let release = dir.file_name().is_some_and(|n| n == "release");
+            let mut args = vec!["build", "--quiet", "-p", "acc-cli", "--bin", "acc"];
+            if release {
+                args.push("--release");
+            }
             let status = Command::new(cargo)
-                .args(["build", "--quiet", "-p", "acc-cli", "--bin", "acc"])
+                .args(&args)
                 .current_dir(root())
                 .status()
                 .expect("run cargo build -p acc-cli");

@@ -24,7 +24,11 @@ fn main() {
         positions(&m, &log, &wp, x0);
         return;
     }
-    let r = twin::replay_residual(&m, &log, Some((&wp, x0))).expect("replay");
+    let r = if std::env::var_os("NO_ANCHOR").is_some() {
+        twin::replay_residual(&m, &log, Some((&wp, x0))).expect("replay")
+    } else {
+        twin::replay_residual_on_path(&m, &log, &wp, x0).expect("replay")
+    };
     for (i, x) in r.iter().enumerate() {
         println!(
             "{i} t {:.3} ov {:.0} x {:.2} P {:.1} resid {:.2}",

@@ -2,33 +2,32 @@
 //!
 //! A log from `acc run` has the production columns only: a real machine never knows its
 //! depth of cut, so `radial_depth_mm` and `axial_depth_mm` are empty. What it does log is
-//! the path position `x_mm`, the integral of the actual feed since the run began. With the
-//! workpiece (`acc discrepancy --workpiece`) the engagement of every row is the simulator's
-//! own ([`acc_sim::workpiece::Workpiece::engagement`], down milling, the material ahead of
-//! the tool centre) at the workpiece coordinate `u = x_mm + x0_mm`, for the model's tool
-//! diameter; the axial depth is the workpiece's.
+//! the path position `x_mm`, the integral of the actual feed since the run began, the
+//! first row's period included. With the workpiece (`acc discrepancy --workpiece`) the
+//! engagement of every row is the simulator's own
+//! ([`acc_sim::workpiece::Workpiece::engagement`], down milling, the material ahead of the
+//! tool centre) at the workpiece coordinate `u = x0_mm + (x_mm − x_mm of the first row)`,
+//! for the model's tool diameter; the axial depth is the workpiece's.
 //!
-//! **The offset `x0_mm`.** The workpiece coordinate `u` is 0 at the start of the workpiece's
-//! first segment, and the simulated machine (`acc_sim::machine::Machine::new`) starts its
-//! tool centre exactly there, at rest. Under `acc board-sim --wait-for-controller` the
-//! machine's first period starts after `acc run` arms: `acc run`'s first row reads the
-//! board's sample 0 while the machine is still held, and the plant replay runs that
-//! sample as one period at the override then applied, so `x0_mm = −(one period of feed)`
-//! (−0.333 mm at 200 mm/min, `configs/scenarios/hidden_wear.toml`;
-//! `tests/e2e_twin_production.rs`). The positions of a plant replay come from its own
-//! feed, not from the logged `x_mm` (which only places the engagement of a period-based
-//! replay and of the depth columns). On a real
-//! machine the run starts wherever the operator pressed cycle start: `--x0-mm` is the
-//! workpiece coordinate of the tool centre at that moment (negative: before the first
-//! segment).
+//! **The offset `x0_mm`** is the workpiece coordinate of the tool centre when `acc run`
+//! first read the machine (the end of the first row's period). `u` is 0 at the start of the
+//! workpiece's first segment, where the simulated machine (`acc_sim::machine::Machine::new`)
+//! starts its tool centre, at rest: under `acc board-sim --wait-for-controller` the first
+//! read sees that held machine, so `x0_mm = 0` (the default) whatever the feed. A plant
+//! replay is anchored the same way ([`crate::replay::Inputs::anchor_to`]: its tool starts
+//! one period of the first row's feed before `x0_mm`) and then moves with its own feed;
+//! the logged `x_mm` places the depth columns and a period-based replay. On a real machine
+//! `--x0-mm` is where the tool centre stood when `acc run` began to log (negative: before
+//! the first segment).
 
 use std::path::{Path, PathBuf};
 
 use acc_config::ConfigError;
 use acc_sim::workpiece::Workpiece;
 
-/// Default offset between the log's path position and the workpiece coordinate, mm: the
-/// simulated machine starts its tool centre at the start of the workpiece's first segment.
+/// Default workpiece coordinate of the tool centre at the log's first read, mm: the
+/// simulated machine waits for the controller with its tool centre at the start of the
+/// workpiece's first segment.
 pub const DEFAULT_X0_MM: f64 = 0.0;
 
 /// Allowed range of `--x0-mm`, mm.
@@ -43,7 +42,7 @@ pub struct PathEngagement {
     pub source: PathBuf,
     /// Tool diameter, mm (the model's `tool.diameter_mm`).
     pub tool_diameter_mm: f64,
-    /// Workpiece coordinate of the tool centre when the log's `x_mm` was 0, mm.
+    /// Workpiece coordinate of the tool centre at the log's first read, mm.
     pub x0_mm: f64,
 }
 
@@ -98,11 +97,12 @@ impl PathEngagement {
         })
     }
 
-    /// Radial and axial depth of cut, mm, with the log's path position at `x_mm` (mm).
-    pub fn at(&self, x_mm: f64) -> (f64, f64) {
+    /// Radial and axial depth of cut, mm, `travel_mm` (mm) along the path from where the log
+    /// began (the log's `x_mm` minus its first row's).
+    pub fn at(&self, travel_mm: f64) -> (f64, f64) {
         let e = self
             .workpiece
-            .engagement(x_mm + self.x0_mm, 0.5 * self.tool_diameter_mm);
+            .engagement(travel_mm + self.x0_mm, 0.5 * self.tool_diameter_mm);
         (e.depth_mm, self.workpiece.axial_depth_mm)
     }
 
@@ -217,11 +217,13 @@ mod record_tests {
             "{msg}"
         );
         let wp = acc_sim::run::configs_dir().join("workpieces/steps_2_3_4.toml");
-        let eng = PathEngagement::load(&wp, 16.0, 0.0).expect("workpiece");
+        // The first read at 5.333 mm: the travel since then is placed from there.
+        let x_first = rows[0].x_mm.expect("x");
+        let eng = PathEngagement::load(&wp, 16.0, x_first).expect("workpiece");
         let log = from_records_with(&rows, p, Some(&eng)).expect("engagement from x_mm");
         for (i, r) in rows.iter().enumerate() {
             let x = r.x_mm.expect("x");
-            assert_eq!(log.radial_depth_mm[i], eng.at(x).0);
+            assert_eq!(log.radial_depth_mm[i], eng.at(x - x_first).0);
             assert_eq!(log.axial_depth_mm[i], 16.0);
         }
         // Air before the cut (x = 5.3 mm: the material starts 9.7 mm ahead, beyond the

@@ -439,8 +439,10 @@ pub fn from_records_with(
             let mut radial = Vec::with_capacity(rows.len());
             let mut axial = Vec::with_capacity(rows.len());
             let mut x = Vec::with_capacity(rows.len());
+            // The path travelled since the first read (see `PathEngagement`).
+            let first = rows.first().and_then(|r| r.x_mm).unwrap_or(0.0);
             for (i, r) in rows.iter().enumerate() {
-                let Some(xm) = r.x_mm else {
+                let Some(xm) = r.x_mm.map(|xm| xm - first) else {
                     return Err(RunLogError::BadValue {
                         file: path.to_path_buf(),
                         line: i as u64 + 2,

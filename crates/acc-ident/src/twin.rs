@@ -107,7 +107,28 @@ pub fn replay_residual(
     if let Some((wp, x0)) = workpiece {
         inp.use_workpiece(wp.clone(), x0);
     }
-    let r = replay(model, &inp);
+    residual_of(model, &inp)
+}
+
+/// [`replay_residual`] of a production log (`acc run`) on the workpiece it cut, as `acc
+/// discrepancy --workpiece` replays it: anchored so that the replayed tool centre is at
+/// `x0_mm` (workpiece coordinates) at the end of the first row's period — where the
+/// machine was when `acc run` first read it ([`Inputs::anchor_to`]).
+pub fn replay_residual_on_path(
+    model: &Model,
+    log: &RunLog,
+    workpiece: &acc_sim::Workpiece,
+    x0_mm: f64,
+) -> Result<Vec<f64>, ReplayError> {
+    let mut inp = Inputs::from_log(log, model)?;
+    inp.use_workpiece(workpiece.clone(), x0_mm);
+    inp.anchor_to(x0_mm);
+    residual_of(model, &inp)
+}
+
+/// Measured − replayed on every row of `inp`.
+fn residual_of(model: &Model, inp: &Inputs) -> Result<Vec<f64>, ReplayError> {
+    let r = replay(model, inp);
     Ok(inp
         .measured
         .iter()

@@ -53,6 +53,11 @@ pub struct Options {
     /// the simulator's workpiece inside each period instead of the logged depths.
     /// Default none.
     pub workpiece: Option<(acc_sim::Workpiece, f64)>,
+    /// With `workpiece`: anchor the replay to the log's path position (the first row's
+    /// `x_mm`, [`crate::replay::Inputs::anchor_to`]) instead of starting the tool at the
+    /// given position — for production logs (`acc run`), which begin wherever the machine
+    /// is. Default off.
+    pub anchor_to_log: bool,
     /// Withhold a name when structure remains in the residual after its fit (a biased
     /// segment, variance above [`STRUCTURE_VARIANCE_RATIO`] × the noise's, a residual still
     /// following a signal). `Some(true)`: on when the replay is exact — the simulator's
@@ -77,9 +82,23 @@ impl Default for Options {
             fit_speed_exponent: false,
             candidates: EffectKind::DEFAULT.to_vec(),
             workpiece: None,
+            anchor_to_log: false,
             withhold_on_structure: None,
         }
     }
+}
+
+/// The replay's inputs from `log` for `model`, with the engagement of `opts.workpiece`
+/// (anchored to the log's first path position under `opts.anchor_to_log`).
+fn inputs(model: &Model, log: &RunLog, opts: &Options) -> Result<Inputs, WorkflowError> {
+    let mut inp = Inputs::from_log(log, model)?;
+    if let Some((wp, x0)) = &opts.workpiece {
+        inp.use_workpiece(wp.clone(), *x0);
+        if opts.anchor_to_log {
+            inp.anchor_to(*x0);
+        }
+    }
+    Ok(inp)
 }
 
 /// The residual (measured − predicted, every row) of `model` with its calibration — the
@@ -92,10 +111,7 @@ pub fn calibrated_residual(
     log: &RunLog,
     opts: &Options,
 ) -> Result<Vec<f64>, WorkflowError> {
-    let mut inp = Inputs::from_log(log, model)?;
-    if let Some((wp, x0)) = &opts.workpiece {
-        inp.use_workpiece(wp.clone(), *x0);
-    }
+    let inp = inputs(model, log, opts)?;
     let rows: Vec<usize> = (0..inp.len()).collect();
     let nuis = nuisance(&inp, opts.fit_speed_exponent);
     let f = fit::fit(model, &nuis, &[], &inp, &rows);
@@ -652,10 +668,7 @@ struct Prepared {
 impl Prepared {
     /// Split the log (selection / sealed, folds) and locate the nominal discrepancy.
     fn new(model: &Model, log: &RunLog, opts: &Options) -> Result<Self, WorkflowError> {
-        let mut inp = Inputs::from_log(log, model)?;
-        if let Some((wp, x0)) = &opts.workpiece {
-            inp.use_workpiece(wp.clone(), *x0);
-        }
+        let mut inp = inputs(model, log, opts)?;
         let n = inp.len();
         let needed = 12 * opts.folds + 20;
         if n < needed {
