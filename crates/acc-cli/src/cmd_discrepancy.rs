@@ -65,11 +65,11 @@ pub struct DiscrepancyArgs {
     /// rebuilt from it at the logged path position `x_mm`, for the model's tool diameter.
     #[arg(long)]
     pub workpiece: Option<PathBuf>,
-    /// With `--workpiece`: workpiece coordinate of the tool centre where the log's path
-    /// position `x_mm` is 0, mm (-1e5..=1e5). 0 = the log's positions are workpiece
-    /// coordinates, as on the simulated machine (`acc board-sim`). The replay is anchored to
-    /// the log's first position: the replayed tool is where the first row says at the end of
-    /// its period, however late in the machine's motion `acc run` began to log.
+    /// With `--workpiece`: workpiece coordinate of the tool centre when `acc run` first read
+    /// the machine (the end of the first row's period), mm (-1e5..=1e5). 0 = the start of
+    /// the workpiece's first segment, where the simulated machine waits for the controller
+    /// (`acc board-sim --wait-for-controller`), whatever the programmed feed. The replay is
+    /// anchored there and the logged path `x_mm` is counted from it.
     #[arg(long, default_value_t = acc_ident::engagement::DEFAULT_X0_MM, allow_negative_numbers = true)]
     pub x0_mm: f64,
 }
