@@ -8,20 +8,27 @@ use acc_ident::runlog::{read_csv_from, RunLogError};
 use acc_ident::{import, workflow, Model};
 use acc_sim::scenario::{LawKind, Scenario};
 
-/// The simulator's tool-wear scenario (closed loop, dynamometer, `Ks` +1.5 %/cm³):
-/// replayed with a wear-free nominal model, tool wear is named and its interval covers
-/// the simulator's value; with the true model nothing is named.
-#[test]
-fn simulated_tool_wear_is_named_and_sized() {
-    let mut sc = Scenario::load(acc_sim::run::configs_dir().join("scenarios/tool_wear.toml"))
-        .expect("scenario loads");
-    // The scenarios measure spindle power by default; this test replays a force channel.
+/// A closed-loop `acc sim` run of `scenario` (under configs/) measured by a dynamometer
+/// (5 N noise, 0.05 s window): the scenarios measure spindle power by default, these
+/// tests replay a force channel.
+fn dynamometer_run(scenario: &str) -> (Scenario, acc_sim::RunResult) {
+    let mut sc =
+        Scenario::load(acc_sim::run::configs_dir().join(scenario)).expect("scenario loads");
     sc.measurement = acc_sim::scenario::MeasurementSpec::Dynamometer {
         noise_n: 5.0,
         lowpass_hz: 0.0,
         window_s: 0.05,
     };
     let (res, _) = sc.run_law(LawKind::Ours).expect("simulates");
+    (sc, res)
+}
+
+/// The simulator's tool-wear scenario (closed loop, dynamometer, `Ks` +1.5 %/cm³):
+/// replayed with a wear-free nominal model, tool wear is named and its interval covers
+/// the simulator's value; with the true model nothing is named.
+#[test]
+fn simulated_tool_wear_is_named_and_sized() {
+    let (sc, res) = dynamometer_run("scenarios/tool_wear.toml");
     let log = import::from_sim_rows(&res.rows).expect("simulator log");
     let mut tool = sc.tool.clone();
     tool.wear = sc.wear;
@@ -291,4 +298,41 @@ fn simulated_feed_path_effects_are_named() {
             p.value
         );
     }
+}
+
+/// `--workpiece` on a simulator's log (`x_true_mm` in every row): the log places itself
+/// on the workpiece — the replay is anchored to the machine's true position after the
+/// first row, not to `--x0-mm` (the position at a production log's first read, which for
+/// the simulator, whose first read comes after its first period, would be a period of feed
+/// off). With the true model (hidden-wear scenario, dynamometer force) the residual is the
+/// sensor noise; anchored at 0 instead, entries and exits miss by a period's travel.
+#[test]
+fn a_simulator_log_on_the_workpiece_is_placed_by_its_true_position() {
+    let (sc, res) = dynamometer_run("scenarios/hidden_wear.toml");
+    let wp = acc_sim::run::configs_dir().join("workpieces/wear_cut_150.toml");
+    let eng = acc_ident::engagement::PathEngagement::load(&wp, 16.0, 0.0).expect("workpiece");
+    let log = acc_ident::runlog::from_records_with(&res.rows, Path::new("sim.csv"), Some(&eng))
+        .expect("simulator log on the workpiece");
+    let x_true0 = res.rows[0].x_true_mm.expect("plant truth");
+    assert_eq!(log.x_mm.as_ref().map(|x| x[0]), Some(x_true0));
+    let mut tool = sc.tool.clone();
+    tool.wear = sc.wear;
+    let mut truth = import::model_from_sim(&sc.machine, &tool, Channel::Force);
+    truth.measurement.force_window_s = 0.05;
+    let opts = workflow::Options {
+        workpiece: Some((eng.workpiece.clone(), 0.0)),
+        anchor_to_log: true,
+        ..workflow::Options::default()
+    };
+    let rms = |r: &[f64]| (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt();
+    let placed = rms(&workflow::calibrated_residual(&truth, &log, &opts).expect("replay"));
+    let mut at_zero = log.clone();
+    at_zero.x_mm = None;
+    let off = rms(&workflow::calibrated_residual(&truth, &at_zero, &opts).expect("replay"));
+    println!("true model: RMS {placed:.2} N placed by x_true ({x_true0:.3} mm), {off:.2} N anchored at 0");
+    assert!(placed < 7.0, "placed: RMS {placed} N against 5 N noise");
+    assert!(
+        off > 1.5 * placed,
+        "anchored at 0: RMS {off} N, placed {placed} N"
+    );
 }

@@ -18,7 +18,9 @@
 //! one period of the first row's feed before `x0_mm`) and then moves with its own feed;
 //! the logged `x_mm` places the depth columns and a period-based replay. On a real machine
 //! `--x0-mm` is where the tool centre stood when `acc run` began to log (negative: before
-//! the first segment).
+//! the first segment). A simulator's log (`x_true_mm` in every row) places itself: its
+//! true positions are the workpiece coordinates, and the replay is anchored to the first
+//! (`--x0-mm` does not apply; the simulator's first read comes after its first period).
 
 use std::path::{Path, PathBuf};
 

@@ -439,10 +439,18 @@ pub fn from_records_with(
             let mut radial = Vec::with_capacity(rows.len());
             let mut axial = Vec::with_capacity(rows.len());
             let mut x = Vec::with_capacity(rows.len());
-            // The path travelled since the first read (see `PathEngagement`).
+            // The path travelled since the first read (see `PathEngagement`). A simulator's
+            // log (`x_true_mm` in every row) knows where its tool was: workpiece
+            // coordinates, placed without `--x0-mm`.
             let first = rows.first().and_then(|r| r.x_mm).unwrap_or(0.0);
+            let truth = rows.iter().all(|r| r.x_true_mm.is_some());
             for (i, r) in rows.iter().enumerate() {
-                let Some(xm) = r.x_mm.map(|xm| xm - first) else {
+                let travel = if truth {
+                    r.x_true_mm.map(|x| x - eng.x0_mm)
+                } else {
+                    r.x_mm.map(|xm| xm - first)
+                };
+                let Some(xm) = travel else {
                     return Err(RunLogError::BadValue {
                         file: path.to_path_buf(),
                         line: i as u64 + 2,

@@ -53,10 +53,10 @@ pub struct Options {
     /// the simulator's workpiece inside each period instead of the logged depths.
     /// Default none.
     pub workpiece: Option<(acc_sim::Workpiece, f64)>,
-    /// With `workpiece`: anchor the replay to the log's path position (the first row's
-    /// `x_mm`, [`crate::replay::Inputs::anchor_to`]) instead of starting the tool at the
-    /// given position — for production logs (`acc run`), which begin wherever the machine
-    /// is. Default off.
+    /// With `workpiece`: anchor the replay to the log's first path position (the first
+    /// row's `x_mm` in workpiece coordinates — `--x0-mm` for a production log, the true
+    /// position for a simulator's; [`crate::replay::Inputs::anchor_to`]) instead of
+    /// starting the tool at the given position. Default off.
     pub anchor_to_log: bool,
     /// Withhold a name when structure remains in the residual after its fit (a biased
     /// segment, variance above [`STRUCTURE_VARIANCE_RATIO`] × the noise's, a residual still
@@ -95,7 +95,10 @@ fn inputs(model: &Model, log: &RunLog, opts: &Options) -> Result<Inputs, Workflo
     if let Some((wp, x0)) = &opts.workpiece {
         inp.use_workpiece(wp.clone(), *x0);
         if opts.anchor_to_log {
-            inp.anchor_to(*x0);
+            // The log's first position (x0 itself for a production log; a simulator's log
+            // carries its true one).
+            let first = log.x_mm.as_ref().and_then(|x| x.first().copied());
+            inp.anchor_to(first.unwrap_or(*x0));
         }
     }
     Ok(inp)
