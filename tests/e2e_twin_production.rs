@@ -9,12 +9,12 @@
 //!
 //! One closed-loop run (about 23 s of wall time) is shared by the tests of this file.
 //!
-//! No `--x0-mm`: the board's position register counts from the workpiece's start, and the
-//! replay is anchored to the log's first position (`acc run`'s first read may come before
-//! or after the board's first period; the replayed tool is placed so that it is where the
-//! first row says at the end of that row's period). From then on every row holds the
-//! board's sample it read (`seq_repeat` / `seq_skip:<n>` place it), with the override that
-//! drove it.
+//! No `--x0-mm`: board-sim holds its machine with the tool centre at the workpiece's start
+//! until `acc run` arms, so `acc run`'s first read sees it there (`--x0-mm` 0, the default),
+//! and the replay's tool starts a period of the first row's feed before it
+//! (`RunLog::path_start_mm`), so that its first period — standing for the held sample 0 —
+//! ends there. From then on every row holds the board's sample it read (`seq_repeat` /
+//! `seq_skip:<n>` place it), with the override that drove it.
 
 mod e2e_support;
 
@@ -256,6 +256,7 @@ fn production_log_without_workpiece_says_what_is_missing() {
 #[test]
 fn production_log_replays_to_the_register_rounding_with_the_true_model() {
     let log = production_log();
+    let _turn = machine();
     let sc = acc_sim::Scenario::load(root().join(SCENARIO)).expect("scenario");
     let nominal = acc_ident::Model::load(&root().join(MODEL)).expect("model");
     let mut truth = nominal.clone();
@@ -270,12 +271,12 @@ fn production_log_replays_to_the_register_rounding_with_the_true_model() {
     for (channel, sigma, unit) in rounding(&runlog) {
         let mut m = truth.clone();
         m.measurement.channel = channel;
-        let r = acc_ident::twin::replay_residual_on_path(&m, &runlog, &eng.workpiece, eng.x0_mm)
-            .expect("replay");
+        let r =
+            acc_ident::twin::replay_residual_on_path(&m, &runlog, &eng.workpiece).expect("replay");
         let mut n = nominal.clone();
         n.measurement.channel = channel;
-        let r0 = acc_ident::twin::replay_residual_on_path(&n, &runlog, &eng.workpiece, eng.x0_mm)
-            .expect("replay");
+        let r0 =
+            acc_ident::twin::replay_residual_on_path(&n, &runlog, &eng.workpiece).expect("replay");
         let p90 = quantile_abs(&r, 0.9);
         println!(
             "{channel:?}: true model RMS {:.3} {unit}, 90 % of rows within {p90:.3} {unit}, max {:.2} {unit}; rounding σ {sigma:.3} {unit}; nominal model RMS {:.1} {unit}",
@@ -317,6 +318,7 @@ fn a_tooth_model_null_log_replays_to_the_register_rounding() {
     std::fs::create_dir_all(&dir).expect("log dir");
     let log = dir.join("run.csv");
     closed_loop(scenario, RUN_CONFIG, &log);
+    let _turn = machine();
     let sc = acc_sim::Scenario::load(root().join(scenario)).expect("scenario");
     let model = acc_ident::twin::model_for_scenario(&sc, Channel::Power);
     let eng = acc_ident::engagement::PathEngagement::load(
@@ -326,8 +328,8 @@ fn a_tooth_model_null_log_replays_to_the_register_rounding() {
     )
     .expect("workpiece");
     let runlog = acc_ident::runlog::read_csv_with(&log, Some(&eng)).expect("run log");
-    let r = acc_ident::twin::replay_residual_on_path(&model, &runlog, &eng.workpiece, eng.x0_mm)
-        .expect("replay");
+    let r =
+        acc_ident::twin::replay_residual_on_path(&model, &runlog, &eng.workpiece).expect("replay");
     let (p90, rms) = (quantile_abs(&r, 0.9), rms(&r));
     let sigma = 1.0 / 12f64.sqrt();
     println!(
@@ -495,6 +497,7 @@ fn random_production_logs_replay_to_the_register_rounding() {
             &run_config.to_string_lossy(),
             &log,
         );
+        let _turn = machine();
         let mut truth = nominal.clone();
         truth.tool.wear = acc_sim::Scenario::load(&scenario).expect("scenario").wear;
         if case.tooth {
@@ -510,7 +513,7 @@ fn random_production_logs_replay_to_the_register_rounding() {
         for (channel, sigma, unit) in rounding(&runlog) {
             let mut m = truth.clone();
             m.measurement.channel = channel;
-            let r = acc_ident::twin::replay_residual_on_path(&m, &runlog, &eng.workpiece, eng.x0_mm)
+            let r = acc_ident::twin::replay_residual_on_path(&m, &runlog, &eng.workpiece)
             .map_err(|e| TestCaseError::fail(format!("replay: {e}")))?;
             let p90 = quantile_abs(&r, 0.9);
             println!(

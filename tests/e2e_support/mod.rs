@@ -54,13 +54,22 @@ pub fn acc_bin() -> PathBuf {
             let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
             // The binary of this test's own profile (`cargo test --release` runs
             // target/release/acc, which a plain `cargo build` would leave stale).
-            let release = dir.file_name().is_some_and(|n| n == "release");
-            let mut args = vec!["build", "--quiet", "-p", "acc-cli", "--bin", "acc"];
-            if release {
-                args.push("--release");
-            }
+            let profile = match dir.file_name().and_then(|n| n.to_str()) {
+                Some("debug") | None => "dev",
+                Some(p) => p,
+            };
+            let args = [
+                "build",
+                "--quiet",
+                "-p",
+                "acc-cli",
+                "--bin",
+                "acc",
+                "--profile",
+                profile,
+            ];
             let status = Command::new(cargo)
-                .args(&args)
+                .args(args)
                 .current_dir(root())
                 .status()
                 .expect("run cargo build -p acc-cli");

@@ -96,7 +96,7 @@ fn path_engagement(
     };
     let eng = PathEngagement::load(wp, model.tool.diameter_mm, args.x0_mm)?;
     eprintln!(
-        "engagement: from `{}` ({}) at x_mm {:+} mm, tool diameter {} mm (the log's own depth columns, if any, are not used)",
+        "engagement: from `{}` ({}), tool centre at {:+} mm of the workpiece at `acc run`'s first read (a simulator's log places itself by x_true_mm), tool diameter {} mm (the log's own depth columns, if any, are not used)",
         wp.display(),
         eng.workpiece.name,
         args.x0_mm,

@@ -37,7 +37,8 @@ pub struct ReplayArgs {
     /// comes from it instead of the log's depth columns.
     #[arg(long, value_name = "WORKPIECE.TOML")]
     pub workpiece: Option<PathBuf>,
-    /// With `--workpiece`: tool-centre position at the log's first row, mm.
+    /// With `--workpiece`: workpiece coordinate of the tool centre when the recorded run
+    /// began (at `acc run`'s first read, as for `acc discrepancy`; 0 for `acc board-sim`), mm.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub x0_mm: f64,
     /// The shop tool table of the what-if: a file (configs/tooltable.toml keys), or `none`

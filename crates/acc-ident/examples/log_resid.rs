@@ -27,7 +27,7 @@ fn main() {
     let r = if std::env::var_os("NO_ANCHOR").is_some() {
         twin::replay_residual(&m, &log, Some((&wp, x0))).expect("replay")
     } else {
-        twin::replay_residual_on_path(&m, &log, &wp, x0).expect("replay")
+        twin::replay_residual_on_path(&m, &log, &wp).expect("replay")
     };
     for (i, x) in r.iter().enumerate() {
         println!(

@@ -14,13 +14,14 @@
 //! workpiece's first segment, where the simulated machine (`acc_sim::machine::Machine::new`)
 //! starts its tool centre, at rest: under `acc board-sim --wait-for-controller` the first
 //! read sees that held machine, so `x0_mm = 0` (the default) whatever the feed. A plant
-//! replay is anchored the same way ([`crate::replay::Inputs::anchor_to`]: its tool starts
+//! replay is anchored the same way ([`crate::runlog::RunLog::path_start_mm`]: its tool starts
 //! one period of the first row's feed before `x0_mm`) and then moves with its own feed;
 //! the logged `x_mm` places the depth columns and a period-based replay. On a real machine
 //! `--x0-mm` is where the tool centre stood when `acc run` began to log (negative: before
 //! the first segment). A simulator's log (`x_true_mm` in every row) places itself: its
-//! true positions are the workpiece coordinates, and the replay is anchored to the first
-//! (`--x0-mm` does not apply; the simulator's first read comes after its first period).
+//! true positions are the workpiece coordinates, and the replay starts at its first one
+//! less its true first-period travel, the simulator's own start (`--x0-mm` does not apply;
+//! the simulator's first read comes after its first period).
 
 use std::path::{Path, PathBuf};
 

@@ -73,10 +73,6 @@ pub struct PlantInputs {
     pub programmed_feed_mm_min: Vec<f64>,
     /// Engagement: as logged, or from the workpiece (`Inputs::use_workpiece`).
     pub engagement: acc_sim::replay::ReplayEngagement,
-    /// Workpiece coordinate of the tool centre at the end of the first row's period, mm,
-    /// when the replay is anchored to the logged path position ([`Inputs::anchor_to`]):
-    /// the workpiece replay's start is then placed so that the replayed tool reaches it.
-    pub anchor_x_mm: Option<f64>,
 }
 
 /// Errors preparing replay inputs.
@@ -141,7 +137,6 @@ impl Inputs {
                     radial_mm: log.radial_depth_mm.clone(),
                     axial_mm: log.axial_depth_mm.clone(),
                 },
-                anchor_x_mm: None,
             })
         } else {
             None
@@ -225,21 +220,6 @@ impl Inputs {
     pub fn use_workpiece(&mut self, workpiece: acc_sim::Workpiece, x0_mm: f64) {
         if let Some(p) = self.plant.as_mut() {
             p.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
-            self.cache.borrow_mut().clear();
-        }
-    }
-
-    /// Anchor the workpiece replay ([`Inputs::use_workpiece`]) to where the machine was
-    /// when the log began: the replayed tool starts one period of the first row's feed
-    /// (programmed × applied override × its period) before `x_first_mm` (workpiece
-    /// coordinates), so that the first row's period — the sample the first read saw —
-    /// ends there. Against `acc board-sim --wait-for-controller` that is the held machine
-    /// at the workpiece's start (0), whatever the programmed feed; the replay's drive
-    /// starting from rest in that first period stands for the board's own start from rest
-    /// one period later. Replaces a hand-computed `--x0-mm` of minus one period's travel.
-    pub fn anchor_to(&mut self, x_first_mm: f64) {
-        if let Some(p) = self.plant.as_mut() {
-            p.anchor_x_mm = x_first_mm.is_finite().then_some(x_first_mm);
             self.cache.borrow_mut().clear();
         }
     }
@@ -702,28 +682,12 @@ fn plant_trace(
         torque_lag_s: motor.as_ref().map_or(0.0, |c| c.drive.torque_lag_s),
         daq_rate_hz: motor.as_ref().map_or(0.0, |c| c.sensors.sample_rate_hz),
     };
-    // Anchored: the replay's tool starts one period of the first row's feed before the
-    // anchor, so that its first period ends there.
-    let engagement = match (&plant.engagement, plant.anchor_x_mm) {
-        (acc_sim::replay::ReplayEngagement::Workpiece { workpiece, .. }, Some(xa))
-            if !inp.is_empty() =>
-        {
-            let travel = plant.programmed_feed_mm_min[0] * plant.override_applied_pct[0] / 100.0
-                * inp.dt_s[0]
-                / 60.0;
-            acc_sim::replay::ReplayEngagement::Workpiece {
-                workpiece: workpiece.clone(),
-                x0_mm: xa - travel,
-            }
-        }
-        (e, _) => e.clone(),
-    };
     let run = |drive: &acc_sim::replay::ReplayDrive<'_>| {
         acc_sim::replay::trace(
             &machine,
             &tool,
             model.measurement.force_model.sim(),
-            &engagement,
+            &plant.engagement,
             drive,
             &channel,
         )

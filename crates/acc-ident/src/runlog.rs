@@ -62,7 +62,7 @@ pub enum RunLogError {
     },
     /// A run log without engagement (a production log from `acc run`) and no workpiece to
     /// rebuild it from.
-    #[error("{file}: line {line}: columns {radial_col} (`radial_depth_mm`) and {axial_col} (`axial_depth_mm`) are empty ({empty_rows} of {rows} data rows, lines {line}..={last_line}): a production log (`acc run`) does not know its depth of cut. Without the engagement the model cannot be replayed, so nothing can be compared on this log: no effect named, no model updated (the log alone shows power and force over time and where the tool cut, not why they differ from the model). Add `--workpiece WORKPIECE.toml` (the workpiece file, or the scenario the machine ran) so that the engagement comes from the logged path position (column {x_col}, `x_mm`), and `--x0-mm X0` if the run did not begin with the tool centre at the start of the workpiece's first segment (default 0)")]
+    #[error("{file}: line {line}: columns {radial_col} (`radial_depth_mm`) and {axial_col} (`axial_depth_mm`) are empty ({empty_rows} of {rows} data rows, lines {line}..={last_line}): a production log (`acc run`) does not know its depth of cut. Without the engagement the model cannot be replayed, so nothing can be compared on this log: no effect named, no model updated (the log alone shows power and force over time and where the tool cut, not why they differ from the model). Add `--workpiece WORKPIECE.toml` (the workpiece file, or the scenario the machine ran) so that the engagement comes from the logged path position (column {x_col}, `x_mm`), and `--x0-mm X0` if the tool centre was not at the start of the workpiece's first segment when `acc run` first read the machine (default 0)")]
     MissingEngagement {
         /// File path.
         file: PathBuf,
@@ -137,6 +137,24 @@ pub const REQUIRED: [&str; 5] = [
 ];
 
 impl RunLog {
+    /// Workpiece coordinate of the tool centre at the start of the first row's period, mm:
+    /// the first row's position (`x_mm`) less that row's travel (its feed × its period, the
+    /// period taken from the first two rows). `None` without positions, with fewer than two
+    /// rows or a non-finite value.
+    ///
+    /// A production log read with a workpiece ([`read_csv_with`]) has its first position at
+    /// `--x0-mm` — where the tool was when `acc run` first read the machine — and logs the
+    /// feed it used, so the replay's first period ends there; against `acc board-sim
+    /// --wait-for-controller` that period stands for the held sample 0 and the replay's
+    /// drive starting from rest in it for the board's own start one period later. A
+    /// simulator's log has its true positions and its true mean feed: the start is the
+    /// simulator's own.
+    pub fn path_start_mm(&self) -> Option<f64> {
+        let x0 = *self.x_mm.as_ref()?.first()?;
+        let dt = self.t_s.get(1)? - self.t_s.first()?;
+        let start = x0 - self.feed_mm_min.first()? * dt / 60.0;
+        start.is_finite().then_some(start)
+    }
     /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()
@@ -396,9 +414,10 @@ pub fn from_records(rows: &[acc_runtime::RunRecord], path: &Path) -> Result<RunL
 }
 
 /// [`from_records`], with the engagement rebuilt from the workpiece when `engagement` is
-/// given: every row's radial and axial depth come from [`PathEngagement::at`] at the logged
-/// path position `x_mm` (the production column, never the simulator's `x_true_mm`), and
-/// the log's own depth columns, if any, are not used. `x_mm` must then be in every row.
+/// given: every row's radial and axial depth come from [`PathEngagement::at`] at the path
+/// travelled since the first row (the production column `x_mm`, placed at `--x0-mm`; a
+/// simulator's log with `x_true_mm` in every row places itself by that), and the log's own
+/// depth columns, if any, are not used. `x_mm` must then be in every row.
 pub fn from_records_with(
     rows: &[acc_runtime::RunRecord],
     path: &Path,

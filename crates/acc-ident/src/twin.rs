@@ -110,19 +110,16 @@ pub fn replay_residual(
     residual_of(model, &inp)
 }
 
-/// [`replay_residual`] of a production log (`acc run`) on the workpiece it cut, as `acc
-/// discrepancy --workpiece` replays it: anchored so that the replayed tool centre is at
-/// `x0_mm` (workpiece coordinates) at the end of the first row's period — where the
-/// machine was when `acc run` first read it ([`Inputs::anchor_to`]).
+/// [`replay_residual`] of a log read with its workpiece ([`crate::runlog::read_csv_with`])
+/// on that workpiece, placed as `acc discrepancy --workpiece` places it: the replayed tool
+/// starts where the log says its first period began ([`RunLog::path_start_mm`]).
 pub fn replay_residual_on_path(
     model: &Model,
     log: &RunLog,
     workpiece: &acc_sim::Workpiece,
-    x0_mm: f64,
 ) -> Result<Vec<f64>, ReplayError> {
     let mut inp = Inputs::from_log(log, model)?;
-    inp.use_workpiece(workpiece.clone(), x0_mm);
-    inp.anchor_to(x0_mm);
+    inp.use_workpiece(workpiece.clone(), log.path_start_mm().unwrap_or(0.0));
     residual_of(model, &inp)
 }
 

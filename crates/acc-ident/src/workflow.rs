@@ -53,10 +53,10 @@ pub struct Options {
     /// the simulator's workpiece inside each period instead of the logged depths.
     /// Default none.
     pub workpiece: Option<(acc_sim::Workpiece, f64)>,
-    /// With `workpiece`: anchor the replay to the log's first path position (the first
-    /// row's `x_mm` in workpiece coordinates — `--x0-mm` for a production log, the true
-    /// position for a simulator's; [`crate::replay::Inputs::anchor_to`]) instead of
-    /// starting the tool at the given position. Default off.
+    /// With `workpiece`: start the replayed tool where the log says its first period began
+    /// ([`crate::runlog::RunLog::path_start_mm`]: the first row's position less its travel — for a
+    /// production log read with `--x0-mm`, a period of feed before it; for a simulator's
+    /// log its true start) instead of at the given position. Default off.
     pub anchor_to_log: bool,
     /// Withhold a name when structure remains in the residual after its fit (a biased
     /// segment, variance above [`STRUCTURE_VARIANCE_RATIO`] × the noise's, a residual still
@@ -93,13 +93,11 @@ impl Default for Options {
 fn inputs(model: &Model, log: &RunLog, opts: &Options) -> Result<Inputs, WorkflowError> {
     let mut inp = Inputs::from_log(log, model)?;
     if let Some((wp, x0)) = &opts.workpiece {
-        inp.use_workpiece(wp.clone(), *x0);
-        if opts.anchor_to_log {
-            // The log's first position (x0 itself for a production log; a simulator's log
-            // carries its true one).
-            let first = log.x_mm.as_ref().and_then(|x| x.first().copied());
-            inp.anchor_to(first.unwrap_or(*x0));
-        }
+        let start = match opts.anchor_to_log {
+            true => log.path_start_mm().unwrap_or(*x0),
+            false => *x0,
+        };
+        inp.use_workpiece(wp.clone(), start);
     }
     Ok(inp)
 }
