@@ -1,5 +1,6 @@
 //! Residual of the nominal replay of a run log file (`acc run`, `acc board-sim`, `acc sim`)
-//! on a workpiece, row by row; with `POS=1` the replayed tool position per row instead
+//! on a workpiece, placed as `acc discrepancy --workpiece` places it, row by row (`NO_ANCHOR=1`:
+//! the tool starting at X0 instead); with `POS=1` the replayed tool position per row instead
 //! (development aid: compare it with `acc board-sim --log`'s `x_true_mm`).
 //!
 //! cargo run --release -p acc-ident --example log_resid -- RUN.csv MODEL.toml WORKPIECE.toml X0 power
@@ -21,7 +22,7 @@ fn main() {
         Channel::Power
     };
     if std::env::var("POS").is_ok() {
-        positions(&m, &log, &wp, x0);
+        positions(&m, &log, &wp);
         return;
     }
     let r = if std::env::var_os("NO_ANCHOR").is_some() {
@@ -44,7 +45,7 @@ fn main() {
 /// Replayed tool position (mm), applied override (%) and period (s) per row, on the
 /// rows' periods (a log with `seq_repeat` / `seq_skip` flags is replayed on the board's
 /// samples instead: compare row by row only where there are none).
-fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpiece, x0: f64) {
+fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpiece) {
     let inp = acc_ident::replay::Inputs::from_log(log, m).expect("inputs");
     let p = inp.plant.as_ref().expect("plant");
     let drive = acc_sim::replay::ReplayDrive {
@@ -55,7 +56,7 @@ fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpi
     };
     let eng = acc_sim::replay::ReplayEngagement::Workpiece {
         workpiece: wp.clone(),
-        x0_mm: x0,
+        x0_mm: log.path_start_mm().unwrap_or(0.0),
     };
     let tr = acc_sim::replay::trace(
         &m.machine,

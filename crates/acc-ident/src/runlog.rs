@@ -155,6 +155,7 @@ impl RunLog {
         let start = x0 - self.feed_mm_min.first()? * dt / 60.0;
         start.is_finite().then_some(start)
     }
+
     /// Number of rows.
     pub fn len(&self) -> usize {
         self.t_s.len()

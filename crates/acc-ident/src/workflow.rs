@@ -93,9 +93,10 @@ impl Default for Options {
 fn inputs(model: &Model, log: &RunLog, opts: &Options) -> Result<Inputs, WorkflowError> {
     let mut inp = Inputs::from_log(log, model)?;
     if let Some((wp, x0)) = &opts.workpiece {
-        let start = match opts.anchor_to_log {
-            true => log.path_start_mm().unwrap_or(*x0),
-            false => *x0,
+        let start = if opts.anchor_to_log {
+            log.path_start_mm().unwrap_or(*x0)
+        } else {
+            *x0
         };
         inp.use_workpiece(wp.clone(), start);
     }
