@@ -24,7 +24,10 @@
 //!   program / block) so that a closed loop over the serial line can be judged with the
 //!   simulator's summary. Its `flags` carry the board's state: `fallback:<pct>` (the clamp
 //!   is engaged at `FALLBACK_OVERRIDE` = pct), `watchdog` (tripped), `restarted`
-//!   (`BOARD_RESTARTED`), `unplugged` (the cable is out), `late` (the machine tick was late).
+//!   (`BOARD_RESTARTED`), `unplugged` (the cable is out), `late` (the machine tick was late),
+//!   `ticks_skipped:<n>` (board-sim fell more than a period behind the wall clock and its
+//!   ticker skipped n deadlines: machine time then lags wall time; no machine period is lost,
+//!   and `period` counts machine periods, consecutive).
 //! - `--fault KIND@T[:ARG]` schedules faults at machine time `T` s for the end-to-end tests:
 //!   `crc@T:N` (corrupt the CRC of the next N replies), `drop@T:N` (swallow N replies),
 //!   `late@T:N` (deliver N replies `--late-ms` late), `restart@T` (board power cycle: v2
@@ -480,6 +483,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let mut replug_at: Option<f64> = None;
     let mut hard_until: Option<f64> = None;
     let mut done_at: Option<f64> = None;
+    // The machine log's period index: one per machine period, consecutive. A tick the
+    // ticker skipped (board-sim fell more than a period behind the wall clock) is not a lost
+    // machine period — the machine advances one period per loop — and is flagged instead.
+    let mut machine_period: u64 = 0;
     while !stop.load(Ordering::SeqCst) {
         let tick = ticker.wait();
         let t = sim.machine().t_s();
@@ -561,7 +568,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             let rec = sim.advance_period(period_s);
             let mut row = RunRecord {
                 t_s: rec.t_end_s,
-                period: tick.index,
+                period: machine_period,
                 late_ms: tick.lateness.as_secs_f64() * 1e3,
                 spindle_rpm: Some(rec.spindle_rpm),
                 programmed_feed_mm_min: Some(programmed),
@@ -591,8 +598,12 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             add_truth(&mut row, &rec, rec.force_mean_n);
             row
         };
+        machine_period += 1;
         if tick.overrun {
             row.flag("late");
+        }
+        if tick.skipped > 0 {
+            row.flag(&format!("ticks_skipped:{}", tick.skipped));
         }
         if status.watchdog_tripped {
             row.flag("watchdog");

@@ -77,6 +77,9 @@ pub struct SoakReport {
     pub machine_rows: usize,
     /// Periods without a row in the machine-side log.
     pub machine_missing: u64,
+    /// Deadlines board-sim's ticker skipped (it fell more than a period behind the wall
+    /// clock: machine time lagged, no machine period was lost; flagged `ticks_skipped:<n>`).
+    pub machine_ticks_skipped: u64,
     /// The run was long enough (≥ 150 s of wall time) to measure memory growth.
     pub memory_measured: bool,
     /// RSS growth of `acc run`, KiB (last minute vs first minute after warm-up).
@@ -376,6 +379,15 @@ fn missing(rows: &[RunRecord]) -> u64 {
         .sum()
 }
 
+/// Deadlines board-sim's ticker skipped, from its rows' `ticks_skipped:<n>` flags.
+fn ticks_skipped(rows: &[RunRecord]) -> u64 {
+    rows.iter()
+        .flat_map(|x| x.flags.split(';'))
+        .filter_map(|f| f.strip_prefix("ticks_skipped:"))
+        .filter_map(|n| n.parse::<u64>().ok())
+        .sum()
+}
+
 /// One sample: wall time s, (RSS KiB, threads) of acc run and of acc board-sim.
 type Sample = (f64, Option<(u64, u64)>, Option<(u64, u64)>);
 
@@ -446,6 +458,7 @@ fn analyse(
         problems.push(format!("the machine log misses {machine_missing} periods"));
     }
     let run_flagged = r.iter().filter(|x| !x.flags.is_empty()).count();
+    let machine_ticks_skipped = ticks_skipped(m);
     // The invariant: a period with an unusable force sample never raises the command.
     let raised = fault_periods_raising(r);
     if raised > 0 {
@@ -492,6 +505,7 @@ fn analyse(
         run_flagged,
         machine_rows: m.len(),
         machine_missing,
+        machine_ticks_skipped,
         memory_measured,
         run_rss_growth_kib: run_g,
         run_rss_end_kib: run_end,
@@ -520,7 +534,7 @@ fn markdown(r: &SoakReport, args: &SoakArgs) -> String {
 | machine time / wall time | {:.0} s / {:.0} s |\n\
 | faults fired (incl. the operator's re-arm switching) | {} ({}) |\n\
 | acc run log rows / missing periods / flagged rows | {} / {} / {} |\n\
-| machine log rows / missing periods | {} / {} |\n\
+| machine log rows / missing periods / board-sim ticks skipped | {} / {} / {} |\n\
 | acc run RSS at end / growth | {:.1} MiB / {} |\n\
 | acc board-sim RSS at end / growth | {:.1} MiB / {} |\n\
 | threads acc run (min–max) / board-sim | {}–{} / {}–{} |\n\
@@ -544,6 +558,7 @@ Memory growth: median RSS of the last minute against the first minute after a 30
         r.run_flagged,
         r.machine_rows,
         r.machine_missing,
+        r.machine_ticks_skipped,
         r.run_rss_end_kib as f64 / 1024.0,
         growth(r.memory_measured, r.run_rss_growth_kib),
         r.board_rss_end_kib as f64 / 1024.0,
@@ -673,5 +688,23 @@ mod tests {
         };
         assert_eq!(missing(&[row(0), row(1), row(2)]), 0);
         assert_eq!(missing(&[row(0), row(3), row(4), row(6)]), 3);
+    }
+
+    #[test]
+    fn skipped_board_ticks_are_summed_from_the_flags() {
+        let row = |p, flags: &str| RunRecord {
+            period: p,
+            flags: flags.into(),
+            ..RunRecord::default()
+        };
+        let m = [
+            row(0, ""),
+            row(1, "late;ticks_skipped:2"),
+            row(2, "late"),
+            row(3, "fallback:50;late;ticks_skipped:1"),
+        ];
+        assert_eq!(ticks_skipped(&m), 3);
+        // Consecutive machine periods: a skipped tick is not a missing row.
+        assert_eq!(missing(&m), 0);
     }
 }
