@@ -133,6 +133,46 @@ fn hidden_tool_wear_is_named_on_the_power_channel() {
     );
 }
 
+/// The force channel is the loop's estimate from spindle power, and the log holds the power
+/// it read. On 2-3-4 mm steps the closed loop removes material at a constant rate, so a
+/// drift of the logged force fits as well as tool wear (the log alone is "ambiguous");
+/// the force drifting against the estimator's output on the logged power tells them
+/// apart. A cutting coefficient rising with time moves power and force together: it is
+/// not named a sensor drift (the library holds no process gain rising with time).
+#[test]
+fn the_force_against_its_power_tells_a_logged_drift_from_the_process() {
+    use acc_ident::EffectKind;
+    let v = run_case(
+        &scenario("steps_2_3_4.toml"),
+        Hidden::LogGainDrift(0.06),
+        Channel::Force,
+        1007,
+    )
+    .expect("case");
+    assert_eq!(v.named, vec![EffectKind::SensorGainDrift], "{v:?}");
+    assert_eq!(v.covered, Some(true), "{v:?}");
+    assert!(
+        v.explanation
+            .iter()
+            .any(|e| e.contains("drifts against the estimator's output on the logged power")),
+        "{v:?}"
+    );
+    let v = run_case(
+        &scenario("steps_1_2_3.toml"),
+        Hidden::KsTimeDrift(0.05),
+        Channel::Force,
+        1000,
+    )
+    .expect("case");
+    assert!(v.named.is_empty(), "{v:?}");
+    assert!(
+        v.explanation
+            .iter()
+            .any(|e| e.contains("so the logged force did not drift")),
+        "{v:?}"
+    );
+}
+
 fn null_log() -> (acc_ident::Model, acc_ident::RunLog) {
     let sc = scenario("steps_2_3_4.toml");
     let log = twin::simulate(&sc).expect("log");

@@ -46,6 +46,10 @@ pub struct Inputs {
     /// is a spindle-power estimate ([`crate::model::Measurement::force_estimator`]): the
     /// estimator's adaptation replayed on the logged `power_w`.
     pub estimator_no_load: Option<Vec<(f64, f64)>>,
+    /// The logged force against the estimator's output on the logged power (a force
+    /// channel estimated from spindle power, with `power_w` logged): whether the force
+    /// column is what the estimator made of the power, or drifts against it.
+    pub force_vs_power: Option<ForcePowerConsistency>,
     /// The window the compared channel averages at the end of each period, s (0: the
     /// whole period): the model's `force_window_s` or `power_window_s`.
     pub window_s: f64,
@@ -73,6 +77,74 @@ pub struct PlantInputs {
     pub programmed_feed_mm_min: Vec<f64>,
     /// Engagement: as logged, or from the workpiece (`Inputs::use_workpiece`).
     pub engagement: acc_sim::replay::ReplayEngagement,
+}
+
+/// The logged force of a spindle-power estimator against the estimator's output on the
+/// logged power, over the rows where both are positive (the cut): a process effect (wear,
+/// a harder material) changes the power and the force together, so the force column stays
+/// what the estimator made of the power; only a change of the logged force itself (its
+/// logging path) makes them differ. The difference `d = F_logged − F_est(P_logged)` is
+/// fitted by a gain drift in time, `d = r·F_est·(t − t₀)/60`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForcePowerConsistency {
+    /// Rows compared (both positive and finite).
+    pub rows: usize,
+    /// RMS of the logged force, N.
+    pub force_rms_n: f64,
+    /// RMS of the difference, N.
+    pub difference_rms_n: f64,
+    /// Fitted gain drift of the logged force against the power, 1/min.
+    pub drift_per_min: f64,
+    /// Share of the difference's sum of squares the drift explains, −.
+    pub drift_explains: f64,
+}
+
+impl ForcePowerConsistency {
+    /// Rows needed to judge, −.
+    const MIN_ROWS: usize = 20;
+
+    /// Compare the logged force `force` with the estimator's output `est` (both N) at the
+    /// times `t_s` (s); `None` with fewer than 20 comparable rows.
+    pub fn of(t_s: &[f64], force: &[f64], est: &[f64]) -> Option<ForcePowerConsistency> {
+        let t0 = t_s.first().copied()?;
+        let rows: Vec<(f64, f64, f64)> = (0..t_s.len().min(force.len()).min(est.len()))
+            .filter(|&i| force[i].is_finite() && est[i].is_finite())
+            .filter(|&i| force[i] > 0.0 && est[i] > 0.0)
+            .map(|i| ((t_s[i] - t0) / 60.0, force[i], est[i]))
+            .collect();
+        if rows.len() < Self::MIN_ROWS {
+            return None;
+        }
+        let n = rows.len() as f64;
+        let ss0: f64 = rows.iter().map(|(_, f, e)| (f - e).powi(2)).sum();
+        let (num, den) = rows.iter().fold((0.0, 0.0), |(a, b), (tm, f, e)| {
+            (a + (f - e) * e * tm, b + (e * tm).powi(2))
+        });
+        let r = if den > 0.0 { num / den } else { 0.0 };
+        let ss1: f64 = rows
+            .iter()
+            .map(|(tm, f, e)| (f - e - r * e * tm).powi(2))
+            .sum();
+        Some(ForcePowerConsistency {
+            rows: rows.len(),
+            force_rms_n: (rows.iter().map(|(_, f, _)| f * f).sum::<f64>() / n).sqrt(),
+            difference_rms_n: (ss0 / n).sqrt(),
+            drift_per_min: r,
+            drift_explains: if ss0 > 0.0 { 1.0 - ss1 / ss0 } else { 0.0 },
+        })
+    }
+
+    /// The force column is the estimator's output on the power: the difference is below
+    /// 0.05 N + 0.1 % of the force (the logs' number formatting), RMS.
+    pub fn consistent(&self) -> bool {
+        self.difference_rms_n <= 0.05 + 1e-3 * self.force_rms_n
+    }
+
+    /// The logged force drifts against the power: inconsistent, and a gain drift in time
+    /// explains at least 90 % of the difference.
+    pub fn drifts(&self) -> bool {
+        !self.consistent() && self.drift_explains >= 0.9
+    }
 }
 
 /// Errors preparing replay inputs.
@@ -168,6 +240,19 @@ impl Inputs {
             }
             _ => None,
         };
+        let force_vs_power = match (
+            &estimator_no_load,
+            model.measurement.force_estimator,
+            &log.power_w,
+        ) {
+            (Some(nl), Some(e), Some(p)) => {
+                let est: Vec<f64> = (0..log.len())
+                    .map(|i| e.force_n(p[i], log.spindle_rpm[i], nl[i]))
+                    .collect();
+                ForcePowerConsistency::of(&log.t_s, &measured, &est)
+            }
+            _ => None,
+        };
         let period_s = log.median_period_s();
         let mut dt_s = vec![period_s; log.len()];
         for (d, w) in dt_s.iter_mut().skip(1).zip(log.t_s.windows(2)) {
@@ -188,6 +273,7 @@ impl Inputs {
             prior: None,
             plant,
             estimator_no_load,
+            force_vs_power,
             window_s: match channel {
                 Channel::Force => model.measurement.force_window_s,
                 Channel::Power => model.measurement.power_window_s,
@@ -1137,6 +1223,64 @@ fn replay_plant(
     if let Some((e, nl)) = estimator {
         for i in 0..n {
             out.predicted[i] = e.force_n(out.predicted[i], inp.spindle_rpm[i], nl[i]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod force_power_tests {
+    use super::ForcePowerConsistency;
+    use proptest::prelude::*;
+
+    /// A cut at 600–900 N logged every 0.1 s for 60 s, and the estimator's output.
+    fn cut() -> (Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (1..=600).map(|i| 0.1 * f64::from(i)).collect();
+        let est = t.iter().map(|t| 750.0 + 150.0 * (0.3 * t).sin()).collect();
+        (t, est)
+    }
+
+    #[test]
+    fn a_force_column_made_from_the_power_is_consistent() {
+        let (t, est) = cut();
+        // Written with three decimals.
+        let f: Vec<f64> = est.iter().map(|x| (x * 1e3).round() / 1e3).collect();
+        let c = ForcePowerConsistency::of(&t, &f, &est).expect("rows");
+        assert_eq!(c.rows, 600);
+        assert!(c.consistent() && !c.drifts(), "{c:?}");
+    }
+
+    #[test]
+    fn too_few_cut_rows_are_not_judged() {
+        let (t, est) = cut();
+        let mut f = est.clone();
+        for x in f.iter_mut().skip(15) {
+            *x = 0.0;
+        }
+        assert_eq!(ForcePowerConsistency::of(&t, &f, &est), None);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// A gain drift of the logged force is found with its rate; scattered errors of
+        /// the same size (stale or clipped samples) are inconsistent but not a drift.
+        #[test]
+        fn a_logged_drift_is_measured_and_scatter_is_not_a_drift(
+            r in prop_oneof![-0.1f64..-0.005, 0.005f64..0.1],
+            seed in 0u64..1000,
+        ) {
+            let (t, est) = cut();
+            let f: Vec<f64> = t.iter().zip(&est).map(|(t, e)| e * (1.0 + r * (t - 0.1) / 60.0)).collect();
+            let c = ForcePowerConsistency::of(&t, &f, &est).expect("rows");
+            prop_assert!(c.drifts(), "{c:?}");
+            prop_assert!((c.drift_per_min - r).abs() < 1e-9 * r.abs().max(1.0), "{c:?}");
+            // Every 7th sample (from the seed's phase) repeats the one before it.
+            let k = (seed % 7) as usize;
+            let mut g = est.clone();
+            for i in (k.max(1)..g.len()).step_by(7) {
+                g[i] = g[i - 1];
+            }
+            let c = ForcePowerConsistency::of(&t, &g, &est).expect("rows");
+            prop_assert!(!c.consistent() && !c.drifts(), "{c:?}");
         }
     }
 }

@@ -909,6 +909,30 @@ impl Selection {
             });
             return false;
         };
+        // A drift of the logged force is ruled out when the force column is what the
+        // estimator made of the logged power: the rise it fits is then in the process (or
+        // the machine), where the library has no gain rising with time.
+        let verdict = match ctx.inp.force_vs_power {
+            Some(c) if best == EffectKind::SensorGainDrift && c.consistent() => {
+                let why = format!(
+                    "the logged force is the estimator's output on the logged power (RMS difference {:.3} N over {} cut rows), so the logged force did not drift: the rise it fits is in the process or the machine, where the library holds no gain rising with time",
+                    c.difference_rms_n, c.rows
+                );
+                if !verdict.starts_with("ambiguous") {
+                    self.rounds.push(Round {
+                        round,
+                        base: base_names,
+                        candidates: results,
+                        verdict: format!("none: sensor_gain_drift fits best, but {why}"),
+                        added: None,
+                        encompassing,
+                    });
+                    return false;
+                }
+                format!("{verdict}; not a sensor drift: {why}")
+            }
+            _ => verdict,
+        };
         self.accepted.push(best);
         self.base_free.extend(effect_free(best));
         self.base_model = best_fit.model.clone();
@@ -1140,18 +1164,53 @@ fn choose_best(
                         "accepted {a} ({b} predicts as well alone; each adds to the other, so {b} is tested again next round)"
                     )
                 }
-                _ => {
-                    ambiguous.push((best, second));
-                    ambiguous_models.push(((best, second), best_fit.model.clone(), second_fit.model.clone()));
-                    verdict = format!(
-                        "ambiguous between {a} and {b} (neither adds to the other; {a} kept provisionally)"
-                    );
-                }
+                _ => match force_drifts_against_power(ctx.inp, best, second) {
+                    // The log itself tells them apart: a process effect would have moved
+                    // the power with the force.
+                    Some(c) => {
+                        let other = if best == EffectKind::SensorGainDrift { b } else { a };
+                        verdict = format!(
+                            "accepted sensor_gain_drift ({other} predicts the force as well, but the logged force drifts against the estimator's output on the logged power by {:+.3}/min, which explains {:.0} % of their difference over {} cut rows: the change is in the logged force, not in the process, which would have moved the power with it)",
+                            c.drift_per_min,
+                            100.0 * c.drift_explains,
+                            c.rows
+                        );
+                        if best != EffectKind::SensorGainDrift {
+                            best = second;
+                            best_fit = second_fit;
+                        }
+                    }
+                    None => {
+                        ambiguous.push((best, second));
+                        ambiguous_models.push(((best, second), best_fit.model.clone(), second_fit.model.clone()));
+                        verdict = format!(
+                            "ambiguous between {a} and {b} (neither adds to the other; {a} kept provisionally)"
+                        );
+                    }
+                },
             }
             encompassing = Some(e);
         }
     }
     Some((best, best_fit, verdict, encompassing))
+}
+
+/// Whether the pair `a`, `b` is a gain drift of the logged force against a process (or
+/// machine) effect on a force channel estimated from spindle power whose logged force
+/// drifts against the estimator's output on the logged power
+/// ([`crate::replay::ForcePowerConsistency::drifts`]): then that comparison.
+fn force_drifts_against_power(
+    inp: &Inputs,
+    a: EffectKind,
+    b: EffectKind,
+) -> Option<crate::replay::ForcePowerConsistency> {
+    let pair_with_drift = match (a, b) {
+        (EffectKind::SensorGainDrift, o) | (o, EffectKind::SensorGainDrift) => {
+            o != EffectKind::MeasurementDelay
+        }
+        _ => false,
+    };
+    inp.force_vs_power.filter(|c| pair_with_drift && c.drifts())
 }
 
 /// The sealed part (stage 5; rows `n_sel..n`, never used in selection): the nominal
