@@ -1405,7 +1405,10 @@ fn assemble(
         conclusion = format!("Note: {}. {conclusion}", quantized_text(&p, unit));
     }
     let series = plot_series(&p, &upd_replay, &sealed);
-    let explanation = explain(&s, &named, &withheld, unexplained.as_ref(), opts);
+    let mut explanation = explain(&s, &named, &withheld, unexplained.as_ref(), opts);
+    if let Some(c) = p.inp.force_vs_power {
+        explanation.insert(0, force_vs_power_text(&c));
+    }
     let report = Report {
         schema_version: SCHEMA_VERSION,
         input: InputInfo {
@@ -1736,6 +1739,31 @@ fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) -> Vec<String
         v.push("a parameter at its fitting bound".into());
     }
     v
+}
+
+/// The report's line on the logged force against the estimator's output on the logged
+/// power ([`crate::replay::ForcePowerConsistency`]).
+fn force_vs_power_text(c: &crate::replay::ForcePowerConsistency) -> String {
+    let verdict = if c.consistent() {
+        "consistent: the force column is what the estimator made of the power, so a change in the force is in the process or the machine, not in the logged force".to_string()
+    } else if c.drifts() {
+        format!(
+            "the logged force drifts against the power by {:+.4}/min (the drift explains {:.0} % of the difference): the logged force itself changed",
+            c.drift_per_min,
+            100.0 * c.drift_explains
+        )
+    } else {
+        format!(
+            "they differ, but not as a drift in time (a drift explains {:.0} %): the logged force was altered on its way to the log",
+            100.0 * c.drift_explains
+        )
+    };
+    format!(
+        "Logged force against the estimator's output on the logged power, {} cut rows: RMS difference {:.3} N ({:.2} % of the force); {verdict}.",
+        c.rows,
+        c.difference_rms_n,
+        100.0 * c.difference_rms_n / c.force_rms_n.max(1e-9),
+    )
 }
 
 /// The report's "what was done and why": per round the candidates tried with their fit
