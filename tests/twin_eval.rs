@@ -165,10 +165,15 @@ fn the_force_against_its_power_tells_a_logged_drift_from_the_process() {
     )
     .expect("case");
     assert!(v.named.is_empty(), "{v:?}");
+    assert!(v.unexplained, "{v:?}");
     assert!(
-        v.explanation
-            .iter()
-            .any(|e| e.contains("so the logged force did not drift")),
+        v.conclusion
+            .starts_with("Not named: `sensor_gain_drift` fits, but the logged force is the estimator's output on the logged power"),
+        "{v:?}"
+    );
+    assert!(
+        v.explanation[0]
+            .contains("consistent: the force column is what the estimator made of the power"),
         "{v:?}"
     );
 }

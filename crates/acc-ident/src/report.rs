@@ -102,6 +102,11 @@ pub struct CandidateResult {
     /// otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub contested_by: Vec<String>,
+    /// Why a candidate that fitted was ruled out by other evidence in the log (a drift of
+    /// a logged force that matches the estimator's output on the logged power); `None`
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ruled_out: Option<String>,
     /// All criteria met.
     pub passed: bool,
 }

@@ -34,6 +34,21 @@ pub fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
     Some(x)
 }
 
+/// σ of the quantization of `y`: the smallest non-zero step between consecutive values
+/// over √12.
+pub fn quantization_sigma(y: &[f64]) -> f64 {
+    let q = y
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-12)
+        .fold(f64::INFINITY, f64::min);
+    if q.is_finite() {
+        q / 12f64.sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// Mean (0 for an empty slice).
 pub fn mean(x: &[f64]) -> f64 {
     if x.is_empty() {

@@ -4,7 +4,7 @@
 use crate::effects::EffectKind;
 use crate::fit::{self, Free};
 use crate::model::{Channel, Model};
-use crate::replay::{replay, Inputs, ReplayError};
+use crate::replay::{replay, ForcePowerConsistency, Inputs, ReplayError};
 use crate::report::{
     Ambiguity, CandidateResult, Encompassing, InputInfo, Locate, Metrics, Report, Round, Sealed,
     SignalCorrelation, Unexplained, Withheld, SCHEMA_VERSION,
@@ -299,6 +299,9 @@ struct Ctx<'a> {
     inp: &'a Inputs,
     sel: Vec<usize>,
     folds: Vec<std::ops::Range<usize>>,
+    /// The logged force against the estimator's output on the logged power over the
+    /// selection rows ([`Prepared::force_vs_power`]).
+    force_vs_power: Option<ForcePowerConsistency>,
 }
 
 impl Ctx<'_> {
@@ -388,21 +391,6 @@ fn noise_of(residual: &[f64], segs: &[Segment], n: usize, floor: f64) -> Noise {
     let mut nz = noise_raw(residual, segs, n);
     nz.sigma = nz.sigma.max(floor);
     nz
-}
-
-/// σ of the quantization of `y`: the smallest non-zero step between consecutive values
-/// over √12.
-fn quantization_sigma(y: &[f64]) -> f64 {
-    let q = y
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 1e-12)
-        .fold(f64::INFINITY, f64::min);
-    if q.is_finite() {
-        q / 12f64.sqrt()
-    } else {
-        0.0
-    }
 }
 
 fn noise_raw(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
@@ -583,6 +571,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         inp: &p.inp,
         sel: p.sel.clone(),
         folds: p.folds.clone(),
+        force_vs_power: p.force_vs_power,
     };
     let check = ResidualCheck {
         inp: &p.inp,
@@ -665,6 +654,10 @@ struct Prepared {
     sigs: Vec<(String, Vec<f64>)>,
     /// Nominal residual RMS, segment biases and correlations (report section 1).
     locate: Locate,
+    /// The logged force against the estimator's output on the logged power over the
+    /// selection rows (a force channel estimated from spindle power with `power_w`
+    /// logged; the sealed part is not looked at).
+    force_vs_power: Option<ForcePowerConsistency>,
 }
 
 impl Prepared {
@@ -711,7 +704,7 @@ impl Prepared {
         let r0_full: Vec<f64> = (0..n)
             .map(|i| inp.measured[i] - nominal_replay.predicted[i])
             .collect();
-        let q_floor = quantization_sigma(&inp.measured);
+        let q_floor = crate::stats::quantization_sigma(&inp.measured);
         let raw_sigma = noise_raw(&r0_full, &sel_segs, n_sel).sigma;
         let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
         let sigs = signals(&inp, &nominal_replay);
@@ -721,6 +714,16 @@ impl Prepared {
             segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
             correlations: correlate(&r0_full[..n_sel], &sigs, &sel, opts.alpha),
         };
+        let force_vs_power = inp.force_from_power.as_ref().and_then(|(est, floor)| {
+            let t0 = inp.t_s.first().copied().unwrap_or(0.0);
+            ForcePowerConsistency::of(
+                &inp.t_s[..n_sel],
+                t0,
+                &inp.measured[..n_sel],
+                &est[..n_sel],
+                *floor,
+            )
+        });
         Ok(Self {
             inp,
             n,
@@ -736,6 +739,7 @@ impl Prepared {
             noise0,
             sigs,
             locate,
+            force_vs_power,
         })
     }
 }
@@ -911,28 +915,40 @@ impl Selection {
         };
         // A drift of the logged force is ruled out when the force column is what the
         // estimator made of the logged power: the rise it fits is then in the process (or
-        // the machine), where the library has no gain rising with time.
-        let verdict = match ctx.inp.force_vs_power {
-            Some(c) if best == EffectKind::SensorGainDrift && c.consistent() => {
-                let why = format!(
-                    "the logged force is the estimator's output on the logged power (RMS difference {:.3} N over {} cut rows), so the logged force did not drift: the rise it fits is in the process or the machine, where the library holds no gain rising with time",
-                    c.difference_rms_n, c.rows
-                );
-                if !verdict.starts_with("ambiguous") {
-                    self.rounds.push(Round {
-                        round,
-                        base: base_names,
-                        candidates: results,
-                        verdict: format!("none: sensor_gain_drift fits best, but {why}"),
-                        added: None,
-                        encompassing,
-                    });
-                    return false;
-                }
-                format!("{verdict}; not a sensor drift: {why}")
+        // the machine), where the library has no gain rising with time. Nothing is kept
+        // (not even provisionally, which a later round could turn into a name).
+        if let Some(c) = ctx
+            .force_vs_power
+            .filter(|c| best == EffectKind::SensorGainDrift && c.consistent())
+        {
+            let why = format!(
+                "the logged force is the estimator's output on the logged power (RMS difference {:.3} N over {} cut rows, tolerance {:.3} N), so the logged force did not drift: the rise it fits is in the process or the machine, where the library holds no gain rising with time",
+                c.difference_rms_n, c.rows, c.tolerance_n
+            );
+            for r in results.iter_mut().filter(|r| r.effect == best.name()) {
+                r.passed = false;
+                r.ruled_out = Some(why.clone());
             }
-            _ => verdict,
-        };
+            let verdict = match self.ambiguous.last() {
+                Some((a, b)) if verdict.starts_with("ambiguous") => {
+                    let other = if *a == best { b } else { a };
+                    format!(
+                        "ambiguous between {} and a gain rising with time in the process: sensor_gain_drift fits as well, but {why}; nothing kept",
+                        other.name()
+                    )
+                }
+                _ => format!("none: sensor_gain_drift fits best, but {why}"),
+            };
+            self.rounds.push(Round {
+                round,
+                base: base_names,
+                candidates: results,
+                verdict,
+                added: None,
+                encompassing,
+            });
+            return false;
+        }
         self.accepted.push(best);
         self.base_free.extend(effect_free(best));
         self.base_model = best_fit.model.clone();
@@ -983,6 +999,7 @@ fn screen_candidate(
             signature_gone: false,
             effect_to_noise: 0.0,
             contested_by: Vec::new(),
+            ruled_out: None,
             passed: false,
         };
         return (skipped, None);
@@ -1114,6 +1131,7 @@ fn screen_candidate(
         signature_gone: sig_gone,
         effect_to_noise: enr,
         contested_by: Vec::new(),
+        ruled_out: None,
         passed,
     };
     (result, passed.then_some((kind, cv, f, mse)))
@@ -1164,13 +1182,17 @@ fn choose_best(
                         "accepted {a} ({b} predicts as well alone; each adds to the other, so {b} is tested again next round)"
                     )
                 }
-                _ => match force_drifts_against_power(ctx.inp, best, second) {
+                _ => match force_drifts_against_power(
+                    ctx.force_vs_power,
+                    (best, &best_fit.model),
+                    (second, &second_fit.model),
+                ) {
                     // The log itself tells them apart: a process effect would have moved
                     // the power with the force.
                     Some(c) => {
                         let other = if best == EffectKind::SensorGainDrift { b } else { a };
                         verdict = format!(
-                            "accepted sensor_gain_drift ({other} predicts the force as well, but the logged force drifts against the estimator's output on the logged power by {:+.3}/min, which explains {:.0} % of their difference over {} cut rows: the change is in the logged force, not in the process, which would have moved the power with it)",
+                            "accepted sensor_gain_drift ({other} predicts the force as well, but the logged force drifts against the estimator's output on the logged power by {:+.4}/min, which explains {:.0} % of their difference over {} cut rows: the change is in the logged force, not in the process, which would have moved the power with it)",
                             c.drift_per_min,
                             100.0 * c.drift_explains,
                             c.rows
@@ -1195,22 +1217,27 @@ fn choose_best(
     Some((best, best_fit, verdict, encompassing))
 }
 
-/// Whether the pair `a`, `b` is a gain drift of the logged force against a process (or
-/// machine) effect on a force channel estimated from spindle power whose logged force
-/// drifts against the estimator's output on the logged power
-/// ([`crate::replay::ForcePowerConsistency::drifts`]): then that comparison.
+/// The comparison `c` of the logged force with the estimator's output on the logged power,
+/// if it decides the pair `a`, `b` (each with its fitted model) for `sensor_gain_drift`:
+/// the pair is that drift and an effect off the logging path (not `measurement_delay`),
+/// the logged force drifts against the power
+/// ([`crate::replay::ForcePowerConsistency::drifts`]), and the drift fitted to the
+/// residual has the same sign and is within a factor of 2 of the one against the power.
 fn force_drifts_against_power(
-    inp: &Inputs,
-    a: EffectKind,
-    b: EffectKind,
-) -> Option<crate::replay::ForcePowerConsistency> {
-    let pair_with_drift = match (a, b) {
-        (EffectKind::SensorGainDrift, o) | (o, EffectKind::SensorGainDrift) => {
-            o != EffectKind::MeasurementDelay
+    c: Option<ForcePowerConsistency>,
+    a: (EffectKind, &Model),
+    b: (EffectKind, &Model),
+) -> Option<ForcePowerConsistency> {
+    let (drift, other) = match (a, b) {
+        ((EffectKind::SensorGainDrift, m), (o, _)) | ((o, _), (EffectKind::SensorGainDrift, m)) => {
+            (m.effects.sensor_gain_drift?.gain_per_min, o)
         }
-        _ => false,
+        _ => return None,
     };
-    inp.force_vs_power.filter(|c| pair_with_drift && c.drifts())
+    c.filter(|c| {
+        let ratio = drift / c.drift_per_min;
+        other != EffectKind::MeasurementDelay && c.drifts() && (0.5..=2.0).contains(&ratio)
+    })
 }
 
 /// The sealed part (stage 5; rows `n_sel..n`, never used in selection): the nominal
@@ -1373,6 +1400,20 @@ fn assemble(
             )
         );
     }
+    // Nothing named because the best fit was ruled out by the logged power.
+    if named.is_empty() && withheld.is_empty() {
+        if let Some(why) = s
+            .rounds
+            .iter()
+            .flat_map(|r| &r.candidates)
+            .find_map(|c| c.ruled_out.as_ref().map(|w| (c.effect.as_str(), w)))
+        {
+            conclusion = conclusion.replace(
+                "No candidate effect is supported by held-out prediction.",
+                &format!("Not named: `{}` fits, but {}.", why.0, why.1),
+            );
+        }
+    }
     // Nothing named although candidates predicted better: say when their effects were
     // only too small to name (the one criterion they failed), not "nothing supported".
     if named.is_empty() && withheld.is_empty() && s.ambiguous.is_empty() {
@@ -1406,7 +1447,7 @@ fn assemble(
     }
     let series = plot_series(&p, &upd_replay, &sealed);
     let mut explanation = explain(&s, &named, &withheld, unexplained.as_ref(), opts);
-    if let Some(c) = p.inp.force_vs_power {
+    if let Some(c) = p.force_vs_power {
         explanation.insert(0, force_vs_power_text(&c));
     }
     let report = Report {
@@ -1725,6 +1766,9 @@ fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) -> Vec<String
     if c.p_adjusted >= opts.alpha {
         v.push(format!("p {:.2} ≥ {}", c.p_adjusted, opts.alpha));
     }
+    if let Some(why) = &c.ruled_out {
+        v.push(format!("ruled out: {why}"));
+    }
     if !c.signature_gone {
         v.push("its signature stays in the residual".into());
     }
@@ -1743,7 +1787,7 @@ fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) -> Vec<String
 
 /// The report's line on the logged force against the estimator's output on the logged
 /// power ([`crate::replay::ForcePowerConsistency`]).
-fn force_vs_power_text(c: &crate::replay::ForcePowerConsistency) -> String {
+fn force_vs_power_text(c: &ForcePowerConsistency) -> String {
     let verdict = if c.consistent() {
         "consistent: the force column is what the estimator made of the power, so a change in the force is in the process or the machine, not in the logged force".to_string()
     } else if c.drifts() {
@@ -1822,7 +1866,9 @@ fn explain(
     }
     if named.is_empty() && withheld.is_empty() && s.ambiguous.is_empty() {
         out.push(match unexplained {
+            Some(_) if s.rounds.iter().any(|r| r.candidates.iter().any(|c| c.ruled_out.is_some())) => "Nothing named: the candidate that fitted best was ruled out by the logged power (see the round's verdict), and structure remains in the residual (see Unexplained): something outside the library.".into(),
             Some(_) => "Nothing named: no candidate passed every criterion, and structure remains in the residual (see Unexplained): something outside the library, or an effect the log does not excite enough.".into(),
+            None if s.rounds.iter().any(|r| r.candidates.iter().any(|c| c.ruled_out.is_some())) => "Nothing named: the candidate that fitted best was ruled out by the logged power (see the round's verdict), and what remains is at the noise's level.".into(),
             None if s.rounds.iter().any(|r| r.candidates.iter().any(|c| !c.contested_by.is_empty())) => "Nothing named: the candidates that passed every other criterion were each below the noise and not the only fit; what remains is at the noise's level.".into(),
             None => "Nothing named: no candidate passed every criterion and the nominal model explains the log down to the noise.".into(),
         });
