@@ -133,12 +133,17 @@ fn acc(args: &[&str]) -> (Option<i32>, String, String) {
 
 /// `acc discrepancy --workpiece` on the production log, channel `channel`: the report.
 fn discrepancy(channel: &str) -> serde_json::Value {
+    discrepancy_with(channel, &[])
+}
+
+/// [`discrepancy`] with `extra` flags.
+fn discrepancy_with(channel: &str, extra: &[&str]) -> serde_json::Value {
     let log = production_log();
-    let out = log.with_file_name(format!("disc-{channel}"));
+    let out = log.with_file_name(format!("disc-{channel}{}", extra.join("")));
     let _turn = machine();
     let start = Instant::now();
     let (m, o) = (log.display().to_string(), out.display().to_string());
-    let (code, stdout, stderr) = acc(&[
+    let mut args = vec![
         "discrepancy",
         "--measured",
         &m,
@@ -150,7 +155,9 @@ fn discrepancy(channel: &str) -> serde_json::Value {
         channel,
         "--out",
         &o,
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let (code, stdout, stderr) = acc(&args);
     assert_eq!(code, Some(0), "stdout:\n{stdout}\nstderr:\n{stderr}");
     println!(
         "{channel}: {} ({:.1} s)",
@@ -196,6 +203,29 @@ fn production_log_power_channel_names_the_hidden_wear() {
     let report = discrepancy("power");
     assert_eq!(report["input"]["channel"], "power");
     assert_wear_found(&report, "W");
+}
+
+/// The evaluated naming rules (`--strict --effects all --min-enr 1`: withheld when
+/// structure remains, when the sealed part is not predicted, or when wear cannot be told
+/// from a drift in cutting time) hold on a production log too: it replays to the
+/// register rounding, so the wear is named, and the explanation says why it is not a
+/// drift in time.
+#[test]
+fn production_log_under_the_strict_rules_names_the_hidden_wear() {
+    let report = discrepancy_with("power", &["--strict", "--effects", "all", "--min-enr", "1"]);
+    assert_wear_found(&report, "W");
+    assert!(
+        report["withheld"].as_array().is_some_and(|w| w.is_empty()),
+        "{}",
+        report["withheld"]
+    );
+    let explanation = report["explanation"].as_array().expect("explanation");
+    assert!(
+        explanation.iter().any(|e| e
+            .as_str()
+            .is_some_and(|e| e.contains("so the growth is not a drift linear in cutting time"))),
+        "{explanation:?}"
+    );
 }
 
 #[test]

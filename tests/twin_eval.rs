@@ -131,6 +131,52 @@ fn hidden_tool_wear_is_named_on_the_power_channel() {
         vec![acc_ident::EffectKind::ToolWear],
         "{ch:?}: {v:?}"
     );
+    // Real wear is a curve in removed volume that a drift linear in cutting time misses.
+    assert!(
+        v.explanation.iter().any(|e| e
+            .contains("more than 25 apart, so the growth is not a drift linear in cutting time")),
+        "{v:?}"
+    );
+}
+
+/// In a closed loop that holds the force the removal rate is nearly constant, so wear
+/// growing with the removed volume and a `Ks` rising with cutting time (not in the
+/// library) are almost the same curve: such a drift was named `tool_wear` on the power
+/// channel. The workflow fits the simulator's time law against the wear; when the two
+/// are within 25 residual variances of each other the pair is reported ambiguous, with the
+/// separating cut run by the simulator — and it separates them.
+#[test]
+fn a_ks_drift_in_cutting_time_is_ambiguous_with_tool_wear_not_named() {
+    let v = run_case(
+        &scenario("steps_2_3_4.toml"),
+        Hidden::KsTimeDrift(0.05),
+        Channel::Power,
+        7001,
+    )
+    .expect("case");
+    assert!(v.named.is_empty(), "{v:?}");
+    assert!(v.ambiguous && !v.unexplained, "{v:?}");
+    assert_eq!(v.withheld, vec!["tool_wear".to_string()], "{v:?}");
+    assert!(
+        v.conclusion.contains(
+            "Ambiguous between tool_wear and ks_time_drift (Ks rising with cutting time, not in the library)"
+        ) && v.conclusion.contains("it separates them."),
+        "{}",
+        v.conclusion
+    );
+    // The fitted drift is the hidden one.
+    let rate = v
+        .conclusion
+        .split("cutting time (+")
+        .nth(1)
+        .and_then(|s| s.split("/min").next())
+        .and_then(|s| s.parse::<f64>().ok())
+        .expect("fitted rate in the conclusion");
+    assert!(
+        (rate - 0.05).abs() < 0.005,
+        "fitted {rate}/min: {}",
+        v.conclusion
+    );
 }
 
 /// The force channel is the loop's estimate from spindle power, and the log holds the power

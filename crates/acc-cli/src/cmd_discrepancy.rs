@@ -60,6 +60,15 @@ pub struct DiscrepancyArgs {
     /// `--effects all` — see docs/twin.md).
     #[arg(long, default_value_t = 0.0)]
     pub min_enr: f64,
+    /// The naming rules the twin's evaluation measures (docs/twin.md): with `--workpiece`
+    /// on a log that carries the applied override (the replay is the simulator's plant), a
+    /// name is withheld when structure remains in the residual after its fit, when the
+    /// updated model does not predict the sealed part, or when tool wear cannot be told
+    /// from a `Ks` rising with cutting time (then "ambiguous", with the cut that separates
+    /// them). Without it those findings are reported next to the name. For the evaluated
+    /// configuration add `--effects all --min-enr 1`.
+    #[arg(long)]
+    pub strict: bool,
     /// Workpiece the measured run cut (`configs/workpieces/*.toml`, or the scenario file
     /// that names it): the engagement of a production log (`acc run`, no depth columns) is
     /// rebuilt from it at the logged path position `x_mm`, for the model's tool diameter.
@@ -167,6 +176,7 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
         max_effects: args.max_effects.min(EffectKind::ALL.len()),
         fit_speed_exponent: args.fit_speed_exponent,
         min_effect_to_noise: args.min_enr,
+        withhold_on_structure: args.strict.then_some(true),
         ..workflow::Options::default()
     };
     if args.effects.as_deref().map(str::trim) == Some("all") {
@@ -323,9 +333,11 @@ mod tests {
         let o = options(&args(&[])).expect("defaults");
         assert_eq!(o.candidates, EffectKind::DEFAULT.to_vec());
         assert_eq!(o.min_effect_to_noise, 0.0);
-        let o = options(&args(&["--effects", "all", "--min-enr", "1"])).expect("all");
+        assert_eq!(o.withhold_on_structure, None);
+        let o = options(&args(&["--effects", "all", "--min-enr", "1", "--strict"])).expect("all");
         assert_eq!(o.candidates, EffectKind::ALL.to_vec());
         assert_eq!(o.min_effect_to_noise, 1.0);
+        assert_eq!(o.withhold_on_structure, Some(true));
         let o = options(&args(&["--effects", "ks_step, depth_exponent"])).expect("two");
         assert_eq!(
             o.candidates,

@@ -24,6 +24,9 @@ pub enum Free {
     SpeedExponent,
     /// Parameter `i` of an effect.
     Effect(EffectKind, usize),
+    /// Offset added to `tool.wear.growth_per_min`, 1/min: a `Ks` rising with cutting time
+    /// (not a library effect: the alternative the workflow sets against tool wear).
+    WearPerMinute,
 }
 
 impl Free {
@@ -34,6 +37,7 @@ impl Free {
             Free::Noload => "spindle.noload_offset_w".into(),
             Free::SpeedExponent => "process.gamma_offset".into(),
             Free::Effect(k, i) => format!("{}.{}", k.name(), k.params()[i].key),
+            Free::WearPerMinute => "wear.growth_per_min_offset".into(),
         }
     }
 
@@ -43,6 +47,7 @@ impl Free {
             Free::Noload => (-1e5, 1e5),
             Free::SpeedExponent => (-2.0, 2.0),
             Free::Effect(k, i) => (k.params()[i].lo, k.params()[i].hi),
+            Free::WearPerMinute => (-0.5, 10.0),
         }
     }
 
@@ -52,6 +57,7 @@ impl Free {
             Free::Noload => 1.0,
             Free::SpeedExponent => 0.02,
             Free::Effect(k, i) => k.params()[i].scale,
+            Free::WearPerMinute => 1e-3,
         }
     }
 
@@ -59,7 +65,7 @@ impl Free {
     pub fn null(self) -> f64 {
         match self {
             Free::KsScale => 1.0,
-            Free::Noload | Free::SpeedExponent => 0.0,
+            Free::Noload | Free::SpeedExponent | Free::WearPerMinute => 0.0,
             Free::Effect(k, i) => k.params()[i].null,
         }
     }
@@ -101,7 +107,7 @@ impl Prior {
                     / (0.2 * self.no_load_power_w).max(50.0)
             }
             Free::SpeedExponent => (m.tool.process.gamma - self.gamma) / 0.5,
-            Free::Effect(..) => return None,
+            Free::Effect(..) | Free::WearPerMinute => return None,
         };
         Some(self.scale * z)
     }
@@ -118,6 +124,7 @@ pub fn apply(base: &Model, free: &[Free], theta: &[f64]) -> Model {
             }
             Free::SpeedExponent => m.tool.process.gamma = base.tool.process.gamma + v,
             Free::Effect(k, i) => m.effects.set(k, i, v),
+            Free::WearPerMinute => m.tool.wear.growth_per_min = base.tool.wear.growth_per_min + v,
         }
     }
     m
@@ -128,7 +135,7 @@ pub fn current(base: &Model, free: &[Free]) -> Vec<f64> {
     free.iter()
         .map(|f| match *f {
             Free::KsScale => 1.0,
-            Free::Noload | Free::SpeedExponent => 0.0,
+            Free::Noload | Free::SpeedExponent | Free::WearPerMinute => 0.0,
             Free::Effect(k, i) => base.effects.get(k, i),
         })
         .collect()

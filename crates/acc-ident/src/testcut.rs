@@ -111,13 +111,14 @@ pub fn run(
     pair: (EffectKind, EffectKind),
     sigma: f64,
 ) -> TestCut {
+    run_named(inp, a, b, (pair.0.name(), pair.1.name()), sigma)
+}
+
+/// [`run`] for two explanations named in words (one of them may lie outside the
+/// library, e.g. a `Ks` rising with cutting time against tool wear).
+pub fn run_named(inp: &Inputs, a: &Model, b: &Model, names: (&str, &str), sigma: f64) -> TestCut {
     let (log, desc) = cut_log(inp);
-    let description = format!(
-        "{}; to separate `{}` from `{}`",
-        desc,
-        pair.0.name(),
-        pair.1.name()
-    );
+    let description = format!("{}; to separate `{}` from `{}`", desc, names.0, names.1);
     let pred = |m: &Model| -> Option<Vec<f64>> {
         let mut m = m.clone();
         if m.measurement.channel == Channel::Force && m.measurement.force_estimator.is_some() {

@@ -60,11 +60,15 @@ pub struct Options {
     pub anchor_to_log: bool,
     /// Withhold a name when structure remains in the residual after its fit (a biased
     /// segment, variance above [`STRUCTURE_VARIANCE_RATIO`] × the noise's, a residual still
-    /// following a signal). `Some(true)`: on when the replay is exact — the simulator's
-    /// plant on the workpiece (`workpiece` given, a log with the applied override) — where
-    /// a correct model leaves only noise (the twin's evaluation, `twin::run_case`).
-    /// Default `None` = off: logged depths, `acc run` logs (the board's wall-clock timing)
-    /// and real machines leave a model error, reported as "unexplained" next to the name.
+    /// following a signal), when the updated model leaves a biased stretch in the sealed
+    /// part, or — for tool wear — when a `Ks` rising with cutting time fits within
+    /// [`WEAR_TIME_SEPARATION`] residual variances of it (reported "ambiguous" with the
+    /// test cut). `Some(true)`: on when the replay is exact — the simulator's plant on the
+    /// workpiece (`workpiece` given, a log with the applied override) — where a correct
+    /// model leaves only noise (the twin's evaluation, `twin::run_case`; `acc discrepancy
+    /// --strict`). Default `None` = off: logged depths and real machines leave a model
+    /// error, reported as "unexplained" next to the name, and the wear/time finding is a
+    /// note in the conclusion.
     pub withhold_on_structure: Option<bool>,
 }
 
@@ -1284,6 +1288,120 @@ fn sealed_check(p: &Prepared, nominal_refit: &Model, updated: &[f64], noise_f: N
 }
 
 /// Assemble the report, the plot series and the updated model.
+/// The name of the explanation [`wear_or_time`] sets against tool wear.
+pub const KS_TIME_DRIFT: &str = "ks_time_drift (Ks rising with cutting time, not in the library)";
+
+/// Beyond this many residual variances of the wear fit, the time law's extra sum of
+/// squares tells wear from a drift in time (the test cut's 25 σ² criterion).
+pub const WEAR_TIME_SEPARATION: f64 = 25.0;
+
+/// What tells tool wear per removed volume from a `Ks` rising with cutting time.
+pub const WEAR_TIME_EXPERIMENT: &str = "a pass at another removal rate long enough for the growth to show (the same cut at half the radial depth, or with the override held at 50 %): wear then grows half as fast per minute, a drift in time does not";
+
+/// Tool wear (growth with the removed volume) set against a `Ks` that rises with cutting
+/// time instead — the tool and the part heating up, a coating wearing through: the
+/// simulator's `tool.wear.growth_per_min`, not a library effect. In a closed loop that
+/// holds the force, the removal rate is nearly constant, so removed volume and cutting
+/// time grow together and the two laws are almost the same curve (issue 13: a `Ks` drift
+/// in time was named `tool_wear` on the power channel).
+struct WearOrTime {
+    /// Sum of squares of the wear model over the selection rows, channel unit².
+    sse_wear: f64,
+    /// The same for the time law (growth per minute fitted, calibration refitted).
+    sse_time: f64,
+    /// The unit the two are compared in: the residual variance after the wear fit
+    /// (at most the noise σ²), channel unit².
+    scale: f64,
+    /// The time law's fitted growth, 1/min of cutting.
+    growth_per_min: f64,
+    /// The time law's model (for the test cut).
+    time_model: Model,
+}
+
+impl WearOrTime {
+    /// How much more the time law leaves than the wear law, in residual variances.
+    fn delta(&self) -> f64 {
+        (self.sse_time - self.sse_wear) / self.scale
+    }
+
+    /// The log tells wear per removed volume from a drift in cutting time.
+    fn separated(&self) -> bool {
+        self.delta() > WEAR_TIME_SEPARATION
+    }
+
+    fn text(&self) -> String {
+        format!(
+            "a `Ks` rising linearly with cutting time ({:+.4}/min; the tool and the part heating up — not in the library) leaves a sum of squares of {:.0} over the selection rows against {:.0} for wear per removed volume, in residual variances of the wear fit: {}",
+            self.growth_per_min,
+            self.sse_time / self.scale,
+            self.sse_wear / self.scale,
+            if self.separated() {
+                format!("more than {WEAR_TIME_SEPARATION:.0} apart, so the growth is not a drift linear in cutting time")
+            } else if self.delta() < -WEAR_TIME_SEPARATION {
+                "the drift in time fits better".to_string()
+            } else {
+                format!("within {WEAR_TIME_SEPARATION:.0} of each other")
+            }
+        )
+    }
+}
+
+/// [`WearOrTime`] for `wear_model` (with `tool_wear` on) over the selection rows; `None`
+/// without tool wear or cutting rows.
+fn wear_or_time(
+    p: &Prepared,
+    wear_model: &Model,
+    sigma: f64,
+    opts: &Options,
+) -> Option<WearOrTime> {
+    let fx = &wear_model.effects;
+    if !fx.is_on(EffectKind::ToolWear) {
+        return None;
+    }
+    let (inp, rows) = (&p.inp, &p.sel);
+    let last = *rows.last()?;
+    let sse_of = |m: &Model| fit::sse(m, inp, rows);
+    let r = replay(wear_model, inp);
+    let sse_wear: f64 = rows
+        .iter()
+        .map(|&i| (inp.measured[i] - r.predicted[i]).powi(2))
+        .sum();
+    // The wear's relative Ks growth over the selection part and the cutting time it took:
+    // the start of the time law's bracket.
+    let cut_min: f64 = (0..=last)
+        .filter(|&i| r.force_n[i] > 0.0)
+        .map(|i| inp.dt_s[i] / 60.0)
+        .sum();
+    let v = r.volume_mm3[last] / 1000.0;
+    let w = &wear_model.tool.wear;
+    let g = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
+    let pw = fx.get(EffectKind::ToolWear, 1);
+    let growth = g * v.max(0.0).powf(pw);
+    if !(cut_min > 0.0 && growth.is_finite() && growth != 0.0) {
+        return None;
+    }
+    // The simulator's time law (`tool.wear.growth_per_min`, linear in cutting time) in
+    // place of the wear, fitted with the calibration from the wear's mean rate.
+    let mut start = wear_model.clone();
+    start.effects.remove(EffectKind::ToolWear);
+    let g0 = start.tool.wear.growth_per_min;
+    start.tool.wear.growth_per_min = g0 + growth / cut_min;
+    let mut free = nuisance(inp, opts.fit_speed_exponent);
+    free.push(Free::WearPerMinute);
+    let time_model = fit::refine(&start, &free, inp, rows);
+    let sse_time = sse_of(&time_model);
+    let gt = time_model.tool.wear.growth_per_min - g0;
+    let per_row = sse_wear / rows.len().max(1) as f64;
+    let scale = per_row.min(sigma * sigma).max(1e-18);
+    Some(WearOrTime {
+        sse_wear,
+        sse_time,
+        scale,
+        growth_per_min: gt,
+        time_model,
+    })
+}
+
 fn assemble(
     model: &Model,
     p: Prepared,
@@ -1329,7 +1447,7 @@ fn assemble(
             )
         })
         .collect();
-    let withheld: Vec<Withheld> = match &unexplained {
+    let mut withheld: Vec<Withheld> = match &unexplained {
         Some(u) if strict && !passed.is_empty() && structure_remains(u) => passed
             .iter()
             .map(|e| Withheld {
@@ -1362,7 +1480,7 @@ fn assemble(
             .collect(),
         _ => Vec::new(),
     };
-    let named: Vec<String> = passed
+    let mut named: Vec<String> = passed
         .into_iter()
         .filter(|e| !withheld.iter().any(|w| &w.effect == e))
         .collect();
@@ -1386,8 +1504,51 @@ fn assemble(
         }),
         u => u,
     };
+    // Tool wear against a `Ks` rising with cutting time: with the removal rate nearly
+    // constant the two are the same curve. Where the replay is exact and the rule is asked
+    // for, an unseparated pair is reported as ambiguous with the cut that tells them
+    // apart; otherwise the name stands with a note.
+    let wear_time = named
+        .iter()
+        .any(|e| e == EffectKind::ToolWear.name())
+        .then(|| wear_or_time(&p, &s.base_model, p.noise0.sigma, opts))
+        .flatten();
+    let mut wear_time_ambiguity = None;
+    let mut wear_time_note = None;
+    if let Some(wt) = wear_time.as_ref().filter(|wt| !wt.separated()) {
+        if strict {
+            withheld.push(Withheld {
+                effect: EffectKind::ToolWear.name().into(),
+                reason: format!(
+                    "{}: with the removal rate held nearly constant, removed volume and cutting time grow together, so this log cannot tell wear from a drift in time",
+                    wt.text()
+                ),
+            });
+            named.retain(|e| e != EffectKind::ToolWear.name());
+            wear_time_ambiguity = Some(Ambiguity {
+                effects: [EffectKind::ToolWear.name().into(), KS_TIME_DRIFT.into()],
+                experiment: WEAR_TIME_EXPERIMENT.into(),
+                test_cut: Some(crate::testcut::run_named(
+                    inp,
+                    &s.base_model,
+                    &wt.time_model,
+                    (EffectKind::ToolWear.name(), "ks_time_drift"),
+                    p.noise0.sigma,
+                )),
+            });
+        } else {
+            wear_time_note = Some(format!(
+                " Note: this log hardly tells wear per removed volume from a drift in time — {}; {} would.",
+                wt.text(),
+                WEAR_TIME_EXPERIMENT
+            ));
+        }
+    }
     let mut conclusion =
         conclusion_with_notes(inp, &s, &named, unexplained.as_ref(), &sealed, unit);
+    if let Some(note) = &wear_time_note {
+        conclusion.push_str(note);
+    }
     if !withheld.is_empty() {
         let list: Vec<&str> = withheld.iter().map(|w| w.effect.as_str()).collect();
         conclusion = format!(
@@ -1445,10 +1606,31 @@ fn assemble(
     if named.is_empty() && withheld.is_empty() && p.q_floor > p.raw_sigma {
         conclusion = format!("Note: {}. {conclusion}", quantized_text(&p, unit));
     }
+    if let Some(a) = &wear_time_ambiguity {
+        let cut = a.test_cut.as_ref().map_or(String::new(), |c| {
+            format!(
+                " The simulator ran the test cut under both fits: their predictions differ by {:.3} {unit} RMS ({:.3} {unit} at most, noise σ {:.3} {unit}): {}.",
+                c.rms_difference,
+                c.max_difference,
+                c.noise_sigma,
+                if c.separates { "it separates them" } else { "that cut does not separate them; a longer pass at the lower rate would" }
+            )
+        });
+        conclusion.push_str(&format!(
+            " Ambiguous between tool_wear and {KS_TIME_DRIFT}; to separate them run {}.{cut}",
+            a.experiment
+        ));
+    }
     let series = plot_series(&p, &upd_replay, &sealed);
     let mut explanation = explain(&s, &named, &withheld, unexplained.as_ref(), opts);
     if let Some(c) = p.force_vs_power {
         explanation.insert(0, force_vs_power_text(&c));
+    }
+    if let Some(wt) = &wear_time {
+        explanation.push(format!(
+            "`tool_wear` against a `Ks` rising with cutting time: {}.",
+            wt.text()
+        ));
     }
     let report = Report {
         schema_version: SCHEMA_VERSION,
@@ -1485,6 +1667,7 @@ fn assemble(
                     .find(|(k, _, _)| *k == (*a, *b))
                     .map(|(_, ma, mb)| crate::testcut::run(inp, ma, mb, (*a, *b), p.noise0.sigma)),
             })
+            .chain(wear_time_ambiguity)
             .collect(),
         withheld,
         explanation,
