@@ -177,6 +177,37 @@ fn a_ks_drift_in_cutting_time_is_ambiguous_with_tool_wear_not_named() {
         "fitted {rate}/min: {}",
         v.conclusion
     );
+    // Without the strict rules the name stands, with the same finding as a note.
+    let sc = scenario("steps_2_3_4.toml");
+    let (log, model, wp) =
+        twin::case_log(&sc, Hidden::KsTimeDrift(0.05), Channel::Power, 7001).expect("log");
+    let opts = workflow::Options {
+        workpiece: Some((wp, 0.0)),
+        candidates: acc_ident::EffectKind::ALL.to_vec(),
+        min_effect_to_noise: 1.0,
+        ..workflow::Options::default()
+    };
+    let a = workflow::analyse(&model, &log, &opts).expect("analysis");
+    assert_eq!(
+        a.report.accepted,
+        vec!["tool_wear".to_string()],
+        "{}",
+        a.report.conclusion
+    );
+    assert!(a.report.ambiguous.is_empty(), "{:?}", a.report.ambiguous);
+    assert!(
+        a.report
+            .conclusion
+            .contains("Note: a `Ks` rising linearly with cutting time")
+            && a.report
+                .conclusion
+                .contains("this log does not tell wear from a drift in time")
+            && a.report
+                .conclusion
+                .contains("To separate them run a cut whose removal rate changes"),
+        "{}",
+        a.report.conclusion
+    );
 }
 
 /// The force channel is the loop's estimate from spindle power, and the log holds the power

@@ -223,7 +223,7 @@ pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
     write(
         "model.updated.toml",
         &format!(
-            "# Written by `acc discrepancy`: the model with the accepted effects and refitted\n# nominal parameters. [machine] and [tool] are the simulator's machine and tool files\n# (also written alone as machine.updated.toml and tool.updated.toml).\n{}",
+            "# Written by `acc discrepancy`: the model with the effects that passed selection\n# (named, or withheld: report.md says why) and refitted nominal parameters. [machine] and [tool] are the simulator's machine and tool files\n# (also written alone as machine.updated.toml and tool.updated.toml).\n{}",
             updated.to_toml()?
         ),
     )?;

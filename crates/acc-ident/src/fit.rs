@@ -24,8 +24,9 @@ pub enum Free {
     SpeedExponent,
     /// Parameter `i` of an effect.
     Effect(EffectKind, usize),
-    /// Offset added to `tool.wear.growth_per_min`, 1/min: a `Ks` rising with cutting time
-    /// (not a library effect: the alternative the workflow sets against tool wear).
+    /// Offset added to `tool.wear.growth_per_min`, 1/min, 0 ..= 10: a `Ks` rising with
+    /// cutting time (not a library effect: the alternative the workflow sets against
+    /// tool wear).
     WearPerMinute,
 }
 
@@ -47,7 +48,7 @@ impl Free {
             Free::Noload => (-1e5, 1e5),
             Free::SpeedExponent => (-2.0, 2.0),
             Free::Effect(k, i) => (k.params()[i].lo, k.params()[i].hi),
-            Free::WearPerMinute => (-0.5, 10.0),
+            Free::WearPerMinute => (0.0, 10.0),
         }
     }
 

@@ -158,7 +158,9 @@ pub struct Encompassing {
 /// Two effects the data cannot tell apart.
 #[derive(Debug, Clone, Serialize)]
 pub struct Ambiguity {
-    /// The two effects (the better-scoring first; it is in the updated model).
+    /// The two effects (the better-scoring first; it is in the updated model). Library
+    /// effects by their [`crate::EffectKind::name`]; the second may be
+    /// [`crate::workflow::KS_TIME_DRIFT`], an explanation outside the library.
     pub effects: [String; 2],
     /// The experiment that would separate them.
     pub experiment: String,
@@ -192,7 +194,8 @@ pub struct TestCut {
 pub struct Withheld {
     /// The effect.
     pub effect: String,
-    /// Why it is not named (structure remaining after its fit, an ambiguity …).
+    /// Why it is not named (structure remaining after its fit, a sealed part it does not
+    /// predict, tool wear that a drift in cutting time fits as well, a quantized log).
     pub reason: String,
 }
 

@@ -497,7 +497,8 @@ pub struct Verdict {
     pub unexplained: bool,
     /// Whether the named effect's primary interval covers `truth` (in-library only).
     pub covered: Option<bool>,
-    /// Effects that passed selection but were withheld (structure remained).
+    /// Effects that passed selection but were withheld (structure remained, the sealed
+    /// part was not predicted, or tool wear could not be told from a drift in time).
     pub withheld: Vec<String>,
     /// The report's conclusion.
     pub conclusion: String,

@@ -1287,19 +1287,20 @@ fn sealed_check(p: &Prepared, nominal_refit: &Model, updated: &[f64], noise_f: N
     }
 }
 
-/// Assemble the report, the plot series and the updated model.
-/// The name of the explanation [`wear_or_time`] sets against tool wear.
+/// The name of the explanation [`wear_or_time`] sets against tool wear in
+/// [`crate::report::Ambiguity::effects`] (not an [`EffectKind`]: it is not in the library).
 pub const KS_TIME_DRIFT: &str = "ks_time_drift (Ks rising with cutting time, not in the library)";
 
-/// Beyond this many residual variances of the wear fit, the time law's extra sum of
-/// squares tells wear from a drift in time (the test cut's 25 σ² criterion).
+/// Tool wear is told from a drift linear in cutting time when the time law's sum of
+/// squares over the selection rows exceeds the wear's by more than this many residual
+/// variances of the wear fit.
 pub const WEAR_TIME_SEPARATION: f64 = 25.0;
 
 /// What tells tool wear per removed volume from a `Ks` rising with cutting time.
-pub const WEAR_TIME_EXPERIMENT: &str = "a pass at another removal rate long enough for the growth to show (the same cut at half the radial depth, or with the override held at 50 %): wear then grows half as fast per minute, a drift in time does not";
+pub const WEAR_TIME_EXPERIMENT: &str = "a cut whose removal rate changes while it runs — the same feed at two radial depths, or the override held low and then high — so that removed volume and cutting time no longer grow together: wear then grows more slowly per minute where less is removed, a drift in time does not";
 
 /// Tool wear (growth with the removed volume) set against a `Ks` that rises with cutting
-/// time instead — the tool and the part heating up, a coating wearing through: the
+/// time instead — e.g. the tool and the part heating up, a coating wearing through: the
 /// simulator's `tool.wear.growth_per_min`, not a library effect. In a closed loop that
 /// holds the force, the removal rate is nearly constant, so removed volume and cutting
 /// time grow together and the two laws are almost the same curve (issue 13: a `Ks` drift
@@ -1307,10 +1308,11 @@ pub const WEAR_TIME_EXPERIMENT: &str = "a pass at another removal rate long enou
 struct WearOrTime {
     /// Sum of squares of the wear model over the selection rows, channel unit².
     sse_wear: f64,
-    /// The same for the time law (growth per minute fitted, calibration refitted).
+    /// The same for the time law (growth per minute, calibration and the other named
+    /// effects refitted).
     sse_time: f64,
-    /// The unit the two are compared in: the residual variance after the wear fit
-    /// (at most the noise σ²), channel unit².
+    /// The unit the two are compared in: the residual variance of the wear fit,
+    /// `sse_wear / (rows − free parameters)`, channel unit².
     scale: f64,
     /// The time law's fitted growth, 1/min of cutting.
     growth_per_min: f64,
@@ -1318,40 +1320,57 @@ struct WearOrTime {
     time_model: Model,
 }
 
-impl WearOrTime {
-    /// How much more the time law leaves than the wear law, in residual variances.
-    fn delta(&self) -> f64 {
-        (self.sse_time - self.sse_wear) / self.scale
-    }
+/// How the time law compares with the wear ([`WearOrTime::verdict`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum WearTimeVerdict {
+    /// The time law leaves more than [`WEAR_TIME_SEPARATION`] residual variances more.
+    WearFitsBetter,
+    /// Within [`WEAR_TIME_SEPARATION`] of each other.
+    Tie,
+    /// The time law leaves more than [`WEAR_TIME_SEPARATION`] residual variances less.
+    TimeFitsBetter,
+}
 
-    /// The log tells wear per removed volume from a drift in cutting time.
-    fn separated(&self) -> bool {
-        self.delta() > WEAR_TIME_SEPARATION
+impl WearOrTime {
+    fn verdict(&self) -> WearTimeVerdict {
+        let d = (self.sse_time - self.sse_wear) / self.scale;
+        if d > WEAR_TIME_SEPARATION {
+            WearTimeVerdict::WearFitsBetter
+        } else if d < -WEAR_TIME_SEPARATION {
+            WearTimeVerdict::TimeFitsBetter
+        } else {
+            WearTimeVerdict::Tie
+        }
     }
 
     fn text(&self) -> String {
         format!(
-            "a `Ks` rising linearly with cutting time ({:+.4}/min; the tool and the part heating up — not in the library) leaves a sum of squares of {:.0} over the selection rows against {:.0} for wear per removed volume, in residual variances of the wear fit: {}",
+            "a `Ks` rising linearly with cutting time ({:+.4}/min; e.g. the tool and the part heating up — not in the library) leaves a sum of squares of {:.0} over the selection rows against {:.0} for wear per removed volume, in residual variances of the wear fit: {}",
             self.growth_per_min,
             self.sse_time / self.scale,
             self.sse_wear / self.scale,
-            if self.separated() {
-                format!("more than {WEAR_TIME_SEPARATION:.0} apart, so the growth is not a drift linear in cutting time")
-            } else if self.delta() < -WEAR_TIME_SEPARATION {
-                "the drift in time fits better".to_string()
-            } else {
-                format!("within {WEAR_TIME_SEPARATION:.0} of each other")
+            match self.verdict() {
+                WearTimeVerdict::WearFitsBetter => format!(
+                    "more than {WEAR_TIME_SEPARATION:.0} apart, so the growth is not a drift linear in cutting time"
+                ),
+                WearTimeVerdict::TimeFitsBetter => format!(
+                    "the drift in time fits better by more than {WEAR_TIME_SEPARATION:.0}"
+                ),
+                WearTimeVerdict::Tie => format!(
+                    "within {WEAR_TIME_SEPARATION:.0} of each other — removed volume and cutting time grew together closely enough that this log does not tell wear from a drift in time"
+                ),
             }
         )
     }
 }
 
-/// [`WearOrTime`] for `wear_model` (with `tool_wear` on) over the selection rows; `None`
-/// without tool wear or cutting rows.
+/// [`WearOrTime`] for `wear_model` (with `tool_wear` on, fitted with `free`) over the
+/// selection rows; `None` without a rising wear, without cutting rows, or when a fit
+/// does not give a finite sum of squares.
 fn wear_or_time(
     p: &Prepared,
     wear_model: &Model,
-    sigma: f64,
+    free: &[Free],
     opts: &Options,
 ) -> Option<WearOrTime> {
     let fx = &wear_model.effects;
@@ -1367,7 +1386,7 @@ fn wear_or_time(
         .map(|&i| (inp.measured[i] - r.predicted[i]).powi(2))
         .sum();
     // The wear's relative Ks growth over the selection part and the cutting time it took:
-    // the start of the time law's bracket.
+    // where the time law starts.
     let cut_min: f64 = (0..=last)
         .filter(|&i| r.force_n[i] > 0.0)
         .map(|i| inp.dt_s[i] / 60.0)
@@ -1377,31 +1396,48 @@ fn wear_or_time(
     let g = w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0);
     let pw = fx.get(EffectKind::ToolWear, 1);
     let growth = g * v.max(0.0).powf(pw);
-    if !(cut_min > 0.0 && growth.is_finite() && growth != 0.0) {
+    // Only a rising Ks is set against a rising drift in time.
+    if !(cut_min > 0.0 && growth.is_finite() && growth > 0.0 && sse_wear.is_finite()) {
         return None;
     }
     // The simulator's time law (`tool.wear.growth_per_min`, linear in cutting time) in
-    // place of the wear, fitted with the calibration from the wear's mean rate.
-    let mut start = wear_model.clone();
-    start.effects.remove(EffectKind::ToolWear);
-    let g0 = start.tool.wear.growth_per_min;
-    start.tool.wear.growth_per_min = g0 + growth / cut_min;
-    let mut free = nuisance(inp, opts.fit_speed_exponent);
-    free.push(Free::WearPerMinute);
-    let time_model = fit::refine(&start, &free, inp, rows);
-    let sse_time = sse_of(&time_model);
-    let gt = time_model.tool.wear.growth_per_min - g0;
-    let per_row = sse_wear / rows.len().max(1) as f64;
-    let scale = per_row.min(sigma * sigma).max(1e-18);
+    // place of the wear, fitted with the calibration and the other named effects, from
+    // the wear's mean rate and half of it.
+    let mut base = wear_model.clone();
+    base.effects.remove(EffectKind::ToolWear);
+    let mut free_t: Vec<Free> = free
+        .iter()
+        .copied()
+        .filter(|f| !matches!(f, Free::Effect(EffectKind::ToolWear, _)))
+        .collect();
+    if free_t.is_empty() {
+        free_t = nuisance(inp, opts.fit_speed_exponent);
+    }
+    free_t.push(Free::WearPerMinute);
+    let g0 = base.tool.wear.growth_per_min;
+    let mut best: Option<(f64, Model)> = None;
+    for k in [1.0, 0.5] {
+        let mut start = base.clone();
+        start.tool.wear.growth_per_min = g0 + k * growth / cut_min;
+        let m = fit::refine(&start, &free_t, inp, rows);
+        let e = sse_of(&m);
+        if e.is_finite() && best.as_ref().is_none_or(|(b, _)| e < *b) {
+            best = Some((e, m));
+        }
+    }
+    let (sse_time, time_model) = best?;
+    let dof = rows.len().saturating_sub(free.len()).max(1) as f64;
+    let scale = (sse_wear / dof).max(1e-18);
     Some(WearOrTime {
         sse_wear,
         sse_time,
         scale,
-        growth_per_min: gt,
+        growth_per_min: time_model.tool.wear.growth_per_min - g0,
         time_model,
     })
 }
 
+/// Assemble the report, the plot series and the updated model.
 fn assemble(
     model: &Model,
     p: Prepared,
@@ -1506,23 +1542,23 @@ fn assemble(
     };
     // Tool wear against a `Ks` rising with cutting time: with the removal rate nearly
     // constant the two are the same curve. Where the replay is exact and the rule is asked
-    // for, an unseparated pair is reported as ambiguous with the cut that tells them
-    // apart; otherwise the name stands with a note.
+    // for, wear that a drift in time fits as well (or better) is not named and the pair is
+    // reported ambiguous with the test cut; otherwise the name stands with a note.
     let wear_time = named
         .iter()
         .any(|e| e == EffectKind::ToolWear.name())
-        .then(|| wear_or_time(&p, &s.base_model, p.noise0.sigma, opts))
+        .then(|| wear_or_time(&p, &s.base_model, &s.base_free, opts))
         .flatten();
     let mut wear_time_ambiguity = None;
     let mut wear_time_note = None;
-    if let Some(wt) = wear_time.as_ref().filter(|wt| !wt.separated()) {
+    if let Some(wt) = wear_time
+        .as_ref()
+        .filter(|wt| wt.verdict() != WearTimeVerdict::WearFitsBetter)
+    {
         if strict {
             withheld.push(Withheld {
                 effect: EffectKind::ToolWear.name().into(),
-                reason: format!(
-                    "{}: with the removal rate held nearly constant, removed volume and cutting time grow together, so this log cannot tell wear from a drift in time",
-                    wt.text()
-                ),
+                reason: wt.text(),
             });
             named.retain(|e| e != EffectKind::ToolWear.name());
             wear_time_ambiguity = Some(Ambiguity {
@@ -1538,7 +1574,7 @@ fn assemble(
             });
         } else {
             wear_time_note = Some(format!(
-                " Note: this log hardly tells wear per removed volume from a drift in time — {}; {} would.",
+                " Note: {}. To separate them run {}.",
                 wt.text(),
                 WEAR_TIME_EXPERIMENT
             ));
@@ -1609,15 +1645,22 @@ fn assemble(
     if let Some(a) = &wear_time_ambiguity {
         let cut = a.test_cut.as_ref().map_or(String::new(), |c| {
             format!(
-                " The simulator ran the test cut under both fits: their predictions differ by {:.3} {unit} RMS ({:.3} {unit} at most, noise σ {:.3} {unit}): {}.",
+                " The simulator ran such a cut ({}) under both fits: their predictions differ by {:.3} {unit} RMS ({:.3} {unit} at most, noise σ {:.3} {unit}): {}.",
+                c.description,
                 c.rms_difference,
                 c.max_difference,
                 c.noise_sigma,
-                if c.separates { "it separates them" } else { "that cut does not separate them; a longer pass at the lower rate would" }
+                if c.separates { "it separates them" } else { "that cut does not separate them" }
             )
         });
+        let kept = match wear_time.as_ref().map(WearOrTime::verdict) {
+            Some(WearTimeVerdict::TimeFitsBetter) => {
+                "The updated model keeps the wear fit (the library has no drift in time); the drift fits this log better."
+            }
+            _ => "The updated model keeps the wear fit, which predicts this log as well as the drift does.",
+        };
         conclusion.push_str(&format!(
-            " Ambiguous between tool_wear and {KS_TIME_DRIFT}; to separate them run {}.{cut}",
+            " Ambiguous between tool_wear and {KS_TIME_DRIFT}; to separate them run {}.{cut} {kept}",
             a.experiment
         ));
     }
