@@ -5,7 +5,8 @@
 //! effect × verdict), false discovery, recovery (overall and at effect/noise ≥ 4),
 //! interval coverage, out-of-library naming. Cases run in parallel on `--threads` std
 //! threads; each finished case's row is appended to `<out>/cases.csv` at once, and
-//! `--resume FILE` (a `cases.csv` of a run stopped early) skips the cases already in it.
+//! `--resume FILE` (a `cases.csv` of a run stopped early) skips the cases already in it;
+//! `--report-only` with it writes the figures of those rows without running the rest.
 //!
 //! cargo run --release -p acc-ident --example twin_eval -- --null-seeds 200 \
 //!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin.md
@@ -513,7 +514,12 @@ fn main() {
             .open(&csv_path)
             .expect("open cases.csv"),
     );
-    let todo: Vec<usize> = (0..cases.len()).filter(|&i| results[i].is_none()).collect();
+    // --report-only (with --resume): the figures of the rows there, nothing run; the
+    // report says how many of the cases finished.
+    let report_only = args.iter().any(|a| a == "--report-only");
+    let todo: Vec<usize> = (0..cases.len())
+        .filter(|&i| results[i].is_none() && !report_only)
+        .collect();
     eprintln!(
         "{} cases, {resumed} resumed from earlier rows, {} to run on {threads} threads",
         cases.len(),
