@@ -1367,12 +1367,7 @@ impl WearOrTime {
 /// [`WearOrTime`] for `wear_model` (with `tool_wear` on, fitted with `free`) over the
 /// selection rows; `None` without a rising wear, without cutting rows, or when a fit
 /// does not give a finite sum of squares.
-fn wear_or_time(
-    p: &Prepared,
-    wear_model: &Model,
-    free: &[Free],
-    opts: &Options,
-) -> Option<WearOrTime> {
+fn wear_or_time(p: &Prepared, wear_model: &Model, free: &[Free]) -> Option<WearOrTime> {
     let fx = &wear_model.effects;
     if !fx.is_on(EffectKind::ToolWear) {
         return None;
@@ -1405,15 +1400,13 @@ fn wear_or_time(
     // the wear's mean rate and half of it.
     let mut base = wear_model.clone();
     base.effects.remove(EffectKind::ToolWear);
-    let mut free_t: Vec<Free> = free
+    // `free` always holds the nuisance parameters (`Ks` at least).
+    let free_t: Vec<Free> = free
         .iter()
         .copied()
         .filter(|f| !matches!(f, Free::Effect(EffectKind::ToolWear, _)))
+        .chain([Free::WearPerMinute])
         .collect();
-    if free_t.is_empty() {
-        free_t = nuisance(inp, opts.fit_speed_exponent);
-    }
-    free_t.push(Free::WearPerMinute);
     let g0 = base.tool.wear.growth_per_min;
     let mut best: Option<(f64, Model)> = None;
     for k in [1.0, 0.5] {
@@ -1547,10 +1540,10 @@ fn assemble(
     let wear_time = named
         .iter()
         .any(|e| e == EffectKind::ToolWear.name())
-        .then(|| wear_or_time(&p, &s.base_model, &s.base_free, opts))
+        .then(|| wear_or_time(&p, &s.base_model, &s.base_free))
         .flatten();
     let mut wear_time_ambiguity = None;
-    let mut wear_time_note = None;
+    let mut wear_time_note = String::new();
     if let Some(wt) = wear_time
         .as_ref()
         .filter(|wt| wt.verdict() != WearTimeVerdict::WearFitsBetter)
@@ -1573,18 +1566,16 @@ fn assemble(
                 )),
             });
         } else {
-            wear_time_note = Some(format!(
+            wear_time_note = format!(
                 " Note: {}. To separate them run {}.",
                 wt.text(),
                 WEAR_TIME_EXPERIMENT
-            ));
+            );
         }
     }
     let mut conclusion =
         conclusion_with_notes(inp, &s, &named, unexplained.as_ref(), &sealed, unit);
-    if let Some(note) = &wear_time_note {
-        conclusion.push_str(note);
-    }
+    conclusion.push_str(&wear_time_note);
     if !withheld.is_empty() {
         let list: Vec<&str> = withheld.iter().map(|w| w.effect.as_str()).collect();
         conclusion = format!(
