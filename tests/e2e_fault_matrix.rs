@@ -5,8 +5,14 @@
 //! over a pty, on a v2 and on a v1 board, and judges each row from both run logs. The
 //! command fails on any row that raises the override above ACC's last command or the true
 //! force above 1.05× its pre-fault value, or loses log rows, unless the row is a v1 row no
-//! controller can make safe (marked with why). Then a short soak: a random board fault every
-//! few seconds for 200 s of machine time: no lost rows, no dead thread, the invariant holds.
+//! controller can make safe (marked with why). The hostile-line rows (issue 32) put a man in
+//! the middle on the serial line (`tests/peers/mitm_proxy.py`): replies corrupted with a
+//! valid CRC (1 %, 10 %) or every status read answered with the reply of 2, 3 or 5 reads
+//! earlier; there the force must not rise while the feed moves, no release may be labelled
+//! the operator's, and every corrupted status read must be flagged in acc run's log. Then a
+//! short soak on the same hostile line (1 % garbage throughout, two delay episodes) with a
+//! random board fault every few seconds for 200 s of machine time: no lost rows, no dead
+//! thread, the invariant holds.
 
 mod e2e_support;
 
@@ -32,7 +38,7 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
     );
     let json = std::fs::read_to_string(out.join("fault-matrix.json")).expect("json");
     let rows: Vec<serde_json::Value> = serde_json::from_str(&json).expect("rows");
-    assert_eq!(rows.len(), 32, "16 faults x 2 boards");
+    assert_eq!(rows.len(), 42, "21 faults x 2 boards");
     for r in &rows {
         let verdict = r["verdict"].as_str().unwrap_or_default();
         let protocol = r["protocol"].as_u64().unwrap_or_default();
@@ -55,6 +61,37 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
             Some(true),
             "v{protocol} {fault}: acc run's log misses periods"
         );
+    }
+    // The hostile-line rows: the proxy was in the line and acted from the fault moment on.
+    let line_rows = [
+        "garbage-1pct",
+        "garbage-10pct",
+        "delay-2",
+        "delay-3",
+        "delay-5",
+    ];
+    for name in line_rows {
+        for p in [1, 2] {
+            let row = rows
+                .iter()
+                .find(|r| r["fault"] == name && r["protocol"] == p)
+                .expect("line row");
+            let line = &row["line"];
+            assert!(line.is_object(), "v{p} {name}: no line report: {row}");
+            assert_eq!(line["proxy"]["episodes"], 1, "v{p} {name}: {line}");
+            assert!(
+                line["altered_replies"].as_u64().unwrap_or(0) > 0,
+                "v{p} {name}: the proxy altered nothing: {line}"
+            );
+            assert_eq!(line["operator_releases"], 0, "v{p} {name}: {line}");
+            assert!(
+                line["flagged"].as_u64() >= line["must_flag"].as_u64(),
+                "v{p} {name}: {line}"
+            );
+            if name.starts_with("delay") {
+                assert!(line["delayed_reads"].as_u64().unwrap_or(0) > 0, "{line}");
+            }
+        }
     }
     // The v2 board's clamp makes the controller-gone rows safe: kill -9 stops with the
     // feed held, not at the knob.
@@ -91,7 +128,9 @@ fn a_short_soak_with_random_faults_loses_no_rows_and_keeps_every_thread() {
     let out = dir.path().join("soak");
     let child = std::process::Command::new(acc_bin())
         .current_dir(root())
-        .args(["soak", "--machine-s", "200", "--seed", "3", "--out"])
+        .args(["soak", "--machine-s", "200", "--seed", "3"])
+        // The hostile line (the default) with a delay episode every 60 s: two in 200 s.
+        .args(["--delay-every-s", "60", "--out"])
         .arg(&out)
         .output()
         .expect("run acc soak");
@@ -108,4 +147,9 @@ fn a_short_soak_with_random_faults_loses_no_rows_and_keeps_every_thread() {
     assert_eq!(r["run_missing"].as_u64(), Some(0), "{r}");
     assert_eq!(r["raised_in_fault"].as_u64(), Some(0), "{r}");
     assert!(r["machine_s"].as_f64().unwrap_or(0.0) > 190.0, "{r}");
+    let line = &r["line"];
+    assert!(line["corrupted"].as_u64().unwrap_or(0) > 0, "{r}");
+    assert_eq!(line["episodes"], 2, "{r}");
+    assert_eq!(line["episodes_planned"], 2, "{r}");
+    assert!(line["delayed_reads"].as_u64().unwrap_or(0) > 0, "{r}");
 }

@@ -22,6 +22,29 @@
 //! Pass: max applied after ≤ last cmd, force after ≤ 1.05 × force before, log complete. A
 //! row no controller can make safe (a v1 board has no fallback clamp) is marked with why;
 //! the NC's own override lock is reported, not judged (the NC ignores the override inputs).
+//!
+//! **Hostile-line rows** (`garbage-*`, `delay-*`): a man in the middle
+//! (`tests/peers/mitm_proxy.py`, an independent Python program) sits on the serial line
+//! between `acc board-sim`'s pty and `acc run`, transparent until the fault moment, when
+//! the harness switches its faults on (SIGUSR1) until the end of the window (SIGUSR2): a
+//! share of the replies corrupted with a VALID CRC (a flipped register bit, another slave
+//! address, an exception, a wrong byte count, a truncated frame, random contents), or every
+//! status read answered with the board's reply of N reads earlier (a buffering gateway).
+//! These rows also pass only if
+//!
+//! - the true force in every period after the fault in which the feed was not held is at
+//!   most 1.05 × the force before (ACC keeps driving through a bad line: every period
+//!   counts, not only the released ones);
+//! - no period after the fault ends in the state `operator_handback` or `switch_off`: the
+//!   proxy never touches the knob or the switch, so such a release is a bad frame taken for
+//!   the operator;
+//! - every status read (FC04) the proxy altered in a way the controller can tell from the
+//!   frame ([`must_be_flagged`]) has its period flagged in `acc run`'s log ([`suspicious`]:
+//!   `link:`, `implausible:`, `unconfirmed:`, `force_invalid`, `echo`, `delay`). The reads
+//!   are matched to the log's rows in order ([`align_reads`], checked on the power the
+//!   proxy handed over); if that match is not reliable, the row falls back to counting:
+//!   flagged rows after the fault ≥ altered reads that must be flagged, and says so.
+//!   Delayed replies are not required to be flagged (nothing in one frame shows them).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -30,7 +53,10 @@ use std::time::{Duration, Instant};
 use acc_runtime::record::RunRecord;
 use anyhow::{bail, Context};
 
-use crate::harness::{describe, fault_periods_raising, read, Proc};
+use crate::harness::{
+    align_reads, describe, fault_periods_raising, must_be_flagged, read, read_json_lines,
+    read_proxy_stats, spawn_proxy, stop_proxy, suspicious, Proc, ProxyEvent, ProxyRead, ProxyStats,
+};
 
 /// Arguments of `acc fault-matrix`.
 #[derive(Debug, clap::Args)]
@@ -68,7 +94,22 @@ pub struct FaultMatrixArgs {
     /// Window after the fault, s of machine time.
     #[arg(long, default_value_t = 6.0)]
     pub after_s: f64,
+    /// Window after the fault of the hostile-line rows (`garbage-*`, `delay-*`), s of machine
+    /// time: long enough for 1 % of the replies to be a handful (paper case III's 4 mm step
+    /// ends at about 55 s).
+    #[arg(long, default_value_t = 12.0)]
+    pub line_after_s: f64,
+    /// The man-in-the-middle proxy of the hostile-line rows (run with `python3`).
+    #[arg(long, default_value = "tests/peers/mitm_proxy.py")]
+    pub proxy: PathBuf,
+    /// Seed of the proxy's corruption.
+    #[arg(long, default_value_t = 1)]
+    pub line_seed: u64,
 }
+
+/// Largest plausible spindle power, W: `policy.max_power_w` of
+/// `configs/runtime/fault_matrix.toml` (a flipped power bit above it must be flagged).
+const MAX_POWER_W: f64 = 30_000.0;
 
 /// How a fault is brought about.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,6 +123,16 @@ enum Action {
     Hang(f64),
     /// An `acc board-sim --fault` at the moment; `{t}` in the text is replaced by the time.
     Board(&'static str),
+    /// The man in the middle on the serial line switches its faults on at the moment and off
+    /// at the end of the window: `corrupt` of the replies corrupted with a valid CRC (every
+    /// kind), and/or every status read answered with the reply of `delay_reads` reads
+    /// earlier.
+    Line {
+        /// Share of the replies corrupted, 0 ..= 1.
+        corrupt: f64,
+        /// Reads of delay (0: none).
+        delay_reads: u32,
+    },
 }
 
 /// One fault of the matrix.
@@ -211,7 +262,85 @@ const FAULTS: &[Fault] = &[
         v1_unsafe: None,
         not_judged: None,
     },
+    Fault {
+        name: "garbage-1pct",
+        what: "a man in the middle corrupts 1 % of the replies with a valid CRC (flipped bit, slave, exception, byte count, truncated, random)",
+        action: Action::Line {
+            corrupt: 0.01,
+            delay_reads: 0,
+        },
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "garbage-10pct",
+        what: "a man in the middle corrupts 10 % of the replies with a valid CRC (all six kinds)",
+        action: Action::Line {
+            corrupt: 0.10,
+            delay_reads: 0,
+        },
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "delay-2",
+        what: "every status read answered with the board's reply of 2 reads earlier (a buffering gateway), sustained",
+        action: Action::Line {
+            corrupt: 0.0,
+            delay_reads: 2,
+        },
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "delay-3",
+        what: "every status read answered with the board's reply of 3 reads earlier, sustained",
+        action: Action::Line {
+            corrupt: 0.0,
+            delay_reads: 3,
+        },
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "delay-5",
+        what: "every status read answered with the board's reply of 5 reads earlier, sustained",
+        action: Action::Line {
+            corrupt: 0.0,
+            delay_reads: 5,
+        },
+        v1_unsafe: None,
+        not_judged: None,
+    },
 ];
+
+/// What the man in the middle did in a hostile-line row, and what `acc run` made of it.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct LineReport {
+    /// The proxy's counters.
+    pub proxy: ProxyStats,
+    /// Replies the proxy altered after the fault (corrupted or delayed).
+    pub altered_replies: u64,
+    /// Status reads (FC04) it corrupted (delays not counted).
+    pub corrupted_reads: usize,
+    /// Status reads it delayed.
+    pub delayed_reads: usize,
+    /// Corrupted status reads that must be flagged ([`must_be_flagged`]).
+    pub must_flag: usize,
+    /// Of which flagged in `acc run`'s log (read by read), or, when `matching` is
+    /// `counts`, the rows after the fault flagged as suspicious.
+    pub flagged: usize,
+    /// `read by read` (matched, [`align_reads`]) or `counts` (the match was not reliable).
+    pub matching: String,
+    /// Rows whose logged power was checked against the proxy's reads, and agreed.
+    pub aligned: (usize, usize),
+    /// Rows after the fault that `acc run` flagged as suspicious ([`suspicious`]).
+    pub suspicious_rows: usize,
+    /// Corrupted reads that must be flagged and were not: `read #i (kind, register): t = …`.
+    pub unflagged: Vec<String>,
+    /// Periods after the fault that entered `operator_handback` or `switch_off`.
+    pub operator_releases: usize,
+}
 
 /// The measured outcome of one row.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -252,6 +381,8 @@ pub struct Row {
     pub verdict: String,
     /// The row passed (or is marked with a reason).
     pub ok: bool,
+    /// Hostile-line rows: the proxy's alterations and the controller's flags.
+    pub line: Option<LineReport>,
 }
 
 /// `acc fault-matrix`.
@@ -278,6 +409,7 @@ pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
         ("--at-s", args.at_s),
         ("--before-s", args.before_s),
         ("--after-s", args.after_s),
+        ("--line-after-s", args.line_after_s),
     ] {
         if !(v.is_finite() && v > 0.0 && v <= 600.0) {
             bail!("{flag} {v}: allowed 0 < s <= 600");
@@ -348,14 +480,23 @@ fn s(v: impl ToString) -> String {
     v.to_string()
 }
 
+/// The window after the fault of a row, s of machine time.
+fn window_s(f: &Fault, args: &FaultMatrixArgs) -> f64 {
+    match f.action {
+        Action::Line { .. } => args.line_after_s,
+        _ => args.after_s,
+    }
+}
+
 fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyhow::Result<Row> {
     let machine_log = dir.join("machine.csv");
     let run_log = dir.join("run.csv");
     let at = args.at_s;
     let scale = args.time_scale;
+    let after_s = window_s(f, args);
     let wall = |machine_s: f64| Duration::from_secs_f64(machine_s / scale);
     // The moment: a board fault at `at`, or a marker (the knob set to where it is) for the
-    // process faults.
+    // process and line faults.
     let fault_spec = match f.action {
         Action::Board(spec) => spec.replace("{t}", &format!("{at}")),
         _ => format!("operator@{at}:100"),
@@ -392,12 +533,44 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
             board.seen.join(" / ")
         );
     };
+    // A hostile line: the man in the middle between the board's pty and acc run, faults off.
+    let proxy_files = (
+        dir.join("proxy-stats.json"),
+        dir.join("proxy-events.jsonl"),
+        dir.join("proxy-reads.jsonl"),
+    );
+    let (mut proxy, port) = match f.action {
+        Action::Line {
+            corrupt,
+            delay_reads,
+        } => {
+            let pargs = vec![
+                s("--seed"),
+                args.line_seed.to_string(),
+                s("--corrupt"),
+                format!("{corrupt}"),
+                s("--delay-reads"),
+                delay_reads.to_string(),
+                s("--start"),
+                s("off"),
+                s("--stats"),
+                proxy_files.0.to_string_lossy().into_owned(),
+                s("--events"),
+                proxy_files.1.to_string_lossy().into_owned(),
+                s("--reads"),
+                proxy_files.2.to_string_lossy().into_owned(),
+            ];
+            let (p, port) = spawn_proxy(&args.proxy, &pty, &pargs, dir)?;
+            (Some(p), port)
+        }
+        _ => (None, pty),
+    };
     let rargs = vec![
         s("run"),
         s("--config"),
         args.config.to_string_lossy().into_owned(),
         s("--port"),
-        pty,
+        port,
         s("--log"),
         run_log.to_string_lossy().into_owned(),
     ];
@@ -429,11 +602,20 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
             std::thread::sleep(wall(secs));
             run.signal("CONT");
         }
+        Action::Line { .. } => {
+            if let Some(p) = &proxy {
+                p.signal("USR1");
+            }
+        }
         Action::Board(_) => {}
     }
     // The window after the fault (and a signalled acc run's drain: at most 10 s + slack).
     let exit = if harness_stop {
-        let st = run.wait(wall(args.after_s + 0.5));
+        let st = run.wait(wall(after_s + 0.5));
+        // The line's faults end with the window: acc run then stops on a clean line.
+        if let Some(p) = &proxy {
+            p.signal("USR2");
+        }
         match st {
             Some(st) => describe(st),
             None => {
@@ -452,16 +634,41 @@ fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyho
     };
     // Let the machine show what the board does with the controller gone, then stop it.
     std::thread::sleep(wall(1.0));
+    if let Some(p) = proxy.as_mut() {
+        stop_proxy(p);
+    }
     board.signal("INT");
     if board.wait(Duration::from_secs(10)).is_none() {
         board.signal("KILL");
     }
     drop(run);
     drop(board);
+    drop(proxy);
 
     let m = read(&machine_log)?;
     let r = read(&run_log).unwrap_or_default();
-    Ok(judge(f, protocol, t_fault, &m, &r, exit, args))
+    let line = match f.action {
+        Action::Line { .. } => Some(LineInput {
+            stats: read_proxy_stats(&proxy_files.0).ok(),
+            events: read_json_lines(&proxy_files.1).unwrap_or_default(),
+            reads: read_json_lines(&proxy_files.2).unwrap_or_default(),
+        }),
+        _ => None,
+    };
+    let logs = Logs {
+        machine: &m,
+        run: &r,
+        line: line.as_ref(),
+    };
+    Ok(judge(f, protocol, t_fault, logs, exit, args))
+}
+
+/// What the proxy of a hostile-line row wrote.
+#[derive(Debug, Clone, Default)]
+struct LineInput {
+    stats: Option<ProxyStats>,
+    events: Vec<ProxyEvent>,
+    reads: Vec<ProxyRead>,
 }
 
 /// `board-sim: t = 40.0 s: fault Operator(100) (scheduled at 40 s)` → 40.0.
@@ -470,22 +677,31 @@ fn parse_fault_time(line: &str) -> Option<f64> {
     rest.split(' ').next()?.parse().ok()
 }
 
+/// What a row is judged from: the machine-side log, `acc run`'s log, and on a hostile line
+/// what the proxy wrote.
+#[derive(Debug, Clone, Copy)]
+struct Logs<'a> {
+    machine: &'a [RunRecord],
+    run: &'a [RunRecord],
+    line: Option<&'a LineInput>,
+}
+
 fn judge(
     f: &Fault,
     protocol: u8,
     t_fault: Option<f64>,
-    m: &[RunRecord],
-    r: &[RunRecord],
+    logs: Logs<'_>,
     exit: String,
     args: &FaultMatrixArgs,
 ) -> Row {
+    let (m, r) = (logs.machine, logs.run);
     let tf = t_fault.unwrap_or(args.at_s);
     // A machine row covers the period ending at t_s: the fault's period is the first with
     // t_s > tf. A signalled acc run drains for up to 10 s and then releases: its window runs
     // to the end of the machine log.
     let until = match f.action {
         Action::Signal(_) | Action::DoubleSigint => f64::INFINITY,
-        _ => tf + args.after_s,
+        _ => tf + window_s(f, args),
     };
     let before: Vec<&RunRecord> = m.iter().filter(|x| x.t_s <= tf).collect();
     let after: Vec<&RunRecord> = m.iter().filter(|x| x.t_s > tf && x.t_s <= until).collect();
@@ -548,7 +764,21 @@ fn judge(
             over.len()
         ));
     }
-    if force_after_released > 1.05 * force_before {
+    let on_line = matches!(f.action, Action::Line { .. });
+    if on_line {
+        // ACC drives through a bad line: every period counts in which the feed moved.
+        let moving = after
+            .iter()
+            .filter(|x| !x.feed_hold)
+            .max_by(|a, b| force(a).total_cmp(&force(b)));
+        if let Some(x) = moving.filter(|x| force(x) > 1.05 * force_before) {
+            problems.push(format!(
+                "force {force_before:.0} → {:.0} N at t = {:.1} s with the feed not held (> 1.05×)",
+                force(x),
+                x.t_s
+            ));
+        }
+    } else if force_after_released > 1.05 * force_before {
         problems.push(format!(
             "force {force_before:.0} → {force_after_released:.0} N with ACC not driving (> 1.05×)"
         ));
@@ -559,6 +789,10 @@ fn judge(
     if !log_complete {
         problems.push("acc run's log misses periods".into());
     }
+    let line = logs
+        .line
+        .filter(|_| on_line)
+        .map(|l| judge_line(l, r, tf, &mut problems));
     let (verdict, ok) = if let Some(why) = f.not_judged {
         (format!("not judged: {why}"), true)
     } else if problems.is_empty() {
@@ -592,26 +826,150 @@ fn judge(
         exit,
         verdict,
         ok,
+        line,
     }
+}
+
+/// The hostile-line criteria (see the module docs); problems are added to `problems`.
+fn judge_line(l: &LineInput, r: &[RunRecord], tf: f64, problems: &mut Vec<String>) -> LineReport {
+    let mut rep = LineReport::default();
+    match &l.stats {
+        Some(st) => {
+            rep.proxy = st.clone();
+            if st.episodes != 1 {
+                problems.push(format!(
+                    "the proxy's faults were switched on {} times (1 expected)",
+                    st.episodes
+                ));
+            }
+        }
+        None => problems.push("the proxy wrote no counters".into()),
+    }
+    rep.altered_replies = rep.proxy.altered_replies;
+    if l.events.is_empty() {
+        problems.push("the proxy altered no reply: the fault did not happen".into());
+    }
+    let mut corrupted = std::collections::BTreeSet::new();
+    let mut must: std::collections::BTreeMap<u64, &ProxyEvent> = Default::default();
+    for e in &l.events {
+        let Some(i) = e.read_index.filter(|_| e.fc == 4) else {
+            continue;
+        };
+        if e.kind == "delay" {
+            rep.delayed_reads += 1;
+            continue;
+        }
+        corrupted.insert(i);
+        if must_be_flagged(e, MAX_POWER_W) {
+            must.entry(i).or_insert(e);
+        }
+    }
+    rep.corrupted_reads = corrupted.len();
+    rep.must_flag = must.len();
+    let after = || r.iter().filter(|x| x.t_s > tf);
+    rep.suspicious_rows = after().filter(|x| suspicious(&x.flags)).count();
+    let alignment = align_reads(r, &l.reads);
+    rep.aligned = (alignment.checked, alignment.agreed);
+    if alignment.reliable() {
+        rep.matching = "read by read".into();
+        for (i, e) in &must {
+            let row = alignment.row_of_read.get(i).map(|&j| &r[j]);
+            if row.is_some_and(|x| suspicious(&x.flags)) {
+                rep.flagged += 1;
+            } else {
+                let reg = e
+                    .register
+                    .map_or(String::new(), |g| format!(" register {g}"));
+                let at = row.map_or("no row".to_string(), |x| {
+                    format!("t = {:.1} s, flags `{}`", x.t_s, x.flags)
+                });
+                rep.unflagged
+                    .push(format!("read #{i} ({}{reg}): {at}", e.kind));
+            }
+        }
+        if let Some(first) = rep.unflagged.first() {
+            problems.push(format!(
+                "{} of {} corrupted status reads not flagged (first {first})",
+                rep.unflagged.len(),
+                rep.must_flag
+            ));
+        }
+    } else {
+        rep.matching = "counts".into();
+        rep.flagged = rep.suspicious_rows;
+        if rep.flagged < rep.must_flag {
+            problems.push(format!(
+                "{} flagged rows after the fault for {} corrupted status reads (reads not matched to rows: {} of {} powers agreed)",
+                rep.flagged, rep.must_flag, alignment.agreed, alignment.checked
+            ));
+        }
+    }
+    // A release labelled as the operator's: the proxy never touches the knob or the switch.
+    let operator = |x: &RunRecord| matches!(x.state.as_str(), "operator_handback" | "switch_off");
+    let mut prev_operator = r
+        .iter()
+        .take_while(|x| x.t_s <= tf)
+        .last()
+        .is_some_and(operator);
+    let mut first = None;
+    for x in after() {
+        let now = operator(x);
+        if now && !prev_operator {
+            rep.operator_releases += 1;
+            first.get_or_insert(format!("t = {:.1} s: {}", x.t_s, x.state));
+        }
+        prev_operator = now;
+    }
+    if let Some(first) = first {
+        problems.push(format!(
+            "{} releases labelled as the operator's (first {first}): a bad frame taken for the operator",
+            rep.operator_releases
+        ));
+    }
+    rep
 }
 
 fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {
     let mut t = String::new();
     t.push_str(&format!(
-        "Generated by `acc fault-matrix --update-doc docs/reliability.md` ({} at {}× time, fault at t = {} s of machine time, windows {} s before / {} s after; `{}`).\n\n",
+        "Generated by `acc fault-matrix --update-doc docs/reliability.md` ({} at {}× time, fault at t = {} s of machine time, windows {} s before / {} s after ({} s on a hostile line); `{}`; hostile line: `{}`, seed {}).\n\n",
         args.scenario.display(),
         args.time_scale,
         args.at_s,
         args.before_s,
         args.after_s,
+        args.line_after_s,
         args.config.display(),
+        args.proxy.display(),
+        args.line_seed,
     ));
-    t.push_str("| fault | board | what | last cmd % | max applied, ACC not driving % | force before N | max force after N: all / ACC not driving | feed hold after | fault periods raising cmd | log rows (complete) | acc run exit | verdict |\n");
-    t.push_str("| --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | --- | --- | --- |\n");
+    t.push_str("| fault | board | what | last cmd % | max applied, ACC not driving % | force before N | max force after N: all / ACC not driving | feed hold after | fault periods raising cmd | line: replies altered (status reads corrupted / delayed) | corrupted reads flagged / to flag (rows flagged) | operator-labelled releases | log rows (complete) | acc run exit | verdict |\n");
+    t.push_str("| --- | --- | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | --- | --- | --- |\n");
     for r in rows {
         let opt = |v: Option<u16>| v.map_or("–".to_string(), |v| v.to_string());
+        let (altered, flagged, operator) = match &r.line {
+            Some(l) => (
+                format!(
+                    "{} ({} / {})",
+                    l.altered_replies, l.corrupted_reads, l.delayed_reads
+                ),
+                format!(
+                    "{} / {}{} ({} rows)",
+                    l.flagged,
+                    l.must_flag,
+                    if l.matching == "counts" {
+                        ", counted"
+                    } else {
+                        ""
+                    },
+                    l.suspicious_rows
+                ),
+                l.operator_releases.to_string(),
+            ),
+            None => ("–".into(), "–".into(), "–".into()),
+        };
         t.push_str(&format!(
-            "| {} | v{} | {} | {} | {} | {:.0} | {:.0} / {:.0} | {} | {} | {} ({}) | {} | {} |\n",
+            "| {} | v{} | {} | {} | {} | {:.0} | {:.0} / {:.0} | {} | {} | {altered} | {flagged} | {operator} | {} ({}) | {} | {} |\n",
             r.fault,
             r.protocol,
             r.what,
@@ -691,6 +1049,17 @@ mod tests {
             at_s: 1.0,
             before_s: 1.0,
             after_s: 1.0,
+            line_after_s: 1.0,
+            proxy: PathBuf::from("p"),
+            line_seed: 1,
+        }
+    }
+
+    fn logs<'a>(m: &'a [RunRecord], r: &'a [RunRecord]) -> Logs<'a> {
+        Logs {
+            machine: m,
+            run: r,
+            line: None,
         }
     }
 
@@ -707,7 +1076,14 @@ mod tests {
             row(1.1, "operator", 100, 700.0, true, 11),
             row(1.2, "operator", 100, 0.0, true, 12),
         ];
-        let r = judge(sigkill, 2, Some(1.0), &m, &run, "killed".into(), &args());
+        let r = judge(
+            sigkill,
+            2,
+            Some(1.0),
+            logs(&m, &run),
+            "killed".into(),
+            &args(),
+        );
         assert!(r.ok && r.verdict == "pass", "{r:?}");
         assert_eq!((r.last_cmd_pct, r.max_applied_after_pct), (Some(80), None));
         // The knob's 100 % with the feed moving: a failure on v2, marked on v1.
@@ -715,15 +1091,36 @@ mod tests {
             row(1.0, "acc_active", 80, 800.0, false, 10),
             row(1.1, "operator", 100, 900.0, false, 11),
         ];
-        let r = judge(sigkill, 2, Some(1.0), &m2, &run, "killed".into(), &args());
+        let r = judge(
+            sigkill,
+            2,
+            Some(1.0),
+            logs(&m2, &run),
+            "killed".into(),
+            &args(),
+        );
         assert!(!r.ok && r.verdict.starts_with("FAIL"), "{r:?}");
         assert!(r.verdict.contains("80 → 100") && r.verdict.contains("800 → 900"));
-        let r = judge(sigkill, 1, Some(1.0), &m2, &run, "killed".into(), &args());
+        let r = judge(
+            sigkill,
+            1,
+            Some(1.0),
+            logs(&m2, &run),
+            "killed".into(),
+            &args(),
+        );
         assert!(r.ok && r.verdict.starts_with("unsafe on v1"), "{r:?}");
         // A gap in acc run's periods fails the log check.
         let mut gappy = run.clone();
         gappy.remove(2);
-        let r = judge(sigkill, 2, Some(1.0), &m, &gappy, "killed".into(), &args());
+        let r = judge(
+            sigkill,
+            2,
+            Some(1.0),
+            logs(&m, &gappy),
+            "killed".into(),
+            &args(),
+        );
         assert!(!r.ok && r.verdict.contains("misses periods"), "{r:?}");
     }
 

@@ -10,10 +10,24 @@
 //! release). Both processes' resident memory and thread counts are sampled once a wall
 //! second from `/proc`.
 //!
+//! **Hostile line** (the default; `--no-hostile-line` for the plain soak): the man in the
+//! middle (`tests/peers/mitm_proxy.py`) sits on the serial line between `acc board-sim` and
+//! `acc run` for the whole soak, started with `--corrupt-always`: `--line-corrupt` (1 %) of
+//! the replies are corrupted with a valid CRC all the time (every kind: flipped bit, slave,
+//! exception, byte count, truncated, random), and every `--delay-every-s` of machine time
+//! (180 s) the harness switches on a delay episode of `--delay-for-s` (10 s, SIGUSR1 on,
+//! SIGUSR2 off: with `--corrupt-always` the signals switch only the delay) in which every
+//! status read is answered with the board's reply of `--delay-reads` (2) reads earlier.
+//! Machine time for the episodes is wall time × `--time-scale` since `acc board-sim` started
+//! its machine. Ten seconds before the end the operator re-arms once more (switch off, on),
+//! so a release a bad frame latched late in the run is re-armed as after every fault.
+//!
 //! Pass: RSS growth below 1 MiB for each process (median of the last minute of samples
 //! against the median of the first minute after warm-up), no lost rows in either log, the
-//! thread counts never drop (a dead server thread), `acc run` still controlling at the end,
-//! and no period with an unusable force sample raising the command.
+//! thread counts never drop (a dead server thread), `acc run` still controlling at the end
+//! (on a hostile line: after the last re-arm), and no period with an unusable force sample
+//! raising the command; on a hostile line also that the proxy corrupted replies and ran
+//! every planned delay episode (the table reports both).
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -22,7 +36,10 @@ use acc_runtime::record::RunRecord;
 use anyhow::{bail, Context};
 use rand::{Rng, SeedableRng};
 
-use crate::harness::{describe, fault_periods_raising, read, rss_kib_and_threads, Proc};
+use crate::harness::{
+    describe, fault_periods_raising, read, read_proxy_stats, rss_kib_and_threads, spawn_proxy,
+    stop_proxy, suspicious, Proc, ProxyStats,
+};
 
 /// Arguments of `acc soak`.
 #[derive(Debug, clap::Args)]
@@ -54,6 +71,76 @@ pub struct SoakArgs {
     /// Replace the text between `<!-- soak:begin -->` and `<!-- soak:end -->` in this file.
     #[arg(long)]
     pub update_doc: Option<PathBuf>,
+    /// Put the man in the middle on the line (the default).
+    #[arg(long, overrides_with = "no_hostile_line")]
+    pub hostile_line: bool,
+    /// The old soak: `acc run` directly on `acc board-sim`'s pty.
+    #[arg(long, overrides_with = "hostile_line")]
+    pub no_hostile_line: bool,
+    /// Share of the replies corrupted with a valid CRC, all the time (0 ..= 1).
+    #[arg(long, default_value_t = 0.01)]
+    pub line_corrupt: f64,
+    /// Reads of delay in a delay episode (1 ..= 20).
+    #[arg(long, default_value_t = 2)]
+    pub delay_reads: u32,
+    /// A delay episode starts every this many s of machine time (10 ..= 86 400).
+    #[arg(long, default_value_t = 180.0)]
+    pub delay_every_s: f64,
+    /// Length of a delay episode, s of machine time (> 0, < `--delay-every-s`).
+    #[arg(long, default_value_t = 10.0)]
+    pub delay_for_s: f64,
+    /// The man-in-the-middle proxy (run with `python3`).
+    #[arg(long, default_value = "tests/peers/mitm_proxy.py")]
+    pub proxy: PathBuf,
+}
+
+impl SoakArgs {
+    /// The proxy is in the line.
+    pub fn hostile(&self) -> bool {
+        !self.no_hostile_line
+    }
+}
+
+/// The hostile line's delay episodes: (on, off) in machine time, each ending at least 15 s
+/// before the end (the last re-arm is at 10 s before the end).
+fn delay_episodes(machine_s: f64, every_s: f64, for_s: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut t = every_s;
+    while t + for_s <= machine_s - 15.0 {
+        out.push((t, t + for_s));
+        t += every_s;
+    }
+    out
+}
+
+/// What the man in the middle did over the soak.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct SoakLine {
+    /// The proxy's counters.
+    pub proxy: ProxyStats,
+    /// Replies corrupted with a valid CRC.
+    pub corrupted: u64,
+    /// Delay episodes planned, and switched on.
+    pub episodes_planned: usize,
+    /// Delay episodes the proxy ran.
+    pub episodes: u64,
+    /// Status reads answered with an older reply.
+    pub delayed_reads: u64,
+    /// Rows of `acc run` flagged as not taking a read at face value (`link:`,
+    /// `implausible:`, `unconfirmed:`, `force_invalid`, `echo`, `delay`).
+    pub suspicious_rows: usize,
+    /// Periods that entered `operator_handback` or `switch_off` (the soak's operator does
+    /// switch and turn the knob: reported, not judged).
+    pub operator_releases: usize,
+}
+
+/// What `analyse` needs to know of the hostile line.
+#[derive(Debug, Clone, Default)]
+struct LineInput {
+    stats: Option<ProxyStats>,
+    episodes_planned: usize,
+    /// Machine time of the last re-arm.
+    rearm_at: f64,
 }
 
 /// The measured outcome.
@@ -104,6 +191,8 @@ pub struct SoakReport {
     pub exit: String,
     /// ACC was active in the last second of the run.
     pub active_at_end: bool,
+    /// The hostile line (`None`: `--no-hostile-line`).
+    pub line: Option<SoakLine>,
     /// Verdict lines (empty = pass).
     pub problems: Vec<String>,
 }
@@ -122,6 +211,28 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
     if !matches!(args.protocol, 1 | 2) {
         bail!("--protocol {}: allowed 1 or 2", args.protocol);
     }
+    if !(args.line_corrupt.is_finite() && (0.0..=1.0).contains(&args.line_corrupt)) {
+        bail!("--line-corrupt {}: allowed 0 ..= 1", args.line_corrupt);
+    }
+    if !(1..=20).contains(&args.delay_reads) {
+        bail!("--delay-reads {}: allowed 1 ..= 20", args.delay_reads);
+    }
+    if !(args.delay_every_s.is_finite() && (10.0..=86_400.0).contains(&args.delay_every_s)) {
+        bail!(
+            "--delay-every-s {}: allowed 10 ..= 86400",
+            args.delay_every_s
+        );
+    }
+    if !(args.delay_for_s.is_finite()
+        && args.delay_for_s > 0.0
+        && args.delay_for_s < args.delay_every_s)
+    {
+        bail!(
+            "--delay-for-s {}: allowed 0 < s < --delay-every-s ({})",
+            args.delay_for_s,
+            args.delay_every_s
+        );
+    }
     for (what, p) in [("--scenario", &args.scenario), ("--config", &args.config)] {
         if !p.is_file() {
             bail!("{what} {}: no such file", p.display());
@@ -130,7 +241,16 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let scenario = write_soak_scenario(&args.scenario, &args.out, args.machine_s)?;
-    let schedule = fault_schedule(args.seed, args.machine_s, args.fault_every_s);
+    let mut schedule = fault_schedule(args.seed, args.machine_s, args.fault_every_s);
+    let rearm_at = args.machine_s - 10.0;
+    if args.hostile() {
+        schedule.extend(final_rearm(rearm_at));
+    }
+    let episodes = if args.hostile() {
+        delay_episodes(args.machine_s, args.delay_every_s, args.delay_for_s)
+    } else {
+        Vec::new()
+    };
     let machine_log = args.out.join("machine.csv");
     let run_log = args.out.join("run.csv");
 
@@ -163,12 +283,37 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
     let pty = pty
         .filter(|p| p.starts_with('/'))
         .context("acc board-sim printed no pty path (see board-sim.stderr)")?;
+    let stats_file = args.out.join("proxy-stats.json");
+    let (mut proxy, port) = if args.hostile() {
+        let pargs: Vec<String> = [
+            "--seed",
+            &args.seed.to_string(),
+            "--corrupt",
+            &args.line_corrupt.to_string(),
+            "--corrupt-always",
+            "--delay-reads",
+            &args.delay_reads.to_string(),
+            "--start",
+            "off",
+            "--stats",
+            &stats_file.to_string_lossy(),
+            "--events",
+            &args.out.join("proxy-events.jsonl").to_string_lossy(),
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let (p, port) = spawn_proxy(&args.proxy, &pty, &pargs, &args.out)?;
+        (Some(p), port)
+    } else {
+        (None, pty)
+    };
     let rargs: Vec<String> = [
         "run",
         "--config",
         &args.config.to_string_lossy(),
         "--port",
-        &pty,
+        &port,
         "--log",
         &run_log.to_string_lossy(),
         "--duration-s",
@@ -179,23 +324,63 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
     .collect();
     let (mut run, _) = Proc::spawn(&rargs, &args.out, "run")?;
     eprintln!(
-        "soak: {} s of machine time at {}x ({:.0} s wall), {} scheduled faults (seed {}), v{} board",
+        "soak: {} s of machine time at {}x ({:.0} s wall), {} scheduled faults (seed {}), v{} board{}",
         args.machine_s,
         args.time_scale,
         args.machine_s / args.time_scale,
         schedule.len(),
         args.seed,
-        args.protocol
+        args.protocol,
+        if args.hostile() {
+            format!(
+                "; hostile line: {} % of the replies corrupted, {} delay episodes of {} reads",
+                100.0 * args.line_corrupt,
+                episodes.len(),
+                args.delay_reads
+            )
+        } else {
+            String::new()
+        }
     );
 
-    // Sample memory and threads once a wall second until acc run ends.
+    // Sample memory and threads once a wall second until acc run ends; switch the line's
+    // delay episodes on and off on machine time (wall time × scale since the machine began).
     let started = Instant::now();
     let mut samples: Vec<Sample> = Vec::new();
     let limit = Duration::from_secs_f64(args.machine_s / args.time_scale * 1.5 + 120.0);
+    let mut machine_origin: Option<Instant> = None;
+    let mut next_episode = 0;
+    let mut delay_on = false;
+    let mut next_sample = Duration::from_secs(1);
     let status = loop {
-        if let Some(st) = run.wait(Duration::from_secs(1)) {
+        if let Some(st) = run.wait(Duration::from_millis(20)) {
             break Some(st);
         }
+        if let Some(p) = &proxy {
+            if machine_origin.is_none() {
+                board.drain(Duration::ZERO);
+                if board.seen.iter().any(|l| l.contains("machine time starts")) {
+                    machine_origin = Some(Instant::now());
+                }
+            }
+            if let Some(origin) = machine_origin {
+                let now = origin.elapsed().as_secs_f64() * args.time_scale;
+                if let Some(&(on, off)) = episodes.get(next_episode) {
+                    if !delay_on && now >= on {
+                        p.signal("USR1");
+                        delay_on = true;
+                    } else if delay_on && now >= off {
+                        p.signal("USR2");
+                        delay_on = false;
+                        next_episode += 1;
+                    }
+                }
+            }
+        }
+        if started.elapsed() < next_sample {
+            continue;
+        }
+        next_sample += Duration::from_secs(1);
         let t = started.elapsed().as_secs_f64();
         samples.push((
             t,
@@ -221,6 +406,10 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
     };
     let exit = status.map_or_else(|| "hung (killed)".to_string(), describe);
     std::thread::sleep(Duration::from_millis(300));
+    if let Some(p) = proxy.as_mut() {
+        stop_proxy(p);
+    }
+    drop(proxy);
     board.signal("INT");
     if board.wait(Duration::from_secs(10)).is_none() {
         board.signal("KILL");
@@ -239,6 +428,11 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
 
     let r = read(&run_log)?;
     let m = read(&machine_log)?;
+    let line = args.hostile().then(|| LineInput {
+        stats: read_proxy_stats(&stats_file).ok(),
+        episodes_planned: episodes.len(),
+        rearm_at,
+    });
     let report = analyse(
         &r,
         &m,
@@ -246,6 +440,7 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
         &fired,
         exit,
         started.elapsed().as_secs_f64(),
+        line.as_ref(),
     );
     let text = markdown(&report, args);
     std::fs::write(args.out.join("soak.md"), &text)?;
@@ -328,6 +523,14 @@ fn write_soak_scenario(base: &Path, out: &Path, machine_s: f64) -> anyhow::Resul
     Ok(sc_out)
 }
 
+/// The operator re-arms once more near the end (switch off, on half a second later).
+fn final_rearm(at: f64) -> [String; 2] {
+    [
+        format!("switch@{at:.1}:off"),
+        format!("switch@{:.1}:on", at + 0.5),
+    ]
+}
+
 /// The random fault schedule: `acc board-sim --fault` specs, each followed by the
 /// operator re-arming ACC (switch off, on).
 fn fault_schedule(seed: u64, machine_s: f64, every_s: f64) -> Vec<String> {
@@ -398,6 +601,7 @@ fn analyse(
     fired: &[String],
     exit: String,
     wall_s: f64,
+    line: Option<&LineInput>,
 ) -> SoakReport {
     let mut problems = Vec::new();
     // Memory: first minute after a 30 s warm-up against the last minute.
@@ -465,13 +669,54 @@ fn analyse(
         problems.push(format!("{raised} fault periods raised the command"));
     }
     let t_end = r.last().map_or(0.0, |x| x.t_s);
+    // On a hostile line a bad frame late in the run may latch a release, which the
+    // operator's last re-arm answers: ACC must control again after it.
+    let since = match line {
+        Some(l) => l.rearm_at + 0.5,
+        None => t_end - 1.0,
+    };
     let active_at_end = r
         .iter()
-        .filter(|x| x.t_s > t_end - 1.0)
+        .filter(|x| x.t_s > since)
         .any(|x| x.state == "active");
     if !active_at_end {
-        problems.push("ACC was not controlling at the end of the run".into());
+        problems.push(match line {
+            Some(_) => "ACC was not controlling after the operator's last re-arm".into(),
+            None => "ACC was not controlling at the end of the run".to_string(),
+        });
     }
+    let line = line.map(|l| {
+        let mut out = SoakLine {
+            episodes_planned: l.episodes_planned,
+            suspicious_rows: r.iter().filter(|x| suspicious(&x.flags)).count(),
+            ..SoakLine::default()
+        };
+        let operator =
+            |x: &RunRecord| matches!(x.state.as_str(), "operator_handback" | "switch_off");
+        out.operator_releases = r
+            .windows(2)
+            .filter(|w| operator(&w[1]) && !operator(&w[0]))
+            .count();
+        match &l.stats {
+            Some(st) => {
+                out.corrupted = st.corrupted();
+                out.episodes = st.episodes;
+                out.delayed_reads = st.altered.get("delay").copied().unwrap_or(0);
+                out.proxy = st.clone();
+                if out.corrupted == 0 {
+                    problems.push("the hostile line corrupted no reply".into());
+                }
+                if out.episodes != l.episodes_planned as u64 {
+                    problems.push(format!(
+                        "the hostile line ran {} delay episodes of {} planned",
+                        out.episodes, l.episodes_planned
+                    ));
+                }
+            }
+            None => problems.push("the man-in-the-middle proxy wrote no counters".into()),
+        }
+        out
+    });
     if !(exit == "0" || exit == "3") {
         problems.push(format!("acc run exit {exit}"));
     }
@@ -518,6 +763,7 @@ fn analyse(
         active_pct: 100.0 * active as f64 / r.len().max(1) as f64,
         exit,
         active_at_end,
+        line,
         problems,
     }
 }
@@ -528,11 +774,46 @@ fn markdown(r: &SoakReport, args: &SoakArgs) -> String {
         .iter()
         .map(|(k, n)| format!("{k} {n}"))
         .collect();
+    let (line_args, line_rows) = match &r.line {
+        Some(l) => {
+            let by_kind: Vec<String> = l
+                .proxy
+                .altered
+                .iter()
+                .filter(|(k, n)| k.as_str() != "delay" && **n > 0)
+                .map(|(k, n)| format!("{k} {n}"))
+                .collect();
+            (
+                format!(
+                    " --line-corrupt {} --delay-reads {} --delay-every-s {} --delay-for-s {}",
+                    args.line_corrupt, args.delay_reads, args.delay_every_s, args.delay_for_s
+                ),
+                format!(
+                    "| hostile line: replies corrupted with a valid CRC (of all replies) | {} of {} ({}) |\n\
+| hostile line: delay episodes ({} reads, {} s every {} s) / status reads delayed | {} of {} planned / {} |\n\
+| acc run rows flagged as not taking a read at face value / entering an operator's state | {} / {} |\n",
+                    l.corrupted,
+                    l.proxy.replies,
+                    by_kind.join(", "),
+                    args.delay_reads,
+                    args.delay_for_s,
+                    args.delay_every_s,
+                    l.episodes,
+                    l.episodes_planned,
+                    l.delayed_reads,
+                    l.suspicious_rows,
+                    l.operator_releases,
+                ),
+            )
+        }
+        None => (" --no-hostile-line".to_string(), String::new()),
+    };
     format!(
-        "Generated by `acc soak --machine-s {} --time-scale {} --fault-every-s {} --seed {} --protocol {} --update-doc docs/reliability.md`.\n\n\
+        "Generated by `acc soak --machine-s {} --time-scale {} --fault-every-s {} --seed {} --protocol {}{line_args} --update-doc docs/reliability.md`.\n\n\
 | figure | value |\n| --- | --- |\n\
 | machine time / wall time | {:.0} s / {:.0} s |\n\
 | faults fired (incl. the operator's re-arm switching) | {} ({}) |\n\
+{line_rows}\
 | acc run log rows / missing periods / flagged rows | {} / {} / {} |\n\
 | machine log rows / missing periods / board-sim ticks skipped | {} / {} / {} |\n\
 | acc run RSS at end / growth | {:.1} MiB / {} |\n\
@@ -678,6 +959,23 @@ mod tests {
                 .unwrap_or(-1.0);
             assert!((30.0..600.0).contains(&t), "{f}");
         }
+    }
+
+    #[test]
+    fn delay_episodes_end_before_the_last_re_arm() {
+        assert_eq!(
+            delay_episodes(200.0, 60.0, 10.0),
+            vec![(60.0, 70.0), (120.0, 130.0)]
+        );
+        assert_eq!(delay_episodes(3600.0, 180.0, 10.0).len(), 19);
+        assert!(delay_episodes(100.0, 180.0, 10.0).is_empty());
+        assert_eq!(
+            final_rearm(190.0),
+            [
+                "switch@190.0:off".to_string(),
+                "switch@190.5:on".to_string()
+            ]
+        );
     }
 
     #[test]
