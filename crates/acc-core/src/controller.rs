@@ -195,6 +195,13 @@ pub trait OverrideLaw {
     /// Restart the process-gain estimate at `kc_hat`, N/(mm/min) (a tool change; default:
     /// ignored).
     fn reset_kc_estimate(&mut self, _kc_hat: f64) {}
+    /// Extra periods of dead time the closed loop tolerates with the gains in use, judged
+    /// on the law's own plant model (Km·Kc_hat; [`crate::delay::delay_margin_periods`]).
+    /// `None` when the law has no model to judge by (default) or its loop is not stable
+    /// even without extra delay.
+    fn delay_margin_periods(&self) -> Option<u32> {
+        None
+    }
 }
 
 impl<T: OverrideLaw + ?Sized> OverrideLaw for &mut T {
@@ -218,6 +225,9 @@ impl<T: OverrideLaw + ?Sized> OverrideLaw for &mut T {
     }
     fn reset_kc_estimate(&mut self, kc_hat: f64) {
         (**self).reset_kc_estimate(kc_hat)
+    }
+    fn delay_margin_periods(&self) -> Option<u32> {
+        (**self).delay_margin_periods()
     }
 }
 
@@ -445,6 +455,17 @@ impl OverrideLaw for Controller {
     /// The estimator restarts at `kc_hat` (clamped to its bounds); the gains follow at once.
     fn reset_kc_estimate(&mut self, kc_hat: f64) {
         self.estimator.reset(kc_hat);
+    }
+
+    /// The gains in use ([`Controller::gains`]) on the plant `Km·Kc_hat`.
+    fn delay_margin_periods(&self) -> Option<u32> {
+        let g = self.gains();
+        crate::delay::delay_margin_periods(
+            g.kp,
+            g.ki,
+            self.cfg.km * self.estimator.kc_hat(),
+            self.cfg.period_s,
+        )
     }
 }
 

@@ -49,6 +49,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used))]
 
 pub mod controller;
+pub mod delay;
 pub mod estimator;
 pub mod filter;
 pub mod override_spec;

@@ -60,6 +60,12 @@ pub struct PolicySection {
     pub nominal_feed_mm_min: Option<f64>,
     /// See [`PolicyConfig::hold_on_raising_release`].
     pub hold_on_raising_release: Option<bool>,
+    /// See [`PolicyConfig::debounce_reads`].
+    pub debounce_reads: Option<u32>,
+    /// See [`PolicyConfig::max_power_step_w`].
+    pub max_power_step_w: Option<f64>,
+    /// See [`PolicyConfig::max_rpm_step`].
+    pub max_rpm_step: Option<f64>,
 }
 
 impl PolicySection {
@@ -89,6 +95,9 @@ impl PolicySection {
             hold_on_raising_release: p
                 .hold_on_raising_release
                 .unwrap_or(d.hold_on_raising_release),
+            debounce_reads: p.debounce_reads.unwrap_or(d.debounce_reads),
+            max_power_step_w: p.max_power_step_w.unwrap_or(d.max_power_step_w),
+            max_rpm_step: p.max_rpm_step.unwrap_or(d.max_rpm_step),
         }
     }
 }
@@ -369,6 +378,9 @@ pub const RUN_KEY_RANGES: &[KeyRange] = &[
     KeyRange::new("policy.operator_handback_pct", "0 ..= 150"),
     KeyRange::new("policy.max_power_w", "> 0"),
     KeyRange::new("policy.nominal_feed_mm_min", "> 0"),
+    KeyRange::new("policy.debounce_reads", "1 ..= 10"),
+    KeyRange::new("policy.max_power_step_w", "0 < x <= max_power_w"),
+    KeyRange::new("policy.max_rpm_step", "> 0"),
     KeyRange::new("shutdown.drain_s", "0 ..= 600"),
     KeyRange::new("shutdown.air_periods", "1 ..= 1000"),
     KeyRange::new(

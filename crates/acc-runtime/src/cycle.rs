@@ -10,6 +10,8 @@
 use acc_core::{ForceSample, ForceSource, Mode, OverrideLaw, PeriodInput, Saturation};
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
+use crate::echo::{DelayReading, LoopDelay};
+use crate::guard::{Expected, Guarded, LineGuard};
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
 use crate::shop::{ShopControl, ShopState, ShopStep};
@@ -73,6 +75,12 @@ pub struct CycleRecord {
     pub plan: WritePlan,
     /// What the shop layer (tool table, entry control) did, if the loop has one.
     pub shop: Option<ShopStep>,
+    /// What the line guard made of the read ([`crate::guard`]).
+    pub guard: Guarded,
+    /// The loop delay measured on the line ([`crate::echo`]).
+    pub delay: DelayReading,
+    /// Extra periods of dead time the law's gains tolerate (after this period's step).
+    pub delay_margin_periods: Option<u32>,
 }
 
 /// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
@@ -120,6 +128,10 @@ impl CycleRecord {
             state: self.out.state.name().to_string(),
             alarms: self.out.alarms.bits(),
             feed_hold: self.out.control.feed_hold_request,
+            echo_delay_periods: self.delay.echo_periods,
+            feed_echo_periods: self.delay.feed_echo_periods,
+            seq_lag_periods: self.delay.seq_lag_periods,
+            delay_margin_periods: self.delay_margin_periods,
             ..RunRecord::default()
         };
         // The NC context of a v2 board (0 = unknown there, an empty cell here).
@@ -131,6 +143,12 @@ impl CycleRecord {
         }
         if let Err(k) = self.link {
             r.flag(&format!("link:{}", kind_name(k)));
+        }
+        if let Some(reg) = self.guard.implausible {
+            r.flag(&format!("implausible:{}", reg.name()));
+        }
+        if let Some(reg) = self.guard.unconfirmed {
+            r.flag(&format!("unconfirmed:{}", reg.name()));
         }
         if let Some(k) = self.write_error {
             r.flag(&format!("write:{}", kind_name(k)));
@@ -166,6 +184,10 @@ impl CycleRecord {
                 }
                 crate::policy::Event::Breakage(b) => r.flag(&format!("breakage:{}", b.kind())),
                 crate::policy::Event::SpindleStopRequest => r.flag("overload:spindle_stop"),
+                crate::policy::Event::DelayExceeded {
+                    extra_periods,
+                    margin_periods,
+                } => r.flag(&format!("delay:{extra_periods}/{margin_periods}")),
                 _ => {}
             }
         }
@@ -228,12 +250,17 @@ pub struct ControlLoop<L, F> {
     /// The tool whose wear and breakage limits the policy runs with (shop layer).
     watch_tool: Option<u16>,
     shop: Option<ShopControl>,
+    guard: LineGuard,
+    delay: LoopDelay,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// A loop with period `period_s` (s).
     pub fn new(policy: FaultPolicy, law: L, source: F, period_s: f64) -> Self {
+        let guard = LineGuard::new(policy.config().guard());
         Self {
+            guard,
+            delay: LoopDelay::new(),
             policy,
             law,
             source,
@@ -298,6 +325,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// `skipped`. The policy is not stepped (nothing was read or written).
     pub fn skip(&mut self, t_s: f64) -> RunRecord {
         self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
+        self.guard.skipped();
+        self.delay
+            .period_done(self.policy.state() == crate::policy::AccState::Active, None);
         let mut r = RunRecord::skipped(self.index, t_s, self.policy.state().name());
         r.x_mm = Some(self.path_mm);
         r.alarms = self.policy.alarms().bits();
@@ -327,7 +357,26 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// policy's `nominal_feed_mm_min` when the board reports 0) × `OVERRIDE_APPLIED`, and 0
     /// while `FEED_HOLD_ACTIVE`. The force source, the law and the path integral all use that
     /// one value.
-    pub fn decide(&mut self, t_s: f64, link: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
+    pub fn decide(&mut self, t_s: f64, read: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
+        // Plausibility and confirmation before meaning: the rules see the guarded status.
+        let mut expect = Expected {
+            acc_requested: self.control_on_board.is_some_and(|c| c.acc_request),
+            ..Expected::default()
+        };
+        for (slot, c) in expect.commands.iter_mut().zip(self.delay.recent_commands()) {
+            *slot = c;
+            expect.count += 1;
+        }
+        let guard = self.guard.check(read, &expect);
+        let link = match read {
+            Err(k) => Err(k),
+            Ok(_) => guard.status.ok_or(BoardErrorKind::Protocol),
+        };
+        let held = read.is_ok() && guard.hold;
+        let delay = match link {
+            Ok(s) if !held => self.delay.observe(self.index, &s),
+            _ => self.delay.last(),
+        };
         let feeds = link.ok().map(|s| {
             let programmed = if s.programmed_feed_mm_min > 0 {
                 f64::from(s.programmed_feed_mm_min)
@@ -347,7 +396,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         }
         self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
         let force = match (link, feeds) {
-            (Ok(s), Some((_, feed))) => {
+            (Ok(s), Some((_, feed))) if !held => {
                 let input = PeriodInput {
                     period_s: self.period_s,
                     spindle_rpm: f64::from(s.spindle_rpm),
@@ -368,6 +417,8 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             force,
             programmed_feed_mm_min: feeds.map_or(0.0, |f| f.0),
             feed_mm_min: feeds.map_or(0.0, |f| f.1),
+            held,
+            delay,
         };
         if let Some(sh) = self.shop.as_mut() {
             let lim = sh.before(
@@ -409,6 +460,11 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         if self.control_on_board != Some(out.control) {
             plan.control = Some(out.control);
         }
+        self.delay.period_done(
+            out.state == crate::policy::AccState::Active,
+            out.write_override.map(|o| o.0),
+        );
+        let delay_margin_periods = self.law.delay_margin_periods();
         let rec = CycleRecord {
             index: self.index,
             t_s,
@@ -421,6 +477,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             out,
             plan,
             shop,
+            guard,
+            delay,
+            delay_margin_periods,
         };
         self.index += 1;
         rec
@@ -436,6 +495,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     pub fn writes_done(&mut self, r: &WriteResult) {
         if let Some(c) = r.control_written {
             self.control_on_board = Some(c);
+        }
+        if r.override_error.is_some() {
+            self.delay.write_failed();
         }
         self.write_error = r.error();
     }

@@ -28,6 +28,8 @@ pub use acc_pmc::clock;
 pub mod config;
 pub mod cuts;
 pub mod cycle;
+pub mod echo;
+pub mod guard;
 pub mod history;
 pub mod policy;
 pub mod record;

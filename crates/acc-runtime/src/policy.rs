@@ -97,9 +97,19 @@ pub struct PolicyConfig {
     /// Feed assumed when the board reports `PROGRAMMED_FEED` = 0 (unknown), mm/min
     /// (default 200, the paper's nominal feed).
     pub nominal_feed_mm_min: f64,
-    /// On a fault release, request feed hold if the operator's knob is above the last
-    /// command, so that handing the override back never raises the feed (default true).
+    /// On a release while the NC is not cutting (`CYCLE_ACTIVE` off), request feed hold if
+    /// the operator's knob is above the last command (default true). A release mid-cut
+    /// that is not the operator's always requests feed hold.
     pub hold_on_raising_release: bool,
+    /// Consecutive reads a changed register must hold before it counts, 1 ..= 10 (default
+    /// 2; 1 = no debounce): see [`crate::guard`].
+    pub debounce_reads: u32,
+    /// Largest plausible change of the spindle power between two samples, W (default
+    /// 2 000); a larger one is held a period for confirmation.
+    pub max_power_step_w: f64,
+    /// Largest plausible change of the spindle speed between two samples, rpm (default
+    /// 1 000).
+    pub max_rpm_step: f64,
 }
 
 impl Default for PolicyConfig {
@@ -118,6 +128,9 @@ impl Default for PolicyConfig {
             max_power_w: 30_000.0,
             nominal_feed_mm_min: 200.0,
             hold_on_raising_release: true,
+            debounce_reads: 2,
+            max_power_step_w: 2_000.0,
+            max_rpm_step: 1_000.0,
         }
     }
 }
@@ -197,7 +210,30 @@ impl PolicyConfig {
         if !finite_pos(self.nominal_feed_mm_min) {
             return Err(err("nominal_feed_mm_min", self.nominal_feed_mm_min, "> 0"));
         }
+        if !(1..=10).contains(&self.debounce_reads) {
+            return Err(err("debounce_reads", self.debounce_reads, "1 ..= 10"));
+        }
+        if !(finite_pos(self.max_power_step_w) && self.max_power_step_w <= self.max_power_w) {
+            return Err(err(
+                "max_power_step_w",
+                self.max_power_step_w,
+                "0 < x <= max_power_w",
+            ));
+        }
+        if !finite_pos(self.max_rpm_step) {
+            return Err(err("max_rpm_step", self.max_rpm_step, "> 0"));
+        }
         Ok(())
+    }
+
+    /// The line guard's limits ([`crate::guard`]) from this policy's keys.
+    pub fn guard(&self) -> crate::guard::GuardConfig {
+        crate::guard::GuardConfig {
+            debounce_reads: self.debounce_reads,
+            max_power_w: self.max_power_w,
+            max_power_step_w: self.max_power_step_w,
+            max_rpm_step: self.max_rpm_step,
+        }
     }
 
     /// Consecutive periods above `overload_force_n` that trip the feed hold:
@@ -237,6 +273,9 @@ pub enum Release {
     Overload,
     /// Tool breakage suspected: a sudden force drop or spike (feed hold requested).
     Breakage,
+    /// The measured loop delay exceeds what the gains in use tolerate (feed hold
+    /// requested): see [`crate::echo`].
+    Delay,
 }
 
 impl Release {
@@ -252,6 +291,7 @@ impl Release {
             Release::NoBoardAck => "no_board_ack",
             Release::Overload => "overload",
             Release::Breakage => "breakage",
+            Release::Delay => "delay",
         }
     }
 
@@ -317,6 +357,8 @@ pub struct Alarms {
     pub overload: bool,
     /// Tool breakage suspected (sudden force drop or spike): feed hold requested.
     pub breakage: bool,
+    /// The loop delay exceeded the gains' delay margin: feed hold requested.
+    pub delay: bool,
 }
 
 impl Alarms {
@@ -328,6 +370,7 @@ impl Alarms {
             || self.board_reset
             || self.overload
             || self.breakage
+            || self.delay
     }
 
     /// The alarms in force by name, comma-separated (`none` when there are none): `link_lost`,
@@ -347,6 +390,7 @@ impl Alarms {
             (self.board_reset, "board_reset"),
             (self.overload, "overload"),
             (self.breakage, "breakage"),
+            (self.delay, "delay"),
         ];
         let on: Vec<&str> = all.iter().filter(|(b, _)| *b).map(|(_, n)| *n).collect();
         if on.is_empty() {
@@ -357,7 +401,7 @@ impl Alarms {
     }
 
     /// Compact bit code for the run log: bit 0 link, 1 power, 2 watchdog, 3 board reset,
-    /// 4 overload, 5 breakage.
+    /// 4 overload, 5 breakage, 6 delay.
     pub fn bits(&self) -> u8 {
         u8::from(self.link_lost)
             | u8::from(self.power_invalid) << 1
@@ -365,6 +409,7 @@ impl Alarms {
             | u8::from(self.board_reset) << 3
             | u8::from(self.overload) << 4
             | u8::from(self.breakage) << 5
+            | u8::from(self.delay) << 6
     }
 }
 
@@ -413,6 +458,14 @@ pub enum Event {
     WatchdogTripped,
     /// Tool breakage suspected (the feed hold follows in the same period).
     Breakage(Breakage),
+    /// The measured loop delay exceeds the delay margin of the gains in use (the release
+    /// and feed hold follow in the same period).
+    DelayExceeded {
+        /// Measured extra delay beyond the designed one period, periods.
+        extra_periods: u32,
+        /// What the gains tolerate, periods.
+        margin_periods: u32,
+    },
 }
 
 /// Up to [`Events::CAPACITY`] events of one period, without allocation.
@@ -481,6 +534,11 @@ pub struct CycleInput {
     /// Actual feed of the period (programmed × applied override), mm/min, as the loop
     /// computed it once (0 when the read failed).
     pub feed_mm_min: f64,
+    /// The line guard held this read for confirmation or found it implausible
+    /// ([`crate::guard`]): `link` is the last accepted status, the sample is not used.
+    pub held: bool,
+    /// The loop delay measured on the line this period ([`crate::echo`]).
+    pub delay: crate::echo::DelayReading,
 }
 
 /// What the runtime does with the board this period.
@@ -554,6 +612,8 @@ pub struct FaultPolicy {
     force_ref_n: Option<f64>,
     /// Command limits of the shop layer for the next step ([`FaultPolicy::set_command_limits`]).
     shop_limits: CommandLimits,
+    /// `CYCLE_ACTIVE` of the last status (true until a status says otherwise).
+    cycle_active: bool,
 }
 
 /// Limits on the law's command set from outside the law for one period (the tool table and
@@ -600,6 +660,7 @@ impl FaultPolicy {
             shop_limits: CommandLimits::default(),
             breakage: BreakageDetector::new(WatchLimits::default()),
             force_ref_n: None,
+            cycle_active: true,
         }
     }
 
@@ -732,22 +793,24 @@ impl FaultPolicy {
         } else {
             AccState::Idle
         };
-        let fault = !matches!(
-            why,
-            Release::SwitchOff | Release::OperatorHandback | Release::Overload | Release::Breakage
-        );
+        let operator = matches!(why, Release::SwitchOff | Release::OperatorHandback);
         // A v2 board clamps the applied override to min(knob, last applied) on a release.
         let raising = !self.board_clamps()
             && match (self.last_operator_pct, self.last_cmd) {
                 (Some(op), Some(cmd)) => op > cmd,
                 _ => true,
             };
-        if fault && raising && self.cfg.hold_on_raising_release && !self.feed_hold {
+        // A release that is not the operator's while the NC cuts is a feed hold, on every
+        // board: nobody else is there to take the cut (the clamp holds the override, not
+        // the force). Out of the cut, only a release that would raise the feed holds.
+        let hold =
+            !operator && (self.cycle_active || (raising && self.cfg.hold_on_raising_release));
+        if hold && !self.feed_hold {
             self.feed_hold = true;
             out.events.push(Event::FeedHold(true));
             tracing::warn!(
                 reason = why.as_str(),
-                "feed hold: the operator's override is above ACC's last command"
+                "feed hold: ACC let go of the cut for a reason that is not the operator's"
             );
         }
         match why {
@@ -757,6 +820,7 @@ impl FaultPolicy {
             Release::BoardReset | Release::NoBoardAck => self.alarms.board_reset = true,
             Release::Overload => self.alarms.overload = true,
             Release::Breakage => self.alarms.breakage = true,
+            Release::Delay => self.alarms.delay = true,
             Release::SwitchOff | Release::OperatorHandback => {}
         }
     }
@@ -828,7 +892,8 @@ impl FaultPolicy {
 
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
         let mut stale = false;
-        if let Some(s) = status {
+        if let Some(s) = status.filter(|_| !input.held) {
+            self.cycle_active = s.cycle_active;
             out.sample_advance = self.last_seq.map(|l| s.sample_seq.wrapping_sub(l));
             if out.sample_advance == Some(0) {
                 self.seq_unchanged = self.seq_unchanged.saturating_add(1);
@@ -845,6 +910,7 @@ impl FaultPolicy {
         let board_power_ok =
             status.is_none_or(|s| f64::from(s.spindle_power_w) <= self.cfg.max_power_w);
         let force_valid = status.is_some()
+            && !input.held
             && board_power_ok
             && !stale
             && f.valid
@@ -899,7 +965,9 @@ impl FaultPolicy {
                         self.switch_seen_off = !s.acc_switch;
                     }
                 }
-            } else {
+            } else if !input.held {
+                // A held read says nothing about the force: the count neither grows nor
+                // restarts.
                 self.overload_count = 0;
                 if self.overload_reaction == acc_config::OverloadReaction::Warning
                     && self.state != AccState::Latched(Release::Overload)
@@ -1176,6 +1244,21 @@ impl FaultPolicy {
             out.write_override = Some(FeedOverride(last));
             return;
         }
+        // The line's delay against what the gains in use tolerate: never drive on into an
+        // oscillation.
+        if let Some((extra, margin)) = delay_exceeded(&input.delay, law.delay_margin_periods()) {
+            out.events.push(Event::DelayExceeded {
+                extra_periods: extra,
+                margin_periods: margin,
+            });
+            tracing::warn!(
+                extra_periods = extra,
+                margin_periods = margin,
+                "loop delay beyond the gains' margin: feed hold"
+            );
+            out.fault = true;
+            return self.release(Release::Delay, out, law);
+        }
         // The control step, on the feed the loop computed once for this period.
         let m = Measurement {
             force_n: if force_valid {
@@ -1217,4 +1300,14 @@ impl FaultPolicy {
         out.step = Some(step);
         out.measurement = Some(m);
     }
+}
+
+/// The measured extra delay and the margin when the delay exceeds the margin: the
+/// designed 1-period echo has failed repeatedly (`nominal_misses` > 1.5) and the estimate
+/// is more periods late than the law's gains tolerate. `None` when the law cannot judge
+/// its margin (no model: the comparison baselines).
+pub fn delay_exceeded(d: &crate::echo::DelayReading, margin: Option<u32>) -> Option<(u32, u32)> {
+    let extra = d.echo_periods?.saturating_sub(1);
+    let margin = margin?;
+    (extra > margin && d.nominal_misses > 1.5).then_some((extra, margin))
 }

@@ -2,7 +2,7 @@
 //! writer (`acc sim`, `acc run`, `acc board-sim`) and every reader (`acc discrepancy`, the
 //! summaries, the tests).
 //!
-//! The CSV layout is schema **v2** (documented column by column with units in
+//! The CSV layout is schema **v3** (documented column by column with units in
 //! `docs/runlog.md`): one header line with the names of [`COLUMNS`], then one row per period,
 //! skipped and late periods included (flagged in `flags`). A value the writer cannot know —
 //! the true force and depth of cut on a real machine, the controller's gains in a period
@@ -33,7 +33,7 @@ use std::io::{Read, Write};
 use serde::{Deserialize, Serialize};
 
 /// Version of the CSV layout written by [`RunLogWriter`].
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// One control period, as logged. Field order is the CSV column order ([`COLUMNS`]).
 ///
@@ -110,6 +110,21 @@ pub struct RunRecord {
     pub alarms: u8,
     /// Feed hold requested by the controller.
     pub feed_hold: bool,
+    /// Measured delay from an override command to its echo in `OVERRIDE_APPLIED`, periods
+    /// (1 = as designed; empty until the command has moved enough to tell). Schema v3.
+    #[serde(default)]
+    pub echo_delay_periods: Option<u32>,
+    /// The same in `ACTUAL_FEED` (v2 boards), periods. Schema v3.
+    #[serde(default)]
+    pub feed_echo_periods: Option<u32>,
+    /// How far the sample's `SAMPLE_SEQ` lags the freshest seen against the period count,
+    /// periods. Schema v3.
+    #[serde(default)]
+    pub seq_lag_periods: Option<u32>,
+    /// Extra periods of dead time the law's gains tolerate (empty for a law without a
+    /// model). Schema v3.
+    #[serde(default)]
+    pub delay_margin_periods: Option<u32>,
     /// Simulator only: true tool-centre position along the path, mm.
     pub x_true_mm: Option<f64>,
     /// Simulator only: engaged radial depth of cut, mm (0 in air).
@@ -122,8 +137,8 @@ pub struct RunRecord {
     pub feed_true_mm_min: Option<f64>,
 }
 
-/// Column names of schema v2, in order (the [`RunRecord`] fields).
-pub const COLUMNS: [&str; 33] = [
+/// Column names of schema v3, in order (the [`RunRecord`] fields).
+pub const COLUMNS: [&str; 37] = [
     "t_s",
     "period",
     "flags",
@@ -152,6 +167,10 @@ pub const COLUMNS: [&str; 33] = [
     "state",
     "alarms",
     "feed_hold",
+    "echo_delay_periods",
+    "feed_echo_periods",
+    "seq_lag_periods",
+    "delay_margin_periods",
     "x_true_mm",
     "radial_depth_mm",
     "axial_depth_mm",
@@ -159,7 +178,15 @@ pub const COLUMNS: [&str; 33] = [
     "feed_true_mm_min",
 ];
 
-/// Column names of schema v2 as a slice.
+/// Columns added in schema v3 (a v2 log without them reads them as empty).
+pub const SINCE_V3: [&str; 4] = [
+    "echo_delay_periods",
+    "feed_echo_periods",
+    "seq_lag_periods",
+    "delay_margin_periods",
+];
+
+/// Column names of the schema as a slice.
 pub fn columns() -> &'static [&'static str] {
     &COLUMNS
 }
@@ -284,7 +311,7 @@ impl<W: Write> RunLogWriter<W> {
 pub enum Schema {
     /// The previous 20-column layout (`valid`, no `period`).
     V1,
-    /// [`COLUMNS`].
+    /// [`COLUMNS`] (v2, and v3 with its four delay columns).
     V2,
 }
 
@@ -301,7 +328,7 @@ pub fn detect_schema<'a>(header: impl IntoIterator<Item = &'a str>) -> Option<Sc
     }
 }
 
-/// Read a run log of schema v2, or of schema v1 (migrated row by row).
+/// Read a run log of schema v3 or v2, or of schema v1 (migrated row by row).
 pub fn read_run_log(input: impl Read) -> Result<Vec<RunRecord>, RunLogError> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
@@ -309,12 +336,12 @@ pub fn read_run_log(input: impl Read) -> Result<Vec<RunRecord>, RunLogError> {
     let headers = rdr.headers()?.clone();
     match detect_schema(headers.iter()) {
         Some(Schema::V2) => {
-            for c in columns() {
+            for c in columns().iter().filter(|c| !SINCE_V3.contains(c)) {
                 if !headers.iter().any(|h| h == *c) {
                     return Err(RunLogError::Field {
                         line: 1,
                         column: (*c).to_string(),
-                        message: "missing column (run log schema v2)".into(),
+                        message: "missing column (run log schema v2/v3)".into(),
                     });
                 }
             }
@@ -576,12 +603,40 @@ mod tests {
             state: "active".into(),
             alarms: 0b10001,
             feed_hold: true,
+            echo_delay_periods: Some(1),
+            feed_echo_periods: Some(2),
+            seq_lag_periods: Some(0),
+            delay_margin_periods: Some(0),
             x_true_mm: Some(45.2),
             radial_depth_mm: Some(3.0),
             axial_depth_mm: Some(10.0),
             force_true_n: Some(799.0),
             feed_true_mm_min: Some(119.5),
         }
+    }
+
+    #[test]
+    fn a_v2_log_without_the_delay_columns_reads_them_as_empty() {
+        let v2: Vec<&str> = columns()
+            .iter()
+            .copied()
+            .filter(|c| !SINCE_V3.contains(c))
+            .collect();
+        let mut text = v2.join(",");
+        text.push('\n');
+        let mut row = vec![""; v2.len()];
+        row[0] = "0.1";
+        row[1] = "1";
+        row[v2.iter().position(|c| *c == "force_valid").expect("column")] = "true";
+        row[v2.iter().position(|c| *c == "alarms").expect("column")] = "0";
+        row[v2.iter().position(|c| *c == "feed_hold").expect("column")] = "false";
+        row[v2.iter().position(|c| *c == "late_ms").expect("column")] = "0";
+        text.push_str(&row.join(","));
+        text.push('\n');
+        let back = read_run_log(text.as_bytes()).expect("a v2 log reads");
+        assert_eq!(back.len(), 1);
+        assert_eq!(back[0].echo_delay_periods, None);
+        assert_eq!(back[0].delay_margin_periods, None);
     }
 
     #[test]

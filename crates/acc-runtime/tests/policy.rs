@@ -31,7 +31,18 @@ impl Rig {
         Self::on(ScriptedBoard::v1(), cfg, script)
     }
 
+    /// The rules are tested on the reads as the board gives them: `debounce_reads` = 1
+    /// unless a test sets it (the line guard's confirmation has its own tests below and
+    /// in `guard.rs`).
     fn on(b: ScriptedBoard, cfg: PolicyConfig, script: impl IntoIterator<Item = u16>) -> Self {
+        let cfg = if cfg.debounce_reads == PolicyConfig::default().debounce_reads {
+            PolicyConfig {
+                debounce_reads: 1,
+                ..cfg
+            }
+        } else {
+            cfg
+        };
         cfg.validate().expect("valid policy config");
         Self {
             lp: ControlLoop::new(
@@ -165,8 +176,9 @@ fn link_timeout_holds_then_stops_commanding_and_rearms_when_the_link_returns_mid
     assert!(r.out.alarms.link_lost);
     assert!(!r.out.control.acc_request);
     assert_eq!(r.out.write_override, None, "no more heartbeat");
-    // v2 board: a release never needs a feed hold (the clamp keeps min(knob, 120))
-    assert!(!r.out.control.feed_hold_request);
+    // a release mid-cut that is not the operator's is a feed hold, on a v2 board too (the
+    // clamp holds the override, nobody holds the force)
+    assert!(r.out.control.feed_hold_request);
     // nothing is commanded while the link is down: the board's watchdog trips, its clamp
     // (and, FALLBACK_MODE = 1, its feed hold) takes over
     let writes_before = rig.b.override_writes.len();
@@ -348,8 +360,9 @@ fn invalid_power_never_raises_the_feed_and_releases_after_n() {
 }
 
 #[test]
-fn a_fault_release_below_the_operator_knob_does_not_hold() {
-    // ACC at 120 %, operator knob at 100 %: releasing lowers the feed, no hold needed
+fn a_fault_release_mid_cut_holds_the_feed_whatever_the_knob() {
+    // ACC at 120 %, the knob at 100 %: the release lowers the override, but nobody would
+    // be holding the force: feed hold.
     let cfg = PolicyConfig {
         link_hold_periods: 2,
         ..PolicyConfig::default()
@@ -360,20 +373,24 @@ fn a_fault_release_below_the_operator_knob_does_not_hold() {
         .inject(LinkFault::ReplyLost(BoardErrorKind::Timeout), 6);
     let recs = rig.run(3);
     assert!(released(&recs[2], Release::LinkLost));
-    assert!(!recs[2].out.control.feed_hold_request);
-    // …and with the hold disabled, a raising release does not hold either
-    let cfg = PolicyConfig {
-        link_hold_periods: 2,
-        hold_on_raising_release: false,
-        ..PolicyConfig::default()
-    };
-    let mut rig = Rig::new(cfg, [60]);
-    rig.run(3);
-    rig.b
-        .inject(LinkFault::ReplyLost(BoardErrorKind::Timeout), 6);
-    let recs = rig.run(3);
-    assert!(released(&recs[2], Release::LinkLost));
-    assert!(!recs[2].out.control.feed_hold_request);
+    assert!(recs[2].out.control.feed_hold_request);
+    // Out of the cut (CYCLE_ACTIVE off) a release below the knob does not hold, and with
+    // `hold_on_raising_release` off a raising one does not either.
+    for (script, hold_on_raising) in [(120, true), (60, false)] {
+        let cfg = PolicyConfig {
+            link_hold_periods: 2,
+            hold_on_raising_release: hold_on_raising,
+            ..PolicyConfig::default()
+        };
+        let mut rig = Rig::v1(cfg, [script]);
+        rig.b.board.set_cycle_active(false);
+        rig.run(3);
+        rig.b
+            .inject(LinkFault::ReplyLost(BoardErrorKind::Timeout), 6);
+        let recs = rig.run(3);
+        assert!(released(&recs[2], Release::LinkLost), "{script}");
+        assert!(!recs[2].out.control.feed_hold_request, "{script}");
+    }
 }
 
 #[test]
@@ -400,6 +417,8 @@ fn implausible_board_power_is_invalid_even_if_the_source_accepts_it() {
             },
             programmed_feed_mm_min: 200.0,
             feed_mm_min: 120.0,
+            held: false,
+            delay: Default::default(),
         },
         &mut law,
     );
@@ -433,6 +452,8 @@ fn nan_or_negative_force_is_invalid() {
         force,
         programmed_feed_mm_min: 200.0,
         feed_mm_min: 2.0 * f64::from(st.override_applied_pct),
+        held: false,
+        delay: Default::default(),
     };
     let o = p.step(&input(0.0, 1, good, &st), &mut law);
     assert_eq!(o.write_override.map(|c| c.0), Some(60));
@@ -639,7 +660,7 @@ fn a_board_that_keeps_restarting_is_released() {
 }
 
 #[test]
-fn a_raising_release_holds_the_feed_on_v1_but_not_on_v2() {
+fn a_fault_release_mid_cut_holds_the_feed_on_v1_and_v2() {
     let cfg = PolicyConfig {
         invalid_power_periods: 2,
         ..PolicyConfig::default()
@@ -653,16 +674,17 @@ fn a_raising_release_holds_the_feed_on_v1_but_not_on_v2() {
             .iter()
             .find(|r| released(r, Release::PowerInvalid))
             .expect("released");
-        assert_eq!(rel.out.control.feed_hold_request, !v2, "v2 = {v2}");
+        assert!(rel.out.control.feed_hold_request, "v2 = {v2}");
         rig.power_w = 1200;
         let after = rig.run(3);
         let st = rig.status();
+        assert!(st.feed_hold_active, "v2 = {v2}");
         if v2 {
-            // the board's clamp: min(knob 100, last 60), no feed hold needed
-            assert!(st.fallback_active && !st.feed_hold_active);
+            // and the board's clamp: min(knob 100, last 60)
+            assert!(st.fallback_active);
             assert!(applied(&after).iter().all(|(p, _)| *p <= 60));
         } else {
-            assert!(st.feed_hold_active && st.override_applied_pct == 100);
+            assert_eq!(st.override_applied_pct, 100);
         }
     }
 }
@@ -1056,6 +1078,8 @@ mod invariant {
                     force: if x.link.is_ok() { x.force } else { ForceSample::INVALID },
                     programmed_feed_mm_min: 200.0,
                     feed_mm_min: x.link.map_or(0.0, |s| 2.0 * f64::from(s.override_applied_pct)),
+                    held: false,
+                    delay: Default::default(),
                 };
                 let stale = match x.link {
                     Ok(s) => {
@@ -1153,6 +1177,7 @@ fn the_tools_breakage_limits_follow_the_tool_number() {
         override_applied_pct: 100,
         operator_override_pct: 100,
         cycle_active: true,
+        override_step_pct: 10,
         ..BoardStatus::default()
     };
     control.decide(0.0, Ok(status(2)));
@@ -1166,7 +1191,12 @@ fn the_tools_breakage_limits_follow_the_tool_number() {
         ),
         (1.8, 45.0, 10.0, 20.0)
     );
-    control.decide(0.1, Ok(status(7)));
+    // A tool change counts once the next read confirms it (the line guard's debounce).
+    let first = control.decide(0.1, Ok(status(7)));
+    assert!(first.record(None).flags.contains("unconfirmed:tool_number"));
+    let l = *control.policy().watch_limits();
+    assert_eq!((l.breakage_spike_factor, l.breakage_drop_pct), (1.8, 45.0));
+    control.decide(0.2, Ok(status(7)));
     let l = *control.policy().watch_limits();
     assert_eq!((l.breakage_spike_factor, l.breakage_drop_pct), (3.0, 60.0));
 }
@@ -1200,6 +1230,7 @@ fn the_tools_overload_limit_and_reaction_follow_the_tool_number() {
             override_applied_pct: 100,
             operator_override_pct: 100,
             cycle_active: true,
+            override_step_pct: 10,
             ..BoardStatus::default()
         };
         let recs: Vec<_> = (0..5u16)

@@ -476,7 +476,15 @@ fn the_path_integrates_the_actual_feed_and_stands_still_in_a_feed_hold() {
         assert!((c.path_mm - x).abs() < 1e-12, "{} vs {x}", c.path_mm);
     }
     board.0.board.set_operator_feed_hold(true);
-    for k in 5..10 {
+    // The feed hold is a STATUS change: it counts once the next read confirms it (the line
+    // guard), and the held period carries the last feed.
+    let c = ctl.cycle(&mut board, 0.5);
+    assert_eq!(
+        c.guard.unconfirmed,
+        Some(acc_runtime::guard::Register::Status)
+    );
+    x += c.feed_mm_min.expect("the last accepted status") * 0.1 / 60.0;
+    for k in 6..10 {
         let c = ctl.cycle(&mut board, 0.1 * k as f64);
         assert_eq!(c.feed_mm_min, Some(0.0), "no feed in a feed hold");
     }

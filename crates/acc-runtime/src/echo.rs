@@ -1,0 +1,249 @@
+//! The loop delay measured on the line, every period: from each override command to its
+//! echo in `OVERRIDE_APPLIED` and in `ACTUAL_FEED`, and from the sample's `SAMPLE_SEQ` to the
+//! loop's own period count.
+//!
+//! The board applies `OVERRIDE_CMD` as it is written, so a command written in period k is
+//! read back in `OVERRIDE_APPLIED` at period k + 1: an echo delay of 1 period, the delay the
+//! control design assumes (physics.md §1, eq. 6). A line that delivers the board's replies
+//! late — a buffering gateway answers every read with the reply of N reads earlier, with a
+//! valid CRC and a `SAMPLE_SEQ` that still advances by one per period — shows as an echo
+//! delay of N + 1. The estimate is the delay `d` (1 ..= [`MAX_ECHO_PERIODS`]) whose
+//! prediction "applied at k = command in force after k − d" has the fewest recent mismatches
+//! (each period's mismatch weighs `FORGET`^age; only periods in which the candidates
+//! disagree count). `ACTUAL_FEED` (v2 boards) is matched the same way against programmed ×
+//! command, within the feed drive's lag (`FEED_TOLERANCE`).
+//!
+//! `SAMPLE_SEQ` against the period count: the sequence unwrapped, less the period index, is
+//! the board's sample offset; its drop below the highest offset seen is the sample's lag in
+//! periods (a buffering line drops it by N at once; a board restart starts it again).
+
+use acc_pmc::BoardStatus;
+
+/// Largest echo delay examined, periods.
+pub const MAX_ECHO_PERIODS: usize = 8;
+/// Weight of last period's mismatch count against this period's.
+const FORGET: f64 = 0.8;
+/// An `ACTUAL_FEED` within this fraction (or 3 mm/min) of programmed × command matches.
+const FEED_TOLERANCE: f64 = 0.05;
+/// Informative periods needed before an estimate is reported.
+const MIN_INFORMATIVE: u32 = 3;
+
+/// One period's measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DelayReading {
+    /// Echo delay of the override in `OVERRIDE_APPLIED`, periods (1 = as designed).
+    pub echo_periods: Option<u32>,
+    /// Echo delay of the override in `ACTUAL_FEED`, periods (v2 boards).
+    pub feed_echo_periods: Option<u32>,
+    /// How far this sample's `SAMPLE_SEQ` lags the freshest offset seen, periods.
+    pub seq_lag_periods: Option<u32>,
+    /// Recent mismatches of the designed 1-period echo (weighted count): above 1.5 the
+    /// designed delay has failed on at least two recent informative periods.
+    pub nominal_misses: f64,
+}
+
+/// Mismatch scores per candidate delay.
+#[derive(Debug, Clone, Copy, Default)]
+struct Scores {
+    score: [f64; MAX_ECHO_PERIODS + 1],
+    informative: u32,
+    estimate: Option<u32>,
+}
+
+impl Scores {
+    fn observe(&mut self, preds: &[u16; MAX_ECHO_PERIODS], matches: impl Fn(u16) -> bool) {
+        if preds.iter().all(|p| *p == preds[0]) {
+            return;
+        }
+        for (d, p) in preds.iter().enumerate() {
+            let miss = if matches(*p) { 0.0 } else { 1.0 };
+            self.score[d + 1] = FORGET * self.score[d + 1] + miss;
+        }
+        self.informative = self.informative.saturating_add(1);
+        if self.informative >= MIN_INFORMATIVE {
+            let mut best = 1;
+            for d in 2..=MAX_ECHO_PERIODS {
+                if self.score[d] < self.score[best] - 1e-9 {
+                    best = d;
+                }
+            }
+            self.estimate = Some(best as u32);
+        }
+    }
+}
+
+/// The loop-delay tracker.
+#[derive(Debug, Clone, Default)]
+pub struct LoopDelay {
+    /// Command in force on the board after each of the last periods, newest first (`None`:
+    /// not driven by ACC, or unknown).
+    in_force: [Option<u16>; MAX_ECHO_PERIODS],
+    applied: Scores,
+    feed: Scores,
+    seq_unwrapped: Option<i64>,
+    last_seq: Option<u16>,
+    best_offset: Option<i64>,
+    last: DelayReading,
+}
+
+impl LoopDelay {
+    /// A tracker that has seen nothing.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The commands in force over the last periods (newest first, known ones only).
+    pub fn recent_commands(&self) -> impl Iterator<Item = u16> + '_ {
+        self.in_force.iter().flatten().copied()
+    }
+
+    /// The last reading.
+    pub fn last(&self) -> DelayReading {
+        self.last
+    }
+
+    /// Observe period `index`'s accepted status (before this period's write).
+    pub fn observe(&mut self, index: u64, s: &BoardStatus) -> DelayReading {
+        let driven = s.acc_active && !s.override_locked && !s.feed_hold_active;
+        if let (true, Some(preds)) = (driven, self.predictions()) {
+            let applied = s.override_applied_pct;
+            self.applied.observe(&preds, |p| p == applied);
+            if s.is_v2() && s.programmed_feed_mm_min > 0 {
+                let prog = f64::from(s.programmed_feed_mm_min);
+                let actual = f64::from(s.actual_feed_mm_min);
+                self.feed.observe(&preds, |p| {
+                    let want = prog * f64::from(p) / 100.0;
+                    (actual - want).abs() <= (FEED_TOLERANCE * want).max(3.0)
+                });
+            }
+        }
+        // SAMPLE_SEQ against the period count.
+        let seq = match (self.last_seq, self.seq_unwrapped) {
+            (Some(l), Some(u)) => {
+                let adv = i64::from(s.sample_seq.wrapping_sub(l) as i16);
+                u + adv
+            }
+            _ => i64::from(s.sample_seq),
+        };
+        if s.board_restarted {
+            self.best_offset = None;
+        }
+        self.last_seq = Some(s.sample_seq);
+        self.seq_unwrapped = Some(seq);
+        let offset = seq - index as i64;
+        let best = self.best_offset.map_or(offset, |b| b.max(offset));
+        self.best_offset = Some(best);
+        self.last = DelayReading {
+            echo_periods: self.applied.estimate,
+            feed_echo_periods: self.feed.estimate,
+            seq_lag_periods: u32::try_from(best - offset).ok(),
+            nominal_misses: self.applied.score[1],
+        };
+        self.last
+    }
+
+    /// The command in force after this period: `Some(cmd)` when ACC drives the override and
+    /// wrote `cmd` (or kept the last one: `written` = `None` while driving), `None` when ACC is
+    /// not driving.
+    pub fn period_done(&mut self, driving: bool, written: Option<u16>) {
+        let now = if driving {
+            written.or(self.in_force[0])
+        } else {
+            None
+        };
+        self.in_force.rotate_right(1);
+        self.in_force[0] = now;
+    }
+
+    /// This period's override write failed: the board keeps the command of the period
+    /// before.
+    pub fn write_failed(&mut self) {
+        self.in_force[0] = self.in_force[1];
+    }
+
+    fn predictions(&self) -> Option<[u16; MAX_ECHO_PERIODS]> {
+        let mut p = [0; MAX_ECHO_PERIODS];
+        for (slot, c) in p.iter_mut().zip(self.in_force.iter()) {
+            *slot = (*c)?;
+        }
+        Some(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn status(applied: u16, seq: u16) -> BoardStatus {
+        BoardStatus {
+            acc_switch: true,
+            acc_active: true,
+            cycle_active: true,
+            override_applied_pct: applied,
+            override_step_pct: 10,
+            sample_seq: seq,
+            protocol_version: 2,
+            programmed_feed_mm_min: 200,
+            actual_feed_mm_min: 2 * applied,
+            ..BoardStatus::default()
+        }
+    }
+
+    /// A board whose replies reach the loop `lag` reads late, driven by a dithering command.
+    fn run(lag: usize, periods: usize) -> DelayReading {
+        let mut t = LoopDelay::new();
+        let cmds: Vec<u16> = (0..periods)
+            .map(|k| [50, 60, 60, 70, 50, 50, 60][k % 7])
+            .collect();
+        // applied on the board after period k = cmds[k]; the read of period k sees the
+        // board as it was after period k − 1 − lag.
+        let mut r = DelayReading::default();
+        for k in 0..periods {
+            let seen = k.checked_sub(1 + lag).map_or(50, |j| cmds[j]);
+            r = t.observe(k as u64, &status(seen, (k.saturating_sub(lag)) as u16));
+            t.period_done(true, Some(cmds[k]));
+        }
+        r
+    }
+
+    #[test]
+    fn the_designed_delay_reads_one_period() {
+        let r = run(0, 100);
+        assert_eq!(r.echo_periods, Some(1));
+        assert_eq!(r.feed_echo_periods, Some(1));
+        assert!(r.nominal_misses < 0.5);
+    }
+
+    #[test]
+    fn a_buffering_line_reads_its_delay() {
+        for lag in [1, 2, 3, 5] {
+            let r = run(lag, 100);
+            assert_eq!(r.echo_periods, Some(1 + lag as u32), "lag {lag}");
+            assert!(r.nominal_misses > 1.5, "lag {lag}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn a_constant_command_tells_nothing() {
+        let mut t = LoopDelay::new();
+        for k in 0..50 {
+            t.observe(k, &status(70, k as u16));
+            t.period_done(true, Some(70));
+        }
+        assert_eq!(t.last().echo_periods, None);
+    }
+
+    #[test]
+    fn the_sequence_lag_follows_a_stale_line() {
+        let mut t = LoopDelay::new();
+        for k in 0..20u64 {
+            t.observe(k, &status(70, 100 + k as u16));
+        }
+        assert_eq!(t.last().seq_lag_periods, Some(0));
+        // From period 20 the line delivers the reply of three reads earlier.
+        for k in 20..30u64 {
+            t.observe(k, &status(70, 100 + (k - 3) as u16));
+        }
+        assert_eq!(t.last().seq_lag_periods, Some(3));
+    }
+}
