@@ -373,10 +373,11 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             Ok(_) => guard.status.ok_or(BoardErrorKind::Protocol),
         };
         let held = read.is_ok() && guard.hold;
-        let delay = match link {
+        let mut delay = match link {
             Ok(s) if !held => self.delay.observe(self.index, &s),
             _ => self.delay.last(),
         };
+        delay.replay_lag_periods = guard.replay_lag_periods;
         let feeds = link.ok().map(|s| {
             let programmed = if s.programmed_feed_mm_min > 0 {
                 f64::from(s.programmed_feed_mm_min)

@@ -7,10 +7,10 @@
 //! control design assumes (physics.md §1, eq. 6). A line that delivers the board's replies
 //! late — a buffering gateway answers every read with the reply of N reads earlier, with a
 //! valid CRC and a `SAMPLE_SEQ` that still advances by one per period — shows as an echo
-//! delay of N + 1. The estimate is the delay `d` (1 ..= [`MAX_ECHO_PERIODS`]) whose
-//! prediction "applied at k = command in force after k − d" has the fewest recent mismatches
-//! (each period's mismatch weighs `FORGET`^age; only periods in which the candidates
-//! disagree count). `ACTUAL_FEED` (v2 boards) is matched the same way against programmed ×
+//! delay of N + 1. The estimate is the shortest delay `d` (1 ..= [`MAX_ECHO_PERIODS`])
+//! whose prediction "applied at k = command in force after k − d" has the fewest mismatches
+//! over the last `WINDOW` informative periods (periods in which the candidates disagree).
+//! `ACTUAL_FEED` (v2 boards) is matched the same way against programmed ×
 //! command, within the feed drive's lag (`FEED_TOLERANCE`).
 //!
 //! `SAMPLE_SEQ` against the period count: the sequence unwrapped, less the period index, is
@@ -21,10 +21,13 @@ use acc_pmc::BoardStatus;
 
 /// Largest echo delay examined, periods.
 pub const MAX_ECHO_PERIODS: usize = 8;
-/// Weight of last period's mismatch count against this period's.
-const FORGET: f64 = 0.8;
+/// Informative periods the mismatch counts look back over.
+const WINDOW: usize = 8;
 /// An `ACTUAL_FEED` within this fraction (or 3 mm/min) of programmed × command matches.
 const FEED_TOLERANCE: f64 = 0.05;
+/// An offset of `SAMPLE_SEQ` against the period count must hold this many periods to be
+/// the baseline (a sample that happens to be one tick fresher is jitter, not the line).
+const STEADY_PERIODS: u32 = 3;
 /// Informative periods needed before an estimate is reported.
 const MIN_INFORMATIVE: u32 = 3;
 
@@ -37,17 +40,23 @@ pub struct DelayReading {
     pub feed_echo_periods: Option<u32>,
     /// How far this sample's `SAMPLE_SEQ` lags the freshest offset seen, periods.
     pub seq_lag_periods: Option<u32>,
-    /// Recent mismatches of the designed 1-period echo (weighted count): above 1.5 the
-    /// designed delay has failed on at least two recent informative periods.
-    pub nominal_misses: f64,
+    /// Consecutive informative periods (up to now) in which the estimate was later than
+    /// the designed 1 period.
+    pub late_streak: u32,
+    /// The line guard confirmed this period that `SAMPLE_SEQ` went back with no restart:
+    /// the line replays the board's past this many periods late ([`crate::guard`]).
+    pub replay_lag_periods: Option<u32>,
 }
 
-/// Mismatch scores per candidate delay.
+/// Mismatches per candidate delay over the last [`WINDOW`] informative periods.
 #[derive(Debug, Clone, Copy, Default)]
 struct Scores {
-    score: [f64; MAX_ECHO_PERIODS + 1],
+    /// Bit `d` set: delay `d` mismatched in that informative period (a ring).
+    misses: [u16; WINDOW],
+    next: usize,
     informative: u32,
     estimate: Option<u32>,
+    late_streak: u32,
 }
 
 impl Scores {
@@ -55,20 +64,28 @@ impl Scores {
         if preds.iter().all(|p| *p == preds[0]) {
             return;
         }
+        let mut mask = 0u16;
         for (d, p) in preds.iter().enumerate() {
-            let miss = if matches(*p) { 0.0 } else { 1.0 };
-            self.score[d + 1] = FORGET * self.score[d + 1] + miss;
-        }
-        self.informative = self.informative.saturating_add(1);
-        if self.informative >= MIN_INFORMATIVE {
-            let mut best = 1;
-            for d in 2..=MAX_ECHO_PERIODS {
-                if self.score[d] < self.score[best] - 1e-9 {
-                    best = d;
-                }
+            if !matches(*p) {
+                mask |= 1 << (d + 1);
             }
-            self.estimate = Some(best as u32);
         }
+        self.misses[self.next] = mask;
+        self.next = (self.next + 1) % WINDOW;
+        self.informative = self.informative.saturating_add(1);
+        if self.informative < MIN_INFORMATIVE {
+            return;
+        }
+        let count = |d: usize| self.misses.iter().filter(|m| *m & (1 << d) != 0).count();
+        let best = (1..=MAX_ECHO_PERIODS)
+            .min_by_key(|d| (count(*d), *d))
+            .unwrap_or(1);
+        self.estimate = Some(best as u32);
+        self.late_streak = if best > 1 {
+            self.late_streak.saturating_add(1)
+        } else {
+            0
+        };
     }
 }
 
@@ -82,7 +99,10 @@ pub struct LoopDelay {
     feed: Scores,
     seq_unwrapped: Option<i64>,
     last_seq: Option<u16>,
+    /// The freshest offset that held for [`STEADY_PERIODS`] periods in a row.
     best_offset: Option<i64>,
+    /// The current offset and for how many periods it has held.
+    run: Option<(i64, u32)>,
     last: DelayReading,
 }
 
@@ -131,13 +151,21 @@ impl LoopDelay {
         self.last_seq = Some(s.sample_seq);
         self.seq_unwrapped = Some(seq);
         let offset = seq - index as i64;
-        let best = self.best_offset.map_or(offset, |b| b.max(offset));
-        self.best_offset = Some(best);
+        let held = match self.run {
+            Some((o, n)) if o == offset => n + 1,
+            _ => 1,
+        };
+        self.run = Some((offset, held));
+        if held >= STEADY_PERIODS {
+            self.best_offset = Some(self.best_offset.map_or(offset, |b| b.max(offset)));
+        }
+        let best = self.best_offset.unwrap_or(offset).max(offset);
         self.last = DelayReading {
             echo_periods: self.applied.estimate,
             feed_echo_periods: self.feed.estimate,
             seq_lag_periods: u32::try_from(best - offset).ok(),
-            nominal_misses: self.applied.score[1],
+            late_streak: self.applied.late_streak,
+            replay_lag_periods: None,
         };
         self.last
     }
@@ -211,7 +239,7 @@ mod tests {
         let r = run(0, 100);
         assert_eq!(r.echo_periods, Some(1));
         assert_eq!(r.feed_echo_periods, Some(1));
-        assert!(r.nominal_misses < 0.5);
+        assert_eq!(r.late_streak, 0);
     }
 
     #[test]
@@ -219,7 +247,7 @@ mod tests {
         for lag in [1, 2, 3, 5] {
             let r = run(lag, 100);
             assert_eq!(r.echo_periods, Some(1 + lag as u32), "lag {lag}");
-            assert!(r.nominal_misses > 1.5, "lag {lag}: {r:?}");
+            assert!(r.late_streak >= 2, "lag {lag}: {r:?}");
         }
     }
 

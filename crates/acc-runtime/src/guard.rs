@@ -156,6 +156,9 @@ pub struct Guarded {
     pub implausible: Option<Register>,
     /// The first changed value not yet confirmed (held or debounced).
     pub unconfirmed: Option<Register>,
+    /// This read confirmed that `SAMPLE_SEQ` went back, with no restart to explain it: the
+    /// line delivers the board's past, this many periods late (a buffering gateway).
+    pub replay_lag_periods: Option<u32>,
 }
 
 impl Guarded {
@@ -165,6 +168,17 @@ impl Guarded {
             hold: false,
             implausible: None,
             unconfirmed,
+            replay_lag_periods: None,
+        }
+    }
+
+    fn held(status: Option<BoardStatus>, why: Result<Register, Register>) -> Self {
+        Self {
+            status,
+            hold: true,
+            implausible: why.err(),
+            unconfirmed: why.ok(),
+            replay_lag_periods: None,
         }
     }
 }
@@ -285,17 +299,13 @@ impl LineGuard {
                     hold: true,
                     implausible: None,
                     unconfirmed: None,
+                    replay_lag_periods: None,
                 }
             }
         };
         if let Some(reg) = self.implausible(&raw) {
             self.candidate = None;
-            return Guarded {
-                status: self.accepted,
-                hold: true,
-                implausible: Some(reg),
-                unconfirmed: None,
-            };
+            return Guarded::held(self.accepted, Err(reg));
         }
         let Some(acc) = self.accepted else {
             return self.accept(raw);
@@ -314,17 +324,15 @@ impl LineGuard {
                 };
                 if agreed >= self.cfg.debounce_reads {
                     self.candidate = None;
+                    let replay = self.replay_lag(&acc, &raw);
                     // The confirmed change replaces the state; debounced values are
                     // carried as confirmed with it.
-                    self.accept_debounced(acc, raw)
+                    let mut g = self.accept_debounced(acc, raw);
+                    g.replay_lag_periods = replay;
+                    g
                 } else {
                     self.candidate = Some((raw, agreed));
-                    Guarded {
-                        status: self.accepted,
-                        hold: true,
-                        implausible: None,
-                        unconfirmed: Some(reg),
-                    }
+                    Guarded::held(self.accepted, Ok(reg))
                 }
             }
         }
@@ -396,6 +404,20 @@ impl LineGuard {
             return Some(Register::OverrideApplied);
         }
         None
+    }
+
+    /// How many periods older than expected `raw`'s sample is, when `SAMPLE_SEQ` went back
+    /// from `acc` with the board's state bits unchanged (no restart to explain it).
+    fn replay_lag(&self, acc: &BoardStatus, raw: &BoardStatus) -> Option<u32> {
+        let expected = acc
+            .sample_seq
+            .wrapping_add(self.periods_since_accept as u16);
+        let behind = expected.wrapping_sub(raw.sample_seq);
+        let went_back = raw.sample_seq.wrapping_sub(acc.sample_seq) >= 0x8000;
+        let same_board = !raw.board_restarted
+            && raw.watchdog_tripped == acc.watchdog_tripped
+            && (raw.acc_active || !acc.acc_active);
+        (went_back && same_board && behind < 0x8000).then_some(u32::from(behind))
     }
 
     fn accept(&mut self, s: BoardStatus) -> Guarded {
@@ -607,6 +629,9 @@ mod tests {
         let v = g.check(Ok(next(back)), &ex(&[70]));
         assert!(!v.hold);
         assert_eq!(v.status.expect("a status").sample_seq, 10);
+        // The last accepted read was 12, two periods ago: 14 was due, 10 came: the line
+        // replays the board's past 4 periods late.
+        assert_eq!(v.replay_lag_periods, Some(4));
     }
 
     #[test]

@@ -1303,11 +1303,20 @@ impl FaultPolicy {
 }
 
 /// The measured extra delay and the margin when the delay exceeds the margin: the
-/// designed 1-period echo has failed repeatedly (`nominal_misses` > 1.5) and the estimate
+/// estimate has been later than the designed 1 period on at least two informative
+/// periods in a row (`late_streak`) and
 /// is more periods late than the law's gains tolerate. `None` when the law cannot judge
 /// its margin (no model: the comparison baselines).
+///
+/// A confirmed replay of the board's past (`replay_lag_periods`: `SAMPLE_SEQ` went back and
+/// the next read went on from there) is judged at once: its very first sample is already
+/// that many periods old.
 pub fn delay_exceeded(d: &crate::echo::DelayReading, margin: Option<u32>) -> Option<(u32, u32)> {
-    let extra = d.echo_periods?.saturating_sub(1);
     let margin = margin?;
-    (extra > margin && d.nominal_misses > 1.5).then_some((extra, margin))
+    let echo = d
+        .echo_periods
+        .filter(|_| d.late_streak >= 2)
+        .map(|e| e.saturating_sub(1));
+    let extra = echo.max(d.replay_lag_periods)?;
+    (extra > margin).then_some((extra, margin))
 }
