@@ -6,7 +6,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use acc_config::{load_preset, Preset};
+use acc_core::delay::{delay_margin_periods, delay_poles, DECAY_RADIUS};
 use acc_core::poles::{assign, assign_integral, PiGains};
+use acc_core::stability::spectral_radius;
 use acc_core::stability::{
     bisect_boundary, describe_pole, fixed_gain_stable_range, integral_kc_ratio_margin,
     integral_pole, kc_ratio_margin, pi_poles, Pole, PoleInfo, StableRange,
@@ -48,6 +50,11 @@ pub struct Analysis {
     pub paper_fixed_range: StableRange,
     /// Poles at Kc = factor · Kc_nominal with the gains frozen: (Kc, poles).
     pub frozen_table: Vec<(f64, Vec<PoleInfo>)>,
+    /// Extra periods of dead time the loop tolerates at Kc = Kc_hat = Kc_nominal (every pole
+    /// inside [`DECAY_RADIUS`]; `None`: not even without extra delay).
+    pub delay_margin: Option<u32>,
+    /// Largest pole magnitude with 0 ..= 3 extra periods of dead time.
+    pub delay_radii: Vec<(u32, f64)>,
 }
 
 /// Gains of the preset's mode at Kc_hat (eq. 14, conclusion 5, or the fixed ones).
@@ -105,6 +112,16 @@ pub fn analyse(preset: Preset) -> anyhow::Result<Analysis> {
             (kc, describe(loop_poles(gains, integral_only, c.km * kc, t)))
         })
         .collect();
+    let g0 = c.km * kc0;
+    let delay_margin = delay_margin_periods(gains.kp, gains.ki, g0, t);
+    let delay_radii = (0..=3)
+        .map(|d| {
+            (
+                d,
+                spectral_radius(&delay_poles(gains.kp, gains.ki, g0, t, d)),
+            )
+        })
+        .collect();
     Ok(Analysis {
         preset,
         gains,
@@ -113,6 +130,8 @@ pub fn analyse(preset: Preset) -> anyhow::Result<Analysis> {
         frozen_range,
         paper_fixed_range,
         frozen_table,
+        delay_margin,
+        delay_radii,
     })
 }
 
@@ -210,6 +229,25 @@ pub fn render(a: &Analysis) -> String {
             let _ = writeln!(s, "\nKc ratio margin: n/a (fixed gains do not use Kc_hat)");
         }
     }
+    let radii: Vec<String> = a
+        .delay_radii
+        .iter()
+        .map(|(d, r)| format!("+{d}: {r:.4}"))
+        .collect();
+    let margin = match a.delay_margin {
+        Some(m) => format!(
+            "{m} extra period(s) of dead time ({:.1} s)",
+            f64::from(m) * c.period_s
+        ),
+        None => "none: the loop is not stable even without extra delay".into(),
+    };
+    let _ = writeln!(
+        s,
+        "delay margin: {margin} beyond the design's one period, every pole inside \
+         {DECAY_RADIUS} (largest pole by extra delay: {}); acc run measures the line's delay \
+         every period and holds the feed when it exceeds the margin of the gains in use",
+        radii.join(", ")
+    );
     let frozen = if a.ratio_margin.is_some() {
         "gains frozen at Kc_hat"
     } else {
@@ -460,6 +498,22 @@ mod tests {
             assert!((a.frozen_range.analytic_max - 4.0 * margin).abs() < 1e-9);
             assert!(render(&a).contains("Kc ratio margin: stable for 0 < Kc/Kc_hat <"));
         }
+    }
+
+    #[test]
+    fn the_delay_margin_of_each_paper_preset() {
+        for (name, margin) in [("case1", Some(1)), ("case2", Some(0)), ("case3", Some(0))] {
+            let a = analyse(preset(name)).expect("analysed");
+            assert_eq!(a.delay_margin, margin, "{name}");
+            assert!(render(&a).contains("delay margin: "));
+        }
+        // Case III with one extra period: a pole on the unit circle.
+        let a = analyse(preset("case3")).expect("analysed");
+        assert!(
+            (a.delay_radii[1].1 - 1.0).abs() < 1e-3,
+            "{:?}",
+            a.delay_radii
+        );
     }
 
     #[test]

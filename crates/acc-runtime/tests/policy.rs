@@ -43,6 +43,11 @@ impl Rig {
         } else {
             cfg
         };
+        Self::exact(b, cfg, script)
+    }
+
+    /// With `cfg` as given (the line guard's debounce included).
+    fn exact(b: ScriptedBoard, cfg: PolicyConfig, script: impl IntoIterator<Item = u16>) -> Self {
         cfg.validate().expect("valid policy config");
         Self {
             lp: ControlLoop::new(
@@ -1258,4 +1263,47 @@ fn the_tools_overload_limit_and_reaction_follow_the_tool_number() {
         !alarm && recs.iter().all(|r| !r.feed_hold),
         "default: 1600 N"
     );
+}
+
+/// The debounce's cost on a real operator act: the knob turned down from 100 % to 60 %
+/// mid-cut is handed back one period (0.1 s) later with the default `debounce_reads` = 2
+/// than without debounce, within the 0.2 s the issue allows; a one-frame flipped knob value
+/// is never an operator act.
+#[test]
+fn debounce_costs_one_period_on_a_real_knob_move_and_ignores_a_flipped_frame() {
+    let periods_to_handback = |debounce_reads: u32| {
+        let cfg = PolicyConfig {
+            debounce_reads,
+            ..PolicyConfig::default()
+        };
+        let mut rig = Rig::exact(ScriptedBoard::new(), cfg, [70]);
+        rig.run(5);
+        assert_eq!(rig.state(), AccState::Active);
+        rig.b.board.set_operator_override_pct(60);
+        (1..=10)
+            .find(|_| released(&rig.step(), Release::OperatorHandback))
+            .expect("handed back")
+    };
+    let plain = periods_to_handback(1);
+    let debounced = periods_to_handback(2);
+    assert_eq!(plain, 1, "without debounce: the period that reads the knob");
+    assert_eq!(debounced, 2, "one more read confirms it");
+    let cost_s = f64::from(debounced - plain) * 0.1;
+    assert!(cost_s <= 0.2 + 1e-9, "reaction cost {cost_s} s");
+
+    // One corrupted frame: the knob reads 60 for one period only.
+    let mut rig = Rig::exact(ScriptedBoard::new(), PolicyConfig::default(), [70]);
+    rig.run(5);
+    rig.b.board.set_operator_override_pct(60);
+    let flipped = rig.step();
+    assert!(flipped
+        .record(None)
+        .flags
+        .contains("unconfirmed:operator_override"));
+    rig.b.board.set_operator_override_pct(100);
+    let after = rig.run(5);
+    assert!(std::iter::once(&flipped)
+        .chain(after.iter())
+        .all(|r| !released(r, Release::OperatorHandback)));
+    assert_eq!(rig.state(), AccState::Active);
 }
