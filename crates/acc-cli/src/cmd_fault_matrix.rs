@@ -1125,6 +1125,81 @@ mod tests {
     }
 
     #[test]
+    fn on_a_hostile_line_every_corrupted_read_is_flagged_and_no_release_is_the_operators() {
+        // acc run's rows 0..40 (0.1 s apart), one read each after one start-up read.
+        let run = |flags_at_20: &str, state_at_25: &str| -> Vec<RunRecord> {
+            (0..40)
+                .map(|i| RunRecord {
+                    t_s: 0.1 * i as f64,
+                    period: i as u64,
+                    power_w: Some(1000.0 + i as f64),
+                    flags: if i == 20 { flags_at_20 } else { "" }.into(),
+                    state: if i >= 25 { state_at_25 } else { "active" }.into(),
+                    ..RunRecord::default()
+                })
+                .collect()
+        };
+        let ev = |read: u64, kind: &str, register: Option<u16>| ProxyEvent {
+            t: 0.0,
+            read_index: Some(read),
+            fc: 4,
+            kind: kind.into(),
+            register,
+            bit: Some(1),
+            before: Some(100),
+            after: Some(102),
+        };
+        let input = LineInput {
+            stats: Some(ProxyStats {
+                episodes: 1,
+                altered_replies: 3,
+                ..ProxyStats::default()
+            }),
+            // Read 21 (row 20): a flipped OPERATOR_OVERRIDE bit; read 31: a flipped
+            // SPINDLE_RPM bit (not required); a write's echo (not a read).
+            events: vec![
+                ev(21, "flip", Some(2)),
+                ev(31, "flip", Some(6)),
+                ProxyEvent {
+                    read_index: None,
+                    fc: 16,
+                    ..ev(0, "slave", None)
+                },
+            ],
+            reads: (0..41)
+                .map(|i| ProxyRead {
+                    i: Some(i),
+                    power: Some(999.0 + i as f64),
+                    applied: None,
+                    altered: false,
+                })
+                .collect(),
+        };
+        let mut problems = Vec::new();
+        let rep = judge_line(
+            &input,
+            &run("unconfirmed:operator_override", "active"),
+            1.0,
+            &mut problems,
+        );
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!((rep.corrupted_reads, rep.must_flag, rep.flagged), (2, 1, 1));
+        assert_eq!(rep.matching, "read by read");
+        let rep = judge_line(
+            &input,
+            &run("seq_skip:2", "operator_handback"),
+            1.0,
+            &mut problems,
+        );
+        assert_eq!((rep.flagged, rep.operator_releases), (0, 1));
+        assert!(problems[0].contains("1 of 1 corrupted status reads not flagged (first read #21 (flip register 2): t = 2.0 s"), "{problems:?}");
+        assert!(
+            problems[1].contains("t = 2.5 s: operator_handback"),
+            "{problems:?}"
+        );
+    }
+
+    #[test]
     fn the_doc_table_goes_between_the_markers() {
         let dir = tempfile::tempdir().expect("tmp");
         let doc = dir.path().join("r.md");

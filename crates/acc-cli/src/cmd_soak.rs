@@ -20,12 +20,14 @@
 //! status read is answered with the board's reply of `--delay-reads` (2) reads earlier.
 //! Machine time for the episodes is wall time × `--time-scale` since `acc board-sim` started
 //! its machine. Ten seconds before the end the operator re-arms once more (switch off, on),
-//! so a release a bad frame latched late in the run is re-armed as after every fault.
+//! so a release a bad frame latched late in the run is re-armed as after every fault; ACC
+//! must then control again, and still at the end unless a read the proxy altered in the five
+//! periods before its last release explains it ([`controlling_after_rearm`]).
 //!
 //! Pass: RSS growth below 1 MiB for each process (median of the last minute of samples
 //! against the median of the first minute after warm-up), no lost rows in either log, the
 //! thread counts never drop (a dead server thread), `acc run` still controlling at the end
-//! (on a hostile line: after the last re-arm), and no period with an unusable force sample
+//! (on a hostile line: see above), and no period with an unusable force sample
 //! raising the command; on a hostile line also that the proxy corrupted replies and ran
 //! every planned delay episode (the table reports both).
 
@@ -37,8 +39,9 @@ use anyhow::{bail, Context};
 use rand::{Rng, SeedableRng};
 
 use crate::harness::{
-    describe, fault_periods_raising, read, read_proxy_stats, rss_kib_and_threads, spawn_proxy,
-    stop_proxy, suspicious, Proc, ProxyStats,
+    align_reads, describe, fault_periods_raising, read, read_json_lines, read_proxy_stats,
+    rss_kib_and_threads, spawn_proxy, stop_proxy, suspicious, trustworthy, Alignment, Proc,
+    ProxyEvent, ProxyRead, ProxyStats,
 };
 
 /// Arguments of `acc soak`.
@@ -132,6 +135,9 @@ pub struct SoakLine {
     /// Periods that entered `operator_handback` or `switch_off` (the soak's operator does
     /// switch and turn the knob: reported, not judged).
     pub operator_releases: usize,
+    /// Rows whose logged power was checked against the proxy's reads, and agreed
+    /// ([`align_reads`]).
+    pub aligned: (usize, usize),
 }
 
 /// What `analyse` needs to know of the hostile line.
@@ -141,6 +147,60 @@ struct LineInput {
     episodes_planned: usize,
     /// Machine time of the last re-arm.
     rearm_at: f64,
+    /// The proxy's alterations and the reads it handed over.
+    events: Vec<ProxyEvent>,
+    reads: Vec<ProxyRead>,
+}
+
+/// Periods before a release in which a read the proxy altered explains it.
+const FRESH_BAD_FRAME_PERIODS: usize = 5;
+
+/// On a hostile line, `acc run` still controls at the end: ACC is active after the
+/// operator's last re-arm, and at the end, unless its last release came within
+/// [`FRESH_BAD_FRAME_PERIODS`] periods after a read the proxy altered (a fresh bad frame
+/// latched it, as it may at any time on this line). The reads are matched to the rows with
+/// [`align_reads`]; without a reliable match ACC must be active at the end. A problem, if
+/// any.
+fn controlling_after_rearm(
+    r: &[RunRecord],
+    l: &LineInput,
+    alignment: &Alignment,
+) -> Option<String> {
+    let from = r.iter().position(|x| x.t_s > l.rearm_at + 0.5)?;
+    let active = |x: &RunRecord| x.state == "active";
+    if !r[from..].iter().any(active) {
+        return Some("ACC was not controlling after the operator's last re-arm".into());
+    }
+    if r.last().is_some_and(active) {
+        return None;
+    }
+    let release = (from.max(1)..r.len())
+        .rev()
+        .find(|&j| active(&r[j - 1]) && !active(&r[j]))?;
+    let x = &r[release];
+    // The match where it matters: the 30 s of rows before the release.
+    let (checked, agreed) =
+        alignment.agreement_in(r, &l.reads, release.saturating_sub(300)..release + 1);
+    if !trustworthy(checked, agreed) {
+        return Some(format!(
+            "ACC released at t = {:.1} s ({}) after the operator's last re-arm, and the proxy's reads could not be matched to the rows ({agreed} of {checked} powers agree)",
+            x.t_s, x.state
+        ));
+    }
+    let altered: std::collections::HashSet<usize> = l
+        .events
+        .iter()
+        .filter_map(|e| e.read_index)
+        .filter_map(|i| alignment.row_of_read.get(&i).copied())
+        .collect();
+    let fresh =
+        (release.saturating_sub(FRESH_BAD_FRAME_PERIODS)..=release).any(|j| altered.contains(&j));
+    (!fresh).then(|| {
+        format!(
+            "ACC released at t = {:.1} s ({}, flags `{}`) after the operator's last re-arm with no read altered by the proxy in the {FRESH_BAD_FRAME_PERIODS} periods before",
+            x.t_s, x.state, x.flags
+        )
+    })
 }
 
 /// The measured outcome.
@@ -284,6 +344,8 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
         .filter(|p| p.starts_with('/'))
         .context("acc board-sim printed no pty path (see board-sim.stderr)")?;
     let stats_file = args.out.join("proxy-stats.json");
+    let events_file = args.out.join("proxy-events.jsonl");
+    let reads_file = args.out.join("proxy-reads.jsonl");
     let (mut proxy, port) = if args.hostile() {
         let pargs: Vec<String> = [
             "--seed",
@@ -298,7 +360,9 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
             "--stats",
             &stats_file.to_string_lossy(),
             "--events",
-            &args.out.join("proxy-events.jsonl").to_string_lossy(),
+            &events_file.to_string_lossy(),
+            "--reads",
+            &reads_file.to_string_lossy(),
         ]
         .iter()
         .map(|s| s.to_string())
@@ -432,6 +496,8 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
         stats: read_proxy_stats(&stats_file).ok(),
         episodes_planned: episodes.len(),
         rearm_at,
+        events: read_json_lines(&events_file).unwrap_or_default(),
+        reads: read_json_lines(&reads_file).unwrap_or_default(),
     });
     let report = analyse(
         &r,
@@ -669,25 +735,29 @@ fn analyse(
         problems.push(format!("{raised} fault periods raised the command"));
     }
     let t_end = r.last().map_or(0.0, |x| x.t_s);
-    // On a hostile line a bad frame late in the run may latch a release, which the
-    // operator's last re-arm answers: ACC must control again after it.
-    let since = match line {
-        Some(l) => l.rearm_at + 0.5,
-        None => t_end - 1.0,
+    let (active_at_end, aligned) = match line {
+        None => {
+            let ok = r
+                .iter()
+                .filter(|x| x.t_s > t_end - 1.0)
+                .any(|x| x.state == "active");
+            if !ok {
+                problems.push("ACC was not controlling at the end of the run".into());
+            }
+            (ok, None)
+        }
+        Some(l) => {
+            let alignment = align_reads(r, &l.reads);
+            let problem = controlling_after_rearm(r, l, &alignment);
+            let ok = problem.is_none();
+            problems.extend(problem);
+            (ok, Some((alignment.checked, alignment.agreed)))
+        }
     };
-    let active_at_end = r
-        .iter()
-        .filter(|x| x.t_s > since)
-        .any(|x| x.state == "active");
-    if !active_at_end {
-        problems.push(match line {
-            Some(_) => "ACC was not controlling after the operator's last re-arm".into(),
-            None => "ACC was not controlling at the end of the run".to_string(),
-        });
-    }
     let line = line.map(|l| {
         let mut out = SoakLine {
             episodes_planned: l.episodes_planned,
+            aligned: aligned.unwrap_or_default(),
             suspicious_rows: r.iter().filter(|x| suspicious(&x.flags)).count(),
             ..SoakLine::default()
         };
@@ -976,6 +1046,65 @@ mod tests {
                 "switch@190.5:on".to_string()
             ]
         );
+    }
+
+    #[test]
+    fn a_release_after_the_last_re_arm_needs_a_fresh_bad_frame() {
+        // Rows 0..40 (0.1 s apart), one read each after one start-up read; unique powers.
+        let rows = |released_from: usize, state: &str| -> Vec<RunRecord> {
+            (0..40)
+                .map(|i| RunRecord {
+                    t_s: 0.1 * i as f64,
+                    period: i as u64,
+                    power_w: Some(1000.0 + i as f64),
+                    state: if i >= released_from { state } else { "active" }.into(),
+                    ..RunRecord::default()
+                })
+                .collect()
+        };
+        let reads: Vec<ProxyRead> = (0..41)
+            .map(|i| ProxyRead {
+                i: Some(i),
+                power: Some(1000.0 + i as f64 - 1.0),
+                applied: None,
+                altered: false,
+            })
+            .collect();
+        let bad_frame = |read: u64| ProxyEvent {
+            t: 0.0,
+            read_index: Some(read),
+            fc: 4,
+            kind: "random".into(),
+            register: None,
+            bit: None,
+            before: None,
+            after: None,
+        };
+        let line = |events: Vec<ProxyEvent>| LineInput {
+            stats: None,
+            episodes_planned: 0,
+            rearm_at: 1.0,
+            events,
+            reads: reads.clone(),
+        };
+        let check = |r: &[RunRecord], l: &LineInput| {
+            let a = align_reads(r, &l.reads);
+            assert_eq!(a.offset, 1);
+            controlling_after_rearm(r, l, &a)
+        };
+        // Active to the end.
+        assert_eq!(check(&rows(99, ""), &line(vec![])), None);
+        // Released at row 30: explained by the altered read 29 (row 28), not otherwise.
+        let r = rows(30, "power_invalid");
+        assert_eq!(check(&r, &line(vec![bad_frame(29)])), None);
+        let p = check(&r, &line(vec![bad_frame(5)])).expect("a problem");
+        assert!(
+            p.contains("t = 3.0 s") && p.contains("no read altered"),
+            "{p}"
+        );
+        // Never active again after the re-arm (rows after 1.5 s).
+        let p = check(&rows(12, "delay"), &line(vec![bad_frame(13)])).expect("a problem");
+        assert!(p.contains("not controlling after"), "{p}");
     }
 
     #[test]

@@ -385,8 +385,41 @@ pub struct Alignment {
 impl Alignment {
     /// The match is trustworthy: at least 20 rows checked and 95 % of them agree.
     pub fn reliable(&self) -> bool {
-        self.checked >= 20 && self.agreed * 100 >= self.checked * 95
+        trustworthy(self.checked, self.agreed)
     }
+
+    /// (checked, agreed) over the rows in `range` only: a long log may lose its match
+    /// for a while (a row that logs a held power rather than the one read) and be matched
+    /// well where it matters.
+    pub fn agreement_in(
+        &self,
+        rows: &[RunRecord],
+        reads: &[ProxyRead],
+        range: std::ops::Range<usize>,
+    ) -> (usize, usize) {
+        let power: HashMap<u64, f64> = reads
+            .iter()
+            .filter_map(|r| Some((r.i?, r.power?)))
+            .collect();
+        let (mut checked, mut agreed) = (0, 0);
+        for (read, &row) in &self.row_of_read {
+            let Some(logged) = rows
+                .get(row)
+                .filter(|_| range.contains(&row))
+                .and_then(|x| x.power_w)
+            else {
+                continue;
+            };
+            checked += 1;
+            agreed += usize::from(power.get(read).is_some_and(|p| (p - logged).abs() < 0.5));
+        }
+        (checked, agreed)
+    }
+}
+
+/// At least 20 rows checked and 95 % of them agree.
+pub fn trustworthy(checked: usize, agreed: usize) -> bool {
+    checked >= 20 && agreed * 100 >= checked * 95
 }
 
 /// Match the proxy's FC04 reads to `acc run`'s rows in order. Every row does one status
