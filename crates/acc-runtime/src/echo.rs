@@ -177,16 +177,21 @@ impl LoopDelay {
         let now = if driving {
             written.or(self.in_force[0])
         } else {
+            // A new engagement is judged on its own echoes: what was measured before the
+            // release (perhaps on a line that has since been fixed) does not carry over.
+            self.applied = Scores::default();
+            self.feed = Scores::default();
             None
         };
         self.in_force.rotate_right(1);
         self.in_force[0] = now;
     }
 
-    /// This period's override write failed: the board keeps the command of the period
-    /// before.
+    /// This period's override write failed, or its reply was lost or garbled: whether the
+    /// board took the command is unknown, so no echo is judged until it has left the
+    /// history.
     pub fn write_failed(&mut self) {
-        self.in_force[0] = self.in_force[1];
+        self.in_force[0] = None;
     }
 
     fn predictions(&self) -> Option<[u16; MAX_ECHO_PERIODS]> {
@@ -249,6 +254,30 @@ mod tests {
             assert_eq!(r.echo_periods, Some(1 + lag as u32), "lag {lag}");
             assert!(r.late_streak >= 2, "lag {lag}: {r:?}");
         }
+    }
+
+    #[test]
+    fn a_failed_write_is_not_judged_and_a_release_starts_afresh() {
+        let mut t = LoopDelay::new();
+        let cmds = [50u16, 60, 60, 70, 50, 50, 60];
+        for k in 0..60usize {
+            let seen = k.checked_sub(1).map_or(50, |j| cmds[j % 7]);
+            t.observe(k as u64, &status(seen, k as u16));
+            t.period_done(true, Some(cmds[k % 7]));
+            if k == 30 {
+                // The write's reply was garbled, but the board took the command.
+                t.write_failed();
+            }
+            let r = t.last();
+            assert!(r.echo_periods.is_none_or(|e| e == 1), "k {k}: {r:?}");
+        }
+        t.period_done(false, None);
+        t.observe(61, &status(60, 61));
+        assert_eq!(
+            t.last().echo_periods,
+            None,
+            "a new engagement starts without one"
+        );
     }
 
     #[test]

@@ -201,7 +201,10 @@ impl<T: Read + Write> RtuBoard<T> {
         if self.protocol != Some(BoardProtocol::V1) {
             let tx = Transaction::read_holding_registers(self.cfg.slave, 0, holding::COUNT)?;
             match self.registers(&tx) {
-                Err(e) if e.kind() == BoardErrorKind::Exception(2) => {
+                Err(e)
+                    if e.kind() == BoardErrorKind::Exception(2)
+                        && self.protocol != Some(BoardProtocol::V2) =>
+                {
                     self.protocol = Some(BoardProtocol::V1);
                 }
                 other => return other,
@@ -355,7 +358,20 @@ impl<T: Read + Write> Board for RtuBoard<T> {
     /// 9…14) or a version of 0/1 (a v1 board answering zeros) makes the link a v1 link from
     /// then on: it reads 0…8 and the v2 fields read as unknown
     /// ([`BoardStatus::from_v1_input_registers`]).
+    ///
+    /// The protocol is decided by the first decisive answer and never changes after: on a
+    /// link known to be v2, an exception 02 is an error of that read and a version below 2 is
+    /// returned as read (the line guard flags it `implausible:protocol_version`). One forged
+    /// frame on a hostile line must not turn a v2 board into a v1 board for the rest of the
+    /// run.
     fn read_status(&mut self) -> Result<BoardStatus, RtuError> {
+        if self.protocol == Some(BoardProtocol::V2) {
+            let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
+            let regs = self.registers(&tx)?;
+            let mut block = [0u16; input::COUNT as usize];
+            block.copy_from_slice(&regs);
+            return Ok(BoardStatus::from_input_registers(&block));
+        }
         if self.protocol != Some(BoardProtocol::V1) {
             let tx = Transaction::read_input_registers(self.cfg.slave, 0, input::COUNT)?;
             match self.registers(&tx) {
@@ -435,6 +451,45 @@ mod tests {
         fn flush(&mut self) -> std::io::Result<()> {
             Ok(())
         }
+    }
+
+    /// An FC04 reply of 15 input registers with `PROTOCOL_VERSION` = `version`.
+    fn status_reply(version: u16) -> Vec<u8> {
+        let mut regs = [0u16; input::COUNT as usize];
+        regs[input::OVERRIDE_STEP as usize] = 10;
+        regs[input::PROTOCOL_VERSION as usize] = version;
+        let mut f = vec![1, 4, 2 * input::COUNT as u8];
+        for r in regs {
+            f.extend_from_slice(&r.to_be_bytes());
+        }
+        crate::rtu::codec::append_crc(&mut f);
+        f
+    }
+
+    #[test]
+    fn a_v2_link_stays_v2_whatever_one_frame_says() {
+        let mut replies = status_reply(2);
+        let mut exception = vec![1, 0x84, 2];
+        crate::rtu::codec::append_crc(&mut exception);
+        replies.extend_from_slice(&exception);
+        replies.extend(status_reply(0));
+        replies.extend(status_reply(2));
+        let port = Canned {
+            reply: Cursor::new(replies),
+            written: Vec::new(),
+        };
+        let mut link = RtuBoard::new(port, RtuLinkConfig::default());
+        assert!(link.read_status().expect("v2 status").is_v2());
+        assert_eq!(link.protocol(), Some(BoardProtocol::V2));
+        // A forged exception 02: an error of this read, not a v1 board.
+        let e = link.read_status().expect_err("exception");
+        assert_eq!(e.kind(), BoardErrorKind::Exception(2));
+        assert_eq!(link.protocol(), Some(BoardProtocol::V2));
+        // A version of 0 in one frame is returned as read (the line guard judges it).
+        let s = link.read_status().expect("status as read");
+        assert_eq!(s.protocol_version, 0);
+        assert_eq!(link.protocol(), Some(BoardProtocol::V2));
+        assert!(link.read_status().expect("v2 again").is_v2());
     }
 
     #[test]
