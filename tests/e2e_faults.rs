@@ -15,7 +15,7 @@
 //! | 36 s | board power cycle mid-cut | re-armed at once at the last command (`rearm:board_restart`), not latched |
 //! | 41 s | board stalls 0.7 s wall (> WATCHDOG_MS 500) | its watchdog trips during the outage; re-armed at the last command when it answers (`rearm:link_restored`) |
 //! | 53 s | operator turns the knob 100 → 80 % | hand back to the operator |
-//! | 59 s | SIGINT to `acc run` | exit 0, ACC_REQUEST cleared, log complete |
+//! | 62 s | SIGINT to `acc run` (the feed holds of the releases above made the cut longer) | exit 0, ACC_REQUEST cleared, log complete |
 //!
 //! A release whose hand-back would raise the feed (operator knob above ACC's command)
 //! requests feed hold until the operator re-arms; the switch cycles 2–4 s after each fault.
@@ -57,7 +57,7 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
         "operator@53:80",
         "switch@56:off",
         "switch@56.5:on",
-        "operator@59:80",
+        "operator@62:80",
     ];
     let mut args = vec!["--late-ms", "40"];
     for f in &faults {
@@ -68,10 +68,10 @@ fn faults_over_the_pty_never_raise_the_feed_and_sigint_stops_cleanly() {
     let run = spawn_run("configs/runtime/board_sim_faults.toml", &pty, &run_log);
     assert!(
         board.wait_for(
-            "fault Operator(80) (scheduled at 59",
+            "fault Operator(80) (scheduled at 62",
             Duration::from_secs(60)
         ),
-        "board-sim did not reach t = 59 s: {:?}",
+        "board-sim did not reach t = 62 s: {:?}",
         board.err_lines
     );
     // SIGINT mid-cut.

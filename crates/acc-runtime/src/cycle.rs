@@ -373,6 +373,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             Ok(_) => guard.status.ok_or(BoardErrorKind::Protocol),
         };
         let held = read.is_ok() && guard.hold;
+        if read.is_err() || self.write_error.is_some() {
+            self.delay.link_error();
+        }
         let mut delay = match link {
             Ok(s) if !held => self.delay.observe(self.index, &s),
             _ => self.delay.last(),

@@ -194,6 +194,14 @@ impl LoopDelay {
         self.in_force[0] = None;
     }
 
+    /// A link error this period (a lost, late or garbled reply): the replies that follow may
+    /// be shifted until the link resynchronises, so nothing measured so far is kept.
+    pub fn link_error(&mut self) {
+        self.applied = Scores::default();
+        self.feed = Scores::default();
+        self.in_force = [None; MAX_ECHO_PERIODS];
+    }
+
     fn predictions(&self) -> Option<[u16; MAX_ECHO_PERIODS]> {
         let mut p = [0; MAX_ECHO_PERIODS];
         for (slot, c) in p.iter_mut().zip(self.in_force.iter()) {
