@@ -374,7 +374,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         };
         let held = read.is_ok() && guard.hold;
         if read.is_err() || self.write_error.is_some() {
-            self.delay.link_error();
+            self.delay.resync();
         }
         let mut delay = match link {
             Ok(s) if !held => self.delay.observe(self.index, &s),

@@ -124,6 +124,12 @@ impl LoopDelay {
 
     /// Observe period `index`'s accepted status (before this period's write).
     pub fn observe(&mut self, index: u64, s: &BoardStatus) -> DelayReading {
+        // Only a board on its regular cadence (one new sample per period) is judged: after a
+        // stall, a repeated or a skipped sample, the board may still be working through
+        // queued requests, and its echo says nothing about the line.
+        if self.last_seq.map(|l| s.sample_seq.wrapping_sub(l)) != Some(1) {
+            self.resync();
+        }
         let driven = s.acc_active && !s.override_locked && !s.feed_hold_active;
         if let (true, Some(preds)) = (driven, self.predictions()) {
             let applied = s.override_applied_pct;
@@ -194,9 +200,10 @@ impl LoopDelay {
         self.in_force[0] = None;
     }
 
-    /// A link error this period (a lost, late or garbled reply): the replies that follow may
-    /// be shifted until the link resynchronises, so nothing measured so far is kept.
-    pub fn link_error(&mut self) {
+    /// The line or the board lost its cadence (a lost, late or garbled reply, a stalled
+    /// board): the replies that follow may be shifted until it resynchronises, so nothing
+    /// measured so far is kept.
+    pub fn resync(&mut self) {
         self.applied = Scores::default();
         self.feed = Scores::default();
         self.in_force = [None; MAX_ECHO_PERIODS];

@@ -875,7 +875,9 @@ impl FaultPolicy {
         } else {
             self.link_failures = 0;
         }
-        let status = input.link.ok();
+        // A read the line guard held is no status at all this period: nothing is concluded
+        // from the last accepted one (it is stale), the sample counts as invalid.
+        let status = input.link.ok().filter(|_| !input.held);
         if let Some(s) = status.filter(|s| s.override_step_pct > 0) {
             self.board_step = s.override_step_pct;
         }
@@ -892,7 +894,7 @@ impl FaultPolicy {
 
         // 2. Power validity (force source flag, plausibility, SAMPLE_SEQ).
         let mut stale = false;
-        if let Some(s) = status.filter(|_| !input.held) {
+        if let Some(s) = status {
             self.cycle_active = s.cycle_active;
             out.sample_advance = self.last_seq.map(|l| s.sample_seq.wrapping_sub(l));
             if out.sample_advance == Some(0) {
@@ -910,7 +912,6 @@ impl FaultPolicy {
         let board_power_ok =
             status.is_none_or(|s| f64::from(s.spindle_power_w) <= self.cfg.max_power_w);
         let force_valid = status.is_some()
-            && !input.held
             && board_power_ok
             && !stale
             && f.valid
@@ -918,7 +919,7 @@ impl FaultPolicy {
             && f.force_n >= 0.0
             && power_ok;
         out.force_valid = force_valid;
-        if status.is_some() || stale {
+        if status.is_some() || stale || input.held {
             if force_valid {
                 self.invalid_count = 0;
             } else {

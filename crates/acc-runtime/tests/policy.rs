@@ -346,6 +346,7 @@ fn invalid_power_never_raises_the_feed_and_releases_after_n() {
     let before = rig.status().override_applied_pct;
     assert_eq!(before, 90);
     rig.power_w = u32::MAX; // "negative" power on the wire (−1 as i32): implausible
+    let seen_before = rig.lp.law().seen.len();
     let recs = rig.run(5);
     for r in &recs[..4] {
         assert!(!r.out.force_valid);
@@ -359,8 +360,12 @@ fn invalid_power_never_raises_the_feed_and_releases_after_n() {
     assert!(recs[4].out.events.contains(&Event::FeedHold(true)));
     rig.step();
     assert!(rig.status().feed_hold_active);
-    // the law saw the samples flagged invalid
-    assert!(rig.lp.law().seen.iter().rev().take(4).all(|m| !m.valid));
+    // the implausible samples never reached the law (the line guard held them: the law
+    // was not stepped), and nothing it saw was not finite
+    assert_eq!(rig.lp.law().seen.len(), seen_before);
+    assert!(recs[..4]
+        .iter()
+        .all(|r| r.record(None).flags.contains("implausible:power")));
     assert!(rig.lp.law().seen.iter().all(|m| m.force_n.is_finite()));
 }
 
