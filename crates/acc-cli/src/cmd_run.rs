@@ -449,6 +449,19 @@ fn drive<P: Board + Send>(
         s.ticker.skipped
     );
     println!("cycle round trip: {}", s.cycle_rtt.summary());
+    let g = control.guard_counts();
+    let d = control.delay_reading();
+    let show = |v: Option<u32>| v.map_or_else(|| "?".to_string(), |v| v.to_string());
+    println!(
+        "line guard: {} implausible reads, {} held for confirmation ({} were bad frames), {} debounced values, {} replays of the board's past; loop delay: echo {} periods (designed 1), margin of the gains {} extra",
+        g.implausible,
+        g.held,
+        g.discarded,
+        g.debounced,
+        g.replays,
+        show(d.echo_periods),
+        show(acc_core::OverrideLaw::delay_margin_periods(control.law()))
+    );
     println!(
         "run log: {} rows written to {}, {} dropped (queue full), {} write errors",
         s.logged - s.log_errors.min(s.logged),

@@ -335,6 +335,16 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         r
     }
 
+    /// What the line guard has caught so far ([`crate::guard::GuardCounts`]).
+    pub fn guard_counts(&self) -> crate::guard::GuardCounts {
+        self.guard.counts()
+    }
+
+    /// The last loop-delay measurement ([`crate::echo`]).
+    pub fn delay_reading(&self) -> DelayReading {
+        self.delay.last()
+    }
+
     /// The policy (state, alarms).
     pub fn policy(&self) -> &FaultPolicy {
         &self.policy

@@ -183,6 +183,21 @@ impl Guarded {
     }
 }
 
+/// What the guard has caught since the run began.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct GuardCounts {
+    /// Reads with a value out of range or physically impossible (never used).
+    pub implausible: u64,
+    /// Reads held a period for confirmation (a changed STATUS bit, a jump).
+    pub held: u64,
+    /// Held changes the next read did not repeat (bad frames).
+    pub discarded: u64,
+    /// Reads with a debounced value not yet confirmed (the old value stayed in force).
+    pub debounced: u64,
+    /// Confirmed replays of the board's past (`SAMPLE_SEQ` went back with no restart).
+    pub replays: u64,
+}
+
 /// A debounced register value: the one in force, and a candidate with its count.
 #[derive(Debug, Clone, Copy, Default)]
 struct Debounced {
@@ -227,6 +242,7 @@ pub struct LineGuard {
     program: Debounced,
     block: Debounced,
     fallback: Debounced,
+    counts: GuardCounts,
 }
 
 fn status_bits(s: &BoardStatus) -> [bool; 9] {
@@ -263,7 +279,13 @@ impl LineGuard {
             program: Debounced::default(),
             block: Debounced::default(),
             fallback: Debounced::default(),
+            counts: GuardCounts::default(),
         }
+    }
+
+    /// What the guard has caught so far.
+    pub fn counts(&self) -> GuardCounts {
+        self.counts
     }
 
     /// The limits.
@@ -304,15 +326,34 @@ impl LineGuard {
             }
         };
         if let Some(reg) = self.implausible(&raw) {
+            self.counts.implausible += 1;
             self.candidate = None;
             return Guarded::held(self.accepted, Err(reg));
         }
         let Some(acc) = self.accepted else {
             return self.accept(raw);
         };
+        let g = self.judge_change(acc, raw, expect);
+        if g.hold {
+            self.counts.held += 1;
+        }
+        if !g.hold && g.unconfirmed.is_some() {
+            self.counts.debounced += 1;
+        }
+        if g.replay_lag_periods.is_some() {
+            self.counts.replays += 1;
+        }
+        g
+    }
+
+    /// A plausible read against the accepted status: accept it, hold it for confirmation,
+    /// or accept it as the confirmation of the held one.
+    fn judge_change(&mut self, acc: BoardStatus, raw: BoardStatus, expect: &Expected) -> Guarded {
         match self.surprise(&acc, &raw, expect) {
             None => {
-                self.candidate = None;
+                if self.candidate.take().is_some() {
+                    self.counts.discarded += 1;
+                }
                 self.accept_debounced(acc, raw)
             }
             Some(reg) => {
