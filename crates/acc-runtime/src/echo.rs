@@ -29,7 +29,7 @@ const FEED_TOLERANCE: f64 = 0.05;
 /// the baseline (a sample that happens to be one tick fresher is jitter, not the line).
 const STEADY_PERIODS: u32 = 3;
 /// Informative periods needed before an estimate is reported.
-const MIN_INFORMATIVE: u32 = 3;
+const MIN_INFORMATIVE: u32 = 2;
 
 /// One period's measurement.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -128,7 +128,8 @@ impl LoopDelay {
         // stall, a repeated or a skipped sample, the board may still be working through
         // queued requests, and its echo says nothing about the line.
         if self.last_seq.map(|l| s.sample_seq.wrapping_sub(l)) != Some(1) {
-            self.resync();
+            self.applied = Scores::default();
+            self.feed = Scores::default();
         }
         let driven = s.acc_active && !s.override_locked && !s.feed_hold_active;
         if let (true, Some(preds)) = (driven, self.predictions()) {

@@ -351,10 +351,22 @@ impl LineGuard {
     fn judge_change(&mut self, acc: BoardStatus, raw: BoardStatus, expect: &Expected) -> Guarded {
         match self.surprise(&acc, &raw, expect) {
             None => {
-                if self.candidate.take().is_some() {
-                    self.counts.discarded += 1;
-                }
-                self.accept_debounced(acc, raw)
+                // No surprise against the accepted read. If the held read had gone back and
+                // this one goes on from it, the line replays the board's past (a buffer
+                // of two reads shows exactly this: s, s − 1, s).
+                let replay = self.candidate.take().and_then(|(cand, _)| {
+                    let continues = raw.sample_seq == cand.sample_seq.wrapping_add(1);
+                    let lag = continues
+                        .then(|| self.replay_lag(&acc, &cand, &raw))
+                        .flatten();
+                    if lag.is_none() {
+                        self.counts.discarded += 1;
+                    }
+                    lag
+                });
+                let mut g = self.accept_debounced(acc, raw);
+                g.replay_lag_periods = replay;
+                g
             }
             Some(reg) => {
                 let agreed = match self.candidate {
@@ -364,10 +376,12 @@ impl LineGuard {
                     _ => 1,
                 };
                 if agreed >= self.cfg.debounce_reads {
-                    self.candidate = None;
-                    let replay = self.replay_lag(&acc, &raw);
+                    let replay = self
+                        .candidate
+                        .and_then(|(cand, _)| self.replay_lag(&acc, &cand, &raw));
                     // The confirmed change replaces the state; debounced values are
                     // carried as confirmed with it.
+                    self.candidate = None;
                     let mut g = self.accept_debounced(acc, raw);
                     g.replay_lag_periods = replay;
                     g
@@ -447,18 +461,19 @@ impl LineGuard {
         None
     }
 
-    /// How many periods older than expected `raw`'s sample is, when `SAMPLE_SEQ` went back
-    /// from `acc` with the board's state bits unchanged (no restart to explain it).
-    fn replay_lag(&self, acc: &BoardStatus, raw: &BoardStatus) -> Option<u32> {
+    /// How many periods older than expected the confirming read `raw`'s sample is, when
+    /// the held read `cand` had `SAMPLE_SEQ` go back from `acc` with the board's state bits
+    /// unchanged (no restart to explain it).
+    fn replay_lag(&self, acc: &BoardStatus, cand: &BoardStatus, raw: &BoardStatus) -> Option<u32> {
         let expected = acc
             .sample_seq
             .wrapping_add(self.periods_since_accept as u16);
         let behind = expected.wrapping_sub(raw.sample_seq);
-        let went_back = raw.sample_seq.wrapping_sub(acc.sample_seq) >= 0x8000;
+        let went_back = cand.sample_seq.wrapping_sub(acc.sample_seq) >= 0x8000;
         let same_board = !raw.board_restarted
             && raw.watchdog_tripped == acc.watchdog_tripped
             && (raw.acc_active || !acc.acc_active);
-        (went_back && same_board && behind < 0x8000).then_some(u32::from(behind))
+        (went_back && same_board && (1..0x8000).contains(&behind)).then_some(u32::from(behind))
     }
 
     fn accept(&mut self, s: BoardStatus) -> Guarded {
@@ -673,6 +688,17 @@ mod tests {
         // The last accepted read was 12, two periods ago: 14 was due, 10 came: the line
         // replays the board's past 4 periods late.
         assert_eq!(v.replay_lag_periods, Some(4));
+        // A 2-read buffer: 20 accepted, then 19 (held), then 20 again: 22 was due.
+        let mut g = LineGuard::new(GuardConfig::default());
+        let at = |seq: u16| BoardStatus {
+            sample_seq: seq,
+            ..s
+        };
+        g.check(Ok(at(20)), &ex(&[70]));
+        assert!(g.check(Ok(at(19)), &ex(&[70])).hold);
+        let v = g.check(Ok(at(20)), &ex(&[70]));
+        assert!(!v.hold);
+        assert_eq!(v.replay_lag_periods, Some(2));
     }
 
     #[test]
