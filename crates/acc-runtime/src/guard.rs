@@ -46,6 +46,10 @@
 
 use acc_pmc::{BoardErrorKind, BoardStatus};
 
+/// Longest replay of the board's past the guard recognises, periods: a buffering gateway
+/// holds a few replies; a `SAMPLE_SEQ` further back is a sensor that restarted.
+pub const MAX_REPLAY_PERIODS: u16 = 16;
+
 /// Limits of the line guard (the run config's `[policy]` keys of the same names).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GuardConfig {
@@ -355,10 +359,7 @@ impl LineGuard {
                 // this one goes on from it, the line replays the board's past (a buffer
                 // of two reads shows exactly this: s, s − 1, s).
                 let replay = self.candidate.take().and_then(|(cand, _)| {
-                    let continues = raw.sample_seq == cand.sample_seq.wrapping_add(1);
-                    let lag = continues
-                        .then(|| self.replay_lag(&acc, &cand, &raw))
-                        .flatten();
+                    let lag = self.replay_lag(&acc, &cand, &raw);
                     if lag.is_none() {
                         self.counts.discarded += 1;
                     }
@@ -462,18 +463,23 @@ impl LineGuard {
     }
 
     /// How many periods older than expected the confirming read `raw`'s sample is, when
-    /// the held read `cand` had `SAMPLE_SEQ` go back from `acc` with the board's state bits
-    /// unchanged (no restart to explain it).
+    /// the held read `cand` had `SAMPLE_SEQ` go back from `acc` by at most
+    /// [`MAX_REPLAY_PERIODS`], `raw` goes on from `cand` at the board's cadence (one sample
+    /// per period) and the board's state bits are unchanged (no restart to explain it). A
+    /// sequence that jumps further back or stands still is a sensor that restarted or froze,
+    /// judged by the power rules, not a replay.
     fn replay_lag(&self, acc: &BoardStatus, cand: &BoardStatus, raw: &BoardStatus) -> Option<u32> {
         let expected = acc
             .sample_seq
             .wrapping_add(self.periods_since_accept as u16);
         let behind = expected.wrapping_sub(raw.sample_seq);
         let went_back = cand.sample_seq.wrapping_sub(acc.sample_seq) >= 0x8000;
+        let continues = raw.sample_seq == cand.sample_seq.wrapping_add(1);
         let same_board = !raw.board_restarted
             && raw.watchdog_tripped == acc.watchdog_tripped
             && (raw.acc_active || !acc.acc_active);
-        (went_back && same_board && (1..0x8000).contains(&behind)).then_some(u32::from(behind))
+        (went_back && continues && same_board && (1..=MAX_REPLAY_PERIODS).contains(&behind))
+            .then_some(u32::from(behind))
     }
 
     fn accept(&mut self, s: BoardStatus) -> Guarded {
