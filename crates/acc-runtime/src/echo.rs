@@ -10,6 +10,9 @@
 //! delay of N + 1. The estimate is the shortest delay `d` (1 ..= [`MAX_ECHO_PERIODS`])
 //! whose prediction "applied at k = command in force after k − d" has the fewest mismatches
 //! over the last `WINDOW` informative periods (periods in which the candidates disagree).
+//! Only a board on its regular cadence is judged: after a link error or a repeated or
+//! skipped sample (a stall, a board working through queued requests) the echo is judged
+//! again once one new sample per period has held for the whole history examined.
 //! `ACTUAL_FEED` (v2 boards) is matched the same way against programmed ×
 //! command, within the feed drive's lag (`FEED_TOLERANCE`).
 //!
@@ -99,6 +102,8 @@ pub struct LoopDelay {
     feed: Scores,
     seq_unwrapped: Option<i64>,
     last_seq: Option<u16>,
+    /// Consecutive reads with one new sample each (the board's regular cadence).
+    on_cadence: u32,
     /// The freshest offset that held for [`STEADY_PERIODS`] periods in a row.
     best_offset: Option<i64>,
     /// The current offset and for how many periods it has held.
@@ -127,12 +132,18 @@ impl LoopDelay {
         // Only a board on its regular cadence (one new sample per period) is judged: after a
         // stall, a repeated or a skipped sample, the board may still be working through
         // queued requests, and its echo says nothing about the line.
+        // After a break the board may still be working through queued requests: its echo is
+        // judged once it has kept its cadence for the whole history examined.
         if self.last_seq.map(|l| s.sample_seq.wrapping_sub(l)) != Some(1) {
             self.applied = Scores::default();
             self.feed = Scores::default();
+            self.on_cadence = 0;
+        } else {
+            self.on_cadence = self.on_cadence.saturating_add(1);
         }
         let driven = s.acc_active && !s.override_locked && !s.feed_hold_active;
-        if let (true, Some(preds)) = (driven, self.predictions()) {
+        let settled = self.on_cadence as usize >= MAX_ECHO_PERIODS;
+        if let (true, true, Some(preds)) = (driven, settled, self.predictions()) {
             let applied = s.override_applied_pct;
             self.applied.observe(&preds, |p| p == applied);
             if s.is_v2() && s.programmed_feed_mm_min > 0 {
@@ -207,6 +218,7 @@ impl LoopDelay {
     pub fn resync(&mut self) {
         self.applied = Scores::default();
         self.feed = Scores::default();
+        self.on_cadence = 0;
         self.in_force = [None; MAX_ECHO_PERIODS];
     }
 
