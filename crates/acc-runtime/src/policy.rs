@@ -1247,7 +1247,7 @@ impl FaultPolicy {
         }
         // The line's delay against what the gains in use tolerate: never drive on into an
         // oscillation.
-        if let Some((extra, margin)) = delay_exceeded(&input.delay, law.delay_margin_periods()) {
+        if let Some((extra, margin)) = delay_exceeded(&input.delay, || law.delay_margin_periods()) {
             out.events.push(Event::DelayExceeded {
                 extra_periods: extra,
                 margin_periods: margin,
@@ -1312,12 +1312,18 @@ impl FaultPolicy {
 /// A confirmed replay of the board's past (`replay_lag_periods`: `SAMPLE_SEQ` went back and
 /// the next read went on from there) is judged at once: its very first sample is already
 /// that many periods old.
-pub fn delay_exceeded(d: &crate::echo::DelayReading, margin: Option<u32>) -> Option<(u32, u32)> {
-    let margin = margin?;
+///
+/// `margin` is asked only when a delay was measured (the margin's Schur–Cohn scan stays off
+/// the control period otherwise).
+pub fn delay_exceeded(
+    d: &crate::echo::DelayReading,
+    margin: impl FnOnce() -> Option<u32>,
+) -> Option<(u32, u32)> {
     let echo = d
         .echo_periods
         .filter(|_| d.late_streak >= 2)
         .map(|e| e.saturating_sub(1));
-    let extra = echo.max(d.replay_lag_periods)?;
+    let extra = echo.max(d.replay_lag_periods).filter(|e| *e > 0)?;
+    let margin = margin()?;
     (extra > margin).then_some((extra, margin))
 }
