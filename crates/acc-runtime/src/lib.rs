@@ -27,7 +27,7 @@
 pub use acc_pmc::clock;
 pub mod config;
 pub mod cuts;
-pub mod cycle;
+pub mod control_loop;
 pub mod echo;
 pub mod guard;
 pub mod history;
@@ -44,7 +44,7 @@ pub mod ticker;
 pub mod watch;
 
 pub use clock::{Clock, ManualClock, SystemClock};
-pub use cycle::{ControlLoop, CycleRecord, WritePlan, WriteResult};
+pub use control_loop::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use policy::{
     AccState, Alarms, CommandLimits, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig,
     Rearm, Release,

@@ -37,7 +37,7 @@ use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus};
 use crossbeam_channel::{bounded, RecvTimeoutError, TrySendError};
 
 use crate::clock::Clock;
-use crate::cycle::{execute_writes, ControlLoop, WritePlan, WriteResult};
+use crate::control_loop::{execute_writes, ControlLoop, WritePlan, WriteResult};
 use crate::policy::{AccState, Alarms};
 use crate::record::RunRecord;
 use crate::stats::LatencyStats;
