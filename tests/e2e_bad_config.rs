@@ -280,16 +280,16 @@ fn bad_configs_and_arguments_fail_with_exit_2_before_anything_is_sent() {
     key(
         "zero log queue",
         "runtime",
-        "log_queue",
+        "log_buffer",
         "0",
-        &["key `runtime.log_queue` = 0", "allowed 1 ..= 1000000"],
+        &["key `runtime.log_buffer` = 0", "allowed 1 ..= 1000000"],
     );
     key(
         "negative log queue",
         "runtime",
-        "log_queue",
+        "log_buffer",
         "-1",
-        &["key `runtime.log_queue` = -1", "allowed 1 ..= 1000000"],
+        &["key `runtime.log_buffer` = -1", "allowed 1 ..= 1000000"],
     );
     key(
         "unknown runtime key",

@@ -251,15 +251,50 @@ impl SimBoard {
     }
 }
 
+/// The plant's truth of one period: what only the simulator knows and the run log's
+/// simulator-only columns carry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantTruth {
+    /// Tool-centre position at the end of the period, mm.
+    pub x_mm: f64,
+    /// Engaged radial depth, mm.
+    pub radial_depth_mm: f64,
+    /// Engaged axial depth, mm.
+    pub axial_depth_mm: f64,
+    /// True mean force over the measurement's window, N.
+    pub force_n: f64,
+    /// The feed drive's actual mean feed, mm/min.
+    pub feed_mm_min: f64,
+}
+
+impl PlantTruth {
+    /// The truth of period `rec`, with `true_force_n` the true mean force over the
+    /// measurement's window.
+    pub fn of(rec: &PeriodRecord<'_>, true_force_n: f64) -> Self {
+        Self {
+            x_mm: rec.x_mm,
+            radial_depth_mm: rec.radial_depth_mm,
+            axial_depth_mm: rec.axial_depth_mm,
+            force_n: true_force_n,
+            feed_mm_min: rec.feed_mean_mm_min,
+        }
+    }
+
+    /// Fill the simulator-only columns of `row` (`x_true_mm` … `feed_true_mm_min`).
+    pub fn apply(&self, row: &mut RunRecord) {
+        row.x_true_mm = Some(self.x_mm);
+        row.radial_depth_mm = Some(self.radial_depth_mm);
+        row.axial_depth_mm = Some(self.axial_depth_mm);
+        row.force_true_n = Some(self.force_n);
+        row.feed_true_mm_min = Some(self.feed_mm_min);
+    }
+}
+
 /// Fill the simulator-only columns of a run-log record with the plant's truth for the period
 /// `rec` (true position, depths, true mean force over `true_force_n`'s window, the drive's
 /// actual feed).
 pub fn add_truth(row: &mut RunRecord, rec: &PeriodRecord<'_>, true_force_n: f64) {
-    row.x_true_mm = Some(rec.x_mm);
-    row.radial_depth_mm = Some(rec.radial_depth_mm);
-    row.axial_depth_mm = Some(rec.axial_depth_mm);
-    row.force_true_n = Some(true_force_n);
-    row.feed_true_mm_min = Some(rec.feed_mean_mm_min);
+    PlantTruth::of(rec, true_force_n).apply(row);
 }
 
 /// Decode registers 0…8 of a v1 board's read reply.

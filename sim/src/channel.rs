@@ -26,7 +26,7 @@ pub struct Reading {
 }
 
 /// A measurement channel of the simulated machine.
-pub trait MeasurementChannel {
+pub trait MeasurementChannel: Send {
     /// Short name for logs and tables.
     fn name(&self) -> &str;
     /// Measure the period that just ended.

@@ -68,6 +68,15 @@ pub enum SimError {
     /// Writing the run log failed.
     #[error(transparent)]
     Log(#[from] acc_runtime::record::RunLogError),
+    /// The run log's writer failed during the run (the first error).
+    #[error("writing the run log: {0}")]
+    LogWrite(String),
+    /// The period driver could not run.
+    #[error("the period driver: {0}")]
+    Driver(#[from] acc_runtime::RunError),
+    /// A paced run's time scale is not a finite number > 0.
+    #[error("time scale {0}: expected a finite number > 0 (machine seconds per wall second)")]
+    TimeScale(f64),
 }
 
 impl From<acc_core::CoreError> for SimError {

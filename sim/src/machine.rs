@@ -24,7 +24,7 @@ pub enum ForceModel {
 /// A spindle drive: turns the load torque into a speed and an electrical input power.
 /// The default is [`ConstantSpeedSpindle`]; an induction-motor model implements the same
 /// trait.
-pub trait SpindleModel {
+pub trait SpindleModel: Send {
     /// Advance `dt_s` under the cutting torque `load_torque_nm`; returns the speed, rpm.
     fn step(&mut self, load_torque_nm: f64, dt_s: f64) -> f64;
     /// Electrical input power at the last step, W.

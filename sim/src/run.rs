@@ -1,32 +1,42 @@
-//! The closed loop on the simulated machine: the production loop on a stepped clock.
+//! The closed loop on the simulated machine: the production loop, driven by the runtime's
+//! one period driver ([`acc_runtime::drive`]) on the stepped clock.
 //!
-//! There is one control loop in `acc`: [`acc_runtime::ControlLoop`] with its
-//! [`FaultPolicy`], the loop `acc run` drives on a wall clock against a serial or CAN board.
-//! Here it runs against the simulated board ([`crate::SimBoard`], the emulator's
-//! register logic behind the `Board` trait) on a clock the simulator steps. Per control period
-//! `T`:
-//! 1. the plant runs `T` with the override the board now applies (feed drive, process, wear,
-//!    spindle); the board publishes the period's power sample, speed and cycle state;
+//! There is one control loop in `acc` ([`acc_runtime::ControlLoop`] with its
+//! [`FaultPolicy`]) and one driver for it: `acc run` drives it on the wall clock against a
+//! serial or CAN board; here the same driver runs it against the simulated board
+//! ([`crate::SimBoard`], the emulator's register logic behind the `Board` trait) on a
+//! [`ManualClock`] (or, paced, on a [`ScaledClock`] over the system clock). Per control
+//! period `T`:
+//! 1. the driver's ticker reaches the period's deadline; the status read asks the simulated
+//!    board's ticker ([`SteppedPlant`]) to run the plant up to that time: `T` with the
+//!    override the board now applies (feed drive, process, wear, spindle); the board
+//!    publishes the period's power sample, speed and cycle state;
 //! 2. the scenario's measurement channel (dynamometer or induction-motor spindle power)
 //!    measures the period; the loop's force source ([`PlantSensor`]) hands that sample on;
-//! 3. [`ControlLoop::cycle`] reads the status through the `Board` trait, computes the actual
-//!    feed (programmed × applied), lets the fault policy step the law, and writes the
-//!    override with a new heartbeat and the `CONTROL` bits — exactly as under `acc run`;
-//! 4. the period's [`RunRecord`] (the production record plus the plant's truth: position,
-//!    depths, true force and feed) is written and flushed.
+//! 3. the control thread decides ([`ControlLoop::decide`]: guard, force, shop layer, policy,
+//!    law) and the driver writes the override with a new heartbeat and the `CONTROL` bits —
+//!    exactly as under `acc run`;
+//! 4. the period's [`RunRecord`] gets the plant's truth (position, depths, true force and
+//!    feed: [`PlantTruth`]) from the observer ([`SimObserver`]) and goes to the run log.
 //!
 //! The baselines of `acc compare` are other [`OverrideLaw`]s inside the same loop. The run
-//! ends when the tool centre has passed the end of the workpiece or at `max_time_s`.
+//! ends when the tool centre has passed the end of the workpiece, after
+//! [`FEED_HOLD_END_S`] in a fault's feed hold, or at `max_time_s`.
 
-use std::cell::Cell;
 use std::io::Write;
-use std::rc::Rc;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
 
+use acc_core::clock::{Clock, ManualClock, ScaledClock, SystemClock};
 use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
+use acc_pmc::{Board, BoardStatus, ControlBits};
 use acc_runtime::record::{RunLogWriter, RunRecord};
-use acc_runtime::{ControlLoop, FaultPolicy};
+use acc_runtime::{
+    drive, ControlLoop, FaultPolicy, Hooks, LogSink, PeriodObserver, RunOptions, Verdict,
+};
 
-use crate::board::add_truth;
+use crate::board::PlantTruth;
 use crate::channel::{MeasurementChannel, Reading};
 use crate::scenario::{LawKind, Scenario};
 use crate::summary::{summarize, Summary};
@@ -52,19 +62,30 @@ pub struct RunResult {
 /// A run ends after this long in a feed hold requested by a fault release, s.
 pub const FEED_HOLD_END_S: f64 = 2.0;
 
-/// The simulated machine's force sensor as the production loop's [`ForceSource`]: the
-/// simulator puts each period's reading of the measurement channel here before the loop's
-/// cycle, and the loop's `estimate` hands it on (a real installation with a dynamometer
-/// amplifier or a current-signal estimator wires its sensor the same way).
-#[derive(Debug, Clone, Default)]
-pub struct PlantSensor(Rc<Cell<Option<Reading>>>);
-
-impl PlantSensor {
-    /// Set the reading of the period that just ended.
-    pub fn set(&self, reading: Reading) {
-        self.0.set(Some(reading));
-    }
+/// What the plant's last period left for the loop's sensor and the run log.
+#[derive(Debug, Clone, Copy, Default)]
+struct PlantPeriod {
+    /// The measurement channel's reading of the period.
+    reading: Option<Reading>,
+    /// The plant's truth of the period.
+    truth: Option<PlantTruth>,
+    /// The tool centre has passed the end of the workpiece.
+    finished: bool,
 }
+
+type SharedPeriod = Arc<Mutex<PlantPeriod>>;
+
+fn lock(p: &SharedPeriod) -> std::sync::MutexGuard<'_, PlantPeriod> {
+    p.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// The simulated machine's force sensor as the production loop's [`ForceSource`]: the
+/// simulated board's ticker puts each period's reading of the measurement channel here
+/// before the status read returns, and the loop's `estimate` hands it on (a real
+/// installation with a dynamometer amplifier or a current-signal estimator wires its sensor
+/// the same way).
+#[derive(Debug, Clone, Default)]
+pub struct PlantSensor(SharedPeriod);
 
 impl ForceSource for PlantSensor {
     fn name(&self) -> &str {
@@ -72,13 +93,158 @@ impl ForceSource for PlantSensor {
     }
 
     fn estimate(&mut self, _input: &PeriodInput<'_>) -> ForceSample {
-        self.0.get().map_or(ForceSample::INVALID, |r| r.sample)
+        lock(&self.0)
+            .reading
+            .map_or(ForceSample::INVALID, |r| r.sample)
     }
+}
+
+/// The simulated board's ticker on the driver's clock: every status read first runs the
+/// plant over the whole control periods that have ended on the clock (one per period on the
+/// stepped clock), measures each with the scenario's channel and publishes it.
+pub struct SteppedPlant<'a, C> {
+    board: &'a mut crate::SimBoard,
+    channel: &'a mut dyn MeasurementChannel,
+    clock: C,
+    period: Duration,
+    /// Periods the plant has run.
+    done: u64,
+    shared: SharedPeriod,
+}
+
+impl<C: Clock> SteppedPlant<'_, C> {
+    fn catch_up(&mut self) {
+        let due = self.clock.now().as_nanos() / self.period.as_nanos().max(1);
+        let period_s = self.period.as_secs_f64();
+        while u128::from(self.done) < due {
+            let (reading, truth) = {
+                let rec = self.board.advance_period(period_s);
+                let reading = self.channel.measure(&rec);
+                (reading, PlantTruth::of(&rec, reading.true_force_n))
+            };
+            *lock(&self.shared) = PlantPeriod {
+                reading: Some(reading),
+                truth: Some(truth),
+                finished: self.board.machine().finished(),
+            };
+            self.done += 1;
+        }
+    }
+}
+
+impl<C: Clock> Board for SteppedPlant<'_, C> {
+    type Error = acc_pmc::emu::Exception;
+
+    fn protocol(&self) -> Option<acc_pmc::BoardProtocol> {
+        self.board.protocol()
+    }
+
+    fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
+        self.catch_up();
+        self.board.read_status()
+    }
+
+    fn write_override(&mut self, override_pct: u16, heartbeat: u16) -> Result<(), Self::Error> {
+        self.board.write_override(override_pct, heartbeat)
+    }
+
+    fn write_control(&mut self, control: ControlBits) -> Result<(), Self::Error> {
+        self.board.write_control(control)
+    }
+}
+
+/// The simulator's side of every period, on the driver's control thread: the plant's truth
+/// into the record, the caller's `observe`, and the end conditions (path finished, a fault's
+/// feed hold for [`FEED_HOLD_END_S`]).
+struct SimObserver<'a> {
+    shared: SharedPeriod,
+    period_s: f64,
+    held_s: f64,
+    ended_in_feed_hold: bool,
+    observe: &'a mut (dyn FnMut(&RunRecord) + Send),
+}
+
+impl PeriodObserver for SimObserver<'_> {
+    fn period(&mut self, row: &mut RunRecord) -> Verdict {
+        let plant = *lock(&self.shared);
+        if let Some(t) = plant.truth {
+            t.apply(row);
+        }
+        // A channel that measures power itself (the induction-motor channel's two-wattmeter
+        // reading) logs what it measured; otherwise the board's register.
+        if let Some(p) = plant.reading.and_then(|r| r.sample.power_w) {
+            row.power_w = Some(p);
+        }
+        (self.observe)(row);
+        if plant.finished {
+            return Verdict::Finish;
+        }
+        let held = row.feed_hold && row.state != "active";
+        self.held_s = if held {
+            self.held_s + self.period_s
+        } else {
+            0.0
+        };
+        if self.held_s >= FEED_HOLD_END_S - 1e-9 {
+            self.ended_in_feed_hold = true;
+            return Verdict::Finish;
+        }
+        Verdict::Continue
+    }
+}
+
+/// The run's records: kept in memory for the summary and, with a writer, in the run log.
+struct SimSink<'a, W: Write> {
+    rows: Vec<RunRecord>,
+    log: Option<&'a mut RunLogWriter<W>>,
+}
+
+impl<W: Write> LogSink for SimSink<'_, W> {
+    type Error = acc_runtime::record::RunLogError;
+
+    fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
+        if let Some(w) = self.log.as_deref_mut() {
+            w.write(rec)?;
+        }
+        self.rows.push(rec.clone());
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+/// How a simulated run keeps time.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Pace {
+    /// The stepped clock: as fast as the CPU allows, deterministic.
+    #[default]
+    Stepped,
+    /// The wall clock at this many machine seconds per wall second (`acc sim --time-scale`,
+    /// the live view).
+    Wall(f64),
+}
+
+/// Everything but the scenario, the law and the channel of a simulated run.
+pub struct RunSetup<'a, W: Write> {
+    /// The run log to write, if any.
+    pub log: Option<&'a mut RunLogWriter<W>>,
+    /// The shop layer (tool table, entry control), if any.
+    pub shop: Option<acc_runtime::ShopControl>,
+    /// Applied to the fresh simulated board before the first period (the what-if sets the
+    /// recorded engagement or the start position).
+    pub prepare: &'a mut dyn FnMut(&mut crate::SimBoard),
+    /// Called with every period's record on the control thread (`acc sim` publishes it on
+    /// the telemetry tap).
+    pub observe: &'a mut (dyn FnMut(&RunRecord) + Send),
+    /// How the run keeps time.
+    pub pace: Pace,
 }
 
 /// Run `law` on a fresh machine built from `scenario`, measuring with the scenario's
 /// channel; write every record to `log` if given.
-pub fn run<W: Write>(
+pub fn run<W: Write + Send>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     log: Option<&mut RunLogWriter<W>>,
@@ -88,7 +254,7 @@ pub fn run<W: Write>(
 }
 
 /// [`run`] with a caller-supplied measurement channel (e.g. one configured in code).
-pub fn run_with_channel<W: Write>(
+pub fn run_with_channel<W: Write + Send>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
@@ -100,48 +266,21 @@ pub fn run_with_channel<W: Write>(
 /// [`run_with_channel`], with the scenario's tool table (`[tools]`, the shop layer of the
 /// production loop: per-tool limits and entry control) only if `shop` (and the scenario
 /// has one).
-pub fn run_with_shop<W: Write>(
+pub fn run_with_shop<W: Write + Send>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
     log: Option<&mut RunLogWriter<W>>,
     shop: bool,
 ) -> Result<RunResult, SimError> {
-    run_prepared(scenario, law, channel, log, shop, &mut |_| {})
-}
-
-/// [`run_with_shop`] with `prepare` applied to the fresh simulated board before the
-/// first period (the what-if replay sets the recorded engagement or the start position).
-pub fn run_prepared<W: Write>(
-    scenario: &Scenario,
-    law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    log: Option<&mut RunLogWriter<W>>,
-    shop: bool,
-    prepare: &mut dyn FnMut(&mut crate::SimBoard),
-) -> Result<RunResult, SimError> {
-    run_observed(scenario, law, channel, log, shop, prepare, &mut |_| {})
-}
-
-/// [`run_prepared`] with `observe` called with every period's record right after it was
-/// logged (`acc sim --shdr/--mqtt` publishes it on the telemetry tap there and paces the
-/// run to wall time with `--time-scale`).
-pub fn run_observed<W: Write>(
-    scenario: &Scenario,
-    law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    log: Option<&mut RunLogWriter<W>>,
-    shop: bool,
-    prepare: &mut dyn FnMut(&mut crate::SimBoard),
-    observe: &mut dyn FnMut(&RunRecord),
-) -> Result<RunResult, SimError> {
-    let period_s = scenario.controller.period_s;
-    let shop = scenario
-        .tools
-        .clone()
-        .filter(|_| shop)
-        .map(|table| acc_runtime::ShopControl::new(table, period_s));
-    run_inner(scenario, law, channel, log, shop, prepare, observe).map(|(r, _)| r)
+    let setup = RunSetup {
+        log,
+        shop: scenario.shop_control(shop),
+        prepare: &mut |_| {},
+        observe: &mut |_| {},
+        pace: Pace::Stepped,
+    };
+    run_setup(scenario, law, channel, setup).map(|(r, _)| r)
 }
 
 /// [`run_with_shop`] with a given shop layer (e.g. one that starts from what an earlier
@@ -153,34 +292,56 @@ pub fn run_with_shop_control(
     channel: &mut dyn MeasurementChannel,
     shop: acc_runtime::ShopControl,
 ) -> Result<(RunResult, acc_runtime::ShopControl), SimError> {
-    let (r, sh) = run_inner::<std::io::Sink>(
-        scenario,
-        law,
-        channel,
-        None,
-        Some(shop.clone()),
-        &mut |_| {},
-        &mut |_| {},
-    )?;
+    let setup = RunSetup::<std::io::Sink> {
+        log: None,
+        shop: Some(shop.clone()),
+        prepare: &mut |_| {},
+        observe: &mut |_| {},
+        pace: Pace::Stepped,
+    };
+    let (r, sh) = run_setup(scenario, law, channel, setup)?;
     Ok((r, sh.unwrap_or(shop)))
 }
 
-fn run_inner<W: Write>(
+/// The simulated run: the production loop on the one period driver against the simulated
+/// board (see the module docs). Returns the run and the shop layer as the run left it.
+pub fn run_setup<W: Write + Send>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
     channel: &mut dyn MeasurementChannel,
-    mut log: Option<&mut RunLogWriter<W>>,
-    shop: Option<acc_runtime::ShopControl>,
-    prepare: &mut dyn FnMut(&mut crate::SimBoard),
-    observe: &mut dyn FnMut(&RunRecord),
+    setup: RunSetup<'_, W>,
 ) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
+    match setup.pace {
+        Pace::Stepped => run_on(scenario, law, channel, setup, ManualClock::new()),
+        Pace::Wall(scale) => {
+            let clock =
+                ScaledClock::new(SystemClock::new(), scale).ok_or(SimError::TimeScale(scale))?;
+            run_on(scenario, law, channel, setup, clock)
+        }
+    }
+}
+
+fn run_on<W: Write + Send, C: Clock + Clone>(
+    scenario: &Scenario,
+    law: &mut dyn OverrideLaw,
+    channel: &mut dyn MeasurementChannel,
+    setup: RunSetup<'_, W>,
+    clock: C,
+) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
+    let RunSetup {
+        log,
+        shop,
+        prepare,
+        observe,
+        ..
+    } = setup;
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
-    let sensor = PlantSensor::default();
+    let shared = SharedPeriod::default();
     let mut control = ControlLoop::new(
         FaultPolicy::new(scenario.policy).with_watch_limits(scenario.watch),
         law,
-        sensor.clone(),
+        PlantSensor(Arc::clone(&shared)),
         period_s,
     );
     if let Some(sh) = shop {
@@ -188,59 +349,74 @@ fn run_inner<W: Write>(
     }
     let mut board = scenario.build_board();
     prepare(&mut board);
-    let max_periods = (scenario.max_time_s / period_s).ceil() as usize;
-    let mut rows = Vec::with_capacity(max_periods.min(1 << 20));
-    let mut finished = false;
-    let mut held_s = 0.0;
-    let mut ended_in_feed_hold = false;
-    for _ in 0..max_periods {
-        let (t_s, truth, sensor_power) = {
-            let rec = board.advance_period(period_s);
-            let reading = channel.measure(&rec);
-            sensor.set(reading);
-            let mut truth = RunRecord::default();
-            add_truth(&mut truth, &rec, reading.true_force_n);
-            (rec.t_end_s, truth, reading.sample.power_w)
-        };
-        let cycle = control.cycle(&mut board, t_s);
-        let mut row = cycle
-            .record(Some(scenario.controller.force_ref_n))
-            .with_truth_of(&truth);
-        // A channel that measures power itself (the induction-motor channel's
-        // two-wattmeter reading) logs what it measured; otherwise the board's register.
-        if sensor_power.is_some() {
-            row.power_w = sensor_power;
-        }
-        if let Some(w) = log.as_deref_mut() {
-            w.write(&row)?;
-        }
-        observe(&row);
-        let held = row.feed_hold && row.state != "active";
-        rows.push(row);
-        if board.machine().finished() {
-            finished = true;
-            break;
-        }
-        held_s = if held { held_s + period_s } else { 0.0 };
-        if held_s >= FEED_HOLD_END_S - 1e-9 {
-            ended_in_feed_hold = true;
-            break;
-        }
+    let period = Duration::from_secs_f64(period_s);
+    let max_periods = (scenario.max_time_s / period_s).ceil() as u64;
+    let mut plant = SteppedPlant {
+        board: &mut board,
+        channel,
+        clock: clock.clone(),
+        period,
+        done: 0,
+        shared: Arc::clone(&shared),
+    };
+    let mut observer = SimObserver {
+        shared,
+        period_s,
+        held_s: 0.0,
+        ended_in_feed_hold: false,
+        observe,
+    };
+    let mut sink = SimSink {
+        rows: Vec::with_capacity((max_periods as usize).min(1 << 20)),
+        log,
+    };
+    let opts = RunOptions {
+        max_periods: Some(max_periods),
+        // The stepped clock runs flat out: every period may wait for the writer.
+        log_buffer: (max_periods as usize).saturating_add(1),
+        force_ref_n: Some(scenario.controller.force_ref_n),
+        device_lost_periods: None,
+        ..RunOptions::new(period)
+    };
+    let hooks = Hooks {
+        reopen: None,
+        observer: Some(&mut observer),
+    };
+    let summary = drive(
+        &mut plant,
+        &mut control,
+        clock,
+        &mut sink,
+        &AtomicBool::new(false),
+        opts,
+        hooks,
+    )
+    .map_err(SimError::Driver)?;
+    if let Some(e) = summary.log_error {
+        return Err(SimError::LogWrite(e));
     }
     let shop = control.shop().cloned();
     Ok((
         RunResult {
             law: name,
-            rows,
-            finished,
+            rows: sink.rows,
+            finished: board.machine().finished(),
             volume_mm3: board.machine().volume_mm3(),
-            ended_in_feed_hold,
+            ended_in_feed_hold: observer.ended_in_feed_hold,
         },
         shop,
     ))
 }
 
 impl Scenario {
+    /// The shop layer of this scenario's tool table (`[tools]`), if `on` and it has one.
+    pub fn shop_control(&self, on: bool) -> Option<acc_runtime::ShopControl> {
+        self.tools
+            .clone()
+            .filter(|_| on)
+            .map(|table| acc_runtime::ShopControl::new(table, self.controller.period_s))
+    }
+
     /// Build law `kind`, run it without a log file, and summarise the run.
     pub fn run_law(&self, kind: LawKind) -> Result<(RunResult, Summary), SimError> {
         let mut law = self.build_law(kind)?;

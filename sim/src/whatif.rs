@@ -28,7 +28,7 @@ use acc_core::ControllerConfig;
 use acc_runtime::record::RunRecord;
 
 use crate::process::{ForceLaw, WearSpec};
-use crate::run::{run_prepared, RunResult};
+use crate::run::{run_setup, Pace, RunResult, RunSetup};
 use crate::workpiece::{Segment, SegmentKind, Workpiece};
 use crate::{Scenario, SimError};
 
@@ -288,14 +288,14 @@ pub fn run_what_if(
         CutGeometry::Logged(p) => board.machine_mut().set_engagement_profile(Some(p.clone())),
         CutGeometry::Workpiece { x0_mm, .. } => board.machine_mut().set_position_mm(*x0_mm),
     };
-    run_prepared::<std::io::Sink>(
-        &sc,
-        &mut law,
-        channel.as_mut(),
-        None,
-        sc.tools.is_some(),
-        &mut prepare,
-    )
+    let setup = RunSetup::<std::io::Sink> {
+        log: None,
+        shop: sc.shop_control(true),
+        prepare: &mut prepare,
+        observe: &mut |_| {},
+        pace: Pace::Stepped,
+    };
+    run_setup(&sc, &mut law, channel.as_mut(), setup).map(|(r, _)| r)
 }
 
 /// The side-by-side figures of one run (recorded or what-if).

@@ -59,7 +59,7 @@ use std::time::Duration;
 use acc_pmc::emu::{lock_board, spawn_server, EmulatedProtocol, Paced, PtyBoard, SharedBoard};
 use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_runtime::shutdown::install_stop_flag;
-use acc_runtime::{SystemClock, Ticker};
+use acc_runtime::{Clock, SystemClock, Ticker};
 use acc_sim::board::{add_truth, PowerFault};
 use acc_sim::Scenario;
 use anyhow::{bail, Context};
@@ -261,6 +261,8 @@ struct FaultyReplies<P> {
     inner: P,
     queue: FaultQueue,
     unplugged: Arc<AtomicBool>,
+    /// Late and stalled replies wait on the wall clock.
+    wall: SystemClock,
 }
 
 impl<P: Read> Read for FaultyReplies<P> {
@@ -297,7 +299,7 @@ impl<P: Write> Write for FaultyReplies<P> {
                 self.inner.write_all(&b)?;
             }
             Some(ReplyFault::Late(d)) | Some(ReplyFault::Stall(d)) => {
-                std::thread::sleep(d);
+                self.wall.sleep_until(self.wall.now() + d);
                 self.inner.write_all(buf)?;
             }
         }
@@ -320,11 +322,13 @@ fn wrap<P: Read + Write + Send + 'static>(
             inner: Paced::new(inner, baud, 10),
             queue,
             unplugged,
+            wall: SystemClock::new(),
         }),
         None => Box::new(FaultyReplies {
             inner,
             queue,
             unplugged,
+            wall: SystemClock::new(),
         }),
     }
 }
@@ -460,9 +464,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         title: "acc board-sim (the simulated machine, as the board sees it)".into(),
         overload_n: None,
     });
+    let wall = SystemClock::new();
     if args.wait_for_controller {
         while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
-            std::thread::sleep(Duration::from_millis(2));
+            wall.sleep_until(wall.now() + Duration::from_millis(2));
         }
         // The request arrived a write's time after the controller's tick, and so would
         // every tick of ours: a slow write would then sometimes land after the tick that
@@ -471,13 +476,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         // power sample it reads with it — the discrepancy workflow's replay of `acc run`'s
         // log went 0.033 mm off in position at every such row (docs/twin.md). Half a period
         // later the writes land mid-period.
-        std::thread::sleep(Duration::from_secs_f64(0.5 * period_s / args.time_scale));
+        wall.sleep_until(wall.now() + Duration::from_secs_f64(0.5 * period_s / args.time_scale));
         eprintln!("board-sim: controller connected (ACC_REQUEST set); machine time starts");
     }
-    let mut ticker = Ticker::new(
-        SystemClock::new(),
-        Duration::from_secs_f64(period_s / args.time_scale),
-    )?;
+    let mut ticker = Ticker::new(wall, Duration::from_secs_f64(period_s / args.time_scale))?;
     let (mut freeze_until, mut bad_until) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut lock_until: Option<f64> = None;
     let mut replug_at: Option<f64> = None;

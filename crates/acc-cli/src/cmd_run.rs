@@ -398,7 +398,7 @@ fn drive<P: Board + Send>(
         max_periods: args
             .duration_s
             .map(|d| (d / period_s).round().max(1.0) as u64),
-        log_queue: cfg.runtime.log_queue,
+        log_buffer: cfg.runtime.log_buffer,
         time_scale: cfg.runtime.time_scale,
         force_ref_n: Some(ccfg.force_ref_n),
         drain: Some(Drain {
@@ -529,7 +529,8 @@ fn drive<P: Board + Send>(
             }
             .into())
         }
-        (Ok(()), Ended::Released | Ended::Completed) if fault_feed_hold(&s) => Err(ExitWith {
+        (Ok(()), Ended::Released | Ended::Completed | Ended::Finished) if fault_feed_hold(&s) => {
+            Err(ExitWith {
             code: EXIT_FAULT_FEED_HOLD,
             message: format!(
                 "shutdown: ACC_REQUEST cleared; a fault had requested feed hold (final state {}, alarms: {}): the NC needs cycle start",
@@ -537,14 +538,15 @@ fn drive<P: Board + Send>(
                 s.alarms.names()
             ),
         }
-        .into()),
+        .into())
+        }
         (Ok(()), Ended::Released) => {
             println!(
                 "shutdown: out of the cut; ACC_REQUEST cleared, the operator has the override"
             );
             Ok(())
         }
-        (Ok(()), Ended::Completed) => {
+        (Ok(()), Ended::Completed | Ended::Finished) => {
             println!("shutdown: ACC_REQUEST cleared, the operator has the override");
             Ok(())
         }

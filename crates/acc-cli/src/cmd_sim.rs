@@ -122,28 +122,16 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     });
     // The operator watches the live view at real time unless --time-scale says otherwise.
     let time_scale = args.time_scale.or(tel.has_live().then_some(1.0));
-    let pace = time_scale.map(|x| std::time::Duration::from_secs_f64(sc.controller.period_s / x));
-    let t0 = std::time::Instant::now();
-    let mut n = 0u32;
-    let mut observe = |r: &RunRecord| {
-        tel.tap.publish(r);
-        if let Some(p) = pace {
-            n += 1;
-            if let Some(wait) = (p * n).checked_sub(t0.elapsed()) {
-                std::thread::sleep(wait);
-            }
-        }
-    };
+    let mut observe = |r: &RunRecord| tel.tap.publish(r);
     let mut channel = sc.build_channel()?;
-    let result = acc_sim::run::run_observed(
-        &sc,
-        law.as_mut(),
-        channel.as_mut(),
-        Some(&mut writer),
-        sc.tools.is_some(),
-        &mut |_| {},
-        &mut observe,
-    )?;
+    let setup = acc_sim::run::RunSetup {
+        log: Some(&mut writer),
+        shop: sc.shop_control(true),
+        prepare: &mut |_| {},
+        observe: &mut observe,
+        pace: time_scale.map_or(acc_sim::run::Pace::Stepped, acc_sim::run::Pace::Wall),
+    };
+    let (result, _) = acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)?;
     tel.finish_lingering(args.live_keep);
     let summary = summarize(&result, &sc);
     println!("scenario: {} ({})", sc.name, sc.path.display());

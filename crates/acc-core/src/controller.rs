@@ -175,8 +175,9 @@ pub struct StepOutput {
 }
 
 /// Anything that turns a measurement into an override command once per period: the
-/// adaptive controller and the comparison baselines.
-pub trait OverrideLaw {
+/// adaptive controller and the comparison baselines. `Send`: the period driver runs it on
+/// its control thread.
+pub trait OverrideLaw: Send {
     /// Short name for tables and plots.
     fn name(&self) -> &str;
     /// ACC switched on while `current` is in force (bumpless start).

@@ -48,6 +48,7 @@
 #![deny(missing_docs)]
 #![cfg_attr(test, allow(clippy::unwrap_used))]
 
+pub mod clock;
 pub mod controller;
 pub mod delay;
 pub mod estimator;

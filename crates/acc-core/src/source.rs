@@ -58,7 +58,7 @@ impl ForceSample {
 }
 
 /// A measurement channel.
-pub trait ForceSource {
+pub trait ForceSource: Send {
     /// Short name for logs and tables (e.g. `"dynamometer"`, `"spindle-power"`).
     fn name(&self) -> &str;
     /// Estimate the mean cutting force of the period described by `input`.

@@ -9,7 +9,7 @@
 //! | [`rtu`] | always | Modbus RTU: pure codec on `rmodbus` ([`rtu::codec`]); client [`rtu::RtuBoard`] (implements [`Board`]) over any `Read + Write` |
 //! | [`can`] | always | CAN: pure frame codec ([`can::codec`]); client [`can::CanBoard`] (implements [`Board`]) over any `embedded_can::blocking::Can` |
 //! | [`serial`] | always | typed, validated serial config ([`serial::RtuConfig`]) and opening a port with read-back of the framing |
-//! | [`clock`] | always | the injected [`clock::Clock`] ([`clock::SystemClock`], per-instance [`clock::ManualClock`]) |
+//! | [`clock`] | always | re-export of `acc_core::clock`, the injected [`clock::Clock`] ([`clock::SystemClock`], per-instance [`clock::ManualClock`]) |
 //! | `emu` | feature `emulator` | the board emulator: `BoardLogic` (register behaviour), `RtuServer`, `CanBoardEmulator`, `PtyBoard`, fault injectors |
 //!
 //! One controller cycle, here on the in-memory CAN bus of the emulator (the RTU link reads
@@ -45,7 +45,7 @@
 pub use serialport;
 
 pub mod can;
-pub mod clock;
+pub use acc_core::clock;
 #[cfg(feature = "emulator")]
 pub mod emu;
 pub mod regs;

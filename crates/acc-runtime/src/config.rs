@@ -149,8 +149,10 @@ pub struct RuntimeSection {
     /// emulator running at the same scale (`acc board-sim --time-scale`): the ticker runs
     /// at `T / time_scale` while the controller keeps its `T`.
     pub time_scale: f64,
-    /// Logger queue capacity, records, 1 ..= 1 000 000 (default 1024).
-    pub log_queue: usize,
+    /// Records the run logger may fall behind before the loop holds the feed, 1 ..=
+    /// 1 000 000 (default 6000: ten minutes at T = 0.1 s). No record is ever dropped: see
+    /// [`crate::runner`].
+    pub log_buffer: usize,
     /// What a vanished board device (serial port gone, CAN interface down) does: `"exit"`
     /// (default: end after 20 periods, exit code 4) or `"reconnect"` (keep logging, reopen
     /// every period, re-arm at the last command; give up after `reconnect_timeout_s`).
@@ -175,7 +177,7 @@ impl Default for RuntimeSection {
     fn default() -> Self {
         Self {
             time_scale: 1.0,
-            log_queue: 1024,
+            log_buffer: 6000,
             on_device_lost: DeviceLostAction::Exit,
             reconnect_timeout_s: 10.0,
         }
@@ -388,7 +390,7 @@ pub const RUN_KEY_RANGES: &[KeyRange] = &[
         "0 ..= Fr (the preset's force_ref_n)",
     ),
     KeyRange::new("runtime.time_scale", "0.1 ..= 100"),
-    KeyRange::new("runtime.log_queue", "1 ..= 1000000"),
+    KeyRange::new("runtime.log_buffer", "1 ..= 1000000"),
     KeyRange::new("watch.history", "a file path (string)"),
     KeyRange::new("watch.breakage", "true or false"),
     KeyRange::new("watch.wear_warn_pct", "0 < x <= 1000"),
@@ -616,8 +618,8 @@ impl RunConfig {
         check_range(path, "runtime.time_scale", rt.time_scale, 0.1, 100.0)?;
         check_range(
             path,
-            "runtime.log_queue",
-            rt.log_queue as f64,
+            "runtime.log_buffer",
+            rt.log_buffer as f64,
             1.0,
             1_000_000.0,
         )?;

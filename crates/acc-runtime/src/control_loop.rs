@@ -81,6 +81,8 @@ pub struct CycleRecord {
     pub delay: DelayReading,
     /// Extra periods of dead time the law's gains tolerate (after this period's step).
     pub delay_margin_periods: Option<u32>,
+    /// The run log's writer was stalled past the logger's buffer this period.
+    pub log_stalled: bool,
 }
 
 /// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
@@ -165,6 +167,9 @@ impl CycleRecord {
         }
         if self.out.fault {
             r.flag("fault");
+        }
+        if self.log_stalled {
+            r.flag("log_stalled");
         }
         if let Some(sh) = self.shop {
             if sh.state == ShopState::Entry {
@@ -252,6 +257,8 @@ pub struct ControlLoop<L, F> {
     shop: Option<ShopControl>,
     guard: LineGuard,
     delay: LoopDelay,
+    /// The run log's writer is stalled past the logger's buffer ([`Self::set_log_stalled`]).
+    log_stalled: bool,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -275,6 +282,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             air_run: 0,
             shop: None,
             watch_tool: None,
+            log_stalled: false,
         }
     }
 
@@ -433,6 +441,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             feed_mm_min: feeds.map_or(0.0, |f| f.1),
             held,
             delay,
+            log_stalled: self.log_stalled,
         };
         if let Some(sh) = self.shop.as_mut() {
             let lim = sh.before(
@@ -494,9 +503,18 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             guard,
             delay,
             delay_margin_periods,
+            log_stalled: self.log_stalled,
         };
         self.index += 1;
         rec
+    }
+
+    /// The run log's writer is stalled past the logger's buffer (`true`) or has caught up
+    /// (`false`). While stalled, the policy does not arm, and an active ACC releases with a
+    /// feed hold ([`crate::policy::Release::LogStalled`]); every record is flagged
+    /// `log_stalled`.
+    pub fn set_log_stalled(&mut self, stalled: bool) {
+        self.log_stalled = stalled;
     }
 
     /// The link was reopened (a new port or bus after the device vanished): what the board

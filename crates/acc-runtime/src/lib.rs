@@ -26,11 +26,12 @@
 /// and the emulator use it too); re-exported here.
 pub use acc_pmc::clock;
 pub mod config;
-pub mod cuts;
 pub mod control_loop;
+pub mod cuts;
 pub mod echo;
 pub mod guard;
 pub mod history;
+mod log_backlog;
 pub mod policy;
 pub mod record;
 pub mod runner;
@@ -51,8 +52,8 @@ pub use policy::{
 };
 pub use record::{RunLogWriter, RunRecord};
 pub use runner::{
-    run, run_with_reopen, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunError, RunOptions,
-    RunSummary, StopRequest, VecSink,
+    drive, run, run_with_reopen, Drain, Ended, Hooks, LogSink, OnDeviceLost, PeriodObserver,
+    Reopen, RunError, RunOptions, RunSummary, StopRequest, VecSink, Verdict,
 };
 pub use shop::{ShopControl, ShopState};
 pub use stats::LatencyStats;

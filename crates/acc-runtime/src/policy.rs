@@ -276,6 +276,9 @@ pub enum Release {
     /// The measured loop delay exceeds what the gains in use tolerate (feed hold
     /// requested): see [`crate::echo`].
     Delay,
+    /// The run log's writer has stalled past the logger's buffer (feed hold requested):
+    /// the cut never goes on without a record. See [`crate::runner`].
+    LogStalled,
 }
 
 impl Release {
@@ -292,6 +295,7 @@ impl Release {
             Release::Overload => "overload",
             Release::Breakage => "breakage",
             Release::Delay => "delay",
+            Release::LogStalled => "log_stalled",
         }
     }
 
@@ -466,6 +470,9 @@ pub enum Event {
         /// What the gains tolerate, periods.
         margin_periods: u32,
     },
+    /// The run log's writer stalled past the logger's buffer (the release and feed hold
+    /// follow in the same period while ACC is active).
+    LogStalled,
 }
 
 /// Up to [`Events::CAPACITY`] events of one period, without allocation.
@@ -539,6 +546,9 @@ pub struct CycleInput {
     pub held: bool,
     /// The loop delay measured on the line this period ([`crate::echo`]).
     pub delay: crate::echo::DelayReading,
+    /// The run log's writer is stalled past the logger's buffer ([`crate::runner`]): ACC
+    /// releases with a feed hold and does not arm.
+    pub log_stalled: bool,
 }
 
 /// What the runtime does with the board this period.
@@ -821,7 +831,7 @@ impl FaultPolicy {
             Release::Overload => self.alarms.overload = true,
             Release::Breakage => self.alarms.breakage = true,
             Release::Delay => self.alarms.delay = true,
-            Release::SwitchOff | Release::OperatorHandback => {}
+            Release::LogStalled | Release::SwitchOff | Release::OperatorHandback => {}
         }
     }
 
@@ -1012,8 +1022,10 @@ impl FaultPolicy {
 
         // 4. State transitions. Arming needs a clean period: link answered, force valid,
         //    override not locked.
-        let clean =
-            link_fault.is_none() && force_valid && status.is_some_and(|s| !s.override_locked);
+        let clean = link_fault.is_none()
+            && force_valid
+            && !input.log_stalled
+            && status.is_some_and(|s| !s.override_locked);
         match (self.state, status) {
             (AccState::Active, None) => {
                 // No status this period: hold, or release after the budget.
@@ -1244,6 +1256,13 @@ impl FaultPolicy {
         if self.link_failures > 0 {
             out.write_override = Some(FeedOverride(last));
             return;
+        }
+        // No record, no cut: a run log that cannot be written stops the feed.
+        if input.log_stalled {
+            out.events.push(Event::LogStalled);
+            tracing::error!("the run log's writer has stalled past its buffer: feed hold");
+            out.fault = true;
+            return self.release(Release::LogStalled, out, law);
         }
         // The line's delay against what the gains in use tolerate: never drive on into an
         // oscillation.

@@ -6,10 +6,24 @@
 //!   period), performs the writes and reports their outcome with the next status. It also
 //!   measures the round-trip time of each cycle (read + decide + writes).
 //! - **Control thread** (owns the [`ControlLoop`]: policy, law, force source): pure
-//!   decisions, no I/O; every period it offers a [`RunRecord`] to the logger with
-//!   `try_send` — a full queue is **counted, never waited on**.
+//!   decisions, no I/O; every period it hands a [`RunRecord`] to the logger with
+//!   `try_send`, **never waiting on it**. A record the logger's queue cannot take yet waits
+//!   in the control thread's backlog, in order, and goes first next period.
 //! - **Logger thread** (owns the [`LogSink`]): writes and flushes each record; drains the
 //!   queue and flushes at the end.
+//!
+//! **No row is lost.** The queue and the backlog together hold
+//! [`RunOptions::log_buffer`] records (default 6000: ten minutes at T = 0.1 s). When the
+//! writer has stalled past that (a full disk, a hung network share), every further record
+//! is still kept in the backlog, flagged `log_stalled`, and the loop is told
+//! ([`ControlLoop::set_log_stalled`]): an active ACC releases with a feed hold
+//! ([`crate::policy::Release::LogStalled`]) and does not arm again while the writer is
+//! stalled — the machine never cuts on without a record. When the writer catches up, the
+//! backlog drains and the run goes on (re-arming needs the operator's switch, as after any
+//! latched release). At the end, after the shutdown `CONTROL` write, the backlog is handed
+//! to the logger and written in full ([`RunSummary::log_backlog_max`] says how far it got).
+//! Only a logger that has died (its thread gone) loses records; they are counted in
+//! [`RunSummary::log_dropped`].
 //!
 //! Shutdown: when `max_periods` is reached, or a stop is requested ([`StopRequest`]: Ctrl-C,
 //! see [`crate::shutdown`]) and — with a [`Drain`] — the cut has ended, the I/O thread writes
@@ -34,10 +48,11 @@ use std::time::Duration;
 
 use acc_core::{ForceSource, OverrideLaw};
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus};
-use crossbeam_channel::{bounded, RecvTimeoutError, TrySendError};
+use crossbeam_channel::{bounded, RecvTimeoutError};
 
 use crate::clock::Clock;
 use crate::control_loop::{execute_writes, ControlLoop, WritePlan, WriteResult};
+use crate::log_backlog::{Backlog, LOG_QUEUE};
 use crate::policy::{AccState, Alarms};
 use crate::record::RunRecord;
 use crate::stats::LatencyStats;
@@ -75,9 +90,10 @@ pub struct RunOptions {
     pub period: Duration,
     /// Stop after this many periods (`None`: until the stop flag).
     pub max_periods: Option<u64>,
-    /// Capacity of the logger queue, records (default 1024). When full, records are
-    /// dropped and counted.
-    pub log_queue: usize,
+    /// Records the logger may fall behind before the loop holds the feed (the logger's
+    /// queue plus the control thread's backlog; default 6000, ten minutes at T = 0.1 s).
+    /// Records beyond it are kept too (see the module docs): none is dropped.
+    pub log_buffer: usize,
     /// Attempts of the final `CONTROL` write at shutdown (default 5).
     pub shutdown_attempts: u32,
     /// Machine seconds per wall second (default 1): the run log's `t_s` is machine time.
@@ -142,6 +158,45 @@ pub enum Ended {
     /// final `CONTROL` write was tried (it normally fails: the board's watchdog and fallback
     /// take over).
     DeviceLost,
+    /// The [`PeriodObserver`] ended the run (the simulated machine finished its path, or
+    /// stood in a fault's feed hold for the simulator's limit); shut down as
+    /// [`Ended::Completed`].
+    Finished,
+}
+
+/// The caller's view of every period, on the control thread, after the decision and before
+/// the period's writes go to the board: its verdict takes effect before the next period,
+/// whatever the threads' timing (the simulator's end conditions are deterministic).
+pub trait PeriodObserver: Send {
+    /// Annotate the period's record before it is logged (the simulator adds its plant's
+    /// truth) and say whether the run ends after this period.
+    fn period(&mut self, rec: &mut RunRecord) -> Verdict;
+}
+
+/// A [`PeriodObserver`]'s answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Go on.
+    Continue,
+    /// End the run after this period ([`Ended::Finished`]).
+    Finish,
+}
+
+/// Optional hooks of [`drive`].
+pub struct Hooks<'a, P> {
+    /// Reopens a vanished link ([`OnDeviceLost::Reconnect`]).
+    pub reopen: Option<Reopen<'a, P>>,
+    /// Sees every period's record ([`PeriodObserver`]).
+    pub observer: Option<&'a mut dyn PeriodObserver>,
+}
+
+impl<P> Default for Hooks<'_, P> {
+    fn default() -> Self {
+        Self {
+            reopen: None,
+            observer: None,
+        }
+    }
 }
 
 /// How the caller asks a run to stop: a plain flag (`AtomicBool`, a stop request) or the
@@ -177,7 +232,7 @@ impl RunOptions {
         Self {
             period,
             max_periods: None,
-            log_queue: 1024,
+            log_buffer: 6000,
             shutdown_attempts: 5,
             time_scale: 1.0,
             force_ref_n: None,
@@ -204,8 +259,14 @@ pub struct RunSummary {
     pub cycle_rtt: LatencyStats,
     /// Records handed to the logger.
     pub logged: u64,
-    /// Records dropped because the logger queue was full.
+    /// Records lost because the logger thread had died (none otherwise: see the module
+    /// docs).
     pub log_dropped: u64,
+    /// Most records the logger was behind at once (queue and backlog).
+    pub log_backlog_max: u64,
+    /// Periods in which the writer was stalled past [`RunOptions::log_buffer`] (the loop
+    /// held the feed).
+    pub log_stalled_periods: u64,
     /// Errors the sink reported (records lost).
     pub log_errors: u64,
     /// First sink error, if any.
@@ -276,7 +337,7 @@ where
     S: LogSink + Send,
     Q: StopRequest + ?Sized,
 {
-    run_with_reopen(pmc, control, clock, sink, stop, opts, None)
+    drive(pmc, control, clock, sink, stop, opts, Hooks::default())
 }
 
 /// As [`run`]; with [`OnDeviceLost::Reconnect`], `reopen` is called once per period while
@@ -288,7 +349,34 @@ pub fn run_with_reopen<P, L, F, C, S, Q>(
     sink: &mut S,
     stop: &Q,
     opts: RunOptions,
-    mut reopen: Option<Reopen<'_, P>>,
+    reopen: Option<Reopen<'_, P>>,
+) -> Result<RunSummary, RunError>
+where
+    P: Board + Send,
+    L: OverrideLaw + Send,
+    F: ForceSource + Send,
+    C: Clock + Clone,
+    S: LogSink + Send,
+    Q: StopRequest + ?Sized,
+{
+    let hooks = Hooks {
+        reopen,
+        observer: None,
+    };
+    drive(pmc, control, clock, sink, stop, opts, hooks)
+}
+
+/// The period driver: `acc run` (wall clock, a serial or CAN board), `acc sim`, `acc compare`,
+/// the what-if and the paper tests (the stepped clock, the simulated board) all run the loop
+/// through it. See the module docs; [`run`] and [`run_with_reopen`] are its short forms.
+pub fn drive<P, L, F, C, S, Q>(
+    pmc: &mut P,
+    control: &mut ControlLoop<L, F>,
+    clock: C,
+    sink: &mut S,
+    stop: &Q,
+    opts: RunOptions,
+    hooks: Hooks<'_, P>,
 ) -> Result<RunSummary, RunError>
 where
     P: Board + Send,
@@ -301,13 +389,21 @@ where
     let mut ticker = Ticker::new(clock.clone(), opts.period)?;
     let (status_tx, status_rx) = bounded::<StatusMsg>(1);
     let (plan_tx, plan_rx) = bounded::<(u64, WritePlan)>(2);
-    let (log_tx, log_rx) = bounded::<RunRecord>(opts.log_queue.max(1));
+    let queue = LOG_QUEUE.min(opts.log_buffer.max(1));
+    let (log_tx, log_rx) = bounded::<RunRecord>(queue);
+    let backlog_limit = opts.log_buffer.max(1).saturating_sub(queue);
     let (time_scale, force_ref_n) = (opts.time_scale, opts.force_ref_n);
     let tick_s = opts.period.as_secs_f64();
     // Set by the control thread after each decision: the cut has ended (or ACC is not
     // driving), so a release cannot raise the feed.
     let out_of_cut = &AtomicBool::new(true);
     let air_needed = opts.drain.map_or(1, |d| d.air_periods.max(1));
+    let Hooks {
+        mut reopen,
+        mut observer,
+    } = hooks;
+    // Set by the control thread before it hands over the plan: the observer ended the run.
+    let finished = &AtomicBool::new(false);
 
     std::thread::scope(|scope| {
         // ---------------------------------------------------------------- logger
@@ -337,17 +433,17 @@ where
             .name("acc-control".into())
             .spawn_scoped(scope, move || {
                 let _span = tracing::info_span!("control").entered();
-                let (mut logged, mut dropped, mut skipped) = (0u64, 0u64, 0u64);
-                let mut offer = |r: RunRecord| match log_tx.try_send(r) {
-                    Ok(()) => logged += 1,
-                    Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => dropped += 1,
-                };
+                let mut skipped = 0u64;
+                let mut log = Backlog::new(log_tx, backlog_limit);
                 for msg in status_rx.iter() {
+                    // The writer's state decides this period: stalled → no cut.
+                    log.pump();
+                    control.set_log_stalled(log.stalled());
                     // Deadlines the ticker skipped still get their (flagged) rows.
                     skipped += msg.skipped;
                     for k in 0..msg.skipped {
                         let t = msg.t_s - (msg.skipped - k) as f64 * tick_s;
-                        offer(control.skip(t * time_scale));
+                        log.offer(control.skip(t * time_scale));
                     }
                     if msg.reopened {
                         control.link_reopened();
@@ -362,20 +458,23 @@ where
                     for e in rec.out.events.iter() {
                         tracing::info!(period = rec.index, event = ?e, "policy event");
                     }
-                    if plan_tx.send((msg.seq, rec.plan)).is_err() {
-                        break;
-                    }
                     let mut r = rec.record(force_ref_n);
                     r.late_ms = msg.lateness.as_secs_f64() * 1e3;
                     if msg.overrun {
                         r.flag("late");
                     }
-                    offer(r);
+                    if let Some(o) = observer.as_deref_mut() {
+                        if o.period(&mut r) == Verdict::Finish {
+                            finished.store(true, Ordering::SeqCst);
+                        }
+                    }
+                    if plan_tx.send((msg.seq, rec.plan)).is_err() {
+                        break;
+                    }
+                    log.offer(r);
                 }
-                drop(log_tx);
                 (
-                    logged,
-                    dropped,
+                    log,
                     skipped,
                     control.policy().state(),
                     control.policy().alarms(),
@@ -396,6 +495,9 @@ where
         let mut longest_device_loss = Duration::ZERO;
         let mut reconnects = 0u64;
         let ended = loop {
+            if finished.load(Ordering::SeqCst) {
+                break Ended::Finished;
+            }
             if opts.max_periods.is_some_and(|m| periods >= m) {
                 break Ended::Completed;
             }
@@ -498,7 +600,15 @@ where
             let deadline = t0 + opts.period;
             let plan = loop {
                 let left = deadline.saturating_sub(clock.now());
-                match plan_rx.recv_timeout(left) {
+                // On a stepped clock a wait costs no clock time: the plan is awaited as long
+                // as the period has clock time left (a read that used the whole period still
+                // misses it, as on the wall clock).
+                let got = if clock.is_stepped() && !left.is_zero() {
+                    plan_rx.recv().map_err(|_| RecvTimeoutError::Disconnected)
+                } else {
+                    plan_rx.recv_timeout(left)
+                };
+                match got {
                     Ok((i, p)) if i == periods => break Some(p),
                     Ok(_) => continue,
                     Err(RecvTimeoutError::Timeout) => {
@@ -520,7 +630,7 @@ where
         // Stop: out of the cut, ACC request and feed hold cleared (the operator has the
         // override); still cutting, feed hold first, then the release with the hold kept.
         drop(status_tx);
-        let (logged, log_dropped, skipped, final_state, alarms, control) =
+        let (log, skipped, final_state, alarms, control) =
             ctl.join().map_err(|_| RunError::Panicked("acc-control"))?;
         // Without the board's fallback clamp (v1, or not known), a release while ACC drives
         // the override in the cut would hand the feed to the operator's knob: hold first.
@@ -528,7 +638,9 @@ where
         let in_cut = !out_of_cut.load(Ordering::SeqCst);
         let shutdown_feed_hold = match ended {
             Ended::FeedHold { .. } => true,
-            Ended::Completed | Ended::DeviceLost => in_cut && protocol != Some(BoardProtocol::V2),
+            Ended::Completed | Ended::Finished | Ended::DeviceLost => {
+                in_cut && protocol != Some(BoardProtocol::V2)
+            }
             Ended::Released => false,
         };
         let shutdown_ok = if shutdown_feed_hold {
@@ -550,6 +662,9 @@ where
             }
         }
         drop(io_span);
+        // The board has been told; now every record still waiting goes to the logger,
+        // waiting on it as long as it takes.
+        let log = log.finish();
         let (log_errors, log_error) = logger.join().map_err(|_| RunError::Panicked("acc-log"))?;
         Ok(RunSummary {
             periods,
@@ -557,8 +672,10 @@ where
             skipped,
             ticker: ticker.stats().clone(),
             cycle_rtt: rtt,
-            logged,
-            log_dropped,
+            logged: log.handed,
+            log_dropped: log.dropped,
+            log_backlog_max: log.most_behind,
+            log_stalled_periods: log.stalled_periods,
             log_errors,
             log_error,
             final_state,

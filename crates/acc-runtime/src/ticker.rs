@@ -251,7 +251,7 @@ mod tests {
     #[test]
     fn jitter_statistics_from_late_wakeups() {
         // A clock that wakes a scripted amount after each deadline.
-        #[derive(Clone)]
+        #[derive(Clone, Debug)]
         struct Late {
             inner: ManualClock,
             lateness_us: std::sync::Arc<std::sync::Mutex<Vec<u64>>>,

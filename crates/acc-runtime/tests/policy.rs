@@ -429,6 +429,7 @@ fn implausible_board_power_is_invalid_even_if_the_source_accepts_it() {
             feed_mm_min: 120.0,
             held: false,
             delay: Default::default(),
+            log_stalled: false,
         },
         &mut law,
     );
@@ -464,6 +465,7 @@ fn nan_or_negative_force_is_invalid() {
         feed_mm_min: 2.0 * f64::from(st.override_applied_pct),
         held: false,
         delay: Default::default(),
+        log_stalled: false,
     };
     let o = p.step(&input(0.0, 1, good, &st), &mut law);
     assert_eq!(o.write_override.map(|c| c.0), Some(60));
@@ -1090,6 +1092,7 @@ mod invariant {
                     feed_mm_min: x.link.map_or(0.0, |s| 2.0 * f64::from(s.override_applied_pct)),
                     held: false,
                     delay: Default::default(),
+        log_stalled: false,
                 };
                 let stale = match x.link {
                     Ok(s) => {

@@ -1,5 +1,5 @@
 //! The threaded runtime on a manual clock: every period logged, orderly shutdown on the stop
-//! flag, and a logger that is too slow never blocks control (drops are counted).
+//! flag, and a stalled log writer that holds the feed without losing a row.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
@@ -7,7 +7,9 @@ use std::time::Duration;
 
 use acc_runtime::policy::{AccState, FaultPolicy, PolicyConfig};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
-use acc_runtime::{run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, VecSink};
+use acc_runtime::{
+    run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, SystemClock, VecSink,
+};
 
 /// Run `pmc` with [`control()`] on a fresh manual clock, T = 0.1 s, at most `max` periods.
 fn run_manual<P: acc_pmc::Board + Send, S: LogSink + Send>(
@@ -17,11 +19,11 @@ fn run_manual<P: acc_pmc::Board + Send, S: LogSink + Send>(
     stop: &AtomicBool,
     max: u64,
 ) -> acc_runtime::RunSummary {
-    // On the manual clock the control thread runs flat out; a queue that holds every period
-    // keeps a starved logger thread (a loaded test machine) from dropping rows.
+    // On the manual clock the control thread runs flat out; a buffer that holds every period
+    // keeps a starved logger thread (a loaded test machine) from holding the feed.
     let opts = RunOptions {
         max_periods: Some(max),
-        log_queue: 1 << 20,
+        log_buffer: 1 << 20,
         ..RunOptions::new(Duration::from_millis(100))
     };
     run(pmc, ctl, ManualClock::new(), sink, stop, opts).expect("runs")
@@ -56,6 +58,73 @@ impl acc_pmc::Board for LiveBoard {
     }
     fn protocol(&self) -> Option<acc_pmc::BoardProtocol> {
         self.0.protocol()
+    }
+}
+
+/// The one period driver on both clocks: the same loop on the same board decides the same
+/// sequence on the stepped clock and on the wall clock (a period the wall clock skipped on a
+/// loaded machine reads nothing and decides nothing: the other periods' decisions still
+/// follow the stepped run's, in order).
+#[test]
+fn the_driver_decides_the_same_on_the_stepped_and_the_wall_clock() {
+    const PERIODS: u64 = 40;
+    let period = Duration::from_millis(20);
+    let decisions = |rows: &[RunRecord]| -> Vec<(Option<u16>, String, Option<f64>, bool)> {
+        rows.iter()
+            .filter(|r| !r.has_flag("skipped"))
+            .map(|r| (r.override_cmd_pct, r.state.clone(), r.force_n, r.feed_hold))
+            .collect()
+    };
+    let go = |clock_is_wall: bool| {
+        let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
+        let mut ctl = control();
+        let mut sink = VecSink::default();
+        let opts = RunOptions {
+            max_periods: Some(PERIODS),
+            ..RunOptions::new(period)
+        };
+        let stop = AtomicBool::new(false);
+        let s = if clock_is_wall {
+            run(
+                &mut board,
+                &mut ctl,
+                SystemClock::new(),
+                &mut sink,
+                &stop,
+                opts,
+            )
+        } else {
+            run(
+                &mut board,
+                &mut ctl,
+                ManualClock::new(),
+                &mut sink,
+                &stop,
+                opts,
+            )
+        }
+        .expect("runs");
+        (s, sink.0)
+    };
+    let (stepped, stepped_rows) = go(false);
+    let (wall, wall_rows) = go(true);
+    assert_eq!(stepped.periods, PERIODS);
+    assert_eq!(wall.periods, PERIODS, "the wall clock ran every cycle");
+    assert_eq!(stepped.skipped, 0, "the stepped clock never skips");
+    assert_eq!(
+        wall_rows.len() as u64,
+        PERIODS + wall.skipped,
+        "one row per deadline on the wall clock too"
+    );
+    let (a, b) = (decisions(&stepped_rows), decisions(&wall_rows));
+    assert_eq!(a.len(), PERIODS as usize);
+    assert_eq!(a, b, "the same decisions, period by period");
+    // Both armed and drove the override through the scripted law.
+    assert!(a.iter().any(|d| d.1 == "active" && d.0 == Some(80)));
+    // Stepped time is exact: row k at (k + 1)·T.
+    for (k, r) in stepped_rows.iter().enumerate() {
+        assert!((r.t_s - (k as f64 + 1.0) * 0.02).abs() < 1e-12, "{}", r.t_s);
+        assert_eq!(r.late_ms, 0.0);
     }
 }
 
@@ -143,13 +212,40 @@ fn stop_flag_mid_run_logs_to_the_last_period_and_flushes() {
 }
 
 /// A logger that takes 2 ms per record.
-struct SlowSink(u64);
+/// A sink whose writes block while the gate is shut (a stalled disk): it counts the records
+/// it wrote.
+struct GatedSink {
+    gate: Arc<(Mutex<bool>, Condvar)>,
+    written: Vec<RunRecord>,
+}
 
-impl LogSink for SlowSink {
+impl GatedSink {
+    fn shut() -> (Self, Arc<(Mutex<bool>, Condvar)>) {
+        let gate = Arc::new((Mutex::new(false), Condvar::new()));
+        (
+            Self {
+                gate: Arc::clone(&gate),
+                written: Vec::new(),
+            },
+            gate,
+        )
+    }
+}
+
+fn open_gate(gate: &(Mutex<bool>, Condvar)) {
+    *gate.0.lock().expect("gate") = true;
+    gate.1.notify_all();
+}
+
+impl LogSink for GatedSink {
     type Error = std::convert::Infallible;
-    fn write(&mut self, _: &RunRecord) -> Result<(), Self::Error> {
-        std::thread::sleep(Duration::from_millis(2));
-        self.0 += 1;
+    fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
+        let (open, cv) = &*self.gate;
+        let mut g = open.lock().expect("gate");
+        while !*g {
+            g = cv.wait(g).expect("gate");
+        }
+        self.written.push(rec.clone());
         Ok(())
     }
     fn flush(&mut self) -> Result<(), Self::Error> {
@@ -157,30 +253,79 @@ impl LogSink for SlowSink {
     }
 }
 
+/// The run log's writer stalls mid-cut: the loop keeps every record, holds the feed once the
+/// writer is `log_buffer` records behind, and writes every row once the writer is back.
 #[test]
-fn a_slow_logger_never_blocks_control() {
+fn a_stalled_log_writer_holds_the_feed_and_loses_no_row() {
+    const BUFFER: usize = 40;
+    const PERIODS: u64 = 120;
     let mut board = LiveBoard(ScriptedBoard::new(), Vec::new());
     let mut ctl = control();
-    let mut sink = SlowSink(0);
+    let (mut sink, gate) = GatedSink::shut();
     let stop = AtomicBool::new(false);
     let opts = RunOptions {
-        max_periods: Some(300),
-        log_queue: 4,
+        max_periods: Some(PERIODS),
+        log_buffer: BUFFER,
         ..RunOptions::new(Duration::from_millis(100))
     };
-    let s = run(
+    // The disk comes back only once the last period has been decided: every period of the
+    // run is decided with the writer stalled (the final hand-over then waits on it).
+    struct OpenAtTheEnd(Arc<(Mutex<bool>, Condvar)>);
+    impl acc_runtime::PeriodObserver for OpenAtTheEnd {
+        fn period(&mut self, rec: &mut RunRecord) -> acc_runtime::Verdict {
+            if rec.period + 1 == PERIODS {
+                open_gate(&self.0);
+            }
+            acc_runtime::Verdict::Continue
+        }
+    }
+    let mut opener = OpenAtTheEnd(gate);
+    let hooks = acc_runtime::Hooks {
+        reopen: None,
+        observer: Some(&mut opener),
+    };
+    let s = acc_runtime::drive(
         &mut board,
         &mut ctl,
         ManualClock::new(),
         &mut sink,
         &stop,
         opts,
+        hooks,
     )
     .expect("runs");
-    assert_eq!(s.periods, 300, "control ran every period");
-    assert!(s.log_dropped > 0, "full queue counted");
-    assert_eq!(s.logged + s.log_dropped, 300);
-    assert_eq!(sink.0, s.logged, "everything queued was written");
+    assert_eq!(s.periods, PERIODS, "control ran every period");
+    assert_eq!(s.log_dropped, 0, "no record lost");
+    assert_eq!(s.logged, PERIODS);
+    let rows = &sink.written;
+    assert_eq!(rows.len() as u64, PERIODS, "every row written, late");
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r.period, k as u64, "in order");
+    }
+    // Stalled once the writer was more than the buffer behind (one record is in the
+    // writer's hands, the queue and the backlog hold the buffer).
+    let first = rows
+        .iter()
+        .position(|r| r.has_flag("log_stalled"))
+        .expect("the stall is flagged");
+    assert!(
+        (BUFFER..=BUFFER + 2).contains(&first),
+        "stalled from period {first}"
+    );
+    assert!(rows[first..].iter().all(|r| r.has_flag("log_stalled")));
+    assert_eq!(s.log_stalled_periods, PERIODS - first as u64);
+    assert!(s.log_backlog_max >= BUFFER as u64);
+    // The loop was cutting under ACC; the stall releases with a feed hold, latched.
+    assert_eq!(rows[first - 1].state, "active", "{:?}", rows[first - 1]);
+    assert!(!rows[first - 1].feed_hold);
+    assert!(rows[first].feed_hold, "{:?}", rows[first]);
+    assert_eq!(
+        rows[first].state, "log_stalled",
+        "latched: {:?}",
+        rows[first]
+    );
+    assert!(rows[first..].iter().all(|r| r.feed_hold));
+    assert!(s.shutdown_feed_hold || s.final_state != acc_runtime::AccState::Active);
 }
 
 /// The same loop drives the CAN board (acc-pmc's CanBoard over its in-memory bus emulator).

@@ -167,11 +167,11 @@ impl<R: Read> std::fmt::Debug for SampleStream<R> {
     }
 }
 
-impl SampleStream<Box<dyn BufRead>> {
+impl SampleStream<Box<dyn BufRead + Send>> {
     /// Open a file, or standard input for `-`.
     pub fn open(path: &Path, format: SampleFormat) -> Result<Self, StreamError> {
-        let reader: Box<dyn BufRead> = if path.as_os_str() == "-" {
-            Box::new(std::io::stdin().lock())
+        let reader: Box<dyn BufRead + Send> = if path.as_os_str() == "-" {
+            Box::new(BufReader::new(std::io::stdin()))
         } else {
             let f = File::open(path).map_err(|e| StreamError::Open {
                 path: path.to_path_buf(),
@@ -399,7 +399,7 @@ impl<R: Read> StreamForceSource<R> {
     }
 }
 
-impl<R: Read> ForceSource for StreamForceSource<R> {
+impl<R: Read + Send> ForceSource for StreamForceSource<R> {
     fn name(&self) -> &str {
         "spindle-stream"
     }

@@ -301,7 +301,7 @@ impl embedded_can::blocking::Can for CanBoardEmulator {
         match self.rx.pop_front() {
             Some(f) => Ok(f),
             None => {
-                std::thread::sleep(self.idle);
+                self.clock.sleep_until(self.clock.now() + self.idle);
                 Err(MemBusError::Timeout)
             }
         }

@@ -32,7 +32,9 @@
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::sync::{Arc, Mutex, PoisonError};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use crate::clock::{Clock, SystemClock};
 
 /// One fault applied to one reply.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -119,9 +121,11 @@ pub struct FaultyStream<T> {
     faults: FaultInjector,
     active: Active,
     /// Bytes on the line are held back until then (a late reply is late for everyone).
-    hold_until: Option<Instant>,
+    hold_until: Option<Duration>,
     writing: bool,
     idle_slice: Duration,
+    /// The hold and the idle waits pass on this clock (default: the system clock).
+    clock: Arc<dyn Clock>,
 }
 
 impl<T: Read + Write> FaultyStream<T> {
@@ -136,7 +140,14 @@ impl<T: Read + Write> FaultyStream<T> {
             hold_until: None,
             writing: false,
             idle_slice,
+            clock: Arc::new(SystemClock::new()),
         }
+    }
+
+    /// Hold replies and idle on `clock` (default: the system clock).
+    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
+        self.clock = clock;
+        self
     }
 
     /// The injector feeding this stream.
@@ -150,7 +161,8 @@ impl<T: Read + Write> FaultyStream<T> {
     }
 
     fn idle(&self, wait: Duration) -> std::io::Error {
-        std::thread::sleep(wait.min(self.idle_slice));
+        self.clock
+            .sleep_until(self.clock.now() + wait.min(self.idle_slice));
         std::io::Error::new(
             std::io::ErrorKind::TimedOut,
             "fault injection: reply held back",
@@ -168,7 +180,7 @@ impl<T: Read + Write> Write for FaultyStream<T> {
                 Some(Fault::CorruptCrc) => Active::Corrupt { seen: 0 },
                 Some(Fault::DropReply) => Active::Drop,
                 Some(Fault::DelayReply(d)) => {
-                    self.hold_until = Some(Instant::now() + d);
+                    self.hold_until = Some(self.clock.now() + d);
                     Active::None
                 }
                 Some(Fault::Garbage(bytes)) => Active::Garbage { bytes, sent: 0 },
@@ -186,7 +198,7 @@ impl<T: Read + Write> Read for FaultyStream<T> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         self.writing = false;
         if let Some(until) = self.hold_until {
-            let now = Instant::now();
+            let now = self.clock.now();
             if now < until {
                 return Err(self.idle(until - now));
             }

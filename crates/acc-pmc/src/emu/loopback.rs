@@ -22,7 +22,7 @@ use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serialport::{SerialPort, TTYPort};
 
@@ -168,7 +168,9 @@ impl Drop for PtyBoard {
 pub struct Paced<T> {
     inner: T,
     byte_time: Duration,
-    busy_until: Instant,
+    /// The line is busy until then (time on `clock`).
+    busy_until: Duration,
+    clock: Arc<dyn Clock>,
 }
 
 impl<T> Paced<T> {
@@ -179,8 +181,15 @@ impl<T> Paced<T> {
         Self {
             inner,
             byte_time,
-            busy_until: Instant::now(),
+            busy_until: Duration::ZERO,
+            clock: Arc::new(SystemClock::new()),
         }
+    }
+
+    /// The wire time passes on `clock` (default: the system clock).
+    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
+        self.clock = clock;
+        self
     }
 
     /// Time one character takes on the wire.
@@ -193,9 +202,9 @@ impl<T: Write> Write for Paced<T> {
     /// Wait the wire time of `buf`, then deliver it whole (the receiver sees the last
     /// byte when a UART would have shifted it out).
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let start = self.busy_until.max(Instant::now());
+        let start = self.busy_until.max(self.clock.now());
         self.busy_until = start + self.byte_time * u32::try_from(buf.len()).unwrap_or(u32::MAX);
-        std::thread::sleep(self.busy_until.saturating_duration_since(Instant::now()));
+        self.clock.sleep_until(self.busy_until);
         self.inner.write_all(buf)?;
         Ok(buf.len())
     }

@@ -138,6 +138,11 @@ impl<P: Read + Write> RtuServer<P> {
         &mut self.port
     }
 
+    /// Wait `d` on the server's clock.
+    fn pause(&self, d: std::time::Duration) {
+        self.clock.sleep_until(self.clock.now() + d);
+    }
+
     fn now_ms(&self) -> u64 {
         u64::try_from(self.clock.now().as_millis()).unwrap_or(u64::MAX)
     }
@@ -196,7 +201,7 @@ impl<P: Read + Write> RtuServer<P> {
                 "board server: read failed ({e}); retrying every {READ_ERROR_PAUSE_MS} ms"
             );
         }
-        std::thread::sleep(std::time::Duration::from_millis(READ_ERROR_PAUSE_MS));
+        self.pause(std::time::Duration::from_millis(READ_ERROR_PAUSE_MS));
     }
 
     /// Answer all complete frames at the head of the buffer.
@@ -352,7 +357,7 @@ impl<P: Read + Write> RtuServer<P> {
                     *b ^= 0x01;
                 }
             }
-            Some(Fault::DelayReply(d)) => std::thread::sleep(d),
+            Some(Fault::DelayReply(d)) => self.pause(d),
             Some(Fault::Garbage(g)) => garbage = Some(g),
             None => {}
         }

@@ -1,25 +1,34 @@
 //! Injected time, the one clock of the workspace: a [`Clock`] trait with a [`SystemClock`]
-//! (monotonic, real sleeps) and a [`ManualClock`] (per instance, advanced by the caller or
-//! jumped to a deadline). Re-exported by `acc-runtime` as `acc_runtime::{Clock, ManualClock,
+//! (monotonic, real sleeps), a [`ScaledClock`] (machine time on a faster wall clock) and a
+//! [`ManualClock`] (the stepped clock: per instance, advanced by the caller or jumped to a
+//! deadline). Re-exported as `acc_pmc::clock` and `acc_runtime::{Clock, ManualClock,
 //! SystemClock}`.
 //!
-//! Users: the runtime's ticker and loop; the links' deadlines ([`crate::rtu::RtuBoard`],
-//! [`crate::can::CanBoard`]); the emulator's watchdog time. Nothing calls `Instant::now()` or
-//! `sleep` outside [`SystemClock`], so a simulation on a [`ManualClock`] runs as fast as the
-//! CPU allows and is deterministic (copper-rs habit: the mock clock is handed out per
-//! instance, never a global).
+//! Users: the runtime's period driver and ticker; the links' deadlines (`acc_pmc`'s RTU and
+//! CAN boards); the board emulators' watchdog time and tickers; the simulated machine behind
+//! `acc sim` and `acc board-sim`. Nothing outside this module calls `Instant::now()` or
+//! `sleep` (clippy's `disallowed-methods`, `clippy.toml`, enforces it; the telemetry servers
+//! and the fault harness are the documented exceptions), so a simulation on a
+//! [`ManualClock`] runs as fast as the CPU allows and is deterministic (copper-rs habit: the
+//! mock clock is handed out per instance, never a global).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// A monotonic time source that can block until an absolute deadline.
-pub trait Clock: Send + Sync {
+pub trait Clock: Send + Sync + std::fmt::Debug {
     /// Time elapsed since this clock's origin (monotonic, never goes back).
     fn now(&self) -> Duration;
     /// Block until `now() >= deadline` (absolute, since the clock's origin). Returns at once
     /// if the deadline has passed. A manual clock jumps to the deadline instead of waiting.
     fn sleep_until(&self, deadline: Duration);
+    /// Time moves only when the owner steps it ([`ManualClock`]): a wait for another thread
+    /// costs no clock time, so the period driver waits on it without a wall-time bound
+    /// while the period still has clock time left (default `false`).
+    fn is_stepped(&self) -> bool {
+        false
+    }
 }
 
 impl<C: Clock + ?Sized> Clock for &C {
@@ -29,6 +38,9 @@ impl<C: Clock + ?Sized> Clock for &C {
     fn sleep_until(&self, deadline: Duration) {
         (**self).sleep_until(deadline)
     }
+    fn is_stepped(&self) -> bool {
+        (**self).is_stepped()
+    }
 }
 
 impl<C: Clock + ?Sized> Clock for Arc<C> {
@@ -37,6 +49,9 @@ impl<C: Clock + ?Sized> Clock for Arc<C> {
     }
     fn sleep_until(&self, deadline: Duration) {
         (**self).sleep_until(deadline)
+    }
+    fn is_stepped(&self) -> bool {
+        (**self).is_stepped()
     }
 }
 
@@ -100,7 +115,7 @@ impl Clock for SystemClock {
 /// `WATCHDOG_MS` = 500 means 500 ms of machine time, as on the real machine.
 ///
 /// ```
-/// use acc_pmc::clock::{Clock, ManualClock, ScaledClock};
+/// use acc_core::clock::{Clock, ManualClock, ScaledClock};
 /// use std::time::Duration;
 /// let wall = ManualClock::new();
 /// let machine = ScaledClock::new(wall.clone(), 10.0).unwrap();
@@ -131,6 +146,10 @@ impl<C: Clock> Clock for ScaledClock<C> {
     fn sleep_until(&self, deadline: Duration) {
         self.inner.sleep_until(deadline.div_f64(self.scale));
     }
+
+    fn is_stepped(&self) -> bool {
+        self.inner.is_stepped()
+    }
 }
 
 /// A manual clock: time moves only when the owner advances it, or when a sleeper asks for a
@@ -138,7 +157,7 @@ impl<C: Clock> Clock for ScaledClock<C> {
 /// `ManualClock::new()` instances are independent.
 ///
 /// ```
-/// use acc_pmc::clock::{Clock, ManualClock};
+/// use acc_core::clock::{Clock, ManualClock};
 /// use std::time::Duration;
 /// let clock = ManualClock::new();
 /// let other = ManualClock::new();
@@ -180,6 +199,10 @@ impl Clock for ManualClock {
 
     fn sleep_until(&self, deadline: Duration) {
         self.set(deadline);
+    }
+
+    fn is_stepped(&self) -> bool {
+        true
     }
 }
 
