@@ -1,4 +1,4 @@
-//! What-if on a recorded cut (`acc_sim::whatif`, `acc replay`): the production loop with
+//! What-if on a recorded cut (`acc_sim::whatif`, `acc what-if`): the production loop with
 //! a preset, closed loop on the twin whose engagement comes from a run log.
 //!
 //! Figures (interrupted-cut scenario, case III, recorded by `acc sim interrupted`): the
@@ -24,7 +24,7 @@ fn interrupted() -> Scenario {
     Scenario::load(configs_dir().join("scenarios/interrupted.toml")).expect("scenario")
 }
 
-/// The recorded run, through the CSV run log and back (as `acc replay` reads it).
+/// The recorded run, through the CSV run log and back (as `acc what-if` reads it).
 fn recorded(sc: &Scenario) -> Vec<RunRecord> {
     let (r, _) = sc.run_law(LawKind::Ours).expect("run");
     let mut buf = Vec::new();
@@ -146,10 +146,11 @@ fn a_log_without_plant_truth_names_the_column_and_row() {
     assert!(msg.contains("x_true_mm") && msg.contains("row 8"), "{msg}");
 }
 
-/// `acc replay` end to end: a log written by `acc sim`, a gentler preset file; the table,
-/// the what-if log and the overlay plot; and a bad preset named with its key.
+/// `acc what-if` end to end: a log written by `acc sim`, a gentler preset file; the table,
+/// the what-if log and the overlay plot; a bad preset named with its key; and the
+/// deprecated name `acc replay` doing the same as `acc what-if`.
 #[test]
-fn acc_replay_cli() {
+fn acc_what_if_cli() {
     let dir = tempfile::tempdir().expect("tmp");
     let root = e2e_support::root();
     let acc = e2e_support::acc_bin();
@@ -176,7 +177,7 @@ fn acc_replay_cli() {
     std::fs::write(&gentle, preset).expect("write");
     let out = dir.path().join("wi");
     let (ok, stdout, err) = run(&[
-        "replay",
+        "what-if",
         "--log",
         log.to_str().expect("utf8"),
         "--scenario",
@@ -193,7 +194,7 @@ fn acc_replay_cli() {
         stdout.contains("| peak force [N] |") && stdout.contains("| 800.0 | 640.0 |"),
         "{stdout}"
     );
-    for f in ["whatif.csv", "replay.md", "replay.svg", "replay.png"] {
+    for f in ["whatif.csv", "whatif.md", "whatif.svg", "whatif.png"] {
         assert!(out.join(f).is_file(), "{f}");
     }
     let wi = read_run_log(std::fs::File::open(out.join("whatif.csv")).expect("csv")).expect("log");
@@ -208,7 +209,7 @@ fn acc_replay_cli() {
     )
     .expect("write");
     let (ok, _, err) = run(&[
-        "replay",
+        "what-if",
         "--log",
         log.to_str().expect("utf8"),
         "--scenario",
@@ -250,7 +251,7 @@ fn acc_replay_cli() {
     let prod_log = dir.path().join("prod.csv");
     std::fs::write(&prod_log, prod).expect("write");
     let (ok, _, err) = run(&[
-        "replay",
+        "what-if",
         "--log",
         prod_log.to_str().expect("utf8"),
         "--scenario",
@@ -266,18 +267,31 @@ fn acc_replay_cli() {
             && err.contains("--workpiece"),
         "{err}"
     );
-    // With the workpiece it runs.
-    let (ok, stdout, err) = run(&[
-        "replay",
-        "--log",
-        prod_log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        gentle.to_str().expect("utf8"),
-        "--workpiece",
-        "configs/workpieces/interrupted.toml",
-    ]);
-    assert!(ok, "{err}");
-    assert!(stdout.contains("workpiece"), "{stdout}");
+    // With the workpiece it runs, under the new name and the deprecated one alike.
+    let with_workpiece = |name: &str| {
+        let (ok, stdout, err) = run(&[
+            name,
+            "--log",
+            prod_log.to_str().expect("utf8"),
+            "--scenario",
+            "interrupted",
+            "--preset",
+            gentle.to_str().expect("utf8"),
+            "--workpiece",
+            "configs/workpieces/interrupted.toml",
+        ]);
+        assert!(ok, "{name}: {err}");
+        assert!(stdout.contains("workpiece"), "{name}: {stdout}");
+        stdout
+    };
+    assert_eq!(with_workpiece("what-if"), with_workpiece("replay"));
+    // The help names the old name as deprecated, under either name.
+    for name in ["what-if", "replay"] {
+        let (ok, stdout, err) = run(&[name, "--help"]);
+        assert!(ok, "{name}: {err}");
+        assert!(
+            stdout.contains("`acc replay`") && stdout.contains("deprecated"),
+            "{name}: {stdout}"
+        );
+    }
 }
