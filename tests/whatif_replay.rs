@@ -166,6 +166,20 @@ fn acc_what_if_cli() {
             String::from_utf8_lossy(&o.stderr).into_owned(),
         )
     };
+    // `acc <name> --log LOG --scenario interrupted --preset PRESET <extra>`.
+    let what_if = |name: &str, log: &std::path::Path, preset: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            name,
+            "--log",
+            log.to_str().expect("utf8"),
+            "--scenario",
+            "interrupted",
+            "--preset",
+            preset.to_str().expect("utf8"),
+        ];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
     let rec = dir.path().join("rec");
     let (ok, _, err) = run(&["sim", "interrupted", "--out", rec.to_str().expect("utf8")]);
     assert!(ok, "{err}");
@@ -176,19 +190,12 @@ fn acc_what_if_cli() {
     let gentle = dir.path().join("gentle.toml");
     std::fs::write(&gentle, preset).expect("write");
     let out = dir.path().join("wi");
-    let (ok, stdout, err) = run(&[
+    let (ok, stdout, err) = what_if(
         "what-if",
-        "--log",
-        log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        gentle.to_str().expect("utf8"),
-        "--tools",
-        "none",
-        "--out",
-        out.to_str().expect("utf8"),
-    ]);
+        &log,
+        &gentle,
+        &["--tools", "none", "--out", out.to_str().expect("utf8")],
+    );
     assert!(ok, "{err}");
     assert!(
         stdout.contains("| peak force [N] |") && stdout.contains("| 800.0 | 640.0 |"),
@@ -208,15 +215,7 @@ fn acc_what_if_cli() {
             .replace("force_ref_n = 640.0", "force_ref_n = -1.0"),
     )
     .expect("write");
-    let (ok, _, err) = run(&[
-        "what-if",
-        "--log",
-        log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        bad.to_str().expect("utf8"),
-    ]);
+    let (ok, _, err) = what_if("what-if", &log, &bad, &[]);
     assert!(!ok);
     assert!(
         err.contains("bad.toml") && err.contains("force_ref_n"),
@@ -250,15 +249,7 @@ fn acc_what_if_cli() {
     }
     let prod_log = dir.path().join("prod.csv");
     std::fs::write(&prod_log, prod).expect("write");
-    let (ok, _, err) = run(&[
-        "what-if",
-        "--log",
-        prod_log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        gentle.to_str().expect("utf8"),
-    ]);
+    let (ok, _, err) = what_if("what-if", &prod_log, &gentle, &[]);
     assert!(!ok);
     assert!(
         err.contains("prod.csv")
@@ -269,17 +260,12 @@ fn acc_what_if_cli() {
     );
     // With the workpiece it runs, under the new name and the deprecated one alike.
     let with_workpiece = |name: &str| {
-        let (ok, stdout, err) = run(&[
+        let (ok, stdout, err) = what_if(
             name,
-            "--log",
-            prod_log.to_str().expect("utf8"),
-            "--scenario",
-            "interrupted",
-            "--preset",
-            gentle.to_str().expect("utf8"),
-            "--workpiece",
-            "configs/workpieces/interrupted.toml",
-        ]);
+            &prod_log,
+            &gentle,
+            &["--workpiece", "configs/workpieces/interrupted.toml"],
+        );
         assert!(ok, "{name}: {err}");
         assert!(stdout.contains("workpiece"), "{name}: {stdout}");
         stdout

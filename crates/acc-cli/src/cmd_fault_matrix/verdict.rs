@@ -377,17 +377,20 @@ mod tests {
         }
     }
 
-    fn logs<'a>(m: &'a [RunRecord], r: &'a [RunRecord]) -> Logs<'a> {
-        Logs {
+    /// `kill -9` at t = 1 s on a board of `protocol`, judged from machine rows `m` and
+    /// `acc run` rows `r` (no hostile line).
+    fn judge_sigkill(protocol: u8, m: &[RunRecord], r: &[RunRecord]) -> Row {
+        let sigkill = FAULTS.iter().find(|f| f.name == "sigkill").expect("row");
+        let logs = Logs {
             machine: m,
             run: r,
             line: None,
-        }
+        };
+        judge(sigkill, protocol, Some(1.0), logs, "killed".into(), &args())
     }
 
     #[test]
     fn a_raised_override_or_force_fails_and_a_held_feed_does_not_count() {
-        let sigkill = FAULTS.iter().find(|f| f.name == "sigkill").expect("row");
         let run: Vec<RunRecord> = (0..5)
             .map(|i| row(0.1 * i as f64, "active", 80, 0.0, false, i))
             .collect();
@@ -398,14 +401,7 @@ mod tests {
             row(1.1, "operator", 100, 700.0, true, 11),
             row(1.2, "operator", 100, 0.0, true, 12),
         ];
-        let r = judge(
-            sigkill,
-            2,
-            Some(1.0),
-            logs(&m, &run),
-            "killed".into(),
-            &args(),
-        );
+        let r = judge_sigkill(2, &m, &run);
         assert!(r.ok && r.verdict == "pass", "{r:?}");
         assert_eq!((r.last_cmd_pct, r.max_applied_after_pct), (Some(80), None));
         // The knob's 100 % with the feed moving: a failure on v2, marked on v1.
@@ -413,36 +409,15 @@ mod tests {
             row(1.0, "acc_active", 80, 800.0, false, 10),
             row(1.1, "operator", 100, 900.0, false, 11),
         ];
-        let r = judge(
-            sigkill,
-            2,
-            Some(1.0),
-            logs(&m2, &run),
-            "killed".into(),
-            &args(),
-        );
+        let r = judge_sigkill(2, &m2, &run);
         assert!(!r.ok && r.verdict.starts_with("FAIL"), "{r:?}");
         assert!(r.verdict.contains("80 → 100") && r.verdict.contains("800 → 900"));
-        let r = judge(
-            sigkill,
-            1,
-            Some(1.0),
-            logs(&m2, &run),
-            "killed".into(),
-            &args(),
-        );
+        let r = judge_sigkill(1, &m2, &run);
         assert!(r.ok && r.verdict.starts_with("unsafe on v1"), "{r:?}");
         // A gap in acc run's periods fails the log check.
         let mut gappy = run.clone();
         gappy.remove(2);
-        let r = judge(
-            sigkill,
-            2,
-            Some(1.0),
-            logs(&m, &gappy),
-            "killed".into(),
-            &args(),
-        );
+        let r = judge_sigkill(2, &m, &gappy);
         assert!(!r.ok && r.verdict.contains("misses periods"), "{r:?}");
     }
 
