@@ -1,4 +1,4 @@
-//! What-if on a recorded cut (`acc_sim::whatif`, `acc replay`): the production loop with
+//! What-if on a recorded cut (`acc_sim::whatif`, `acc what-if`): the production loop with
 //! a preset, closed loop on the twin whose engagement comes from a run log.
 //!
 //! Figures (interrupted-cut scenario, case III, recorded by `acc sim interrupted`): the
@@ -24,7 +24,7 @@ fn interrupted() -> Scenario {
     Scenario::load(configs_dir().join("scenarios/interrupted.toml")).expect("scenario")
 }
 
-/// The recorded run, through the CSV run log and back (as `acc replay` reads it).
+/// The recorded run, through the CSV run log and back (as `acc what-if` reads it).
 fn recorded(sc: &Scenario) -> Vec<RunRecord> {
     let (r, _) = sc.run_law(LawKind::Ours).expect("run");
     let mut buf = Vec::new();
@@ -146,10 +146,11 @@ fn a_log_without_plant_truth_names_the_column_and_row() {
     assert!(msg.contains("x_true_mm") && msg.contains("row 8"), "{msg}");
 }
 
-/// `acc replay` end to end: a log written by `acc sim`, a gentler preset file; the table,
-/// the what-if log and the overlay plot; and a bad preset named with its key.
+/// `acc what-if` end to end: a log written by `acc sim`, a gentler preset file; the table,
+/// the what-if log and the overlay plot; a bad preset named with its key; and the
+/// deprecated name `acc replay` doing the same as `acc what-if`.
 #[test]
-fn acc_replay_cli() {
+fn acc_what_if_cli() {
     let dir = tempfile::tempdir().expect("tmp");
     let root = e2e_support::root();
     let acc = e2e_support::acc_bin();
@@ -165,6 +166,20 @@ fn acc_replay_cli() {
             String::from_utf8_lossy(&o.stderr).into_owned(),
         )
     };
+    // `acc <name> --log LOG --scenario interrupted --preset PRESET <extra>`.
+    let what_if = |name: &str, log: &std::path::Path, preset: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            name,
+            "--log",
+            log.to_str().expect("utf8"),
+            "--scenario",
+            "interrupted",
+            "--preset",
+            preset.to_str().expect("utf8"),
+        ];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
     let rec = dir.path().join("rec");
     let (ok, _, err) = run(&["sim", "interrupted", "--out", rec.to_str().expect("utf8")]);
     assert!(ok, "{err}");
@@ -175,25 +190,18 @@ fn acc_replay_cli() {
     let gentle = dir.path().join("gentle.toml");
     std::fs::write(&gentle, preset).expect("write");
     let out = dir.path().join("wi");
-    let (ok, stdout, err) = run(&[
-        "replay",
-        "--log",
-        log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        gentle.to_str().expect("utf8"),
-        "--tools",
-        "none",
-        "--out",
-        out.to_str().expect("utf8"),
-    ]);
+    let (ok, stdout, err) = what_if(
+        "what-if",
+        &log,
+        &gentle,
+        &["--tools", "none", "--out", out.to_str().expect("utf8")],
+    );
     assert!(ok, "{err}");
     assert!(
         stdout.contains("| peak force [N] |") && stdout.contains("| 800.0 | 640.0 |"),
         "{stdout}"
     );
-    for f in ["whatif.csv", "replay.md", "replay.svg", "replay.png"] {
+    for f in ["whatif.csv", "whatif.md", "whatif.svg", "whatif.png"] {
         assert!(out.join(f).is_file(), "{f}");
     }
     let wi = read_run_log(std::fs::File::open(out.join("whatif.csv")).expect("csv")).expect("log");
@@ -207,15 +215,7 @@ fn acc_replay_cli() {
             .replace("force_ref_n = 640.0", "force_ref_n = -1.0"),
     )
     .expect("write");
-    let (ok, _, err) = run(&[
-        "replay",
-        "--log",
-        log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        bad.to_str().expect("utf8"),
-    ]);
+    let (ok, _, err) = what_if("what-if", &log, &bad, &[]);
     assert!(!ok);
     assert!(
         err.contains("bad.toml") && err.contains("force_ref_n"),
@@ -249,15 +249,7 @@ fn acc_replay_cli() {
     }
     let prod_log = dir.path().join("prod.csv");
     std::fs::write(&prod_log, prod).expect("write");
-    let (ok, _, err) = run(&[
-        "replay",
-        "--log",
-        prod_log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        gentle.to_str().expect("utf8"),
-    ]);
+    let (ok, _, err) = what_if("what-if", &prod_log, &gentle, &[]);
     assert!(!ok);
     assert!(
         err.contains("prod.csv")
@@ -266,18 +258,26 @@ fn acc_replay_cli() {
             && err.contains("--workpiece"),
         "{err}"
     );
-    // With the workpiece it runs.
-    let (ok, stdout, err) = run(&[
-        "replay",
-        "--log",
-        prod_log.to_str().expect("utf8"),
-        "--scenario",
-        "interrupted",
-        "--preset",
-        gentle.to_str().expect("utf8"),
-        "--workpiece",
-        "configs/workpieces/interrupted.toml",
-    ]);
-    assert!(ok, "{err}");
-    assert!(stdout.contains("workpiece"), "{stdout}");
+    // With the workpiece it runs, under the new name and the deprecated one alike.
+    let with_workpiece = |name: &str| {
+        let (ok, stdout, err) = what_if(
+            name,
+            &prod_log,
+            &gentle,
+            &["--workpiece", "configs/workpieces/interrupted.toml"],
+        );
+        assert!(ok, "{name}: {err}");
+        assert!(stdout.contains("workpiece"), "{name}: {stdout}");
+        stdout
+    };
+    assert_eq!(with_workpiece("what-if"), with_workpiece("replay"));
+    // The help names the old name as deprecated, under either name.
+    for name in ["what-if", "replay"] {
+        let (ok, stdout, err) = run(&[name, "--help"]);
+        assert!(ok, "{name}: {err}");
+        assert!(
+            stdout.contains("`acc replay`") && stdout.contains("deprecated"),
+            "{name}: {stdout}"
+        );
+    }
 }

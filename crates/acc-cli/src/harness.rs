@@ -8,7 +8,7 @@
 use std::collections::HashMap;
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -312,6 +312,64 @@ impl ProxyStats {
     }
 }
 
+/// The files the man in the middle writes into a folder: its counters
+/// (`proxy-stats.json`), its alterations (`proxy-events.jsonl`) and the status reads it
+/// handed over (`proxy-reads.jsonl`).
+#[derive(Debug, Clone)]
+pub struct ProxyFiles {
+    /// The counters (`--stats`).
+    pub stats: PathBuf,
+    /// The alterations, one JSON line each (`--events`).
+    pub events: PathBuf,
+    /// The FC04 replies handed to the client, one JSON line each (`--reads`).
+    pub reads: PathBuf,
+}
+
+impl ProxyFiles {
+    /// The three files in `dir`.
+    pub fn in_dir(dir: &Path) -> Self {
+        Self {
+            stats: dir.join("proxy-stats.json"),
+            events: dir.join("proxy-events.jsonl"),
+            reads: dir.join("proxy-reads.jsonl"),
+        }
+    }
+
+    /// The proxy's options that name them: `--stats … --events … --reads …`.
+    pub fn args(&self) -> Vec<String> {
+        let path = |p: &PathBuf| p.to_string_lossy().into_owned();
+        vec![
+            "--stats".into(),
+            path(&self.stats),
+            "--events".into(),
+            path(&self.events),
+            "--reads".into(),
+            path(&self.reads),
+        ]
+    }
+
+    /// What the proxy wrote; a file it did not write reads as nothing.
+    pub fn read(&self) -> ProxyLog {
+        ProxyLog {
+            stats: read_proxy_stats(&self.stats).ok(),
+            events: read_json_lines(&self.events).unwrap_or_default(),
+            reads: read_json_lines(&self.reads).unwrap_or_default(),
+        }
+    }
+}
+
+/// What the man in the middle wrote: its counters, its alterations and the status reads it
+/// handed over (see [`ProxyFiles`]).
+#[derive(Debug, Clone, Default)]
+pub struct ProxyLog {
+    /// The counters (`None`: it wrote none).
+    pub stats: Option<ProxyStats>,
+    /// Its alterations of replies.
+    pub events: Vec<ProxyEvent>,
+    /// The FC04 replies it handed over.
+    pub reads: Vec<ProxyRead>,
+}
+
 /// Read a file of JSON lines.
 pub fn read_json_lines<T: serde::de::DeserializeOwned>(path: &Path) -> anyhow::Result<Vec<T>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
@@ -498,6 +556,25 @@ pub fn align_reads(rows: &[RunRecord], reads: &[ProxyRead]) -> Alignment {
 pub const MAX_OFFSET: usize = 8;
 /// Cost of one extra read in [`align_reads`], in disagreeing rows.
 pub const SHIFT_COST: usize = 4;
+
+/// Replace the text between `<!-- {name}:begin -->` and `<!-- {name}:end -->` in `doc`.
+pub fn update_between(doc: &Path, name: &str, table: &str) -> anyhow::Result<()> {
+    let begin = format!("<!-- {name}:begin -->");
+    let end = format!("<!-- {name}:end -->");
+    let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
+    let (Some(b), Some(e)) = (text.find(&begin), text.find(&end)) else {
+        bail!(
+            "{}: no `{begin}` … `{end}` markers to put the table between",
+            doc.display()
+        );
+    };
+    if e < b {
+        bail!("{}: `{end}` comes before `{begin}`", doc.display());
+    }
+    let new = format!("{}{begin}\n{table}{}", &text[..b], &text[e..]);
+    std::fs::write(doc, new).with_context(|| format!("{}", doc.display()))?;
+    Ok(())
+}
 
 #[cfg(test)]
 mod tests {

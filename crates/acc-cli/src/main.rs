@@ -7,12 +7,12 @@ mod cmd_compare;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
-mod cmd_replay;
 mod cmd_report;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_soak;
 mod cmd_stability;
+mod cmd_what_if;
 mod configs;
 mod exit;
 mod harness;
@@ -47,8 +47,10 @@ enum Command {
     Discrepancy(cmd_discrepancy::DiscrepancyArgs),
     /// What-if on a recorded cut: the production loop with another preset (gains, Fr,
     /// override limits, quantizer) closed loop on the twin whose cut geometry comes from
-    /// the run log; recorded and what-if side by side (table, overlay plot).
-    Replay(cmd_replay::ReplayArgs),
+    /// the run log; recorded and what-if side by side (table, overlay plot). `acc replay`
+    /// is a deprecated alias of this command, kept for one release.
+    #[command(alias = "replay")]
+    WhatIf(cmd_what_if::WhatIfArgs),
     /// The production loop against the PMC interface board (Modbus RTU): fault policy,
     /// operator priority, run log (CSV, same schema as `acc sim`). Ctrl-C mid-cut keeps
     /// control until the cut ends (at most `[shutdown] drain_s`), then releases; still
@@ -138,7 +140,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
         Command::Sim(args) => cmd_sim::run_cmd(&args),
         Command::Compare(args) => cmd_compare::run_cmd(&args),
-        Command::Replay(args) => cmd_replay::run_cmd(&args),
+        Command::WhatIf(args) => cmd_what_if::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),

@@ -1,4 +1,4 @@
-//! `acc replay --log run.csv --scenario S --preset other.toml [--out DIR]`: what-if on a
+//! `acc what-if --log run.csv --scenario S --preset other.toml [--out DIR]`: what-if on a
 //! recorded cut. The production loop with the other preset runs closed loop on the twin
 //! (the scenario's machine, tool and measurement) whose cut geometry comes from the log
 //! (`acc_sim::whatif`); the recorded and the what-if run are reported side by side.
@@ -19,9 +19,9 @@ use anyhow::{bail, Context as _};
 
 use crate::cmd_sim::load_scenario;
 
-/// Arguments of `acc replay`.
+/// Arguments of `acc what-if`.
 #[derive(Debug, clap::Args)]
-pub struct ReplayArgs {
+pub struct WhatIfArgs {
     /// The recorded run log (the one schema, docs/runlog.md).
     #[arg(long, value_name = "RUN.CSV")]
     pub log: PathBuf,
@@ -46,8 +46,8 @@ pub struct ReplayArgs {
     /// `[tools]` table, whose per-tool Fr and limits then take precedence over the preset's.
     #[arg(long, value_name = "TOOLTABLE.TOML|none")]
     pub tools: Option<String>,
-    /// Output directory: `whatif.csv` (the what-if run log), `replay.md` (the table),
-    /// `replay.svg/.png` (force and override along the path, recorded and what-if).
+    /// Output directory: `whatif.csv` (the what-if run log), `whatif.md` (the table),
+    /// `whatif.svg/.png` (force and override along the path, recorded and what-if).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
@@ -64,7 +64,7 @@ pub fn read_log(path: &Path) -> anyhow::Result<Vec<RunRecord>> {
 
 /// The twin's geometry for `args`: the workpiece if given, else the log's plant truth.
 pub fn geometry(
-    args: &ReplayArgs,
+    args: &WhatIfArgs,
     sc: &Scenario,
     rows: &[RunRecord],
 ) -> anyhow::Result<CutGeometry> {
@@ -87,8 +87,8 @@ pub fn geometry(
     Ok(CutGeometry::Logged(Arc::new(p)))
 }
 
-/// Run `acc replay`.
-pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
+/// Run `acc what-if`.
+pub fn run_cmd(args: &WhatIfArgs) -> anyhow::Result<()> {
     let mut sc = load_scenario(&args.scenario, None)?;
     let controller = acc_config::load_controller(&args.preset)?;
     match args.tools.as_deref() {
@@ -162,19 +162,19 @@ pub fn run_cmd(args: &ReplayArgs) -> anyhow::Result<()> {
             args.log.display(),
             sc.path.display()
         );
-        std::fs::write(out.join("replay.md"), md)
+        std::fs::write(out.join("whatif.md"), md)
             .with_context(|| format!("{}: cannot write", out.display()))?;
         let w = plot(
             &rows,
             &wi.rows,
             rec_m.force_ref_n,
             wi_m.force_ref_n,
-            &out.join("replay.svg"),
+            &out.join("whatif.svg"),
         )?;
         println!(
             "wrote {}, {}, {} and {}",
             csv.display(),
-            out.join("replay.md").display(),
+            out.join("whatif.md").display(),
             w.svg.display(),
             w.png.display()
         );

@@ -1,0 +1,202 @@
+//! `acc fault-matrix`: every fault of the reliability table, driven at the worst moment of
+//! a real closed loop, on a v2 and on a v1 board, measured on the machine side.
+//!
+//! Each row is one production run: `acc board-sim` (this same binary) serves the simulated
+//! machine of paper case III on a new pty, `acc run` drives it, and the fault hits at
+//! `--at-s` of machine time, deep in the 4 mm step where the override and the force are at
+//! their highest. Board faults are `acc board-sim --fault` schedules; process faults are real
+//! signals sent to the `acc run` process when the board reports the moment. The row is then
+//! judged from the two run logs:
+//!
+//! - **last cmd**: the override ACC last commanded before the fault (the board's
+//!   `OVERRIDE_CMD` in the last period it was `ACC_ACTIVE`);
+//! - **max applied after**: the largest override on the PMC inputs in the window after the
+//!   fault while the feed was not held (in feed hold the axes stand still, whatever the
+//!   override);
+//! - **force before / after**: the largest true cutting force (the simulator's) in the
+//!   `--before-s` before the fault and in the window after it;
+//! - **log complete**: `acc run`'s log has one row for every period from the first to the last
+//!   (`period` consecutive), skipped and faulty ones included;
+//! - **exit**: `acc run`'s exit code (or the signal that ended it).
+//!
+//! Pass: max applied after ≤ last cmd, force after ≤ 1.05 × force before, log complete. A
+//! row no controller can make safe (a v1 board has no fallback clamp) is marked with why;
+//! the NC's own override lock is reported, not judged (the NC ignores the override inputs).
+//!
+//! **Hostile-line rows** (`garbage-*`, `delay-*`): a man in the middle
+//! (`tests/peers/mitm_proxy.py`, an independent Python program) sits on the serial line
+//! between `acc board-sim`'s pty and `acc run`, transparent until the fault moment, when
+//! the harness switches its faults on (SIGUSR1) until the end of the window (SIGUSR2): a
+//! share of the replies corrupted with a VALID CRC (a flipped register bit, another slave
+//! address, an exception, a wrong byte count, a truncated frame, random contents), or every
+//! status read answered with the board's reply of N reads earlier (a buffering gateway).
+//! These rows also pass only if
+//!
+//! - the true force in every period after the fault in which the feed was not held is at
+//!   most 1.05 × the force before (ACC keeps driving through a bad line: every period
+//!   counts, not only the released ones);
+//! - no period after the fault ends in the state `operator_handback` or `switch_off`: the
+//!   proxy never touches the knob or the switch, so such a release is a bad frame taken for
+//!   the operator;
+//! - every status read (FC04) the proxy altered in a way the controller can tell from the
+//!   frame ([`must_be_flagged`](crate::harness::must_be_flagged)) has its period flagged in `acc run`'s log ([`suspicious`](crate::harness::suspicious):
+//!   `link:`, `implausible:`, `unconfirmed:`, `force_invalid`, `echo`, `delay`). The reads
+//!   are matched to the log's rows in order ([`align_reads`](crate::harness::align_reads), checked on the power the
+//!   proxy handed over); if that match is not reliable, the row falls back to counting:
+//!   flagged rows after the fault ≥ altered reads that must be flagged, and says so.
+//!   Delayed replies are not required to be flagged (nothing in one frame shows them).
+
+mod faults;
+mod report;
+mod row;
+mod verdict;
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+
+use faults::{Fault, FAULTS};
+use report::{markdown, update_doc};
+use row::run_row;
+
+/// Arguments of `acc fault-matrix`.
+#[derive(Debug, clap::Args)]
+pub struct FaultMatrixArgs {
+    /// Output directory: `fault-matrix.md` (the table), `fault-matrix.json`, and one folder
+    /// of logs per row.
+    #[arg(long, default_value = "out/fault-matrix")]
+    pub out: PathBuf,
+    /// Replace the table between `<!-- fault-matrix:begin -->` and `<!-- fault-matrix:end -->`
+    /// in this markdown file (e.g. `docs/reliability.md`).
+    #[arg(long)]
+    pub update_doc: Option<PathBuf>,
+    /// Board protocols to test: `2`, `1` or `both`.
+    #[arg(long, default_value = "both")]
+    pub protocol: String,
+    /// Only these faults (repeatable; names as in the table's first column).
+    #[arg(long = "only")]
+    pub only: Vec<String>,
+    /// Scenario served by `acc board-sim`.
+    #[arg(long, default_value = "configs/scenarios/paper_case3.toml")]
+    pub scenario: PathBuf,
+    /// `acc run` configuration (its `runtime.time_scale` must equal `--time-scale`).
+    #[arg(long, default_value = "configs/runtime/fault_matrix.toml")]
+    pub config: PathBuf,
+    /// Machine seconds per wall second for both processes (1 ..= 20).
+    #[arg(long, default_value_t = 5.0)]
+    pub time_scale: f64,
+    /// Machine time of the fault, s (paper case III: the 4 mm step runs from about 31 s to
+    /// 55 s).
+    #[arg(long, default_value_t = 40.0)]
+    pub at_s: f64,
+    /// Window before the fault for the reference force, s of machine time.
+    #[arg(long, default_value_t = 2.0)]
+    pub before_s: f64,
+    /// Window after the fault, s of machine time.
+    #[arg(long, default_value_t = 6.0)]
+    pub after_s: f64,
+    /// Window after the fault of the hostile-line rows (`garbage-*`, `delay-*`), s of machine
+    /// time: long enough for 1 % of the replies to be a handful (paper case III's 4 mm step
+    /// ends at about 55 s).
+    #[arg(long, default_value_t = 12.0)]
+    pub line_after_s: f64,
+    /// The man-in-the-middle proxy of the hostile-line rows (run with `python3`).
+    #[arg(long, default_value = "tests/peers/mitm_proxy.py")]
+    pub proxy: PathBuf,
+    /// Seed of the proxy's corruption.
+    #[arg(long, default_value_t = 1)]
+    pub line_seed: u64,
+}
+
+/// `acc fault-matrix`.
+pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
+    if !(args.time_scale.is_finite() && (1.0..=20.0).contains(&args.time_scale)) {
+        bail!("--time-scale {}: allowed 1 ..= 20", args.time_scale);
+    }
+    let protocols: &[u8] = match args.protocol.as_str() {
+        "both" => &[2, 1],
+        "2" => &[2],
+        "1" => &[1],
+        p => bail!("--protocol {p}: allowed 2, 1 or both"),
+    };
+    for o in &args.only {
+        if !FAULTS.iter().any(|f| f.name == o) {
+            let names: Vec<_> = FAULTS.iter().map(|f| f.name).collect();
+            bail!(
+                "--only {o}: not a fault of the matrix; allowed: {}",
+                names.join(", ")
+            );
+        }
+    }
+    for (flag, v) in [
+        ("--at-s", args.at_s),
+        ("--before-s", args.before_s),
+        ("--after-s", args.after_s),
+        ("--line-after-s", args.line_after_s),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v <= 600.0) {
+            bail!("{flag} {v}: allowed 0 < s <= 600");
+        }
+    }
+    for (what, p) in [("--scenario", &args.scenario), ("--config", &args.config)] {
+        if !p.is_file() {
+            bail!("{what} {}: no such file", p.display());
+        }
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let faults: Vec<&Fault> = FAULTS
+        .iter()
+        .filter(|f| args.only.is_empty() || args.only.iter().any(|o| o == f.name))
+        .collect();
+    let total = faults.len() * protocols.len();
+    let mut rows = Vec::new();
+    let started = Instant::now();
+    for &protocol in protocols {
+        for f in &faults {
+            let dir = args.out.join(format!("v{protocol}-{}", f.name));
+            std::fs::create_dir_all(&dir)?;
+            eprint!(
+                "[{:>2}/{total}] v{protocol} {:<16} ",
+                rows.len() + 1,
+                f.name
+            );
+            std::io::stderr().flush().ok();
+            let row = run_row(args, f, protocol, &dir)
+                .with_context(|| format!("fault-matrix row v{protocol} {}", f.name))?;
+            eprintln!(
+                "{} ({:.0} s elapsed)",
+                row.verdict,
+                started.elapsed().as_secs_f64()
+            );
+            rows.push(row);
+        }
+    }
+    let table = markdown(&rows, args);
+    std::fs::write(args.out.join("fault-matrix.md"), &table)?;
+    std::fs::write(
+        args.out.join("fault-matrix.json"),
+        serde_json::to_string_pretty(&rows)?,
+    )?;
+    println!("{table}");
+    if let Some(doc) = &args.update_doc {
+        update_doc(doc, &table)?;
+        eprintln!("fault-matrix: table written into {}", doc.display());
+    }
+    let failed: Vec<_> = rows.iter().filter(|r| !r.ok).collect();
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} rows failed: {}",
+            failed.len(),
+            rows.len(),
+            failed
+                .iter()
+                .map(|r| format!("v{} {}", r.protocol, r.fault))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
