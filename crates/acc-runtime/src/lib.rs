@@ -26,8 +26,8 @@
 /// and the emulator use it too); re-exported here.
 pub use acc_pmc::clock;
 pub mod config;
-pub mod cuts;
 pub mod control_loop;
+pub mod cuts;
 pub mod echo;
 pub mod guard;
 pub mod history;
@@ -54,7 +54,7 @@ pub use runner::{
     run, run_with_reopen, Drain, Ended, LogSink, OnDeviceLost, Reopen, RunError, RunOptions,
     RunSummary, StopRequest, VecSink,
 };
-pub use shop::{ShopControl, ShopState};
+pub use shop::{ShopControl, ShopDecision, ShopState, ToolChange};
 pub use stats::LatencyStats;
 pub use tap::{Subscriber, Tap, TapSink};
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};
