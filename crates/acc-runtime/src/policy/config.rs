@@ -101,29 +101,15 @@ impl PolicyConfig {
         // Counts of tolerated faults are at least 1: 0 would release on a single CRC error or
         // a single bad sample, and a release mid-cut on a board without the fallback clamp
         // hands the feed back to the operator's (higher) knob.
-        if self.link_hold_periods == 0 || self.link_hold_periods > 1000 {
-            return Err(err(
-                "link_hold_periods",
-                self.link_hold_periods,
-                "1 ..= 1000",
-            ));
-        }
-        if self.invalid_power_periods == 0 || self.invalid_power_periods > 1000 {
-            return Err(err(
-                "invalid_power_periods",
-                self.invalid_power_periods,
-                "1 ..= 1000",
-            ));
-        }
-        if self.stale_seq_periods == 0 || self.stale_seq_periods > 1000 {
-            return Err(err(
-                "stale_seq_periods",
-                self.stale_seq_periods,
-                "1 ..= 1000",
-            ));
-        }
-        if self.ack_periods == 0 || self.ack_periods > 1000 {
-            return Err(err("ack_periods", self.ack_periods, "1 ..= 1000"));
+        for (key, count) in [
+            ("link_hold_periods", self.link_hold_periods),
+            ("invalid_power_periods", self.invalid_power_periods),
+            ("stale_seq_periods", self.stale_seq_periods),
+            ("ack_periods", self.ack_periods),
+        ] {
+            if !(1..=1000).contains(&count) {
+                return Err(err(key, count, "1 ..= 1000"));
+            }
         }
         if !finite_pos(self.overload_force_n) {
             return Err(err("overload_force_n", self.overload_force_n, "> 0"));

@@ -93,81 +93,65 @@ impl WatchLimits {
     /// Check every field; the error names the key (as in a `[watch]` table) and the range.
     pub fn validate(&self) -> Result<(), acc_config::RangeError> {
         use acc_config::RangeError;
-        let fin = |x: f64| x.is_finite();
-        if !(fin(self.wear_warn_pct) && self.wear_warn_pct > 0.0 && self.wear_warn_pct <= 1000.0) {
-            return Err(RangeError::new(
+        let within = |x: f64, lo: f64, hi: f64| x.is_finite() && x > lo && x < hi;
+        let checks = [
+            (
+                within(self.wear_warn_pct, 0.0, f64::INFINITY) && self.wear_warn_pct <= 1000.0,
                 "wear_warn_pct",
-                self.wear_warn_pct.to_string(),
+                self.wear_warn_pct,
                 "0 < x <= 1000",
-            ));
-        }
-        if !(fin(self.wear_limit_pct)
-            && self.wear_limit_pct >= self.wear_warn_pct
-            && self.wear_limit_pct <= 1000.0)
-        {
-            return Err(RangeError::new(
+            ),
+            (
+                self.wear_limit_pct.is_finite()
+                    && self.wear_limit_pct >= self.wear_warn_pct
+                    && self.wear_limit_pct <= 1000.0,
                 "wear_limit_pct",
-                self.wear_limit_pct.to_string(),
+                self.wear_limit_pct,
                 "wear_warn_pct <= x <= 1000",
-            ));
-        }
-        if !(fin(self.breakage_drop_pct)
-            && self.breakage_drop_pct > 0.0
-            && self.breakage_drop_pct < 100.0)
-        {
-            return Err(RangeError::new(
+            ),
+            (
+                within(self.breakage_drop_pct, 0.0, 100.0),
                 "breakage_drop_pct",
-                self.breakage_drop_pct.to_string(),
+                self.breakage_drop_pct,
                 "0 < x < 100",
-            ));
-        }
-        if !(fin(self.breakage_spike_factor)
-            && self.breakage_spike_factor > 1.0
-            && self.breakage_spike_factor <= 100.0)
-        {
-            return Err(RangeError::new(
+            ),
+            (
+                within(self.breakage_spike_factor, 1.0, f64::INFINITY)
+                    && self.breakage_spike_factor <= 100.0,
                 "breakage_spike_factor",
-                self.breakage_spike_factor.to_string(),
+                self.breakage_spike_factor,
                 "1 < x <= 100",
-            ));
-        }
-        if self.breakage_history_periods < 3
-            || self.breakage_history_periods as usize > BreakageDetector::CAPACITY
-        {
-            return Err(RangeError::new(
+            ),
+            (
+                self.breakage_history_periods >= 3
+                    && self.breakage_history_periods as usize <= BreakageDetector::CAPACITY,
                 "breakage_history_periods",
-                self.breakage_history_periods.to_string(),
+                f64::from(self.breakage_history_periods),
                 "3 ..= 32",
-            ));
-        }
-        if !(fin(self.cut_force_fraction)
-            && self.cut_force_fraction > 0.0
-            && self.cut_force_fraction < 1.0)
-        {
-            return Err(RangeError::new(
+            ),
+            (
+                within(self.cut_force_fraction, 0.0, 1.0),
                 "cut_force_fraction",
-                self.cut_force_fraction.to_string(),
+                self.cut_force_fraction,
                 "0 < x < 1",
-            ));
-        }
-        if !(fin(self.steady_band_pct)
-            && self.steady_band_pct > 0.0
-            && self.steady_band_pct <= 100.0)
-        {
-            return Err(RangeError::new(
+            ),
+            (
+                within(self.steady_band_pct, 0.0, f64::INFINITY) && self.steady_band_pct <= 100.0,
                 "steady_band_pct",
-                self.steady_band_pct.to_string(),
+                self.steady_band_pct,
                 "0 < x <= 100",
-            ));
-        }
-        if self.wear_window_periods == 0 || self.wear_window_periods > 10_000 {
-            return Err(RangeError::new(
+            ),
+            (
+                (1..=10_000).contains(&self.wear_window_periods),
                 "wear_window_periods",
-                self.wear_window_periods.to_string(),
+                f64::from(self.wear_window_periods),
                 "1 ..= 10000",
-            ));
+            ),
+        ];
+        match checks.into_iter().find(|c| !c.0) {
+            Some((_, key, value, allowed)) => Err(RangeError::new(key, value, allowed)),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
