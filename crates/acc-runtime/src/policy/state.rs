@@ -50,7 +50,7 @@ impl Release {
     }
 }
 
-/// Why the policy re-armed by itself ([`Event::Rearmed`]).
+/// Why the policy re-armed by itself ([`super::Event::Rearmed`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Rearm {
     /// The board restarted (v2 `BOARD_RESTARTED`, v1 an unexplained `ACC_ACTIVE` drop).
