@@ -212,14 +212,47 @@ impl OverrideSpec {
                 "0 ..= half the board's OVERRIDE_STEP",
             )));
         }
-        let max_pct = self.max_pct - self.max_pct % board_step;
-        let min_pct = self.min_pct.div_ceil(board_step) * board_step;
-        Ok(Self {
-            step_pct: board_step,
+        Ok(self.on_grid(board_step))
+    }
+
+    /// A command range `[min_pct, max_pct]`, percent, on 1 % steps (`max_pct` above 150 is
+    /// taken as 150; no hysteresis, [`Quantizer::Round`]): put it on a board's grid with
+    /// [`OverrideSpec::on_grid`].
+    ///
+    /// ```
+    /// use acc_core::{FeedOverride, OverrideSpec};
+    /// let grid = OverrideSpec::range(5, 200).on_grid(10);
+    /// assert_eq!((grid.step_pct, grid.min_pct, grid.max_pct), (10, 10, 150));
+    /// assert_eq!(grid.floor(67), FeedOverride(60));
+    /// ```
+    pub const fn range(min_pct: u16, max_pct: u16) -> Self {
+        let max_pct = if max_pct > Self::ABSOLUTE_MAX_PCT {
+            Self::ABSOLUTE_MAX_PCT
+        } else {
+            max_pct
+        };
+        Self {
+            step_pct: 1,
+            min_pct,
+            max_pct,
+            hysteresis_pct: 0.0,
+            quantizer: Quantizer::Round,
+        }
+    }
+
+    /// This spec on a grid of `step_pct` percent (0 is taken as 1): `max_pct` floored and
+    /// `min_pct` ceiled onto the grid (never above `max_pct`); hysteresis and quantizer kept
+    /// (check them with [`OverrideSpec::validate`]).
+    pub fn on_grid(self, step_pct: u16) -> Self {
+        let step = step_pct.max(1);
+        let max_pct = self.max_pct - self.max_pct % step;
+        let min_pct = self.min_pct.div_ceil(step) * step;
+        Self {
+            step_pct: step,
             min_pct: min_pct.min(max_pct),
             max_pct,
             ..self
-        })
+        }
     }
 
     /// Check the spec: `step_pct` in 1 ..= 50, `min_pct <= max_pct <= 150`, both limits on
@@ -287,6 +320,44 @@ impl OverrideSpec {
         // `q` is inside [min_pct, max_pct] <= 150, so the cast cannot truncate.
         let q = q.clamp(f64::from(self.min_pct), f64::from(self.max_pct));
         FeedOverride(q as u16)
+    }
+
+    /// The highest position at or below the integer override `pct`, clamped to `[min_pct,
+    /// max_pct]`: the quantizer of a limit or of a guard, which must never raise a command
+    /// (a command below `min_pct` gives `min_pct`). [`OverrideSpec::quantize`] is the
+    /// law's: it rounds a continuous command to the nearest position.
+    ///
+    /// ```
+    /// use acc_core::{FeedOverride, OverrideSpec};
+    /// let spec = OverrideSpec::paper();
+    /// assert_eq!(spec.floor(69), FeedOverride(60));
+    /// assert_eq!(spec.floor(70), FeedOverride(70));
+    /// assert_eq!(spec.floor(400), FeedOverride(150));
+    /// ```
+    pub fn floor(&self, pct: u16) -> FeedOverride {
+        let step = self.step_pct.max(1);
+        let v = pct.min(self.max_pct);
+        FeedOverride((v - v % step).max(self.min_pct).min(self.max_pct))
+    }
+
+    /// The lowest position at or above the integer override `pct`, clamped to `[min_pct,
+    /// max_pct]`: the quantizer of a floor on the command.
+    ///
+    /// ```
+    /// use acc_core::{FeedOverride, OverrideSpec};
+    /// let spec = OverrideSpec::paper();
+    /// assert_eq!(spec.ceil(61), FeedOverride(70));
+    /// assert_eq!(spec.ceil(60), FeedOverride(60));
+    /// assert_eq!(spec.ceil(155), FeedOverride(150));
+    /// ```
+    pub fn ceil(&self, pct: u16) -> FeedOverride {
+        let step = self.step_pct.max(1);
+        let v = pct.min(self.max_pct);
+        FeedOverride(
+            (v.div_ceil(step) * step)
+                .max(self.min_pct)
+                .min(self.max_pct),
+        )
     }
 
     /// [`OverrideSpec::quantize`] with a deadband of `h = hysteresis_pct` around the

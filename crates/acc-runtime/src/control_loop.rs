@@ -14,7 +14,7 @@ use crate::echo::{DelayReading, LoopDelay};
 use crate::guard::{Expected, Guarded, LineGuard};
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
-use crate::shop::{ShopControl, ShopState, ShopStep};
+use crate::shop::{ShopControl, ShopState, ShopStep, ToolChange};
 
 /// The largest `SAMPLE_SEQ` advance logged as `seq_skip:<n>` (ten seconds of samples at
 /// T = 0.1 s; a larger jump is a board restart, not missed samples).
@@ -250,10 +250,6 @@ pub struct ControlLoop<L, F> {
     write_error: Option<BoardErrorKind>,
     path_mm: f64,
     last_feed_mm_min: f64,
-    air_force_n: f64,
-    air_run: u32,
-    /// The tool whose wear and breakage limits the policy runs with (shop layer).
-    watch_tool: Option<u16>,
     shop: Option<ShopControl>,
     guard: LineGuard,
     delay: LoopDelay,
@@ -278,10 +274,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             write_error: None,
             path_mm: 0.0,
             last_feed_mm_min: 0.0,
-            air_force_n: 0.0,
-            air_run: 0,
             shop: None,
-            watch_tool: None,
             log_stalled: false,
         }
     }
@@ -300,17 +293,17 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
 
     /// Count a period as out of the cut when the force sample is valid and below
     /// `air_force_n`, N (default 0: only a fallen `CYCLE_ACTIVE` counts); see
-    /// [`ControlLoop::air_periods`].
+    /// [`ControlLoop::air_periods`] (the policy's drain, [`FaultPolicy::with_air_force_n`]).
     pub fn with_air_force_n(mut self, air_force_n: f64) -> Self {
-        self.air_force_n = air_force_n;
+        self.policy = self.policy.with_air_force_n(air_force_n);
         self
     }
 
     /// Consecutive periods up to now that were out of the cut: the status read and either
     /// `CYCLE_ACTIVE` off or a valid force sample below the air threshold. A shutdown drains
-    /// until this reaches its configured count.
+    /// until this reaches its configured count ([`FaultPolicy::air_periods`]).
     pub fn air_periods(&self) -> u32 {
-        self.air_run
+        self.policy.air_periods()
     }
 
     /// The period, s.
@@ -375,6 +368,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// policy's `nominal_feed_mm_min` when the board reports 0) × `OVERRIDE_APPLIED`, and 0
     /// while `FEED_HOLD_ACTIVE`. The force source, the law and the path integral all use that
     /// one value.
+    ///
+    /// With the shop layer, its [`ToolChange`] event is applied to the law here, before the
+    /// policy steps it (the one place the law's Fr and Kc_hat change from outside the law).
     pub fn decide(&mut self, t_s: f64, read: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
         // Plausibility and confirmation before meaning: the rules see the guarded status.
         let mut expect = Expected {
@@ -444,21 +440,15 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             log_stalled: self.log_stalled,
         };
         if let Some(sh) = self.shop.as_mut() {
-            let lim = sh.before(
+            let decision = sh.before(
                 link.as_ref().ok(),
                 &force,
                 self.policy.last_command(),
-                &mut self.law,
+                self.law.kc_estimate(),
             );
-            self.policy.set_command_limits(lim);
-            // The tool's own wear and breakage limits (tool table) once it is selected.
-            if let Some(tool) = sh.tool().filter(|t| self.watch_tool != Some(*t)) {
-                let t = sh.table().get(tool);
-                let limits = self.policy.watch_limits().with_tool(t);
-                self.policy.set_watch_limits(limits);
-                self.policy
-                    .set_overload(t.overload_n, t.overload_time_s, t.overload_reaction);
-                self.watch_tool = Some(tool);
+            self.policy.set_command_limits(decision.limits);
+            if let Some(change) = decision.tool_change {
+                self.apply_tool_change(change);
             }
         }
         let out = self.policy.step(&input, &mut self.law);
@@ -466,15 +456,6 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             sh.after(out.write_override.map(|o| o.0));
             sh.last()
         });
-        let air = link.is_ok_and(|s| {
-            !s.cycle_active
-                || (force.valid && force.force_n.is_finite() && force.force_n < self.air_force_n)
-        });
-        self.air_run = if air {
-            self.air_run.saturating_add(1)
-        } else {
-            0
-        };
         let mut plan = WritePlan::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
@@ -515,6 +496,23 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// `log_stalled`.
     pub fn set_log_stalled(&mut self, stalled: bool) {
         self.log_stalled = stalled;
+    }
+
+    /// Apply a tool change of the shop layer (also the first tool of the run), before the
+    /// policy steps the law: the one place where the law's Fr and Kc_hat change from
+    /// outside the law (through [`OverrideLaw::set_force_ref_n`] and
+    /// [`OverrideLaw::reset_kc_estimate`], [`ToolChange::apply_to`]), and where the policy
+    /// takes the tool's wear, breakage and overload limits from the tool table. The command
+    /// never rises at once on a change: the shop layer's cap starts at the last command.
+    fn apply_tool_change(&mut self, change: ToolChange) {
+        change.apply_to(&mut self.law);
+        if let Some(sh) = self.shop.as_ref() {
+            let t = sh.table().get(change.tool);
+            let limits = self.policy.watch_limits().with_tool(t);
+            self.policy.set_watch_limits(limits);
+            self.policy
+                .set_overload(t.overload_n, t.overload_time_s, t.overload_reaction);
+        }
     }
 
     /// The link was reopened (a new port or bus after the device vanished): what the board

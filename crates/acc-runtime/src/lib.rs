@@ -3,27 +3,29 @@
 //!
 //! Layers (copper-rs habit: pure algorithm, thin runtime adapter):
 //! - [`config`]: the typed, validated run config of `acc run`;
-//! - [`clock`]: injected time ([`clock::SystemClock`], per-instance [`clock::ManualClock`]),
-//!   re-exported from acc-pmc;
+//! - [`clock`]: injected time ([`clock::SystemClock`], the stepped [`clock::ManualClock`]),
+//!   re-exported from acc-core;
 //! - [`ticker`]: absolute-deadline ticker with overrun counting and jitter statistics;
 //! - [`stats`]: allocation-free latency histogram (p50 / p99 / max);
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`shop`]: the tool table per `TOOL_NUMBER` and entry/exit control (limits on the law's
 //!   command);
-//! - [`cycle`]: one controller cycle against any `Board` (read, decide, write);
-//! - [`record`]: the run log — one [`RunRecord`] per period, schema v2, v1 migration;
+//! - [`control_loop`]: the control loop: one period against any `Board` (read, decide, write);
+//! - [`record`]: the run log — one [`RunRecord`] per period, schema v3, older versions
+//!   migrated;
 //! - [`watch`]: wear and breakage watch (Kc trend, breakage detector the policy steps);
 //! - [`cuts`]: per-cut records from a stream of run-log records;
 //! - [`history`]: the tool history (SQLite) and the watch beside the loop;
-//! - [`runner`]: the threaded loop (link I/O, control, logging) and orderly shutdown;
+//! - [`runner`]: the one period driver ([`drive`]: link I/O, control, logging on three
+//!   threads, on any clock) and orderly shutdown; every record reaches the log;
 //! - [`tap`]: fan-out of every period's record to telemetry subscribers (never blocks);
 //! - [`shutdown`]: the Ctrl-C stop flag and the `tracing` subscriber (env filter, JSON);
 //! - `testing` (feature `testing`, which enables acc-pmc's `emulator`): a scripted board,
 //!   law and force source for tests.
 #![deny(missing_docs)]
 
-/// Injected time: the one [`Clock`] of the workspace lives in acc-pmc (the links' deadlines
-/// and the emulator use it too); re-exported here.
+/// Injected time: the one [`Clock`] of the workspace lives in acc-core (the links'
+/// deadlines, the emulators and the simulator use it too); re-exported here.
 pub use acc_pmc::clock;
 pub mod config;
 pub mod control_loop;
@@ -55,7 +57,7 @@ pub use runner::{
     drive, run, run_with_reopen, Drain, Ended, Hooks, LogSink, OnDeviceLost, PeriodObserver,
     Reopen, RunError, RunOptions, RunSummary, StopRequest, VecSink, Verdict,
 };
-pub use shop::{ShopControl, ShopState};
+pub use shop::{ShopControl, ShopDecision, ShopState, ToolChange};
 pub use stats::LatencyStats;
 pub use tap::{Subscriber, Tap, TapSink};
 pub use ticker::{Tick, Ticker, TickerError, TickerStats};

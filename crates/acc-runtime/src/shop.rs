@@ -1,14 +1,16 @@
 //! The shop layer of the production loop: the tool table chosen by the board's
-//! `TOOL_NUMBER`, and entry/exit control. It never writes the override itself: once per
-//! period, before the fault policy steps the law, it sets [`CommandLimits`] (a cap and a
-//! floor) that the policy applies to the law's command, and it tells the law the tool's
-//! force reference and Kc. Everything it does can only lower the command below what the
-//! law asks, except the tool's minimum override while cutting (the setter's floor).
+//! `TOOL_NUMBER`, and entry/exit control. It never writes the override and never touches
+//! the law: once per period, before the fault policy steps the law, it returns
+//! [`CommandLimits`] (a cap and a floor) that the policy applies to the law's command, and
+//! on a tool change a [`ToolChange`] event that the loop applies to the law
+//! ([`crate::ControlLoop::decide`]). Everything it does can only lower the command below
+//! what the law asks, except the tool's minimum override while cutting (the setter's floor).
 //!
 //! **Tool selection.** Tool = `TOOL_NUMBER` on a v2 board, 0 (`[default]`) on a v1 board or
-//! when the board reports 0. On a change (and at the first status): the law's Fr becomes the
-//! tool's `fr_n`; Kc_hat restarts at the value this tool had when it was last used in this
-//! run, else at the tool's `kc_init`, else it carries over from the previous tool. A change
+//! when the board reports 0. On a change (and at the first status) the event carries the
+//! tool's `fr_n` as the law's new Fr, and the Kc_hat to restart from: the value this tool
+//! had when it was last used in this run, else the tool's `kc_init`, else none (the
+//! estimate carries over from the previous tool). A change
 //! mid-run never raises the override at once: the cap starts at the last command and rises
 //! by at most [`SWITCH_RAMP_PCT_PER_S`] (so the new tool's higher Fr is approached by
 //! regulation, a lower Fr takes effect at once).
@@ -101,6 +103,40 @@ pub struct ShopStep {
     pub limited: bool,
     /// The limits handed to the policy.
     pub limits: CommandLimits,
+}
+
+/// A tool change for the law, from the shop layer to the loop, which applies it in one
+/// place ([`crate::ControlLoop::decide`], through [`OverrideLaw`]) before the policy steps
+/// the law. Also made for the first tool of a run (the first status).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolChange {
+    /// The new tool (0: the `[default]` entry).
+    pub tool: u16,
+    /// The new tool's force reference Fr, N ([`OverrideLaw::set_force_ref_n`]).
+    pub force_ref_n: f64,
+    /// Kc_hat to restart the law's estimate from, N/(mm/min)
+    /// ([`OverrideLaw::reset_kc_estimate`]): this tool's last estimate in this run, else its
+    /// `kc_init`; `None`: the estimate carries over.
+    pub kc_restart: Option<f64>,
+}
+
+impl ToolChange {
+    /// Apply the change to `law`: its Fr, then its Kc_hat if a restart value is known.
+    pub fn apply_to<L: OverrideLaw + ?Sized>(&self, law: &mut L) {
+        law.set_force_ref_n(self.force_ref_n);
+        if let Some(kc) = self.kc_restart {
+            law.reset_kc_estimate(kc);
+        }
+    }
+}
+
+/// What the shop layer hands the loop once per period.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ShopDecision {
+    /// Limits on this period's command, for the policy ([`crate::FaultPolicy::set_command_limits`]).
+    pub limits: CommandLimits,
+    /// The tool changed (or was first seen) this period: for the law.
+    pub tool_change: Option<ToolChange>,
 }
 
 /// The per-tool numbers the loop needs every period (no allocation).
@@ -240,32 +276,35 @@ impl ShopControl {
             .or(self.params.entry_pct)
     }
 
-    /// Before the policy steps: pick the tool, set the law's Fr and Kc on a change, run
-    /// entry detection, and return the limits for this period's command. `last_cmd` is the
-    /// policy's last written command, percent.
-    pub fn before<L: OverrideLaw + ?Sized>(
+    /// Before the policy steps: pick the tool, run entry detection, and return the limits
+    /// for this period's command with the tool change for the law, if any. `last_cmd` is
+    /// the policy's last written command, percent; `kc_hat` the law's current process-gain
+    /// estimate, N/(mm/min) (kept for the tool in use when it changes).
+    pub fn before(
         &mut self,
         status: Option<&BoardStatus>,
         force: &ForceSample,
         last_cmd: Option<u16>,
-        law: &mut L,
-    ) -> CommandLimits {
+        kc_hat: Option<f64>,
+    ) -> ShopDecision {
         let Some(s) = status else {
             self.last = None;
-            return CommandLimits::default();
+            return ShopDecision::default();
         };
         // 1. The tool.
         let tool = if s.is_v2() { s.tool_number } else { 0 };
         let tool_changed = self.tool.is_some_and(|t| t != tool);
+        let mut tool_change = None;
         if self.tool != Some(tool) {
-            if let (Some(old), Some(kc)) = (self.tool, law.kc_estimate()) {
+            if let (Some(old), Some(kc)) = (self.tool, kc_hat) {
                 self.kc_by_tool.insert(old, kc);
             }
             self.params = ToolParams::from(self.table.get(tool));
-            law.set_force_ref_n(self.params.fr_n);
-            if let Some(kc) = self.kc_by_tool.get(&tool).copied().or(self.params.kc_init) {
-                law.reset_kc_estimate(kc);
-            }
+            tool_change = Some(ToolChange {
+                tool,
+                force_ref_n: self.params.fr_n,
+                kc_restart: self.kc_by_tool.get(&tool).copied().or(self.params.kc_init),
+            });
             if tool_changed {
                 self.switch_cap = last_cmd.map(f64::from);
                 tracing::info!(
@@ -459,7 +498,10 @@ impl ShopControl {
             limited,
             limits,
         });
-        limits
+        ShopDecision {
+            limits,
+            tool_change,
+        }
     }
 
     /// After the policy stepped: the command written this period (for learning).
@@ -495,7 +537,6 @@ impl ShopControl {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::ScriptedLaw;
     use proptest::prelude::*;
 
     const TABLE: &str = "[entry]\nenabled = true\nlimit_pct = 8.0\n[default]\nfr_n = 800.0\n";
@@ -516,7 +557,6 @@ mod tests {
     /// The shop layer on a plant whose force is k(i) × applied, the law asking 150 % every
     /// period and the command floored to the 10 % grid (as the policy does): the forces.
     fn entry(shop: &mut ShopControl, ks: &[f64]) -> Vec<f64> {
-        let mut law = ScriptedLaw::new([150]);
         let mut applied = 150u16;
         let mut forces = Vec::new();
         for &k in ks {
@@ -527,8 +567,8 @@ mod tests {
                 power_w: None,
                 valid: true,
             };
-            let lim = shop.before(Some(&status(applied)), &sample, Some(applied), &mut law);
-            let cap = lim.cap_pct.unwrap_or(150);
+            let lim = shop.before(Some(&status(applied)), &sample, Some(applied), None);
+            let cap = lim.limits.cap_pct.unwrap_or(150);
             applied = 150.min(cap / 10 * 10);
         }
         forces
