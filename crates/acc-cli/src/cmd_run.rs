@@ -23,7 +23,7 @@ use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
 use acc_runtime::{
-    history::WatchSink, run_with_reopen, ControlLoop, Drain, Ended, LogSink, OnDeviceLost, Reopen,
+    history::WatchSink, ControlLoop, Drain, Ended, Hooks, LogSink, OnDeviceLost, Reopen,
     RunOptions, RunRecord, SystemClock,
 };
 use anyhow::Context;
@@ -424,14 +424,18 @@ fn drive<P: Board + Send>(
         ccfg.force_ref_n,
         args.log.display()
     );
-    let s = run_with_reopen(
+    let hooks = Hooks {
+        reopen: Some(reopen),
+        observer: None,
+    };
+    let s = acc_runtime::drive(
         pmc,
         &mut control,
         SystemClock::new(),
         &mut sink,
         &stop,
         opts,
-        Some(reopen),
+        hooks,
     )
     .exit_as(RunExit::Internal)?;
     // The run log and the tap (the watch's summary and history writer are used below).

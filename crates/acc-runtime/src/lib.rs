@@ -54,8 +54,8 @@ pub use policy::{
 };
 pub use record::{RunLogWriter, RunRecord};
 pub use runner::{
-    drive, run, run_with_reopen, Drain, Ended, Hooks, LogSink, OnDeviceLost, PeriodObserver,
-    Reopen, RunError, RunOptions, RunSummary, StopRequest, VecSink, Verdict,
+    drive, run, Drain, Ended, Hooks, LogSink, OnDeviceLost, PeriodObserver, Reopen, RunError,
+    RunOptions, RunSummary, StopRequest, VecSink, Verdict,
 };
 pub use shop::{ShopControl, ShopDecision, ShopState, ToolChange};
 pub use stats::LatencyStats;

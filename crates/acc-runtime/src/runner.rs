@@ -39,7 +39,7 @@
 //!
 //! A vanished device ([`BoardErrorKind::Disconnected`]) ends the run after
 //! [`RunOptions::device_lost_periods`] ([`OnDeviceLost::Exit`]), or, with
-//! [`OnDeviceLost::Reconnect`] and a reopen callback ([`run_with_reopen`]), the runner keeps
+//! [`OnDeviceLost::Reconnect`] and a reopen callback ([`drive`]), the runner keeps
 //! a row every period and tries to reopen the link every period until the timeout; the
 //! policy re-arms at the last command once the board answers again while the cut is on.
 
@@ -123,7 +123,7 @@ pub enum OnDeviceLost {
     #[default]
     Exit,
     /// Keep a row every period (flagged `link:disconnected`) and try to reopen the link
-    /// every period (the callback of [`run_with_reopen`]); after `timeout` (clock time)
+    /// every period (the callback of [`drive`]); after `timeout` (clock time)
     /// without the device, end as [`OnDeviceLost::Exit`] does.
     Reconnect {
         /// Longest time without the device.
@@ -315,12 +315,12 @@ struct StatusMsg {
     reopened: bool,
 }
 
-/// The callback that reopens a vanished link ([`run_with_reopen`]): a fresh link, or why
+/// The callback that reopens a vanished link ([`drive`]): a fresh link, or why
 /// not.
 pub type Reopen<'a, P> = &'a mut dyn FnMut() -> Result<P, String>;
 
 /// Run the loop until `stop` is set or `opts.max_periods` is reached. See the module docs.
-/// A vanished device is never reopened (see [`run_with_reopen`]).
+/// A vanished device is never reopened (see [`drive`]).
 pub fn run<P, L, F, C, S, Q>(
     pmc: &mut P,
     control: &mut ControlLoop<L, F>,
@@ -340,35 +340,11 @@ where
     drive(pmc, control, clock, sink, stop, opts, Hooks::default())
 }
 
-/// As [`run`]; with [`OnDeviceLost::Reconnect`], `reopen` is called once per period while
-/// the device is gone and its link replaces `pmc` on success.
-pub fn run_with_reopen<P, L, F, C, S, Q>(
-    pmc: &mut P,
-    control: &mut ControlLoop<L, F>,
-    clock: C,
-    sink: &mut S,
-    stop: &Q,
-    opts: RunOptions,
-    reopen: Option<Reopen<'_, P>>,
-) -> Result<RunSummary, RunError>
-where
-    P: Board + Send,
-    L: OverrideLaw + Send,
-    F: ForceSource + Send,
-    C: Clock + Clone,
-    S: LogSink + Send,
-    Q: StopRequest + ?Sized,
-{
-    let hooks = Hooks {
-        reopen,
-        observer: None,
-    };
-    drive(pmc, control, clock, sink, stop, opts, hooks)
-}
-
 /// The period driver: `acc run` (wall clock, a serial or CAN board), `acc sim`, `acc compare`,
 /// the what-if and the paper tests (the stepped clock, the simulated board) all run the loop
-/// through it. See the module docs; [`run`] and [`run_with_reopen`] are its short forms.
+/// through it. See the module docs; [`run`] is its short form without hooks. With
+/// [`OnDeviceLost::Reconnect`], `hooks.reopen` is called once per period while the device is
+/// gone and its link replaces `pmc` on success.
 pub fn drive<P, L, F, C, S, Q>(
     pmc: &mut P,
     control: &mut ControlLoop<L, F>,

@@ -978,14 +978,18 @@ fn reconnect_run(
     };
     let mut ctl = control();
     let stop = AtomicBool::new(false);
-    let s = acc_runtime::run_with_reopen(
+    let hooks = acc_runtime::Hooks {
+        reopen: Some(&mut reopen),
+        observer: None,
+    };
+    let s = acc_runtime::drive(
         &mut board,
         &mut ctl,
         ManualClock::new(),
         &mut sink,
         &stop,
         opts,
-        Some(&mut reopen),
+        hooks,
     )
     .expect("runs");
     let seen = seen.lock().expect("seen").clone();
