@@ -13,12 +13,14 @@
 //! (`crate::motor::MotorSim::run_period_tail`) sees it, with its mean square (the motor's
 //! input power is nonlinear in torque).
 
+use std::cell::Cell;
 use std::f64::consts::PI;
+use std::rc::Rc;
 
 use acc_core::filter::FirstOrderLag;
 
 use crate::config::{MachineSpec, ToolSpec};
-use crate::machine::{ForceModel, Machine};
+use crate::machine::{ForceModel, Machine, SpindleModel};
 use crate::process::WearSpec;
 use crate::workpiece::{Segment, SegmentKind, Workpiece};
 
@@ -44,6 +46,11 @@ pub enum ReplayEngagement {
 }
 
 /// The logged commands that drive the replay, one entry per row.
+///
+/// A log that records only the feed the machine made (no override, no programmed feed) is
+/// replayed with that feed as the programmed feed at 100 %, on a machine whose override
+/// path and feed drive are instantaneous (`delay_s = tau_s = tau2_s = 0`): the feed is then
+/// the logged one, held over each row's period.
 #[derive(Debug, Clone, Copy)]
 pub struct ReplayDrive<'a> {
     /// Length of the period ending at each row, s.
@@ -54,6 +61,45 @@ pub struct ReplayDrive<'a> {
     pub programmed_feed_mm_min: &'a [f64],
     /// Feed hold in force during the row's period (`None`: never).
     pub feed_hold: Option<&'a [bool]>,
+    /// Spindle speed during the row's period, rpm (`None`: the machine's spindle,
+    /// `spindle.rpm`). The force law's speed term and the spindle angle follow it.
+    pub spindle_rpm: Option<&'a [f64]>,
+    /// `true`: before the first row the override path and the feed drive have settled on
+    /// the first row's inputs (a log cut from the middle of a run); `false`: the machine
+    /// starts at rest, as the simulator does.
+    pub settled: bool,
+}
+
+/// A spindle turning at the speed the log recorded (set per row by [`trace`]); input power
+/// by the machine's spindle law ([`crate::config::SpindleSpec::input_power_w`]).
+struct LoggedSpeedSpindle {
+    spec: crate::config::SpindleSpec,
+    rpm: Rc<Cell<f64>>,
+    power_w: f64,
+    t_s: f64,
+}
+
+impl SpindleModel for LoggedSpeedSpindle {
+    fn step(&mut self, load_torque_nm: f64, dt_s: f64) -> f64 {
+        self.t_s += dt_s;
+        let rpm = self.rpm.get();
+        self.power_w = self.spec.input_power_w(load_torque_nm, rpm, self.t_s);
+        rpm
+    }
+
+    fn input_power_w(&self) -> f64 {
+        self.power_w
+    }
+
+    fn speed_rpm(&self) -> f64 {
+        self.rpm.get()
+    }
+}
+
+/// The time the override path and the feed drive of `machine` need to settle on a constant
+/// input to within e⁻³⁰ (≈ 1e−13) of it, s: the delay plus 30 time constants.
+fn settling_time_s(machine: &MachineSpec) -> f64 {
+    machine.override_path.delay_s + 30.0 * (machine.feed_drive.tau_s + machine.feed_drive.tau2_s)
 }
 
 /// How the measurement channel looks at each period.
@@ -147,13 +193,17 @@ pub fn trace(
     };
     let fp0 = drive.programmed_feed_mm_min.first().copied().unwrap_or(0.0);
     let mut m = Machine::new(machine, &unit, no_wear, wp, model, fp0);
-    m.set_position_mm(x0);
-    let lag = FirstOrderLag::new(channel.torque_lag_s);
-    let mut lagged = 0.0;
-    let mut theta = 0.0f64;
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let dt_row = drive.period_s[i];
+    let rpm_in = Rc::new(Cell::new(machine.spindle.rpm));
+    if let Some(r) = drive.spindle_rpm {
+        rpm_in.set(r.first().copied().unwrap_or(machine.spindle.rpm));
+        m.set_spindle(Box::new(LoggedSpeedSpindle {
+            spec: machine.spindle,
+            rpm: rpm_in.clone(),
+            power_w: 0.0,
+            t_s: 0.0,
+        }));
+    }
+    let set_inputs = |m: &mut Machine, i: usize| {
         let ov = drive.override_applied_pct[i];
         m.set_override_input_pct(if ov.is_finite() {
             ov.round().clamp(0.0, f64::from(u16::MAX)) as u16
@@ -162,6 +212,29 @@ pub fn trace(
         });
         m.set_programmed_feed_mm_min(drive.programmed_feed_mm_min[i]);
         m.set_feed_hold(drive.feed_hold.is_some_and(|h| h[i]));
+        if let Some(r) = drive.spindle_rpm {
+            rpm_in.set(r[i].max(0.0));
+        }
+    };
+    if drive.settled && n > 0 {
+        // Out of the material, on the first row's inputs, until the delay line and the
+        // drive hold them.
+        set_inputs(&mut m, 0);
+        m.set_engagement_override(Some((0.0, 0.0)));
+        let p = drive.period_s[0].max(1e-3);
+        for _ in 0..(settling_time_s(machine) / p).ceil() as usize {
+            m.advance(p);
+        }
+        m.set_engagement_override(None);
+    }
+    m.set_position_mm(x0);
+    let lag = FirstOrderLag::new(channel.torque_lag_s);
+    let mut lagged = 0.0;
+    let mut theta = 0.0f64;
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let dt_row = drive.period_s[i];
+        set_inputs(&mut m, i);
         if let Some((r, a)) = logged {
             m.set_engagement_override(Some((r[i].max(0.0), a[i].max(0.0))));
         }
@@ -285,6 +358,8 @@ mod tests {
                 override_applied_pct: &ov,
                 programmed_feed_mm_min: &fp,
                 feed_hold: None,
+                spindle_rpm: None,
+                settled: false,
             },
             &ReplayChannel::default(),
         );

@@ -1,8 +1,9 @@
 //! Open-loop replay of a model on the inputs recorded in a run log: the recorded
-//! engagement, spindle speed and feed (or feed command) drive the model; nothing is fed
-//! back, so the prediction is compared with the measurement like for like.
-
-use acc_core::filter::FirstOrderLag;
+//! engagement, spindle speed and feed commands drive the simulator's plant
+//! ([`acc_sim::replay`]); nothing is fed back, so the prediction is compared with the
+//! measurement like for like. This module prepares the plant's inputs from the log and
+//! scales its unit-force trace by the model's `Ks`, wear, runout and candidate effects;
+//! the override path, feed drive, engagement and force law are the simulator's.
 
 use crate::effects::EffectKind;
 use crate::model::{Channel, FeedInput, Model};
@@ -26,9 +27,6 @@ pub struct Inputs {
     pub feed_mm_min: Vec<f64>,
     /// Feed command `programmed · override_cmd / 100`, mm/min, when both columns exist.
     pub feed_cmd_mm_min: Option<Vec<f64>>,
-    /// Feed command in force before the first logged command, mm/min (from
-    /// `override_applied_pct` of the first row when logged).
-    pub feed_cmd_initial_mm_min: f64,
     /// Measured channel value (W or N).
     pub measured: Vec<f64>,
     /// Channel compared.
@@ -38,10 +36,8 @@ pub struct Inputs {
     /// Weak prior on the nominal parameters used by [`crate::fit`] (None: plain least
     /// squares).
     pub prior: Option<crate::fit::Prior>,
-    /// The simulator's plant driving the replay (`feed_input = "plant"`, or `auto` on a
-    /// log with `override_applied_pct` and `programmed_feed_mm_min`); `None`: the
-    /// period-based feed path below.
-    pub plant: Option<PlantInputs>,
+    /// What drives the simulator's plant in the replay.
+    pub plant: PlantInputs,
     /// The force estimator's no-load power and its σ per row, W, when the compared force
     /// is a spindle-power estimate ([`crate::model::Measurement::force_estimator`]): the
     /// estimator's adaptation replayed on the logged `power_w`.
@@ -72,12 +68,33 @@ pub struct Inputs {
 /// What drives the simulator's plant in a replay ([`acc_sim::replay::trace`]).
 #[derive(Debug, Clone)]
 pub struct PlantInputs {
+    /// Which logged columns drive it.
+    pub source: FeedSource,
     /// Override on the PMC inputs during each row's period, %.
     pub override_applied_pct: Vec<f64>,
     /// Programmed feed, mm/min.
     pub programmed_feed_mm_min: Vec<f64>,
+    /// Spindle speed per row, rpm (`None`: the model machine's `spindle.rpm`).
+    pub spindle_rpm: Option<Vec<f64>>,
     /// Engagement: as logged, or from the workpiece (`Inputs::use_workpiece`).
     pub engagement: acc_sim::replay::ReplayEngagement,
+}
+
+/// The logged columns that drive the plant (`measurement.feed_input`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FeedSource {
+    /// The override the board applied (`override_applied_pct`, on the PMC inputs during
+    /// the row's period) and the programmed feed; the machine starts at rest, as the
+    /// simulator does.
+    Applied,
+    /// The controller's command (`override_cmd_pct`, written at the end of the row's
+    /// period, so on the PMC inputs during the next one) and the programmed feed; before
+    /// the first row the drive has settled on the first override the log shows (the
+    /// applied one when logged).
+    Command,
+    /// The recorded feed as the programmed feed at 100 %, on an instantaneous override
+    /// path and feed drive: the plant's feed is the logged one.
+    Recorded,
 }
 
 /// The logged force of a spindle-power estimator against the estimator's output on the
@@ -209,44 +226,71 @@ impl Inputs {
             (Some(p), Some(o)) => Some((p.clone(), o.clone())),
             _ => None,
         };
-        let use_plant = match model.measurement.feed_input {
-            FeedInput::Plant => {
-                if applied.is_none() {
-                    return Err(ReplayError::MissingApplied);
-                }
-                true
-            }
-            FeedInput::Auto => applied.is_some(),
-            _ => false,
+        let source = match (model.measurement.feed_input, &applied, &cmd) {
+            (FeedInput::Plant, None, _) => return Err(ReplayError::MissingApplied),
+            (FeedInput::Command, _, None) => return Err(ReplayError::MissingCommand),
+            (FeedInput::Plant | FeedInput::Auto, Some(_), _) => FeedSource::Applied,
+            (FeedInput::Command | FeedInput::Auto, _, Some(_)) => FeedSource::Command,
+            _ => FeedSource::Recorded,
         };
-        let plant = if use_plant {
-            applied.map(|(p, o)| PlantInputs {
-                override_applied_pct: o,
-                programmed_feed_mm_min: p,
+        let plant = match (source, &log.programmed_feed_mm_min, &log.override_cmd_pct) {
+            (FeedSource::Applied, _, _) => {
+                let (p, o) = applied.clone().ok_or(ReplayError::MissingApplied)?;
+                PlantInputs {
+                    source,
+                    override_applied_pct: o,
+                    programmed_feed_mm_min: p,
+                    spindle_rpm: None,
+                    engagement: acc_sim::replay::ReplayEngagement::Logged {
+                        radial_mm: log.radial_depth_mm.clone(),
+                        axial_mm: log.axial_depth_mm.clone(),
+                    },
+                }
+            }
+            (FeedSource::Command, Some(p), Some(o)) => {
+                // Row k's command is on the PMC inputs during row k + 1; row 0 runs on the
+                // override in force before the log (the applied one when logged).
+                let o0 = log
+                    .override_applied_pct
+                    .as_ref()
+                    .and_then(|a| a.first())
+                    .or(o.first())
+                    .copied()
+                    .unwrap_or(100.0);
+                let shift = |v: &[f64], first: f64| -> Vec<f64> {
+                    std::iter::once(first)
+                        .chain(v.iter().copied())
+                        .take(v.len())
+                        .collect()
+                };
+                PlantInputs {
+                    source,
+                    override_applied_pct: shift(o, o0),
+                    programmed_feed_mm_min: shift(p, p.first().copied().unwrap_or(0.0)),
+                    spindle_rpm: Some(log.spindle_rpm.clone()),
+                    engagement: acc_sim::replay::ReplayEngagement::Logged {
+                        radial_mm: log.radial_depth_mm.clone(),
+                        axial_mm: log.axial_depth_mm.clone(),
+                    },
+                }
+            }
+            _ => PlantInputs {
+                source: FeedSource::Recorded,
+                override_applied_pct: vec![100.0; log.len()],
+                programmed_feed_mm_min: log.feed_mm_min.clone(),
+                spindle_rpm: Some(log.spindle_rpm.clone()),
                 engagement: acc_sim::replay::ReplayEngagement::Logged {
                     radial_mm: log.radial_depth_mm.clone(),
                     axial_mm: log.axial_depth_mm.clone(),
                 },
-            })
-        } else {
-            None
+            },
         };
         if let Some(m) = model.measurement.spindle_motor {
             m.config().map_err(|e| ReplayError::Motor(e.to_string()))?;
         }
-        let feed_cmd_mm_min = match model.measurement.feed_input {
-            FeedInput::Recorded => None,
-            FeedInput::Auto | FeedInput::Plant => cmd,
-            FeedInput::Command => Some(cmd.ok_or(ReplayError::MissingCommand)?),
-        };
-        let feed_cmd_initial_mm_min = match (
-            &log.programmed_feed_mm_min,
-            &log.override_applied_pct,
-            &feed_cmd_mm_min,
-        ) {
-            (Some(p), Some(o), _) if !p.is_empty() => p[0] * o[0] / 100.0,
-            (_, _, Some(c)) if !c.is_empty() => c[0],
-            _ => log.feed_mm_min.first().copied().unwrap_or(0.0),
+        let feed_cmd_mm_min = match source {
+            FeedSource::Recorded => None,
+            FeedSource::Applied | FeedSource::Command => cmd,
         };
         let estimator_no_load = match (channel, model.measurement.force_estimator) {
             (Channel::Force, Some(e)) => {
@@ -293,7 +337,6 @@ impl Inputs {
             spindle_rpm: log.spindle_rpm.clone(),
             feed_mm_min: log.feed_mm_min.clone(),
             feed_cmd_mm_min,
-            feed_cmd_initial_mm_min,
             measured,
             channel,
             period_s,
@@ -331,10 +374,8 @@ impl Inputs {
     /// the simulator, and material boundaries (`ks_factor`) are honoured. No effect
     /// without a plant replay (see [`Inputs::plant`]).
     pub fn use_workpiece(&mut self, workpiece: acc_sim::Workpiece, x0_mm: f64) {
-        if let Some(p) = self.plant.as_mut() {
-            p.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
-            self.cache.borrow_mut().clear();
-        }
+        self.plant.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
+        self.cache.borrow_mut().clear();
     }
 
     /// Input power of `motor` at `rpm` as a quadratic in the cutting torque,
@@ -471,9 +512,6 @@ impl Inputs {
 
 /// Cutting rows needed on each side of a contrast (two depths, a material boundary).
 const MIN_SIDE_ROWS: usize = 10;
-
-/// Sub-steps per period of the replayed feed path.
-const SUBSTEPS: usize = 10;
 
 /// Least-squares quadratic of the motor's input power against cutting torque at `rpm`
 /// (see [`Inputs::motor_curve`]); a zero curve when the motor cannot be loaded.
@@ -664,82 +702,9 @@ impl KsStepShape<'_> {
     }
 }
 
-/// The replayed feed (period mean and force-window mean), mm/min.
-fn feed_path(inp: &Inputs, delay_s: f64, tau: f64, tau2: f64, window: f64) -> (Vec<f64>, Vec<f64>) {
-    let n = inp.len();
-    let mut feed = vec![0.0; n];
-    let mut window_feed = vec![0.0; n];
-    // Feed path, integrated in SUBSTEPS sub-steps per period: the command logged in row
-    // k (issued at the end of its period, t_k) acts from t_k + delay; the drive lag is
-    // discretised exactly per sub-step (physics.md eq. (5), as the simulator does).
-    match &inp.feed_cmd_mm_min {
-        Some(cmd) if n > 0 => {
-            let mut f = inp.feed_cmd_initial_mm_min;
-            // The second lag's input (the first lag's output) when `tau2 > 0`, as in the
-            // simulator's drive.
-            let mut f_inner = f;
-            let mut k = 0usize;
-            for i in 0..n {
-                let h = inp.dt_s[i] / SUBSTEPS as f64;
-                let alpha = FirstOrderLag::new(tau).alpha(h);
-                let alpha2 = FirstOrderLag::new(tau2).alpha(h);
-                let t_start = inp.t_s[i] - inp.dt_s[i];
-                let (mut sum, mut sum_w, mut n_w) = (0.0, 0.0, 0usize);
-                for j in 0..SUBSTEPS {
-                    // Mean command over the sub-step, in delayed time [lo, hi): the command
-                    // is piecewise constant, switching at the logged row times.
-                    let lo = t_start + j as f64 * h - delay_s;
-                    let hi = lo + h;
-                    while k + 1 < n && inp.t_s[k + 1] <= lo {
-                        k += 1;
-                    }
-                    let mut u = 0.0;
-                    let mut from = lo;
-                    let mut kk = k;
-                    while from < hi {
-                        let val = if inp.t_s[kk] <= from {
-                            cmd[kk]
-                        } else {
-                            inp.feed_cmd_initial_mm_min
-                        };
-                        let (to, next) = if inp.t_s[kk] > from {
-                            (inp.t_s[kk].min(hi), kk)
-                        } else if kk + 1 < n {
-                            (inp.t_s[kk + 1].min(hi), kk + 1)
-                        } else {
-                            (hi, kk)
-                        };
-                        u += val * (to - from);
-                        from = to;
-                        kk = next;
-                    }
-                    let u = u / h;
-                    f = if tau2 > 0.0 {
-                        f_inner = FirstOrderLag::advance(f_inner, u, alpha);
-                        FirstOrderLag::advance(f, f_inner, alpha2)
-                    } else {
-                        FirstOrderLag::advance(f, u, alpha)
-                    };
-                    sum += f;
-                    if window <= 0.0 || (j as f64 + 0.5) * h >= inp.dt_s[i] - window {
-                        sum_w += f;
-                        n_w += 1;
-                    }
-                }
-                feed[i] = sum / SUBSTEPS as f64;
-                window_feed[i] = if n_w > 0 { sum_w / n_w as f64 } else { feed[i] };
-            }
-        }
-        _ => {
-            feed.copy_from_slice(&inp.feed_mm_min);
-            window_feed.copy_from_slice(&inp.feed_mm_min);
-        }
-    }
-    (feed, window_feed)
-}
-
-/// What does not change while only loads, losses and the sensor are fitted: the feed path
-/// and the force per unit calibration force (`Ks·a_p·d^α·f^β·s^γ / calib_force_n`).
+/// What does not change while only loads, losses and the sensor are fitted: the plant's
+/// feed path and its force per unit calibration force (`Ks·a_p·d^α·f^β·s^γ /
+/// calib_force_n`).
 #[derive(Debug, Clone, PartialEq)]
 struct PathKey {
     delay_s: f64,
@@ -750,16 +715,11 @@ struct PathKey {
     process: [f64; 8],
 }
 
-/// Cached feed path and unit forces of one [`PathKey`].
+/// The simulator's plant trace of one [`PathKey`].
 #[derive(Debug, Clone)]
 struct PathCache {
     key: PathKey,
-    feed: Vec<f64>,
-    window_feed: Vec<f64>,
-    unit_force: Vec<f64>,
-    unit_window_force: Vec<f64>,
-    /// The simulator's plant trace (plant replay only).
-    plant: Option<Vec<acc_sim::replay::PeriodTrace>>,
+    plant: Vec<acc_sim::replay::PeriodTrace>,
 }
 
 /// The window the compared channel averages at the end of each period, s.
@@ -778,9 +738,11 @@ fn plant_trace(
     key: &PathKey,
 ) -> Vec<acc_sim::replay::PeriodTrace> {
     let mut machine = model.machine.clone();
-    machine.override_path.delay_s = key.delay_s;
-    machine.feed_drive.tau_s = key.tau_s;
-    machine.feed_drive.tau2_s = key.tau2_s;
+    // The recorded feed is the feed: no override path, no drive lag.
+    let instant = plant.source == FeedSource::Recorded;
+    machine.override_path.delay_s = if instant { 0.0 } else { key.delay_s };
+    machine.feed_drive.tau_s = if instant { 0.0 } else { key.tau_s };
+    machine.feed_drive.tau2_s = if instant { 0.0 } else { key.tau2_s };
     // The process constants of the key (the depth-exponent candidate changes α).
     let mut tool = model.tool.clone();
     tool.process.alpha = key.process[4];
@@ -805,12 +767,15 @@ fn plant_trace(
             &channel,
         )
     };
+    let settled = plant.source == FeedSource::Command;
     let Some(sample) = inp.board_sample.as_ref().filter(|s| s.len() == inp.len()) else {
         return run(&acc_sim::replay::ReplayDrive {
             period_s: &inp.dt_s,
             override_applied_pct: &plant.override_applied_pct,
             programmed_feed_mm_min: &plant.programmed_feed_mm_min,
             feed_hold: None,
+            spindle_rpm: plant.spindle_rpm.as_deref(),
+            settled,
         });
     };
     // On the board's periods. The override register a row reads is the one that drove the
@@ -823,6 +788,7 @@ fn plant_trace(
     let periods = sample.last().map_or(0, |&s| s + 1);
     let mut ov = Vec::with_capacity(periods);
     let mut prog = Vec::with_capacity(periods);
+    let mut rpm = Vec::with_capacity(periods);
     let mut row = 0;
     for s in 0..periods {
         while sample[row] < s {
@@ -832,12 +798,17 @@ fn plant_trace(
         let from = if late_tick { row - 1 } else { row };
         ov.push(plant.override_applied_pct[from]);
         prog.push(plant.programmed_feed_mm_min[from]);
+        if let Some(r) = &plant.spindle_rpm {
+            rpm.push(r[from]);
+        }
     }
     let grid = run(&acc_sim::replay::ReplayDrive {
         period_s: &vec![inp.period_s; periods],
         override_applied_pct: &ov,
         programmed_feed_mm_min: &prog,
         feed_hold: None,
+        spindle_rpm: plant.spindle_rpm.as_ref().map(|_| rpm.as_slice()),
+        settled,
     });
     sample.iter().map(|&s| grid[s]).collect()
 }
@@ -863,11 +834,7 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
             + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
         tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
         tau2_s: model.machine.feed_drive.tau2_s + fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
-        window_s: if inp.plant.is_some() {
-            channel_window_s(model, inp)
-        } else {
-            model.measurement.force_window_s
-        },
+        window_s: channel_window_s(model, inp),
         process: [
             p.calib_radial_mm,
             p.calib_feed_mm_min,
@@ -884,60 +851,17 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
     if let Some(c) = inp.cache.borrow().iter().find(|c| c.key == key) {
         return c.clone();
     }
-    if let Some(plant) = &inp.plant {
-        let tr = plant_trace(model, inp, plant, &key);
-        let c = std::rc::Rc::new(PathCache {
-            key,
-            feed: tr.iter().map(|t| t.feed_mean_mm_min).collect(),
-            window_feed: tr.iter().map(|t| t.feed_window_mm_min).collect(),
-            unit_force: tr.iter().map(|t| t.unit_force_mean).collect(),
-            unit_window_force: tr.iter().map(|t| t.unit_force_window).collect(),
-            plant: Some(tr),
-        });
-        remember(inp, c.clone());
-        return c;
-    }
-    let (feed, window_feed) = feed_path(inp, key.delay_s, key.tau_s, key.tau2_s, key.window_s);
-    let mut unit = *p;
-    unit.calib_force_n = 1.0;
-    let law = physics::force_law(&unit);
-    let n = inp.len();
-    let force = |i: usize, f: f64| {
-        let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
-        if a > 0.0 {
-            law.mean_force_n(d, a, f, inp.spindle_rpm[i], 1.0)
-        } else {
-            0.0
-        }
-    };
-    let unit_force: Vec<f64> = (0..n).map(|i| force(i, feed[i])).collect();
-    let unit_window_force: Vec<f64> = (0..n).map(|i| force(i, window_feed[i])).collect();
-    let c = std::rc::Rc::new(PathCache {
-        key,
-        feed,
-        window_feed,
-        unit_force,
-        unit_window_force,
-        plant: None,
-    });
+    let plant = plant_trace(model, inp, &inp.plant, &key);
+    let c = std::rc::Rc::new(PathCache { key, plant });
     remember(inp, c.clone());
     c
 }
 
-/// Replay `model` on `inp` (open loop).
-///
-/// Feed: command delayed by the override path (nominal + dead-time effect; the command
-/// of row i acts from row i+1, physics.md eq. (5) `z⁻¹`) then a first-order drive lag
-/// `f_i = a·f_{i−1} + (1−a)·u_i`, `a = e^(−T/τ)` (eq. (5)). Force: eq. (1) through
-/// [`crate::physics`] with the simulator's wear factor, times the feed-exponent and runout
-/// effects. Power: the simulator's spindle law `P_air(t) + ω·T/η + c·(ω·T)²/1000`
-/// (machine keys) plus the candidate drift and losses. Finally the machine's power-sensor
-/// low-pass and the candidate sensor low-pass.
-// The loops advance several aligned per-row series at once; indexing reads clearer here.
-#[allow(clippy::needless_range_loop)]
+/// Replay `model` on `inp` (open loop) through the simulator's plant
+/// ([`acc_sim::replay::trace`]: override path, feed drive, engagement, force law), then
+/// the scales, spindle power, sensor and measurement chain of [`replay_plant`].
 pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     let n = inp.len();
-    let fx = &model.effects;
     let mut out = Replay {
         predicted: vec![0.0; n],
         feed_mm_min: vec![0.0; n],
@@ -949,127 +873,7 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         ks_step_boundary_mm: None,
     };
     let cached = path(model, inp);
-    if let Some(tr) = &cached.plant {
-        replay_plant(model, inp, tr, &mut out);
-        measurement_chain(model, inp, &mut out.predicted);
-        return out;
-    }
-    out.feed_mm_min.copy_from_slice(&cached.feed);
-    out.window_feed_mm_min.copy_from_slice(&cached.window_feed);
-    // Process force, volume and wear (the simulator's wear law, extra growth added).
-    let law = physics::force_law(&model.tool.process);
-    let calib_force = model.tool.process.calib_force_n;
-    let w = &model.tool.wear;
-    // The candidate adds growth and replaces the curve's exponent (null: the tool's own).
-    let wear = acc_sim::process::WearSpec {
-        growth_per_cm3: w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0),
-        volume_exponent: fx
-            .tool_wear
-            .map_or(w.volume_exponent, |e| e.volume_exponent),
-        ..*w
-    };
-    let dbeta = fx.get(EffectKind::FeedExponent, 0);
-    let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
-    let windowed = inp.channel == Channel::Force && model.measurement.force_window_s > 0.0;
-    // The material step: tool-centre positions integrated from the replayed feed.
-    let steps = fx.ks_step.and_then(|_| {
-        let mut x_start = vec![0.0; n];
-        let mut x_end = vec![0.0; n];
-        let mut x = 0.0;
-        for i in 0..n {
-            x_start[i] = x;
-            x += out.feed_mm_min[i] * inp.dt_s[i] / 60.0;
-            x_end[i] = x;
-        }
-        let cut: Vec<bool> = cached.unit_force.iter().map(|u| *u > 0.0).collect();
-        let wf: Vec<f64> = inp
-            .dt_s
-            .iter()
-            .map(|d| {
-                let w = model.measurement.force_window_s;
-                if windowed && *d > 0.0 {
-                    w / d
-                } else {
-                    1.0
-                }
-            })
-            .collect();
-        let shape = KsStepShape::Logged(&inp.radial_depth_mm, model.tool.radius_mm());
-        ks_step_factors(fx.ks_step, &x_start, &x_end, &cut, &wf, &shape)
-    });
-    out.ks_step_boundary_mm = steps.as_ref().map(|s| s.0);
-    let mut chan_force = vec![0.0; n];
-    let mut vol = 0.0;
-    let mut cut_min = 0.0;
-    let mut theta = 0.0;
-    for i in 0..n {
-        let s = inp.spindle_rpm[i];
-        let dth = 2.0 * std::f64::consts::PI * s / 60.0 * inp.dt_s[i];
-        let th0 = theta;
-        theta += dth;
-        out.spindle_angle_rad[i] = theta;
-        let f = out.feed_mm_min[i];
-        let (d, a) = (inp.radial_depth_mm[i], inp.axial_depth_mm[i]);
-        let factor = wear.factor(vol / 1000.0, cut_min);
-        let (ks_mean, ks_win) = steps.as_ref().map_or((1.0, 1.0), |s| (s.1[i], s.2[i]));
-        let force_at = |f: f64, unit: f64, ks: f64| -> f64 {
-            let mut force = calib_force * factor * ks * unit;
-            if force > 0.0 {
-                if dbeta != 0.0 {
-                    force *= (f / fref).powf(dbeta);
-                }
-                // The tool's runout and the candidate's, both the simulator's mean factor.
-                for r in [model.tool.runout, fx.runout].into_iter().flatten() {
-                    force *= r.mean_factor(th0, theta);
-                }
-            }
-            force
-        };
-        let force = force_at(f, cached.unit_force[i], ks_mean);
-        if force > 0.0 {
-            vol += d * a * f / 60.0 * inp.dt_s[i];
-            cut_min += inp.dt_s[i] / 60.0;
-        }
-        out.force_n[i] = force;
-        chan_force[i] = if windowed {
-            force_at(
-                out.window_feed_mm_min[i],
-                cached.unit_window_force[i],
-                ks_win,
-            )
-        } else {
-            force
-        };
-        out.volume_mm3[i] = vol;
-    }
-    // Channel: the simulator's spindle power law (with the machine's own drift and
-    // losses), plus the candidate drift and losses through the simulator's same functions.
-    let t0 = inp.t_s.first().copied().unwrap_or(0.0);
-    let radius = 0.5 * model.tool.diameter_mm;
-    for i in 0..n {
-        let s = inp.spindle_rpm[i];
-        let torque = law.torque_nm(out.force_n[i], radius);
-        let pc = torque * s * 2.0 * std::f64::consts::PI / 60.0;
-        out.cut_power_w[i] = pc;
-        out.predicted[i] = match inp.channel {
-            Channel::Force => chan_force[i],
-            Channel::Power if s > 0.0 => {
-                let t = inp.t_s[i] - t0;
-                physics::input_power_w(&model.machine.spindle, torque, s, t)
-                    + fx.noload_drift.map_or(0.0, |d| d.power_w(t))
-                    + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
-            }
-            Channel::Power => 0.0,
-        };
-    }
-    // Sensor: the machine's power-sensor low-pass (power channel only), then the
-    // candidate low-pass, both the simulator's filter.
-    if let (Channel::Power, Some(l)) = (inp.channel, model.machine.spindle.sensor_lowpass) {
-        l.filter(&mut out.predicted, &inp.dt_s);
-    }
-    if let Some(l) = fx.sensor_lowpass {
-        l.filter(&mut out.predicted, &inp.dt_s);
-    }
+    replay_plant(model, inp, &cached.plant, &mut out);
     measurement_chain(model, inp, &mut out.predicted);
     out
 }
@@ -1161,8 +965,8 @@ fn replay_plant(
             })
             .collect();
         let r = model.tool.radius_mm();
-        let shape = match &inp.plant.as_ref().map(|p| &p.engagement) {
-            Some(acc_sim::replay::ReplayEngagement::Workpiece { workpiece, .. }) => {
+        let shape = match &inp.plant.engagement {
+            acc_sim::replay::ReplayEngagement::Workpiece { workpiece, .. } => {
                 KsStepShape::Workpiece(workpiece, r)
             }
             _ => KsStepShape::Logged(&inp.radial_depth_mm, r),
@@ -1181,7 +985,10 @@ fn replay_plant(
         out.feed_mm_min[i] = t.feed_mean_mm_min;
         out.window_feed_mm_min[i] = t.feed_window_mm_min;
         out.volume_mm3[i] = t.volume_mm3;
-        let factor = wear.factor(t.volume_mm3 / 1000.0, cut_min);
+        // The wear of the volume removed before the period (the period-based replay's
+        // convention).
+        let v_before = if i == 0 { 0.0 } else { tr[i - 1].volume_mm3 };
+        let factor = wear.factor(v_before / 1000.0, cut_min);
         if t.unit_force_mean > 0.0 {
             cut_min += inp.dt_s[i] / 60.0;
         }

@@ -1451,8 +1451,8 @@ fn assemble(
     // signature of something outside the library (issue 13).
     let passed = s.named();
     let exact = matches!(
-        inp.plant.as_ref().map(|p| &p.engagement),
-        Some(acc_sim::replay::ReplayEngagement::Workpiece { .. })
+        inp.plant.engagement,
+        acc_sim::replay::ReplayEngagement::Workpiece { .. }
     );
     // Only asked for (the twin's evaluation): `acc run` logs replayed on the workpiece
     // still leave the board's wall-clock timing as structure (tests/e2e_twin_production.rs).
