@@ -20,6 +20,7 @@ use std::rc::Rc;
 use acc_core::filter::FirstOrderLag;
 
 use crate::config::{MachineSpec, ToolSpec};
+use crate::engagement::{Engagement, Held};
 use crate::machine::{ForceModel, Machine, SpindleModel};
 use crate::process::WearSpec;
 use crate::workpiece::{Segment, SegmentKind, Workpiece};
@@ -35,14 +36,10 @@ pub enum ReplayEngagement {
         /// Tool-centre position when the log began, mm.
         x0_mm: f64,
     },
-    /// The depths logged per row (held over the row's period). The tooth model needs the
-    /// workpiece geometry, so this mode integrates the mean force model.
-    Logged {
-        /// Radial depth per row, mm.
-        radial_mm: Vec<f64>,
-        /// Axial depth per row, mm.
-        axial_mm: Vec<f64>,
-    },
+    /// The engagement logged per row, held over the row's period
+    /// ([`crate::engagement::Held`]). The tooth model needs the workpiece geometry, so
+    /// this mode integrates the mean force model.
+    Logged(Vec<Engagement>),
 }
 
 /// The logged commands that drive the replay, one entry per row.
@@ -148,7 +145,7 @@ pub struct PeriodTrace {
 ///
 /// The simulator's own [`Machine::advance`] runs every period (same internal rate, delay
 /// line, drive lag, engagement and force law); only the unit scale (no `Ks`, wear or
-/// runout) and the forced engagement of [`ReplayEngagement::Logged`] differ.
+/// runout) and the held engagement of [`ReplayEngagement::Logged`] differ.
 pub fn trace(
     machine: &MachineSpec,
     tool: &ToolSpec,
@@ -171,11 +168,8 @@ pub fn trace(
         ReplayEngagement::Workpiece { workpiece, x0_mm } => {
             (workpiece.clone(), force_model, *x0_mm, None)
         }
-        ReplayEngagement::Logged {
-            radial_mm,
-            axial_mm,
-        } => {
-            let a = axial_mm.iter().copied().fold(0.0, f64::max).max(1.0);
+        ReplayEngagement::Logged(rows) => {
+            let a = rows.iter().map(|e| e.axial_mm).fold(0.0, f64::max).max(1.0);
             let wp = Workpiece {
                 name: "logged engagement".into(),
                 axial_depth_mm: a,
@@ -188,7 +182,7 @@ pub fn trace(
                     ks_factor: 1.0,
                 }],
             };
-            (wp, ForceModel::Mean, 0.0, Some((radial_mm, axial_mm)))
+            (wp, ForceModel::Mean, 0.0, Some(rows))
         }
     };
     let fp0 = drive.programmed_feed_mm_min.first().copied().unwrap_or(0.0);
@@ -220,12 +214,12 @@ pub fn trace(
         // Out of the material, on the first row's inputs, until the delay line and the
         // drive hold them.
         set_inputs(&mut m, 0);
-        m.set_engagement_override(Some((0.0, 0.0)));
+        m.set_engagement_source(Some(Box::new(Held(Engagement::air(0.0)))));
         let p = drive.period_s[0].max(1e-3);
         for _ in 0..(settling_time_s(machine) / p).ceil() as usize {
             m.advance(p);
         }
-        m.set_engagement_override(None);
+        m.set_engagement_source(None);
     }
     m.set_position_mm(x0);
     let lag = FirstOrderLag::new(channel.torque_lag_s);
@@ -235,8 +229,13 @@ pub fn trace(
     for i in 0..n {
         let dt_row = drive.period_s[i];
         set_inputs(&mut m, i);
-        if let Some((r, a)) = logged {
-            m.set_engagement_override(Some((r[i].max(0.0), a[i].max(0.0))));
+        if let Some(rows) = logged {
+            let e = rows[i];
+            m.set_engagement_source(Some(Box::new(Held(Engagement {
+                radial_mm: e.radial_mm.max(0.0),
+                axial_mm: e.axial_mm.max(0.0),
+                ks_factor: e.ks_factor,
+            }))));
         }
         let rpm = m.spindle_rpm();
         let rec = m.advance(dt_row);

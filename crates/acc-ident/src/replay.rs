@@ -241,10 +241,7 @@ impl Inputs {
                     override_applied_pct: o,
                     programmed_feed_mm_min: p,
                     spindle_rpm: None,
-                    engagement: acc_sim::replay::ReplayEngagement::Logged {
-                        radial_mm: log.radial_depth_mm.clone(),
-                        axial_mm: log.axial_depth_mm.clone(),
-                    },
+                    engagement: logged_engagement(log),
                 }
             }
             (FeedSource::Command, Some(p), Some(o)) => {
@@ -268,10 +265,7 @@ impl Inputs {
                     override_applied_pct: shift(o, o0),
                     programmed_feed_mm_min: shift(p, p.first().copied().unwrap_or(0.0)),
                     spindle_rpm: Some(log.spindle_rpm.clone()),
-                    engagement: acc_sim::replay::ReplayEngagement::Logged {
-                        radial_mm: log.radial_depth_mm.clone(),
-                        axial_mm: log.axial_depth_mm.clone(),
-                    },
+                    engagement: logged_engagement(log),
                 }
             }
             _ => PlantInputs {
@@ -279,10 +273,7 @@ impl Inputs {
                 override_applied_pct: vec![100.0; log.len()],
                 programmed_feed_mm_min: log.feed_mm_min.clone(),
                 spindle_rpm: Some(log.spindle_rpm.clone()),
-                engagement: acc_sim::replay::ReplayEngagement::Logged {
-                    radial_mm: log.radial_depth_mm.clone(),
-                    axial_mm: log.axial_depth_mm.clone(),
-                },
+                engagement: logged_engagement(log),
             },
         };
         if let Some(m) = model.measurement.spindle_motor {
@@ -510,6 +501,21 @@ impl Inputs {
     }
 }
 
+/// The engagement the log records per row (its depths, `Ks` factor 1).
+fn logged_engagement(log: &RunLog) -> acc_sim::replay::ReplayEngagement {
+    acc_sim::replay::ReplayEngagement::Logged(
+        log.radial_depth_mm
+            .iter()
+            .zip(&log.axial_depth_mm)
+            .map(|(&radial_mm, &axial_mm)| acc_sim::engagement::Engagement {
+                radial_mm,
+                axial_mm,
+                ks_factor: 1.0,
+            })
+            .collect(),
+    )
+}
+
 /// Cutting rows needed on each side of a contrast (two depths, a material boundary).
 const MIN_SIDE_ROWS: usize = 10;
 
@@ -680,7 +686,7 @@ impl KsStepShape<'_> {
             (KsStepShape::Workpiece(wp, _), Some(st)) => {
                 let e0 = wp.engagement(x, r);
                 let e1 = st.engagement(x, r);
-                if e0.depth_mm > 0.0 && e0.ks_factor > 0.0 {
+                if e0.radial_mm > 0.0 && e0.ks_factor > 0.0 {
                     e1.ks_factor / e0.ks_factor
                 } else {
                     1.0
