@@ -1,7 +1,7 @@
 //! `acc-sim`: the simulated machine.
 //!
 //! The embedded default machine of `acc`: workpieces along the tool path
-//! ([`workpiece`]), the mean-force and tooth-level cutting process with tool wear
+//! ([`workpiece`]) behind the plant's engagement source ([`engagement`]), the mean-force and tooth-level cutting process with tool wear
 //! ([`process`]), the feed drive and override path ([`machine`]), the PMC interface board
 //! ([`board`], the PMC crate's `BoardLogic` behind the `Board` trait), measurement channels
 //! ([`channel`], `ForceSource`s), comparison baselines ([`baselines`]), scenario files
@@ -32,6 +32,7 @@ pub mod baselines;
 pub mod board;
 pub mod channel;
 pub mod config;
+pub mod engagement;
 mod exact;
 pub mod machine;
 pub mod motor;

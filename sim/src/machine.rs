@@ -7,6 +7,7 @@ use std::f64::consts::PI;
 use acc_core::filter::FirstOrderLag;
 
 use crate::config::{MachineSpec, Runout, SensorLowpass, SpindleSpec, ToolSpec};
+use crate::engagement::{EngagementSource, ToolGeometry};
 use crate::process::{ForceLaw, ForceMemo, ToothModel, Wear, WearSpec};
 use crate::workpiece::Workpiece;
 
@@ -172,12 +173,10 @@ pub struct Machine {
     /// Tool breakage: from this time on (s) the cutting force is multiplied by the factor
     /// (a broken tool that no longer cuts: < 1; a chipped edge that rubs: > 1).
     breakage: Option<(f64, f64)>,
-    /// Engagement forced from outside (radial depth, axial depth, mm), replacing the
-    /// workpiece's (the replay of a log that records its engagement, [`crate::replay`]).
-    engagement_override: Option<(f64, f64)>,
-    /// Engagement along the path recorded in a run log (the what-if replay,
-    /// [`crate::whatif`]): radial depth, axial depth and `Ks` factor as functions of `x`.
-    engagement_profile: Option<std::sync::Arc<crate::whatif::EngagementProfile>>,
+    /// Where the engagement comes from (default: the workpiece).
+    engagement: Box<dyn EngagementSource>,
+    /// The tool as the engagement source sees it.
+    tool: ToolGeometry,
     t_s: f64,
     x_mm: f64,
     feed_mm_min: f64,
@@ -222,6 +221,7 @@ impl Machine {
             )
         });
         let delay_steps = (machine.override_path.delay_s * rate_hz).round() as usize;
+        let engagement: Box<dyn EngagementSource> = Box::new(workpiece.clone());
         Machine {
             law: ForceLaw::new(tool.process),
             wear: Wear::new(wear),
@@ -244,8 +244,8 @@ impl Machine {
             feed_hold: false,
             hardness_factor: 1.0,
             breakage: None,
-            engagement_override: None,
-            engagement_profile: None,
+            engagement,
+            tool: ToolGeometry::of(tool),
             t_s: 0.0,
             x_mm: 0.0,
             feed_mm_min: 0.0,
@@ -300,21 +300,12 @@ impl Machine {
         }
     }
 
-    /// Force the engagement (radial, axial depth, mm; `Ks` factor 1) instead of the
-    /// workpiece's from the next period on; `None` returns to the workpiece. Used by
-    /// [`crate::replay`] on logs that record their depths but name no workpiece.
-    pub fn set_engagement_override(&mut self, depths_mm: Option<(f64, f64)>) {
-        self.engagement_override = depths_mm;
-    }
-
-    /// Take the engagement (radial, axial depth, `Ks` factor) from `profile` at the tool's
-    /// position, sample by sample, instead of the workpiece's; `None` returns to the
-    /// workpiece. A forced engagement ([`Machine::set_engagement_override`]) wins.
-    pub fn set_engagement_profile(
-        &mut self,
-        profile: Option<std::sync::Arc<crate::whatif::EngagementProfile>>,
-    ) {
-        self.engagement_profile = profile;
+    /// Take the engagement from `source` (asked at the tool's position every internal
+    /// step, from the next period on) instead of the workpiece's; `None` returns to the
+    /// workpiece. A logged profile for the what-if ([`crate::whatif`]), a log row's held
+    /// depths for the replay ([`crate::replay`]).
+    pub fn set_engagement_source(&mut self, source: Option<Box<dyn EngagementSource>>) {
+        self.engagement = source.unwrap_or_else(|| Box::new(self.workpiece.clone()));
     }
 
     /// Move the tool centre to path position `x_mm` (a replay starting part-way along the
@@ -380,7 +371,9 @@ impl Machine {
     /// Per internal step `dt`: the override input enters the delay line; the feed target
     /// `f_prog · ov/100` drives the feed drive's first-order lag (exact discretisation,
     /// `f += (target − f)(1 − e^(−dt/τ))`, seed 002 eq. 5); the tool moves `f·dt`; the
-    /// engaged depth and `Ks` factor come from the workpiece; the mean force follows eq. (1)
+    /// engaged depth and `Ks` factor come from the engagement source (the workpiece unless
+    /// [`Machine::set_engagement_source`] set another; the axial depth is the source's at
+    /// the period's start); the mean force follows eq. (1)
     /// with the tool's wear factor, times the tool's runout factor (its mean over the step);
     /// the tooth model multiplies in the ripple.
     pub fn advance(&mut self, period_s: f64) -> PeriodRecord<'_> {
@@ -388,11 +381,10 @@ impl Machine {
         let dt = period_s / n as f64;
         let alpha = FirstOrderLag::new(self.tau_s).alpha(dt);
         let alpha2 = FirstOrderLag::new(self.tau2_s).alpha(dt);
-        let ap = match (self.engagement_override, &self.engagement_profile) {
-            (Some((_, a)), _) => a,
-            (None, Some(p)) => p.at(self.x_mm).axial_mm,
-            (None, None) => self.workpiece.axial_depth_mm,
-        };
+        let ap = self
+            .engagement
+            .engagement_at(&self.tool, self.x_mm)
+            .axial_mm;
         let t0 = self.t_s;
         self.samples.clear();
         let mut sums = [0.0f64; 5];
@@ -421,24 +413,11 @@ impl Machine {
             let dx = 0.5 * (f_old + self.feed_mm_min) * dt / 60.0;
             self.x_mm += dx;
             let rpm = self.spindle.speed_rpm();
-            let eng = match (self.engagement_override, &self.engagement_profile) {
-                (Some((d, _)), _) => crate::workpiece::Engagement {
-                    depth_mm: d,
-                    ks_factor: 1.0,
-                },
-                (None, Some(p)) => {
-                    let e = p.at(self.x_mm);
-                    crate::workpiece::Engagement {
-                        depth_mm: e.radial_mm,
-                        ks_factor: e.ks_factor,
-                    }
-                }
-                (None, None) => self.workpiece.engagement(self.x_mm, self.radius_mm),
-            };
-            self.depth_mm = eng.depth_mm;
+            let eng = self.engagement.engagement_at(&self.tool, self.x_mm);
+            self.depth_mm = eng.radial_mm;
             let mean = self.law.mean_force_n_memo(
                 &mut self.force_memo,
-                eng.depth_mm,
+                eng.radial_mm,
                 ap,
                 self.feed_mm_min,
                 rpm,
@@ -460,14 +439,14 @@ impl Machine {
                 Some(tooth) => {
                     self.theta_rad =
                         crate::exact::rem_tau(self.theta_rad + rpm / 60.0 * 2.0 * PI * dt);
-                    mean * tooth.ratio(self.theta_rad, self.x_mm, &self.workpiece, eng.depth_mm)
+                    mean * tooth.ratio(self.theta_rad, self.x_mm, &self.workpiece, eng.radial_mm)
                 }
                 None => mean,
             };
             let torque = self.law.torque_nm(force, self.radius_mm);
             let rpm_new = self.spindle.step(torque, dt);
             let power = self.spindle.input_power_w();
-            let vol = eng.depth_mm * ap * dx;
+            let vol = eng.radial_mm * ap * dx;
             self.volume_mm3 += vol;
             self.wear.add(vol, dt);
             let t = t0 + (k + 1) as f64 * dt;

@@ -13,12 +13,15 @@
 //! (`crate::motor::MotorSim::run_period_tail`) sees it, with its mean square (the motor's
 //! input power is nonlinear in torque).
 
+use std::cell::Cell;
 use std::f64::consts::PI;
+use std::rc::Rc;
 
 use acc_core::filter::FirstOrderLag;
 
 use crate::config::{MachineSpec, ToolSpec};
-use crate::machine::{ForceModel, Machine};
+use crate::engagement::{Engagement, Held};
+use crate::machine::{ForceModel, Machine, SpindleModel};
 use crate::process::WearSpec;
 use crate::workpiece::{Segment, SegmentKind, Workpiece};
 
@@ -33,17 +36,18 @@ pub enum ReplayEngagement {
         /// Tool-centre position when the log began, mm.
         x0_mm: f64,
     },
-    /// The depths logged per row (held over the row's period). The tooth model needs the
-    /// workpiece geometry, so this mode integrates the mean force model.
-    Logged {
-        /// Radial depth per row, mm.
-        radial_mm: Vec<f64>,
-        /// Axial depth per row, mm.
-        axial_mm: Vec<f64>,
-    },
+    /// The engagement logged per row, held over the row's period
+    /// ([`crate::engagement::Held`]). The tooth model needs the workpiece geometry, so
+    /// this mode integrates the mean force model.
+    Logged(Vec<Engagement>),
 }
 
 /// The logged commands that drive the replay, one entry per row.
+///
+/// A log that records only the feed the machine made (no override, no programmed feed) is
+/// replayed with that feed as the programmed feed at 100 %, on a machine whose override
+/// path and feed drive are instantaneous (`delay_s = tau_s = tau2_s = 0`): the feed is then
+/// the logged one, held over each row's period.
 #[derive(Debug, Clone, Copy)]
 pub struct ReplayDrive<'a> {
     /// Length of the period ending at each row, s.
@@ -54,6 +58,45 @@ pub struct ReplayDrive<'a> {
     pub programmed_feed_mm_min: &'a [f64],
     /// Feed hold in force during the row's period (`None`: never).
     pub feed_hold: Option<&'a [bool]>,
+    /// Spindle speed during the row's period, rpm (`None`: the machine's spindle,
+    /// `spindle.rpm`). The force law's speed term and the spindle angle follow it.
+    pub spindle_rpm: Option<&'a [f64]>,
+    /// `true`: before the first row the override path and the feed drive have settled on
+    /// the first row's inputs (a log cut from the middle of a run); `false`: the machine
+    /// starts at rest, as the simulator does.
+    pub settled: bool,
+}
+
+/// A spindle turning at the speed the log recorded (set per row by [`trace`]); input power
+/// by the machine's spindle law ([`crate::config::SpindleSpec::input_power_w`]).
+struct LoggedSpeedSpindle {
+    spec: crate::config::SpindleSpec,
+    rpm: Rc<Cell<f64>>,
+    power_w: f64,
+    t_s: f64,
+}
+
+impl SpindleModel for LoggedSpeedSpindle {
+    fn step(&mut self, load_torque_nm: f64, dt_s: f64) -> f64 {
+        self.t_s += dt_s;
+        let rpm = self.rpm.get();
+        self.power_w = self.spec.input_power_w(load_torque_nm, rpm, self.t_s);
+        rpm
+    }
+
+    fn input_power_w(&self) -> f64 {
+        self.power_w
+    }
+
+    fn speed_rpm(&self) -> f64 {
+        self.rpm.get()
+    }
+}
+
+/// The time the override path and the feed drive of `machine` need to settle on a constant
+/// input to within e⁻³⁰ (≈ 1e−13) of it, s: the delay plus 30 time constants.
+fn settling_time_s(machine: &MachineSpec) -> f64 {
+    machine.override_path.delay_s + 30.0 * (machine.feed_drive.tau_s + machine.feed_drive.tau2_s)
 }
 
 /// How the measurement channel looks at each period.
@@ -102,7 +145,7 @@ pub struct PeriodTrace {
 ///
 /// The simulator's own [`Machine::advance`] runs every period (same internal rate, delay
 /// line, drive lag, engagement and force law); only the unit scale (no `Ks`, wear or
-/// runout) and the forced engagement of [`ReplayEngagement::Logged`] differ.
+/// runout) and the held engagement of [`ReplayEngagement::Logged`] differ.
 pub fn trace(
     machine: &MachineSpec,
     tool: &ToolSpec,
@@ -125,11 +168,8 @@ pub fn trace(
         ReplayEngagement::Workpiece { workpiece, x0_mm } => {
             (workpiece.clone(), force_model, *x0_mm, None)
         }
-        ReplayEngagement::Logged {
-            radial_mm,
-            axial_mm,
-        } => {
-            let a = axial_mm.iter().copied().fold(0.0, f64::max).max(1.0);
+        ReplayEngagement::Logged(rows) => {
+            let a = rows.iter().map(|e| e.axial_mm).fold(0.0, f64::max).max(1.0);
             let wp = Workpiece {
                 name: "logged engagement".into(),
                 axial_depth_mm: a,
@@ -142,18 +182,22 @@ pub fn trace(
                     ks_factor: 1.0,
                 }],
             };
-            (wp, ForceModel::Mean, 0.0, Some((radial_mm, axial_mm)))
+            (wp, ForceModel::Mean, 0.0, Some(rows))
         }
     };
     let fp0 = drive.programmed_feed_mm_min.first().copied().unwrap_or(0.0);
     let mut m = Machine::new(machine, &unit, no_wear, wp, model, fp0);
-    m.set_position_mm(x0);
-    let lag = FirstOrderLag::new(channel.torque_lag_s);
-    let mut lagged = 0.0;
-    let mut theta = 0.0f64;
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let dt_row = drive.period_s[i];
+    let rpm_in = Rc::new(Cell::new(machine.spindle.rpm));
+    if let Some(r) = drive.spindle_rpm {
+        rpm_in.set(r.first().copied().unwrap_or(machine.spindle.rpm));
+        m.set_spindle(Box::new(LoggedSpeedSpindle {
+            spec: machine.spindle,
+            rpm: rpm_in.clone(),
+            power_w: 0.0,
+            t_s: 0.0,
+        }));
+    }
+    let set_inputs = |m: &mut Machine, i: usize| {
         let ov = drive.override_applied_pct[i];
         m.set_override_input_pct(if ov.is_finite() {
             ov.round().clamp(0.0, f64::from(u16::MAX)) as u16
@@ -162,8 +206,36 @@ pub fn trace(
         });
         m.set_programmed_feed_mm_min(drive.programmed_feed_mm_min[i]);
         m.set_feed_hold(drive.feed_hold.is_some_and(|h| h[i]));
-        if let Some((r, a)) = logged {
-            m.set_engagement_override(Some((r[i].max(0.0), a[i].max(0.0))));
+        if let Some(r) = drive.spindle_rpm {
+            rpm_in.set(r[i].max(0.0));
+        }
+    };
+    if drive.settled && n > 0 {
+        // Out of the material, on the first row's inputs, until the delay line and the
+        // drive hold them.
+        set_inputs(&mut m, 0);
+        m.set_engagement_source(Some(Box::new(Held(Engagement::air(0.0)))));
+        let p = drive.period_s[0].max(1e-3);
+        for _ in 0..(settling_time_s(machine) / p).ceil() as usize {
+            m.advance(p);
+        }
+        m.set_engagement_source(None);
+    }
+    m.set_position_mm(x0);
+    let lag = FirstOrderLag::new(channel.torque_lag_s);
+    let mut lagged = 0.0;
+    let mut theta = 0.0f64;
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let dt_row = drive.period_s[i];
+        set_inputs(&mut m, i);
+        if let Some(rows) = logged {
+            let e = rows[i];
+            m.set_engagement_source(Some(Box::new(Held(Engagement {
+                radial_mm: e.radial_mm.max(0.0),
+                axial_mm: e.axial_mm.max(0.0),
+                ks_factor: e.ks_factor,
+            }))));
         }
         let rpm = m.spindle_rpm();
         let rec = m.advance(dt_row);
@@ -285,6 +357,8 @@ mod tests {
                 override_applied_pct: &ov,
                 programmed_feed_mm_min: &fp,
                 feed_hold: None,
+                spindle_rpm: None,
+                settled: false,
             },
             &ReplayChannel::default(),
         );

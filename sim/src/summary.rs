@@ -359,7 +359,7 @@ mod tests {
         for k in 1..=450 {
             let t = 0.1 * k as f64;
             let x = 200.0 / 60.0 * t;
-            let depth = wp.engagement(x, 8.0).depth_mm;
+            let depth = wp.engagement(x, 8.0).radial_mm;
             let in_cut = wp.depth_at(x) > 0.0;
             let force = if !in_cut {
                 0.0

@@ -27,28 +27,12 @@ use std::sync::Arc;
 use acc_core::ControllerConfig;
 use acc_runtime::record::RunRecord;
 
+use crate::engagement::Engagement;
+pub use crate::engagement::EngagementProfile;
 use crate::process::{ForceLaw, WearSpec};
 use crate::run::{run_setup, Pace, RunResult, RunSetup};
 use crate::workpiece::{Segment, SegmentKind, Workpiece};
 use crate::{Scenario, SimError};
-
-/// Engagement at one path position.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProfilePoint {
-    /// Engaged radial depth, mm (0 in air).
-    pub radial_mm: f64,
-    /// Axial depth, mm.
-    pub axial_mm: f64,
-    /// Effective `Ks` factor (hardness × wear × runout mean of the recorded cut; 1 in air).
-    pub ks_factor: f64,
-}
-
-/// The recorded cut as a function of the path position (see the module docs).
-#[derive(Debug, Clone, PartialEq)]
-pub struct EngagementProfile {
-    x_mm: Vec<f64>,
-    points: Vec<ProfilePoint>,
-}
 
 /// A bad run log for the what-if: names the file, the column and the row (1-based data
 /// row; the CSV line is one more, after the header).
@@ -87,6 +71,8 @@ pub enum WhatIfError {
 
 const NO_TRUTH_HINT: &str = "the engagement comes from the plant-truth columns of an `acc sim` log; for an `acc run` log give --workpiece and --x0-mm";
 
+/// The profile of a recorded cut (the profile itself, [`EngagementProfile::at`], is the
+/// plant's engagement source, `crate::engagement`).
 impl EngagementProfile {
     /// Build the profile from the plant-truth columns of `rows` (read from `file`), with the
     /// tool's force law `law`. Rows where the tool is in air or barely engaged (radial depth
@@ -152,70 +138,14 @@ impl EngagementProfile {
                 ks_last = ks;
             }
             x_mm.push(x);
-            points.push(ProfilePoint {
+            points.push(Engagement {
                 radial_mm: radial,
                 axial_mm: axial,
                 ks_factor: if radial > 0.0 { ks } else { 1.0 },
             });
         }
-        Ok(Self { x_mm, points })
-    }
-
-    /// The engagement at path position `x_mm`: linear between the recorded positions,
-    /// air before the first and after the last (pure, allocation-free).
-    pub fn at(&self, x_mm: f64) -> ProfilePoint {
-        let air = ProfilePoint {
-            radial_mm: 0.0,
-            axial_mm: self.points.first().map_or(0.0, |p| p.axial_mm),
-            ks_factor: 1.0,
-        };
-        let n = self.x_mm.len();
-        if n == 0 || !x_mm.is_finite() || x_mm < self.x_mm[0] || x_mm > self.x_mm[n - 1] {
-            return air;
-        }
-        let k = self.x_mm.partition_point(|&x| x < x_mm);
-        if k == 0 {
-            return self.points[0];
-        }
-        let (x0, x1) = (self.x_mm[k - 1], self.x_mm[k]);
-        let (a, b) = (self.points[k - 1], self.points[k]);
-        if x1 - x0 <= 1e-12 {
-            return b;
-        }
-        let s = (x_mm - x0) / (x1 - x0);
-        let lerp = |u: f64, v: f64| u + s * (v - u);
-        ProfilePoint {
-            radial_mm: lerp(a.radial_mm, b.radial_mm),
-            axial_mm: lerp(a.axial_mm, b.axial_mm),
-            // The factor of the engaged end (a row in air has factor 1 by convention).
-            ks_factor: if a.radial_mm > 0.0 && b.radial_mm > 0.0 {
-                lerp(a.ks_factor, b.ks_factor)
-            } else if b.radial_mm > 0.0 {
-                b.ks_factor
-            } else {
-                a.ks_factor
-            },
-        }
-    }
-
-    /// Where the twin ends the run, mm: midway between the last two recorded positions, so
-    /// the twin stops in the period the recorded run stopped in when it moves alike.
-    pub fn end_mm(&self) -> f64 {
-        match self.x_mm.as_slice() {
-            [] => 0.0,
-            [x] => *x,
-            [.., a, b] => 0.5 * (a + b),
-        }
-    }
-
-    /// Number of recorded positions.
-    pub fn len(&self) -> usize {
-        self.x_mm.len()
-    }
-
-    /// Whether the profile is empty.
-    pub fn is_empty(&self) -> bool {
-        self.x_mm.is_empty()
+        // The positions were checked to go forward above.
+        EngagementProfile::new(x_mm, points).ok_or(WhatIfError::Empty(file.to_path_buf()))
     }
 }
 
@@ -244,7 +174,7 @@ pub fn twin_scenario(
     sc.controller = controller;
     match geometry {
         CutGeometry::Logged(p) => {
-            let axial = p.points.iter().fold(0.0f64, |m, q| m.max(q.axial_mm));
+            let axial = p.points().iter().fold(0.0f64, |m, q| m.max(q.axial_mm));
             sc.workpiece = Workpiece {
                 name: "recorded cut".into(),
                 axial_depth_mm: if axial > 0.0 {
@@ -285,7 +215,9 @@ pub fn run_what_if(
     let mut law = acc_core::Controller::new(controller)?;
     let mut channel = sc.build_channel()?;
     let mut prepare = |board: &mut crate::SimBoard| match geometry {
-        CutGeometry::Logged(p) => board.machine_mut().set_engagement_profile(Some(p.clone())),
+        CutGeometry::Logged(p) => board
+            .machine_mut()
+            .set_engagement_source(Some(Box::new(EngagementProfile::clone(p)))),
         CutGeometry::Workpiece { x0_mm, .. } => board.machine_mut().set_position_mm(*x0_mm),
     };
     let setup = RunSetup::<std::io::Sink> {

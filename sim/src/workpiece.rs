@@ -19,6 +19,8 @@ use acc_config::RangeError;
 use acc_config::{check_range, load_toml, ConfigError};
 use serde::Deserialize;
 
+use crate::engagement::Engagement;
+
 /// One segment as written in a workpiece TOML file (`[[segment]]` tables).
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -126,17 +128,6 @@ impl Segment {
             ),
         }
     }
-}
-
-/// Engaged part of the cutter at one tool position (see [`Workpiece::engagement`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Engagement {
-    /// Effective radial depth, mm: the lateral extent of the engaged arc. Equal to the
-    /// material depth in a uniform stretch; smaller while entering or leaving.
-    pub depth_mm: f64,
-    /// `Ks` factor averaged over the engaged arc (weighted by lateral extent); 1 when not
-    /// engaged.
-    pub ks_factor: f64,
 }
 
 /// Measure of `{y ∈ [ya, yb] : g(y) > 0}` for the smooth `g(y) = depth(x + u'(y)) − y`
@@ -332,13 +323,14 @@ impl Workpiece {
     }
 
     /// Engaged arc of a cutter of radius `radius_mm` whose centre is at path position `x`
-    /// (down milling, material ahead of the centre).
+    /// (down milling, material ahead of the centre), at the workpiece's axial depth (the
+    /// workpiece's [`crate::engagement::EngagementSource`]).
     ///
     /// A cutter point at lateral height `y` above the finished wall (0 ≤ y ≤ 2R) sits at
     /// forward offset `u'(y) = √(R² − (R − y)²)`; it is in material when
     /// `y < depth(x + u'(y))`. With chip thickness `h = f_z·sin ψ` (seed 004), the mean force
     /// over a revolution is proportional to `∫ sin ψ dψ` over the engaged angles, i.e. to
-    /// the engaged lateral extent `∫ dy` — which is what `depth_mm` returns. It is exact for
+    /// the engaged lateral extent `∫ dy` — which is what `radial_mm` returns. It is exact for
     /// constant-depth segments (breakpoints solved analytically) and solved by bisection
     /// inside ramps.
     pub fn engagement(&self, x: f64, radius_mm: f64) -> Engagement {
@@ -346,7 +338,8 @@ impl Workpiece {
         if let Some((d, ks)) = self.uniform_over(x, r) {
             let depth = d.min(2.0 * r);
             return Engagement {
-                depth_mm: depth,
+                radial_mm: depth,
+                axial_mm: self.axial_depth_mm,
                 ks_factor: if depth > 0.0 { ks } else { 1.0 },
             };
         }
@@ -397,7 +390,8 @@ impl Workpiece {
             ks_sum += engaged * seg.ks_factor;
         }
         Engagement {
-            depth_mm: extent,
+            radial_mm: extent,
+            axial_mm: self.axial_depth_mm,
             ks_factor: if extent > 0.0 { ks_sum / extent } else { 1.0 },
         }
     }
@@ -451,15 +445,15 @@ mod tests {
         let r = 8.0;
         // Contact length at 2 mm: sqrt(d (D - d)) = sqrt(28) = 5.29 mm ahead of the centre.
         let lc = (2.0f64 * 14.0).sqrt();
-        assert_eq!(w.engagement(20.0 - lc - 0.01, r).depth_mm, 0.0);
-        let half = w.engagement(20.0 - 0.5 * lc, r).depth_mm;
+        assert_eq!(w.engagement(20.0 - lc - 0.01, r).radial_mm, 0.0);
+        let half = w.engagement(20.0 - 0.5 * lc, r).radial_mm;
         assert!(half > 0.0 && half < 2.0, "{half}");
         // Exact: at offset o the engaged extent is d − (R − √(R² − o²)).
         let o: f64 = 3.0;
         let expect = 2.0 - (r - (r * r - o * o).sqrt());
-        let got = w.engagement(20.0 - o, r).depth_mm;
+        let got = w.engagement(20.0 - o, r).radial_mm;
         assert!((got - expect).abs() < 1e-12, "{got} vs {expect}");
-        assert_eq!(w.engagement(30.0, r).depth_mm, 2.0);
+        assert_eq!(w.engagement(30.0, r).radial_mm, 2.0);
     }
 
     #[test]
@@ -470,13 +464,13 @@ mod tests {
             let x = 50.0 + 0.1 * k as f64;
             let e = w.engagement(x, 8.0);
             assert!(
-                e.depth_mm >= last - 1e-12 && e.depth_mm <= 3.0 + 1e-12,
+                e.radial_mm >= last - 1e-12 && e.radial_mm <= 3.0 + 1e-12,
                 "{x} {e:?} {last}"
             );
             assert!(e.ks_factor >= 1.0 && e.ks_factor <= 1.4 + 1e-12);
-            last = e.depth_mm;
+            last = e.radial_mm;
         }
-        assert_eq!(w.engagement(61.0, 8.0).depth_mm, 3.0);
+        assert_eq!(w.engagement(61.0, 8.0).radial_mm, 3.0);
         assert_eq!(w.engagement(61.0, 8.0).ks_factor, 1.4);
     }
 
@@ -494,7 +488,7 @@ mod tests {
         ]);
         // In the middle of the ramp (slope k = 0.02) the engaged depth is the root of
         // y = 3 + k·√(R² − (R − y)²): the material ahead is deeper than at the centre.
-        let e = w.engagement(70.0, 8.0).depth_mm;
+        let e = w.engagement(70.0, 8.0).radial_mm;
         let root = 3.0 + 0.02 * (64.0 - (8.0 - e) * (8.0 - e)).sqrt();
         assert!(e > 3.1 && (e - root).abs() < 1e-6, "{e} vs {root}");
     }

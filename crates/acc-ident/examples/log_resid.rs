@@ -47,12 +47,14 @@ fn main() {
 /// samples instead: compare row by row only where there are none).
 fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpiece) {
     let inp = acc_ident::replay::Inputs::from_log(log, m).expect("inputs");
-    let p = inp.plant.as_ref().expect("plant");
+    let p = &inp.plant;
     let drive = acc_sim::replay::ReplayDrive {
         period_s: &inp.dt_s,
         override_applied_pct: &p.override_applied_pct,
         programmed_feed_mm_min: &p.programmed_feed_mm_min,
         feed_hold: None,
+        spindle_rpm: None,
+        settled: false,
     };
     let eng = acc_sim::replay::ReplayEngagement::Workpiece {
         workpiece: wp.clone(),

@@ -216,20 +216,20 @@ const P_DRIFT: [ParamInfo; 2] = [
 
 impl EffectKind {
     /// The workflow's default candidates: every effect but the measurement-chain
-    /// additions of issue 13 ([`EffectKind::SensorGainDrift`],
+    /// effects ([`EffectKind::SensorGainDrift`],
     /// [`EffectKind::MeasurementDelay`]), which are asked for explicitly (`--effects`,
     /// `Options::candidates`): a gain drift cannot be told from tool wear in a log without
     /// air stretches early and late, and the real turning logs have none.
-    pub const DEFAULT: [EffectKind; 8] = [
-        EffectKind::ToolWear,
-        EffectKind::MotorEfficiency,
-        EffectKind::FeedDriveLag,
-        EffectKind::SensorLowpass,
-        EffectKind::OverrideDeadTime,
-        EffectKind::FeedExponent,
-        EffectKind::Runout,
-        EffectKind::NoloadDrift,
-    ];
+    pub const DEFAULT: [EffectKind; 8] = {
+        // The first eight of [`EffectKind::ALL`].
+        let mut d = [EffectKind::ToolWear; 8];
+        let mut i = 0;
+        while i < d.len() {
+            d[i] = EffectKind::ALL[i];
+            i += 1;
+        }
+        d
+    };
 
     /// All effects, in report order.
     pub const ALL: [EffectKind; 13] = [
@@ -248,23 +248,14 @@ impl EffectKind {
         EffectKind::SecondOrderDrive,
     ];
 
-    /// Name used in files and reports.
+    /// The effect's entry in [`EFFECTS`].
+    pub fn desc(self) -> &'static EffectDesc {
+        &EFFECTS[self as usize]
+    }
+
+    /// Name used in files and reports (the `[effects.<name>]` section).
     pub fn name(self) -> &'static str {
-        match self {
-            EffectKind::ToolWear => "tool_wear",
-            EffectKind::MotorEfficiency => "motor_efficiency",
-            EffectKind::FeedDriveLag => "feed_drive_lag",
-            EffectKind::SensorLowpass => "sensor_lowpass",
-            EffectKind::OverrideDeadTime => "override_dead_time",
-            EffectKind::FeedExponent => "feed_exponent",
-            EffectKind::Runout => "runout",
-            EffectKind::NoloadDrift => "noload_drift",
-            EffectKind::SensorGainDrift => "sensor_gain_drift",
-            EffectKind::MeasurementDelay => "measurement_delay",
-            EffectKind::DepthExponent => "depth_exponent",
-            EffectKind::KsStep => "ks_step",
-            EffectKind::SecondOrderDrive => "second_order_drive",
-        }
+        self.desc().name
     }
 
     /// Look an effect up by [`EffectKind::name`].
@@ -275,21 +266,7 @@ impl EffectKind {
     /// The effect's parameters; the first is the primary one (its interval must exclude
     /// the null for the effect to be accepted).
     pub fn params(self) -> &'static [ParamInfo] {
-        match self {
-            EffectKind::ToolWear => &P_TOOL_WEAR,
-            EffectKind::MotorEfficiency => &P_MOTOR,
-            EffectKind::FeedDriveLag => &P_LAG,
-            EffectKind::SensorLowpass => &P_LOWPASS,
-            EffectKind::OverrideDeadTime => &P_DEAD,
-            EffectKind::FeedExponent => &P_BETA,
-            EffectKind::Runout => &P_RUNOUT,
-            EffectKind::NoloadDrift => &P_DRIFT,
-            EffectKind::SensorGainDrift => &P_GAIN_DRIFT,
-            EffectKind::MeasurementDelay => &P_MEAS_DELAY,
-            EffectKind::DepthExponent => &P_DEPTH_EXP,
-            EffectKind::KsStep => &P_KS_STEP,
-            EffectKind::SecondOrderDrive => &P_TAU2,
-        }
+        self.desc().params
     }
 
     /// Which measured channels can see the effect.
@@ -586,21 +563,7 @@ impl Effects {
 
     /// Whether `kind` is switched on.
     pub fn is_on(&self, kind: EffectKind) -> bool {
-        match kind {
-            EffectKind::ToolWear => self.tool_wear.is_some(),
-            EffectKind::MotorEfficiency => self.motor_efficiency.is_some(),
-            EffectKind::FeedDriveLag => self.feed_drive_lag.is_some(),
-            EffectKind::SensorLowpass => self.sensor_lowpass.is_some(),
-            EffectKind::OverrideDeadTime => self.override_dead_time.is_some(),
-            EffectKind::FeedExponent => self.feed_exponent.is_some(),
-            EffectKind::Runout => self.runout.is_some(),
-            EffectKind::NoloadDrift => self.noload_drift.is_some(),
-            EffectKind::SensorGainDrift => self.sensor_gain_drift.is_some(),
-            EffectKind::MeasurementDelay => self.measurement_delay.is_some(),
-            EffectKind::DepthExponent => self.depth_exponent.is_some(),
-            EffectKind::KsStep => self.ks_step.is_some(),
-            EffectKind::SecondOrderDrive => self.second_order_drive.is_some(),
-        }
+        (kind.desc().get)(self).is_some()
     }
 
     /// The effects switched on.
@@ -613,131 +576,27 @@ impl Effects {
 
     /// Switch `kind` off.
     pub fn remove(&mut self, kind: EffectKind) {
-        match kind {
-            EffectKind::ToolWear => self.tool_wear = None,
-            EffectKind::MotorEfficiency => self.motor_efficiency = None,
-            EffectKind::FeedDriveLag => self.feed_drive_lag = None,
-            EffectKind::SensorLowpass => self.sensor_lowpass = None,
-            EffectKind::OverrideDeadTime => self.override_dead_time = None,
-            EffectKind::FeedExponent => self.feed_exponent = None,
-            EffectKind::Runout => self.runout = None,
-            EffectKind::NoloadDrift => self.noload_drift = None,
-            EffectKind::SensorGainDrift => self.sensor_gain_drift = None,
-            EffectKind::MeasurementDelay => self.measurement_delay = None,
-            EffectKind::DepthExponent => self.depth_exponent = None,
-            EffectKind::KsStep => self.ks_step = None,
-            EffectKind::SecondOrderDrive => self.second_order_drive = None,
-        }
+        (kind.desc().clear)(self)
     }
 
     /// Parameter `i` of `kind` (its null value when the effect is off).
     pub fn get(&self, kind: EffectKind, i: usize) -> f64 {
-        let null = kind.params().get(i).map(|p| p.null).unwrap_or(0.0);
-        match (kind, i) {
-            (EffectKind::ToolWear, 0) => self.tool_wear.map(|e| e.ks_growth_per_cm3),
-            (EffectKind::ToolWear, 1) => self.tool_wear.map(|e| e.volume_exponent),
-            (EffectKind::MotorEfficiency, 0) => self.motor_efficiency.map(|e| e.copper_loss_per_kw),
-            (EffectKind::FeedDriveLag, 0) => self.feed_drive_lag.map(|e| e.extra_tau_s),
-            (EffectKind::SensorLowpass, 0) => self.sensor_lowpass.map(|e| e.tau_s),
-            (EffectKind::OverrideDeadTime, 0) => self.override_dead_time.map(|e| e.extra_delay_s),
-            (EffectKind::FeedExponent, 0) => self.feed_exponent.map(|e| e.delta_beta),
-            (EffectKind::FeedExponent, 1) => self.feed_exponent.map(|e| e.feed_ref_mm_min),
-            (EffectKind::Runout, 0) => self.runout.map(|e| e.amplitude),
-            (EffectKind::Runout, 1) => self.runout.map(|e| e.phase_rad),
-            (EffectKind::NoloadDrift, 0) => self.noload_drift.map(|e| e.delta_w),
-            (EffectKind::NoloadDrift, 1) => self.noload_drift.map(|e| e.tau_s),
-            (EffectKind::SensorGainDrift, 0) => self.sensor_gain_drift.map(|e| e.gain_per_min),
-            (EffectKind::MeasurementDelay, 0) => self.measurement_delay.map(|e| e.delay_s),
-            (EffectKind::DepthExponent, 0) => self.depth_exponent.map(|e| e.delta_alpha),
-            (EffectKind::KsStep, 0) => self.ks_step.map(|e| e.delta),
-            (EffectKind::KsStep, 1) => self.ks_step.map(|e| e.boundary_frac),
-            (EffectKind::SecondOrderDrive, 0) => self.second_order_drive.map(|e| e.tau2_s),
-            _ => None,
-        }
-        .unwrap_or(null)
+        let d = kind.desc();
+        let null = d.params.get(i).map_or(0.0, |p| p.null);
+        (d.get)(self)
+            .filter(|_| i < d.params.len())
+            .map_or(null, |v| v[i])
     }
 
-    /// Switch `kind` on (with null parameters if it was off) and set parameter `i`.
+    /// Switch `kind` on (with its [`EffectDesc::off`] values if it was off) and set
+    /// parameter `i`.
     pub fn set(&mut self, kind: EffectKind, i: usize, v: f64) {
-        match kind {
-            EffectKind::ToolWear => set_pair(
-                &mut self.tool_wear,
-                ToolWear {
-                    ks_growth_per_cm3: 0.0,
-                    volume_exponent: 1.0,
-                },
-                i,
-                v,
-                |e| &mut e.ks_growth_per_cm3,
-                |e| &mut e.volume_exponent,
-            ),
-            EffectKind::MotorEfficiency => {
-                self.motor_efficiency = Some(MotorEfficiency {
-                    copper_loss_per_kw: v,
-                })
-            }
-            EffectKind::FeedDriveLag => self.feed_drive_lag = Some(FeedDriveLag { extra_tau_s: v }),
-            EffectKind::SensorLowpass => self.sensor_lowpass = Some(SensorLowpass { tau_s: v }),
-            EffectKind::OverrideDeadTime => {
-                self.override_dead_time = Some(OverrideDeadTime { extra_delay_s: v })
-            }
-            EffectKind::FeedExponent => set_pair(
-                &mut self.feed_exponent,
-                FeedExponent {
-                    delta_beta: 0.0,
-                    feed_ref_mm_min: 200.0,
-                },
-                i,
-                v,
-                |e| &mut e.delta_beta,
-                |e| &mut e.feed_ref_mm_min,
-            ),
-            EffectKind::Runout => set_pair(
-                &mut self.runout,
-                Runout {
-                    amplitude: 0.0,
-                    phase_rad: 0.0,
-                },
-                i,
-                v,
-                |e| &mut e.amplitude,
-                |e| &mut e.phase_rad,
-            ),
-            EffectKind::NoloadDrift => set_pair(
-                &mut self.noload_drift,
-                NoloadDrift {
-                    delta_w: 0.0,
-                    tau_s: 300.0,
-                },
-                i,
-                v,
-                |e| &mut e.delta_w,
-                |e| &mut e.tau_s,
-            ),
-            EffectKind::SensorGainDrift => {
-                self.sensor_gain_drift = Some(SensorGainDrift { gain_per_min: v })
-            }
-            EffectKind::MeasurementDelay => {
-                self.measurement_delay = Some(MeasurementDelay { delay_s: v })
-            }
-            EffectKind::DepthExponent => {
-                self.depth_exponent = Some(DepthExponent { delta_alpha: v })
-            }
-            EffectKind::KsStep => set_pair(
-                &mut self.ks_step,
-                KsStep {
-                    delta: 0.0,
-                    boundary_frac: 0.5,
-                },
-                i,
-                v,
-                |e| &mut e.delta,
-                |e| &mut e.boundary_frac,
-            ),
-            EffectKind::SecondOrderDrive => {
-                self.second_order_drive = Some(SecondOrderDrive { tau2_s: v })
-            }
+        let d = kind.desc();
+        let mut values = (d.get)(self).unwrap_or(d.off);
+        if let Some(x) = values.get_mut(i) {
+            *x = v;
         }
+        (d.set)(self, values)
     }
 
     /// Range checks of every present effect; errors name `effects.<name>.<key>`.
@@ -764,24 +623,77 @@ impl Effects {
     }
 }
 
-/// Set parameter `i` (0: `first`, else `second`) of a two-parameter effect in `slot`,
-/// switching it on with `off` (its null values) if it was off.
-fn set_pair<T: Copy>(
-    slot: &mut Option<T>,
-    off: T,
-    i: usize,
-    v: f64,
-    first: fn(&mut T) -> &mut f64,
-    second: fn(&mut T) -> &mut f64,
-) {
-    let mut e = slot.unwrap_or(off);
-    *if i == 0 {
-        first(&mut e)
-    } else {
-        second(&mut e)
-    } = v;
-    *slot = Some(e);
+/// One effect of the library: its kind, name, parameters and how it sits in [`Effects`].
+/// Adding an effect is one [`EFFECTS`] entry (plus its [`EffectKind`] variant, its
+/// parameter struct and its [`Effects`] field).
+#[derive(Debug, Clone, Copy)]
+pub struct EffectDesc {
+    /// The effect.
+    pub kind: EffectKind,
+    /// Name in files and reports, the [`Effects`] field and `[effects.<name>]` section.
+    pub name: &'static str,
+    /// Parameters, primary first (at most [`MAX_PARAMS`]).
+    pub params: &'static [ParamInfo],
+    /// Parameter values an effect is switched on with before one is set (the nulls,
+    /// except for settings such as a reference feed or a time constant).
+    pub off: [f64; MAX_PARAMS],
+    /// The parameter values when on (unused slots 0).
+    pub get: fn(&Effects) -> Option<[f64; MAX_PARAMS]>,
+    /// Switch on with these parameter values.
+    pub set: fn(&mut Effects, [f64; MAX_PARAMS]),
+    /// Switch off.
+    pub clear: fn(&mut Effects),
 }
+
+/// Most parameters of one effect.
+pub const MAX_PARAMS: usize = 2;
+
+/// One [`EffectDesc`]: `entry!(Kind, field: Struct { key = off, … }, PARAMS)`, the keys in
+/// the order of `PARAMS`.
+macro_rules! entry {
+    ($kind:ident, $field:ident: $ty:ident { $($key:ident = $off:expr),+ }, $params:expr) => {
+        EffectDesc {
+            kind: EffectKind::$kind,
+            name: stringify!($field),
+            params: &$params,
+            off: pad(&[$($off),+]),
+            get: |fx| fx.$field.map(|e| pad(&[$(e.$key),+])),
+            set: |fx, v| {
+                let mut it = v.into_iter();
+                fx.$field = Some($ty { $($key: it.next().unwrap_or(0.0)),+ });
+            },
+            clear: |fx| fx.$field = None,
+        }
+    };
+}
+
+/// `v` in a [`MAX_PARAMS`] array, unused slots 0.
+const fn pad(v: &[f64]) -> [f64; MAX_PARAMS] {
+    let mut out = [0.0; MAX_PARAMS];
+    let mut i = 0;
+    while i < v.len() && i < MAX_PARAMS {
+        out[i] = v[i];
+        i += 1;
+    }
+    out
+}
+
+/// The effect library, in [`EffectKind`] order ([`EffectKind::ALL`]).
+pub static EFFECTS: [EffectDesc; 13] = [
+    entry!(ToolWear, tool_wear: ToolWear { ks_growth_per_cm3 = 0.0, volume_exponent = 1.0 }, P_TOOL_WEAR),
+    entry!(MotorEfficiency, motor_efficiency: MotorEfficiency { copper_loss_per_kw = 0.0 }, P_MOTOR),
+    entry!(FeedDriveLag, feed_drive_lag: FeedDriveLag { extra_tau_s = 0.0 }, P_LAG),
+    entry!(SensorLowpass, sensor_lowpass: SensorLowpass { tau_s = 0.0 }, P_LOWPASS),
+    entry!(OverrideDeadTime, override_dead_time: OverrideDeadTime { extra_delay_s = 0.0 }, P_DEAD),
+    entry!(FeedExponent, feed_exponent: FeedExponent { delta_beta = 0.0, feed_ref_mm_min = 200.0 }, P_BETA),
+    entry!(Runout, runout: Runout { amplitude = 0.0, phase_rad = 0.0 }, P_RUNOUT),
+    entry!(NoloadDrift, noload_drift: NoloadDrift { delta_w = 0.0, tau_s = 300.0 }, P_DRIFT),
+    entry!(SensorGainDrift, sensor_gain_drift: SensorGainDrift { gain_per_min = 0.0 }, P_GAIN_DRIFT),
+    entry!(MeasurementDelay, measurement_delay: MeasurementDelay { delay_s = 0.0 }, P_MEAS_DELAY),
+    entry!(DepthExponent, depth_exponent: DepthExponent { delta_alpha = 0.0 }, P_DEPTH_EXP),
+    entry!(KsStep, ks_step: KsStep { delta = 0.0, boundary_frac = 0.5 }, P_KS_STEP),
+    entry!(SecondOrderDrive, second_order_drive: SecondOrderDrive { tau2_s = 0.0 }, P_TAU2),
+];
 
 #[cfg(test)]
 mod tests {
@@ -804,6 +716,27 @@ mod tests {
         SensorGainDrift { gain_per_min: 0.6 }.apply(&mut y, &t);
         // 0.9 s after the first row: × (1 + 0.6 · 0.9/60).
         assert!((y[9] - 100.9).abs() < 1e-9 && y[0] == 100.0, "{y:?}");
+    }
+
+    #[test]
+    fn the_table_is_in_kind_order_and_round_trips_every_parameter() {
+        for (i, k) in EffectKind::ALL.into_iter().enumerate() {
+            let d = &EFFECTS[i];
+            assert_eq!(d.kind, k);
+            assert!(d.params.len() <= MAX_PARAMS, "{}", d.name);
+            let mut e = Effects::default();
+            assert!(!e.is_on(k) && e.get(k, 0) == d.params[0].null);
+            for (j, p) in d.params.iter().enumerate() {
+                e.set(k, j, p.hi);
+                assert_eq!(e.get(k, j), p.hi, "{}.{}", d.name, p.key);
+            }
+            assert_eq!(e.active(), vec![k]);
+            // Serialized under its name.
+            let text = toml::to_string(&e).expect("toml");
+            assert!(text.contains(&format!("[{}]", d.name)), "{text}");
+            e.remove(k);
+            assert!(e.is_empty());
+        }
     }
 
     #[test]

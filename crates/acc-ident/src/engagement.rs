@@ -5,7 +5,7 @@
 //! the path position `x_mm`, the integral of the actual feed since the run began, the
 //! first row's period included. With the workpiece (`acc discrepancy --workpiece`) the
 //! engagement of every row is the simulator's own
-//! ([`acc_sim::workpiece::Workpiece::engagement`], down milling, the material ahead of the
+//! ([`acc_sim::engagement::EngagementSource`] of the workpiece, down milling, the material ahead of the
 //! tool centre) at the workpiece coordinate `u = x0_mm + (x_mm − x_mm of the first row)`,
 //! for the model's tool diameter; the axial depth is the workpiece's.
 //!
@@ -26,6 +26,7 @@
 use std::path::{Path, PathBuf};
 
 use acc_config::ConfigError;
+use acc_sim::engagement::Engagement;
 use acc_sim::workpiece::Workpiece;
 
 /// Default workpiece coordinate of the tool centre at the log's first read, mm: the
@@ -100,13 +101,12 @@ impl PathEngagement {
         })
     }
 
-    /// Radial and axial depth of cut, mm, `travel_mm` (mm) along the path from where the log
-    /// began (the log's `x_mm` minus its first row's).
-    pub fn at(&self, travel_mm: f64) -> (f64, f64) {
-        let e = self
-            .workpiece
-            .engagement(travel_mm + self.x0_mm, 0.5 * self.tool_diameter_mm);
-        (e.depth_mm, self.workpiece.axial_depth_mm)
+    /// The workpiece's engagement ([`acc_sim::engagement::EngagementSource`]) `travel_mm`
+    /// (mm) along the path from where the log began (the log's `x_mm` minus its first
+    /// row's).
+    pub fn at(&self, travel_mm: f64) -> Engagement {
+        self.workpiece
+            .engagement(travel_mm + self.x0_mm, 0.5 * self.tool_diameter_mm)
     }
 
     /// Whether any segment has a `ks_factor` other than 1 (a material change the model,
@@ -137,8 +137,8 @@ mod tests {
             assert_eq!(a.at(x), b.at(x), "x = {x}");
         }
         // 15 mm of air, then 2 mm: fully engaged 10 mm in, nothing 15 mm before.
-        assert_eq!(a.at(25.0), (2.0, 16.0));
-        assert_eq!(a.at(5.0).0, 0.0);
+        assert_eq!((a.at(25.0).radial_mm, a.at(25.0).axial_mm), (2.0, 16.0));
+        assert_eq!(a.at(5.0).radial_mm, 0.0);
         // The offset shifts the workpiece: 10 mm further along.
         let c = PathEngagement::load(&wp, 16.0, 10.0).expect("workpiece");
         assert_eq!(c.at(15.0), a.at(25.0));
@@ -226,7 +226,7 @@ mod record_tests {
         let log = from_records_with(&rows, p, Some(&eng)).expect("engagement from x_mm");
         for (i, r) in rows.iter().enumerate() {
             let x = r.x_mm.expect("x");
-            assert_eq!(log.radial_depth_mm[i], eng.at(x - x_first).0);
+            assert_eq!(log.radial_depth_mm[i], eng.at(x - x_first).radial_mm);
             assert_eq!(log.axial_depth_mm[i], 16.0);
         }
         // Air before the cut (x = 5.3 mm: the material starts 9.7 mm ahead, beyond the

@@ -242,6 +242,23 @@ impl PlantForceModel {
     }
 }
 
+/// `e` of a simulator file check with its key placed under the model file's `section`
+/// (`spindle.rpm` of a machine file is `machine.spindle.rpm` here).
+fn under(section: &str, e: ConfigError) -> ConfigError {
+    match e {
+        ConfigError::OutOfRange(mut r) => {
+            r.key = format!("{section}.{}", r.key);
+            ConfigError::OutOfRange(r)
+        }
+        ConfigError::Invalid { file, key, message } => ConfigError::Invalid {
+            file,
+            key: format!("{section}.{key}"),
+            message,
+        },
+        other => other,
+    }
+}
+
 /// A complete model file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -276,77 +293,25 @@ impl Model {
         Ok(m)
     }
 
-    /// Range checks (the simulator's ranges); errors name file, key and allowed range.
+    /// Range checks: `[machine]` and `[tool]` by the simulator's own checks
+    /// ([`acc_sim::config::MachineSpec::validate`], [`acc_sim::config::ToolSpec::validate`]),
+    /// so each key has the one range `acc sim` allows; then `[measurement]` and
+    /// `[effects]`. Errors name the file, the key as written here (`machine.…`, `tool.…`)
+    /// and the allowed range.
     pub fn validate(&self, f: &Path) -> Result<(), ConfigError> {
-        let s = &self.machine.spindle;
-        check_range(f, "machine.spindle.rpm", s.rpm, 1.0, 60_000.0)?;
-        check_range(
-            f,
-            "machine.spindle.no_load_power_w",
-            s.no_load_power_w,
-            0.0,
-            1e6,
-        )?;
-        check_range(f, "machine.spindle.efficiency", s.efficiency, 0.05, 1.0)?;
-        s.validate_effects(f, "machine.spindle")?;
-        check_range(
-            f,
-            "machine.feed_drive.tau_s",
-            self.machine.feed_drive.tau_s,
-            0.0,
-            10.0,
-        )?;
-        check_range(
-            f,
-            "machine.override_path.delay_s",
-            self.machine.override_path.delay_s,
-            0.0,
-            10.0,
-        )?;
-        check_range(
-            f,
-            "measurement.force_window_s",
-            self.measurement.force_window_s,
-            0.0,
-            10.0,
-        )?;
-        let t = &self.tool;
-        check_range(f, "tool.diameter_mm", t.diameter_mm, 0.1, 5000.0)?;
-        check_range(f, "tool.flutes", t.flutes as f64, 1.0, 32.0)?;
-        let p = &t.process;
-        check_range(f, "tool.process.calib_force_n", p.calib_force_n, 1e-3, 1e6)?;
-        check_range(
-            f,
-            "tool.process.calib_radial_mm",
-            p.calib_radial_mm,
-            1e-3,
-            100.0,
-        )?;
-        check_range(
-            f,
-            "tool.process.calib_feed_mm_min",
-            p.calib_feed_mm_min,
-            1e-3,
-            1e5,
-        )?;
-        check_range(f, "tool.process.calib_rpm", p.calib_rpm, 1e-3, 1e8)?;
-        check_range(
-            f,
-            "tool.process.calib_axial_mm",
-            p.calib_axial_mm,
-            1e-3,
-            200.0,
-        )?;
-        check_range(f, "tool.process.alpha", p.alpha, 0.0, 3.0)?;
-        check_range(f, "tool.process.beta", p.beta, 0.1, 2.0)?;
-        check_range(f, "tool.process.gamma", p.gamma, -3.0, 3.0)?;
-        check_range(f, "tool.process.radial_ratio", p.radial_ratio, 0.0, 5.0)?;
-        let w = &t.wear;
-        check_range(f, "tool.wear.initial_factor", w.initial_factor, 0.1, 10.0)?;
-        check_range(f, "tool.wear.growth_per_cm3", w.growth_per_cm3, 0.0, 10.0)?;
-        check_range(f, "tool.wear.growth_per_min", w.growth_per_min, 0.0, 10.0)?;
-        if let Some(r) = t.runout {
-            r.validate(f, "tool.runout")?;
+        self.machine.validate(f).map_err(|e| under("machine", e))?;
+        self.tool.validate(f).map_err(|e| under("tool", e))?;
+        for (key, v) in [
+            (
+                "measurement.force_window_s",
+                self.measurement.force_window_s,
+            ),
+            (
+                "measurement.power_window_s",
+                self.measurement.power_window_s,
+            ),
+        ] {
+            check_range(f, key, v, 0.0, 10.0)?;
         }
         self.effects.validate(f)
     }
@@ -523,6 +488,17 @@ mod tests {
         let text = folded.to_toml().expect("toml");
         let back = Model::parse(Path::new("m.toml"), &text).expect("reads back");
         assert_eq!(back, folded);
+        // One range per key: the simulator's (α ≥ 0.1 in a tool file, so here too).
+        let e = Model::parse(
+            Path::new("m.toml"),
+            &text.replace("alpha = 0.8", "alpha = 0.05"),
+        )
+        .expect_err("α below the simulator's 0.1");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("m.toml") && msg.contains("tool.process.alpha") && msg.contains("0.1"),
+            "{msg}"
+        );
         let bad = text.replace("tau_s = 40.0", "tau_s = 1.0");
         let e = Model::parse(Path::new("m.toml"), &bad).expect_err("τ below 5 s");
         assert!(

@@ -482,7 +482,8 @@ pub fn from_records_with(
                         ),
                     });
                 };
-                let (d, ap) = eng.at(xm);
+                let e = eng.at(xm);
+                let (d, ap) = (e.radial_mm, e.axial_mm);
                 radial.push(d);
                 axial.push(ap);
                 x.push(xm + eng.x0_mm);

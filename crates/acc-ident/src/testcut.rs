@@ -46,10 +46,7 @@ pub fn cut_log(inp: &Inputs) -> (RunLog, String) {
         .map(|&i| inp.radial_depth_mm[i])
         .fold(0.0, f64::max)
         .max(0.1);
-    let prog = match &inp.plant {
-        Some(p) => pick(&p.programmed_feed_mm_min, 100.0),
-        None => pick(&inp.feed_mm_min, 100.0),
-    };
+    let prog = pick(&inp.plant.programmed_feed_mm_min, 100.0);
     let period = inp.period_s.max(1e-3);
     let mut log = RunLog {
         t_s: Vec::new(),

@@ -1,0 +1,404 @@
+//! Open-loop replay of a model on the inputs recorded in a run log: the recorded
+//! engagement, spindle speed and feed commands drive the simulator's plant
+//! ([`acc_sim::replay`]); nothing is fed back, so the prediction is compared with the
+//! measurement like for like. This module prepares the plant's inputs from the log and
+//! scales its unit-force trace by the model's `Ks`, wear, runout and candidate effects;
+//! the override path, feed drive, engagement and force law are the simulator's.
+//!
+//! Files: [`inputs`] (the logged columns the plant runs on), [`consistency`] (force
+//! against power), [`ks_step`] (the material-step candidate).
+
+mod consistency;
+mod inputs;
+mod ks_step;
+
+pub use consistency::ForcePowerConsistency;
+pub use inputs::{FeedSource, Inputs, PlantInputs, ReplayError};
+use ks_step::*;
+
+use crate::effects::EffectKind;
+use crate::model::{Channel, FeedInput, Model};
+use crate::physics;
+use crate::runlog::RunLog;
+
+/// One replay: the predicted channel and the internal signals that explain it.
+#[derive(Debug, Clone, Default)]
+pub struct Replay {
+    /// Predicted measured channel (W or N).
+    pub predicted: Vec<f64>,
+    /// Replayed feed, mean over each period, mm/min.
+    pub feed_mm_min: Vec<f64>,
+    /// Replayed feed, mean over the force channel's averaging window, mm/min.
+    pub window_feed_mm_min: Vec<f64>,
+    /// Replayed mean cutting force, N.
+    pub force_n: Vec<f64>,
+    /// Removed volume since the start of the log, mm³.
+    pub volume_mm3: Vec<f64>,
+    /// Cutting power `F · v`, W.
+    pub cut_power_w: Vec<f64>,
+    /// Spindle angle at the end of each period, rad.
+    pub spindle_angle_rad: Vec<f64>,
+    /// Position of the `ks_step` candidate's boundary on the replayed tool path (the
+    /// workpiece's x when the replay runs on a workpiece, else the path length from the
+    /// log's start), mm; `None` without the candidate or without cutting rows.
+    pub ks_step_boundary_mm: Option<f64>,
+}
+
+/// What does not change while only loads, losses and the sensor are fitted: the plant's
+/// feed path and its force per unit calibration force (`Ks·a_p·d^α·f^β·s^γ /
+/// calib_force_n`).
+#[derive(Debug, Clone, PartialEq)]
+struct PathKey {
+    delay_s: f64,
+    tau_s: f64,
+    /// Second lag of the feed drive, s (0: first-order drive).
+    tau2_s: f64,
+    window_s: f64,
+    process: [f64; 8],
+}
+
+/// The simulator's plant trace of one [`PathKey`].
+#[derive(Debug, Clone)]
+struct PathCache {
+    key: PathKey,
+    plant: Vec<acc_sim::replay::PeriodTrace>,
+}
+
+/// The window the compared channel averages at the end of each period, s.
+fn channel_window_s(model: &Model, inp: &Inputs) -> f64 {
+    match inp.channel {
+        Channel::Force => model.measurement.force_window_s,
+        Channel::Power => model.measurement.power_window_s,
+    }
+}
+
+/// Replay the simulator's plant for the path key (see [`acc_sim::replay::trace`]).
+fn plant_trace(
+    model: &Model,
+    inp: &Inputs,
+    plant: &PlantInputs,
+    key: &PathKey,
+) -> Vec<acc_sim::replay::PeriodTrace> {
+    let mut machine = model.machine.clone();
+    // The recorded feed is the feed: no override path, no drive lag.
+    let instant = plant.source == FeedSource::Recorded;
+    machine.override_path.delay_s = if instant { 0.0 } else { key.delay_s };
+    machine.feed_drive.tau_s = if instant { 0.0 } else { key.tau_s };
+    machine.feed_drive.tau2_s = if instant { 0.0 } else { key.tau2_s };
+    // The process constants of the key (the depth-exponent candidate changes α).
+    let mut tool = model.tool.clone();
+    tool.process.alpha = key.process[4];
+    // The motor channel: the power, or the power a spindle-power force estimator reads.
+    let power_read = inp.channel == Channel::Power || inp.estimator_no_load.is_some();
+    let motor = match (power_read, model.measurement.spindle_motor) {
+        (true, Some(m)) => m.config().ok(),
+        _ => None,
+    };
+    let channel = acc_sim::replay::ReplayChannel {
+        window_s: key.window_s,
+        torque_lag_s: motor.as_ref().map_or(0.0, |c| c.drive.torque_lag_s),
+        daq_rate_hz: motor.as_ref().map_or(0.0, |c| c.sensors.sample_rate_hz),
+    };
+    let run = |drive: &acc_sim::replay::ReplayDrive<'_>| {
+        acc_sim::replay::trace(
+            &machine,
+            &tool,
+            model.measurement.force_model.sim(),
+            &plant.engagement,
+            drive,
+            &channel,
+        )
+    };
+    let settled = plant.source == FeedSource::Command;
+    let Some(sample) = inp.board_sample.as_ref().filter(|s| s.len() == inp.len()) else {
+        return run(&acc_sim::replay::ReplayDrive {
+            period_s: &inp.dt_s,
+            override_applied_pct: &plant.override_applied_pct,
+            programmed_feed_mm_min: &plant.programmed_feed_mm_min,
+            feed_hold: None,
+            spindle_rpm: plant.spindle_rpm.as_deref(),
+            settled,
+        });
+    };
+    // On the board's periods. The override register a row reads is the one that drove the
+    // sample it reads (the board takes a period at its tick, with the register as it is
+    // then; the write of the row before landed well before that tick). A period no row
+    // read lies between row k−1 and row k: if row k−1 read the same sample as the row
+    // before it, the board's tick was late and fired just after row k−1's read — most
+    // likely before that row's write landed, so the period ran on what row k−1 read; if
+    // not, row k read late, and the period ran on what row k reads.
+    let periods = sample.last().map_or(0, |&s| s + 1);
+    let mut ov = Vec::with_capacity(periods);
+    let mut prog = Vec::with_capacity(periods);
+    let mut rpm = Vec::with_capacity(periods);
+    let mut row = 0;
+    for s in 0..periods {
+        while sample[row] < s {
+            row += 1;
+        }
+        let late_tick = row >= 2 && sample[row] > s && sample[row - 1] == sample[row - 2];
+        let from = if late_tick { row - 1 } else { row };
+        ov.push(plant.override_applied_pct[from]);
+        prog.push(plant.programmed_feed_mm_min[from]);
+        if let Some(r) = &plant.spindle_rpm {
+            rpm.push(r[from]);
+        }
+    }
+    let grid = run(&acc_sim::replay::ReplayDrive {
+        period_s: &vec![inp.period_s; periods],
+        override_applied_pct: &ov,
+        programmed_feed_mm_min: &prog,
+        feed_hold: None,
+        spindle_rpm: plant.spindle_rpm.as_ref().map(|_| rpm.as_slice()),
+        settled,
+    });
+    sample.iter().map(|&s| grid[s]).collect()
+}
+
+/// Paths kept per [`Inputs`].
+const PATH_CACHE: usize = 24;
+
+fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
+    let mut v = inp.cache.borrow_mut();
+    if v.len() >= PATH_CACHE {
+        v.remove(0);
+    }
+    v.push(c);
+}
+
+fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
+    let fx = &model.effects;
+    let mut proc = model.tool.process;
+    proc.alpha += fx.get(EffectKind::DepthExponent, 0);
+    let p = &proc;
+    let key = PathKey {
+        delay_s: model.machine.override_path.delay_s
+            + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
+        tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
+        tau2_s: model.machine.feed_drive.tau2_s + fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
+        window_s: channel_window_s(model, inp),
+        process: [
+            p.calib_radial_mm,
+            p.calib_feed_mm_min,
+            p.calib_rpm,
+            p.calib_axial_mm,
+            p.alpha,
+            p.beta,
+            p.gamma,
+            p.radial_ratio,
+        ],
+    };
+    // The last few paths: a fit's numerical derivatives and cross-validation folds
+    // alternate between nearby delays and time constants, each a full plant replay.
+    if let Some(c) = inp.cache.borrow().iter().find(|c| c.key == key) {
+        return c.clone();
+    }
+    let plant = plant_trace(model, inp, &inp.plant, &key);
+    let c = std::rc::Rc::new(PathCache { key, plant });
+    remember(inp, c.clone());
+    c
+}
+
+/// Replay `model` on `inp` (open loop) through the simulator's plant
+/// ([`acc_sim::replay::trace`]: override path, feed drive, engagement, force law), then
+/// the scales, spindle power, sensor and measurement chain of [`replay_plant`].
+pub fn replay(model: &Model, inp: &Inputs) -> Replay {
+    let n = inp.len();
+    let mut out = Replay {
+        predicted: vec![0.0; n],
+        feed_mm_min: vec![0.0; n],
+        window_feed_mm_min: vec![0.0; n],
+        force_n: vec![0.0; n],
+        volume_mm3: vec![0.0; n],
+        cut_power_w: vec![0.0; n],
+        spindle_angle_rad: vec![0.0; n],
+        ks_step_boundary_mm: None,
+    };
+    let cached = path(model, inp);
+    replay_plant(model, inp, &cached.plant, &mut out);
+    measurement_chain(model, inp, &mut out.predicted);
+    out
+}
+
+/// The candidate measurement-chain effects on the logged column: a pure delay, then a
+/// gain drift.
+fn measurement_chain(model: &Model, inp: &Inputs, y: &mut [f64]) {
+    if let Some(d) = model.effects.measurement_delay {
+        d.apply(y, &inp.t_s);
+    }
+    if let Some(g) = model.effects.sensor_gain_drift {
+        g.apply(y, &inp.t_s);
+    }
+}
+
+/// [`replay`] on the simulator's plant trace: the trace is at unit force scale, so `Ks`
+/// (`calib_force_n`), the wear factor (the simulator's law on the replayed volume), the
+/// feed exponent and the runout (its step means, through the trace's basis) scale it here;
+/// the power is the spindle law of the model (constant-speed spindle, or the motor's
+/// input-power curve at the logged speed through the window's mean and mean-square torque)
+/// plus the machine's and the candidates' drift and losses, then the sensor low-passes.
+#[allow(clippy::needless_range_loop)]
+fn replay_plant(
+    model: &Model,
+    inp: &Inputs,
+    tr: &[acc_sim::replay::PeriodTrace],
+    out: &mut Replay,
+) {
+    let n = inp.len();
+    let fx = &model.effects;
+    let calib = model.tool.process.calib_force_n;
+    let w = &model.tool.wear;
+    let wear = acc_sim::process::WearSpec {
+        growth_per_cm3: w.growth_per_cm3 + fx.get(EffectKind::ToolWear, 0),
+        volume_exponent: fx
+            .tool_wear
+            .map_or(w.volume_exponent, |e| e.volume_exponent),
+        ..*w
+    };
+    let dbeta = fx.get(EffectKind::FeedExponent, 0);
+    let fref = fx.get(EffectKind::FeedExponent, 1).max(1e-9);
+    let runouts: Vec<acc_sim::config::Runout> = [model.tool.runout, fx.runout]
+        .into_iter()
+        .flatten()
+        .collect();
+    let runout_gain = |unit: f64, basis: [f64; 2]| -> f64 {
+        if unit <= 0.0 {
+            return 1.0;
+        }
+        let mut g = 1.0;
+        for r in &runouts {
+            let (s, c) = r.phase_rad.sin_cos();
+            g *= 1.0 + r.amplitude * (c * basis[0] + s * basis[1]) / unit;
+        }
+        g
+    };
+    // The force of a spindle-power estimator is replayed through the power it reads.
+    let estimator = match (inp.channel, &inp.estimator_no_load) {
+        (Channel::Force, Some(nl)) => model.measurement.force_estimator.map(|e| (e, nl)),
+        _ => None,
+    };
+    let power_chan = inp.channel == Channel::Power || estimator.is_some();
+    let motor = if power_chan {
+        model.measurement.spindle_motor
+    } else {
+        None
+    };
+    let t0 = inp.t_s.first().copied().unwrap_or(0.0) - inp.dt_s.first().copied().unwrap_or(0.0);
+    // The material step: per-row factors from the plant's tool-centre positions.
+    let window_s = channel_window_s(model, inp);
+    let steps = fx.ks_step.and_then(|_| {
+        let x_end: Vec<f64> = tr.iter().map(|t| t.x_mm).collect();
+        let x_start: Vec<f64> = (0..n)
+            .map(|i| match i {
+                0 => x_end[0] - tr[0].feed_mean_mm_min * inp.dt_s[0] / 60.0,
+                _ => x_end[i - 1],
+            })
+            .collect();
+        let cut: Vec<bool> = tr.iter().map(|t| t.unit_force_mean > 0.0).collect();
+        let wf: Vec<f64> = inp
+            .dt_s
+            .iter()
+            .map(|d| {
+                if window_s > 0.0 && *d > 0.0 {
+                    window_s / d
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let r = model.tool.radius_mm();
+        let shape = match &inp.plant.engagement {
+            acc_sim::replay::ReplayEngagement::Workpiece { workpiece, .. } => {
+                KsStepShape::Workpiece(workpiece, r)
+            }
+            _ => KsStepShape::Logged(&inp.radial_depth_mm, r),
+        };
+        ks_step_factors(fx.ks_step, &x_start, &x_end, &cut, &wf, &shape)
+    });
+    out.ks_step_boundary_mm = steps.as_ref().map(|s| s.0);
+    let mut cut_min = 0.0;
+    let mut theta = 0.0;
+    for i in 0..n {
+        let t = &tr[i];
+        let (ks_mean, ks_win) = steps.as_ref().map_or((1.0, 1.0), |s| (s.1[i], s.2[i]));
+        let s = inp.spindle_rpm[i];
+        theta += 2.0 * std::f64::consts::PI * s / 60.0 * inp.dt_s[i];
+        out.spindle_angle_rad[i] = theta;
+        out.feed_mm_min[i] = t.feed_mean_mm_min;
+        out.window_feed_mm_min[i] = t.feed_window_mm_min;
+        out.volume_mm3[i] = t.volume_mm3;
+        // The wear of the volume removed before the period (the period-based replay's
+        // convention).
+        let v_before = if i == 0 { 0.0 } else { tr[i - 1].volume_mm3 };
+        let factor = wear.factor(v_before / 1000.0, cut_min);
+        if t.unit_force_mean > 0.0 {
+            cut_min += inp.dt_s[i] / 60.0;
+        }
+        let fb = |f: f64| {
+            if dbeta != 0.0 && f > 0.0 {
+                (f / fref).powf(dbeta)
+            } else {
+                1.0
+            }
+        };
+        let k_mean = calib * factor * ks_mean * fb(t.feed_mean_mm_min);
+        let k_win = calib * factor * ks_win * fb(t.feed_window_mm_min);
+        out.force_n[i] = k_mean * t.unit_force_mean * runout_gain(t.unit_force_mean, t.runout_mean);
+        let g_win = runout_gain(t.unit_force_window, t.runout_window);
+        let chan_force = k_win * t.unit_force_window * g_win;
+        // Torque seen by the power channel (window, after the drive's torque lag).
+        let torque = k_win * g_win * t.unit_torque_window;
+        let omega = s * 2.0 * std::f64::consts::PI / 60.0;
+        let pc = torque * omega;
+        out.cut_power_w[i] = pc;
+        let tt = inp.t_s[i] - t0;
+        out.predicted[i] = match power_chan {
+            false => chan_force,
+            true if s > 0.0 => {
+                let sp = &model.machine.spindle;
+                let drift_w = sp.noload_drift.map_or(0.0, |d| d.power_w(tt))
+                    + fx.noload_drift.map_or(0.0, |d| d.power_w(tt));
+                match motor {
+                    Some(m) => {
+                        let c = inp.motor_curve(m, s);
+                        let kk = k_win * g_win;
+                        // The simulator's motor carries the drift as bearing friction
+                        // T_d = P_drift/ω on the shaft (`acc_sim::motor::MotorEffects`):
+                        // the input rises by P_in(T + T_d) − P_in(T), more under load
+                        // (copper loss), not by P_drift alone.
+                        let td = if omega > 1e-6 { drift_w / omega } else { 0.0 };
+                        let pc_rms = omega * kk * t.unit_torque_sq_window.max(0.0).sqrt();
+                        sp.no_load_power_w
+                            + c[1] * (torque + td)
+                            + c[2]
+                                * (kk * kk * t.unit_torque_sq_window + 2.0 * torque * td + td * td)
+                            // The copper loss of the simulator's motor is taken sample by
+                            // sample on the instantaneous torque: its mean is c·⟨P_c²⟩, the
+                            // tooth ripple's mean square included, not c·⟨P_c⟩².
+                            + sp.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
+                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
+                    }
+                    None => {
+                        physics::input_power_w(sp, torque, s, tt)
+                            + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
+                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                    }
+                }
+            }
+            true => 0.0,
+        };
+    }
+    if let (true, Some(l)) = (power_chan, model.machine.spindle.sensor_lowpass) {
+        l.filter(&mut out.predicted, &inp.dt_s);
+    }
+    if let Some(l) = fx.sensor_lowpass {
+        l.filter(&mut out.predicted, &inp.dt_s);
+    }
+    // The estimator on the replayed power: its no-load (as it adapted on the logged
+    // power), efficiency curve and dead band.
+    if let Some((e, nl)) = estimator {
+        for i in 0..n {
+            out.predicted[i] = e.force_n(out.predicted[i], inp.spindle_rpm[i], nl[i]);
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! What the tool engages, and where the plant asks for it.
+//!
+//! The plant asks one question every internal step: *what does the tool engage at its
+//! path position now?* The answer is one value, [`Engagement`] (radial depth as the
+//! engaged lateral extent, axial depth, `Ks` factor of the material under the arc). The
+//! question goes to an [`EngagementSource`]:
+//!
+//! - [`Workpiece`]: the 1-D workpiece of the scenario files (steps and ramps along the
+//!   path, down milling, the material ahead of the tool centre);
+//! - [`EngagementProfile`]: the engagement a run log recorded along the path (the what-if
+//!   on a recorded cut);
+//! - [`Held`]: one engagement wherever the tool is (the replay of a log row that records
+//!   its depths but not where they are).
+//!
+//! A source that holds stock (an NC program over a Z-map) is another implementation: the
+//! plant calls [`EngagementSource::engagement_at`] once per internal step in path order,
+//! with `&mut self`, so it may remove the material the tool swept.
+
+use crate::config::ToolSpec;
+use crate::workpiece::Workpiece;
+
+/// Engaged part of the cutter at one tool position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Engagement {
+    /// Effective radial depth, mm: the lateral extent of the engaged arc (0 in air). With
+    /// chip thickness `h = f_z·sin ψ` (seed 004) the mean force over a revolution is
+    /// proportional to it; it equals the material depth in a uniform stretch.
+    pub radial_mm: f64,
+    /// Axial depth of cut, mm.
+    pub axial_mm: f64,
+    /// `Ks` factor of the material under the engaged arc (weighted by lateral extent), −;
+    /// 1 when not engaged.
+    pub ks_factor: f64,
+}
+
+impl Engagement {
+    /// Nothing engaged at axial depth `axial_mm` (mm).
+    pub fn air(axial_mm: f64) -> Self {
+        Engagement {
+            radial_mm: 0.0,
+            axial_mm,
+            ks_factor: 1.0,
+        }
+    }
+}
+
+/// The cutter as an engagement source sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolGeometry {
+    /// Diameter D, mm.
+    pub diameter_mm: f64,
+    /// Number of flutes z, −.
+    pub flutes: usize,
+}
+
+impl ToolGeometry {
+    /// The geometry of a tool file.
+    pub fn of(tool: &ToolSpec) -> Self {
+        ToolGeometry {
+            diameter_mm: tool.diameter_mm,
+            flutes: tool.flutes,
+        }
+    }
+
+    /// Radius R = D/2, mm.
+    pub fn radius_mm(&self) -> f64 {
+        0.5 * self.diameter_mm
+    }
+}
+
+/// Where the plant's engagement comes from (see the module docs). Object safe: the
+/// machine holds a `Box<dyn EngagementSource>`.
+pub trait EngagementSource: std::fmt::Debug + Send {
+    /// The engagement of `tool` with its centre at path position `x_mm` (mm). Called by the
+    /// plant once per internal step, in path order.
+    fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement;
+}
+
+impl EngagementSource for Workpiece {
+    /// [`Workpiece::engagement`] of the tool's radius, at the workpiece's axial depth.
+    fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement {
+        self.engagement(x_mm, tool.radius_mm())
+    }
+}
+
+/// One engagement wherever the tool is (a replayed log row's depths, `Ks` factor as given).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held(pub Engagement);
+
+impl EngagementSource for Held {
+    fn engagement_at(&mut self, _tool: &ToolGeometry, _x_mm: f64) -> Engagement {
+        self.0
+    }
+}
+
+/// The engagement a run log recorded, as a function of the path position: per row the
+/// true tool position, the engaged radial and axial depth and the effective `Ks` factor;
+/// linear in between, air before the first and after the last row. Built by
+/// [`crate::whatif`] from an `acc sim` log's plant-truth columns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EngagementProfile {
+    x_mm: Vec<f64>,
+    points: Vec<Engagement>,
+}
+
+impl EngagementProfile {
+    /// A profile of `points` at the increasing path positions `x_mm` (mm); `None` when the
+    /// lengths differ or a position goes backwards.
+    pub fn new(x_mm: Vec<f64>, points: Vec<Engagement>) -> Option<Self> {
+        let forward = x_mm.windows(2).all(|w| w[1] >= w[0] - 1e-9);
+        (x_mm.len() == points.len() && forward).then_some(Self { x_mm, points })
+    }
+
+    /// The engagement at path position `x_mm`: linear between the recorded positions,
+    /// air before the first and after the last (pure, allocation-free).
+    pub fn at(&self, x_mm: f64) -> Engagement {
+        let air = Engagement::air(self.points.first().map_or(0.0, |p| p.axial_mm));
+        let n = self.x_mm.len();
+        if n == 0 || !x_mm.is_finite() || x_mm < self.x_mm[0] || x_mm > self.x_mm[n - 1] {
+            return air;
+        }
+        let k = self.x_mm.partition_point(|&x| x < x_mm);
+        if k == 0 {
+            return self.points[0];
+        }
+        let (x0, x1) = (self.x_mm[k - 1], self.x_mm[k]);
+        let (a, b) = (self.points[k - 1], self.points[k]);
+        if x1 - x0 <= 1e-12 {
+            return b;
+        }
+        let s = (x_mm - x0) / (x1 - x0);
+        let lerp = |u: f64, v: f64| u + s * (v - u);
+        Engagement {
+            radial_mm: lerp(a.radial_mm, b.radial_mm),
+            axial_mm: lerp(a.axial_mm, b.axial_mm),
+            // The factor of the engaged end (a row in air has factor 1 by convention).
+            ks_factor: if a.radial_mm > 0.0 && b.radial_mm > 0.0 {
+                lerp(a.ks_factor, b.ks_factor)
+            } else if b.radial_mm > 0.0 {
+                b.ks_factor
+            } else {
+                a.ks_factor
+            },
+        }
+    }
+
+    /// The recorded engagements, in path order.
+    pub fn points(&self) -> &[Engagement] {
+        &self.points
+    }
+
+    /// Where a run on the profile ends, mm: midway between the last two recorded
+    /// positions, so a twin stops in the period the recorded run stopped in when it moves
+    /// alike.
+    pub fn end_mm(&self) -> f64 {
+        match self.x_mm.as_slice() {
+            [] => 0.0,
+            [x] => *x,
+            [.., a, b] => 0.5 * (a + b),
+        }
+    }
+
+    /// Number of recorded positions.
+    pub fn len(&self) -> usize {
+        self.x_mm.len()
+    }
+
+    /// Whether the profile is empty.
+    pub fn is_empty(&self) -> bool {
+        self.x_mm.is_empty()
+    }
+}
+
+impl EngagementSource for EngagementProfile {
+    fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
+        self.at(x_mm)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run::configs_dir;
+
+    #[test]
+    fn every_source_answers_through_the_trait_object() {
+        let wp = Workpiece::load(configs_dir().join("workpieces/steps_2_3_4.toml")).expect("wp");
+        let tool = ToolGeometry {
+            diameter_mm: 16.0,
+            flutes: 4,
+        };
+        let e = Engagement {
+            radial_mm: 2.0,
+            axial_mm: 16.0,
+            ks_factor: 1.5,
+        };
+        let profile = EngagementProfile::new(vec![0.0, 10.0], vec![Engagement::air(16.0), e])
+            .expect("forward");
+        let mut sources: Vec<Box<dyn EngagementSource>> =
+            vec![Box::new(wp.clone()), Box::new(Held(e)), Box::new(profile)];
+        // 10 mm into the 2 mm step (15 mm of air first): fully engaged.
+        assert_eq!(
+            sources[0].engagement_at(&tool, 25.0),
+            wp.engagement(25.0, 8.0)
+        );
+        assert_eq!(sources[0].engagement_at(&tool, 25.0).radial_mm, 2.0);
+        assert_eq!(sources[1].engagement_at(&tool, -5.0), e);
+        // Half-way: the engaged end's factor, depths linear; air past the end.
+        let mid = sources[2].engagement_at(&tool, 5.0);
+        assert_eq!((mid.radial_mm, mid.ks_factor), (1.0, 1.5));
+        assert_eq!(sources[2].engagement_at(&tool, 11.0), Engagement::air(16.0));
+        assert!(EngagementProfile::new(vec![1.0, 0.0], vec![e, e]).is_none());
+    }
+}
