@@ -13,9 +13,9 @@
 //! (`crate::motor::MotorSim::run_period_tail`) sees it, with its mean square (the motor's
 //! input power is nonlinear in torque).
 
-use std::cell::Cell;
 use std::f64::consts::PI;
-use std::rc::Rc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use acc_core::filter::FirstOrderLag;
 
@@ -67,11 +67,28 @@ pub struct ReplayDrive<'a> {
     pub settled: bool,
 }
 
+/// The logged spindle speed, rpm, shared between the replay and its spindle model (the
+/// machine owns the model; the replay sets the speed row by row).
+#[derive(Debug, Clone)]
+struct SharedRpm(Arc<AtomicU64>);
+
+impl SharedRpm {
+    fn new(rpm: f64) -> Self {
+        Self(Arc::new(AtomicU64::new(rpm.to_bits())))
+    }
+    fn get(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+    fn set(&self, rpm: f64) {
+        self.0.store(rpm.to_bits(), Ordering::Relaxed);
+    }
+}
+
 /// A spindle turning at the speed the log recorded (set per row by [`trace`]); input power
 /// by the machine's spindle law ([`crate::config::SpindleSpec::input_power_w`]).
 struct LoggedSpeedSpindle {
     spec: crate::config::SpindleSpec,
-    rpm: Rc<Cell<f64>>,
+    rpm: SharedRpm,
     power_w: f64,
     t_s: f64,
 }
@@ -187,7 +204,7 @@ pub fn trace(
     };
     let fp0 = drive.programmed_feed_mm_min.first().copied().unwrap_or(0.0);
     let mut m = Machine::new(machine, &unit, no_wear, wp, model, fp0);
-    let rpm_in = Rc::new(Cell::new(machine.spindle.rpm));
+    let rpm_in = SharedRpm::new(machine.spindle.rpm);
     if let Some(r) = drive.spindle_rpm {
         rpm_in.set(r.first().copied().unwrap_or(machine.spindle.rpm));
         m.set_spindle(Box::new(LoggedSpeedSpindle {
