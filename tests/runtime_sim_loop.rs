@@ -37,7 +37,7 @@ fn closed_loop(
         let (t_s, truth) = {
             let rec = board.advance_period(period_s);
             let mut truth = RunRecord::default();
-            acc_sim::board::add_truth(&mut truth, &rec, rec.force_mean_n);
+            acc_sim::truth::add_truth(&mut truth, &rec, rec.force_mean_n);
             (rec.t_end_s, truth)
         };
         fault(t_s, &mut board);

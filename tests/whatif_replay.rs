@@ -15,9 +15,7 @@ use std::sync::Arc;
 use acc_runtime::record::{read_run_log, RunLogWriter, RunRecord};
 use acc_sim::process::ForceLaw;
 use acc_sim::run::configs_dir;
-use acc_sim::whatif::{
-    cut_metrics, force_difference_rms_n, run_what_if, CutGeometry, EngagementProfile, WhatIfError,
-};
+use acc_sim::whatif::{cut_metrics, force_difference_rms_n, run_what_if, CutGeometry, WhatIfError};
 use acc_sim::{LawKind, Scenario};
 
 fn interrupted() -> Scenario {
@@ -39,8 +37,8 @@ fn recorded(sc: &Scenario) -> Vec<RunRecord> {
 
 fn profile(sc: &Scenario, rows: &[RunRecord]) -> CutGeometry {
     let law = ForceLaw::new(sc.tool.process);
-    let p =
-        EngagementProfile::from_rows(std::path::Path::new("run.csv"), rows, &law).expect("profile");
+    let p = acc_sim::whatif::profile_from_rows(std::path::Path::new("run.csv"), rows, &law)
+        .expect("profile");
     CutGeometry::Logged(Arc::new(p))
 }
 
@@ -120,7 +118,7 @@ fn a_log_without_plant_truth_names_the_column_and_row() {
     let mut rows = recorded(&sc);
     rows[4].force_true_n = None;
     let law = ForceLaw::new(sc.tool.process);
-    let e = EngagementProfile::from_rows(std::path::Path::new("prod.csv"), &rows, &law)
+    let e = acc_sim::whatif::profile_from_rows(std::path::Path::new("prod.csv"), &rows, &law)
         .expect_err("missing truth");
     assert!(
         matches!(
@@ -140,7 +138,7 @@ fn a_log_without_plant_truth_names_the_column_and_row() {
     );
     rows[4].force_true_n = Some(1.0);
     rows[7].x_true_mm = Some(-5.0);
-    let msg = EngagementProfile::from_rows(std::path::Path::new("prod.csv"), &rows, &law)
+    let msg = acc_sim::whatif::profile_from_rows(std::path::Path::new("prod.csv"), &rows, &law)
         .expect_err("x backwards")
         .to_string();
     assert!(msg.contains("x_true_mm") && msg.contains("row 8"), "{msg}");

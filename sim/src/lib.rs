@@ -28,21 +28,16 @@
 //! ```
 #![deny(missing_docs)]
 
+pub use acc_plant::{
+    board, channel, config, engagement, machine, motor, process, replay, workpiece,
+};
+
 pub mod baselines;
-pub mod board;
-pub mod channel;
-pub mod config;
-pub mod engagement;
-mod exact;
-pub mod machine;
-pub mod motor;
-pub mod process;
-pub mod replay;
 pub mod run;
 pub mod scenario;
 pub mod summary;
+pub mod truth;
 pub mod whatif;
-pub mod workpiece;
 
 pub use board::SimBoard;
 pub use machine::{ForceModel, Machine, PeriodRecord};

@@ -168,7 +168,7 @@ impl PeriodObserver for SimObserver<'_> {
     fn period(&mut self, row: &mut RunRecord) -> Verdict {
         let plant = *lock(&self.shared);
         if let Some(t) = plant.truth {
-            t.apply(row);
+            crate::truth::apply(&t, row);
         }
         // A channel that measures power itself (the induction-motor channel's two-wattmeter
         // reading) logs what it measured; otherwise the board's register.
@@ -431,5 +431,5 @@ impl Scenario {
 
 /// The repository's `configs/` directory (for tests, benches and the CLI's fallbacks).
 pub fn configs_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs")
+    acc_plant::configs_dir()
 }

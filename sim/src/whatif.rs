@@ -72,13 +72,17 @@ pub enum WhatIfError {
 const NO_TRUTH_HINT: &str = "the engagement comes from the plant-truth columns of an `acc sim` log; for an `acc run` log give --workpiece and --x0-mm";
 
 /// The profile of a recorded cut (the profile itself, [`EngagementProfile::at`], is the
-/// plant's engagement source, `crate::engagement`).
-impl EngagementProfile {
-    /// Build the profile from the plant-truth columns of `rows` (read from `file`), with the
-    /// tool's force law `law`. Rows where the tool is in air or barely engaged (radial depth
-    /// < 0.05 mm, feed < 1 mm/min or a law force < 1 N) keep the last effective `Ks`
-    /// (1 before the first cut); the factor is clamped to 0.05 ..= 20.
-    pub fn from_rows(file: &Path, rows: &[RunRecord], law: &ForceLaw) -> Result<Self, WhatIfError> {
+/// plant's engagement source, `acc_plant::engagement`), built from the plant-truth columns
+/// of `rows` (read from `file`) with the tool's force law `law`. Rows where the tool is in
+/// air or barely engaged (radial depth < 0.05 mm, feed < 1 mm/min or a law force < 1 N)
+/// keep the last effective `Ks` (1 before the first cut); the factor is clamped to
+/// 0.05 ..= 20.
+pub fn profile_from_rows(
+    file: &Path,
+    rows: &[RunRecord],
+    law: &ForceLaw,
+) -> Result<EngagementProfile, WhatIfError> {
+    {
         if rows.is_empty() {
             return Err(WhatIfError::Empty(file.to_path_buf()));
         }

@@ -60,7 +60,8 @@ use acc_pmc::emu::{lock_board, spawn_server, EmulatedProtocol, Paced, PtyBoard, 
 use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_runtime::shutdown::install_stop_flag;
 use acc_runtime::{Clock, SystemClock, Ticker};
-use acc_sim::board::{add_truth, PowerFault};
+use acc_sim::board::PowerFault;
+use acc_sim::truth::add_truth;
 use acc_sim::Scenario;
 use anyhow::{bail, Context};
 

@@ -12,7 +12,6 @@ use acc_plot::{time_series, Figure, HLine, Panel, Series};
 use acc_runtime::record::{read_run_log, RunLogWriter, RunRecord};
 use acc_sim::whatif::{
     cut_metrics, force_difference_rms_n, has_truth, run_what_if, side_by_side, CutGeometry,
-    EngagementProfile,
 };
 use acc_sim::{Scenario, Workpiece};
 use anyhow::{bail, Context as _};
@@ -83,7 +82,7 @@ pub fn geometry(
         bail!("--x0-mm {} needs --workpiece", args.x0_mm);
     }
     let law = acc_sim::process::ForceLaw::new(sc.tool.process);
-    let p = EngagementProfile::from_rows(&args.log, rows, &law)?;
+    let p = acc_sim::whatif::profile_from_rows(&args.log, rows, &law)?;
     Ok(CutGeometry::Logged(Arc::new(p)))
 }
 

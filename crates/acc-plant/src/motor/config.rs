@@ -166,11 +166,11 @@ impl BuiltinMotor {
         match self {
             BuiltinMotor::Seed000Dnm4500 => (
                 "configs/motors/seed000-dnm4500.toml",
-                include_str!("../../../configs/motors/seed000-dnm4500.toml"),
+                include_str!("../../../../configs/motors/seed000-dnm4500.toml"),
             ),
             BuiltinMotor::Seed002SmallMill => (
                 "configs/motors/seed002-small-mill.toml",
-                include_str!("../../../configs/motors/seed002-small-mill.toml"),
+                include_str!("../../../../configs/motors/seed002-small-mill.toml"),
             ),
         }
     }

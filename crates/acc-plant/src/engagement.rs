@@ -180,7 +180,7 @@ impl EngagementSource for EngagementProfile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::run::configs_dir;
+    use crate::configs_dir;
 
     #[test]
     fn every_source_answers_through_the_trait_object() {

@@ -494,7 +494,7 @@ impl Machine {
 mod tests {
     use super::*;
     use crate::config::NoloadDrift;
-    use crate::run::configs_dir;
+    use crate::configs_dir;
 
     /// Reported period-mean power of the paper machine over `periods` 0.1 s periods of
     /// `workpieces/steps_1_2_3.toml` (air, then cutting), with the given spindle low-pass.

@@ -525,7 +525,7 @@ mod tests {
 
     #[test]
     fn tool_file_runout_is_range_checked_by_key() {
-        let dir = crate::run::configs_dir().join("machines/tools/hss_endmill_16_4f.toml");
+        let dir = crate::configs_dir().join("machines/tools/hss_endmill_16_4f.toml");
         let text = std::fs::read_to_string(&dir).expect("tool file");
         let f = Path::new("t.toml");
         let parse = |extra: &str| -> Result<ToolSpec, ConfigError> {
@@ -550,7 +550,7 @@ mod tests {
     /// without `[tooth]` gets the paper tool's 30° helix.
     #[test]
     fn specs_round_trip_through_toml_and_tooth_defaults() {
-        let dir = crate::run::configs_dir().join("machines");
+        let dir = crate::configs_dir().join("machines");
         let f = Path::new("x.toml");
         let machine = MachineSpec::load(dir.join("paper_vmc.toml")).expect("machine file");
         let text = toml::to_string_pretty(&machine).expect("serializes");

@@ -335,7 +335,7 @@ pub fn trace(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::run::configs_dir;
+    use crate::configs_dir;
 
     #[test]
     fn a_replay_of_the_simulators_own_commands_is_its_force_at_unit_scale() {

@@ -60,7 +60,7 @@ mod tests {
     fn seed000() -> MotorConfig {
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../configs/motors/seed000-dnm4500.toml"
+            "/../../configs/motors/seed000-dnm4500.toml"
         );
         MotorConfig::load(path).unwrap()
     }
@@ -213,7 +213,7 @@ mod tests {
         let path = dir.join("m.toml");
         let text = std::fs::read_to_string(concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../configs/motors/seed000-dnm4500.toml"
+            "/../../configs/motors/seed000-dnm4500.toml"
         ))
         .unwrap()
         .replace("r_r_ohm = ", "r_r_ohm = -");
