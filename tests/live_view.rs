@@ -8,6 +8,9 @@
 //!
 //! Chromium `--dump-dom` / `--screenshot` wait until the page's network is idle: the page's
 //! `?updates=N` closes its event stream after N updates (or the stream ends with the run).
+//! The test paces the run itself (`acc sim --step-stdin`): one period every 150 ms while a
+//! page loads, never past the alarm until the pages before it are read, so a slow browser
+//! on a loaded machine cannot let the run overtake it.
 //! Skips with a printed reason without Chromium; fails under `CI`.
 //!
 //! `acc run --live` (the logger thread publishes through `TapSink`) and `acc board-sim
@@ -122,6 +125,28 @@ fn post(port: u16, path: &str, body: &str) -> String {
     out
 }
 
+/// Load a page (`load`) while stepping the `acc sim --step-stdin` run one period every
+/// 150 ms, never past `cap` periods in all (`sent` counts them): the page sees the run go on,
+/// and however slow the browser is, the run does not pass `cap`.
+fn load_paced(
+    steps: &mut std::process::ChildStdin,
+    sent: &mut u32,
+    cap: u32,
+    load: impl FnOnce() -> String + Send,
+) -> String {
+    std::thread::scope(|sc| {
+        let page = sc.spawn(load);
+        while !page.is_finished() {
+            if *sent < cap {
+                writeln!(steps, "1").expect("step the run");
+                *sent += 1;
+            }
+            std::thread::sleep(Duration::from_millis(150));
+        }
+        page.join().expect("page load")
+    })
+}
+
 #[test]
 fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     let Some(chromium) = chromium() else {
@@ -133,14 +158,14 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     let addr = format!("127.0.0.1:{port}");
     let out = dir.path().join("run");
     let out_s = out.to_string_lossy().into_owned();
-    // 23 s of machine time to the overload alarm, then 2 s of feed hold: ~12.5 s at 2×.
-    let mut sim = Proc::spawn(
+    // The test paces the run (`--step-stdin`): the overload alarm comes at 23 s of machine
+    // time (period 230), and the run never gets there before the test says so.
+    let mut sim = Proc::spawn_with_stdin(
         &[
             "sim",
             "overload_alarm",
             "--no-plot",
-            "--time-scale",
-            "2",
+            "--step-stdin",
             "--live",
             &addr,
             "--live-keep",
@@ -149,7 +174,9 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
             &out_s,
         ],
         false,
+        Stdio::piped(),
     );
+    let mut steps = sim.child.stdin.take().expect("stdin piped");
     let t0 = Instant::now();
     while TcpStream::connect(("127.0.0.1", port)).is_err() {
         assert!(
@@ -158,16 +185,21 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
+    // Into the part (air, entry): 50 periods at once.
+    writeln!(steps, "50").expect("step");
+    let mut sent = 50u32;
     let url = format!("http://{addr}/");
     let profile = dir.path().join("profile");
 
     // 1. The page loads from the binary and updates from the stream, while the run goes on.
-    let dom1 = browse(
-        &chromium,
-        &profile,
-        &format!("{url}?updates=6"),
-        "--dump-dom",
-    );
+    let dom1 = load_paced(&mut steps, &mut sent, 120, || {
+        browse(
+            &chromium,
+            &profile,
+            &format!("{url}?updates=6"),
+            "--dump-dom",
+        )
+    });
     assert!(dom1.contains("acc live view") && dom1.contains("<canvas id=\"cForce\""));
     assert!(num(&dom1, "updates") >= 6, "{}", by_id(&dom1, "updates"));
     let p1 = num(&dom1, "period");
@@ -175,12 +207,17 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     assert_eq!(by_id(&dom1, "tool"), "T1");
     assert_eq!(by_id(&dom1, "ovl"), "950", "the scenario's overload limit");
     assert!(by_id(&dom1, "title").contains("overload alarm"));
-    std::thread::sleep(Duration::from_millis(500));
-    let dom2 = browse(
-        &chromium,
-        &profile,
-        &format!("{url}?updates=6"),
-        "--dump-dom",
+    let dom2 = load_paced(&mut steps, &mut sent, 210, || {
+        browse(
+            &chromium,
+            &profile,
+            &format!("{url}?updates=6"),
+            "--dump-dom",
+        )
+    });
+    assert!(
+        sent < 230,
+        "the test kept the run before the alarm ({sent} periods)"
     );
     let p2 = num(&dom2, "period");
     assert!(p2 > p1, "the period shown did not advance: {p1} then {p2}");
@@ -191,7 +228,10 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     );
     assert_eq!(num(&dom2, "dropped"), 0, "a reading client lost records");
 
-    // 2. The alarm appears: a load without `?updates` ends with the run's `end` event.
+    // 2. The alarm appears: the run goes on to its end, and a load without `?updates` ends
+    //    with the run's `end` event.
+    writeln!(steps, "all").expect("let the run finish");
+    drop(steps);
     let dom3 = browse(&chromium, &profile, &url, "--dump-dom");
     assert_eq!(by_id(&dom3, "conn"), "run ended");
     assert_eq!(by_id(&dom3, "state"), "alarm");
@@ -227,7 +267,7 @@ fn live_view_in_headless_chromium_updates_and_shows_the_alarm() {
     );
     eprintln!("screenshot: {}", shot.display());
 
-    // The run log has the alarm the page showed, and the sim ran paced (not slowed).
+    // The run log has the alarm the page showed.
     let log = std::fs::read_to_string(out.join("run.csv")).expect("run log");
     assert!(log.contains("overload"), "no overload in the run log");
     let _ = sim.child.kill();

@@ -28,7 +28,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use acc_core::clock::{Clock, ManualClock, ScaledClock, SystemClock};
+use acc_core::clock::{Clock, GatedClock, ManualClock, ScaledClock, SystemClock};
 use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
 use acc_pmc::{Board, BoardStatus, ControlBits};
 use acc_runtime::record::{RunLogWriter, RunRecord};
@@ -216,7 +216,7 @@ impl<W: Write> LogSink for SimSink<'_, W> {
 }
 
 /// How a simulated run keeps time.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Default)]
 pub enum Pace {
     /// The stepped clock: as fast as the CPU allows, deterministic.
     #[default]
@@ -224,6 +224,9 @@ pub enum Pace {
     /// The wall clock at this many machine seconds per wall second (`acc sim --time-scale`,
     /// the live view).
     Wall(f64),
+    /// The stepped clock, never past what its owner allows (`acc sim --step-stdin`: an
+    /// end-to-end test paces the run); deterministic like [`Pace::Stepped`].
+    Gated(GatedClock),
 }
 
 /// Everything but the scenario, the law and the channel of a simulated run.
@@ -311,8 +314,9 @@ pub fn run_setup<W: Write + Send>(
     channel: &mut dyn MeasurementChannel,
     setup: RunSetup<'_, W>,
 ) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
-    match setup.pace {
+    match setup.pace.clone() {
         Pace::Stepped => run_on(scenario, law, channel, setup, ManualClock::new()),
+        Pace::Gated(clock) => run_on(scenario, law, channel, setup, clock),
         Pace::Wall(scale) => {
             let clock =
                 ScaledClock::new(SystemClock::new(), scale).ok_or(SimError::TimeScale(scale))?;

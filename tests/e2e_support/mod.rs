@@ -95,9 +95,15 @@ pub struct Proc {
 impl Proc {
     /// Spawn `acc <args>`; with `read_first_line`, wait for the first stdout line.
     pub fn spawn(args: &[&str], read_first_line: bool) -> Proc {
+        Self::spawn_with_stdin(args, read_first_line, Stdio::inherit())
+    }
+
+    /// As [`Proc::spawn`], with `stdin` (e.g. piped, to pace `acc sim --step-stdin`).
+    pub fn spawn_with_stdin(args: &[&str], read_first_line: bool, stdin: Stdio) -> Proc {
         let mut child = Command::new(acc_bin())
             .args(args)
             .current_dir(root())
+            .stdin(stdin)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()

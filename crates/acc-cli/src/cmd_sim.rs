@@ -42,8 +42,14 @@ pub struct SimArgs {
     /// Pace the run to wall time: machine seconds per wall second (default: as fast as
     /// possible, or real time (`1`) with `--live`); e.g. `1` for real time while `--shdr` /
     /// `--mqtt` clients watch.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", conflicts_with = "step_stdin")]
     pub time_scale: Option<f64>,
+    /// Pace the run from standard input (for tests and demonstrations): the run stands at
+    /// t = 0 and goes on only as far as allowed; each line `N` allows N more control periods,
+    /// `all` (or the end of the input) lets it run to the end. Deterministic: the same run
+    /// as without pacing.
+    #[arg(long)]
+    pub step_stdin: bool,
     /// With `--live`: keep serving the page this long after the run ends, s (0 ..= 86400).
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     pub live_keep: f64,
@@ -121,7 +127,9 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         overload_n: Some(sc.policy.overload_force_n),
     });
     // The operator watches the live view at real time unless --time-scale says otherwise.
-    let time_scale = args.time_scale.or(tel.has_live().then_some(1.0));
+    let time_scale = args
+        .time_scale
+        .or((tel.has_live() && !args.step_stdin).then_some(1.0));
     let mut observe = |r: &RunRecord| tel.tap.publish(r);
     let mut channel = sc.build_channel()?;
     let setup = acc_sim::run::RunSetup {
@@ -129,7 +137,11 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         shop: sc.shop_control(true),
         prepare: &mut |_| {},
         observe: &mut observe,
-        pace: time_scale.map_or(acc_sim::run::Pace::Stepped, acc_sim::run::Pace::Wall),
+        pace: if args.step_stdin {
+            acc_sim::run::Pace::Gated(paced_from_stdin(sc.controller.period_s))
+        } else {
+            time_scale.map_or(acc_sim::run::Pace::Stepped, acc_sim::run::Pace::Wall)
+        },
     };
     let (result, _) = acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)?;
     tel.finish_lingering(args.live_keep);
@@ -263,6 +275,38 @@ pub fn plot_run(sc: &Scenario, result: &RunResult, out: &Path) -> anyhow::Result
     Ok(time_series(&fig, out)?)
 }
 
+/// A stepped clock that stands at t = 0 and goes on as far as standard input allows: a line
+/// `N` adds N periods of `period_s`, `all` or the end of the input lifts the gate; any other
+/// line is reported on stderr and ignored.
+fn paced_from_stdin(period_s: f64) -> acc_core::clock::GatedClock {
+    use std::io::BufRead;
+    let clock = acc_core::clock::GatedClock::new();
+    let gate = clock.clone();
+    let period = std::time::Duration::from_secs_f64(period_s);
+    std::thread::spawn(move || {
+        let mut periods: u32 = 0;
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            let line = line.trim();
+            if line == "all" {
+                break;
+            }
+            match line.parse::<u32>() {
+                Ok(n) => {
+                    periods = periods.saturating_add(n);
+                    gate.allow(period * periods);
+                }
+                Err(_) => eprintln!(
+                    "acc sim --step-stdin: `{line}`: expected a number of periods (0 ..= {}) or `all`",
+                    u32::MAX
+                ),
+            }
+        }
+        gate.allow(std::time::Duration::MAX);
+    });
+    clock
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -279,6 +323,7 @@ mod tests {
             no_plot: false,
             history: None,
             time_scale: None,
+            step_stdin: false,
             live_keep: 0.0,
             telemetry: Default::default(),
         };

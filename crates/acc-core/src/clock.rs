@@ -206,6 +206,81 @@ impl Clock for ManualClock {
     }
 }
 
+/// The stepped clock paced from outside: like a [`ManualClock`], time moves only when a
+/// sleeper asks for a later deadline, but never past what the owner has allowed
+/// ([`GatedClock::allow`]); a sleeper waits (in wall time) until it is allowed. `acc sim
+/// --step-stdin` runs on it so that an end-to-end test decides how far the simulated run
+/// may go, instead of racing a wall-clock run.
+///
+/// ```
+/// use acc_core::clock::{Clock, GatedClock};
+/// use std::time::Duration;
+/// let clock = GatedClock::new();
+/// clock.allow(Duration::from_millis(300));
+/// clock.sleep_until(Duration::from_millis(200));
+/// assert_eq!(clock.now(), Duration::from_millis(200));
+/// let c = clock.clone();
+/// let t = std::thread::spawn(move || c.sleep_until(Duration::from_millis(500)));
+/// clock.allow(Duration::from_millis(500));
+/// t.join().unwrap();
+/// assert_eq!(clock.now(), Duration::from_millis(500));
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct GatedClock {
+    time: ManualClock,
+    allowed: Arc<(std::sync::Mutex<Duration>, std::sync::Condvar)>,
+}
+
+impl GatedClock {
+    /// A clock at t = 0 that may not move yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Let the clock go up to `t` (never back: a smaller `t` than allowed so far is ignored).
+    pub fn allow(&self, t: Duration) {
+        let (lock, cv) = &*self.allowed;
+        let mut a = lock
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        *a = (*a).max(t);
+        cv.notify_all();
+    }
+
+    /// How far the clock may go.
+    pub fn allowed(&self) -> Duration {
+        *self
+            .allowed
+            .0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+impl Clock for GatedClock {
+    fn now(&self) -> Duration {
+        self.time.now()
+    }
+
+    fn sleep_until(&self, deadline: Duration) {
+        let (lock, cv) = &*self.allowed;
+        let mut a = lock
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        while *a < deadline {
+            a = cv
+                .wait(a)
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+        drop(a);
+        self.time.set(deadline);
+    }
+
+    fn is_stepped(&self) -> bool {
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
