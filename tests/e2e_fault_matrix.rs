@@ -1,11 +1,11 @@
-//! The reliability fault matrix, end to end (issue 12): `acc fault-matrix` drives every
+//! The reliability fault matrix, end to end: `acc fault-matrix` drives every
 //! fault — signals, kill -9, a hung controller, a dead line, a vanished device, a board
 //! restart, CRC errors, late replies, stale and implausible power, the operator's knob, the
 //! NC's override lock, a hard spot — at the deepest cut of `acc run` against `acc board-sim`
 //! over a pty, on a v2 and on a v1 board, and judges each row from both run logs. The
 //! command fails on any row that raises the override above ACC's last command or the true
 //! force above 1.05× its pre-fault value, or loses log rows, unless the row is a v1 row no
-//! controller can make safe (marked with why). The hostile-line rows (issue 32) put a man in
+//! controller can make safe (marked with why). The hostile-line rows put a man in
 //! the middle on the serial line (`tests/peers/mitm_proxy.py`): replies corrupted with a
 //! valid CRC (1 %, 10 %) or every status read answered with the reply of 2, 3 or 5 reads
 //! earlier; there the force must not rise while the feed moves, no release may be labelled

@@ -157,7 +157,7 @@ fn wax_milling_invents_no_effect() {
             Err(e) => panic!("experiment {k}: {e}"),
         }
     }
-    // Since issue 13 a run is split at time gaps longer than two periods (the importer
+    // A run is split at time gaps longer than two periods (the importer
     // drops the rows off the running speed) and only the longest piece is analysed: 7 of
     // the 11 long-enough experiments keep a piece long enough for the folds.
     assert!(analysed >= 7, "{analysed} experiments analysed");

@@ -150,7 +150,7 @@ fn run_log_errors_name_line_and_column() {
     let good = "t_s,feed_mm_min,spindle_rpm,radial_depth_mm,axial_depth_mm,power_w\n";
     let mut text = good.to_string();
     for i in 0..12 {
-        // Power varies (a constant measured channel is refused as dead, issue 13); row 2 is 900.
+        // Power varies (a constant measured channel is refused as dead); row 2 is 900.
         text.push_str(&format!(
             "{:.1},200,600,2,16,{}\n",
             i as f64 * 0.1 + 0.1,

@@ -1,4 +1,4 @@
-//! The honest twin's evaluation (issue 13): logs made by `acc sim`'s production loop
+//! The honest twin's evaluation: logs made by `acc sim`'s production loop
 //! (`acc_sim::run`, the same `ControlLoop` as `acc run`) on the shipped workpieces, with
 //! hidden effects in the simulated machine — in the library, out of it, none — analysed by
 //! the discrepancy workflow on both channels; per channel the confusion matrix (hidden
@@ -31,7 +31,7 @@ const WORKPIECES: [&str; 5] = [
     "hard_inclusion.toml",
 ];
 
-/// The effect-to-noise ratio above which recovery is required (issue 13).
+/// The effect-to-noise ratio above which recovery is required (docs/twin.md).
 const ENR_MIN: f64 = 4.0;
 
 const CSV_HEADER: &str =

@@ -1,5 +1,4 @@
-//! Period jitter of the production threaded loop with and without telemetry (issue 15
-//! item 4): `acc_runtime::run` — the real-time runner with its ticker, the adaptive
+//! Period jitter of the production threaded loop with and without telemetry: `acc_runtime::run` — the real-time runner with its ticker, the adaptive
 //! controller, the fault policy, the logger thread writing the CSV run log through the
 //! `TapSink` exactly as `acc run` does — against an in-process emulated board
 //! (`acc_runtime::testing::ScriptedBoard`: acc-pmc's `BoardLogic`), for N periods at a short

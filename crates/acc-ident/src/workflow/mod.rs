@@ -430,7 +430,7 @@ pub const WEAR_TIME_EXPERIMENT: &str = "a cut whose removal rate changes while i
 /// time instead — e.g. the tool and the part heating up, a coating wearing through: the
 /// simulator's `tool.wear.growth_per_min`, not a library effect. In a closed loop that
 /// holds the force, the removal rate is nearly constant, so removed volume and cutting
-/// time grow together and the two laws are almost the same curve (issue 13: a `Ks` drift
+/// time grow together and the two laws are almost the same curve (a `Ks` drift
 /// in time was named `tool_wear` on the power channel).
 struct WearOrTime {
     /// Sum of squares of the wear model over the selection rows, channel unit².

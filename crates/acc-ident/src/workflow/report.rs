@@ -21,7 +21,7 @@ pub(super) fn assemble(
     // An effect is named only when the model with it explains the log down to the noise:
     // structure left in the residual after its fit (a biased segment, a variance above the
     // noise, a residual still correlated with a signal) means the fit may be borrowing the
-    // signature of something outside the library (issue 13).
+    // signature of something outside the library.
     let passed = s.named();
     let exact = matches!(
         inp.plant.engagement,

@@ -514,7 +514,7 @@ pub(super) fn screen_candidate(
         .unwrap_or(false);
     // A parameter of the effect pinned at its fitting bound is not a measurement of it:
     // the data want more than the effect's law allows (an effect outside the library
-    // borrowing this one's signature), so it is not named (issue 13).
+    // borrowing this one's signature), so it is not named.
     let prefix = format!("{}.", kind.name());
     let bound_ok = !f
         .params
