@@ -57,5 +57,8 @@ fn a_run_paced_from_stdin_stops_where_told_and_ends_the_same() {
     let fast_log = std::fs::read(fast.join("run.csv")).expect("fast log");
     let paced_log = std::fs::read(paced.join("run.csv")).expect("paced log");
     assert!(fast_log.len() > 10_000);
-    assert!(fast_log == paced_log, "the paced run differs from the fast one");
+    assert!(
+        fast_log == paced_log,
+        "the paced run differs from the fast one"
+    );
 }
