@@ -45,7 +45,12 @@ estimate-eval:
 golden:
     cargo test -p acc-tests --test sim_determinism --test paper_cases --test paper_fixed_gain
 
-# Benchmarks (criterion); figures go in the README.
+# Every text figure of the product against tests/golden/baseline (about 15 min).
+golden-figures out="/tmp/acc-golden":
+    cargo build --release -p acc-cli
+    tests/golden/record.sh {{out}} && diff -r tests/golden/baseline {{out}}
+
+# Benchmarks (criterion); figures in docs/results.md.
 bench:
     cargo bench --workspace
 
