@@ -1,9 +1,13 @@
-//! One clock: no source file outside the clock module reads the wall clock or sleeps, so the
-//! loop, the plant, the board emulators, `acc sim` and `acc board-sim` run on whatever clock
-//! they are given (`acc_core::clock`: the system clock, a scaled one, or the stepped clock).
+//! One clock, one plant: the source tree is checked for the two things that must stay in one
+//! place.
 //!
-//! The exceptions are listed with their reason; everything else in `crates/*/src` and
-//! `sim/src` must take its time from an injected `Clock`.
+//! - **One clock.** No source file outside the clock module reads the wall clock or sleeps,
+//!   so the loop, the plant, the board emulators, `acc sim` and `acc board-sim` run on
+//!   whatever clock they are given (`acc_core::clock`: the system clock, a scaled one, or the
+//!   stepped clock). The exceptions are listed with their reason.
+//! - **One plant.** The twin (`acc-ident`) replays logs only through the simulator's plant
+//!   (`acc_plant::replay`, the same `Machine` that `acc sim` steps): it has no feed drive,
+//!   override path or motor dynamics of its own.
 
 use std::path::{Path, PathBuf};
 
@@ -38,6 +42,16 @@ const ALLOWED: &[(&str, &str)] = &[
 
 /// What reads the wall clock or blocks on it without a `Clock`.
 const FORBIDDEN: &[&str] = &["Instant::now", "thread::sleep", "use std::thread::{sleep"];
+
+/// What integrating a feed drive, an override delay line or a lag looks like.
+const PLANT_DYNAMICS: &[&str] = &[
+    "FirstOrderLag",
+    "step_from(",
+    "fn feed_path",
+    "fn override_path",
+    "MotorSim",
+    "Machine::new(",
+];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -86,6 +100,34 @@ fn no_wall_clock_outside_the_clock_module() {
     assert!(
         hits.is_empty(),
         "the wall clock read outside acc_core::clock (take time from an injected Clock):\n{}",
+        hits.join("\n")
+    );
+}
+
+#[test]
+fn the_twin_has_no_plant_dynamics_of_its_own() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    rust_files(&root.join("crates/acc-ident/src"), &mut files);
+    assert!(files.len() > 10, "found only {} files", files.len());
+    let mut hits = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).expect("readable");
+        for (i, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            if PLANT_DYNAMICS.iter().any(|p| code.contains(p)) {
+                hits.push(format!(
+                    "{}:{}: {}",
+                    f.strip_prefix(root).unwrap_or(f).display(),
+                    i + 1,
+                    line.trim()
+                ));
+            }
+        }
+    }
+    assert!(
+        hits.is_empty(),
+        "plant dynamics in acc-ident (replay through acc_sim::replay instead):\n{}",
         hits.join("\n")
     );
 }
