@@ -28,6 +28,23 @@ fn sigma(r: &[f64]) -> f64 {
     d[d.len() / 2] / 0.6745 / 2f64.sqrt()
 }
 
+/// The estimated force per watt of the board's power register, N: the largest force step
+/// between consecutive logged rows whose power differs by exactly one watt at one speed.
+fn board_step_n(log: &acc_ident::runlog::RunLog) -> f64 {
+    let (Some(f), Some(p)) = (&log.force_n, &log.power_w) else {
+        return 0.0;
+    };
+    (1..f.len())
+        .filter(|&i| {
+            (p[i] - p[i - 1]).abs() == 1.0
+                && log.spindle_rpm[i] == log.spindle_rpm[i - 1]
+                && f[i] != 0.0
+                && f[i - 1] != 0.0
+        })
+        .map(|i| (f[i] - f[i - 1]).abs())
+        .fold(0.0, f64::max)
+}
+
 fn check(wp: usize, tooth: bool, dyn_channel: bool, seed: u64) {
     check_with(wp, tooth, dyn_channel, seed, |_| {});
 }
@@ -62,7 +79,13 @@ fn check_with(wp: usize, tooth: bool, dyn_channel: bool, seed: u64, effects: fn(
         // spindle-power estimator reports as exactly 0 (air, dead band) are replayed as 0
         // and carry no noise: σ is that of the other rows.
         let live: Vec<f64> = r.iter().copied().filter(|x| *x != 0.0).collect();
-        let s = sigma(if live.len() > 20 { &live } else { &r }).max(0.5);
+        let mut s = sigma(if live.len() > 20 { &live } else { &r }).max(0.5);
+        if ch == Channel::Force && !dyn_channel {
+            // The estimator reads the board's whole watts: one watt is `board_step_n(&log)`
+            // newtons (2 N at 600 rpm), a rounding the first differences of a quantized
+            // signal mostly do not see (they are exactly 0), added in quadrature.
+            s = s.hypot(board_step_n(&log) / 12f64.sqrt());
+        }
         let tag = format!(
             "{} tooth={tooth} dyn={dyn_channel} seed {seed} {ch:?}",
             WORKPIECES[wp]

@@ -11,8 +11,11 @@
 //!    board's ticker ([`SteppedPlant`]) to run the plant up to that time: `T` with the
 //!    override the board now applies (feed drive, process, wear, spindle); the board
 //!    publishes the period's power sample, speed and cycle state;
-//! 2. the scenario's measurement channel (dynamometer or induction-motor spindle power)
-//!    measures the period; the loop's force source ([`PlantSensor`]) hands that sample on;
+//! 2. the scenario's measurement channel measures the period. On the spindle-power channel
+//!    the board publishes the measured power in its `POWER` registers and the loop's
+//!    spindle source estimates the force from the status read — the estimator calibrated
+//!    by the scenario's start-up cut, on the code path of `acc run`. A dynamometer is not
+//!    on the board: its sample reaches the loop through [`PlantSensor`];
 //! 3. the control thread decides ([`ControlLoop::decide`]: guard, force, shop layer, policy,
 //!    law) and the driver writes the override with a new heartbeat and the `CONTROL` bits —
 //!    exactly as under `acc run`;
@@ -79,13 +82,38 @@ fn lock(p: &SharedPeriod) -> std::sync::MutexGuard<'_, PlantPeriod> {
     p.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// The simulated machine's force sensor as the production loop's [`ForceSource`]: the
-/// simulated board's ticker puts each period's reading of the measurement channel here
+/// The simulated machine's force sensor as the production loop's [`ForceSource`] when the
+/// sensor is not on the board (a dynamometer, a current method on the three-phase block):
+/// the simulated board's ticker puts each period's reading of the measurement channel here
 /// before the status read returns, and the loop's `estimate` hands it on (a real
-/// installation with a dynamometer amplifier or a current-signal estimator wires its sensor
-/// the same way).
+/// installation with a dynamometer amplifier wires its sensor the same way).
 #[derive(Debug, Clone, Default)]
 pub struct PlantSensor(SharedPeriod);
+
+/// The production loop's force source in a simulated run.
+enum LoopSource {
+    /// The spindle estimator on the board's power register, as under `acc run`
+    /// ([`MeasurementChannel::take_board_source`]).
+    Board(Box<dyn ForceSource>),
+    /// The measurement channel's own reading.
+    Plant(PlantSensor),
+}
+
+impl ForceSource for LoopSource {
+    fn name(&self) -> &str {
+        match self {
+            LoopSource::Board(s) => s.name(),
+            LoopSource::Plant(s) => s.name(),
+        }
+    }
+
+    fn estimate(&mut self, input: &PeriodInput<'_>) -> ForceSample {
+        match self {
+            LoopSource::Board(s) => s.estimate(input),
+            LoopSource::Plant(s) => s.estimate(input),
+        }
+    }
+}
 
 impl ForceSource for PlantSensor {
     fn name(&self) -> &str {
@@ -117,11 +145,12 @@ impl<C: Clock> SteppedPlant<'_, C> {
         let due = self.clock.now().as_nanos() / self.period.as_nanos().max(1);
         let period_s = self.period.as_secs_f64();
         while u128::from(self.done) < due {
-            let (reading, truth) = {
-                let rec = self.board.advance_period(period_s);
-                let reading = self.channel.measure(&rec);
-                (reading, PlantTruth::of(&rec, reading.true_force_n))
-            };
+            let channel = &mut *self.channel;
+            let (_, (reading, truth)) = self.board.advance_period_with(period_s, |rec| {
+                let reading = channel.measure(rec);
+                let truth = PlantTruth::of(rec, reading.true_force_n);
+                ((reading, truth), reading.board_power_w)
+            });
             *lock(&self.shared) = PlantPeriod {
                 reading: Some(reading),
                 truth: Some(truth),
@@ -169,11 +198,6 @@ impl PeriodObserver for SimObserver<'_> {
         let plant = *lock(&self.shared);
         if let Some(t) = plant.truth {
             crate::truth::apply(&t, row);
-        }
-        // A channel that measures power itself (the induction-motor channel's two-wattmeter
-        // reading) logs what it measured; otherwise the board's register.
-        if let Some(p) = plant.reading.and_then(|r| r.sample.power_w) {
-            row.power_w = Some(p);
         }
         (self.observe)(row);
         if plant.finished {
@@ -345,7 +369,10 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
     let mut control = ControlLoop::new(
         FaultPolicy::new(scenario.policy).with_watch_limits(scenario.watch),
         law,
-        PlantSensor(Arc::clone(&shared)),
+        channel.take_board_source().map_or_else(
+            || LoopSource::Plant(PlantSensor(Arc::clone(&shared))),
+            LoopSource::Board,
+        ),
         period_s,
     );
     if let Some(sh) = shop {

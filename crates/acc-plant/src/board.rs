@@ -190,6 +190,18 @@ impl SimBoard {
     /// feed is held), `TOOL_NUMBER`, `PROGRAM_NUMBER`, `BLOCK_NUMBER` (of the segment the
     /// tool is in).
     pub fn advance_period(&mut self, period_s: f64) -> PeriodRecord<'_> {
+        self.advance_period_with(period_s, |_| ((), None)).0
+    }
+
+    /// [`SimBoard::advance_period`] with a sensor on the machine: `measure` reads the
+    /// period first and returns what it wants to keep and the spindle power the board's
+    /// transducer reports, W (whole watts; `None`: the machine's spindle model), which the
+    /// board then publishes in its `POWER` registers (subject to a [`PowerFault`]).
+    pub fn advance_period_with<T>(
+        &mut self,
+        period_s: f64,
+        measure: impl FnOnce(&PeriodRecord<'_>) -> (T, Option<f64>),
+    ) -> (PeriodRecord<'_>, T) {
         let (applied, hold) = {
             let mut b = lock_board(&self.logic);
             if !self.external_clock {
@@ -202,9 +214,13 @@ impl SimBoard {
         self.now_ms += (period_s * 1000.0).round() as u64;
         let path_mm = self.machine.workpiece().length_mm();
         let rec = self.machine.advance(period_s);
+        let (kept, sensor_power_w) = measure(&rec);
         {
             let mut b = lock_board(&self.logic);
-            let power = rec.power_mean_w.clamp(0.0, f64::from(u32::MAX)).round() as u32;
+            let power = sensor_power_w
+                .unwrap_or(rec.power_mean_w)
+                .clamp(0.0, f64::from(u32::MAX))
+                .round() as u32;
             match self.power_fault {
                 None => b.push_power_sample(power),
                 Some(PowerFault::FrozenSeq) => b.set_spindle_power_w(power),
@@ -223,7 +239,7 @@ impl SimBoard {
             b.set_program_number(self.nc.program_number);
             b.set_block_number(self.nc.block_number(segment));
         }
-        rec
+        (rec, kept)
     }
 
     fn publish_machine_inputs_no_sample(&mut self) {

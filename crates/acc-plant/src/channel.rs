@@ -6,6 +6,12 @@
 //! here; a spindle-power channel (an induction-motor model producing 3-phase signals and a
 //! power-based force source) implements the same trait and is selected by the scenario's
 //! `[measurement] kind`, so the loop does not change.
+//!
+//! A channel whose sensor is the interface board's power transducer (the spindle-power
+//! channel on a power method) hands its estimator to the production loop instead
+//! ([`MeasurementChannel::take_board_source`]): the simulated board publishes the measured
+//! power in its `POWER` registers ([`Reading::board_power_w`]) and the loop estimates the
+//! force from the status read, as `acc run` does.
 
 use acc_core::filter::FirstOrderLag;
 use acc_core::{ForceSample, ForceSource, PeriodInput};
@@ -23,6 +29,10 @@ pub struct Reading {
     /// The noise-free true mean force over what the channel looked at, N (sim only; the
     /// run log's `force_true_n`).
     pub true_force_n: f64,
+    /// The spindle power the board's transducer reports for the period, W (whole watts,
+    /// published in input registers 4–5); `None`: the channel does not measure the
+    /// spindle power and the board publishes the machine's spindle model.
+    pub board_power_w: Option<f64>,
 }
 
 /// A measurement channel of the simulated machine.
@@ -31,6 +41,16 @@ pub trait MeasurementChannel: Send {
     fn name(&self) -> &str;
     /// Measure the period that just ended.
     fn measure(&mut self, period: &PeriodRecord<'_>) -> Reading;
+    /// The force source of the production loop when this channel's sensor is the board's
+    /// power transducer: the estimator calibrated by the channel's start-up cut, reading
+    /// the board's power register (`acc_spindle::SpindleInput::BoardPower`, the source
+    /// `acc run` uses). After the call the channel only measures: [`Reading::sample`] is
+    /// then invalid and the loop estimates from the status read. `None` (the default):
+    /// the sensor is not on the board (a dynamometer, a current method on the three-phase
+    /// block) and the loop takes [`Reading::sample`].
+    fn take_board_source(&mut self) -> Option<Box<dyn ForceSource>> {
+        None
+    }
 }
 
 /// A dynamometer (Kistler 9257B-like, seed 002): the true mean force plus seeded Gaussian
@@ -123,6 +143,7 @@ impl<S: ForceSource> MeasurementChannel for WindowedChannel<S> {
         Reading {
             sample: self.source.estimate(&input),
             true_force_n: truth,
+            board_power_w: None,
         }
     }
 }

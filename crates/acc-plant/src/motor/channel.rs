@@ -81,8 +81,12 @@ pub struct SpindlePowerSpec {
     pub motor: BuiltinMotor,
     /// Estimator. Default `power-efficiency`.
     pub method: acc_spindle::Method,
-    /// Read the three-phase block (`false`) or only the power value, as from the board
-    /// (`true`). Default `false`.
+    /// Where the force is estimated. `true` (the default): the simulated board publishes
+    /// the measured spindle power in its `POWER` registers and the production loop's
+    /// spindle source estimates the force from the status read, as `acc run` does (power
+    /// methods only: the board has no current register). `false`: the channel's
+    /// estimator reads the three-phase block (a data-acquisition card on the spindle
+    /// cables; the current methods need it) and hands the loop its estimate.
     pub board_power: bool,
     /// No-load handling. Default `adaptive`.
     pub no_load: acc_spindle::NoLoadMode,
@@ -99,7 +103,7 @@ impl Default for SpindlePowerSpec {
         Self {
             motor: BuiltinMotor::Seed002SmallMill,
             method: acc_spindle::Method::PowerEfficiency,
-            board_power: false,
+            board_power: true,
             no_load: acc_spindle::NoLoadMode::Adaptive,
             calibration_levels: [0.25, 0.5, 0.75, 1.0, 1.25, 1.5],
             window_s: 0.05,
@@ -207,7 +211,12 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
         };
         let source = acc_spindle::SpindleSource::new(input, est)?;
         let motor = MotorSim::new(cfg, seed).with_effects(effects);
-        Ok(Self::new(motor, source, spec.window_s).with_sensor_lowpass(spindle.sensor_lowpass))
+        let mut channel =
+            Self::new(motor, source, spec.window_s).with_sensor_lowpass(spindle.sensor_lowpass);
+        if spec.board_power {
+            channel.board = BoardEstimate::Offered(Box::new(channel.source.clone()));
+        }
+        Ok(channel)
     }
 }
 
@@ -240,6 +249,19 @@ impl PowerSensor {
     }
 }
 
+/// Who estimates the force of a [`SpindlePowerChannel`].
+#[derive(Debug, Clone, Default)]
+enum BoardEstimate {
+    /// The channel's own source (the three-phase block, or a source built in code).
+    #[default]
+    Channel,
+    /// The channel's source until the production loop takes this board-power source
+    /// ([`crate::channel::MeasurementChannel::take_board_source`]).
+    Offered(Box<acc_spindle::SpindleSource>),
+    /// The loop estimates from the board's power register; the channel only measures.
+    Loop,
+}
+
 /// Below this measured power, W (the board's resolution), the block is not rescaled to the
 /// filtered power: the ratio would be meaningless (spindle stopped).
 const MIN_RESCALE_POWER_W: f64 = 1.0;
@@ -257,6 +279,7 @@ pub struct SpindlePowerChannel<S> {
     last: PeriodTruth,
     window_s: f64,
     sensor: PowerSensor,
+    board: BoardEstimate,
     /// The window's line voltages rescaled to the filtered power, V (scratch).
     scaled_v_uw: Vec<f64>,
     scaled_v_vw: Vec<f64>,
@@ -273,6 +296,7 @@ impl<S: acc_core::ForceSource> SpindlePowerChannel<S> {
             last: PeriodTruth::default(),
             window_s,
             sensor: PowerSensor::default(),
+            board: BoardEstimate::Channel,
             scaled_v_uw: Vec::new(),
             scaled_v_vw: Vec::new(),
         }
@@ -344,21 +368,46 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
             }
         }
         let truth = period.force_window_mean_n(self.window_s);
+        // What a power transducer on the same cables reports over the window (through its
+        // low-pass when set), in whole watts as in the board's input registers 4–5 (`None`
+        // if the block is garbage).
+        let board_power_w = reported_w.map(|p| p.round().max(0.0));
+        if matches!(self.board, BoardEstimate::Loop) {
+            return crate::channel::Reading {
+                sample: acc_core::ForceSample {
+                    power_w: board_power_w,
+                    ..acc_core::ForceSample::INVALID
+                },
+                true_force_n: truth,
+                board_power_w,
+            };
+        }
         let input = acc_core::PeriodInput {
             // The block handed over covers the window.
             period_s: w as f64 / block.samples.sample_rate_hz,
             spindle_rpm: period.spindle_rpm,
             feed_mm_min: period.feed_mean_mm_min,
             true_force_n: Some(truth),
-            // What a power transducer on the same cables reports over the window (through
-            // its low-pass when set), in whole watts as in the board's input registers 4–5
-            // (`None` if the block is garbage).
-            power_w: reported_w.map(|p| p.round().max(0.0)),
+            power_w: board_power_w,
             phases: Some(phases),
         };
         crate::channel::Reading {
             sample: self.source.estimate(&input),
             true_force_n: truth,
+            board_power_w,
+        }
+    }
+
+    fn take_board_source(&mut self) -> Option<Box<dyn acc_core::ForceSource>> {
+        match std::mem::take(&mut self.board) {
+            BoardEstimate::Offered(source) => {
+                self.board = BoardEstimate::Loop;
+                Some(source)
+            }
+            other => {
+                self.board = other;
+                None
+            }
         }
     }
 }
