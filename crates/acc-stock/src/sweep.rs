@@ -1,0 +1,339 @@
+//! Material removal along the path, and the engagement at every path step.
+//!
+//! Each move is divided into `n = ⌈L / step⌉` equal steps; step `k = 1..=n` puts the tool tip
+//! at `from + (k/n)·(to − from)`. For every step, first the engagement is read off the
+//! leading half of the tool circle ([`crate::engagement`]), then the flat end lowers every
+//! cell whose centre lies under the end face to the tip height.
+//!
+//! **What the probes see.** The material the engagement is measured against is the stock
+//! *before the current move*: the current move never sweeps the leading half of its own
+//! circle (for `0 < φ < π` every earlier tool position on a straight move is farther than R
+//! from the rim point), so nothing it removes may hide material from its later steps. The
+//! last [`SweepOptions::exact_moves`] moves before it are not taken from the cells but from
+//! their exact swept volume (a flat-bottomed capsule along the segment; the column at a
+//! probe point is cut down to the lowest tip height of the part of the move that covers the
+//! point). Older moves are in the cells. This keeps the engagement free of cell noise where
+//! it matters most: continuing a cut across block boundaries, and corners, where the rim of
+//! the new move runs along the boundary the previous move just left.
+//!
+//! Internally the sweep keeps two maps: the current stock (what [`Sweep::stock`] returns,
+//! every move applied) and a lagged copy without the recent moves; when a move leaves the
+//! window it is applied to the lagged copy the same way, step by step.
+
+use std::collections::VecDeque;
+
+use crate::cutter::{Cutter, Rotation, Spindle};
+use crate::engagement::{Rim, StepEngagement, StepKind, Z_TOL_MM};
+use crate::error::{in_range, StockError};
+use crate::motion::Move;
+use crate::zmap::ZMap;
+
+/// How finely the path and the tool circle are sampled.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepOptions {
+    /// Path step, mm (`None`, the default: the cell size). Range: `cell/100 ..= 4·cell`.
+    pub step_mm: Option<f64>,
+    /// Angular bins over the leading half (default 180: 1° each). Range 4 ..= 3600.
+    pub angular_bins: usize,
+    /// Recent moves whose removal the probes take from the exact swept volume instead of
+    /// the cells (default 4). Range 0 ..= 64.
+    pub exact_moves: usize,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            step_mm: None,
+            angular_bins: 180,
+            exact_moves: 4,
+        }
+    }
+}
+
+/// What one move did, summed over its steps.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MoveSummary {
+    /// Number of path steps.
+    pub steps: usize,
+    /// Removed volume, mm³.
+    pub removed_mm3: f64,
+    /// Largest radial width a_e over the steps, mm.
+    pub max_ae_mm: f64,
+    /// Largest effective radial depth over the steps, mm.
+    pub max_radial_mm: f64,
+    /// Largest axial depth a_p over the steps, mm.
+    pub max_ap_mm: f64,
+    /// A rapid move engaged or removed material.
+    pub rapid_collision: bool,
+    /// Material stood above the flutes at some step.
+    pub beyond_flutes: bool,
+}
+
+/// A stock being machined by one cutter: feed it moves in path order with [`Sweep::cut`].
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    stock: ZMap,
+    lagged: ZMap,
+    recent: VecDeque<(Move, usize)>,
+    cutter: Cutter,
+    spindle: Spindle,
+    step_mm: f64,
+    exact_moves: usize,
+    rim: Rim,
+    engaged: Vec<bool>,
+}
+
+impl Sweep {
+    /// Start machining `stock` with `cutter` turning as `spindle`; errors name the option
+    /// and its allowed range.
+    pub fn new(
+        stock: ZMap,
+        cutter: Cutter,
+        spindle: Spindle,
+        options: SweepOptions,
+    ) -> Result<Self, StockError> {
+        let c = stock.cell_mm();
+        let step_mm = match options.step_mm {
+            Some(s) => in_range("step_mm", s, 0.01 * c, 4.0 * c)?,
+            None => c,
+        };
+        in_range("angular_bins", options.angular_bins as f64, 4.0, 3600.0)?;
+        in_range("exact_moves", options.exact_moves as f64, 0.0, 64.0)?;
+        Ok(Sweep {
+            lagged: stock.clone(),
+            stock,
+            recent: VecDeque::with_capacity(options.exact_moves + 1),
+            cutter,
+            spindle,
+            step_mm,
+            exact_moves: options.exact_moves,
+            rim: Rim::new(options.angular_bins),
+            engaged: vec![false; options.angular_bins],
+        })
+    }
+
+    /// Change the spindle (an S word, M3/M4) for the moves that follow.
+    pub fn set_spindle(&mut self, spindle: Spindle) {
+        self.spindle = spindle;
+    }
+
+    /// The cutter.
+    pub fn cutter(&self) -> &Cutter {
+        &self.cutter
+    }
+
+    /// The stock with every move so far removed.
+    pub fn stock(&self) -> &ZMap {
+        &self.stock
+    }
+
+    /// The stock with every move so far removed.
+    pub fn into_stock(self) -> ZMap {
+        self.stock
+    }
+
+    /// The path step in use, mm.
+    pub fn step_mm(&self) -> f64 {
+        self.step_mm
+    }
+
+    /// Run every move of `moves`; the engagement of every step, in path order.
+    pub fn run(&mut self, moves: &[Move]) -> Vec<StepEngagement> {
+        let mut out = Vec::new();
+        for m in moves {
+            self.cut(m, &mut out);
+        }
+        out
+    }
+
+    /// Machine one move: append the engagement of each of its steps to `out` (nothing for a
+    /// move shorter than 1 nm) and remove the material it sweeps.
+    pub fn cut(&mut self, mv: &Move, out: &mut Vec<StepEngagement>) -> MoveSummary {
+        let len = mv.length_mm();
+        if !(len > 1e-6) {
+            return MoveSummary::default();
+        }
+        let n = (len / self.step_mm).ceil().max(1.0) as usize;
+        let start = out.len();
+        let d = mv.delta();
+        let dxy = d[0].hypot(d[1]);
+        let vertical = dxy <= 1e-9 * len.max(1.0);
+        let fz = self
+            .cutter
+            .feed_per_tooth_mm(mv.feed_mm_min, self.spindle.rpm);
+        let dt_min = if mv.feed_mm_min > 0.0 {
+            (len / n as f64) / mv.feed_mm_min
+        } else {
+            0.0
+        };
+
+        // Phase 1: engagement against the stock before this move.
+        let frame = (!vertical).then(|| {
+            let f = [d[0] / dxy, d[1] / dxy];
+            let left = [-f[1], f[0]];
+            let nrm = match self.spindle.rotation {
+                Rotation::Clockwise => left,
+                Rotation::CounterClockwise => [-left[0], -left[1]],
+            };
+            (f, nrm)
+        });
+        for k in 1..=n {
+            let p = mv.at(k as f64 / n as f64);
+            let mut e = StepEngagement {
+                position_mm: p,
+                kind: StepKind::Air,
+                rapid: mv.rapid,
+                entry_rad: 0.0,
+                exit_rad: 0.0,
+                span_rad: 0.0,
+                arcs: 0,
+                ae_mm: 0.0,
+                radial_mm: 0.0,
+                ap_mm: 0.0,
+                beyond_flutes: false,
+                feed_per_tooth_mm: fz,
+                chip_max_mm: 0.0,
+                removed_mm3: 0.0,
+                removal_rate_mm3_min: 0.0,
+            };
+            if let Some((f, nrm)) = frame {
+                self.leading_half(p, f, nrm, &mut e);
+            }
+            out.push(e);
+        }
+
+        // Phase 2: removal, step by step, on the current stock.
+        let r = self.cutter.radius_mm();
+        let flutes = self.cutter.flute_length_mm();
+        let mut sum = MoveSummary {
+            steps: n,
+            ..MoveSummary::default()
+        };
+        for e in &mut out[start..] {
+            let p = e.position_mm;
+            let rem = self.stock.cut_flat_disc(p[0], p[1], r, p[2]);
+            e.removed_mm3 = rem.volume_mm3;
+            if dt_min > 0.0 {
+                e.removal_rate_mm3_min = rem.volume_mm3 / dt_min;
+            }
+            let removed = rem.volume_mm3 > 1e-9;
+            if vertical && d[2] < 0.0 && removed {
+                e.kind = StepKind::Plunge;
+                e.ap_mm = rem.max_depth_mm.min(flutes);
+                e.beyond_flutes = rem.max_depth_mm > flutes + Z_TOL_MM;
+            }
+            if mv.rapid && (e.kind != StepKind::Air || removed) {
+                e.kind = StepKind::RapidCollision;
+                sum.rapid_collision = true;
+            }
+            sum.removed_mm3 += e.removed_mm3;
+            sum.max_ae_mm = sum.max_ae_mm.max(e.ae_mm);
+            sum.max_radial_mm = sum.max_radial_mm.max(e.radial_mm);
+            sum.max_ap_mm = sum.max_ap_mm.max(e.ap_mm);
+            sum.beyond_flutes |= e.beyond_flutes;
+        }
+
+        // The move joins the exact window; the oldest leaves it into the lagged cells.
+        self.recent.push_back((*mv, n));
+        while self.recent.len() > self.exact_moves {
+            let Some((old, steps)) = self.recent.pop_front() else {
+                break;
+            };
+            for k in 1..=steps {
+                let p = old.at(k as f64 / steps as f64);
+                self.lagged.cut_flat_disc(p[0], p[1], r, p[2]);
+            }
+        }
+        sum
+    }
+
+    /// Apply every move still in the exact window to the lagged cells (then both maps are
+    /// equal). For tests.
+    #[cfg(test)]
+    fn flush(&mut self) {
+        let keep = self.exact_moves;
+        self.exact_moves = 0;
+        let r = self.cutter.radius_mm();
+        while let Some((old, steps)) = self.recent.pop_front() {
+            for k in 1..=steps {
+                let p = old.at(k as f64 / steps as f64);
+                self.lagged.cut_flat_disc(p[0], p[1], r, p[2]);
+            }
+        }
+        self.exact_moves = keep;
+    }
+
+    /// Fill the leading-half fields of `e` for the tool at `p` moving along `f` with the
+    /// teeth coming from side `nrm`.
+    fn leading_half(&mut self, p: [f64; 3], f: [f64; 2], nrm: [f64; 2], e: &mut StepEngagement) {
+        let r = self.cutter.radius_mm();
+        let base = p[2].max(self.lagged.bottom_mm());
+        let flute_top = p[2] + self.cutter.flute_length_mm();
+        let mut ap_raw = 0.0f64;
+        let mut any = false;
+        for (k, &(s, c)) in self.rim.trig.iter().enumerate() {
+            let qx = p[0] + r * (s * f[0] + c * nrm[0]);
+            let qy = p[1] + r * (s * f[1] + c * nrm[1]);
+            let mut h = match self.lagged.height_at(qx, qy) {
+                Some(h) if h > base + Z_TOL_MM => h,
+                _ => {
+                    self.engaged[k] = false;
+                    continue;
+                }
+            };
+            for (m, _) in &self.recent {
+                if let Some(z) = m.swept_min_z(qx, qy, r) {
+                    h = h.min(z);
+                }
+            }
+            let on = h > base + Z_TOL_MM;
+            self.engaged[k] = on;
+            if on {
+                any = true;
+                ap_raw = ap_raw.max(h - base);
+            }
+        }
+        if !any {
+            return;
+        }
+        let a = self.rim.arcs(&self.engaged, r);
+        e.kind = StepKind::Cut;
+        e.entry_rad = a.entry_rad;
+        e.exit_rad = a.exit_rad;
+        e.span_rad = a.span_rad;
+        e.arcs = a.arcs;
+        e.ae_mm = a.ae_mm;
+        e.radial_mm = a.radial_mm;
+        e.ap_mm = ap_raw.min(flute_top - base).max(0.0);
+        e.beyond_flutes = ap_raw > flute_top - base + Z_TOL_MM;
+        e.chip_max_mm = e.feed_per_tooth_mm * a.sin_max;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lagged_cells_catch_up_with_the_stock() {
+        let stock = ZMap::from_box([0.0, 0.0, -10.0], [40.0, 30.0, 0.0], 0.5).expect("box");
+        let cutter = Cutter::flat(6.0, 3, 20.0).expect("cutter");
+        let mut s =
+            Sweep::new(stock, cutter, Spindle::cw(1000.0), SweepOptions::default()).expect("sweep");
+        let mut out = Vec::new();
+        let path = [
+            [-5.0, 10.0, -2.0],
+            [20.0, 10.0, -2.0],
+            [20.0, 20.0, -3.0],
+            [45.0, 25.0, -1.0],
+            [10.0, 5.0, -4.0],
+            [10.0, 5.0, 2.0],
+        ];
+        for w in path.windows(2) {
+            s.cut(&Move::feed(w[0], w[1], 500.0), &mut out);
+        }
+        assert_ne!(s.lagged, s.stock);
+        s.flush();
+        assert_eq!(s.lagged, s.stock);
+    }
+}
