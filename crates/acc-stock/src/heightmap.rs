@@ -50,40 +50,33 @@ pub fn parse_height_map(path: &Path, text: &str, bottom_mm: f64) -> Result<Heigh
         column,
         message,
     };
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .trim(csv::Trim::All)
-        .flexible(true)
-        .from_reader(text.as_bytes());
+    // Read by hand, not with the `csv` crate: its line numbers leave out blank and comment
+    // lines, and an error must name the line as an editor shows it. The format has no
+    // quoting, so a line is split at its commas.
     let (lo, hi) = (bottom_mm, bottom_mm + MAX_COLUMN_MM);
     let mut cols = 0;
     let mut rows = 0;
     let mut heights = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            err(line, 0, format!("not a CSV row: {e}"))
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
-        // Comments by hand: the csv reader's own comment support does not count the
-        // comment lines in its line numbers.
-        let comment = record.get(0).is_some_and(|f| f.starts_with('#'));
-        if comment || record.iter().all(str::is_empty) {
+    for (index, raw) in text.lines().enumerate() {
+        let line = index as u64 + 1;
+        let body = raw.trim();
+        if body.is_empty() || body.starts_with('#') {
             continue;
         }
+        let fields: Vec<&str> = body.split(',').map(str::trim).collect();
         if rows == 0 {
-            cols = record.len();
-        } else if record.len() != cols {
+            cols = fields.len();
+        } else if fields.len() != cols {
             return Err(err(
                 line,
                 0,
                 format!(
                     "row has {} values, the first row has {cols}: every row must have {cols}",
-                    record.len()
+                    fields.len()
                 ),
             ));
         }
-        for (k, field) in record.iter().enumerate() {
+        for (k, field) in fields.iter().enumerate() {
             let v: f64 = field.parse().map_err(|_| {
                 err(
                     line,

@@ -24,8 +24,9 @@ pub struct ZigZag {
 }
 
 /// The moves of the pocket: per level a rapid over the start corner, a plunge, the rows
-/// (first along +X, then alternating) joined by step-overs along +Y, and a rapid retract.
-/// The first row of each level is a full slot; the others cut `stepover_mm` wide.
+/// (first along +X, then alternating) joined by step-overs along +Y, one contour around the
+/// rectangle (it takes off the cusps the row ends leave along the X ends) and a rapid
+/// retract. The first row of each level is a full slot; the others cut `stepover_mm` wide.
 pub fn zigzag_pocket(z: &ZigZag) -> Vec<Move> {
     let mut out = Vec::new();
     let [x0, y0] = z.min_mm;
@@ -34,6 +35,9 @@ pub fn zigzag_pocket(z: &ZigZag) -> Vec<Move> {
     let pieces = ((x1 - x0) / z.block_mm).ceil().max(1.0) as usize;
     let mut at = [x0, y0, z.clearance_mm];
     let mut go = |to: [f64; 3], feed: f64, rapid: bool, at: &mut [f64; 3]| {
+        if to == *at {
+            return;
+        }
         out.push(Move {
             from: *at,
             to,
@@ -54,6 +58,21 @@ pub fn zigzag_pocket(z: &ZigZag) -> Vec<Move> {
             for k in 1..=pieces {
                 let x = from_x + (to_x - from_x) * k as f64 / pieces as f64;
                 go([x, y, level], z.feed_mm_min, false, &mut at);
+            }
+        }
+        // The contour, from the last row's end: to its Y end, then around.
+        let corners = [[x0, y1], [x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        let first = if (at[0] - x0).abs() < (at[0] - x1).abs() {
+            0
+        } else {
+            3
+        };
+        for c in &corners[first..] {
+            go([c[0], c[1], level], z.feed_mm_min, false, &mut at);
+        }
+        if first == 3 {
+            for c in &corners[1..4] {
+                go([c[0], c[1], level], z.feed_mm_min, false, &mut at);
             }
         }
         go([at[0], at[1], z.clearance_mm], 0.0, true, &mut at);

@@ -40,10 +40,7 @@ fn inside_corner_of_a_pocket_peaks_the_engagement() {
     // The peak is at the corner: nothing before x = 44 or after y = 20 comes near it.
     let before = x_between(&along_x, 0.0, 44.0);
     assert!(before.iter().all(|e| e.radial_mm < 0.5 * peak));
-    let after: Vec<_> = along_y
-        .iter()
-        .filter(|e| e.position_mm[1] > 20.0)
-        .collect();
+    let after: Vec<_> = along_y.iter().filter(|e| e.position_mm[1] > 20.0).collect();
     assert!(after.iter().all(|e| e.radial_mm < 0.5 * peak));
     // Along the second wall the cut settles back to 1 mm.
     for e in along_y
@@ -131,8 +128,8 @@ fn second_level_sees_only_the_new_depth() {
             exact_moves,
             ..SweepOptions::default()
         };
-        let mut s = Sweep::new(block(100.0, 40.0), mill(), Spindle::cw(1000.0), options)
-            .expect("sweep");
+        let mut s =
+            Sweep::new(block(100.0, 40.0), mill(), Spindle::cw(1000.0), options).expect("sweep");
         feed(&mut s, [-10.0, 20.0, -2.0], [110.0, 20.0, -2.0]);
         let level2 = feed(&mut s, [110.0, 20.0, -4.5], [-10.0, 20.0, -4.5]);
         for e in x_between(&level2, 10.0, 90.0) {
@@ -186,15 +183,23 @@ fn ramp_deepens_the_axial_depth() {
 fn rapids_in_air_are_air_and_through_material_are_collisions() {
     let mut s = sweep(block(50.0, 50.0));
     let mut out = Vec::new();
-    let air = s.cut(&Move::rapid([-10.0, 25.0, 5.0], [60.0, 25.0, 5.0]), &mut out);
+    let air = s.cut(
+        &Move::rapid([-10.0, 25.0, 5.0], [60.0, 25.0, 5.0]),
+        &mut out,
+    );
     assert!(!air.rapid_collision && air.removed_mm3 == 0.0);
     assert!(out
         .iter()
         .all(|e| e.rapid && e.kind == StepKind::Air && e.ae_mm == 0.0));
     out.clear();
-    let crash = s.cut(&Move::rapid([-10.0, 25.0, -1.0], [60.0, 25.0, -1.0]), &mut out);
+    let crash = s.cut(
+        &Move::rapid([-10.0, 25.0, -1.0], [60.0, 25.0, -1.0]),
+        &mut out,
+    );
     assert!(crash.rapid_collision && crash.removed_mm3 > 400.0);
-    assert!(out.iter().any(|e| e.kind == StepKind::RapidCollision && e.ae_mm > 9.9));
+    assert!(out
+        .iter()
+        .any(|e| e.kind == StepKind::RapidCollision && e.ae_mm > 9.9));
 }
 
 #[test]
@@ -208,6 +213,9 @@ fn material_above_the_flutes_is_flagged() {
     )
     .expect("sweep");
     let mut out = Vec::new();
-    let sum = s.cut(&Move::feed([-10.0, 25.0, -3.0], [60.0, 25.0, -3.0], 200.0), &mut out);
+    let sum = s.cut(
+        &Move::feed([-10.0, 25.0, -3.0], [60.0, 25.0, -3.0], 200.0),
+        &mut out,
+    );
     assert!(sum.beyond_flutes && (sum.max_ap_mm - 2.0).abs() < 1e-9);
 }

@@ -29,7 +29,10 @@ fn slot_is_full_width_and_half_a_turn() {
         assert!((e.feed_per_tooth_mm - 0.1).abs() < 1e-12);
         assert!((e.chip_max_mm - 0.1).abs() < 1e-12);
         // Removal rate a_e·a_p·v_f = 10·3·400 within the cells' error.
-        assert!((e.removal_rate_mm3_min / 12_000.0 - 1.0).abs() < 0.1, "{e:?}");
+        assert!(
+            (e.removal_rate_mm3_min / 12_000.0 - 1.0).abs() < 0.1,
+            "{e:?}"
+        );
     }
     // Entering the block from outside: the front touches first (a centred arc), then grows.
     let entry = x_between(&steps, -5.0, 4.0);
@@ -40,7 +43,9 @@ fn slot_is_full_width_and_half_a_turn() {
     // Centred on straight ahead, at most ±18° after one 0.25 mm step (sin φ > 0.95).
     assert!((first.entry_rad + first.exit_rad - PI).abs() <= 2.0 * BIN + 1e-9);
     assert!(first.span_rad < 0.7, "{first:?}");
-    assert!(entry.windows(2).all(|w| w[1].span_rad >= w[0].span_rad - 1e-12));
+    assert!(entry
+        .windows(2)
+        .all(|w| w[1].span_rad >= w[0].span_rad - 1e-12));
 }
 
 /// Engagement of a side cut `ae` (mm) wide into the wall y ≥ 0 of a block, the tool moving
@@ -53,7 +58,11 @@ fn side_cut(ae: f64, plus_x: bool, rotation: Rotation) -> Vec<acc_stock::StepEng
     };
     let mut s = Sweep::new(stock, mill(), spindle, SweepOptions::default()).expect("sweep");
     let y = -5.0 + ae;
-    let (a, b) = if plus_x { (-10.0, 110.0) } else { (110.0, -10.0) };
+    let (a, b) = if plus_x {
+        (-10.0, 110.0)
+    } else {
+        (110.0, -10.0)
+    };
     let steps = feed(&mut s, [a, y, -4.0], [b, y, -4.0]);
     x_between(&steps, 10.0, 90.0)
 }
@@ -68,7 +77,11 @@ fn up_milling_side_cut_exits_at_the_analytic_angle() {
         // Material on the left of +X with a clockwise spindle: up milling, from φ = 0.
         assert_eq!((e.kind, e.arcs), (StepKind::Cut, 1));
         assert!(e.entry_rad.abs() < 1e-12);
-        assert!((e.exit_rad - arc).abs() <= BIN + 1e-9, "{} vs {arc}", e.exit_rad);
+        assert!(
+            (e.exit_rad - arc).abs() <= BIN + 1e-9,
+            "{} vs {arc}",
+            e.exit_rad
+        );
         assert!((e.ae_mm - ae).abs() < 0.1, "{}", e.ae_mm);
         assert!((e.ap_mm - 4.0).abs() < 1e-5);
         // Chip thickest at the exit: f_z·sin 60°.
@@ -85,7 +98,11 @@ fn down_milling_side_cut_enters_at_the_analytic_angle() {
     for e in &steps {
         // Along −X the wall is on the right: down milling, ending at φ = π.
         assert_eq!((e.kind, e.arcs), (StepKind::Cut, 1));
-        assert!((e.entry_rad - (PI - arc)).abs() <= BIN + 1e-9, "{}", e.entry_rad);
+        assert!(
+            (e.entry_rad - (PI - arc)).abs() <= BIN + 1e-9,
+            "{}",
+            e.entry_rad
+        );
         assert!((e.exit_rad - PI).abs() < 1e-12);
         assert!((e.span_rad - arc).abs() <= BIN + 1e-9);
         assert!((e.ae_mm - ae).abs() < 0.1);
@@ -118,7 +135,12 @@ fn stopped_spindle_has_no_chip_load() {
     )
     .expect("sweep");
     let mut out = Vec::new();
-    s.cut(&Move::feed([0.0, 20.0, -1.0], [40.0, 20.0, -1.0], 300.0), &mut out);
+    s.cut(
+        &Move::feed([0.0, 20.0, -1.0], [40.0, 20.0, -1.0], 300.0),
+        &mut out,
+    );
     assert!(out.iter().any(|e| e.kind == StepKind::Cut));
-    assert!(out.iter().all(|e| e.feed_per_tooth_mm == 0.0 && e.chip_max_mm == 0.0));
+    assert!(out
+        .iter()
+        .all(|e| e.feed_per_tooth_mm == 0.0 && e.chip_max_mm == 0.0));
 }
