@@ -40,6 +40,22 @@ fn zigzag_pocket_removes_the_analytic_volume() {
     // No rapid touched the stock; the first row of each level is a full slot.
     assert!(steps.iter().all(|e| !e.rapid || !e.engaged()));
     assert!(steps.iter().any(|e| (e.ae_mm - 10.0).abs() < 1e-9));
+    // Mid-row on the later rows of the first level the previous row is long out of the exact
+    // window: its wall comes from the cells, so a_e = stepover within about a cell.
+    let rows: Vec<_> = steps
+        .iter()
+        .filter(|e| {
+            let [x, y, z] = e.position_mm;
+            z == -1.5 && y > 10.0 && y < 90.0 && x > 20.0 && x < 80.0 && (y - 5.0) % 4.0 == 0.0
+        })
+        .collect();
+    assert!(rows.len() > 4000, "{}", rows.len());
+    let worst = rows
+        .iter()
+        .map(|e| (e.ae_mm - 4.0).abs())
+        .fold(0.0, f64::max);
+    eprintln!("zig-zag rows: worst |a_e − stepover| = {worst:.3} mm");
+    assert!(worst <= 0.25, "{worst}");
 }
 
 #[test]
