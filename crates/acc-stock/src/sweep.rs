@@ -147,10 +147,10 @@ impl Sweep {
     }
 
     /// Machine one move: append the engagement of each of its steps to `out` (nothing for a
-    /// move shorter than 1 nm) and remove the material it sweeps.
+    /// move shorter than 1 µm or with a non-finite coordinate) and remove the material it sweeps.
     pub fn cut(&mut self, mv: &Move, out: &mut Vec<StepEngagement>) -> MoveSummary {
         let len = mv.length_mm();
-        if !(len > 1e-6) {
+        if !len.is_finite() || len <= 1e-6 {
             return MoveSummary::default();
         }
         let n = (len / self.step_mm).ceil().max(1.0) as usize;
