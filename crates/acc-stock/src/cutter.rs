@@ -1,14 +1,25 @@
-//! The cutter (flat end mill) and the spindle that turns it.
+//! The cutter (flat or ball-nose end mill) and the spindle that turns it.
 
 use crate::error::{in_range, StockError};
 
-/// A flat end mill: a cylinder of diameter D whose end face is flat at the tool tip, with
-/// cutting edges up to the flute length above the tip.
+/// The end of the cutter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// Flat end face at the tip.
+    Flat,
+    /// Hemispherical end of radius R = D/2, its lowest point at the tip; cylindrical above
+    /// the equator (tip + R).
+    Ball,
+}
+
+/// An end mill: a cylinder of diameter D with a flat or hemispherical end, the tool tip at
+/// its lowest point, with cutting edges up to the flute length above the tip.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cutter {
     diameter_mm: f64,
     flutes: usize,
     flute_length_mm: f64,
+    shape: Shape,
 }
 
 impl Cutter {
@@ -24,6 +35,21 @@ impl Cutter {
     /// ([`Cutter::DIAMETER_RANGE_MM`], [`Cutter::FLUTES_RANGE`],
     /// [`Cutter::FLUTE_LENGTH_RANGE_MM`]).
     pub fn flat(diameter_mm: f64, flutes: usize, flute_length_mm: f64) -> Result<Self, StockError> {
+        Self::new(Shape::Flat, diameter_mm, flutes, flute_length_mm)
+    }
+
+    /// A ball-nose end mill; arguments and ranges as [`Cutter::flat`].
+    pub fn ball(diameter_mm: f64, flutes: usize, flute_length_mm: f64) -> Result<Self, StockError> {
+        Self::new(Shape::Ball, diameter_mm, flutes, flute_length_mm)
+    }
+
+    /// An end mill of `shape`; arguments and ranges as [`Cutter::flat`].
+    pub fn new(
+        shape: Shape,
+        diameter_mm: f64,
+        flutes: usize,
+        flute_length_mm: f64,
+    ) -> Result<Self, StockError> {
         let (lo, hi) = Self::DIAMETER_RANGE_MM;
         in_range("cutter.diameter_mm", diameter_mm, lo, hi)?;
         let (flo, fhi) = Self::FLUTES_RANGE;
@@ -34,7 +60,27 @@ impl Cutter {
             diameter_mm,
             flutes,
             flute_length_mm,
+            shape,
         })
+    }
+
+    /// The end's shape.
+    pub fn shape(&self) -> Shape {
+        self.shape
+    }
+
+    /// Height of the cutter's lowest surface above the tip at distance `r_mm` (mm) from the
+    /// axis, mm: 0 for a flat end; `R − √(R² − r²)` for a ball nose (R at and beyond the
+    /// equator).
+    #[inline]
+    pub fn surface_mm(&self, r_mm: f64) -> f64 {
+        match self.shape {
+            Shape::Flat => 0.0,
+            Shape::Ball => {
+                let r = self.radius_mm();
+                r - (r * r - r_mm * r_mm).max(0.0).sqrt()
+            }
+        }
     }
 
     /// Diameter D, mm.

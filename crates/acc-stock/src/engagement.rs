@@ -18,11 +18,15 @@
 //!   `ψ = π − φ` here.
 //!
 //! **Method.** The leading half is sampled at `N` equal angular bins (default 180, 1° each);
-//! bin `k` covers `[kπ/N, (k+1)π/N)` and is probed at its centre on the circle of radius R.
-//! A bin is engaged when the material column at the probe point rises more than
-//! [`Z_TOL_MM`] above the tool tip (and above the stock bottom). Entry and exit are the outer
-//! edges of the first and last engaged bins; the span is the number of engaged bins times
-//! π/N; an arc is a run of consecutive engaged bins.
+//! bin `k` covers `[kπ/N, (k+1)π/N)` and is probed along its centre line: for a flat end
+//! mill at one point, on the circle of radius R; for a ball nose at rings `r = R·m/M`,
+//! `m = 1..=M`, `M = ⌈R/c⌉` (c the cell size). A probe is engaged when the material column
+//! there rises more than [`Z_TOL_MM`] above the cutter's surface at that radius (the tip
+//! for a flat end, `tip + R − √(R² − r²)` for a ball) and above the stock bottom; a bin is
+//! engaged when one of its probes is. Entry and exit are the outer edges of the first and
+//! last engaged bins; the span is the number of engaged bins times π/N; an arc is a run of
+//! consecutive engaged bins. Lateral extents (`a_e`, the effective radial depth) are taken
+//! over each bin's outermost engaged probe, at the bin's edges.
 
 use std::f64::consts::PI;
 
@@ -67,15 +71,16 @@ pub struct StepEngagement {
     /// revolution, e.g. at a pocket corner or over a cut-through slot).
     pub arcs: u32,
     /// Radial width of cut a_e, mm: the extent perpendicular to the feed from the first
-    /// entry to the last exit, `R·(cos φ_st − cos φ_ex)` (≤ D).
+    /// entry to the last exit, `R·(cos φ_st − cos φ_ex)` for a flat end mill (≤ D; for a
+    /// ball nose over the outermost engaged points, e.g. `2√(2R·a_p − a_p²)` in a slot).
     pub ae_mm: f64,
     /// Effective radial depth, mm: the sum over the arcs of their extents perpendicular to
-    /// the feed, `R·Σ(cos φ_st,k − cos φ_ex,k)`. Equals `ae_mm` for one arc; it is
+    /// the feed, `R·Σ(cos φ_st,k − cos φ_ex,k)` for a flat end mill. Equals `ae_mm` for one arc; it is
     /// `acc_plant::Engagement::radial_mm` (the mean force over a revolution is
     /// proportional to it, `∫ sin φ dφ`).
     pub radial_mm: f64,
     /// Axial depth of cut a_p, mm: the highest material column above the tip over the
-    /// engaged bins, capped by the flute length (for a plunge: the largest thickness the
+    /// engaged probes, capped by the flute length (for a plunge: the largest thickness the
     /// end face removes at this step).
     pub ap_mm: f64,
     /// Material stands above the flutes (the uncapped a_p exceeds the flute length): the
@@ -83,7 +88,8 @@ pub struct StepEngagement {
     pub beyond_flutes: bool,
     /// Feed per tooth f_z = v_f / (n·z), mm (0 with the spindle stopped).
     pub feed_per_tooth_mm: f64,
-    /// Largest chip thickness over the engaged arcs, `f_z · max sin φ`, mm (seed 004).
+    /// Largest chip thickness over the engaged arcs, `f_z · max sin φ`, mm (seed 004; for a
+    /// ball nose an upper bound: the chip thins towards the tip).
     pub chip_max_mm: f64,
     /// Volume removed by this step, mm³ (from the cells).
     pub removed_mm3: f64,
@@ -117,6 +123,8 @@ pub(crate) struct Arcs {
 pub(crate) struct Rim {
     /// `(sin φ_k, cos φ_k)`.
     pub trig: Vec<(f64, f64)>,
+    /// `cos(kπ/N)` for the bin edges `k = 0..=N`.
+    edge_cos: Vec<f64>,
     bin_rad: f64,
 }
 
@@ -129,35 +137,42 @@ impl Rim {
             trig: (0..bins)
                 .map(|k| ((k as f64 + 0.5) * bin_rad).sin_cos())
                 .collect(),
+            edge_cos: (0..=bins).map(|k| (k as f64 * bin_rad).cos()).collect(),
             bin_rad,
         }
     }
 
-    /// The arcs of the engaged bins `engaged` (one flag per bin) of a tool of radius
-    /// `radius_mm`.
-    pub fn arcs(&self, engaged: &[bool], radius_mm: f64) -> Arcs {
+    /// The arcs of the engaged bins: `reach[k]` is the distance from the axis of the
+    /// outermost engaged probe of bin `k`, mm (0: bin not engaged; R for a flat end mill).
+    /// The lateral coordinate (across the feed, towards `n`) of a point is `r·cos φ`; an
+    /// arc's extent is the largest minus the smallest over its bins' outermost points.
+    pub fn arcs(&self, reach: &[f64]) -> Arcs {
         let mut out = Arcs::default();
+        let n = reach.len();
+        let (mut hi_all, mut lo_all) = (f64::MIN, f64::MAX);
         let mut k = 0;
-        let n = engaged.len();
-        let mut first = true;
         while k < n {
-            if !engaged[k] {
+            if reach[k] <= 0.0 {
                 k += 1;
                 continue;
             }
             let start = k;
-            while k < n && engaged[k] {
+            let (mut hi, mut lo) = (f64::MIN, f64::MAX);
+            while k < n && reach[k] > 0.0 {
+                hi = hi.max(reach[k] * self.edge_cos[k]);
+                lo = lo.min(reach[k] * self.edge_cos[k + 1]);
                 k += 1;
             }
             let (a, b) = (start as f64 * self.bin_rad, k as f64 * self.bin_rad);
-            if first {
+            if out.arcs == 0 {
                 out.entry_rad = a;
-                first = false;
             }
             out.exit_rad = b;
             out.arcs += 1;
             out.span_rad += b - a;
-            out.radial_mm += radius_mm * (a.cos() - b.cos());
+            out.radial_mm += hi - lo;
+            hi_all = hi_all.max(hi);
+            lo_all = lo_all.min(lo);
             let s = if a <= 0.5 * PI && b >= 0.5 * PI {
                 1.0
             } else {
@@ -166,7 +181,7 @@ impl Rim {
             out.sin_max = out.sin_max.max(s);
         }
         if out.arcs > 0 {
-            out.ae_mm = radius_mm * (out.entry_rad.cos() - out.exit_rad.cos());
+            out.ae_mm = hi_all - lo_all;
         }
         out
     }
@@ -179,17 +194,20 @@ mod tests {
     #[test]
     fn arcs_of_bins() {
         let rim = Rim::new(4);
-        let a = rim.arcs(&[true, true, true, true], 5.0);
+        let a = rim.arcs(&[5.0; 4]);
         assert_eq!(a.arcs, 1);
         assert!((a.span_rad - PI).abs() < 1e-12 && (a.ae_mm - 10.0).abs() < 1e-12);
         assert_eq!(a.sin_max, 1.0);
-        let b = rim.arcs(&[true, false, false, true], 5.0);
+        let b = rim.arcs(&[5.0, 0.0, 0.0, 5.0]);
         assert_eq!(b.arcs, 2);
         assert!((b.entry_rad, b.exit_rad) == (0.0, PI));
         // Two 45° arcs at the sides: each 5·(1 − cos 45°) wide.
         let side = 5.0 * (1.0 - (0.25 * PI).cos());
         assert!((b.radial_mm - 2.0 * side).abs() < 1e-12);
         assert!((b.ae_mm - 10.0).abs() < 1e-12);
-        assert_eq!(rim.arcs(&[false; 4], 5.0), Arcs::default());
+        assert_eq!(rim.arcs(&[0.0; 4]), Arcs::default());
+        // A ball nose in a shallow slot: engaged out to 4 mm only, 8 mm wide.
+        let c = rim.arcs(&[4.0; 4]);
+        assert!((c.ae_mm - 8.0).abs() < 1e-12 && (c.span_rad - PI).abs() < 1e-12);
     }
 }

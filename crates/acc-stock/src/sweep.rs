@@ -22,11 +22,11 @@
 
 use std::collections::VecDeque;
 
-use crate::cutter::{Cutter, Rotation, Spindle};
+use crate::cutter::{Cutter, Rotation, Shape, Spindle};
 use crate::engagement::{Rim, StepEngagement, StepKind, Z_TOL_MM};
 use crate::error::{in_range, StockError};
 use crate::motion::Move;
-use crate::zmap::ZMap;
+use crate::zmap::{Removal, ZMap};
 
 /// How finely the path and the tool circle are sampled.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,7 +80,10 @@ pub struct Sweep {
     step_mm: f64,
     exact_moves: usize,
     rim: Rim,
-    engaged: Vec<bool>,
+    /// Probe rings `(r, cutter surface above the tip at r)`, mm, outermost first.
+    rings: Vec<(f64, f64)>,
+    /// Per bin: outermost engaged probe radius, mm (0: not engaged). Scratch.
+    reach: Vec<f64>,
 }
 
 impl Sweep {
@@ -99,6 +102,20 @@ impl Sweep {
         };
         in_range("angular_bins", options.angular_bins as f64, 4.0, 3600.0)?;
         in_range("exact_moves", options.exact_moves as f64, 0.0, 64.0)?;
+        let r = cutter.radius_mm();
+        let rings = match cutter.shape() {
+            Shape::Flat => vec![(r, 0.0)],
+            Shape::Ball => {
+                let m = (r / c).ceil().max(1.0) as usize;
+                (1..=m)
+                    .rev()
+                    .map(|k| {
+                        let rk = r * k as f64 / m as f64;
+                        (rk, cutter.surface_mm(rk))
+                    })
+                    .collect()
+            }
+        };
         Ok(Sweep {
             lagged: stock.clone(),
             stock,
@@ -108,7 +125,8 @@ impl Sweep {
             step_mm,
             exact_moves: options.exact_moves,
             rim: Rim::new(options.angular_bins),
-            engaged: vec![false; options.angular_bins],
+            rings,
+            reach: vec![0.0; options.angular_bins],
         })
     }
 
@@ -197,13 +215,15 @@ impl Sweep {
                 removal_rate_mm3_min: 0.0,
             };
             if let Some((f, nrm)) = frame {
-                self.leading_half(p, f, nrm, &mut e);
+                // The current move up to the previous step may have cut the probes too (a
+                // ball nose rising; never for the flat end's rim, which lies ahead).
+                let done = (k - 1) as f64 / n as f64;
+                self.leading_half(mv, done, f, nrm, &mut e);
             }
             out.push(e);
         }
 
         // Phase 2: removal, step by step, on the current stock.
-        let r = self.cutter.radius_mm();
         let flutes = self.cutter.flute_length_mm();
         let mut sum = MoveSummary {
             steps: n,
@@ -211,7 +231,7 @@ impl Sweep {
         };
         for e in &mut out[start..] {
             let p = e.position_mm;
-            let rem = self.stock.cut_flat_disc(p[0], p[1], r, p[2]);
+            let rem = remove(&mut self.stock, &self.cutter, p);
             e.removed_mm3 = rem.volume_mm3;
             if dt_min > 0.0 {
                 e.removal_rate_mm3_min = rem.volume_mm3 / dt_min;
@@ -240,8 +260,11 @@ impl Sweep {
                 break;
             };
             for k in 1..=steps {
-                let p = old.at(k as f64 / steps as f64);
-                self.lagged.cut_flat_disc(p[0], p[1], r, p[2]);
+                remove(
+                    &mut self.lagged,
+                    &self.cutter,
+                    old.at(k as f64 / steps as f64),
+                );
             }
         }
         sum
@@ -253,50 +276,65 @@ impl Sweep {
     fn flush(&mut self) {
         let keep = self.exact_moves;
         self.exact_moves = 0;
-        let r = self.cutter.radius_mm();
         while let Some((old, steps)) = self.recent.pop_front() {
             for k in 1..=steps {
-                let p = old.at(k as f64 / steps as f64);
-                self.lagged.cut_flat_disc(p[0], p[1], r, p[2]);
+                remove(
+                    &mut self.lagged,
+                    &self.cutter,
+                    old.at(k as f64 / steps as f64),
+                );
             }
         }
         self.exact_moves = keep;
     }
 
-    /// Fill the leading-half fields of `e` for the tool at `p` moving along `f` with the
-    /// teeth coming from side `nrm`.
-    fn leading_half(&mut self, p: [f64; 3], f: [f64; 2], nrm: [f64; 2], e: &mut StepEngagement) {
-        let r = self.cutter.radius_mm();
+    /// Fill the leading-half fields of `e` for the tool at `e.position_mm` on move `mv`, of
+    /// which the part `t ≤ done` is behind it, moving along `f` with the teeth coming from
+    /// side `nrm`.
+    fn leading_half(
+        &mut self,
+        mv: &Move,
+        done: f64,
+        f: [f64; 2],
+        nrm: [f64; 2],
+        e: &mut StepEngagement,
+    ) {
+        let p = e.position_mm;
         let base = p[2].max(self.lagged.bottom_mm());
         let flute_top = p[2] + self.cutter.flute_length_mm();
         let mut ap_raw = 0.0f64;
         let mut any = false;
         for (k, &(s, c)) in self.rim.trig.iter().enumerate() {
-            let qx = p[0] + r * (s * f[0] + c * nrm[0]);
-            let qy = p[1] + r * (s * f[1] + c * nrm[1]);
-            let mut h = match self.lagged.height_at(qx, qy) {
-                Some(h) if h > base + Z_TOL_MM => h,
-                _ => {
-                    self.engaged[k] = false;
-                    continue;
+            let (ux, uy) = (s * f[0] + c * nrm[0], s * f[1] + c * nrm[1]);
+            self.reach[k] = 0.0;
+            for &(r, surface) in &self.rings {
+                let (qx, qy) = (p[0] + r * ux, p[1] + r * uy);
+                let floor = (p[2] + surface).max(base) + Z_TOL_MM;
+                let mut h = match self.lagged.height_at(qx, qy) {
+                    Some(h) if h > floor => h,
+                    _ => continue,
+                };
+                for (m, _) in &self.recent {
+                    if let Some(z) = m.swept_min_surface(qx, qy, &self.cutter, 1.0) {
+                        h = h.min(z);
+                    }
                 }
-            };
-            for (m, _) in &self.recent {
-                if let Some(z) = m.swept_min_z(qx, qy, r) {
-                    h = h.min(z);
+                if done > 0.0 {
+                    if let Some(z) = mv.swept_min_surface(qx, qy, &self.cutter, done) {
+                        h = h.min(z);
+                    }
                 }
-            }
-            let on = h > base + Z_TOL_MM;
-            self.engaged[k] = on;
-            if on {
-                any = true;
-                ap_raw = ap_raw.max(h - base);
+                if h > floor {
+                    any = true;
+                    ap_raw = ap_raw.max(h - base);
+                    self.reach[k] = self.reach[k].max(r);
+                }
             }
         }
         if !any {
             return;
         }
-        let a = self.rim.arcs(&self.engaged, r);
+        let a = self.rim.arcs(&self.reach);
         e.kind = StepKind::Cut;
         e.entry_rad = a.entry_rad;
         e.exit_rad = a.exit_rad;
@@ -307,6 +345,14 @@ impl Sweep {
         e.ap_mm = ap_raw.min(flute_top - base).max(0.0);
         e.beyond_flutes = ap_raw > flute_top - base + Z_TOL_MM;
         e.chip_max_mm = e.feed_per_tooth_mm * a.sin_max;
+    }
+}
+
+/// Cut `map` with `cutter` at tip position `p` (mm).
+fn remove(map: &mut ZMap, cutter: &Cutter, p: [f64; 3]) -> Removal {
+    match cutter.shape() {
+        Shape::Flat => map.cut_flat_disc(p[0], p[1], cutter.radius_mm(), p[2]),
+        Shape::Ball => map.cut_ball(p[0], p[1], cutter.radius_mm(), p[2]),
     }
 }
 

@@ -285,4 +285,54 @@ impl ZMap {
             max_depth_mm: f64::from(max_depth),
         }
     }
+
+    /// Cut with a ball nose of radius `radius_mm` (mm) centred at `(x, y)` (mm) with its
+    /// lowest point at `tip_mm`: every column whose cell centre lies within the radius, at
+    /// distance r from the axis, is lowered to `tip + R − √(R² − r²)` (never below the
+    /// bottom). Same visiting order as [`ZMap::cut_flat_disc`], one `sqrt` per cell.
+    pub fn cut_ball(&mut self, x_mm: f64, y_mm: f64, radius_mm: f64, tip_mm: f64) -> Removal {
+        let c = self.cell_mm;
+        let bottom = self.bottom_mm;
+        let fx = (x_mm - self.x0_mm) / c - 0.5;
+        let fy = (y_mm - self.y0_mm) / c - 0.5;
+        let rc = radius_mm / c;
+        let j_lo = (fy - rc).ceil().max(0.0);
+        let j_hi = (fy + rc).floor().min(self.ny as f64 - 1.0);
+        if j_hi < j_lo {
+            return Removal::default();
+        }
+        let r2 = radius_mm * radius_mm;
+        let mut volume = 0.0f64;
+        let mut max_depth = 0.0f64;
+        for j in j_lo as usize..=j_hi as usize {
+            let dy = j as f64 - fy;
+            let w2 = rc * rc - dy * dy;
+            if w2 < 0.0 {
+                continue;
+            }
+            let w = w2.sqrt();
+            let i_lo = (fx - w).ceil().max(0.0);
+            let i_hi = (fx + w).floor().min(self.nx as f64 - 1.0);
+            if i_hi < i_lo {
+                continue;
+            }
+            let dy_mm = dy * c;
+            for i in i_lo as usize..=i_hi as usize {
+                let dx_mm = (i as f64 - fx) * c;
+                let d2 = dx_mm * dx_mm + dy_mm * dy_mm;
+                let z = (tip_mm + radius_mm - (r2 - d2).max(0.0).sqrt()).max(bottom);
+                let h = &mut self.heights[j * self.nx + i];
+                let d = f64::from(*h) - z;
+                if d > 0.0 {
+                    volume += d;
+                    max_depth = max_depth.max(d);
+                    *h = z as f32;
+                }
+            }
+        }
+        Removal {
+            volume_mm3: volume * c * c,
+            max_depth_mm: max_depth,
+        }
+    }
 }
