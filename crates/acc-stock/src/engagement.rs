@@ -145,8 +145,12 @@ impl Rim {
     /// The arcs of the engaged bins: `reach[k]` is the distance from the axis of the
     /// outermost engaged probe of bin `k`, mm (0: bin not engaged; R for a flat end mill).
     /// The lateral coordinate (across the feed, towards `n`) of a point is `r·cos φ`; an
-    /// arc's extent is the largest minus the smallest over its bins' outermost points.
-    pub fn arcs(&self, reach: &[f64]) -> Arcs {
+    /// arc's extent is the interval from the smallest to the largest over its bins'
+    /// outermost points; the effective radial depth is the length of the union of the arcs'
+    /// extents (for a flat end mill they are disjoint, and it is their sum). `spans` is
+    /// scratch space.
+    pub fn arcs(&self, reach: &[f64], spans: &mut Vec<(f64, f64)>) -> Arcs {
+        spans.clear();
         let mut out = Arcs::default();
         let n = reach.len();
         let (mut hi_all, mut lo_all) = (f64::MIN, f64::MAX);
@@ -170,7 +174,7 @@ impl Rim {
             out.exit_rad = b;
             out.arcs += 1;
             out.span_rad += b - a;
-            out.radial_mm += hi - lo;
+            spans.push((lo, hi));
             hi_all = hi_all.max(hi);
             lo_all = lo_all.min(lo);
             let s = if a <= 0.5 * PI && b >= 0.5 * PI {
@@ -183,6 +187,12 @@ impl Rim {
         if out.arcs > 0 {
             out.ae_mm = hi_all - lo_all;
         }
+        spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut reach_hi = f64::MIN;
+        for &(lo, hi) in spans.iter() {
+            out.radial_mm += (hi - lo.max(reach_hi)).max(0.0);
+            reach_hi = reach_hi.max(hi);
+        }
         out
     }
 }
@@ -194,20 +204,28 @@ mod tests {
     #[test]
     fn arcs_of_bins() {
         let rim = Rim::new(4);
-        let a = rim.arcs(&[5.0; 4]);
+        let mut spans = Vec::new();
+        let a = rim.arcs(&[5.0; 4], &mut spans);
         assert_eq!(a.arcs, 1);
         assert!((a.span_rad - PI).abs() < 1e-12 && (a.ae_mm - 10.0).abs() < 1e-12);
         assert_eq!(a.sin_max, 1.0);
-        let b = rim.arcs(&[5.0, 0.0, 0.0, 5.0]);
+        let b = rim.arcs(&[5.0, 0.0, 0.0, 5.0], &mut spans);
         assert_eq!(b.arcs, 2);
         assert!((b.entry_rad, b.exit_rad) == (0.0, PI));
         // Two 45° arcs at the sides: each 5·(1 − cos 45°) wide.
         let side = 5.0 * (1.0 - (0.25 * PI).cos());
         assert!((b.radial_mm - 2.0 * side).abs() < 1e-12);
         assert!((b.ae_mm - 10.0).abs() < 1e-12);
-        assert_eq!(rim.arcs(&[0.0; 4]), Arcs::default());
+        assert_eq!(rim.arcs(&[0.0; 4], &mut spans), Arcs::default());
         // A ball nose in a shallow slot: engaged out to 4 mm only, 8 mm wide.
-        let c = rim.arcs(&[4.0; 4]);
+        let c = rim.arcs(&[4.0; 4], &mut spans);
         assert!((c.ae_mm - 8.0).abs() < 1e-12 && (c.span_rad - PI).abs() < 1e-12);
+        // Two arcs whose extents overlap (a ball nose reaching unevenly): the union counts.
+        // Bin 0 (0..22.5°) out to 1 mm spans [0.92, 1]; bin 2 (45..67.5°) out to 2 mm spans
+        // [0.77, 1.41], which contains it.
+        let d = Rim::new(8).arcs(&[1.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0], &mut spans);
+        let second = 2.0 * ((0.25 * PI).cos() - (0.375 * PI).cos());
+        assert_eq!(d.arcs, 2);
+        assert!((d.radial_mm - second).abs() < 1e-12, "{d:?}");
     }
 }

@@ -118,16 +118,18 @@ impl Move {
                 let mut best = f(t0).min(f(t1));
                 // f'(t) = dz + (2at + b)/(2√(R² − d²)) = 0, squared:
                 // a(a + dz²)t² + b(a + dz²)t + b²/4 − dz²(R² − w²) = 0.
+                // Without a slope its root is double (closest approach, −b/2a) and rounding
+                // may push the discriminant below 0: clamp it, and try −b/2a as well. Any
+                // t in the part is a fair candidate (f is attained there), so extra ones
+                // cannot make the minimum wrong.
                 let dz2 = d[2] * d[2];
                 let (qa, qb, qc) = (a * (a + dz2), b * (a + dz2), 0.25 * b * b - dz2 * (r2 - w2));
                 if qa > 1e-18 {
-                    let disc = qb * qb - 4.0 * qa * qc;
-                    if disc >= 0.0 {
-                        let s = disc.sqrt();
-                        for t in [(-qb - s) / (2.0 * qa), (-qb + s) / (2.0 * qa)] {
-                            if t > t0 && t < t1 {
-                                best = best.min(f(t));
-                            }
+                    let s = (qb * qb - 4.0 * qa * qc).max(0.0).sqrt();
+                    let closest = -b / (2.0 * a);
+                    for t in [(-qb - s) / (2.0 * qa), (-qb + s) / (2.0 * qa), closest] {
+                        if t > t0 && t < t1 {
+                            best = best.min(f(t));
                         }
                     }
                 }

@@ -84,6 +84,8 @@ pub struct Sweep {
     rings: Vec<(f64, f64)>,
     /// Per bin: outermost engaged probe radius, mm (0: not engaged). Scratch.
     reach: Vec<f64>,
+    /// Lateral extents of the arcs. Scratch.
+    spans: Vec<(f64, f64)>,
 }
 
 impl Sweep {
@@ -127,6 +129,7 @@ impl Sweep {
             rim: Rim::new(options.angular_bins),
             rings,
             reach: vec![0.0; options.angular_bins],
+            spans: Vec::with_capacity(options.angular_bins),
         })
     }
 
@@ -334,7 +337,7 @@ impl Sweep {
         if !any {
             return;
         }
-        let a = self.rim.arcs(&self.reach);
+        let a = self.rim.arcs(&self.reach, &mut self.spans);
         e.kind = StepKind::Cut;
         e.entry_rad = a.entry_rad;
         e.exit_rad = a.exit_rad;

@@ -320,13 +320,14 @@ impl ZMap {
             for i in i_lo as usize..=i_hi as usize {
                 let dx_mm = (i as f64 - fx) * c;
                 let d2 = dx_mm * dx_mm + dy_mm * dy_mm;
-                let z = (tip_mm + radius_mm - (r2 - d2).max(0.0).sqrt()).max(bottom);
+                // Compared in f32, as stored: a second pass at the same place cuts nothing.
+                let z = (tip_mm + radius_mm - (r2 - d2).max(0.0).sqrt()).max(bottom) as f32;
                 let h = &mut self.heights[j * self.nx + i];
-                let d = f64::from(*h) - z;
-                if d > 0.0 {
+                if *h > z {
+                    let d = f64::from(*h - z);
                     volume += d;
                     max_depth = max_depth.max(d);
-                    *h = z as f32;
+                    *h = z;
                 }
             }
         }

@@ -17,6 +17,7 @@ proptest! {
         flutes in 1usize..7,
         flute_len in 1.0f64..10.0,
         ccw in any::<bool>(),
+        ball in any::<bool>(),
         bins in 8usize..240,
         exact_moves in 0usize..6,
         pocket in (0.0f64..30.0, 0.0f64..20.0, 2.0f64..20.0, 2.0f64..20.0, -5.0f64..0.0),
@@ -26,7 +27,12 @@ proptest! {
         let (px, py, w, h, z) = pocket;
         stock.lower_rect([px, py], [px + w, py + h], z);
         let before = stock.volume_mm3();
-        let cutter = Cutter::flat(d, flutes, flute_len).expect("cutter");
+        let cutter = if ball {
+            Cutter::ball(d, flutes, flute_len)
+        } else {
+            Cutter::flat(d, flutes, flute_len)
+        }
+        .expect("cutter");
         let spindle = Spindle {
             rpm: 3000.0,
             rotation: if ccw { Rotation::CounterClockwise } else { Rotation::Clockwise },
