@@ -2,6 +2,7 @@
 //! in under 10 s on the 2-core machine. A zig-zag pocket (rows split into short blocks,
 //! two levels, a finishing contour per level) over a 200 × 200 × 30 mm box on 0.25 mm cells,
 //! Ø10 mm 4-flute end mill, default options (path step = cell, 180 angular bins).
+//! The same program with a Ø10 mm ball nose is timed too.
 //! Run: `cargo bench -p acc-stock --bench engagement`.
 
 #![allow(missing_docs)] // criterion_group! generates undocumented items
@@ -30,12 +31,12 @@ fn bench_engagement(c: &mut Criterion) {
     let Ok(stock) = ZMap::from_box([0.0, 0.0, -30.0], [200.0, 200.0, 0.0], 0.25) else {
         return;
     };
-    let Ok(cutter) = Cutter::flat(10.0, 4, 25.0) else {
+    let (Ok(flat), Ok(ball)) = (Cutter::flat(10.0, 4, 25.0), Cutter::ball(10.0, 4, 25.0)) else {
         return;
     };
     let moves = program();
     let path_mm: f64 = moves.iter().map(Move::length_mm).sum();
-    let run = || {
+    let run = |cutter: Cutter| {
         let mut sweep = Sweep::new(
             stock.clone(),
             cutter,
@@ -49,7 +50,7 @@ fn bench_engagement(c: &mut Criterion) {
         }
         Some(out)
     };
-    if let Some(out) = run() {
+    if let Some(out) = run(flat) {
         let removed: f64 = out.iter().map(|e| e.removed_mm3).sum();
         eprintln!(
             "program: {} blocks, {:.0} mm of path, {} steps, {:.0} mm³ removed, {} cells",
@@ -64,8 +65,13 @@ fn bench_engagement(c: &mut Criterion) {
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(20));
     g.bench_function("engagement/10k-block zig-zag 200x200 cell 0.25", |b| {
-        b.iter(|| black_box(run()))
+        b.iter(|| black_box(run(flat)))
     });
+    // The same program with a ball nose: 20 probe rings per bin instead of one.
+    g.bench_function(
+        "engagement/10k-block zig-zag 200x200 cell 0.25 ball nose",
+        |b| b.iter(|| black_box(run(ball))),
+    );
     g.finish();
 }
 

@@ -115,6 +115,11 @@ impl Move {
                     let dist2 = (a * t * t + b * t + w2).max(0.0);
                     z(t) + radius_mm - (r2 - dist2).max(0.0).sqrt()
                 };
+                if d[2] == 0.0 {
+                    // Level move: the lowest surface is at the closest approach.
+                    let closest = if a > 1e-18 { -b / (2.0 * a) } else { t0 };
+                    return Some(f(closest.clamp(t0, t1)));
+                }
                 let mut best = f(t0).min(f(t1));
                 // f'(t) = dz + (2at + b)/(2√(R² − d²)) = 0, squared:
                 // a(a + dz²)t² + b(a + dz²)t + b²/4 − dz²(R² − w²) = 0.

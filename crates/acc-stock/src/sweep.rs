@@ -86,6 +86,8 @@ pub struct Sweep {
     reach: Vec<f64>,
     /// Lateral extents of the arcs. Scratch.
     spans: Vec<(f64, f64)>,
+    /// The highest column of the stock as given, mm: an upper bound on every height since.
+    top_mm: f64,
 }
 
 impl Sweep {
@@ -118,7 +120,9 @@ impl Sweep {
                     .collect()
             }
         };
+        let top_mm = stock.max_height_mm();
         Ok(Sweep {
+            top_mm,
             lagged: stock.clone(),
             stock,
             recent: VecDeque::with_capacity(options.exact_moves + 1),
@@ -311,19 +315,27 @@ impl Sweep {
             let (ux, uy) = (s * f[0] + c * nrm[0], s * f[1] + c * nrm[1]);
             self.reach[k] = 0.0;
             for &(r, surface) in &self.rings {
-                let (qx, qy) = (p[0] + r * ux, p[1] + r * uy);
                 let floor = (p[2] + surface).max(base) + Z_TOL_MM;
+                if floor >= self.top_mm {
+                    continue; // no column reaches this ring of a ball nose
+                }
+                let (qx, qy) = (p[0] + r * ux, p[1] + r * uy);
                 let mut h = match self.lagged.height_at(qx, qy) {
                     Some(h) if h > floor => h,
                     _ => continue,
                 };
-                for (m, _) in &self.recent {
-                    if let Some(z) = m.swept_min_surface(qx, qy, &self.cutter, 1.0) {
+                // The current move first (it is the likeliest to have cut here), then the
+                // recent ones, newest first; stop as soon as the probe is cut down.
+                if done > 0.0 {
+                    if let Some(z) = mv.swept_min_surface(qx, qy, &self.cutter, done) {
                         h = h.min(z);
                     }
                 }
-                if done > 0.0 {
-                    if let Some(z) = mv.swept_min_surface(qx, qy, &self.cutter, done) {
+                for (m, _) in self.recent.iter().rev() {
+                    if h <= floor {
+                        break;
+                    }
+                    if let Some(z) = m.swept_min_surface(qx, qy, &self.cutter, 1.0) {
                         h = h.min(z);
                     }
                 }
