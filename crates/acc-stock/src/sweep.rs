@@ -80,7 +80,8 @@ pub struct Sweep {
     step_mm: f64,
     exact_moves: usize,
     rim: Rim,
-    /// Probe rings `(r, cutter surface above the tip at r)`, mm, outermost first.
+    /// Probe rings `(r, cutter surface above the tip at r)`, mm, outermost first (for a
+    /// ball nose a lower bound of the surface at the cells the ring reads).
     rings: Vec<(f64, f64)>,
     /// Per bin: outermost engaged probe radius, mm (0: not engaged). Scratch.
     reach: Vec<f64>,
@@ -114,8 +115,10 @@ impl Sweep {
                 (1..=m)
                     .rev()
                     .map(|k| {
+                        // The probe reads the cell centre, up to c/√2 nearer the axis: the
+                        // ring's floor bound is the surface there.
                         let rk = r * k as f64 / m as f64;
-                        (rk, cutter.surface_mm(rk))
+                        (rk, cutter.surface_mm((rk - 0.75 * c).max(0.0)))
                     })
                     .collect()
             }
@@ -320,10 +323,10 @@ impl Sweep {
                     continue; // no column reaches this ring of a ball nose
                 }
                 let (qx, qy) = (p[0] + r * ux, p[1] + r * uy);
-                let mut h = match self.lagged.height_at(qx, qy) {
-                    Some(h) if h > floor => h,
-                    _ => continue,
+                let Some((qx, qy, h, floor)) = self.probe(p, qx, qy, base, floor) else {
+                    continue;
                 };
+                let mut h = h;
                 // The current move first (it is the likeliest to have cut here), then the
                 // recent ones, newest first; stop as soon as the probe is cut down.
                 if done > 0.0 {
@@ -360,6 +363,42 @@ impl Sweep {
         e.ap_mm = ap_raw.min(flute_top - base).max(0.0);
         e.beyond_flutes = ap_raw > flute_top - base + Z_TOL_MM;
         e.chip_max_mm = e.feed_per_tooth_mm * a.sin_max;
+    }
+}
+
+impl Sweep {
+    /// The point a probe at `(qx, qy)` reads, its column height and the height the column
+    /// must exceed to engage, for the tool at `p` (mm); `None` when it cannot engage.
+    ///
+    /// A flat end reads the column under the probe point, against `floor` (the tip). A ball
+    /// nose reads the cell's centre and its floor is the ball's surface there: the cells
+    /// were cut to the surface at their centres, so a pass over a ball-cut surface must
+    /// compare at the centres too, or the surface's slope across a cell would show as
+    /// material (up to `slope · c/√2`).
+    #[inline]
+    fn probe(
+        &self,
+        p: [f64; 3],
+        qx: f64,
+        qy: f64,
+        base: f64,
+        floor: f64,
+    ) -> Option<(f64, f64, f64, f64)> {
+        match self.cutter.shape() {
+            Shape::Flat => match self.lagged.height_at(qx, qy) {
+                Some(h) if h > floor => Some((qx, qy, h, floor)),
+                _ => None,
+            },
+            Shape::Ball => {
+                let (cx, cy, h) = self.lagged.cell_at(qx, qy)?;
+                let rc = (cx - p[0]).hypot(cy - p[1]);
+                if rc >= self.cutter.radius_mm() {
+                    return None;
+                }
+                let floor = (p[2] + self.cutter.surface_mm(rc)).max(base) + Z_TOL_MM;
+                (h > floor).then_some((cx, cy, h, floor))
+            }
+        }
     }
 }
 

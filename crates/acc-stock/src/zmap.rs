@@ -198,6 +198,25 @@ impl ZMap {
         (i < self.nx && j < self.ny).then(|| f64::from(self.heights[j * self.nx + i]))
     }
 
+    /// The centre `(x, y)` (mm) and height (mm) of the cell containing the point `(x, y)`
+    /// (mm); `None` outside the grid.
+    #[inline]
+    pub fn cell_at(&self, x_mm: f64, y_mm: f64) -> Option<(f64, f64, f64)> {
+        let u = (x_mm - self.x0_mm) / self.cell_mm;
+        let v = (y_mm - self.y0_mm) / self.cell_mm;
+        if u < 0.0 || v < 0.0 {
+            return None;
+        }
+        let (i, j) = (u as usize, v as usize);
+        (i < self.nx && j < self.ny).then(|| {
+            (
+                self.x0_mm + (i as f64 + 0.5) * self.cell_mm,
+                self.y0_mm + (j as f64 + 0.5) * self.cell_mm,
+                f64::from(self.heights[j * self.nx + i]),
+            )
+        })
+    }
+
     /// Highest column top, mm (the bottom when the map is empty of material).
     pub fn max_height_mm(&self) -> f64 {
         self.heights

@@ -94,3 +94,31 @@ fn ball_side_cut_below_the_equator_is_cylindrical() {
         assert!((e.ap_mm - 8.0).abs() < 1e-5);
     }
 }
+
+#[test]
+fn ball_second_pass_read_from_the_cells_is_air() {
+    // Without the exact window the first pass is known from the cells only; the probes read
+    // the cells at their centres, where the cells were cut, so no slope shows as material.
+    let ball = Cutter::ball(10.0, 2, 20.0).expect("cutter");
+    let options = SweepOptions {
+        exact_moves: 0,
+        ..SweepOptions::default()
+    };
+    let mut s = Sweep::new(block(100.0, 40.0), ball, Spindle::cw(2000.0), options).expect("sweep");
+    let mut out = Vec::new();
+    s.cut(
+        &Move::feed([-10.0, 20.0, -2.0], [110.0, 20.0, -2.0], 400.0),
+        &mut out,
+    );
+    assert!(out.iter().any(|e| e.kind == StepKind::Cut));
+    for (a, b) in [
+        ([110.0, 20.0, -2.0], [-10.0, 20.0, -2.0]),
+        ([-10.0, 20.0, -2.0], [110.0, 20.0, -2.0]),
+    ] {
+        let mut again = Vec::new();
+        s.cut(&Move::feed(a, b, 400.0), &mut again);
+        for e in &again {
+            assert!(e.kind == StepKind::Air && e.removed_mm3 < 1e-3, "{e:?}");
+        }
+    }
+}
