@@ -80,9 +80,10 @@ pub struct Sweep {
     step_mm: f64,
     exact_moves: usize,
     rim: Rim,
-    /// Probe rings `(r, cutter surface above the tip at r)`, mm, outermost first (for a
-    /// ball nose a lower bound of the surface at the cells the ring reads).
-    rings: Vec<(f64, f64)>,
+    /// Probe rings `(r, cutter surface above the tip at r, bin stride)`, mm, outermost
+    /// first (for a ball nose a lower bound of the surface at the cells the ring reads; the
+    /// ring is probed at every `stride`-th bin and its answer holds for the group).
+    rings: Vec<(f64, f64, usize)>,
     /// Per bin: outermost engaged probe radius, mm (0: not engaged). Scratch.
     reach: Vec<f64>,
     /// Lateral extents of the arcs. Scratch.
@@ -108,17 +109,20 @@ impl Sweep {
         in_range("angular_bins", options.angular_bins as f64, 4.0, 3600.0)?;
         in_range("exact_moves", options.exact_moves as f64, 0.0, 64.0)?;
         let r = cutter.radius_mm();
+        let bin_rad = std::f64::consts::PI / options.angular_bins.max(1) as f64;
         let rings = match cutter.shape() {
-            Shape::Flat => vec![(r, 0.0)],
+            Shape::Flat => vec![(r, 0.0, 1)],
             Shape::Ball => {
                 let m = (r / c).ceil().max(1.0) as usize;
                 (1..=m)
                     .rev()
                     .map(|k| {
                         // The probe reads the cell centre, up to c/√2 nearer the axis: the
-                        // ring's floor bound is the surface there.
+                        // ring's floor bound is the surface there. Inner rings are probed
+                        // every `stride` bins, about every c/2 along the ring.
                         let rk = r * k as f64 / m as f64;
-                        (rk, cutter.surface_mm((rk - 0.75 * c).max(0.0)))
+                        let stride = ((0.5 * c) / (rk * bin_rad)).floor().max(1.0) as usize;
+                        (rk, cutter.surface_mm((rk - 0.75 * c).max(0.0)), stride)
                     })
                     .collect()
             }
@@ -314,14 +318,19 @@ impl Sweep {
         let flute_top = p[2] + self.cutter.flute_length_mm();
         let mut ap_raw = 0.0f64;
         let mut any = false;
-        for (k, &(s, c)) in self.rim.trig.iter().enumerate() {
-            let (ux, uy) = (s * f[0] + c * nrm[0], s * f[1] + c * nrm[1]);
-            self.reach[k] = 0.0;
-            for &(r, surface) in &self.rings {
-                let floor = (p[2] + surface).max(base) + Z_TOL_MM;
-                if floor >= self.top_mm {
-                    continue; // no column reaches this ring of a ball nose
-                }
+        let bins = self.rim.trig.len();
+        self.reach.fill(0.0);
+        for &(r, surface, stride) in &self.rings {
+            let floor = (p[2] + surface).max(base) + Z_TOL_MM;
+            if floor >= self.top_mm {
+                continue; // no column reaches this ring of a ball nose
+            }
+            let mut k = 0;
+            while k < bins {
+                let group = k..(k + stride).min(bins);
+                k = group.end;
+                let (s, c) = self.rim.trig[(group.start + group.end - 1) / 2];
+                let (ux, uy) = (s * f[0] + c * nrm[0], s * f[1] + c * nrm[1]);
                 let (qx, qy) = (p[0] + r * ux, p[1] + r * uy);
                 let Some((qx, qy, h, floor)) = self.probe(p, qx, qy, base, floor) else {
                     continue;
@@ -345,7 +354,9 @@ impl Sweep {
                 if h > floor {
                     any = true;
                     ap_raw = ap_raw.max(h - base);
-                    self.reach[k] = self.reach[k].max(r);
+                    for b in group {
+                        self.reach[b] = self.reach[b].max(r);
+                    }
                 }
             }
         }
