@@ -20,10 +20,13 @@
 //! **Method.** The leading half is sampled at `N` equal angular bins (default 180, 1° each);
 //! bin `k` covers `[kπ/N, (k+1)π/N)` and is probed along its centre line: for a flat end
 //! mill at one point, on the circle of radius R; for a ball nose at rings `r = R·m/M`,
-//! `m = 1..=M`, `M = ⌈R/c⌉` (c the cell size). A probe is engaged when the material column
-//! there rises more than [`Z_TOL_MM`] above the cutter's surface at that radius (the tip
-//! for a flat end, `tip + R − √(R² − r²)` for a ball) and above the stock bottom; a bin is
-//! engaged when one of its probes is. Entry and exit are the outer edges of the first and
+//! `m = 1..=M`, `M = ⌈R/c⌉` (c the cell size), an inner ring only at every few bins (about
+//! every c/2 along the ring; the answer holds for the group). A flat end's probe is engaged
+//! when the material column under it rises more than [`Z_TOL_MM`] above the tip and the
+//! stock bottom; a ball nose's probe reads the cell containing it and is engaged when that
+//! column rises above the ball's surface `tip + R − √(R² − r_c²)` at the cell centre
+//! (distance `r_c` from the axis: where the cells were cut). A bin is engaged when one of
+//! its probes is. Entry and exit are the outer edges of the first and
 //! last engaged bins; the span is the number of engaged bins times π/N; an arc is a run of
 //! consecutive engaged bins. Lateral extents (`a_e`, the effective radial depth) are taken
 //! over each bin's outermost engaged probe, at the bin's edges.

@@ -1,11 +1,12 @@
-//! `acc-stock`: a 2.5D height-field (Z-map) stock, a flat end mill that removes material
-//! along a tool path of straight moves, and the cutter–workpiece engagement at every path
+//! `acc-stock`: a 2.5D height-field (Z-map) stock, a flat (or ball-nose) end mill that
+//! removes material along a tool path of straight moves, and the cutter–workpiece engagement at every path
 //! step (entry and exit angle, radial width a_e, axial depth a_p, engaged span and arcs,
 //! feed per tooth, removal rate). See `docs/stock.md` for the model, the conventions, the
 //! file formats and the resolution.
 //!
 //! - [`ZMap`]: the stock (a box, a height-map file, or a [`StockFile`] `stock.toml`);
-//! - [`Cutter`], [`Spindle`]: the tool and its speed and sense of rotation;
+//! - [`Cutter`], [`Spindle`]: the tool (flat or ball nose) and its speed and sense of
+//!   rotation;
 //! - [`Move`]: one straight move of the tool tip (the NC interpreter's path segment);
 //! - [`Sweep`]: machines the stock move by move and reports a [`StepEngagement`] per step.
 //!
@@ -39,7 +40,7 @@ pub mod sweep;
 pub mod zigzag;
 pub mod zmap;
 
-pub use cutter::{Cutter, Rotation, Spindle};
+pub use cutter::{Cutter, Rotation, Shape, Spindle};
 pub use engagement::{StepEngagement, StepKind, Z_TOL_MM};
 pub use error::StockError;
 pub use heightmap::read_height_map;

@@ -2,19 +2,20 @@
 //!
 //! Each move is divided into `n = ⌈L / step⌉` equal steps; step `k = 1..=n` puts the tool tip
 //! at `from + (k/n)·(to − from)`. For every step, first the engagement is read off the
-//! leading half of the tool circle ([`crate::engagement`]), then the flat end lowers every
-//! cell whose centre lies under the end face to the tip height.
+//! leading half of the tool circle ([`crate::engagement`]), then the cutter lowers every
+//! cell whose centre lies under it to its surface there (a flat end: the tip height; a ball
+//! nose: `tip + R − √(R² − r²)`).
 //!
 //! **What the probes see.** The material the engagement is measured against is the stock
-//! *before the current move*: the current move never sweeps the leading half of its own
-//! circle (for `0 < φ < π` every earlier tool position on a straight move is farther than R
-//! from the rim point), so nothing it removes may hide material from its later steps. The
+//! *before the current move*, cut down exactly by the part of the current move already
+//! done (for a flat end that never reaches the leading half of its rim, which lies ahead;
+//! for a ball nose it does, the thin chip its front surface takes being the engagement). The
 //! last [`SweepOptions::exact_moves`] moves before it are not taken from the cells but from
-//! their exact swept volume (a flat-bottomed capsule along the segment; the column at a
-//! probe point is cut down to the lowest tip height of the part of the move that covers the
-//! point). Older moves are in the cells. This keeps the engagement free of cell noise where
-//! it matters most: continuing a cut across block boundaries, and corners, where the rim of
-//! the new move runs along the boundary the previous move just left.
+//! their exact swept volume (the column at a probe point is cut down to the lowest height
+//! the cutter's end reaches there along the segment, in closed form). Older moves are in the
+//! cells. This keeps the engagement free of cell noise where it matters most: continuing a
+//! cut across block boundaries, and corners, where the rim of the new move runs along the
+//! boundary the previous move just left.
 //!
 //! Internally the sweep keeps two maps: the current stock (what [`Sweep::stock`] returns,
 //! every move applied) and a lagged copy without the recent moves; when a move leaves the
