@@ -54,6 +54,11 @@ golden-figures out="/tmp/acc-golden":
 bench:
     cargo bench --workspace
 
+# The stock engagement benchmark (issue 28: a 10 000-block program over 200 × 200 mm in
+# under 10 s); figures in docs/stock.md.
+stock-bench:
+    cargo bench -p acc-stock --bench engagement
+
 # The discrepancy workflow's full hidden-effect sweep (confusion matrix, recovery vs size; ~12 min).
 ident-sweep:
     cargo run --release -p acc-ident --example sweep -- --seeds 10 --enr 0.25,0.5,1,2,4,8 --fdr 200 --pairs 10 --out out/sweep
