@@ -21,7 +21,7 @@
 //!     assert_eq!(to, [20.0, 0.0, -1.0]);
 //! }
 //! let s = p.summary();
-//! assert!((s.feed_length_mm - (1.0 + std::f64::consts::PI * 10.0)).abs() < 1e-9);
+//! assert!((s.feed_length_mm - (6.0 + std::f64::consts::PI * 10.0)).abs() < 1e-9);
 //! ```
 //!
 //! What is supported and refused, and the oracle test against LinuxCNC's `rs274`:
