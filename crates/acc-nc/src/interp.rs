@@ -278,6 +278,17 @@ impl<'a> State<'a> {
                     } else {
                         (&mut m_groups, m_group(code / 10, &val)?)
                     };
+                    // G80 beside another motion code is dropped (LinuxCNC and Fanuc
+                    // headers such as `G00 G17 G40 G49 G80 G90`).
+                    if w.letter == 'G' && group == 1 {
+                        if code == 800 && groups.iter().any(|(g, _)| *g == 1) {
+                            continue;
+                        }
+                        if let Some(k) = b.g.iter().position(|g| g.0 == 800) {
+                            b.g.remove(k);
+                            groups.retain(|(g, _)| *g != 1);
+                        }
+                    }
                     if let Some((_, other)) = groups.iter().find(|(g, _)| *g == group) {
                         let (l, o) = (w.letter, f64::from(*other) / 10.0);
                         return Err(val.err(ErrorKind::Conflict {

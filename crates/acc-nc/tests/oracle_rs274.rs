@@ -1,0 +1,256 @@
+//! Needs LinuxCNC's stand-alone interpreter `rs274` (Debian `linuxcnc-uspace`, `.ci/deps`)
+//! and, for the third-party programs, `../shared/data/nc/`: without them the test prints
+//! `SKIP: …` and passes, unless `CI` is set, then it fails.
+//!
+//! The oracle test: every program in `tests/nc/` (ours) and `../shared/data/nc/` (LinuxCNC's,
+//! read in place, never copied) runs through `rs274 -g` and through `acc_nc::interpret`.
+//! For every program both accept: the same sequence of motions (traverse, feed, arc), every
+//! end point, every arc centre and turn count, every feed and every tool length offset agree
+//! to the 4 decimals `rs274` prints. A program we refuse must be one `rs274` accepts only
+//! because of a feature we refuse by name (listed in `REFUSED`), with that name in our error.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use acc_nc::{interpret, Canon, Setup, ToolTable, Units};
+
+/// Third-party programs we refuse, and the word our error must name.
+const REFUSED: &[(&str, &str)] = &[("linuxcnc_inside_corners.ngc", "O100SUB")];
+
+/// Work offsets of G54…G59 for the test, mm (written to rs274's parameter file in inches).
+const OFFSETS_MM: [[f64; 3]; 6] = [
+    [0.0, 0.0, 0.0],
+    [100.0, 50.0, -10.0],
+    [-25.4, 12.7, 0.0],
+    [200.5, -33.25, 5.0],
+    [0.0, 300.0, -50.0],
+    [12.345, 67.891, -1.5],
+];
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn skip_or_fail(reason: &str) {
+    if std::env::var_os("CI").is_some() {
+        panic!("CI is set and {reason}");
+    }
+    println!("SKIP: {reason}");
+}
+
+fn rs274() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .map(|d| d.join("rs274"))
+        .find(|p| p.is_file())
+}
+
+/// One motion as rs274 prints it (in the program units of the moment).
+#[derive(Debug, Clone, PartialEq)]
+struct Motion {
+    kind: &'static str,
+    /// x, y, z end; for arcs also cx, cy and the rotation (signed turns).
+    values: Vec<f64>,
+    /// Feed rate in force (program units/min as programmed); 0 for traverses.
+    feed: f64,
+}
+
+/// The motions and tool length offsets of rs274's canon output.
+fn parse_rs274(out: &str) -> (Vec<Motion>, Vec<f64>) {
+    let mut motions = Vec::new();
+    let mut tlo = Vec::new();
+    let mut feed = 0.0;
+    for line in out.lines() {
+        let Some(open) = line.find('(') else { continue };
+        let name = line[..open].split_whitespace().last().unwrap_or("");
+        let args: Vec<f64> = line[open + 1..line.rfind(')').unwrap_or(line.len())]
+            .split([',', ' '])
+            .filter_map(|s| s.trim().parse().ok())
+            .collect();
+        match name {
+            "SET_FEED_RATE" => feed = args[0],
+            "USE_TOOL_LENGTH_OFFSET" => tlo.push(args[2]),
+            "STRAIGHT_TRAVERSE" => motions.push(Motion {
+                kind: "traverse",
+                values: args[..3].to_vec(),
+                feed: 0.0,
+            }),
+            "STRAIGHT_FEED" => motions.push(Motion {
+                kind: "feed",
+                values: args[..3].to_vec(),
+                feed,
+            }),
+            "ARC_FEED" => motions.push(Motion {
+                kind: "arc",
+                values: vec![args[0], args[1], args[5], args[2], args[3], args[4]],
+                feed,
+            }),
+            _ => {}
+        }
+    }
+    (motions, tlo)
+}
+
+/// Our motions and tool length offsets in rs274's terms: lengths in the program units in
+/// force, feeds as programmed.
+fn ours(calls: &[acc_nc::CanonCall]) -> (Vec<Motion>, Vec<f64>) {
+    let mut motions = Vec::new();
+    let mut tlo = Vec::new();
+    let mut unit = 1.0;
+    let mut feed = 0.0;
+    for c in calls {
+        match &c.call {
+            Canon::Units { units } => unit = units.mm_per_unit(),
+            Canon::FeedRate { programmed, .. } => feed = *programmed,
+            Canon::ToolLengthOffset { z_mm } => tlo.push(z_mm / unit),
+            Canon::Traverse { to, .. } => motions.push(Motion {
+                kind: "traverse",
+                values: to.iter().map(|v| v / unit).collect(),
+                feed: 0.0,
+            }),
+            Canon::Feed { to, .. } => motions.push(Motion {
+                kind: "feed",
+                values: to.iter().map(|v| v / unit).collect(),
+                feed,
+            }),
+            Canon::Arc {
+                to,
+                center,
+                clockwise,
+                turns,
+                ..
+            } => {
+                let rot = f64::from(*turns) * if *clockwise { -1.0 } else { 1.0 };
+                let mut values: Vec<f64> = to.iter().map(|v| v / unit).collect();
+                values.extend([center[0] / unit, center[1] / unit, rot]);
+                motions.push(Motion {
+                    kind: "arc",
+                    values,
+                    feed,
+                });
+            }
+            _ => {}
+        }
+    }
+    (motions, tlo)
+}
+
+/// Agreement to rs274's 4 decimals: our exact value rounds to the printed one.
+fn agree(ours: f64, printed: f64) -> bool {
+    (ours - printed).abs() <= 0.5e-4 + 1e-9 * (1.0 + printed.abs())
+}
+
+/// Compares one program; `Err` names the first disagreement.
+fn compare(name: &str, theirs: &(Vec<Motion>, Vec<f64>), mine: &(Vec<Motion>, Vec<f64>)) -> Result<(), String> {
+    let (t, m) = (&theirs.0, &mine.0);
+    if t.len() != m.len() {
+        return Err(format!("{name}: rs274 has {} motions, we have {}", t.len(), m.len()));
+    }
+    for (k, (a, b)) in t.iter().zip(m).enumerate() {
+        let same = a.kind == b.kind
+            && a.values.len() == b.values.len()
+            && a.values.iter().zip(&b.values).all(|(x, y)| agree(*y, *x))
+            && agree(b.feed, a.feed);
+        if !same {
+            return Err(format!("{name}: motion {k}: rs274 {a:?}, ours {b:?}"));
+        }
+    }
+    if theirs.1.len() != mine.1.len() || theirs.1.iter().zip(&mine.1).any(|(x, y)| !agree(*y, *x)) {
+        return Err(format!(
+            "{name}: tool length offsets: rs274 {:?}, ours {:?}",
+            theirs.1, mine.1
+        ));
+    }
+    Ok(())
+}
+
+fn programs(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|rd| rd.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    v.retain(|p| p.extension().is_some_and(|e| e == "ngc"));
+    v.sort();
+    v
+}
+
+#[test]
+fn rs274_and_acc_nc_agree_on_every_program() {
+    let Some(rs274) = rs274() else {
+        skip_or_fail("rs274 (Debian linuxcnc-uspace) is not on PATH; install with .ci/deps");
+        return;
+    };
+    let root = repo_root();
+    let ours_dir = root.join("tests/nc");
+    let shared = root.join("../shared/data/nc");
+    let mut files = programs(&ours_dir);
+    if shared.is_dir() {
+        files.extend(programs(&shared));
+    } else {
+        skip_or_fail(&format!("{} is absent: third-party programs not run", shared.display()));
+    }
+    let tbl = root.join("tests/nc/tools.tbl");
+    let tbl_text = std::fs::read_to_string(&tbl).expect("tests/nc/tools.tbl");
+    // rs274 without an INI file reads the tool table and parameter file in inches.
+    let tools = ToolTable::parse_tbl("tools.tbl", &tbl_text, Units::Inch).expect("tool table");
+    let setup = Setup {
+        tools,
+        work_offsets_mm: OFFSETS_MM,
+        ..Setup::default()
+    };
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let mut agreed = Vec::new();
+    let mut refused = Vec::new();
+    let mut failures = Vec::new();
+    for file in &files {
+        let name = file.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        // rs274 rewrites its parameter file: a fresh copy per program.
+        let var = tmp.path().join("offsets.var");
+        let mut text = String::from("5220 1\n");
+        for (i, o) in OFFSETS_MM.iter().enumerate() {
+            for (a, v) in o.iter().enumerate() {
+                text += &format!("{} {:.12}\n", 5221 + 20 * i + a, v / 25.4);
+            }
+        }
+        std::fs::write(&var, text).expect("var file");
+        let out = Command::new(&rs274)
+            .arg("-t")
+            .arg(&tbl)
+            .arg("-v")
+            .arg(&var)
+            .arg("-g")
+            .arg(file)
+            .output()
+            .expect("run rs274");
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        let program = std::fs::read_to_string(file).expect("program");
+        let mine = interpret(&name, &program, &setup);
+        match (out.status.success(), mine) {
+            (true, Ok(p)) => {
+                let m = ours(&p.calls);
+                match compare(&name, &parse_rs274(&stdout), &m) {
+                    Ok(()) => agreed.push((name, m.0.len())),
+                    Err(e) => failures.push(e),
+                }
+            }
+            (true, Err(e)) => match REFUSED.iter().find(|r| r.0 == name) {
+                Some((_, word)) if e.word == *word => refused.push((name, e.to_string())),
+                _ => failures.push(format!("{name}: rs274 accepts, we refuse: {e}")),
+            },
+            (false, Ok(_)) => failures.push(format!(
+                "{name}: rs274 refuses ({}), we accept",
+                String::from_utf8_lossy(&out.stderr).trim()
+            )),
+            (false, Err(e)) => failures.push(format!("{name}: both refuse: {e}")),
+        }
+    }
+    println!("program | motions | result");
+    for (n, k) in &agreed {
+        println!("{n} | {k} | agree");
+    }
+    for (n, e) in &refused {
+        println!("{n} | - | refused by name: {e}");
+    }
+    println!("{} programs agree with rs274, {} refused by name", agreed.len(), refused.len());
+    assert!(failures.is_empty(), "disagreements:\n{}", failures.join("\n"));
+    assert!(agreed.len() >= 20, "only {} programs agree", agreed.len());
+}
