@@ -197,6 +197,8 @@ fn rs274_and_acc_nc_agree_on_every_program() {
         work_offsets_mm: OFFSETS_MM,
         ..Setup::default()
     };
+    // rs274 keeps its tool table in $HOME/.tool.mmap: a private HOME per test, so that
+    // parallel runs (and other users of rs274) do not share it.
     let tmp = tempfile::tempdir().expect("temp dir");
     let mut agreed = Vec::new();
     let mut refused = Vec::new();
@@ -213,6 +215,7 @@ fn rs274_and_acc_nc_agree_on_every_program() {
         }
         std::fs::write(&var, text).expect("var file");
         let out = Command::new(&rs274)
+            .env("HOME", tmp.path())
             .arg("-t")
             .arg(&tbl)
             .arg("-v")
@@ -253,4 +256,44 @@ fn rs274_and_acc_nc_agree_on_every_program() {
     println!("{} programs agree with rs274, {} refused by name", agreed.len(), refused.len());
     assert!(failures.is_empty(), "disagreements:\n{}", failures.join("\n"));
     assert!(agreed.len() >= 20, "only {} programs agree", agreed.len());
+}
+
+/// Bad programs (`tests/nc/bad/`): rs274 refuses each, we refuse each, at the same line
+/// (rs274 echoes the offending block as its last line on stderr).
+#[test]
+fn rs274_and_acc_nc_refuse_the_same_bad_programs_at_the_same_line() {
+    let Some(rs274) = rs274() else {
+        skip_or_fail("rs274 (Debian linuxcnc-uspace) is not on PATH; install with .ci/deps");
+        return;
+    };
+    let dir = repo_root().join("tests/nc/bad");
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let files = programs(&dir);
+    assert!(files.len() >= 10, "tests/nc/bad has {} programs", files.len());
+    let mut failures = Vec::new();
+    for file in &files {
+        let name = file.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let text = std::fs::read_to_string(file).expect("program");
+        let out = Command::new(&rs274)
+            .env("HOME", tmp.path())
+            .current_dir(tmp.path())
+            .arg("-g")
+            .arg(file)
+            .output()
+            .expect("run rs274");
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        let block = stderr.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
+        match interpret(&name, &text, &Setup::default()) {
+            Ok(_) => failures.push(format!("{name}: we accept, rs274 says {stderr:?}")),
+            Err(_) if out.status.success() => failures.push(format!("{name}: rs274 accepts")),
+            Err(e) => {
+                let ours = text.lines().nth(e.span.line as usize - 1).unwrap_or("");
+                println!("{e}\n    rs274: {}", stderr.lines().nth(1).unwrap_or("").trim());
+                if ours.trim() != block.trim() {
+                    failures.push(format!("{name}: we stop at {ours:?}, rs274 at {block:?}"));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
