@@ -12,6 +12,9 @@ use crate::lexer::{parse_line, Line, Word};
 use crate::tools::Setup;
 use crate::Program;
 
+mod flow;
+use flow::{Flow, MAX_BLOCKS};
+
 /// LinuxCNC's `TINY` for the R-arc geometry.
 const TINY: f64 = 1e-12;
 
@@ -63,10 +66,16 @@ impl Block {
         self.words.iter().find(|w| w.0 == letter).map(|w| &w.1)
     }
     fn g_in(&self, codes: &[u16]) -> Option<(u16, &Val)> {
-        self.g.iter().find(|g| codes.contains(&g.0)).map(|g| (g.0, &g.1))
+        self.g
+            .iter()
+            .find(|g| codes.contains(&g.0))
+            .map(|g| (g.0, &g.1))
     }
     fn m_in(&self, codes: &[u16]) -> Option<(u16, &Val)> {
-        self.m.iter().find(|m| codes.contains(&m.0)).map(|m| (m.0, &m.1))
+        self.m
+            .iter()
+            .find(|m| codes.contains(&m.0))
+            .map(|m| (m.0, &m.1))
     }
 }
 
@@ -94,7 +103,9 @@ fn g_group(code: u16, val: &Val) -> Result<u8, At> {
         900 | 910 => 3,
         901 | 911 => 4,
         940 => 5,
-        930 | 950 => return refuse("inverse-time and per-revolution feed; only G94 (mm/min or in/min)"),
+        930 | 950 => {
+            return refuse("inverse-time and per-revolution feed; only G94 (mm/min or in/min)")
+        }
         200 | 210 => 6,
         400 => 7,
         410 | 420 | 411 | 421 => {
@@ -188,14 +199,34 @@ impl<'a> State<'a> {
             index: 1,
             offset_mm: self.setup.work_offsets_mm[0],
         });
+        let lines: Vec<&str> = text.lines().collect();
+        let mut flow = Flow::default();
         let mut seen_code = false;
         let mut percent_open = false;
-        for (i, raw) in text.lines().enumerate() {
-            let number = u32::try_from(i + 1).unwrap_or(u32::MAX);
+        let mut pc = 0;
+        let mut steps = 0_u64;
+        while let Some(raw) = lines.get(pc) {
+            let number = u32::try_from(pc + 1).unwrap_or(u32::MAX);
             let line = parse_line(number, raw)?;
+            steps += 1;
+            if steps > MAX_BLOCKS {
+                return Err(At::new(
+                    Span {
+                        line: number,
+                        column: 1,
+                    },
+                    raw.trim(),
+                    ErrorKind::Range {
+                        allowed: format!(
+                            "at most {MAX_BLOCKS} executed blocks (endless recursion?)"
+                        ),
+                    },
+                ));
+            }
             if line.percent {
                 if !seen_code && !percent_open {
                     percent_open = true;
+                    pc += 1;
                     continue;
                 }
                 break;
@@ -205,34 +236,26 @@ impl<'a> State<'a> {
             }
             self.line = number;
             self.n = line.n;
+            if let Some(o) = &line.oword {
+                pc = self.oword(o, pc, &lines, &mut flow)?;
+                continue;
+            }
             if self.block(&line)? {
                 break;
             }
+            pc += 1;
         }
         Ok(())
     }
 
     /// Runs one line; `Ok(true)` at program end (M2/M30).
     fn block(&mut self, line: &Line) -> Result<bool, At> {
-        if let Some(o) = &line.oword {
-            if o.keyword.is_empty() {
-                return Ok(false); // a Fanuc program number
-            }
-            return Err(At::new(
-                o.span,
-                o.text.clone(),
-                ErrorKind::Unsupported {
-                    reason: "O-word subroutines and control flow (o… sub/call/if/while); \
-                             expand them into plain blocks"
-                        .into(),
-                },
-            ));
-        }
         let b = self.evaluate(&line.words)?;
         // Parameter settings are evaluated with the old values and applied after the line.
         let mut sets = Vec::with_capacity(line.assigns.len());
         for a in &line.assigns {
-            let err = |d: String| At::new(a.span, a.text.clone(), ErrorKind::Expression { detail: d });
+            let err =
+                |d: String| At::new(a.span, a.text.clone(), ErrorKind::Expression { detail: d });
             let v = a.value.eval(&self.params).map_err(err)?;
             let target = match &a.param {
                 crate::expr::Param::Numbered(e) => Ok(self.params.index(e).map_err(err)?),
@@ -268,7 +291,9 @@ impl<'a> State<'a> {
                 'G' | 'M' => {
                     let tenths = (v * 10.0).round();
                     let whole = w.letter == 'M' && tenths % 10.0 != 0.0;
-                    if (v * 10.0 - tenths).abs() > 1e-6 || !(0.0..=9999.0).contains(&tenths) || whole
+                    if (v * 10.0 - tenths).abs() > 1e-6
+                        || !(0.0..=9999.0).contains(&tenths)
+                        || whole
                     {
                         return Err(val.err(ErrorKind::UnknownCode));
                     }
@@ -347,19 +372,21 @@ impl<'a> State<'a> {
         let has_axis = axes.iter().any(Option::is_some);
         let arc_words = ['I', 'J', 'K', 'R'].map(|l| b.word(l));
         let explicit = b.g_in(&[0, 10, 20, 30, 800]);
-        let motion = match explicit {
-            Some((800, g)) if has_axis => {
-                return Err(g.err(ErrorKind::Conflict {
-                    what: "axis words with G80 (motion cancelled)".into(),
-                }))
-            }
-            Some((800, _)) => None,
-            Some((code, _)) => Some(code),
-            None if has_axis || arc_words.iter().any(Option::is_some) => match self.motion {
-                Some(m) => Some(m),
-                None => {
-                    let w = axes.iter().chain(arc_words.iter()).flatten().next();
-                    return Err(match w {
+        let motion =
+            match explicit {
+                Some((800, g)) if has_axis => {
+                    return Err(g.err(ErrorKind::Conflict {
+                        what: "axis words with G80 (motion cancelled)".into(),
+                    }))
+                }
+                Some((800, _)) => None,
+                Some((code, _)) => Some(code),
+                None if has_axis || arc_words.iter().any(Option::is_some) => {
+                    match self.motion {
+                        Some(m) => Some(m),
+                        None => {
+                            let w = axes.iter().chain(arc_words.iter()).flatten().next();
+                            return Err(match w {
                         Some(w) => Self::missing(
                             w,
                             "a motion mode (G0 G1 G2 G3) for the axis words (G80 is active)",
@@ -370,10 +397,11 @@ impl<'a> State<'a> {
                             ErrorKind::Missing { what: "a motion mode".into() },
                         ),
                     });
+                        }
+                    }
                 }
-            },
-            None => None,
-        };
+                None => None,
+            };
         let is_arc = matches!(motion, Some(20) | Some(30));
         for (w, l) in arc_words.iter().zip(['I', 'J', 'K', 'R']) {
             if let (Some(w), false) = (w, is_arc) {
@@ -549,7 +577,11 @@ impl<'a> State<'a> {
             }
         }
         let at = explicit
-            .or_else(|| ['X', 'Y', 'Z', 'I', 'J', 'R'].iter().find_map(|&l| b.word(l)))
+            .or_else(|| {
+                ['X', 'Y', 'Z', 'I', 'J', 'R']
+                    .iter()
+                    .find_map(|&l| b.word(l))
+            })
             .cloned()
             .unwrap_or(Val {
                 v: 0.0,
@@ -577,7 +609,14 @@ impl<'a> State<'a> {
         Ok(())
     }
 
-    fn arc(&self, cw: bool, from: [f64; 3], to: [f64; 3], b: &Block, at: &Val) -> Result<Canon, At> {
+    fn arc(
+        &self,
+        cw: bool,
+        from: [f64; 3],
+        to: [f64; 3],
+        b: &Block,
+        at: &Val,
+    ) -> Result<Canon, At> {
         let f = self.units.mm_per_unit();
         if let Some(k) = b.word('K') {
             return Err(k.err(ErrorKind::Unsupported {
@@ -604,7 +643,10 @@ impl<'a> State<'a> {
             r_center(cw, r.v * f, from, to).map_err(|d| bad(r, d))?
         } else {
             if i.is_none() && j.is_none() {
-                return Err(Self::missing(at, "I and/or J (centre) or R (radius) for the arc"));
+                return Err(Self::missing(
+                    at,
+                    "I and/or J (centre) or R (radius) for the arc",
+                ));
             }
             let (iv, jv) = (i.map_or(0.0, |w| w.v) * f, j.map_or(0.0, |w| w.v) * f);
             let c = if self.arc_absolute {
@@ -616,7 +658,10 @@ impl<'a> State<'a> {
             let r2 = (to[0] - c[0]).hypot(to[1] - c[1]);
             let w = i.or(j).unwrap_or(at);
             if r1 < 1e-9 || r2 < 1e-9 {
-                return Err(bad(w, format!("zero radius (start {r1:.4} mm, end {r2:.4} mm)")));
+                return Err(bad(
+                    w,
+                    format!("zero radius (start {r1:.4} mm, end {r2:.4} mm)"),
+                ));
             }
             let tol = self.setup.arc_radius_tolerance_mm;
             if (r1 - r2).abs() > tol {
@@ -646,7 +691,9 @@ impl<'a> State<'a> {
 /// the long way; the end point must not equal the start point.
 fn r_center(cw: bool, radius: f64, from: [f64; 3], to: [f64; 3]) -> Result<[f64; 2], String> {
     if (to[0] - from[0]).abs() < 1e-12 && (to[1] - from[1]).abs() < 1e-12 {
-        return Err("an R arc needs an end point other than its start (full circles take I/J)".into());
+        return Err(
+            "an R arc needs an end point other than its start (full circles take I/J)".into(),
+        );
     }
     let abs_r = radius.abs();
     let mid = [(to[0] + from[0]) / 2.0, (to[1] + from[1]) / 2.0];

@@ -37,8 +37,14 @@ pub(crate) struct Assign {
 /// An O word: `O1000` alone (a Fanuc program number) or `o100 sub|call|…`.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct OWord {
+    /// The O number or `<name>` as written (numbers without leading zeros).
+    pub name: String,
     /// The keyword after the O number (`sub`, `call`, `if`, …); empty for a program number.
     pub keyword: String,
+    /// The `[expr]` arguments after the keyword (`o100 call [1] [2]`).
+    pub args: Vec<Expr>,
+    /// Characters follow the keyword and its arguments.
+    pub trailing: bool,
     pub span: Span,
     pub text: String,
 }
@@ -92,18 +98,30 @@ pub(crate) fn parse_line(number: u32, text: &str) -> Result<Line, At> {
     if p.peek() == Some('o') {
         let start = p.i;
         p.i += 1;
-        if p.peek() == Some('<') {
-            p.take_while(|c| c != '>');
+        let name = if p.peek() == Some('<') {
+            let name = p.take_while(|c| c != '>');
             if p.peek() != Some('>') {
                 return Err(p.err(start, "`>` closing the O word name"));
             }
             p.i += 1;
+            format!("{name}>")
         } else {
-            p.value()?;
-        }
+            let digits = p.take_while(|c| c.is_ascii_digit());
+            match digits.parse::<u64>() {
+                Ok(n) => n.to_string(),
+                Err(_) => return Err(p.err(start, "an O number (digits) or O<name>")),
+            }
+        };
         let keyword = p.take_while(|c| c.is_ascii_alphabetic());
+        let mut args = Vec::new();
+        while keyword == "call" && p.peek() == Some('[') {
+            args.push(p.bracket()?);
+        }
         line.oword = Some(OWord {
+            name,
             keyword,
+            args,
+            trailing: p.i < p.c.len(),
             span: p.span(start),
             text: p.text(start, p.c.len()),
         });
@@ -159,7 +177,10 @@ fn strip(number: u32, text: &str) -> Result<Vec<(char, u32)>, At> {
             c if c.is_ascii_graphic() => out.push((c.to_ascii_lowercase(), col)),
             _ => {
                 return Err(At::new(
-                    Span { line: number, column: col },
+                    Span {
+                        line: number,
+                        column: col,
+                    },
                     c.escape_default().to_string(),
                     ErrorKind::Syntax {
                         expected: "printable ASCII outside comments".into(),
@@ -170,7 +191,10 @@ fn strip(number: u32, text: &str) -> Result<Vec<(char, u32)>, At> {
     }
     if let Some(col) = open {
         return Err(At::new(
-            Span { line: number, column: col },
+            Span {
+                line: number,
+                column: col,
+            },
             "(",
             ErrorKind::Syntax {
                 expected: "`)` closing the comment on the same line".into(),
@@ -197,11 +221,7 @@ impl Cursor<'_> {
     }
 
     fn span(&self, at: usize) -> Span {
-        let column = self
-            .c
-            .get(at)
-            .or_else(|| self.c.last())
-            .map_or(1, |x| x.1);
+        let column = self.c.get(at).or_else(|| self.c.last()).map_or(1, |x| x.1);
         Span {
             line: self.line,
             column,
@@ -267,7 +287,10 @@ impl Cursor<'_> {
             }
             Some(c) if c.is_ascii_digit() || c == '.' => self.number(),
             Some(c) if c.is_ascii_alphabetic() => self.function(),
-            _ => Err(self.err(start, "a value: a number, #parameter, [expression] or function")),
+            _ => Err(self.err(
+                start,
+                "a value: a number, #parameter, [expression] or function",
+            )),
         };
         self.depth -= 1;
         v
@@ -357,7 +380,10 @@ impl Cursor<'_> {
         let name = self.take_while(|c| c.is_ascii_alphabetic());
         if self.peek() != Some('[') {
             self.i = start;
-            return Err(self.err(start, "a value: a number, #parameter, [expression] or function"));
+            return Err(self.err(
+                start,
+                "a value: a number, #parameter, [expression] or function",
+            ));
         }
         match name.as_str() {
             "atan" => {
@@ -425,6 +451,14 @@ mod tests {
         assert_eq!(l.assigns.len(), 2);
         let o = parse_line(2, "o100 sub").unwrap();
         assert_eq!(o.oword.unwrap().keyword, "sub");
+        let o = parse_line(2, "O0100 call [1+1] [#2]")
+            .unwrap()
+            .oword
+            .unwrap();
+        assert_eq!(
+            (o.name.as_str(), o.keyword.as_str(), o.args.len()),
+            ("100", "call", 2)
+        );
         let prog = parse_line(3, "O1000").unwrap();
         assert_eq!(prog.oword.unwrap().keyword, "");
     }

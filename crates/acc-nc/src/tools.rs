@@ -74,9 +74,7 @@ impl ToolTable {
             };
             let mut column = 1;
             for field in body.split_whitespace() {
-                let col = raw[column - 1..]
-                    .find(field)
-                    .map_or(column, |k| column + k);
+                let col = raw[column - 1..].find(field).map_or(column, |k| column + k);
                 column = col + field.len();
                 let err = |allowed: &str| NcError {
                     file: file.to_string(),

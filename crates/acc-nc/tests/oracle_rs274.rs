@@ -15,7 +15,7 @@ use std::process::Command;
 use acc_nc::{interpret, Canon, Setup, ToolTable, Units};
 
 /// Third-party programs we refuse, and the word our error must name.
-const REFUSED: &[(&str, &str)] = &[("linuxcnc_inside_corners.ngc", "O100SUB")];
+const REFUSED: &[(&str, &str)] = &[("linuxcnc_inside_corners.ngc", "G41.1")];
 
 /// Work offsets of G54…G59 for the test, mm (written to rs274's parameter file in inches).
 const OFFSETS_MM: [[f64; 3]; 6] = [
@@ -141,10 +141,18 @@ fn agree(ours: f64, printed: f64) -> bool {
 }
 
 /// Compares one program; `Err` names the first disagreement.
-fn compare(name: &str, theirs: &(Vec<Motion>, Vec<f64>), mine: &(Vec<Motion>, Vec<f64>)) -> Result<(), String> {
+fn compare(
+    name: &str,
+    theirs: &(Vec<Motion>, Vec<f64>),
+    mine: &(Vec<Motion>, Vec<f64>),
+) -> Result<(), String> {
     let (t, m) = (&theirs.0, &mine.0);
     if t.len() != m.len() {
-        return Err(format!("{name}: rs274 has {} motions, we have {}", t.len(), m.len()));
+        return Err(format!(
+            "{name}: rs274 has {} motions, we have {}",
+            t.len(),
+            m.len()
+        ));
     }
     for (k, (a, b)) in t.iter().zip(m).enumerate() {
         let same = a.kind == b.kind
@@ -186,7 +194,10 @@ fn rs274_and_acc_nc_agree_on_every_program() {
     if shared.is_dir() {
         files.extend(programs(&shared));
     } else {
-        skip_or_fail(&format!("{} is absent: third-party programs not run", shared.display()));
+        skip_or_fail(&format!(
+            "{} is absent: third-party programs not run",
+            shared.display()
+        ));
     }
     let tbl = root.join("tests/nc/tools.tbl");
     let tbl_text = std::fs::read_to_string(&tbl).expect("tests/nc/tools.tbl");
@@ -204,7 +215,9 @@ fn rs274_and_acc_nc_agree_on_every_program() {
     let mut refused = Vec::new();
     let mut failures = Vec::new();
     for file in &files {
-        let name = file.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let name = file
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
         // rs274 rewrites its parameter file: a fresh copy per program.
         let var = tmp.path().join("offsets.var");
         let mut text = String::from("5220 1\n");
@@ -253,8 +266,16 @@ fn rs274_and_acc_nc_agree_on_every_program() {
     for (n, e) in &refused {
         println!("{n} | - | refused by name: {e}");
     }
-    println!("{} programs agree with rs274, {} refused by name", agreed.len(), refused.len());
-    assert!(failures.is_empty(), "disagreements:\n{}", failures.join("\n"));
+    println!(
+        "{} programs agree with rs274, {} refused by name",
+        agreed.len(),
+        refused.len()
+    );
+    assert!(
+        failures.is_empty(),
+        "disagreements:\n{}",
+        failures.join("\n")
+    );
     assert!(agreed.len() >= 20, "only {} programs agree", agreed.len());
 }
 
@@ -269,10 +290,16 @@ fn rs274_and_acc_nc_refuse_the_same_bad_programs_at_the_same_line() {
     let dir = repo_root().join("tests/nc/bad");
     let tmp = tempfile::tempdir().expect("temp dir");
     let files = programs(&dir);
-    assert!(files.len() >= 10, "tests/nc/bad has {} programs", files.len());
+    assert!(
+        files.len() >= 10,
+        "tests/nc/bad has {} programs",
+        files.len()
+    );
     let mut failures = Vec::new();
     for file in &files {
-        let name = file.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let name = file
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
         let text = std::fs::read_to_string(file).expect("program");
         let out = Command::new(&rs274)
             .env("HOME", tmp.path())
@@ -282,13 +309,20 @@ fn rs274_and_acc_nc_refuse_the_same_bad_programs_at_the_same_line() {
             .output()
             .expect("run rs274");
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-        let block = stderr.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("");
+        let block = stderr
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("");
         match interpret(&name, &text, &Setup::default()) {
             Ok(_) => failures.push(format!("{name}: we accept, rs274 says {stderr:?}")),
             Err(_) if out.status.success() => failures.push(format!("{name}: rs274 accepts")),
             Err(e) => {
                 let ours = text.lines().nth(e.span.line as usize - 1).unwrap_or("");
-                println!("{e}\n    rs274: {}", stderr.lines().nth(1).unwrap_or("").trim());
+                println!(
+                    "{e}\n    rs274: {}",
+                    stderr.lines().nth(1).unwrap_or("").trim()
+                );
                 if ours.trim() != block.trim() {
                     failures.push(format!("{name}: we stop at {ours:?}, rs274 at {block:?}"));
                 }
