@@ -20,8 +20,18 @@ fn acc_nc_prints_a_table_and_a_summary() {
         .output()
         .expect("run acc");
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(stdout.lines().next().is_some_and(|l| l.contains("F mm/min")), "{stdout}");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout
+            .lines()
+            .next()
+            .is_some_and(|l| l.contains("F mm/min")),
+        "{stdout}"
+    );
     assert!(stdout.contains("arc-cw"), "{stdout}");
     assert!(stdout.contains("tool changes   3"), "{stdout}");
     assert!(stdout.contains("motions        14"), "{stdout}");

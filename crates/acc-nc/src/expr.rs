@@ -222,9 +222,9 @@ mod tests {
     fn functions_work_in_degrees() {
         let p = Params::default();
         let atan = Expr::Atan(num(1.0), num(1.0));
-        assert!((atan.eval(&p).unwrap() - 45.0).abs() < 1e-12);
+        assert!((atan.eval(&p).expect("ok") - 45.0).abs() < 1e-12);
         let sin = Expr::Func(Func::Sin, num(30.0));
-        assert!((sin.eval(&p).unwrap() - 0.5).abs() < 1e-12);
+        assert!((sin.eval(&p).expect("ok") - 0.5).abs() < 1e-12);
     }
 
     #[test]
@@ -236,7 +236,7 @@ mod tests {
     #[test]
     fn unset_numbered_reads_zero_unset_named_fails() {
         let p = Params::default();
-        assert_eq!(p.get(&Param::Numbered(num(7.0))).unwrap(), 0.0);
+        assert_eq!(p.get(&Param::Numbered(num(7.0))).expect("ok"), 0.0);
         assert!(p.get(&Param::Named("x".into())).is_err());
     }
 }

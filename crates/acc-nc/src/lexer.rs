@@ -424,12 +424,12 @@ mod tests {
     use crate::expr::Params;
 
     fn val(e: &Expr) -> f64 {
-        e.eval(&Params::default()).unwrap()
+        e.eval(&Params::default()).expect("ok")
     }
 
     #[test]
     fn words_have_columns_and_spaces_are_ignored() {
-        let l = parse_line(3, "N10 G0 Z 10 (comment) X-1.5 ; rest").unwrap();
+        let l = parse_line(3, "N10 G0 Z 10 (comment) X-1.5 ; rest").expect("ok");
         assert_eq!(l.n, Some(10));
         assert_eq!(l.words.len(), 3);
         assert_eq!(l.words[1].letter, 'Z');
@@ -440,34 +440,34 @@ mod tests {
 
     #[test]
     fn expressions_follow_precedence() {
-        let l = parse_line(1, "X[1+2*3**2] Y[-2-3] Z[7 mod 4] F[1 lt 2]").unwrap();
+        let l = parse_line(1, "X[1+2*3**2] Y[-2-3] Z[7 mod 4] F[1 lt 2]").expect("ok");
         let v: Vec<f64> = l.words.iter().map(|w| val(&w.value)).collect();
         assert_eq!(v, vec![19.0, -5.0, 3.0, 1.0]);
     }
 
     #[test]
     fn assignments_and_owords_parse() {
-        let l = parse_line(1, "#<xs> = [2*3] #5=1").unwrap();
+        let l = parse_line(1, "#<xs> = [2*3] #5=1").expect("ok");
         assert_eq!(l.assigns.len(), 2);
-        let o = parse_line(2, "o100 sub").unwrap();
-        assert_eq!(o.oword.unwrap().keyword, "sub");
+        let o = parse_line(2, "o100 sub").expect("ok");
+        assert_eq!(o.oword.expect("ok").keyword, "sub");
         let o = parse_line(2, "O0100 call [1+1] [#2]")
-            .unwrap()
+            .expect("ok")
             .oword
-            .unwrap();
+            .expect("ok");
         assert_eq!(
             (o.name.as_str(), o.keyword.as_str(), o.args.len()),
             ("100", "call", 2)
         );
-        let prog = parse_line(3, "O1000").unwrap();
-        assert_eq!(prog.oword.unwrap().keyword, "");
+        let prog = parse_line(3, "O1000").expect("ok");
+        assert_eq!(prog.oword.expect("ok").keyword, "");
     }
 
     #[test]
     fn errors_name_line_and_column() {
-        let e = parse_line(7, "G1 X1 Y(open").unwrap_err();
+        let e = parse_line(7, "G1 X1 Y(open").expect_err("must fail");
         assert_eq!(e.span, Span { line: 7, column: 8 });
-        let e = parse_line(2, "G1 X[1+").unwrap_err();
+        let e = parse_line(2, "G1 X[1+").expect_err("must fail");
         assert_eq!(e.span.line, 2);
         assert!(parse_line(1, "G").is_err());
         assert!(parse_line(1, "GX1").is_err());

@@ -111,7 +111,7 @@ impl Program {
     ///
     /// ```
     /// use acc_nc::{interpret, Setup};
-    /// let p = interpret("c.ngc", "G21 G0 X10\nG2 I-10 F500\nM2\n", &Setup::default()).unwrap();
+    /// let p = interpret("c.ngc", "G21 G0 X10\nG2 I-10 F500\nM2\n", &Setup::default()).expect("ok");
     /// let path = p.path(0.01);
     /// let arc_len: f64 = path.iter().filter(|s| !s.rapid).map(|s| s.length_mm()).sum();
     /// assert!((arc_len - 2.0 * std::f64::consts::PI * 10.0).abs() < 0.05);

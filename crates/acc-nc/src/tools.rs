@@ -50,9 +50,9 @@ impl ToolTable {
     ///
     /// ```
     /// use acc_nc::{ToolTable, Units};
-    /// let t = ToolTable::parse_tbl("t.tbl", "T1 P1 Z10.5 D6 ;end mill\n", Units::Mm).unwrap();
-    /// assert_eq!(t.get(1).unwrap().length_mm, 10.5);
-    /// assert_eq!(t.get(1).unwrap().comment, "end mill");
+    /// let t = ToolTable::parse_tbl("t.tbl", "T1 P1 Z10.5 D6 ;end mill\n", Units::Mm).expect("ok");
+    /// assert_eq!(t.get(1).expect("ok").length_mm, 10.5);
+    /// assert_eq!(t.get(1).expect("ok").comment, "end mill");
     /// ```
     pub fn parse_tbl(file: &str, text: &str, units: Units) -> Result<ToolTable, NcError> {
         let mut table = ToolTable::default();
@@ -160,10 +160,11 @@ mod tests {
 
     #[test]
     fn inch_table_is_converted_and_bad_fields_are_named() {
-        let t = ToolTable::parse_tbl("t.tbl", "T2 P3 Z1 D0.5\n\n", Units::Inch).unwrap();
-        let e = t.get(2).unwrap();
+        let t = ToolTable::parse_tbl("t.tbl", "T2 P3 Z1 D0.5\n\n", Units::Inch).expect("ok");
+        let e = t.get(2).expect("ok");
         assert_eq!((e.pocket, e.length_mm, e.diameter_mm), (3, 25.4, 12.7));
-        let err = ToolTable::parse_tbl("t.tbl", "T1 P1\nT2 Zx\n", Units::Mm).unwrap_err();
+        let err =
+            ToolTable::parse_tbl("t.tbl", "T1 P1\nT2 Zx\n", Units::Mm).expect_err("must fail");
         assert_eq!((err.span.line, err.span.column), (2, 4));
         assert!(err.to_string().starts_with("t.tbl:2:4: `Zx`"), "{err}");
     }
