@@ -70,7 +70,8 @@ pub enum Canon {
     },
     /// Spindle off (M5).
     SpindleOff,
-    /// Tool change to `tool` (T… M6; as CHANGE_TOOL).
+    /// Tool change to `tool` (T… M6; as CHANGE_TOOL). Preceded by [`Canon::SpindleOff`]:
+    /// the spindle stays off until the next M3/M4.
     ToolChange {
         /// The new tool number (0 = no tool).
         tool: u32,

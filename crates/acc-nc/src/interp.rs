@@ -454,6 +454,8 @@ impl<'a> State<'a> {
         if b.m_in(&[6]).is_some() {
             let tool = self.selected.unwrap_or(self.tool);
             self.tool = tool;
+            // A tool change stops the spindle (rs274: STOP_SPINDLE_TURNING, CHANGE_TOOL).
+            self.emit(Canon::SpindleOff);
             self.emit(Canon::ToolChange { tool });
         }
         match b.m_in(&[3, 4, 5]) {
