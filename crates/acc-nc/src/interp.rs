@@ -12,6 +12,7 @@ use crate::lexer::{parse_line, Line, Word};
 use crate::tools::Setup;
 use crate::Program;
 
+mod cycles;
 mod flow;
 use flow::{Flow, MAX_BLOCKS};
 
@@ -87,10 +88,11 @@ fn g_group(code: u16, val: &Val) -> Result<u8, At> {
         }))
     };
     Ok(match code {
-        0 | 10 | 20 | 30 | 800 => 1,
-        810..=890 => {
+        0 | 10 | 20 | 30 | 800 | 810 | 820 | 830 => 1,
+        840..=890 => {
             return refuse(
-                "canned cycles (G81–G89); write the holes as G0/G1 moves and cancel with G80",
+                "canned cycles G84–G89 (tapping, boring); G81 G82 G83 are supported, \
+                 or write the holes as G0/G1 moves",
             )
         }
         50 | 51 | 52 | 53 | 330 | 331 | 380..=389 | 730 | 760 | 761 => {
@@ -162,6 +164,10 @@ struct State<'a> {
     params: Params,
     line: u32,
     n: Option<u32>,
+    /// G98: canned cycles retract to the Z they started at (or R if higher); G99 (default):
+    /// to R.
+    retract_old_z: bool,
+    cycle: cycles::CycleMemory,
 }
 
 impl<'a> State<'a> {
@@ -183,6 +189,8 @@ impl<'a> State<'a> {
             params: Params::default(),
             line: 0,
             n: None,
+            retract_old_z: false,
+            cycle: cycles::CycleMemory::default(),
         }
     }
 
@@ -371,52 +379,50 @@ impl<'a> State<'a> {
         let axes = ['X', 'Y', 'Z'].map(|l| b.word(l));
         let has_axis = axes.iter().any(Option::is_some);
         let arc_words = ['I', 'J', 'K', 'R'].map(|l| b.word(l));
-        let explicit = b.g_in(&[0, 10, 20, 30, 800]);
-        let motion =
-            match explicit {
-                Some((800, g)) if has_axis => {
-                    return Err(g.err(ErrorKind::Conflict {
-                        what: "axis words with G80 (motion cancelled)".into(),
-                    }))
-                }
-                Some((800, _)) => None,
-                Some((code, _)) => Some(code),
-                None if has_axis || arc_words.iter().any(Option::is_some) => {
-                    match self.motion {
-                        Some(m) => Some(m),
-                        None => {
-                            let w = axes.iter().chain(arc_words.iter()).flatten().next();
-                            return Err(match w {
-                        Some(w) => Self::missing(
-                            w,
-                            "a motion mode (G0 G1 G2 G3) for the axis words (G80 is active)",
-                        ),
-                        None => At::new(
-                            Span { line: self.line, column: 1 },
-                            "",
-                            ErrorKind::Missing { what: "a motion mode".into() },
-                        ),
-                    });
-                        }
-                    }
-                }
-                None => None,
-            };
+        let explicit = b.g_in(&[0, 10, 20, 30, 800, 810, 820, 830]);
+        let previous = self.motion;
+        let motion = match explicit {
+            Some((800, g)) if has_axis => {
+                return Err(g.err(ErrorKind::Conflict {
+                    what: "axis words with G80 (motion cancelled)".into(),
+                }))
+            }
+            Some((800, _)) => None,
+            Some((code, _)) => Some(code),
+            None if has_axis || arc_words.iter().any(Option::is_some) => Some(
+                self.modal_motion(
+                    axes.iter()
+                        .chain(arc_words.iter())
+                        .flatten()
+                        .next()
+                        .copied(),
+                )?,
+            ),
+            None => None,
+        };
         let is_arc = matches!(motion, Some(20) | Some(30));
+        let is_cycle = matches!(motion, Some(810) | Some(820) | Some(830));
         for (w, l) in arc_words.iter().zip(['I', 'J', 'K', 'R']) {
-            if let (Some(w), false) = (w, is_arc) {
-                return Err(Self::missing(w, &format!("G2 or G3 to use the {l} word")));
+            if let (Some(w), false) = (w, is_arc || (l == 'R' && is_cycle)) {
+                let users = if l == 'R' {
+                    "G2, G3 or G81–G83"
+                } else {
+                    "G2 or G3"
+                };
+                return Err(Self::missing(w, &format!("{users} to use the {l} word")));
             }
         }
         let dwell = b.g_in(&[40]);
         let g64 = b.g_in(&[640]);
         if let Some(p) = b.word('P') {
-            if dwell.is_none() && g64.is_none() && !is_arc {
-                return Err(Self::missing(p, "G4, G64, G2 or G3 to use the P word"));
+            if dwell.is_none() && g64.is_none() && !is_arc && motion != Some(820) {
+                return Err(Self::missing(p, "G4, G64, G2, G3 or G82 to use the P word"));
             }
         }
-        if let (Some(q), None) = (b.word('Q'), g64) {
-            return Err(Self::missing(q, "G64 to use the Q word"));
+        if let Some(q) = b.word('Q') {
+            if g64.is_none() && motion != Some(830) {
+                return Err(Self::missing(q, "G64 or G83 to use the Q word"));
+            }
         }
         if let (Some(h), None) = (b.word('H'), b.g_in(&[430])) {
             return Err(Self::missing(h, "G43 to use the H word"));
@@ -521,11 +527,17 @@ impl<'a> State<'a> {
         if let Some((code, _)) = b.g_in(&[901, 911]) {
             self.arc_absolute = code == 901;
         }
+        if let Some((code, _)) = b.g_in(&[980, 990]) {
+            self.retract_old_z = code == 980;
+        }
         if let Some((code, _)) = explicit {
             self.motion = if code == 800 { None } else { Some(code) };
+            if !matches!(self.motion, Some(810 | 820 | 830)) {
+                self.cycle.il_mm = None; // a series of cycle blocks ends
+            }
         }
         if let Some(m) = motion {
-            self.motion_block(m, b, explicit.map(|e| e.1))?;
+            self.motion_block(m, b, explicit.map(|e| e.1), previous)?;
         }
         Ok(match b.m_in(&[0, 1, 2, 30, 60]) {
             Some((m @ (0 | 1 | 60), _)) => {
@@ -565,8 +577,36 @@ impl<'a> State<'a> {
             .ok_or_else(|| at.err(ErrorKind::ToolNotInTable { tool }))
     }
 
-    /// The motion of a block (tenths: 0, 10, 20, 30); `explicit` is its G word, if any.
-    fn motion_block(&mut self, m: u16, b: &Block, explicit: Option<&Val>) -> Result<(), At> {
+    /// The modal motion for a block with axis words but no motion code; `w` is its first
+    /// axis word (for the error when G80 is active).
+    fn modal_motion(&self, w: Option<&Val>) -> Result<u16, At> {
+        self.motion.ok_or_else(|| match w {
+            Some(w) => Self::missing(
+                w,
+                "a motion mode (G0 G1 G2 G3 G81 G82 G83) for the axis words (G80 is active)",
+            ),
+            None => At::new(
+                Span {
+                    line: self.line,
+                    column: 1,
+                },
+                "",
+                ErrorKind::Missing {
+                    what: "a motion mode".into(),
+                },
+            ),
+        })
+    }
+
+    /// The motion of a block (tenths: 0, 10, 20, 30, 810, 820, 830); `explicit` is its G
+    /// word, if any; `previous` the motion mode before the block.
+    fn motion_block(
+        &mut self,
+        m: u16,
+        b: &Block,
+        explicit: Option<&Val>,
+        previous: Option<u16>,
+    ) -> Result<(), At> {
         let f = self.units.mm_per_unit();
         let mut to = self.pos;
         for (a, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
@@ -596,6 +636,9 @@ impl<'a> State<'a> {
         let from = self.pos;
         if m != 0 && self.feed_mm_min <= 0.0 {
             return Err(at.err(ErrorKind::NoFeed));
+        }
+        if m >= 810 {
+            return self.cycle(m, b, to, &at, previous);
         }
         let call = match m {
             0 => Canon::Traverse { from, to },
