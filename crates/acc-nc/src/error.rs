@@ -75,7 +75,7 @@ impl fmt::Display for ErrorKind {
             ErrorKind::UnknownCode => write!(
                 f,
                 "unknown code; supported: G0 G1 G2 G3 G4 G17 G20 G21 G40 G43 G49 G54-G59 \
-                 G61 G61.1 G64 G80 G90 G91 G90.1 G91.1 G94, M0 M1 M2 M3 M4 M5 M6 M7 M8 M9 \
+                 G61 G61.1 G64 G80 G81 G82 G83 G90 G91 G90.1 G91.1 G94 G98 G99, M0 M1 M2 M3 M4 M5 M6 M7 M8 M9 \
                  M30 M48 M49"
             ),
             ErrorKind::Unsupported { reason } => write!(f, "not supported: {reason}"),
