@@ -6,9 +6,11 @@
 //! the text. Positions are in mm in work coordinates, feeds in mm/min; every call carries
 //! its source line and N number ([`CanonCall`]).
 //!
-//! Layers, as gcode-rs: the lexer ([`lexer`](crate)'s `parse_line`, spans on every word) is
-//! apart from the modal state machine ([`interpret`]). [`Program::path`] linearizes the
-//! path into straight pieces ([`PathSegment`]) within a chord tolerance.
+//! Layers, as gcode-rs: the lexer (one line into words, each with its line and column) is
+//! apart from the modal state machine ([`interpret`]); canned cycles G81–G83 and O-word
+//! subroutines expand inside the state machine, so consumers see only traverses, feeds,
+//! arcs and dwells. [`Program::path`] linearizes the path into straight pieces
+//! ([`PathSegment`]) within a chord tolerance; [`Program::summary`] totals it.
 //!
 //! ```
 //! use acc_nc::{interpret, Canon, Setup};
