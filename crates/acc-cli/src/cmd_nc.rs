@@ -6,10 +6,10 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use acc_nc::{interpret_file, Canon, Program, Setup, ToolTable, Units};
+use acc_nc::{interpret_file, parse_work_offsets_var, Canon, Program, Setup, ToolTable, Units};
 use anyhow::Context as _;
 
-/// Units of the numbers in a tool table.
+/// Units of the numbers in the LinuxCNC files (tool table, parameter file).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TableUnits {
     /// Millimetres.
@@ -27,9 +27,13 @@ pub struct NcArgs {
     /// M6, lengths for G43. Without it only T0 is known.
     #[arg(long, value_name = "FILE.tbl")]
     pub tools: Option<PathBuf>,
-    /// Units of the tool table's numbers.
+    /// Work offsets of G54–G59 from a LinuxCNC parameter file (`.var`: #5221–#5323).
+    /// Default: all zero.
+    #[arg(long, value_name = "FILE.var")]
+    pub offsets: Option<PathBuf>,
+    /// Units of the numbers in `--tools` and `--offsets` (the machine's units in LinuxCNC).
     #[arg(long, value_enum, default_value = "mm")]
-    pub tool_units: TableUnits,
+    pub table_units: TableUnits,
     /// Print the summary only, not the per-block table.
     #[arg(long)]
     pub summary_only: bool,
@@ -38,14 +42,19 @@ pub struct NcArgs {
 /// Run `acc nc`.
 pub fn run(args: &NcArgs) -> anyhow::Result<()> {
     let mut setup = Setup::default();
+    let units = match args.table_units {
+        TableUnits::Mm => Units::Mm,
+        TableUnits::In => Units::Inch,
+    };
     if let Some(path) = &args.tools {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("--tools {}: cannot read", path.display()))?;
-        let units = match args.tool_units {
-            TableUnits::Mm => Units::Mm,
-            TableUnits::In => Units::Inch,
-        };
         setup.tools = ToolTable::parse_tbl(&path.display().to_string(), &text, units)?;
+    }
+    if let Some(path) = &args.offsets {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("--offsets {}: cannot read", path.display()))?;
+        setup.work_offsets_mm = parse_work_offsets_var(&path.display().to_string(), &text, units)?;
     }
     let program = interpret_file(&args.program, &setup)?;
     print!("{}", report(&program, !args.summary_only));

@@ -15,7 +15,7 @@ fn acc_nc_prints_a_table_and_a_summary() {
         .arg(root().join("tests/nc/two_tools.ngc"))
         .arg("--tools")
         .arg(root().join("tests/nc/tools.tbl"))
-        .arg("--tool-units")
+        .arg("--table-units")
         .arg("in")
         .output()
         .expect("run acc");

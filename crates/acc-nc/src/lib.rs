@@ -42,7 +42,7 @@ pub use canon::{Canon, CanonCall, Units};
 pub use error::{ErrorKind, NcError, Span};
 pub use interp::interpret;
 pub use path::{arc_angles, PathSegment, Summary};
-pub use tools::{Setup, ToolEntry, ToolTable};
+pub use tools::{parse_work_offsets_var, Setup, ToolEntry, ToolTable};
 
 /// An interpreted program: its canonical calls in order.
 #[derive(Debug, Clone, PartialEq)]

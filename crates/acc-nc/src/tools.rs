@@ -132,6 +132,54 @@ impl ToolTable {
     }
 }
 
+/// Reads the G54–G59 work offsets from a LinuxCNC parameter file (`.var`: one
+/// `number value` pair a line; G54 X Y Z are #5221–#5223, each next system 20 higher, up to
+/// G59 at #5321–#5323). Other parameters are ignored; missing offsets are zero. Values are
+/// in `units` (the machine's; the stand-alone `rs274` reads inches).
+///
+/// ```
+/// use acc_nc::{parse_work_offsets_var, Units};
+/// let o = parse_work_offsets_var("p.var", "5220 1\n5241 10\n5243 -2.5\n", Units::Mm).unwrap();
+/// assert_eq!(o[1], [10.0, 0.0, -2.5]); // G55
+/// ```
+pub fn parse_work_offsets_var(
+    file: &str,
+    text: &str,
+    units: Units,
+) -> Result<[[f64; 3]; 6], NcError> {
+    let mut offsets = [[0.0; 3]; 6];
+    for (i, raw) in text.lines().enumerate() {
+        let mut fields = raw.split_whitespace();
+        let (Some(n), Some(v)) = (fields.next(), fields.next()) else {
+            continue;
+        };
+        let bad = || NcError {
+            file: file.to_string(),
+            span: Span {
+                line: u32::try_from(i + 1).unwrap_or(u32::MAX),
+                column: 1,
+            },
+            word: raw.trim().to_string(),
+            kind: ErrorKind::Syntax {
+                expected: "`number value` (a parameter number and a finite number)".into(),
+            },
+        };
+        let n: u32 = n.parse().map_err(|_| bad())?;
+        let v: f64 = v
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(bad)?;
+        if (5221..=5323).contains(&n) {
+            let (system, axis) = ((n - 5221) / 20, (n - 5221) % 20);
+            if axis < 3 {
+                offsets[system as usize][axis as usize] = v * units.mm_per_unit();
+            }
+        }
+    }
+    Ok(offsets)
+}
+
 /// What the interpreter needs besides the program: tools, work offsets, tolerances.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setup {

@@ -6,7 +6,7 @@
 //! read in place, never copied) runs through `rs274 -g` and through `acc_nc::interpret`.
 //! For every program both accept: the same sequence of motions (traverse, feed, arc), every
 //! end point, every arc centre and turn count, every feed and every tool length offset agree
-//! to the 4 decimals `rs274` prints. A program we refuse must be one `rs274` accepts only
+//! to the 4 decimals `rs274` prints, and every motion carries the same N number. A program we refuse must be one `rs274` accepts only
 //! because of a feature we refuse by name (listed in `REFUSED`), with that name in our error.
 
 use std::path::{Path, PathBuf};
@@ -53,6 +53,8 @@ struct Motion {
     values: Vec<f64>,
     /// Feed rate in force (program units/min as programmed); 0 for traverses.
     feed: f64,
+    /// The block's N number (rs274 prints it before the call; `N.....` for none).
+    block: Option<u32>,
 }
 
 /// The motions and tool length offsets of rs274's canon output.
@@ -63,6 +65,11 @@ fn parse_rs274(out: &str) -> (Vec<Motion>, Vec<f64>) {
     for line in out.lines() {
         let Some(open) = line.find('(') else { continue };
         let name = line[..open].split_whitespace().last().unwrap_or("");
+        let block = line
+            .split_whitespace()
+            .nth(1)
+            .and_then(|t| t.strip_prefix('N'))
+            .and_then(|d| d.parse::<u32>().ok());
         let args: Vec<f64> = line[open + 1..line.rfind(')').unwrap_or(line.len())]
             .split([',', ' '])
             .filter_map(|s| s.trim().parse().ok())
@@ -74,16 +81,19 @@ fn parse_rs274(out: &str) -> (Vec<Motion>, Vec<f64>) {
                 kind: "traverse",
                 values: args[..3].to_vec(),
                 feed: 0.0,
+                block,
             }),
             "STRAIGHT_FEED" => motions.push(Motion {
                 kind: "feed",
                 values: args[..3].to_vec(),
                 feed,
+                block,
             }),
             "ARC_FEED" => motions.push(Motion {
                 kind: "arc",
                 values: vec![args[0], args[1], args[5], args[2], args[3], args[4]],
                 feed,
+                block,
             }),
             _ => {}
         }
@@ -107,11 +117,13 @@ fn ours(calls: &[acc_nc::CanonCall]) -> (Vec<Motion>, Vec<f64>) {
                 kind: "traverse",
                 values: to.iter().map(|v| v / unit).collect(),
                 feed: 0.0,
+                block: c.block,
             }),
             Canon::Feed { to, .. } => motions.push(Motion {
                 kind: "feed",
                 values: to.iter().map(|v| v / unit).collect(),
                 feed,
+                block: c.block,
             }),
             Canon::Arc {
                 to,
@@ -127,6 +139,7 @@ fn ours(calls: &[acc_nc::CanonCall]) -> (Vec<Motion>, Vec<f64>) {
                     kind: "arc",
                     values,
                     feed,
+                    block: c.block,
                 });
             }
             _ => {}
@@ -158,7 +171,8 @@ fn compare(
         let same = a.kind == b.kind
             && a.values.len() == b.values.len()
             && a.values.iter().zip(&b.values).all(|(x, y)| agree(*y, *x))
-            && agree(b.feed, a.feed);
+            && agree(b.feed, a.feed)
+            && a.block == b.block;
         if !same {
             return Err(format!("{name}: motion {k}: rs274 {a:?}, ours {b:?}"));
         }
@@ -226,6 +240,13 @@ fn rs274_and_acc_nc_agree_on_every_program() {
                 text += &format!("{} {:.12}\n", 5221 + 20 * i + a, v / 25.4);
             }
         }
+        // Our offsets come from the same file, read as rs274 reads it (inches).
+        let offsets = acc_nc::parse_work_offsets_var("offsets.var", &text, Units::Inch)
+            .expect("var file parses");
+        let setup = Setup {
+            work_offsets_mm: offsets,
+            ..setup.clone()
+        };
         std::fs::write(&var, text).expect("var file");
         let out = Command::new(&rs274)
             .env("HOME", tmp.path())
