@@ -369,7 +369,8 @@ impl Rng {
 }
 
 /// A random program: units, distance modes, rapids, lines, arcs by I/J and by R (both
-/// signs, both directions, helical), feeds, N numbers; positions tracked so arcs are valid.
+/// signs, both directions, helical), canned cycles G81/G82/G83 with G98/G99, feeds, N
+/// numbers; positions tracked so arcs are valid.
 fn random_program(seed: u64) -> String {
     let mut g = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
     let inch = g.next() < 0.3;
@@ -391,6 +392,37 @@ fn random_program(seed: u64) -> String {
         } else {
             String::new()
         };
+        if g.next() < 0.08 {
+            // A short series of canned cycles in G90, then a known position again.
+            let code = ["G81", "G82", "G83"][(g.next() * 3.0) as usize % 3];
+            let retract = if g.next() < 0.5 { "G98" } else { "G99" };
+            let r = pos[2] + g.range(-2.0, 3.0) * s;
+            let bottom = r - g.range(0.5, 8.0) * s;
+            let extra = match code {
+                "G82" => format!(" P{:.2}", g.range(0.0, 1.0)),
+                "G83" => format!(" Q{:.4}", g.range(0.3, 3.0) * s),
+                _ => String::new(),
+            };
+            out += &format!(
+                "G90 {retract} {code} X{:.6} Y{:.6} Z{bottom:.6} R{r:.6}{extra}\n",
+                pos[0] + g.range(-10.0, 10.0) * s,
+                pos[1] + g.range(-10.0, 10.0) * s
+            );
+            out += &format!("{n}X{:.6}\nG80\n", pos[0] + g.range(-10.0, 10.0) * s);
+            pos = [
+                g.range(-20.0, 20.0) * s,
+                g.range(-20.0, 20.0) * s,
+                g.range(0.0, 5.0) * s,
+            ];
+            out += &format!("G0 X{:.6} Y{:.6} Z{:.6}\n", pos[0], pos[1], pos[2]);
+            if incremental {
+                out += "G91\n";
+            }
+            for v in &mut pos {
+                *v = (*v * 1e6).round() / 1e6;
+            }
+            continue;
+        }
         let choice = g.next();
         let z = pos[2] + g.range(-1.0, 1.0) * s;
         let word = |v: f64, p: f64, incremental: bool| if incremental { v - p } else { v };
