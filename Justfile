@@ -81,3 +81,7 @@ soak:
 # (docs/telemetry.md "Live view"; dev profile: the jitter is the scheduler's, not the code's).
 live-jitter:
     cargo bench --profile dev -p acc-telemetry --bench loop_jitter -- --periods 1000 --period-ms 10 --rounds 6
+
+# The NC interpreter against LinuxCNC's rs274 on tests/nc and ../shared/data/nc (docs/nc.md).
+nc-oracle:
+    cargo test -p acc-nc --test oracle_rs274 -- --nocapture

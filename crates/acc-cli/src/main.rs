@@ -7,6 +7,7 @@ mod cmd_compare;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
+mod cmd_nc;
 mod cmd_report;
 mod cmd_run;
 mod cmd_sim;
@@ -74,6 +75,10 @@ enum Command {
     /// blocks, time in cut, force statistics, override histogram, alarms, time saved) and
     /// the alarms. Opens with no network access.
     Report(cmd_report::ReportArgs),
+    /// Interpret an NC program (RS274/NGC, common Fanuc words): one row per motion (line,
+    /// N, kind, end point, feed, length, tool) and a summary (blocks, feed and rapid length,
+    /// time at programmed feed). Errors name file:line:column, the word and what is allowed.
+    Nc(cmd_nc::NcArgs),
 }
 
 /// Exit code for a failed command other than `acc run` (bad config, bad file, ...).
@@ -147,5 +152,6 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::FaultMatrix(args) => cmd_fault_matrix::run_cmd(&args),
         Command::Soak(args) => cmd_soak::run_cmd(&args),
         Command::Report(args) => cmd_report::run(&args),
+        Command::Nc(args) => cmd_nc::run(&args),
     }
 }
