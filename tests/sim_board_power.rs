@@ -4,7 +4,7 @@
 //! same source, fed only what the run log says the board reported (whole watts, whole
 //! rpm), gives every logged force bit for bit.
 
-use acc_core::{ForceSource, PeriodInput};
+use acc_core::PeriodInput;
 use acc_sim::scenario::MeasurementSpec;
 use acc_sim::{LawKind, Scenario};
 

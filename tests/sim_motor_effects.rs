@@ -414,6 +414,7 @@ fn step_response(
                 wear_factor: 1.0,
                 samples: &samples,
                 sample_dt_s: dt,
+                path_point: None,
             };
             let reading = ch.measure(&rec);
             assert!(reading.sample.valid, "period {k}");

@@ -33,6 +33,8 @@ pub use acc_plant::{
 };
 
 pub mod baselines;
+pub mod program;
+pub mod program_summary;
 pub mod run;
 pub mod scenario;
 pub mod summary;
@@ -49,6 +51,10 @@ pub use workpiece::Workpiece;
 /// Errors of a simulation run.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
+    /// An NC program, its tool table or its stock is invalid (the message names the file,
+    /// line and column, or the key and its range).
+    #[error("{0}")]
+    Program(String),
     /// A configuration file is invalid.
     #[error(transparent)]
     Config(#[from] acc_config::ConfigError),

@@ -56,6 +56,9 @@ pub struct SimArgs {
     /// Telemetry (`--shdr`, `--mqtt`, `--live`).
     #[command(flatten)]
     pub telemetry: crate::telemetry::TelemetryArgs,
+    /// An NC program on a stock (`--program`, `--stock`, `--stock-box`, `--tools`).
+    #[command(flatten)]
+    pub program: crate::cmd_sim_program::ProgramArgs,
 }
 
 /// Parse a law name of `--law`.
@@ -106,6 +109,10 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     if let Some(model) = &args.model {
         sc.use_model(model)?;
     }
+    let program = crate::cmd_sim_program::load(&args.program, &sc)?;
+    if let Some(p) = &program {
+        sc = p.scenario_for(&sc);
+    }
     let out = args.out.clone().unwrap_or_else(|| default_out(&sc));
     std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
     let log_path = out.join("run.csv");
@@ -135,7 +142,11 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     let setup = acc_sim::run::RunSetup {
         log: Some(&mut writer),
         shop: sc.shop_control(true),
-        prepare: &mut |_| {},
+        prepare: &mut |board| {
+            if let Some(p) = &program {
+                board.set_engagement_source(Some(Box::new(p.clone())));
+            }
+        },
         observe: &mut observe,
         pace: if args.step_stdin {
             acc_sim::run::Pace::Gated(paced_from_stdin(sc.controller.period_s))
@@ -145,7 +156,6 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     };
     let (result, _) = acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)?;
     tel.finish_lingering(args.live_keep);
-    let summary = summarize(&result, &sc);
     println!("scenario: {} ({})", sc.name, sc.path.display());
     if let Some(model) = &args.model {
         println!("model: {} (machine, tool and wear)", model.display());
@@ -156,7 +166,10 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         result.rows.len(),
         sc.controller.period_s
     );
-    print!("{summary}");
+    match &program {
+        Some(p) => crate::cmd_sim_program::report(&sc, p, &result, &out, !args.no_plot)?,
+        None => print!("{}", summarize(&result, &sc)),
+    }
     println!("run log: {}", log_path.display());
     let history = crate::watch_cli::history_path(args.history.as_deref(), &log_path);
     let items = crate::watch_cli::store_run(
@@ -169,7 +182,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     )?;
     crate::watch_cli::print_summary(&acc_runtime::history::WatchSummary::of(&items), &history);
     if !args.no_plot {
-        let w = plot_run(&sc, &result, &out.join("run.svg"))?;
+        let w = plot_run(&sc, &result, &out.join("run.svg"), program.is_none())?;
         println!("plot: {} and {}", w.svg.display(), w.png.display());
     }
     Ok(())
@@ -207,9 +220,19 @@ pub fn pts(rows: &[RunRecord], f: impl Fn(&RunRecord) -> Option<f64>) -> Vec<(f6
 
 /// The paper-style figure of one run (seed 002 figs. 8–12): force with Fr, override,
 /// feed, Kc_hat, Kp and Ki over time, air cuts shaded.
-pub fn plot_run(sc: &Scenario, result: &RunResult, out: &Path) -> anyhow::Result<Written> {
+pub fn plot_run(
+    sc: &Scenario,
+    result: &RunResult,
+    out: &Path,
+    shade_air: bool,
+) -> anyhow::Result<Written> {
     let rows = &result.rows;
-    let shades = air_shades(sc, rows);
+    // The air cuts of a 1-D workpiece (a program's path is not along x).
+    let shades = if shade_air {
+        air_shades(sc, rows)
+    } else {
+        Vec::new()
+    };
     let fr = sc.controller.force_ref_n;
     let panel = |y_label: &str, series: Vec<Series>, hlines: Vec<HLine>| Panel {
         y_label: y_label.into(),
@@ -326,6 +349,7 @@ mod tests {
             step_stdin: false,
             live_keep: 0.0,
             telemetry: Default::default(),
+            program: Default::default(),
         };
         run_cmd(&args).expect("acc sim");
         let log = std::fs::read_to_string(dir.join("run.csv")).expect("run log");

@@ -11,6 +11,7 @@ mod cmd_nc;
 mod cmd_report;
 mod cmd_run;
 mod cmd_sim;
+mod cmd_sim_program;
 mod cmd_soak;
 mod cmd_stability;
 mod cmd_what_if;

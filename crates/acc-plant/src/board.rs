@@ -102,6 +102,21 @@ pub struct SimBoard {
     segment_ends_mm: Vec<f64>,
 }
 
+/// `TOOL_NUMBER` and `BLOCK_NUMBER` at path position `x_mm`: the program's (the N word,
+/// else the line number, 16 bits) when the machine follows one, else the NC context's
+/// numbering of the workpiece's segments (`ends_mm`).
+fn nc_numbers(
+    nc: &NcContext,
+    ends_mm: &[f64],
+    x_mm: f64,
+    program: Option<crate::engagement::PathPoint>,
+) -> (u16, u16) {
+    match program {
+        Some(p) => ((p.tool & 0xFFFF) as u16, (p.block & 0xFFFF) as u16),
+        None => (nc.tool_at(x_mm), nc.block_number(segment_at(ends_mm, x_mm))),
+    }
+}
+
 /// Index of the segment containing path position `x_mm` (the last one past the end).
 fn segment_at(ends_mm: &[f64], x_mm: f64) -> usize {
     ends_mm
@@ -167,6 +182,20 @@ impl SimBoard {
         self.logic.clone()
     }
 
+    /// Take the machine's engagement (and, for a program, its feeds, blocks and tools) from
+    /// `source` ([`Machine::set_engagement_source`]) and publish the inputs it implies at
+    /// the tool's position (programmed feed, `TOOL_NUMBER`, `BLOCK_NUMBER`).
+    pub fn set_engagement_source(
+        &mut self,
+        source: Option<Box<dyn crate::engagement::EngagementSource>>,
+    ) {
+        self.machine.set_engagement_source(source);
+        let fp = self.machine.programmed_feed_mm_min();
+        lock_board(&self.logic)
+            .set_programmed_feed_mm_min(fp.clamp(0.0, f64::from(u16::MAX)).round() as u16);
+        self.publish_machine_inputs_no_sample();
+    }
+
     /// The NC context reported from now on (tool, program, block numbering).
     pub fn set_nc_context(&mut self, nc: NcContext) {
         self.nc = nc;
@@ -212,7 +241,7 @@ impl SimBoard {
         self.machine.set_override_input_pct(applied);
         self.machine.set_feed_hold(hold);
         self.now_ms += (period_s * 1000.0).round() as u64;
-        let path_mm = self.machine.workpiece().length_mm();
+        let path_mm = self.machine.path_length_mm();
         let rec = self.machine.advance(period_s);
         let (kept, sensor_power_w) = measure(&rec);
         {
@@ -234,21 +263,32 @@ impl SimBoard {
                 rec.feed_mean_mm_min.clamp(0.0, f64::from(u16::MAX)).round() as u16
             };
             b.set_actual_feed_mm_min(feed);
-            let segment = segment_at(&self.segment_ends_mm, rec.x_mm);
-            b.set_tool_number(self.nc.tool_at(rec.x_mm));
+            if let Some(p) = rec.path_point {
+                // A program's feed changes block by block (a rapid's is the rapid rate).
+                b.set_programmed_feed_mm_min(
+                    p.feed_mm_min.clamp(0.0, f64::from(u16::MAX)).round() as u16
+                );
+            }
+            let (tool, block) =
+                nc_numbers(&self.nc, &self.segment_ends_mm, rec.x_mm, rec.path_point);
+            b.set_tool_number(tool);
             b.set_program_number(self.nc.program_number);
-            b.set_block_number(self.nc.block_number(segment));
+            b.set_block_number(block);
         }
         (rec, kept)
     }
 
     fn publish_machine_inputs_no_sample(&mut self) {
-        let segment = segment_at(&self.segment_ends_mm, self.machine.x_mm());
-        let tool = self.nc.tool_at(self.machine.x_mm());
+        let (tool, block) = nc_numbers(
+            &self.nc,
+            &self.segment_ends_mm,
+            self.machine.x_mm(),
+            self.machine.path_point(),
+        );
         let mut b = lock_board(&self.logic);
         b.set_tool_number(tool);
         b.set_program_number(self.nc.program_number);
-        b.set_block_number(self.nc.block_number(segment));
+        b.set_block_number(block);
     }
 
     fn publish_machine_inputs(&mut self) {

@@ -174,6 +174,15 @@ pub struct FeedDriveSpec {
     /// position loop). Range 0 ..= 1.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub tau2_s: f64,
+    /// Rapid traverse rate of an NC program's G0 moves, mm/min (not overridden by the
+    /// feed override). Default 10 000, range 100 ..= 100 000.
+    #[serde(default = "default_rapid_mm_min")]
+    pub rapid_mm_min: f64,
+}
+
+/// The default rapid traverse rate, mm/min.
+fn default_rapid_mm_min() -> f64 {
+    10_000.0
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -268,6 +277,13 @@ impl MachineSpec {
         self.spindle.validate_effects(f, "spindle")?;
         check_range(f, "feed_drive.tau_s", self.feed_drive.tau_s, 0.0, 1.0)?;
         check_range(f, "feed_drive.tau2_s", self.feed_drive.tau2_s, 0.0, 1.0)?;
+        check_range(
+            f,
+            "feed_drive.rapid_mm_min",
+            self.feed_drive.rapid_mm_min,
+            100.0,
+            100_000.0,
+        )?;
         check_range(
             f,
             "override_path.delay_s",

@@ -68,12 +68,38 @@ impl ToolGeometry {
     }
 }
 
+/// What an NC program says at a path position: the programmed feed (or a rapid), the
+/// block the board reports as `BLOCK_NUMBER` and the tool it reports as `TOOL_NUMBER`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathPoint {
+    /// Programmed feed, mm/min (for a rapid: the machine's rapid rate).
+    pub feed_mm_min: f64,
+    /// A rapid move: the feed override does not apply (a feed hold does).
+    pub rapid: bool,
+    /// Block number: the N word, else the line number.
+    pub block: u32,
+    /// Tool number (0: none named).
+    pub tool: u32,
+}
+
 /// Where the plant's engagement comes from (see the module docs). Object safe: the
 /// machine holds a `Box<dyn EngagementSource>`.
 pub trait EngagementSource: std::fmt::Debug + Send {
     /// The engagement of `tool` with its centre at path position `x_mm` (mm). Called by the
     /// plant once per internal step, in path order.
     fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement;
+
+    /// The program's feed, block and tool at path position `x_mm` (mm). `None` (the
+    /// default, a 1-D workpiece): the machine's programmed feed, and the board's NC
+    /// context numbers the workpiece's segments.
+    fn path_at(&self, _x_mm: f64) -> Option<PathPoint> {
+        None
+    }
+
+    /// Length of the whole path, mm; `None` (the default): the workpiece's length.
+    fn path_length_mm(&self) -> Option<f64> {
+        None
+    }
 }
 
 impl EngagementSource for Workpiece {

@@ -123,6 +123,9 @@ pub struct PeriodRecord<'a> {
     pub samples: &'a [Sample],
     /// Internal sample step, s.
     pub sample_dt_s: f64,
+    /// What the program says at the end position (block, tool, feed); `None` on a 1-D
+    /// workpiece.
+    pub path_point: Option<crate::engagement::PathPoint>,
 }
 
 impl PeriodRecord<'_> {
@@ -318,7 +321,21 @@ impl Machine {
 
     /// Programmed feed of the NC block, mm/min.
     pub fn programmed_feed_mm_min(&self) -> f64 {
-        self.programmed_feed_mm_min
+        self.path_point()
+            .map_or(self.programmed_feed_mm_min, |p| p.feed_mm_min)
+    }
+
+    /// What the program says at the tool's position (feed, rapid, block, tool); `None` on
+    /// a 1-D workpiece.
+    pub fn path_point(&self) -> Option<crate::engagement::PathPoint> {
+        self.engagement.path_at(self.x_mm)
+    }
+
+    /// Length of the path the tool follows, mm: the program's, else the workpiece's.
+    pub fn path_length_mm(&self) -> f64 {
+        self.engagement
+            .path_length_mm()
+            .unwrap_or_else(|| self.workpiece.length_mm())
     }
 
     /// Machine time, s.
@@ -333,7 +350,7 @@ impl Machine {
 
     /// Whether the tool centre has passed the end of the workpiece path.
     pub fn finished(&self) -> bool {
-        self.x_mm >= self.workpiece.length_mm()
+        self.x_mm >= self.path_length_mm()
     }
 
     /// Removed metal so far, mm³.
@@ -397,10 +414,12 @@ impl Machine {
                     .pop_front()
                     .unwrap_or(self.override_input_pct)
             };
-            let target = if self.feed_hold {
-                0.0
-            } else {
-                self.programmed_feed_mm_min * f64::from(ov) / 100.0
+            let target = match (self.feed_hold, self.engagement.path_at(self.x_mm)) {
+                (true, _) => 0.0,
+                // A rapid runs at the rapid rate whatever the feed override.
+                (false, Some(p)) if p.rapid => p.feed_mm_min,
+                (false, Some(p)) => p.feed_mm_min * f64::from(ov) / 100.0,
+                (false, None) => self.programmed_feed_mm_min * f64::from(ov) / 100.0,
             };
             let f_old = self.feed_mm_min;
             self.feed_mm_min = if self.tau2_s > 0.0 {
@@ -484,6 +503,7 @@ impl Machine {
             spindle_rpm: sums[3] / nf,
             power_mean_w,
             wear_factor: self.wear.factor(),
+            path_point: self.engagement.path_at(self.x_mm),
             samples: &self.samples,
             sample_dt_s: dt,
         }

@@ -35,6 +35,7 @@
 //! assert!(written.svg.exists() && written.png.exists());
 //! ```
 
+mod heightmap;
 mod legend;
 mod render;
 mod shapes;
@@ -43,6 +44,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
+pub use heightmap::{height_field, HeightField};
 pub use render::ensure_font;
 use render::{draw_err, outputs, TITLE_PX};
 use shapes::{bars_on, time_series_on, xy_on};

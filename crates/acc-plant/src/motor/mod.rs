@@ -271,6 +271,7 @@ mod tests {
                     wear_factor: 1.0,
                     samples: &samples,
                     sample_dt_s: 0.1,
+                    path_point: None,
                 };
                 ch.measure(&rec);
             }

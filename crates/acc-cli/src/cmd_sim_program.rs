@@ -1,0 +1,166 @@
+//! `acc sim <scenario> --program part.ngc --stock stock.toml | --stock-box …`: the
+//! scenario's machine, tool, controller and channel on an NC program cut from a Z-map stock
+//! (`acc_sim::program`); the report per block and per tool, and the stock after the run.
+
+use std::path::{Path, PathBuf};
+
+use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
+use acc_sim::program_summary::summarize_program;
+use acc_sim::{RunResult, Scenario};
+use anyhow::Context as _;
+
+/// The program options of `acc sim`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ProgramArgs {
+    /// Run an NC program (RS274/NGC) instead of the scenario's 1-D workpiece; the
+    /// scenario gives the machine, tool, controller and measurement.
+    #[arg(long, value_name = "FILE.ngc")]
+    pub program: Option<PathBuf>,
+    /// The program's stock: a `stock.toml` (a box or a height map, docs/stock.md).
+    #[arg(
+        long,
+        value_name = "stock.toml",
+        requires = "program",
+        conflicts_with = "stock_box"
+    )]
+    pub stock: Option<PathBuf>,
+    /// The program's stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
+    #[arg(
+        long,
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        requires = "program",
+        allow_hyphen_values = true
+    )]
+    pub stock_box: Option<String>,
+    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
+    #[arg(long, value_name = "MM", default_value_t = 0.25)]
+    pub cell: f64,
+    /// LinuxCNC tool table (`.tbl`, mm) with the diameters of the program's T numbers
+    /// (without it, or for T0, the scenario's tool).
+    #[arg(long, value_name = "FILE.tbl", requires = "program")]
+    pub tools: Option<PathBuf>,
+}
+
+impl Default for ProgramArgs {
+    fn default() -> Self {
+        Self {
+            program: None,
+            stock: None,
+            stock_box: None,
+            cell: 0.25,
+            tools: None,
+        }
+    }
+}
+
+/// The program's path through its stock, with the warnings printed; `None` without
+/// `--program`.
+pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramPath>> {
+    let Some(program) = &args.program else {
+        return Ok(None);
+    };
+    let stock = match (&args.stock, &args.stock_box) {
+        (Some(p), None) => StockSource::File(p.clone()),
+        (None, Some(b)) => {
+            if !(args.cell.is_finite() && (0.01..=10.0).contains(&args.cell)) {
+                anyhow::bail!("--cell {}: allowed 0.01 ..= 10 mm", args.cell);
+            }
+            let spec = b
+                .parse::<acc_stock::BoxSpec>()
+                .map_err(|e| anyhow::anyhow!("--stock-box {b}: {e}"))?;
+            StockSource::Box(spec, args.cell)
+        }
+        _ => anyhow::bail!(
+            "--program needs its stock: --stock stock.toml or --stock-box X0,Y0,Z0,X1,Y1,Z1"
+        ),
+    };
+    let spec = ProgramSpec {
+        program: program.clone(),
+        stock,
+        tools: args.tools.clone(),
+    };
+    let tool = acc_plant::engagement::ToolGeometry::of(&sc.tool);
+    let path = ProgramPath::build(
+        &spec,
+        &tool,
+        sc.machine.spindle.rpm,
+        sc.machine.feed_drive.rapid_mm_min,
+    )?;
+    if path.cuts_air_only() {
+        eprintln!(
+            "warning: {}: the program does not reach the stock; it cuts air",
+            program.display()
+        );
+    }
+    if path.rapid_collisions > 0 {
+        eprintln!(
+            "warning: {}: rapid moves run through the stock ({} steps)",
+            program.display(),
+            path.rapid_collisions
+        );
+    }
+    if path.beyond_flutes > 0 {
+        eprintln!(
+            "warning: {}: material above the flutes at {} steps",
+            program.display(),
+            path.beyond_flutes
+        );
+    }
+    Ok(Some(path))
+}
+
+/// Print the per-tool and per-block summary, write `blocks.csv` and draw the stock after
+/// the run (`stock.svg`, `stock.png`) into `out`.
+pub fn report(
+    sc: &Scenario,
+    path: &ProgramPath,
+    result: &RunResult,
+    out: &Path,
+    plot: bool,
+) -> anyhow::Result<()> {
+    let s = summarize_program(
+        &result.rows,
+        sc.controller.force_ref_n,
+        sc.controller.period_s,
+    );
+    println!(
+        "program: {} pieces, {:.0} mm of path, {:.1} s at the programmed feeds; removes {:.1} cm³",
+        path.segments().len(),
+        acc_plant::engagement::EngagementSource::path_length_mm(path).unwrap_or(0.0),
+        path.nominal_time_s(),
+        path.removed_mm3 / 1000.0
+    );
+    if !result.finished {
+        println!(
+            "the run ended before the end of the program{}",
+            if result.ended_in_feed_hold {
+                " (feed hold)"
+            } else {
+                ""
+            }
+        );
+    }
+    print!("{s}");
+    let csv = out.join("blocks.csv");
+    std::fs::write(&csv, s.blocks_csv())
+        .with_context(|| format!("{}: cannot write", csv.display()))?;
+    println!("blocks: {}", csv.display());
+    if plot {
+        let z = &path.stock_after;
+        let (nx, ny) = z.size();
+        let c = z.corner_mm();
+        let w = acc_plot::height_field(
+            &acc_plot::HeightField {
+                title: format!("stock after {}", sc.name),
+                nx,
+                ny,
+                heights: z.heights(),
+                corner_mm: (c[0], c[1]),
+                cell_mm: z.cell_mm(),
+            },
+            &out.join("stock.svg"),
+        )?;
+        println!("stock: {} and {}", w.svg.display(), w.png.display());
+    }
+    Ok(())
+}

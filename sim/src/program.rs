@@ -1,0 +1,327 @@
+//! An NC program on the simulated machine: the path from `acc_nc` (the interpreter's
+//! canonical calls as straight pieces), the engagement from `acc_stock` (a Z-map stock cut
+//! by the program's tools), behind the plant's one [`EngagementSource`] trait.
+//!
+//! The engagement depends on the geometry only (the stock, the cutter and the path), not on
+//! the feed, so it is computed once for the whole program before the run — every
+//! [`acc_stock::Sweep`] step along the path, material removed as the tool passes — and the
+//! plant reads it at the tool's path position as the overridden feed moves it. The feed the
+//! plant follows is the program's (F words; G0 at the machine's rapid rate, not
+//! overridden), and the board reports the block (the N word, else the line number) and the
+//! tool of the piece the tool is in.
+
+use std::path::{Path, PathBuf};
+
+use acc_nc::PathSegment;
+use acc_plant::engagement::{
+    Engagement, EngagementProfile, EngagementSource, PathPoint, ToolGeometry,
+};
+use acc_stock::{Cutter, Move, Spindle, StepKind, Sweep, SweepOptions, ZMap};
+
+use crate::SimError;
+
+/// Without a tool table, T0 ..= T this are the scenario's tool.
+const DEFAULT_TOOLS: u32 = 999;
+
+/// Chord tolerance of the arcs' straight pieces, mm.
+pub const CHORD_TOL_MM: f64 = 0.005;
+
+/// Where the stock comes from.
+#[derive(Debug, Clone)]
+pub enum StockSource {
+    /// A `stock.toml` (a box or a height map; `acc_stock::StockFile`).
+    File(PathBuf),
+    /// `--stock-box X0,Y0,Z0,X1,Y1,Z1`, mm, on cells of `cell_mm`.
+    Box(acc_stock::BoxSpec, f64),
+}
+
+impl StockSource {
+    /// The stock's Z-map.
+    pub fn build(&self) -> Result<ZMap, SimError> {
+        match self {
+            StockSource::File(p) => acc_stock::load_stock(p),
+            StockSource::Box(b, cell) => b.zmap(*cell),
+        }
+        .map_err(|e| SimError::Program(e.to_string()))
+    }
+}
+
+/// What a program run needs besides the scenario.
+#[derive(Debug, Clone)]
+pub struct ProgramSpec {
+    /// The NC program.
+    pub program: PathBuf,
+    /// The stock.
+    pub stock: StockSource,
+    /// A LinuxCNC tool table (`.tbl`) for the diameters of the program's T numbers; without
+    /// it (or for a tool it does not list) the scenario's tool.
+    pub tools: Option<PathBuf>,
+}
+
+/// The program's path with the engagement of every step along it.
+#[derive(Debug, Clone)]
+pub struct ProgramPath {
+    segments: Vec<PathSegment>,
+    /// Path position where each segment starts, mm.
+    start_mm: Vec<f64>,
+    length_mm: f64,
+    rapid_mm_min: f64,
+    profile: EngagementProfile,
+    /// Steps whose rapid move ran through stock.
+    pub rapid_collisions: usize,
+    /// Steps with material above the flutes.
+    pub beyond_flutes: usize,
+    /// Material the whole program removes, mm³.
+    pub removed_mm3: f64,
+    /// The stock after the whole program.
+    pub stock_after: ZMap,
+    /// Path positions of the engagement steps, mm, and their engagement, for the plan's
+    /// figures (entries, corners).
+    pub steps: Vec<(f64, acc_stock::StepEngagement)>,
+}
+
+/// The tool the program's piece `seg` is cut with: the tool table's diameter for its T
+/// number when it lists it, else the scenario's tool (flutes always the scenario's).
+fn cutter_for(
+    tool: u32,
+    table: Option<&acc_nc::ToolTable>,
+    default: &ToolGeometry,
+    flute_length_mm: f64,
+    file: &Path,
+) -> Result<Cutter, SimError> {
+    let d = match (table, tool) {
+        (Some(t), tool) if tool > 0 => t.get(tool).map(|e| e.diameter_mm).ok_or_else(|| {
+            SimError::Program(format!(
+                "{}: tool T{tool} is not in the tool table",
+                file.display()
+            ))
+        })?,
+        _ => default.diameter_mm,
+    };
+    let d = if d > 0.0 { d } else { default.diameter_mm };
+    Cutter::flat(d, default.flutes, flute_length_mm).map_err(|e| SimError::Program(e.to_string()))
+}
+
+impl ProgramPath {
+    /// Interpret `spec.program`, build the stock and sweep the program's path through it
+    /// with `tool` (the scenario's cutter; a tool table's diameters per T number), at
+    /// `rpm` (chip load only) and the machine's `rapid_mm_min` (mm/min).
+    pub fn build(
+        spec: &ProgramSpec,
+        tool: &ToolGeometry,
+        rpm: f64,
+        rapid_mm_min: f64,
+    ) -> Result<Self, SimError> {
+        let table = match &spec.tools {
+            Some(p) => {
+                let text = std::fs::read_to_string(p)
+                    .map_err(|e| SimError::Program(format!("{}: {e}", p.display())))?;
+                Some(
+                    acc_nc::ToolTable::parse_tbl(
+                        &p.display().to_string(),
+                        &text,
+                        acc_nc::Units::Mm,
+                    )
+                    .map_err(|e| SimError::Program(e.to_string()))?,
+                )
+            }
+            None => None,
+        };
+        // Without a tool table every T number is the scenario's tool (no length offset).
+        let tools = table.clone().unwrap_or_else(|| {
+            let mut t = acc_nc::ToolTable::default();
+            for n in 0..=DEFAULT_TOOLS {
+                t.insert(acc_nc::ToolEntry {
+                    tool: n,
+                    pocket: n,
+                    length_mm: 0.0,
+                    diameter_mm: tool.diameter_mm,
+                    comment: "the scenario's tool".into(),
+                });
+            }
+            t
+        });
+        let setup = acc_nc::Setup {
+            tools,
+            ..acc_nc::Setup::default()
+        };
+        let program = acc_nc::interpret_file(&spec.program, &setup)
+            .map_err(|e| SimError::Program(e.to_string()))?;
+        let segments: Vec<PathSegment> = program
+            .path(CHORD_TOL_MM)
+            .into_iter()
+            .filter(|s| s.length_mm() > 1e-9)
+            .collect();
+        if segments.is_empty() {
+            return Err(SimError::Program(format!(
+                "{}: the program has no motion",
+                spec.program.display()
+            )));
+        }
+        let stock = spec.stock.build()?;
+        // Long enough for any depth the stock has.
+        let flute_length_mm = (stock.max_height_mm() - stock.bottom_mm()).max(1.0) + 1.0;
+        let mut start_mm = Vec::with_capacity(segments.len());
+        let mut at = 0.0;
+        for s in &segments {
+            start_mm.push(at);
+            at += s.length_mm();
+        }
+        let mut sweep: Option<(u32, Sweep)> = None;
+        let mut stock = Some(stock);
+        let mut steps: Vec<(f64, acc_stock::StepEngagement)> = Vec::new();
+        let mut buf = Vec::new();
+        let (mut collisions, mut beyond, mut removed) = (0, 0, 0.0);
+        for (seg, s0) in segments.iter().zip(&start_mm) {
+            if sweep.as_ref().is_none_or(|(t, _)| *t != seg.tool) {
+                let z = match sweep.take() {
+                    Some((_, sw)) => sw.into_stock(),
+                    None => stock
+                        .take()
+                        .ok_or_else(|| SimError::Program("stock".into()))?,
+                };
+                let cutter = cutter_for(
+                    seg.tool,
+                    table.as_ref(),
+                    tool,
+                    flute_length_mm,
+                    &spec.program,
+                )?;
+                let sw = Sweep::new(z, cutter, Spindle::cw(rpm), SweepOptions::default())
+                    .map_err(|e| SimError::Program(e.to_string()))?;
+                sweep = Some((seg.tool, sw));
+            }
+            let Some((_, sw)) = sweep.as_mut() else {
+                continue;
+            };
+            let mv = if seg.rapid {
+                Move::rapid(seg.from, seg.to)
+            } else {
+                Move::feed(seg.from, seg.to, seg.feed_mm_min)
+            };
+            buf.clear();
+            let summary = sw.cut(&mv, &mut buf);
+            removed += summary.removed_mm3;
+            for st in buf.drain(..) {
+                let d = dist(&seg.from, &st.position_mm).min(seg.length_mm());
+                collisions += usize::from(st.kind == StepKind::RapidCollision);
+                beyond += usize::from(st.beyond_flutes);
+                steps.push((s0 + d, st));
+            }
+        }
+        let stock_after = match sweep {
+            Some((_, sw)) => sw.into_stock(),
+            None => stock.ok_or_else(|| SimError::Program("stock".into()))?,
+        };
+        // Monotone positions for the profile (steps of one piece are in order; a piece
+        // starts where the last ended).
+        let mut x = Vec::with_capacity(steps.len());
+        let mut points = Vec::with_capacity(steps.len());
+        let mut last = f64::NEG_INFINITY;
+        for (p, st) in &steps {
+            let p = p.max(last);
+            last = p;
+            x.push(p);
+            points.push(Engagement {
+                radial_mm: st.radial_mm,
+                axial_mm: st.ap_mm,
+                ks_factor: 1.0,
+            });
+        }
+        let profile = EngagementProfile::new(x, points)
+            .ok_or_else(|| SimError::Program("engagement profile out of order".into()))?;
+        Ok(ProgramPath {
+            segments,
+            start_mm,
+            length_mm: at,
+            rapid_mm_min,
+            profile,
+            rapid_collisions: collisions,
+            beyond_flutes: beyond,
+            removed_mm3: removed,
+            stock_after,
+            steps,
+        })
+    }
+
+    /// The straight pieces of the path.
+    pub fn segments(&self) -> &[PathSegment] {
+        &self.segments
+    }
+
+    /// Index of the piece at path position `x_mm` (the last one past the end).
+    fn segment_at(&self, x_mm: f64) -> usize {
+        self.start_mm
+            .partition_point(|s| *s <= x_mm)
+            .saturating_sub(1)
+            .min(self.segments.len().saturating_sub(1))
+    }
+
+    /// The tool's position in space at path position `x_mm`, mm.
+    pub fn position_at(&self, x_mm: f64) -> [f64; 3] {
+        let i = self.segment_at(x_mm);
+        let s = &self.segments[i];
+        let len = s.length_mm().max(1e-12);
+        let t = ((x_mm - self.start_mm[i]) / len).clamp(0.0, 1.0);
+        [0, 1, 2].map(|k| s.from[k] + t * (s.to[k] - s.from[k]))
+    }
+
+    /// The machine time of the whole path at its programmed feeds (rapids at the rapid
+    /// rate), s.
+    pub fn nominal_time_s(&self) -> f64 {
+        self.segments
+            .iter()
+            .map(|s| {
+                let f = if s.rapid {
+                    self.rapid_mm_min
+                } else {
+                    s.feed_mm_min
+                };
+                60.0 * s.length_mm() / f.max(1e-9)
+            })
+            .sum()
+    }
+
+    /// `scenario` set up to run this program: the mean force model (the tooth model reads a
+    /// 1-D workpiece's geometry), and a time limit of three times the program's time at its
+    /// programmed feeds (the override may run at its minimum) plus 10 s.
+    pub fn scenario_for(&self, scenario: &crate::Scenario) -> crate::Scenario {
+        let mut sc = scenario.clone();
+        sc.force_model = crate::ForceModel::Mean;
+        sc.max_time_s = 3.0 * self.nominal_time_s() + 10.0;
+        sc
+    }
+
+    /// Whether no step of the program engages the stock (it cuts air: a warning).
+    pub fn cuts_air_only(&self) -> bool {
+        self.steps.iter().all(|(_, s)| s.kind != StepKind::Cut)
+    }
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+impl EngagementSource for ProgramPath {
+    fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
+        self.profile.at(x_mm)
+    }
+
+    fn path_at(&self, x_mm: f64) -> Option<PathPoint> {
+        let s = &self.segments[self.segment_at(x_mm)];
+        Some(PathPoint {
+            feed_mm_min: if s.rapid {
+                self.rapid_mm_min
+            } else {
+                s.feed_mm_min
+            },
+            rapid: s.rapid,
+            block: s.block.unwrap_or(s.line),
+            tool: s.tool,
+        })
+    }
+
+    fn path_length_mm(&self) -> Option<f64> {
+        Some(self.length_mm)
+    }
+}
