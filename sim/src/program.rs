@@ -275,7 +275,7 @@ impl ProgramPath {
                 let f = if s.rapid {
                     self.rapid_mm_min
                 } else {
-                    s.feed_mm_min
+                    s.feed_mm_min.min(self.rapid_mm_min)
                 };
                 60.0 * s.length_mm() / f.max(1e-9)
             })
@@ -283,12 +283,13 @@ impl ProgramPath {
     }
 
     /// `scenario` set up to run this program: the mean force model (the tooth model reads a
-    /// 1-D workpiece's geometry), and a time limit of three times the program's time at its
-    /// programmed feeds (the override may run at its minimum) plus 10 s.
+    /// 1-D workpiece's geometry), and a time limit of twenty times the program's time at
+    /// its programmed feeds plus 30 s (the loop may hold a program far too fast for the
+    /// tool at a few per cent), at most a day.
     pub fn scenario_for(&self, scenario: &crate::Scenario) -> crate::Scenario {
         let mut sc = scenario.clone();
         sc.force_model = crate::ForceModel::Mean;
-        sc.max_time_s = 3.0 * self.nominal_time_s() + 10.0;
+        sc.max_time_s = (20.0 * self.nominal_time_s() + 30.0).min(86_400.0);
         sc
     }
 
@@ -310,10 +311,11 @@ impl EngagementSource for ProgramPath {
     fn path_at(&self, x_mm: f64) -> Option<PathPoint> {
         let s = &self.segments[self.segment_at(x_mm)];
         Some(PathPoint {
+            // The control clamps an F word at the machine's fastest feed (the rapid rate).
             feed_mm_min: if s.rapid {
                 self.rapid_mm_min
             } else {
-                s.feed_mm_min
+                s.feed_mm_min.min(self.rapid_mm_min)
             },
             rapid: s.rapid,
             block: s.block.unwrap_or(s.line),

@@ -139,7 +139,11 @@ pub fn summarize_program(rows: &[RunRecord], force_ref_n: f64, period_s: f64) ->
         .filter(|r| cutting(r))
         .filter_map(|r| Some(r.force_n? - force_ref_n))
         .collect();
-    let rms_error_n = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len().max(1) as f64).sqrt();
+    let rms_error_n = if errs.is_empty() {
+        0.0
+    } else {
+        (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt()
+    };
     ProgramSummary {
         force_ref_n,
         blocks,
