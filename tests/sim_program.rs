@@ -233,6 +233,30 @@ fn bad_programs_and_stocks_are_refused_before_anything_runs() {
         &out_s,
     ]);
     assert!(!ok && err.contains("--stock-box"), "{err}");
+    // A program that leaves the machine's travel (configs/machines/paper_vmc.toml: X to 250).
+    let far = dir.path().join("far.ngc");
+    std::fs::write(
+        &far,
+        "G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 X300 F500\nM30\n",
+    )
+    .expect("write");
+    let far_s = far.to_string_lossy().into_owned();
+    let (ok, _, err) = acc(&[
+        "sim",
+        "paper_case3",
+        "--program",
+        &far_s,
+        "--stock-box",
+        "0,0,-5,20,20,0",
+        "--out",
+        &out_s,
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("far.ngc:4") && err.contains("X 300") && err.contains("travel"),
+        "{err}"
+    );
+    assert!(!out.join("run.csv").exists(), "nothing ran");
     // A program beside the stock cuts air: a warning, and the run goes on.
     let (ok, _, err) = acc(&[
         "sim",

@@ -112,6 +112,18 @@ impl ProgramPath {
         rpm: f64,
         rapid_mm_min: f64,
     ) -> Result<Self, SimError> {
+        Self::build_within(spec, tool, rpm, rapid_mm_min, None)
+    }
+
+    /// [`ProgramPath::build`], refusing a program that leaves the machine's `travel` (the
+    /// machine file's `[travel]`): the error names the program's file, line and the axis.
+    pub fn build_within(
+        spec: &ProgramSpec,
+        tool: &ToolGeometry,
+        rpm: f64,
+        rapid_mm_min: f64,
+        travel: Option<&acc_plant::config::Travel>,
+    ) -> Result<Self, SimError> {
         let table = match &spec.tools {
             Some(p) => {
                 let text = std::fs::read_to_string(p)
@@ -152,6 +164,20 @@ impl ProgramPath {
             .into_iter()
             .filter(|s| s.length_mm() > 1e-9)
             .collect();
+        if let Some(t) = travel {
+            for s in &segments {
+                if let Some((axis, v, r)) = t.outside(&s.to) {
+                    return Err(SimError::Program(format!(
+                        "{}:{}: {axis} {v:.3} mm leaves the machine's travel {axis} {} ..= {} mm \
+                         (machine file [travel])",
+                        spec.program.display(),
+                        s.line,
+                        r[0],
+                        r[1]
+                    )));
+                }
+            }
+        }
         if segments.is_empty() {
             return Err(SimError::Program(format!(
                 "{}: the program has no motion",

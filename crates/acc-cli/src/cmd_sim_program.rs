@@ -80,11 +80,12 @@ pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramP
         tools: args.tools.clone(),
     };
     let tool = acc_plant::engagement::ToolGeometry::of(&sc.tool);
-    let path = ProgramPath::build(
+    let path = ProgramPath::build_within(
         &spec,
         &tool,
         sc.machine.spindle.rpm,
         sc.machine.feed_drive.rapid_mm_min,
+        sc.machine.travel.as_ref(),
     )?;
     if path.cuts_air_only() {
         eprintln!(

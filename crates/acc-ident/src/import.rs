@@ -241,6 +241,7 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
                 step_pct: 1,
             },
             sim: Default::default(),
+            travel: None,
         },
         tool: Tool {
             name: String::new(),

@@ -112,6 +112,7 @@ pub fn nominal_model(case: &Case) -> Model {
                 step_pct: 10,
             },
             sim: Default::default(),
+            travel: None,
         },
         tool: Tool {
             name: "HSS end mill D16 z4".into(),

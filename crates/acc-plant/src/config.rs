@@ -252,6 +252,33 @@ pub struct MachineSpec {
     /// Internal rates (written only when they differ from the defaults).
     #[serde(default, skip_serializing_if = "SimRates::is_default")]
     pub sim: SimRates,
+    /// Axis travel an NC program must stay within (optional; absent: not checked).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub travel: Option<Travel>,
+}
+
+/// `[travel]`: the axes' travel, mm, in the frame of an NC program's path (work
+/// coordinates plus the work offset): `x_mm = [min, max]` and likewise `y_mm`, `z_mm`.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Travel {
+    /// X travel `[min, max]`, mm.
+    pub x_mm: [f64; 2],
+    /// Y travel `[min, max]`, mm.
+    pub y_mm: [f64; 2],
+    /// Z travel `[min, max]`, mm.
+    pub z_mm: [f64; 2],
+}
+
+impl Travel {
+    /// The first axis of `p` (mm) outside the travel: its name, value and range.
+    pub fn outside(&self, p: &[f64; 3]) -> Option<(&'static str, f64, [f64; 2])> {
+        [("X", self.x_mm), ("Y", self.y_mm), ("Z", self.z_mm)]
+            .into_iter()
+            .zip(p)
+            .find(|((_, r), v)| **v < r[0] - 1e-9 || **v > r[1] + 1e-9)
+            .map(|((a, r), v)| (a, *v, r))
+    }
 }
 
 impl MachineSpec {
@@ -284,6 +311,24 @@ impl MachineSpec {
             100.0,
             100_000.0,
         )?;
+        if let Some(t) = &self.travel {
+            for (key, r) in [
+                ("travel.x_mm", t.x_mm),
+                ("travel.y_mm", t.y_mm),
+                ("travel.z_mm", t.z_mm),
+            ] {
+                if !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1]) {
+                    return Err(ConfigError::OutOfRange(
+                        RangeError::new(
+                            key,
+                            format!("[{}, {}]", r[0], r[1]),
+                            "[min, max] with min < max, finite",
+                        )
+                        .in_file(f),
+                    ));
+                }
+            }
+        }
         check_range(
             f,
             "override_path.delay_s",
