@@ -117,12 +117,66 @@ fn a_program_answers_feed_block_and_tool_along_its_path() {
         .position(|s| !s.rapid && s.feed_mm_min == 600.0)
         .expect("slot");
     let start: f64 = path.segments()[..seg].iter().map(|s| s.length_mm()).sum();
+    // Entries: the slotting entry of each of the two levels (and the finishing passes'
+    // re-entries); corners: the zig-zag turns and the finishing rectangle's, in order.
+    let ev = path.events();
+    use acc_sim::program::EventKind;
+    let entries: Vec<_> = ev.iter().filter(|e| e.kind == EventKind::Entry).collect();
+    let corners = ev.iter().filter(|e| e.kind == EventKind::Corner).count();
+    assert!(entries.len() >= 2 && corners >= 8, "{ev:?}");
+    assert!(
+        (entries[0].at_mm - start).abs() < 1.0,
+        "{:?} vs {start}",
+        entries[0]
+    );
+    assert!(ev.windows(2).all(|w| w[0].at_mm <= w[1].at_mm));
     let mut p = path.clone();
     let e = p.engagement_at(&ToolGeometry::of(&sc.tool), start + 10.0);
     assert!(
         (e.radial_mm - sc.tool.diameter_mm).abs() < 0.5 && (e.axial_mm - 2.0).abs() < 0.3,
         "{e:?}"
     );
+}
+
+#[test]
+fn a_program_that_leaves_the_machines_travel_is_refused_with_its_line() {
+    let dir = tempfile::tempdir().expect("dir");
+    let far = dir.path().join("far.ngc");
+    std::fs::write(
+        &far,
+        "G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 X300 F500\nM30\n",
+    )
+    .expect("write");
+    let sc = scenario();
+    let spec = ProgramSpec {
+        program: far,
+        stock: StockSource::Box("0,0,-5,20,20,0".parse().expect("box"), 0.25),
+        tools: None,
+    };
+    let travel = acc_sim::config::Travel {
+        x_mm: [-250.0, 250.0],
+        y_mm: [-200.0, 200.0],
+        z_mm: [-300.0, 150.0],
+    };
+    let build =
+        |t| ProgramPath::build_within(&spec, &ToolGeometry::of(&sc.tool), 600.0, 10_000.0, t);
+    let err = build(Some(&travel)).expect_err("refused").to_string();
+    assert!(
+        err.contains("far.ngc:4") && err.contains("X 300") && err.contains("travel"),
+        "{err}"
+    );
+    assert!(build(None).is_ok(), "without [travel] nothing is checked");
+    // The machine file's [travel] is validated like every key.
+    let text =
+        std::fs::read_to_string(root().join("configs/machines/paper_vmc.toml")).expect("machine");
+    let bad =
+        format!("{text}\n[travel]\nx_mm = [10.0, -10.0]\ny_mm = [0.0, 1.0]\nz_mm = [0.0, 1.0]\n");
+    let p = dir.path().join("m.toml");
+    std::fs::write(&p, bad).expect("write");
+    let e = acc_sim::config::MachineSpec::load(&p)
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("travel.x_mm") && e.contains("m.toml"), "{e}");
 }
 
 fn acc(args: &[&str]) -> (bool, String, String) {
@@ -233,30 +287,6 @@ fn bad_programs_and_stocks_are_refused_before_anything_runs() {
         &out_s,
     ]);
     assert!(!ok && err.contains("--stock-box"), "{err}");
-    // A program that leaves the machine's travel (configs/machines/paper_vmc.toml: X to 250).
-    let far = dir.path().join("far.ngc");
-    std::fs::write(
-        &far,
-        "G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 X300 F500\nM30\n",
-    )
-    .expect("write");
-    let far_s = far.to_string_lossy().into_owned();
-    let (ok, _, err) = acc(&[
-        "sim",
-        "paper_case3",
-        "--program",
-        &far_s,
-        "--stock-box",
-        "0,0,-5,20,20,0",
-        "--out",
-        &out_s,
-    ]);
-    assert!(!ok);
-    assert!(
-        err.contains("far.ngc:4") && err.contains("X 300") && err.contains("travel"),
-        "{err}"
-    );
-    assert!(!out.join("run.csv").exists(), "nothing ran");
     // A program beside the stock cuts air: a warning, and the run goes on.
     let (ok, _, err) = acc(&[
         "sim",

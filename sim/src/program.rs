@@ -325,6 +325,114 @@ impl ProgramPath {
     }
 }
 
+/// Where the engagement changes along a program's path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EventKind {
+    /// The tool enters material (air or plunge → cut).
+    Entry,
+    /// The path turns by more than [`CORNER_DEG`] while cutting.
+    Corner,
+}
+
+/// A turn of the path sharper than this, while cutting, is a corner, degrees.
+pub const CORNER_DEG: f64 = 30.0;
+
+/// An engagement change at a path position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathEvent {
+    /// Entry or corner.
+    pub kind: EventKind,
+    /// Path position, mm.
+    pub at_mm: f64,
+    /// Block of the piece it is in (N word, else line).
+    pub block: u32,
+}
+
+impl ProgramPath {
+    /// The entries and corners of the path, in path order.
+    pub fn events(&self) -> Vec<PathEvent> {
+        let mut out = Vec::new();
+        let block_at = |x: f64| {
+            let s = &self.segments[self.segment_at(x)];
+            s.block.unwrap_or(s.line)
+        };
+        let mut was_cut = false;
+        for (x, st) in &self.steps {
+            let cut = st.kind == StepKind::Cut;
+            if cut && !was_cut {
+                out.push(PathEvent {
+                    kind: EventKind::Entry,
+                    at_mm: *x,
+                    block: block_at(*x),
+                });
+            }
+            was_cut = cut;
+        }
+        let dir = |s: &PathSegment| {
+            let d = [s.to[0] - s.from[0], s.to[1] - s.from[1]];
+            let n = d[0].hypot(d[1]);
+            (n > 1e-9).then(|| [d[0] / n, d[1] / n])
+        };
+        let cos_max = CORNER_DEG.to_radians().cos();
+        for k in 1..self.segments.len() {
+            let (a, b) = (&self.segments[k - 1], &self.segments[k]);
+            if a.rapid || b.rapid {
+                continue;
+            }
+            let (Some(u), Some(v)) = (dir(a), dir(b)) else {
+                continue;
+            };
+            let at = self.start_mm[k];
+            let cutting = self.profile.at(at + 0.5 * self.steps_mm()).radial_mm > 0.0;
+            if u[0] * v[0] + u[1] * v[1] < cos_max && cutting {
+                out.push(PathEvent {
+                    kind: EventKind::Corner,
+                    at_mm: at,
+                    block: b.block.unwrap_or(b.line),
+                });
+            }
+        }
+        out.sort_by(|a, b| a.at_mm.total_cmp(&b.at_mm));
+        out
+    }
+
+    /// The engagement steps' spacing along the path, mm.
+    fn steps_mm(&self) -> f64 {
+        self.steps
+            .windows(2)
+            .map(|w| w[1].0 - w[0].0)
+            .find(|d| *d > 0.0)
+            .unwrap_or(0.25)
+    }
+}
+
+/// The peak force at each event of a run: over the rows from the one where the tool
+/// (`x_true_mm`, the plant's path position) reaches the event to `window_s` later, the
+/// largest true force, N (`None`: the run never got there).
+pub fn event_peaks(
+    rows: &[acc_runtime::record::RunRecord],
+    events: &[PathEvent],
+    window_s: f64,
+) -> Vec<(PathEvent, Option<f64>)> {
+    events
+        .iter()
+        .map(|e| {
+            let start = rows
+                .iter()
+                .position(|r| r.x_true_mm.is_some_and(|x| x >= e.at_mm));
+            let peak = start.map(|i| {
+                let t0 = rows[i].t_s;
+                rows[i..]
+                    .iter()
+                    .take_while(|r| r.t_s <= t0 + window_s + 1e-9)
+                    .filter_map(|r| r.force_true_n)
+                    .fold(0.0, f64::max)
+            });
+            (*e, peak)
+        })
+        .collect()
+}
+
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

@@ -142,6 +142,32 @@ pub fn report(
         );
     }
     print!("{s}");
+    // The peaks at the entries and corners: what feedback alone leaves there.
+    let fr = sc.controller.force_ref_n;
+    let peaks = acc_sim::program::event_peaks(&result.rows, &path.events(), 1.0);
+    for kind in [
+        acc_sim::program::EventKind::Entry,
+        acc_sim::program::EventKind::Corner,
+    ] {
+        let of: Vec<(u32, f64)> = peaks
+            .iter()
+            .filter(|(e, _)| e.kind == kind)
+            .filter_map(|(e, p)| Some((e.block, (*p)?)))
+            .collect();
+        let name = match kind {
+            acc_sim::program::EventKind::Entry => "entries",
+            acc_sim::program::EventKind::Corner => "corners",
+        };
+        match of.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+            Some((block, p)) => println!(
+                "{name}: {}; highest true peak {:.2} Fr (block {block}); mean peak {:.2} Fr",
+                of.len(),
+                p / fr,
+                of.iter().map(|x| x.1).sum::<f64>() / of.len() as f64 / fr
+            ),
+            None => println!("{name}: none reached"),
+        }
+    }
     let csv = out.join("blocks.csv");
     std::fs::write(&csv, s.blocks_csv())
         .with_context(|| format!("{}: cannot write", csv.display()))?;
