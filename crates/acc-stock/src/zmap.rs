@@ -259,6 +259,20 @@ impl ZMap {
         removed * c * c
     }
 
+    /// The cells of a disc of radius `radius_mm` centred at `(x, y)` (mm) whose centres lie
+    /// inside it, row by row ([`Disc::rows`]).
+    fn disc(&self, x_mm: f64, y_mm: f64, radius_mm: f64) -> Disc {
+        let c = self.cell_mm;
+        Disc {
+            // Continuous cell index of the centre, such that cell k's centre is at index k.
+            fx: (x_mm - self.x0_mm) / c - 0.5,
+            fy: (y_mm - self.y0_mm) / c - 0.5,
+            rc: radius_mm / c,
+            nx: self.nx,
+            ny: self.ny,
+        }
+    }
+
     /// Cut with a flat end face of radius `radius_mm` (mm) centred at `(x, y)` (mm) with its
     /// tip at `tip_mm`: every column whose cell centre lies within the radius is lowered to
     /// the tip (never below the bottom). Visits only the rows of the disc's bounding box and,
@@ -266,32 +280,13 @@ impl ZMap {
     pub fn cut_flat_disc(&mut self, x_mm: f64, y_mm: f64, radius_mm: f64, tip_mm: f64) -> Removal {
         let c = self.cell_mm;
         let z = tip_mm.max(self.bottom_mm) as f32;
-        // Continuous cell index of the centre, such that cell k's centre is at index k.
-        let fx = (x_mm - self.x0_mm) / c - 0.5;
-        let fy = (y_mm - self.y0_mm) / c - 0.5;
-        let rc = radius_mm / c;
-        let j_lo = (fy - rc).ceil().max(0.0);
-        let j_hi = (fy + rc).floor().min(self.ny as f64 - 1.0);
-        if j_hi < j_lo {
-            return Removal::default();
-        }
+        let disc = self.disc(x_mm, y_mm, radius_mm);
         let mut volume = 0.0f64;
         let mut max_depth = 0.0f32;
-        for j in j_lo as usize..=j_hi as usize {
-            let dy = j as f64 - fy;
-            let w2 = rc * rc - dy * dy;
-            if w2 < 0.0 {
-                continue;
-            }
-            let w = w2.sqrt();
-            let i_lo = (fx - w).ceil().max(0.0);
-            let i_hi = (fx + w).floor().min(self.nx as f64 - 1.0);
-            if i_hi < i_lo {
-                continue;
-            }
+        for (j, i_lo, i_hi, _) in disc.rows() {
             let row = &mut self.heights[j * self.nx..(j + 1) * self.nx];
             let mut row_volume = 0.0f32;
-            for h in &mut row[i_lo as usize..=i_hi as usize] {
+            for h in &mut row[i_lo..=i_hi] {
                 let d = (*h - z).max(0.0);
                 row_volume += d;
                 max_depth = max_depth.max(d);
@@ -312,32 +307,14 @@ impl ZMap {
     pub fn cut_ball(&mut self, x_mm: f64, y_mm: f64, radius_mm: f64, tip_mm: f64) -> Removal {
         let c = self.cell_mm;
         let bottom = self.bottom_mm;
-        let fx = (x_mm - self.x0_mm) / c - 0.5;
-        let fy = (y_mm - self.y0_mm) / c - 0.5;
-        let rc = radius_mm / c;
-        let j_lo = (fy - rc).ceil().max(0.0);
-        let j_hi = (fy + rc).floor().min(self.ny as f64 - 1.0);
-        if j_hi < j_lo {
-            return Removal::default();
-        }
+        let disc = self.disc(x_mm, y_mm, radius_mm);
         let r2 = radius_mm * radius_mm;
         let mut volume = 0.0f64;
         let mut max_depth = 0.0f64;
-        for j in j_lo as usize..=j_hi as usize {
-            let dy = j as f64 - fy;
-            let w2 = rc * rc - dy * dy;
-            if w2 < 0.0 {
-                continue;
-            }
-            let w = w2.sqrt();
-            let i_lo = (fx - w).ceil().max(0.0);
-            let i_hi = (fx + w).floor().min(self.nx as f64 - 1.0);
-            if i_hi < i_lo {
-                continue;
-            }
+        for (j, i_lo, i_hi, dy) in disc.rows() {
             let dy_mm = dy * c;
-            for i in i_lo as usize..=i_hi as usize {
-                let dx_mm = (i as f64 - fx) * c;
+            for i in i_lo..=i_hi {
+                let dx_mm = (i as f64 - disc.fx) * c;
                 let d2 = dx_mm * dx_mm + dy_mm * dy_mm;
                 // Compared in f32, as stored: a second pass at the same place cuts nothing.
                 let z = (tip_mm + radius_mm - (r2 - d2).max(0.0).sqrt()).max(bottom) as f32;
@@ -354,5 +331,40 @@ impl ZMap {
             volume_mm3: volume * c * c,
             max_depth_mm: max_depth,
         }
+    }
+}
+
+/// A disc on the grid, in cell units (see [`ZMap::disc`]).
+#[derive(Debug, Clone, Copy)]
+struct Disc {
+    fx: f64,
+    fy: f64,
+    rc: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl Disc {
+    /// Per grid row inside the disc: the row `j`, the first and last column `i_lo ..= i_hi`
+    /// whose cell centres lie inside, and the row's offset from the centre `dy`, cells.
+    fn rows(self) -> impl Iterator<Item = (usize, usize, usize, f64)> {
+        let j_lo = (self.fy - self.rc).ceil().max(0.0);
+        let j_hi = (self.fy + self.rc).floor().min(self.ny as f64 - 1.0);
+        let rows = if j_hi < j_lo {
+            0..0
+        } else {
+            j_lo as usize..j_hi as usize + 1
+        };
+        rows.filter_map(move |j| {
+            let dy = j as f64 - self.fy;
+            let w2 = self.rc * self.rc - dy * dy;
+            if w2 < 0.0 {
+                return None;
+            }
+            let w = w2.sqrt();
+            let i_lo = (self.fx - w).ceil().max(0.0);
+            let i_hi = (self.fx + w).floor().min(self.nx as f64 - 1.0);
+            (i_hi >= i_lo).then_some((j, i_lo as usize, i_hi as usize, dy))
+        })
     }
 }
