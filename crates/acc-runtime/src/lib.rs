@@ -28,6 +28,7 @@
 /// deadlines, the emulators and the simulator use it too); re-exported here.
 pub use acc_pmc::clock;
 pub mod config;
+pub mod opcua_config;
 pub mod control_loop;
 pub mod cuts;
 pub mod echo;
