@@ -27,11 +27,11 @@ use acc_runtime::opcua_config::OpcUaSettings;
 use acc_runtime::tap::Subscriber;
 use crossbeam_channel::RecvTimeoutError;
 
-use async_opcua::nodes::{BaseEventType, Event};
-use async_opcua::server::diagnostics::NamespaceMetadata;
-use async_opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
-use async_opcua::server::{ServerBuilder, ServerHandle};
-use async_opcua::types::{ByteString, DateTime, LocalizedText, ObjectTypeId, VariableId};
+use opcua::nodes::{BaseEventType, Event};
+use opcua::server::diagnostics::NamespaceMetadata;
+use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
+use opcua::server::{ServerBuilder, ServerHandle};
+use opcua::types::{ByteString, DateTime, LocalizedText, ObjectTypeId, VariableId};
 
 pub use model::{Model, NAMESPACE};
 
@@ -111,7 +111,7 @@ impl std::fmt::Debug for OpcUaServer {
 
 fn host_for(addr: SocketAddr) -> String {
     if addr.ip().is_unspecified() {
-        async_opcua::crypto::X509Data::computer_hostnames()
+        opcua::crypto::X509Data::computer_hostnames()
             .into_iter()
             .next()
             .unwrap_or_else(|| "localhost".into())
@@ -242,7 +242,7 @@ impl OpcUaServer {
             d.get(id)
                 .and_then(|v| v.value)
                 .and_then(|v| match v {
-                    async_opcua::types::Variant::UInt32(x) => Some(u64::from(x)),
+                    opcua::types::Variant::UInt32(x) => Some(u64::from(x)),
                     _ => None,
                 })
                 .unwrap_or(0)

@@ -25,9 +25,9 @@
 //! ```
 
 use acc_runtime::RunRecord;
-use async_opcua::nodes::{ObjectBuilder, VariableBuilder};
-use async_opcua::server::address_space::{AccessLevel, AddressSpace, EventNotifier};
-use async_opcua::types::{
+use opcua::nodes::{NodeType, ObjectBuilder, VariableBuilder};
+use opcua::server::address_space::{AccessLevel, AddressSpace, EventNotifier};
+use opcua::types::{
     DataTypeId, DataValue, DateTime, EUInformation, NodeId, ObjectId, ObjectTypeId, QualifiedName,
     Range, StatusCode, Variant, VariableTypeId,
 };
@@ -311,11 +311,6 @@ impl Model {
             VariableBuilder::new(&id, QualifiedName::new(ns, v.name), v.name)
                 .description(v.doc)
                 .data_type(v.kind.data_type())
-                .value(DataValue {
-                    value: Some(Variant::Empty),
-                    status: Some(StatusCode::BadWaitingForInitialData),
-                    ..DataValue::null()
-                })
                 .access_level(AccessLevel::CURRENT_READ)
                 .user_access_level(AccessLevel::CURRENT_READ)
                 .minimum_sampling_interval(0.0)
@@ -326,6 +321,14 @@ impl Model {
                 })
                 .component_of(Self::id(ns, v.parent))
                 .insert(space);
+            // Before the first period: no value yet.
+            if let Some(NodeType::Variable(var)) = space.find_mut(&id) {
+                var.set_data_value(DataValue {
+                    value: Some(Variant::Empty),
+                    status: Some(StatusCode::BadWaitingForInitialData),
+                    ..DataValue::null()
+                });
+            }
             if analog {
                 Self::analog_properties(space, ns, &path, &id);
             }

@@ -16,10 +16,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use acc_runtime::opcua_config::{OpcUaSettings, OpcUaUser};
-use async_opcua::crypto::SecurityPolicy;
-use async_opcua::server::authenticator::{AuthManager, DefaultAuthenticator, Password, UserToken};
-use async_opcua::server::{ServerBuilder, ServerEndpoint, ServerUserToken, ANONYMOUS_USER_TOKEN_ID};
-use async_opcua::types::{Error, MessageSecurityMode, UserTokenPolicy};
+use opcua::crypto::SecurityPolicy;
+use opcua::server::authenticator::{AuthManager, DefaultAuthenticator, Password, UserToken};
+use opcua::server::{ServerBuilder, ServerEndpoint, ServerUserToken, ANONYMOUS_USER_TOKEN_ID};
+use opcua::types::{Error, MessageSecurityMode, UserTokenPolicy};
 
 /// Id of the configured user's token in the server config.
 const USER_TOKEN_ID: &str = "acc-user";
