@@ -324,7 +324,7 @@ fn peer_against_acc_run(peer: fn(&str, u64, &[&str]) -> Command) {
         "configs/runtime/board_sim_fast.toml",
         &pty,
         &log,
-        "12",
+        "60",
         &["--opcua", &url],
     );
     wait_listening(p_run, "acc run --opcua");

@@ -39,7 +39,7 @@ class Collect:
         ts = dv.SourceTimestamp
         if ts is None:
             return
-        status = dv.StatusCode_.name if dv.StatusCode_ is not None else "Good"
+        status = dv.StatusCode.name if dv.StatusCode is not None else "Good"
         key = ts.isoformat()
         self.by_ts.setdefault(key, {})[node.nodeid.to_string()] = (val, status)
         if node.nodeid == self.period_node and isinstance(val, int) and val >= self.until:
@@ -109,7 +109,7 @@ async def main():
             "unit": unit.DisplayName.Text,
             "spindle": sorted([(await c.read_browse_name()).Name for c in await spindle.get_children()]),
             "acc": sorted([(await c.read_browse_name()).Name for c in await acc.get_children()]),
-            "tool_read": (await (await child(acc, ns, "Tool")).read_data_value(raise_on_bad_status=False)).StatusCode_.name,
+            "tool_read": (await (await child(acc, ns, "Tool")).read_data_value(raise_on_bad_status=False)).StatusCode.name,
         }
         period = await child(acc, ns, "Period")
         force = await child(acc, ns, "Force")

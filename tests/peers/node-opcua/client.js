@@ -24,6 +24,11 @@ const {
 
 const NS_URI = "urn:acc:opcua";
 
+// node-opcua gives a UInt64 as [high, low] 32-bit words.
+function u64(v) {
+  return Array.isArray(v) ? v[0] * 4294967296 + v[1] : Number(v);
+}
+
 function arg(name, dflt) {
   const i = process.argv.indexOf(name);
   return i > 0 ? process.argv[i + 1] : dflt;
@@ -115,7 +120,7 @@ async function main() {
         const key = dv.sourceTimestamp.toISOString() + "/" + (dv.sourcePicoseconds || 0);
         if (!byTs.has(key)) byTs.set(key, { t: dv.sourceTimestamp.getTime() });
         byTs.get(key)[k] = { v: dv.value.value, s: dv.statusCode.name };
-        if (k === "period" && dv.statusCode === StatusCodes.Good && Number(dv.value.value) >= until) done();
+        if (k === "period" && dv.statusCode === StatusCodes.Good && u64(dv.value.value) >= until) done();
       });
     }
     const events = [];
@@ -139,7 +144,7 @@ async function main() {
       .filter((x) => x.period && x.period.s === "Good")
       .sort((a, b) => a.t - b.t)
       .map((x) => ({
-        period: Number(x.period.v),
+        period: u64(x.period.v),
         feed_override: x.fo && x.fo.s === "Good" ? x.fo.v : null,
         feed_override_status: x.fo ? x.fo.s : "missing",
         force: x.force && x.force.s === "Good" ? x.force.v : null,

@@ -38,6 +38,9 @@ pub use model::{Model, NAMESPACE};
 /// Largest queue a client may ask for on one monitored item, values (100 s at T = 0.1 s).
 pub const MAX_ITEM_QUEUE: usize = 1000;
 
+/// How long [`OpcUaServer::stop`] leaves the sessions open after the last record.
+pub const LAST_PUBLISH: Duration = Duration::from_millis(300);
+
 /// Why the server did not start.
 #[derive(Debug, thiserror::Error)]
 pub enum OpcUaError {
@@ -172,7 +175,11 @@ impl OpcUaServer {
             pki_dir,
             refusals.clone(),
         );
-        let (server, handle) = builder.build().map_err(OpcUaError::Server)?;
+        // The server's builder spawns its status sampler: inside the runtime.
+        let (server, handle) = {
+            let _in_runtime = rt.enter();
+            builder.build().map_err(OpcUaError::Server)?
+        };
         let nm = handle
             .node_managers()
             .get_of_type::<SimpleNodeManager>()
@@ -272,6 +279,11 @@ impl OpcUaServer {
             let _ = f.join();
         }
         let counts = self.clients();
+        if counts.current > 0 {
+            // One more publishing cycle (the server polls every 100 ms), so that subscribed
+            // clients get the last period's values before their sessions close.
+            std::thread::sleep(LAST_PUBLISH);
+        }
         self.handle.cancel();
         if let Some(rt) = self.rt.take() {
             rt.shutdown_timeout(Duration::from_secs(2));
@@ -331,8 +343,9 @@ fn feed(
                     .set_source_node(model.event_source())
                     .set_source_name("acc".into())
                     .set_severity(e.severity);
-                    let notifiers = model.notifiers();
-                    subs.notify_events(notifiers.iter().map(|n| (&evt as &dyn Event, n)));
+                    // Notified on `Acc`; the server passes every event on to `Server` too.
+                    let source = model.event_source();
+                    subs.notify_events(std::iter::once((&evt as &dyn Event, &source)));
                     stats.events.fetch_add(1, Ordering::Relaxed);
                 }
             }

@@ -8,7 +8,7 @@
 //!
 //! ```text
 //! Objects
-//! ├─ MachineTool                      ns;s=MachineTool            (events)
+//! ├─ MachineTool                      ns;s=MachineTool
 //! │  └─ Monitoring                    ns;s=MachineTool/Monitoring
 //! │     ├─ Channel1                   …/Monitoring/Channel1
 //! │     │  ├─ FeedOverride   Double % …/Channel1/FeedOverride     EURange 0..150, EngineeringUnits %
@@ -18,7 +18,7 @@
 //! │        ├─ IsRotating     Boolean
 //! │        ├─ ActSpeed       Double rpm
 //! │        └─ ActPower       Double W (the spindle drive's power)
-//! └─ Acc                              ns;s=Acc                    (events)
+//! └─ Acc                              ns;s=Acc                    (events, also on Server)
 //!    ├─ Period UInt64, MachineTime s, Force N, ForceRef N, KcHat N/(mm/min), PathFeed mm/min,
 //!    ├─ OverrideCommanded %, OverrideOperator %, State, Tool, Program, Block,
 //!    └─ AlarmBits (bits as the run log), Availability
@@ -238,7 +238,7 @@ const VARS: [Var; 20] = [
 
 /// The objects: (path, browse name, parent path or `""` for `Objects`, emits events).
 const OBJECTS: [(&str, &str, &str, bool); 5] = [
-    ("MachineTool", "MachineTool", "", true),
+    ("MachineTool", "MachineTool", "", false),
     ("MachineTool/Monitoring", "Monitoring", "MachineTool", false),
     (
         "MachineTool/Monitoring/Channel1",
@@ -268,17 +268,8 @@ impl Model {
         NodeId::new(ns, path.to_string())
     }
 
-    /// The nodes that emit the alarm and state events: `MachineTool`, `Acc` and the standard
-    /// `Server` object (where most clients subscribe to events).
-    pub fn notifiers(&self) -> [NodeId; 3] {
-        [
-            Self::id(self.ns, "MachineTool"),
-            Self::id(self.ns, "Acc"),
-            ObjectId::Server.into(),
-        ]
-    }
-
-    /// The source node of the events (`Acc`).
+    /// The source node of the events (`Acc`): the server also notifies them on the standard
+    /// `Server` object, where most clients subscribe.
     pub fn event_source(&self) -> NodeId {
         Self::id(self.ns, "Acc")
     }
