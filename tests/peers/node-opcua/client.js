@@ -158,7 +158,8 @@ async function main() {
   }
 }
 
-main().catch((e) => {
+// Exit as soon as the work is done (the timeout's timer would keep the process alive).
+main().then(() => process.exit(0)).catch((e) => {
   console.error(e && e.stack ? e.stack : String(e));
   process.exit(1);
 });
