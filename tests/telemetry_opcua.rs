@@ -475,7 +475,10 @@ fn secure_endpoint_refuses_a_wrong_password_and_logs_it() {
     let rows = read_log(&out.join("run.csv"));
     assert_eq!(check_samples(&result, &rows), (0..10).collect::<Vec<_>>());
     // The server's certificate was made on first start, in the run's folder.
-    assert!(out.join("pki/own/cert.der").is_file(), "no server certificate");
+    assert!(
+        out.join("pki/own/cert.der").is_file(),
+        "no server certificate"
+    );
     assert!(out.join("pki/private/private.pem").is_file(), "no key");
 }
 
@@ -489,7 +492,15 @@ fn opcua_port_in_use_is_one_clear_line() {
     let out_s = dir.path().join("run").to_string_lossy().into_owned();
     let url = format!("opc.tcp://127.0.0.1:{port}");
     let sim = Proc::spawn(
-        &["sim", "paper_case3", "--no-plot", "--opcua", &url, "--out", &out_s],
+        &[
+            "sim",
+            "paper_case3",
+            "--no-plot",
+            "--opcua",
+            &url,
+            "--out",
+            &out_s,
+        ],
         false,
     );
     let (code, _out, err) = sim.finish(Duration::from_secs(60));

@@ -273,7 +273,8 @@ impl Telemetry {
                 (
                     st.records.load(std::sync::atomic::Ordering::Relaxed),
                     st.events.load(std::sync::atomic::Ordering::Relaxed),
-                    st.records_dropped.load(std::sync::atomic::Ordering::Relaxed),
+                    st.records_dropped
+                        .load(std::sync::atomic::Ordering::Relaxed),
                 )
             };
             let c = o.stop();

@@ -28,13 +28,13 @@
 /// deadlines, the emulators and the simulator use it too); re-exported here.
 pub use acc_pmc::clock;
 pub mod config;
-pub mod opcua_config;
 pub mod control_loop;
 pub mod cuts;
 pub mod echo;
 pub mod guard;
 pub mod history;
 mod log_backlog;
+pub mod opcua_config;
 pub mod policy;
 pub mod record;
 pub mod runner;

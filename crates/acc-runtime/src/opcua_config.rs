@@ -132,8 +132,9 @@ impl OpcUaEntry {
             message,
         };
         match self {
-            OpcUaEntry::Url(u) => OpcUaSettings::from_url(u)
-                .map_err(|e| invalid("telemetry.opcua", format!("= {e}"))),
+            OpcUaEntry::Url(u) => {
+                OpcUaSettings::from_url(u).map_err(|e| invalid("telemetry.opcua", format!("= {e}")))
+            }
             OpcUaEntry::Table(t) => {
                 let mut s = OpcUaSettings::from_url(&t.url)
                     .map_err(|e| invalid("telemetry.opcua.url", format!("= {e}")))?;
@@ -200,10 +201,14 @@ mod tests {
         assert_eq!(u.name, "shop");
         assert_eq!(u.password_file, Path::new("/etc/acc/pw.txt"));
         assert_eq!(s.pki_dir.as_deref(), Some(Path::new("/etc/acc/pki")));
-        let e = entry("[opcua]\nurl = \"opc.tcp://127.0.0.1:0\"\nuser = \"shop\"\n").expect_err("no pw");
+        let e = entry("[opcua]\nurl = \"opc.tcp://127.0.0.1:0\"\nuser = \"shop\"\n")
+            .expect_err("no pw");
         assert!(e.contains("telemetry.opcua.password_file"), "{e}");
         let e = entry("opcua = \"opc.tcp://plc.local:4840\"").expect_err("host name");
-        assert!(e.contains("telemetry.opcua") && e.contains("plc.local"), "{e}");
+        assert!(
+            e.contains("telemetry.opcua") && e.contains("plc.local"),
+            "{e}"
+        );
         let e = entry("opcua = \"opc.tcp://127.0.0.1:99999\"").expect_err("port");
         assert!(e.contains("99999") && e.contains("0 ..= 65535"), "{e}");
     }

@@ -31,13 +31,13 @@ use std::time::{Duration, Instant};
 use acc_core::{Controller, ControllerConfig};
 use acc_pmc::{Board, BoardStatus, ControlBits};
 use acc_runtime::config::MqttSettings;
+use acc_runtime::opcua_config::OpcUaSettings;
 use acc_runtime::policy::{FaultPolicy, PolicyConfig};
 use acc_runtime::record::RunLogWriter;
 use acc_runtime::tap::{Tap, TapSink};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard};
 use acc_runtime::SystemClock;
 use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord};
-use acc_runtime::opcua_config::OpcUaSettings;
 use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, OpcUaServer, ShdrServer};
 
 /// The emulated board as a live machine: board time follows the wall clock, and the spindle

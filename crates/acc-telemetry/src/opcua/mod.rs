@@ -168,13 +168,8 @@ impl OpcUaServer {
             l.max_monitored_item_queue_size = MAX_ITEM_QUEUE;
             l.max_queued_notifications = 20 * MAX_ITEM_QUEUE;
         }
-        let builder = security::secure(
-            builder,
-            cfg,
-            password.as_deref(),
-            pki_dir,
-            refusals.clone(),
-        );
+        let builder =
+            security::secure(builder, cfg, password.as_deref(), pki_dir, refusals.clone());
         // The server's builder spawns its status sampler: inside the runtime.
         let (server, handle) = {
             let _in_runtime = rt.enter();
@@ -260,7 +255,9 @@ impl OpcUaServer {
             cumulated: get(
                 V::Server_ServerDiagnostics_ServerDiagnosticsSummary_CumulatedSessionCount,
             ),
-            timed_out: get(V::Server_ServerDiagnostics_ServerDiagnosticsSummary_SessionTimeoutCount),
+            timed_out: get(
+                V::Server_ServerDiagnostics_ServerDiagnosticsSummary_SessionTimeoutCount,
+            ),
             security_rejected: get(
                 V::Server_ServerDiagnostics_ServerDiagnosticsSummary_SecurityRejectedSessionCount,
             ),

@@ -29,7 +29,7 @@ use opcua::nodes::{NodeType, ObjectBuilder, VariableBuilder};
 use opcua::server::address_space::{AccessLevel, AddressSpace, EventNotifier};
 use opcua::types::{
     DataTypeId, DataValue, DateTime, EUInformation, NodeId, ObjectId, ObjectTypeId, QualifiedName,
-    Range, StatusCode, Variant, VariableTypeId,
+    Range, StatusCode, VariableTypeId, Variant,
 };
 
 /// Our namespace URI (index 2 on this server: 0 is OPC UA's, 1 the server's own).
@@ -427,11 +427,11 @@ mod tests {
         );
         assert_eq!(get("Acc/Force").value, Some(Variant::Double(812.5)));
         assert_eq!(get("Acc/Period").value, Some(Variant::UInt64(7)));
-        assert_eq!(get("Spindle/IsRotating").value, Some(Variant::Boolean(true)));
-        assert_eq!(get("Acc/KcHat").status, Some(StatusCode::BadNoData));
         assert_eq!(
-            Model::id(2, "Acc/Force").to_string(),
-            "ns=2;s=Acc/Force"
+            get("Spindle/IsRotating").value,
+            Some(Variant::Boolean(true))
         );
+        assert_eq!(get("Acc/KcHat").status, Some(StatusCode::BadNoData));
+        assert_eq!(Model::id(2, "Acc/Force").to_string(), "ns=2;s=Acc/Force");
     }
 }
