@@ -45,7 +45,7 @@ pub const LAST_PUBLISH: Duration = Duration::from_millis(300);
 #[derive(Debug, thiserror::Error)]
 pub enum OpcUaError {
     /// The listen address is taken or not ours.
-    #[error("OPC UA: cannot listen on {addr}: {source}")]
+    #[error("OPC UA: cannot listen on {addr}")]
     Listen {
         /// Address asked for.
         addr: SocketAddr,
