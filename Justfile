@@ -77,11 +77,16 @@ fault-matrix:
 soak:
     cargo run --release -p acc-cli -- soak --update-doc docs/reliability.md
 
-# Period jitter of the threaded loop, telemetry off vs live view + SHDR + MQTT with clients
-# (docs/telemetry.md "Live view"; dev profile: the jitter is the scheduler's, not the code's).
+# Period jitter of the threaded loop, telemetry off vs live view + SHDR + MQTT with clients vs
+# the OPC UA server with 3 asyncua clients (docs/telemetry.md "Live view", docs/opcua.md
+# "Jitter"; dev profile: the jitter is the scheduler's, not the code's).
 live-jitter:
     cargo bench --profile dev -p acc-telemetry --bench loop_jitter -- --periods 1000 --period-ms 10 --rounds 6
 
 # The NC interpreter against LinuxCNC's rs274 on tests/nc and ../shared/data/nc (docs/nc.md).
 nc-oracle:
     cargo test -p acc-nc --test oracle_rs274 -- --nocapture
+
+# The OPC UA server against asyncua and node-opcua (docs/opcua.md "Peers we did not write").
+opcua-peers:
+    cargo test -p acc-tests --test telemetry_opcua

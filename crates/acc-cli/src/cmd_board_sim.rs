@@ -460,7 +460,14 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         None => None,
     };
     let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
-    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()), true)?;
+    let pki = match &args.log {
+        Some(l) => l.parent().unwrap_or(std::path::Path::new(".")).join("pki"),
+        None => std::env::temp_dir().join("acc-board-sim-pki"),
+    };
+    let tel = crate::telemetry::Telemetry::start(
+        &crate::telemetry::with_default_pki(args.telemetry.over(&Default::default()), &pki),
+        true,
+    )?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: "acc board-sim (the simulated machine, as the board sees it)".into(),
         overload_n: None,

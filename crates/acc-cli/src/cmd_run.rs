@@ -370,8 +370,15 @@ fn drive<P: Board + Send>(
     // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
     // Telemetry: the logger thread publishes each record on the tap just before writing it
     // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
-    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&cfg.telemetry), false)
-        .exit_as(RunExit::Usage)?;
+    let tel_cfg = crate::telemetry::with_default_pki(
+        args.telemetry.over(&cfg.telemetry),
+        &args
+            .log
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join("pki"),
+    );
+    let tel = crate::telemetry::Telemetry::start(&tel_cfg, false).exit_as(RunExit::Usage)?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: format!("acc run: {}", args.config.display()),
         overload_n: Some(cfg.policy.overload_force_n),

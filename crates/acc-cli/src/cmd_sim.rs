@@ -128,7 +128,13 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     if !(args.live_keep.is_finite() && (0.0..=86_400.0).contains(&args.live_keep)) {
         anyhow::bail!("--live-keep {}: allowed 0 ..= 86400 s", args.live_keep);
     }
-    let tel = crate::telemetry::Telemetry::start(&args.telemetry.over(&Default::default()), false)?;
+    let tel = crate::telemetry::Telemetry::start(
+        &crate::telemetry::with_default_pki(
+            args.telemetry.over(&Default::default()),
+            &out.join("pki"),
+        ),
+        false,
+    )?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: format!("acc sim: {}", sc.name),
         overload_n: Some(sc.policy.overload_force_n),

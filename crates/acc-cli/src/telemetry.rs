@@ -1,13 +1,17 @@
-//! `--shdr ADDR`, `--mqtt URL` and `--live ADDR` of `acc run`, `acc sim` and `acc board-sim`: the runtime's
-//! [`Tap`] with the MTConnect SHDR adapter, the MQTT publisher and the live view subscribed to it
-//! (docs/telemetry.md). The loop only ever calls [`Tap::publish`], which never waits.
+//! `--shdr ADDR`, `--mqtt URL`, `--live ADDR` and `--opcua URL` of `acc run`, `acc sim` and
+//! `acc board-sim`: the runtime's [`Tap`] with the MTConnect SHDR adapter, the MQTT publisher,
+//! the live view and the OPC UA server subscribed to it (docs/telemetry.md, docs/opcua.md).
+//! The loop only ever calls [`Tap::publish`], which never waits.
 
 use std::io::Write as _;
 use std::net::SocketAddr;
 
+use std::path::{Path, PathBuf};
+
 use acc_runtime::config::{parse_shdr_addr, MqttSettings, TelemetryConfig};
+use acc_runtime::opcua_config::{OpcUaSettings, OpcUaUser};
 use acc_runtime::tap::Tap;
-use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, ShdrServer};
+use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, OpcUaServer, ShdrServer};
 use anyhow::Context as _;
 
 /// Queue of the SHDR and MQTT subscribers, records (25 s at T = 0.1 s).
@@ -28,6 +32,21 @@ pub struct TelemetryArgs {
     /// `[telemetry] live`; docs/telemetry.md "Live view").
     #[arg(long, value_name = "IP:PORT", value_parser = parse_shdr_addr)]
     pub live: Option<SocketAddr>,
+    /// OPC UA server on this URL, `opc.tcp://IP:PORT` (replaces `[telemetry] opcua`'s URL;
+    /// docs/opcua.md). Anonymous with SecurityPolicy None unless a user is given.
+    #[arg(long, value_name = "URL", value_parser = OpcUaSettings::from_url)]
+    pub opcua: Option<OpcUaSettings>,
+    /// OPC UA user: the only endpoint is then Basic256Sha256 SignAndEncrypt with this user
+    /// (needs `--opcua-password-file`).
+    #[arg(long, value_name = "NAME", requires = "opcua_password_file")]
+    pub opcua_user: Option<String>,
+    /// File whose first line is the OPC UA user's password (never the password in argv).
+    #[arg(long, value_name = "FILE", requires = "opcua_user")]
+    pub opcua_password_file: Option<PathBuf>,
+    /// Folder of the OPC UA certificates (created on first start; default: the command's
+    /// output folder + `/pki`, docs/opcua.md "Folders").
+    #[arg(long, value_name = "DIR")]
+    pub opcua_pki: Option<PathBuf>,
 }
 
 impl TelemetryArgs {
@@ -45,8 +64,41 @@ impl TelemetryArgs {
                 }),
                 (a, c) => a.clone().or_else(|| c.clone()),
             },
+            opcua: self.opcua_over(cfg.opcua.as_ref()),
         }
     }
+
+    /// `--opcua` and its `--opcua-*` options over `[telemetry.opcua]`: the command line's URL
+    /// keeps the config's security keys unless the command line gives its own.
+    fn opcua_over(&self, cfg: Option<&OpcUaSettings>) -> Option<OpcUaSettings> {
+        let mut s = match (&self.opcua, cfg) {
+            (Some(a), Some(c)) => OpcUaSettings {
+                addr: a.addr,
+                ..c.clone()
+            },
+            (a, c) => a.clone().or_else(|| c.cloned())?,
+        };
+        if let (Some(name), Some(pw)) = (&self.opcua_user, &self.opcua_password_file) {
+            s.user = Some(OpcUaUser {
+                name: name.clone(),
+                password_file: pw.clone(),
+            });
+        }
+        if let Some(p) = &self.opcua_pki {
+            s.pki_dir = Some(p.clone());
+        }
+        Some(s)
+    }
+}
+
+/// `cfg` with `dir` as the OPC UA certificate folder unless one is configured.
+pub fn with_default_pki(mut cfg: TelemetryConfig, dir: &Path) -> TelemetryConfig {
+    if let Some(o) = cfg.opcua.as_mut() {
+        if o.pki_dir.is_none() {
+            o.pki_dir = Some(dir.to_path_buf());
+        }
+    }
+    cfg
 }
 
 /// The running telemetry of one command.
@@ -57,6 +109,7 @@ pub struct Telemetry {
     mqtt: Option<(MqttPublisher, acc_runtime::tap::Subscriber)>,
     stderr: bool,
     live: Option<LiveServer>,
+    opcua: Option<OpcUaServer>,
 }
 
 /// A status line on stdout, or on stderr (`acc board-sim`: its stdout carries the pty path
@@ -120,12 +173,41 @@ impl Telemetry {
             }
             None => None,
         };
+        let opcua = match &cfg.opcua {
+            Some(o) => {
+                let pki = o
+                    .pki_dir
+                    .clone()
+                    .unwrap_or_else(|| std::env::temp_dir().join("acc-opcua-pki"));
+                let srv = OpcUaServer::start(o, &pki, tap.subscribe(SUBSCRIBER_QUEUE))
+                    .with_context(|| format!("--opcua {}", OpcUaSettings::url_for(o.addr)))?;
+                say(
+                    stderr,
+                    &format!(
+                        "telemetry: OPC UA server on {} ({}; certificates in {})",
+                        srv.url(),
+                        if srv.is_secure() {
+                            "Basic256Sha256 SignAndEncrypt, user and password"
+                        } else {
+                            "SecurityPolicy None, anonymous"
+                        },
+                        srv.pki_dir().display()
+                    ),
+                );
+                if !srv.is_secure() && !o.addr.ip().is_loopback() {
+                    say(stderr, "telemetry: warning: OPC UA without security on a non-loopback address: set [telemetry.opcua] user and password_file");
+                }
+                Some(srv)
+            }
+            None => None,
+        };
         Ok(Self {
             tap,
             shdr,
             mqtt,
             stderr,
             live,
+            opcua,
         })
     }
 
@@ -155,6 +237,7 @@ impl Telemetry {
             mqtt,
             stderr,
             live,
+            opcua,
         } = self;
         drop(tap);
 
@@ -183,6 +266,22 @@ impl Telemetry {
                 stderr,
                 &format!("telemetry: MQTT {q} messages queued, {d} dropped, {c} connections"),
             );
+        }
+        if let Some(o) = opcua {
+            let (records, events, dropped) = {
+                let st = o.stats();
+                (
+                    st.records.load(std::sync::atomic::Ordering::Relaxed),
+                    st.events.load(std::sync::atomic::Ordering::Relaxed),
+                    st.records_dropped
+                        .load(std::sync::atomic::Ordering::Relaxed),
+                )
+            };
+            let c = o.stop();
+            say(stderr, &format!(
+                "telemetry: OPC UA {records} records, {events} events, {} sessions, {} timed out (dead clients), {} identities refused, {dropped} records dropped (queue full)",
+                c.cumulated, c.timed_out, c.auth_refused
+            ));
         }
         if let Some(l) = live {
             if secs > 0.0 {

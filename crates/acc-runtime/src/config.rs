@@ -195,6 +195,9 @@ pub struct TelemetrySection {
     pub live: Option<String>,
     /// MQTT publisher.
     pub mqtt: Option<MqttSection>,
+    /// OPC UA server: `opcua = "opc.tcp://IP:PORT"` or the table `[telemetry.opcua]`
+    /// (docs/opcua.md).
+    pub opcua: Option<crate::opcua_config::OpcUaEntry>,
 }
 
 /// `[telemetry.mqtt]`.
@@ -280,6 +283,8 @@ pub struct TelemetryConfig {
     pub live: Option<std::net::SocketAddr>,
     /// MQTT destination.
     pub mqtt: Option<MqttSettings>,
+    /// OPC UA server (docs/opcua.md).
+    pub opcua: Option<crate::opcua_config::OpcUaSettings>,
 }
 
 /// Parse an SHDR listen address (`--shdr`, `[telemetry] shdr`): `host:port` with an IP
@@ -342,7 +347,16 @@ impl TelemetrySection {
             }
             None => None,
         };
-        Ok(TelemetryConfig { shdr, live, mqtt })
+        let opcua = match &self.opcua {
+            Some(o) => Some(o.resolve_in(file)?),
+            None => None,
+        };
+        Ok(TelemetryConfig {
+            shdr,
+            live,
+            mqtt,
+            opcua,
+        })
     }
 }
 

@@ -34,6 +34,7 @@ pub mod echo;
 pub mod guard;
 pub mod history;
 mod log_backlog;
+pub mod opcua_config;
 pub mod policy;
 pub mod record;
 pub mod runner;

@@ -8,7 +8,11 @@
 //! - **on**: the live view, the SHDR adapter and the MQTT publisher subscribed, with three
 //!   SSE clients (plain TCP readers of `/events`) and three SHDR clients connected, and a
 //!   real `mosquitto` broker started on a free port when one is installed (else the MQTT
-//!   publisher runs against a closed port: it keeps reconnecting, which is its worst case).
+//!   publisher runs against a closed port: it keeps reconnecting, which is its worst case);
+//! - **opcua**: the OPC UA server subscribed (docs/opcua.md), with three Python `asyncua`
+//!   clients (tests/peers/opcua_asyncua.py) each subscribed to FeedOverride, Acc/Force and
+//!   Acc/Period (every period's value) and to the events, when asyncua is installed (else the
+//!   server runs without clients and the row says so).
 //!
 //! Prints the lateness of the ticks against their deadlines (p50, p99, max) per round and
 //! pooled per configuration. Run (docs/telemetry.md "Live view", README):
@@ -27,13 +31,14 @@ use std::time::{Duration, Instant};
 use acc_core::{Controller, ControllerConfig};
 use acc_pmc::{Board, BoardStatus, ControlBits};
 use acc_runtime::config::MqttSettings;
+use acc_runtime::opcua_config::OpcUaSettings;
 use acc_runtime::policy::{FaultPolicy, PolicyConfig};
 use acc_runtime::record::RunLogWriter;
 use acc_runtime::tap::{Tap, TapSink};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard};
 use acc_runtime::SystemClock;
 use acc_runtime::{run, ControlLoop, LogSink, RunOptions, RunRecord};
-use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, ShdrServer};
+use acc_telemetry::{LiveInfo, LiveServer, MqttPublisher, OpcUaServer, ShdrServer};
 
 /// The emulated board as a live machine: board time follows the wall clock, and the spindle
 /// power follows the applied override (a plant with Kc, so the controller regulates).
@@ -167,12 +172,70 @@ struct Round {
     skipped: u64,
 }
 
-fn one_round(a: &Args, on: bool, dir: &std::path::Path, mqtt_port: u16) -> Round {
+/// Which telemetry runs in a round.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Off,
+    On,
+    OpcUa,
+}
+
+impl Mode {
+    fn name(self) -> &'static str {
+        match self {
+            Mode::Off => "off",
+            Mode::On => "on",
+            Mode::OpcUa => "opcua",
+        }
+    }
+}
+
+/// Whether python3 imports asyncua (the OPC UA clients of the `opcua` rows).
+fn asyncua_installed() -> bool {
+    Command::new("python3")
+        .args(["-c", "import asyncua"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// The OPC UA server on a free port with `n` asyncua clients subscribed (waits until each
+/// printed its `ready` line).
+fn opcua_with_clients(tap: &Tap, dir: &std::path::Path, n: usize) -> (OpcUaServer, Vec<Child>) {
+    let cfg = OpcUaSettings::from_url("opc.tcp://127.0.0.1:0").expect("url");
+    let srv = OpcUaServer::start(&cfg, &dir.join("pki"), tap.subscribe(256)).expect("opcua");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut kids = Vec::new();
+    for _ in 0..n {
+        let mut c = Command::new("python3")
+            .arg(root.join("tests/peers/opcua_asyncua.py"))
+            .arg(srv.url())
+            .args(["--until", "1000000000000", "--timeout", "3600"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("python3 asyncua client");
+        let out = c.stdout.take().expect("stdout");
+        let mut line = String::new();
+        let _ = std::io::BufRead::read_line(&mut std::io::BufReader::new(out), &mut line);
+        assert!(line.contains("\"ready\""), "asyncua client: {line}");
+        kids.push(c);
+    }
+    (srv, kids)
+}
+
+fn one_round(a: &Args, mode: Mode, dir: &std::path::Path, mqtt_port: u16) -> Round {
     let tap = Tap::new();
     let stop_clients = Arc::new(AtomicBool::new(false));
     let mut servers = None;
     let mut clients = Vec::new();
-    if on {
+    let mut opcua = None;
+    if mode == Mode::OpcUa {
+        let n = if asyncua_installed() { 3 } else { 0 };
+        opcua = Some(opcua_with_clients(&tap, dir, n));
+    }
+    if mode == Mode::On {
         let live = LiveServer::start("127.0.0.1:0", tap.subscribe(256), LiveInfo::default())
             .expect("live view");
         let shdr_sub = tap.subscribe(256);
@@ -218,7 +281,7 @@ fn one_round(a: &Args, on: bool, dir: &std::path::Path, mqtt_port: u16) -> Round
         b: ScriptedBoard::new(),
         t0: Instant::now(),
     };
-    let f = std::fs::File::create(dir.join(if on { "on.csv" } else { "off.csv" })).expect("log");
+    let f = std::fs::File::create(dir.join(format!("{}.csv", mode.name()))).expect("log");
     let mut sink = TapSink {
         inner: CsvSink(RunLogWriter::new(BufWriter::new(f)).expect("writer")),
         tap: tap.clone(),
@@ -253,6 +316,19 @@ fn one_round(a: &Args, on: bool, dir: &std::path::Path, mqtt_port: u16) -> Round
         shdr.stop();
         mqtt.stop();
     }
+    if let Some((srv, kids)) = opcua {
+        let records = srv.stats().records.load(Ordering::Relaxed);
+        let dropped = srv.stats().records_dropped.load(Ordering::Relaxed);
+        let c = srv.stop();
+        for mut k in kids {
+            let _ = k.kill();
+            let _ = k.wait();
+        }
+        eprintln!(
+            "  opcua: {records} records, {dropped} dropped, {} client sessions",
+            c.cumulated
+        );
+    }
     let j = &s.ticker.jitter;
     Round {
         p50: j.quantile(0.5),
@@ -284,22 +360,30 @@ fn main() {
             "none (publisher reconnecting)"
         }
     );
+    println!(
+        "OPC UA clients: {}",
+        if asyncua_installed() {
+            "3 asyncua, subscribed"
+        } else {
+            "none (asyncua not installed)"
+        }
+    );
     println!("round  telemetry  p50 [us]  p99 [us]  max [us]  overruns  skipped");
-    let mut p99s: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    let mut p99s: [Vec<f64>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     for r in 0..a.rounds {
-        for on in [false, true] {
-            let x = one_round(&a, on, &dir, mqtt_port);
+        for (i, mode) in [Mode::Off, Mode::On, Mode::OpcUa].into_iter().enumerate() {
+            let x = one_round(&a, mode, &dir, mqtt_port);
             println!(
                 "{:>5}  {:>9}  {:>8.0}  {:>8.0}  {:>8.0}  {:>8}  {:>7}",
                 r + 1,
-                if on { "on" } else { "off" },
+                mode.name(),
                 us(x.p50),
                 us(x.p99),
                 us(x.max),
                 x.overruns,
                 x.skipped
             );
-            p99s[usize::from(on)].push(us(x.p99));
+            p99s[i].push(us(x.p99));
         }
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
@@ -319,10 +403,11 @@ fn main() {
         ("mean", &mean as &dyn Fn(&[f64]) -> f64),
         ("median", &median),
     ] {
-        let (off, on) = (f(&p99s[0]), f(&p99s[1]));
+        let (off, on, ua) = (f(&p99s[0]), f(&p99s[1]), f(&p99s[2]));
         println!(
-            "p99 lateness, {what} of rounds: off {off:.0} us, on {on:.0} us; on/off = {:.2}",
-            on / off.max(1e-9)
+            "p99 lateness, {what} of rounds: off {off:.0} us, on {on:.0} us, opcua {ua:.0} us; on/off = {:.2}, opcua/off = {:.2}",
+            on / off.max(1e-9),
+            ua / off.max(1e-9)
         );
     }
     if let Some((mut c, _)) = broker {

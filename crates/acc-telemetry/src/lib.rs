@@ -1,6 +1,6 @@
 //! `acc-telemetry`: what the shop-floor network hears from `acc` — an MTConnect SHDR
-//! adapter ([`shdr`]), an MQTT publisher ([`mqtt`]) and the live view in the browser
-//! ([`live`]), each fed by a subscriber of the
+//! adapter ([`shdr`]), an MQTT publisher ([`mqtt`]), the live view in the browser
+//! ([`live`]) and an OPC UA server ([`opcua`], docs/opcua.md), each fed by a subscriber of the
 //! runtime's [`acc_runtime::tap::Tap`] (one [`acc_runtime::RunRecord`] per period), each on
 //! its own threads: the control loop never waits on them. Items, lines, topics and the
 //! config keys: `docs/telemetry.md`.
@@ -9,8 +9,10 @@
 pub mod items;
 pub mod live;
 pub mod mqtt;
+pub mod opcua;
 pub mod shdr;
 
 pub use live::{LiveInfo, LiveServer};
 pub use mqtt::{MqttConfig, MqttPublisher};
+pub use opcua::OpcUaServer;
 pub use shdr::ShdrServer;
