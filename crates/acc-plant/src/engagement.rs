@@ -74,12 +74,22 @@ pub trait EngagementSource: std::fmt::Debug + Send {
     /// The engagement of `tool` with its centre at path position `x_mm` (mm). Called by the
     /// plant once per internal step, in path order.
     fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement;
+
+    /// A copy of this source in its current state, if it can be copied (the oracle of
+    /// `acc compare` runs copies of the plant ahead of the run; default: `None`).
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        None
+    }
 }
 
 impl EngagementSource for Workpiece {
     /// [`Workpiece::engagement`] of the tool's radius, at the workpiece's axial depth.
     fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement {
         self.engagement(x_mm, tool.radius_mm())
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(self.clone()))
     }
 }
 
@@ -90,6 +100,10 @@ pub struct Held(pub Engagement);
 impl EngagementSource for Held {
     fn engagement_at(&mut self, _tool: &ToolGeometry, _x_mm: f64) -> Engagement {
         self.0
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(*self))
     }
 }
 
@@ -174,6 +188,10 @@ impl EngagementProfile {
 impl EngagementSource for EngagementProfile {
     fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
         self.at(x_mm)
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(self.clone()))
     }
 }
 
