@@ -33,6 +33,7 @@ pub use acc_plant::{
 };
 
 pub mod baselines;
+pub mod oracle;
 pub mod run;
 pub mod scenario;
 pub mod summary;
