@@ -74,6 +74,9 @@ pub enum OracleError {
     /// `boxed_clone`).
     #[error("the scenario's plant cannot be copied for the oracle")]
     NotClonable,
+    /// A search thread panicked.
+    #[error("an oracle search thread panicked")]
+    Panicked,
 }
 
 /// Bisections of the peak level (resolution `max(Fr, constant-safe peak)/2⁸`, ≈ 3 N at
@@ -81,7 +84,7 @@ pub enum OracleError {
 const BISECTIONS: usize = 8;
 
 /// Most Dinkelbach steps of the RMS figure (it stops when a step gains less than 0.1 %).
-const DINKELBACH_STEPS: usize = 4;
+const DINKELBACH_STEPS: usize = 3;
 
 /// One period of the plant with a held override: the copy after it and what the row sees.
 struct Trial {
@@ -154,16 +157,18 @@ impl<'a> Search<'a> {
 
     /// A run from a fresh plant, choosing each period's override with `choose` (given the
     /// plant before the period and the grid index chosen for the period before, returns
-    /// the period's trial and its grid index).
+    /// the period's trial and its grid index), for at most `max_periods` periods and the
+    /// scenario's time limit.
     fn run(
         &self,
         law: &str,
+        max_periods: usize,
         mut choose: impl FnMut(&Machine, usize) -> Result<(Trial, usize), OracleError>,
     ) -> Result<RunResult, OracleError> {
         let mut m = self.scenario.build_machine();
         let mut rows = Vec::new();
         let mut prev = self.grid.len() - 1;
-        while !m.finished() && rows.len() < self.max_periods {
+        while !m.finished() && rows.len() < max_periods.min(self.max_periods) {
             let (t, i) = choose(&m, prev)?;
             rows.push(t.row);
             m = t.machine;
@@ -246,7 +251,7 @@ impl<'a> Search<'a> {
     /// the crossing.
     fn rms_run(&self, lambda: Option<f64>) -> Result<RunResult, OracleError> {
         let n = self.grid.len();
-        self.run("oracle-rms", |m, prev| {
+        self.run("oracle-rms", usize::MAX, |m, prev| {
             let mut trials: Vec<Option<Trial>> = (0..n).map(|_| None).collect();
             let eval = |i: usize, trials: &mut Vec<Option<Trial>>| -> Result<(), OracleError> {
                 if trials[i].is_none() {
@@ -316,10 +321,11 @@ impl<'a> Search<'a> {
     /// The fastest run with no row above `level` (N): per period the largest grid
     /// override whose row stays at or below `level` and after which the lowest override
     /// keeps the next row there too; the lowest override where none does
-    /// ([`Search::largest_passing`]: the period's force rises with the override).
-    fn safe_run(&self, level: f64) -> Result<RunResult, OracleError> {
+    /// ([`Search::largest_passing`]: the period's force rises with the override); at most
+    /// `max_periods` periods.
+    fn safe_run(&self, level: f64, max_periods: usize) -> Result<RunResult, OracleError> {
         let n = self.grid.len();
-        self.run("oracle-safe", |m, prev| {
+        self.run("oracle-safe", max_periods, |m, prev| {
             let mut trials: Vec<Option<Trial>> = (0..n).map(|_| None).collect();
             let found = self.largest_passing(prev, |i| {
                 let t = self.trial(m, self.grid[i])?;
@@ -351,7 +357,28 @@ pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleErr
         sum.law = "oracle".into();
         sum
     };
-    // RMS: the per-row optimum, then two Dinkelbach steps on the ratio Σe²/N.
+    // The RMS figure on one thread, the cycle and peak figures on another.
+    let (rms, rest) = std::thread::scope(|scope| {
+        let rms = scope.spawn(|| rms_figure(&s, &summary));
+        let rest = safe_and_peak(&s, scenario, force_ref_n, &summary);
+        (rms.join(), rest)
+    });
+    let rms = rms.map_err(|_| OracleError::Panicked)??;
+    let (safe, best_peak, budget) = rest?;
+    Ok(Oracle {
+        rms,
+        safe,
+        peak_n: best_peak,
+        peak_budget_s: budget,
+        force_ref_n,
+    })
+}
+
+/// The RMS figure: the per-row optimum, then Dinkelbach steps on the ratio `Σe²/N`.
+fn rms_figure(
+    s: &Search<'_>,
+    summary: &(impl Fn(&RunResult) -> Summary + Sync),
+) -> Result<Summary, OracleError> {
     let mut rms = summary(&s.rms_run(None)?);
     for _ in 0..DINKELBACH_STEPS {
         let lambda = rms.rms_error_cut_n.powi(2);
@@ -365,11 +392,22 @@ pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleErr
             break;
         }
     }
-    let safe_run = s.safe_run(force_ref_n)?;
+    Ok(rms)
+}
+
+/// The cycle figure (the fastest run with no row above Fr) and the peak figure with its
+/// time budget (the constant safe feed's cycle on the same plant), s.
+fn safe_and_peak(
+    s: &Search<'_>,
+    scenario: &Scenario,
+    force_ref_n: f64,
+    summary: &(impl Fn(&RunResult) -> Summary + Sync),
+) -> Result<(Summary, f64, f64), OracleError> {
+    let safe_run = s.safe_run(force_ref_n, usize::MAX)?;
     let safe = summary(&safe_run);
     // Peak: the constant safe feed's cycle on the same plant is the time budget.
     let pct = scenario.safe_override_pct();
-    let constant = s.run("constant-safe", |m, _| Ok((s.trial(m, pct)?, 0)))?;
+    let constant = s.run("constant-safe", usize::MAX, |m, _| Ok((s.trial(m, pct)?, 0)))?;
     let budget = if constant.finished {
         constant.rows.last().map_or(f64::INFINITY, |r| r.t_s)
     } else {
@@ -396,9 +434,15 @@ pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleErr
         best_peak = best_peak.min(peak_of(&safe_run));
     }
     let mut lo = 0.0;
+    // A run past the budget has failed: stop it there.
+    let cap = if budget.is_finite() {
+        (budget / s.period_s).ceil() as usize + 1
+    } else {
+        usize::MAX
+    };
     for _ in 0..BISECTIONS {
         let mid = 0.5 * (lo + hi);
-        let r = s.safe_run(mid)?;
+        let r = s.safe_run(mid, cap)?;
         if cycle_of(&r) <= budget + 1e-9 {
             hi = mid;
             best_peak = best_peak.min(peak_of(&r));
@@ -406,11 +450,5 @@ pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleErr
             lo = mid;
         }
     }
-    Ok(Oracle {
-        rms,
-        safe,
-        peak_n: best_peak,
-        peak_budget_s: budget,
-        force_ref_n,
-    })
+    Ok((safe, best_peak, budget))
 }
