@@ -58,8 +58,9 @@ pub struct Oracle {
     pub rms: Summary,
     /// The fastest run with no row above Fr (its `cycle_time_s` is the cycle figure).
     pub safe: Summary,
-    /// The lowest peak force of a grid law no slower than the constant safe feed, N.
-    pub peak_n: f64,
+    /// The lowest peak force of a grid law no slower than the constant safe feed, N
+    /// (`None`: the constant safe feed does not finish within the scenario's time limit).
+    pub peak_n: Option<f64>,
     /// The constant safe feed's cycle time on the noise-free plant (the peak figure's time
     /// budget), s.
     pub peak_budget_s: f64,
@@ -368,7 +369,7 @@ pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleErr
     Ok(Oracle {
         rms,
         safe,
-        peak_n: best_peak,
+        peak_n: budget.is_finite().then_some(best_peak),
         peak_budget_s: budget,
         force_ref_n,
     })
@@ -432,6 +433,9 @@ fn safe_and_peak(
     if cycle_of(&safe_run) <= budget + 1e-9 {
         hi = force_ref_n;
         best_peak = best_peak.min(peak_of(&safe_run));
+    }
+    if !budget.is_finite() {
+        return Ok((safe, f64::NAN, budget));
     }
     let mut lo = 0.0;
     // A run past the budget has failed: stop it there.

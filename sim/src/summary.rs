@@ -345,8 +345,9 @@ impl fmt::Display for Summary {
 pub struct OracleFigures {
     /// Lowest force RMS error while cutting, N.
     pub rms_error_cut_n: f64,
-    /// Lowest peak force of a law no slower than the constant safe feed, N.
-    pub peak_force_n: f64,
+    /// Lowest peak force of a law no slower than the constant safe feed, N (`None`: the
+    /// constant safe feed does not finish within the time limit).
+    pub peak_force_n: Option<f64>,
     /// Shortest cycle time with no row above Fr, s (`None`: the fastest safe feed does not
     /// finish within the scenario's time limit).
     pub cycle_time_s: Option<f64>,
@@ -401,7 +402,7 @@ pub fn comparison_table(summaries: &[Summary], oracle: Option<&OracleFigures>) -
             out.push_str(&format!(
                 " {:>11} {:>12} {:>13}",
                 ratio(Some(s.rms_error_cut_n), Some(o.rms_error_cut_n)),
-                ratio(Some(s.peak_force_n), Some(o.peak_force_n)),
+                ratio(Some(s.peak_force_n), o.peak_force_n),
                 ratio(s.cycle_time_s, o.cycle_time_s)
             ));
         }
@@ -411,9 +412,12 @@ pub fn comparison_table(summaries: &[Summary], oracle: Option<&OracleFigures>) -
         let cycle = o
             .cycle_time_s
             .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1}"));
+        let peak = o
+            .peak_force_n
+            .map_or_else(|| "-".to_string(), |p| format!("{p:.1}"));
         out.push_str(&format!(
-            "{:<16} {:>12.1} {:>12.1} {:>14} {:>13} {:>10} {:>11} {:>12} {:>13}\n",
-            "oracle", o.rms_error_cut_n, o.peak_force_n, "-", cycle, "-", "1.00", "1.00", "1.00"
+            "{:<16} {:>12.1} {:>12} {:>14} {:>13} {:>10} {:>11} {:>12} {:>13}\n",
+            "oracle", o.rms_error_cut_n, peak, "-", cycle, "-", "1.00", "1.00", "1.00"
         ));
     }
     out
