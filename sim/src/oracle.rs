@@ -276,8 +276,8 @@ impl<'a> Search<'a> {
             let c = cross.unwrap_or(0);
             let mut best = (f64::INFINITY, n - 1);
             let consider = |i: usize,
-                                trials: &mut Vec<Option<Trial>>,
-                                best: &mut (f64, usize)|
+                            trials: &mut Vec<Option<Trial>>,
+                            best: &mut (f64, usize)|
              -> Result<f64, OracleError> {
                 eval(i, trials)?;
                 let Some(t) = trials[i].as_ref() else {
@@ -385,8 +385,7 @@ fn rms_figure(
         let lambda = rms.rms_error_cut_n.powi(2);
         let next = summary(&s.rms_run(Some(lambda))?);
         // A run that stalls (dwells in air before a cut) does not cut the part: not a law.
-        if next.cycle_time_s.is_some()
-            && next.rms_error_cut_n < rms.rms_error_cut_n * (1.0 - 1e-3)
+        if next.cycle_time_s.is_some() && next.rms_error_cut_n < rms.rms_error_cut_n * (1.0 - 1e-3)
         {
             rms = next;
         } else {
@@ -408,7 +407,9 @@ fn safe_and_peak(
     let safe = summary(&safe_run);
     // Peak: the constant safe feed's cycle on the same plant is the time budget.
     let pct = scenario.safe_override_pct();
-    let constant = s.run("constant-safe", usize::MAX, |m, _| Ok((s.trial(m, pct)?, 0)))?;
+    let constant = s.run("constant-safe", usize::MAX, |m, _| {
+        Ok((s.trial(m, pct)?, 0))
+    })?;
     let budget = if constant.finished {
         constant.rows.last().map_or(f64::INFINITY, |r| r.t_s)
     } else {
