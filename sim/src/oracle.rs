@@ -15,9 +15,10 @@
 //! - **RMS** ([`Oracle::rms`]): the RMS of `F − Fr` over the rows in cut. Per period the
 //!   override that minimises the period's squared error `(F_k − Fr)²`; then, because the
 //!   metric is a mean over rows and a law that dwells on well-tracked rows dilutes the
-//!   bad ones, two Dinkelbach refinements (Dinkelbach 1967: `min Σe²/N` through
+//!   bad ones, up to three Dinkelbach steps (Dinkelbach 1967: `min Σe²/N` through
 //!   `min Σ(e² − λ)` with `λ` the last ratio): per period the override minimising
-//!   `(e_k² − λ)/Δx_k`, the cost per millimetre of path; the lowest of the three runs.
+//!   `(e_k² − λ)/Δx_k`, the cost per millimetre of path (`e` in N, `Δx` in mm); the
+//!   lowest finished run.
 //! - **cycle** ([`Oracle::safe`]): the shortest cycle time with no row above Fr — the
 //!   fastest safe feed. Per period the largest grid override whose period-mean force stays
 //!   at or below Fr, and from which the grid's lowest override keeps the next period at
@@ -41,8 +42,10 @@
 //! bounds the laws whose peak stays at or below Fr; a law that exceeds Fr can be faster.
 //! What it does not cover: the fault policy (the oracle never trips it), the shop layer's
 //! per-tool limits (one Fr for the run, the summary's), the spindle's speed dynamics (the
-//! machine's constant-speed spindle), and the 1 % grid is searched on its 10 % sub-grid
-//! and then ±9 % around the best (exhaustively on the 10 % grid).
+//! machine's constant-speed spindle). The search assumes the period's force rises with the
+//! override (the crossing of Fr is found by bisection, warm-started at the last period's
+//! choice); below the crossing a Dinkelbach step tries every position on the 10 % grid, and
+//! on the 1 % grid the ten below the crossing and every tenth below them.
 
 use acc_runtime::RunRecord;
 
