@@ -130,12 +130,16 @@ pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
     println!(
         "oracle: a grid law that knows the engagement ahead, on the noise-free plant (docs/sim.md); \
          rms: lowest force RMS error while cutting (its run: cycle {}); peak: lowest peak of a \
-         law no slower than constant-safe ({:.1} s); cycle: fastest with no period above Fr \
+         law no slower than constant-safe ({}); cycle: fastest with no period above Fr \
          (peak {:.1} N)",
         orc.rms
             .cycle_time_s
             .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1} s")),
-        orc.peak_budget_s,
+        if orc.peak_budget_s.is_finite() {
+            format!("{:.1} s", orc.peak_budget_s)
+        } else {
+            "unfinished".to_string()
+        },
         orc.safe.peak_force_n
     );
     let q = quantizer_runs(&sc)?;
