@@ -460,4 +460,8 @@ impl EngagementSource for ProgramPath {
     fn path_length_mm(&self) -> Option<f64> {
         Some(self.length_mm)
     }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(self.clone()))
+    }
 }

@@ -109,36 +109,56 @@ fn cmd(r: &RunRecord) -> u16 {
         .unwrap_or_default()
 }
 
-/// Attribute each row to a segment: a segment begins when the front of the cutter's contact
+/// Which segment a row belongs to: a segment begins when the front of the cutter's contact
 /// arc reaches it (centre + `√(d·(D − d))` with `d` the larger of the two depths at the
 /// boundary, capped at the radius), because that is where the force starts to change.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Attribution {
+    /// Segment starts along the path, mm.
+    starts_mm: Vec<f64>,
+    /// Reach of the contact arc ahead of the centre at each segment's start, mm.
+    reach_mm: Vec<f64>,
+}
+
+impl Attribution {
+    /// The attribution for `workpiece` cut by a tool of `diameter_mm`.
+    pub fn new(workpiece: &Workpiece, diameter_mm: f64) -> Self {
+        let r = 0.5 * diameter_mm;
+        let reach_mm = workpiece
+            .segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let prev = if i == 0 {
+                    0.0
+                } else {
+                    workpiece.segments[i - 1].depth_end_mm
+                };
+                let d = prev.max(s.depth_start_mm).min(r);
+                (d * (diameter_mm - d)).max(0.0).sqrt()
+            })
+            .collect();
+        Attribution {
+            starts_mm: workpiece.segments.iter().map(|s| s.start_mm).collect(),
+            reach_mm,
+        }
+    }
+
+    /// The segment of a row whose tool centre is at `x_mm`.
+    pub fn segment(&self, x_mm: f64) -> usize {
+        (0..self.starts_mm.len())
+            .rev()
+            .find(|&i| x_mm + self.reach_mm[i] >= self.starts_mm[i])
+            .unwrap_or(0)
+    }
+}
+
+/// Attribute each row to a segment ([`Attribution`], at the row's true tool position, else
+/// its logged one).
 pub fn attribute_rows(rows: &[RunRecord], workpiece: &Workpiece, diameter_mm: f64) -> Vec<usize> {
-    let r = 0.5 * diameter_mm;
-    let reach: Vec<f64> = workpiece
-        .segments
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let prev = if i == 0 {
-                0.0
-            } else {
-                workpiece.segments[i - 1].depth_end_mm
-            };
-            let d = prev.max(s.depth_start_mm).min(r);
-            (d * (diameter_mm - d)).max(0.0).sqrt()
-        })
-        .collect();
+    let a = Attribution::new(workpiece, diameter_mm);
     rows.iter()
-        .map(|row| {
-            let x = row.x_true_mm.or(row.x_mm).unwrap_or(0.0);
-            workpiece
-                .segments
-                .iter()
-                .enumerate()
-                .rev()
-                .find(|(i, s)| x + reach[*i] >= s.start_mm)
-                .map_or(0, |(i, _)| i)
-        })
+        .map(|row| a.segment(row.x_true_mm.or(row.x_mm).unwrap_or(0.0)))
         .collect()
 }
 
@@ -320,12 +340,52 @@ impl fmt::Display for Summary {
     }
 }
 
-/// Print the `acc compare` table: one row per law.
-pub fn comparison_table(summaries: &[Summary]) -> String {
+/// The figures of the `acc compare` oracle row (see [`crate::oracle`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OracleFigures {
+    /// Lowest force RMS error while cutting, N.
+    pub rms_error_cut_n: f64,
+    /// Lowest peak force of a law no slower than the constant safe feed, N (`None`: the
+    /// constant safe feed does not finish within the time limit).
+    pub peak_force_n: Option<f64>,
+    /// Shortest cycle time with no row above Fr, s (`None`: the fastest safe feed does not
+    /// finish within the scenario's time limit).
+    pub cycle_time_s: Option<f64>,
+}
+
+impl From<&crate::oracle::Oracle> for OracleFigures {
+    fn from(o: &crate::oracle::Oracle) -> Self {
+        OracleFigures {
+            rms_error_cut_n: o.rms.rms_error_cut_n,
+            peak_force_n: o.peak_n,
+            cycle_time_s: o.safe.cycle_time_s,
+        }
+    }
+}
+
+/// `value / oracle` with two decimals, `-` where it means nothing (no oracle, a zero
+/// oracle figure, or no value).
+fn ratio(value: Option<f64>, oracle: Option<f64>) -> String {
+    match (value, oracle) {
+        (Some(v), Some(o)) if o > 0.0 && v.is_finite() => format!("{:.2}", v / o),
+        _ => "-".to_string(),
+    }
+}
+
+/// Print the `acc compare` table: one row per law, and with `oracle` its row last and
+/// every law's ratio to it (`rms/oracle`, `peak/oracle`, `cycle/oracle`).
+pub fn comparison_table(summaries: &[Summary], oracle: Option<&OracleFigures>) -> String {
     let mut out = format!(
-        "{:<16} {:>12} {:>12} {:>14} {:>13} {:>10}\n",
+        "{:<16} {:>12} {:>12} {:>14} {:>13} {:>10}",
         "law", "rms_err_N", "peak_F_N", "t>1.1Fr_s", "cycle_s", "switches"
     );
+    if oracle.is_some() {
+        out.push_str(&format!(
+            " {:>11} {:>12} {:>13}",
+            "rms/oracle", "peak/oracle", "cycle/oracle"
+        ));
+    }
+    out.push('\n');
     for s in summaries {
         let cycle = s.cycle_time_s.map_or_else(
             || match s.feed_hold_at_s {
@@ -335,8 +395,29 @@ pub fn comparison_table(summaries: &[Summary]) -> String {
             |c| format!("{c:.1}"),
         );
         out.push_str(&format!(
-            "{:<16} {:>12.1} {:>12.1} {:>14.1} {:>13} {:>10}\n",
+            "{:<16} {:>12.1} {:>12.1} {:>14.1} {:>13} {:>10}",
             s.law, s.rms_error_cut_n, s.peak_force_n, s.time_above_s, cycle, s.override_switches
+        ));
+        if let Some(o) = oracle {
+            out.push_str(&format!(
+                " {:>11} {:>12} {:>13}",
+                ratio(Some(s.rms_error_cut_n), Some(o.rms_error_cut_n)),
+                ratio(Some(s.peak_force_n), o.peak_force_n),
+                ratio(s.cycle_time_s, o.cycle_time_s)
+            ));
+        }
+        out.push('\n');
+    }
+    if let Some(o) = oracle {
+        let cycle = o
+            .cycle_time_s
+            .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1}"));
+        let peak = o
+            .peak_force_n
+            .map_or_else(|| "-".to_string(), |p| format!("{p:.1}"));
+        out.push_str(&format!(
+            "{:<16} {:>12.1} {:>12} {:>14} {:>13} {:>10} {:>11} {:>12} {:>13}\n",
+            "oracle", o.rms_error_cut_n, peak, "-", cycle, "-", "1.00", "1.00", "1.00"
         ));
     }
     out

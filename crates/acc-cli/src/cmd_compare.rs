@@ -1,12 +1,15 @@
 //! `acc compare <scenario>`: run every baseline and our controller on the same scenario and
 //! seed; print one table (force RMS error while cutting, peak force, time above 1.1·Fr,
-//! cycle time, override switches) and draw an overlay plot of force and override.
+//! cycle time, override switches), the oracle row (`acc_sim::oracle`: the lower bound of
+//! a grid law with foresight) with every law's ratio to it, and draw an overlay plot of
+//! force and override.
 
 use std::path::{Path, PathBuf};
 
 use acc_core::Quantizer;
 use acc_plot::{time_series, Figure, HLine, Panel, Series, Shade, Written};
-use acc_sim::summary::comparison_table;
+use acc_sim::oracle::oracle;
+use acc_sim::summary::{comparison_table, OracleFigures};
 use acc_sim::{LawKind, RunResult, Scenario, Summary};
 use anyhow::Context as _;
 
@@ -116,7 +119,29 @@ pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
         sc.safe_override_pct()
     );
     let summaries: Vec<Summary> = results.iter().map(|(_, s)| s.clone()).collect();
-    print!("{}", comparison_table(&summaries));
+    let fr = summaries
+        .first()
+        .map_or(sc.controller.force_ref_n, |s| s.force_ref_n);
+    let orc = oracle(&sc, fr)?;
+    print!(
+        "{}",
+        comparison_table(&summaries, Some(&OracleFigures::from(&orc)))
+    );
+    println!(
+        "oracle: a grid law that knows the engagement ahead, on the noise-free plant (docs/sim.md); \
+         rms: lowest force RMS error while cutting (its run: cycle {}); peak: lowest peak of a \
+         law no slower than constant-safe ({}); cycle: fastest with no period above Fr \
+         (peak {:.1} N)",
+        orc.rms
+            .cycle_time_s
+            .map_or_else(|| "unfinished".to_string(), |c| format!("{c:.1} s")),
+        if orc.peak_budget_s.is_finite() {
+            format!("{:.1} s", orc.peak_budget_s)
+        } else {
+            "unfinished".to_string()
+        },
+        orc.safe.peak_force_n
+    );
     let q = quantizer_runs(&sc)?;
     println!(
         "quantizer (ours, the preset's gains, board step {} %):",
@@ -219,8 +244,12 @@ mod tests {
                 "ours:adaptive-pi"
             ]
         );
-        let table = comparison_table(&results.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>());
-        assert_eq!(table.lines().count(), 7);
+        let summaries: Vec<Summary> = results.iter().map(|(_, s)| s.clone()).collect();
+        let orc = oracle(&sc, summaries[0].force_ref_n).expect("oracle");
+        let table = comparison_table(&summaries, Some(&OracleFigures::from(&orc)));
+        assert_eq!(table.lines().count(), 8);
+        assert!(table.lines().last().expect("row").starts_with("oracle"));
+        assert!(table.lines().next().expect("header").contains("rms/oracle"));
         let dir = std::env::temp_dir().join(format!("acc-compare-cmd-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let w = plot_overlay(&sc, &results, &dir.join("compare.svg")).expect("plot");

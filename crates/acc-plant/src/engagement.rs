@@ -100,12 +100,22 @@ pub trait EngagementSource: std::fmt::Debug + Send {
     fn path_length_mm(&self) -> Option<f64> {
         None
     }
+
+    /// A copy of this source in its current state, if it can be copied (the oracle of
+    /// `acc compare` runs copies of the plant ahead of the run; default: `None`).
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        None
+    }
 }
 
 impl EngagementSource for Workpiece {
     /// [`Workpiece::engagement`] of the tool's radius, at the workpiece's axial depth.
     fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement {
         self.engagement(x_mm, tool.radius_mm())
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(self.clone()))
     }
 }
 
@@ -116,6 +126,10 @@ pub struct Held(pub Engagement);
 impl EngagementSource for Held {
     fn engagement_at(&mut self, _tool: &ToolGeometry, _x_mm: f64) -> Engagement {
         self.0
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(*self))
     }
 }
 
@@ -200,6 +214,10 @@ impl EngagementProfile {
 impl EngagementSource for EngagementProfile {
     fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
         self.at(x_mm)
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(self.clone()))
     }
 }
 

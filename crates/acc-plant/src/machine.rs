@@ -32,6 +32,11 @@ pub trait SpindleModel: Send {
     fn input_power_w(&self) -> f64;
     /// Current speed, rpm.
     fn speed_rpm(&self) -> f64;
+    /// A copy of this spindle in its current state, if it can be copied (the oracle of
+    /// `acc compare` runs copies of the plant ahead of the run; default: `None`).
+    fn boxed_clone(&self) -> Option<Box<dyn SpindleModel>> {
+        None
+    }
 }
 
 /// A stiff speed-controlled spindle: constant speed, input power
@@ -71,6 +76,10 @@ impl SpindleModel for ConstantSpeedSpindle {
 
     fn speed_rpm(&self) -> f64 {
         self.spec.rpm
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn SpindleModel>> {
+        Some(Box::new(self.clone()))
     }
 }
 
@@ -258,6 +267,46 @@ impl Machine {
             samples: Vec::new(),
             force_memo: ForceMemo::default(),
         }
+    }
+
+    /// A copy of the machine in its current state (clock, position, feed drive, override
+    /// delay line, wear, spindle, engagement source), to run ahead of the real one: the
+    /// oracle of `acc compare` tries every grid override on copies. `None` if the spindle
+    /// model or the engagement source cannot be copied (their `boxed_clone` is `None`).
+    pub fn try_clone(&self) -> Option<Machine> {
+        Some(Machine {
+            law: self.law,
+            wear: self.wear,
+            tooth: self.tooth.clone(),
+            runout: self.runout,
+            spindle_angle_rad: self.spindle_angle_rad,
+            workpiece: self.workpiece.clone(),
+            radius_mm: self.radius_mm,
+            tau_s: self.tau_s,
+            tau2_s: self.tau2_s,
+            feed_inner_mm_min: self.feed_inner_mm_min,
+            programmed_feed_mm_min: self.programmed_feed_mm_min,
+            rate_hz: self.rate_hz,
+            spindle: self.spindle.boxed_clone()?,
+            power_lowpass: self.power_lowpass,
+            power_reported_w: self.power_reported_w,
+            delay_line: self.delay_line.clone(),
+            delay_steps: self.delay_steps,
+            override_input_pct: self.override_input_pct,
+            feed_hold: self.feed_hold,
+            hardness_factor: self.hardness_factor,
+            breakage: self.breakage,
+            engagement: self.engagement.boxed_clone()?,
+            tool: self.tool,
+            t_s: self.t_s,
+            x_mm: self.x_mm,
+            feed_mm_min: self.feed_mm_min,
+            theta_rad: self.theta_rad,
+            volume_mm3: self.volume_mm3,
+            depth_mm: self.depth_mm,
+            samples: Vec::with_capacity(self.samples.capacity()),
+            force_memo: self.force_memo,
+        })
     }
 
     /// Replace the spindle model (e.g. an induction motor).

@@ -264,13 +264,9 @@ impl Scenario {
         self.controller.override_spec
     }
 
-    /// A fresh simulated board (protocol v2) with the machine behind it.
-    pub fn build_board(&self) -> SimBoard {
-        self.build_board_with(acc_pmc::emu::EmulatedProtocol::V2)
-    }
-
-    /// A fresh simulated board speaking `protocol` with the machine behind it.
-    pub fn build_board_with(&self, protocol: acc_pmc::emu::EmulatedProtocol) -> SimBoard {
+    /// The fresh simulated machine behind this scenario's board: machine, tool, wear,
+    /// workpiece, force model, programmed feed and the `[breakage]` event.
+    pub fn build_machine(&self) -> Machine {
         let mut machine = Machine::new(
             &self.machine,
             &self.tool,
@@ -282,6 +278,17 @@ impl Scenario {
         if let Some(b) = self.breakage {
             machine.set_breakage(b.at_s, b.force_factor);
         }
+        machine
+    }
+
+    /// A fresh simulated board (protocol v2) with the machine behind it.
+    pub fn build_board(&self) -> SimBoard {
+        self.build_board_with(acc_pmc::emu::EmulatedProtocol::V2)
+    }
+
+    /// A fresh simulated board speaking `protocol` with the machine behind it.
+    pub fn build_board_with(&self, protocol: acc_pmc::emu::EmulatedProtocol) -> SimBoard {
+        let machine = self.build_machine();
         let mut board =
             SimBoard::with_protocol(machine, self.machine.override_path.step_pct, protocol);
         board.set_nc_context(self.nc);
