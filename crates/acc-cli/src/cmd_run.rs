@@ -59,6 +59,9 @@ pub struct RunArgs {
     /// Telemetry (`--shdr`, `--mqtt`; over the config's `[telemetry]`).
     #[command(flatten)]
     pub telemetry: crate::telemetry::TelemetryArgs,
+    /// The fleet store (`--fleet`, `--machine`).
+    #[command(flatten)]
+    pub fleet: crate::fleet_cli::FleetArgs,
 }
 
 /// One-line description of a status block.
@@ -237,11 +240,18 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     )
     .with_context(|| "the tool history (--history or [watch] history)".to_string())
     .exit_as(RunExit::Usage)?;
+    // The fleet store likewise (its cuts from a copy of the same watch).
+    let fleet = args
+        .fleet
+        .open(crate::fleet_cli::now_us())
+        .exit_as(RunExit::Usage)?
+        .map(|f| f.feed(watch.clone()));
     let sinks = RunSinks {
         log: writer,
         history,
         watch,
         history_writer,
+        fleet,
     };
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
@@ -315,6 +325,7 @@ struct RunSinks {
     history: PathBuf,
     watch: acc_runtime::history::Watch,
     history_writer: acc_runtime::history::HistoryWriter,
+    fleet: Option<acc_fleet::sink::MachineFeed>,
 }
 
 /// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
@@ -390,10 +401,14 @@ fn drive<P: Board + Send>(
         history,
         watch,
         history_writer,
+        fleet,
     } = sinks;
     let mut sink = WatchSink {
         inner: acc_runtime::TapSink {
-            inner: RunLogSink::new(writer),
+            inner: acc_fleet::FleetSink {
+                inner: RunLogSink::new(writer),
+                feed: fleet,
+            },
             tap: tel.tap.clone(),
         },
         watch,
@@ -446,6 +461,17 @@ fn drive<P: Board + Send>(
     )
     .exit_as(RunExit::Internal)?;
     // The run log and the tap (the watch's summary and history writer are used below).
+    if let Some(f) = &sink.inner.inner.feed {
+        let c = f.store.committed();
+        println!(
+            "fleet store: {} periods, {} cuts of machine {} in {} files under {}",
+            c.periods,
+            c.cuts,
+            f.machine,
+            c.files,
+            f.store.root().display()
+        );
+    }
     drop(sink.inner);
     tel.finish();
 

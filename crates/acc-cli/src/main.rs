@@ -3,10 +3,12 @@
 use clap::{Parser, Subcommand};
 
 mod cmd_board_sim;
+mod cmd_collect;
 mod cmd_compare;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
+mod cmd_history;
 mod cmd_nc;
 mod cmd_report;
 mod cmd_run;
@@ -17,6 +19,7 @@ mod cmd_stability;
 mod cmd_what_if;
 mod configs;
 mod exit;
+mod fleet_cli;
 mod harness;
 mod telemetry;
 mod watch_cli;
@@ -80,6 +83,12 @@ enum Command {
     /// N, kind, end point, feed, length, tool) and a summary (blocks, feed and rapid length,
     /// time at programmed feed). Errors name file:line:column, the word and what is allowed.
     Nc(cmd_nc::NcArgs),
+    /// The fleet store (`--fleet` of `acc sim` / `acc run`, `acc collect`): `acc history
+    /// query DIR "SQL"` runs SQL over its tables `period` and `cut` (embedded DataFusion).
+    History(cmd_history::HistoryArgs),
+    /// Write the fleet store from MQTT: subscribes to `PREFIX/+/period` and `PREFIX/+/cut`
+    /// (`+` = machine id) and commits them as the same Parquet partitions as `--fleet`.
+    Collect(cmd_collect::CollectArgs),
 }
 
 /// Exit code for a failed command other than `acc run` (bad config, bad file, ...).
@@ -154,5 +163,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Soak(args) => cmd_soak::run_cmd(&args),
         Command::Report(args) => cmd_report::run(&args),
         Command::Nc(args) => cmd_nc::run(&args),
+        Command::History(args) => cmd_history::run(&args),
+        Command::Collect(args) => cmd_collect::run(&args),
     }
 }

@@ -1,5 +1,5 @@
 //! MQTT publisher (rumqttc): the data items of every period as one JSON message on
-//! `<prefix>/period`, the per-cut records on `<prefix>/cut`, and `online` / `offline`
+//! `<prefix>/period`, the per-cut records on `<prefix>/cut` (always QoS 1), and `online` / `offline`
 //! (retained; `offline` is also the broker-sent last will) on `<prefix>/status`.
 //!
 //! Threads: the publisher reads a [`Subscriber`] of the runtime's tap and hands each message
@@ -39,6 +39,13 @@ fn qos(c: &MqttConfig) -> QoS {
     }
 }
 
+/// Now, µs since the Unix epoch.
+fn now_us() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_micros()).unwrap_or(i64::MAX))
+}
+
 /// One alarm in a period message.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct AlarmJson {
@@ -54,6 +61,9 @@ pub struct AlarmJson {
 /// names; `null` when unknown.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct PeriodJson {
+    /// Wall-clock start of the run, µs since the Unix epoch (the publisher's start; 0 when
+    /// not set). With `t_s` it dates the period (`acc collect`).
+    pub run_start_us: i64,
     /// Period index.
     pub period: u64,
     /// Machine time of the period, s since the run began.
@@ -64,12 +74,16 @@ pub struct PeriodJson {
     pub execution: &'static str,
     /// ACC policy state (`active`, `idle`, latched reason).
     pub acc_state: String,
+    /// The run log's `flags` (`;`-separated: `skipped`, `late`, `link:…`, …).
+    pub flags: String,
     /// Override in force on the PMC, %.
     pub override_applied_pct: Option<u16>,
     /// Override ACC commanded, %.
     pub override_cmd_pct: Option<u16>,
     /// Operator's knob, %.
     pub override_operator_pct: Option<u16>,
+    /// Programmed feed of the active block, mm/min.
+    pub programmed_feed_mm_min: Option<f64>,
     /// Actual path feed, mm/min.
     pub feed_mm_min: Option<f64>,
     /// Spindle speed, rpm.
@@ -78,6 +92,8 @@ pub struct PeriodJson {
     pub spindle_power_w: Option<f64>,
     /// Estimated cutting force, N.
     pub force_n: Option<f64>,
+    /// The fault policy used the force sample as valid.
+    pub force_valid: bool,
     /// Force reference Fr, N.
     pub force_ref_n: Option<f64>,
     /// Estimated process gain Kc_hat, N/(mm/min).
@@ -111,6 +127,7 @@ impl PeriodJson {
             .collect();
         let fin = |v: Option<f64>| v.filter(|x| x.is_finite());
         Self {
+            run_start_us: 0,
             period: r.period,
             t_s: r.t_s,
             availability: if available(r) {
@@ -120,13 +137,16 @@ impl PeriodJson {
             },
             execution: execution(r),
             acc_state: r.state.clone(),
+            flags: r.flags.clone(),
             override_applied_pct: r.override_applied_pct,
             override_cmd_pct: r.override_cmd_pct,
             override_operator_pct: r.override_operator_pct,
+            programmed_feed_mm_min: fin(r.programmed_feed_mm_min),
             feed_mm_min: fin(r.feed_mm_min),
             spindle_rpm: fin(r.spindle_rpm),
             spindle_power_w: fin(r.power_w),
             force_n: fin(r.force_n),
+            force_valid: r.force_valid,
             force_ref_n: fin(r.force_ref_n),
             kc_hat: fin(r.kc_hat),
             tool: r.tool,
@@ -144,6 +164,8 @@ impl PeriodJson {
 /// one from elsewhere.
 #[derive(Debug, Clone, Serialize, PartialEq, Default)]
 pub struct CutJson {
+    /// Wall-clock start of the run, µs since the Unix epoch (as in the period messages).
+    pub run_start_us: i64,
     /// Tool number.
     pub tool: Option<u16>,
     /// Program number.
@@ -187,6 +209,7 @@ impl CutJson {
             .collect();
         alarms.extend(c.watch_alarms.iter().cloned());
         CutJson {
+            run_start_us: 0,
             tool: known(c.tool),
             program: known(c.program),
             block_first: known(c.block_first),
@@ -260,6 +283,7 @@ pub struct MqttStats {
 /// A running MQTT publisher; [`MqttPublisher::stop`] publishes `offline` and disconnects.
 pub struct MqttPublisher {
     cfg: MqttConfig,
+    run_start_us: i64,
     client: Option<Client>,
     stats: Arc<MqttStats>,
     stop: Arc<AtomicBool>,
@@ -290,6 +314,7 @@ impl MqttPublisher {
         let (client, mut connection) = Client::new(opts, REQUEST_QUEUE);
         let stats = Arc::new(MqttStats::default());
         let stop = Arc::new(AtomicBool::new(false));
+        let run_start_us = now_us();
         let mut threads = Vec::new();
         {
             let (stats, stop) = (stats.clone(), stop.clone());
@@ -341,10 +366,21 @@ impl MqttPublisher {
                         // same `CutRecorder` as `acc report` and the tool history).
                         let mut cuts = CutFeed::default();
                         let publish_cut = |c: &acc_runtime::cuts::CutRecord| {
-                            let Ok(body) = serde_json::to_vec(&CutJson::of(c)) else {
+                            let json = CutJson {
+                                run_start_us,
+                                ..CutJson::of(c)
+                            };
+                            let Ok(body) = serde_json::to_vec(&json) else {
                                 return;
                             };
-                            match client.try_publish(cut_topic.clone(), qos(&cfg), false, body) {
+                            // Cuts at QoS 1 whatever `qos`: rumqttc resends an unacknowledged
+                            // one after a reconnection.
+                            match client.try_publish(
+                                cut_topic.clone(),
+                                QoS::AtLeastOnce,
+                                false,
+                                body,
+                            ) {
                                 Ok(()) => stats.queued.fetch_add(1, Ordering::Relaxed),
                                 Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
                             };
@@ -362,7 +398,11 @@ impl MqttPublisher {
                                     if let Some(c) = cuts.push(&r) {
                                         publish_cut(&c);
                                     }
-                                    let Ok(body) = serde_json::to_vec(&PeriodJson::of(&r)) else {
+                                    let json = PeriodJson {
+                                        run_start_us,
+                                        ..PeriodJson::of(&r)
+                                    };
+                                    let Ok(body) = serde_json::to_vec(&json) else {
                                         continue;
                                     };
                                     match client.try_publish(topic.clone(), qos(&cfg), false, body)
@@ -396,6 +436,7 @@ impl MqttPublisher {
         tracing::info!(host = %cfg.host, port = cfg.port, prefix = %cfg.prefix, "MQTT publisher started");
         Ok(Self {
             cfg,
+            run_start_us,
             client: Some(client),
             stats,
             stop,
@@ -405,11 +446,15 @@ impl MqttPublisher {
 
     /// Publish one per-cut record on `<prefix>/cut` (never waits: a full queue drops).
     pub fn publish_cut(&self, cut: &CutJson) -> bool {
-        let Ok(body) = serde_json::to_vec(cut) else {
+        let json = CutJson {
+            run_start_us: self.run_start_us,
+            ..cut.clone()
+        };
+        let Ok(body) = serde_json::to_vec(&json) else {
             return false;
         };
         let ok = self.client.as_ref().is_some_and(|c| {
-            c.try_publish(self.cfg.topic("cut"), qos(&self.cfg), false, body)
+            c.try_publish(self.cfg.topic("cut"), QoS::AtLeastOnce, false, body)
                 .is_ok()
         });
         let c = if ok {
