@@ -318,7 +318,7 @@ fn power_in_kilowatts_is_flagged() {
 #[test]
 fn the_replayed_estimator_is_the_one_in_the_loop() {
     // The force estimator the twin replays (acc_ident::model::ForceEstimator) gives the
-    // force acc_spindle's estimator gives for the same power, speed and no-load.
+    // force acc_core::spindle_force's estimator gives for the same power, speed and no-load.
     let sc = scenario("steps_2_3_4.toml");
     let acc_sim::scenario::MeasurementSpec::SpindlePower(spec) = sc.measurement else {
         panic!("paper_case3 measures spindle power");

@@ -14,6 +14,7 @@ use crate::echo::{DelayReading, LoopDelay};
 use crate::guard::{Expected, Guarded, LineGuard};
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
+use crate::runner::execute_writes;
 use crate::shop::{ShopControl, ShopState, ShopStep, ToolChange};
 
 /// The largest `SAMPLE_SEQ` advance logged as `seq_skip:<n>` (ten seconds of samples at
@@ -219,23 +220,6 @@ pub fn saturation_name(s: Saturation) -> &'static str {
     }
 }
 
-/// Perform a write plan on a board.
-pub fn execute_writes<P: Board>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
-    let mut r = WriteResult::default();
-    if let Some((cmd, hb)) = plan.override_and_heartbeat {
-        if let Err(e) = pmc.write_override(cmd, hb) {
-            r.override_error = Some(e.kind());
-        }
-    }
-    if let Some(c) = plan.control {
-        match pmc.write_control(c) {
-            Ok(()) => r.control_written = Some(c),
-            Err(e) => r.control_error = Some(e.kind()),
-        }
-    }
-    r
-}
-
 /// The loop's state between periods: the policy, the law, the force source, the heartbeat
 /// counter and what the board was last given.
 #[derive(Debug)]
@@ -439,6 +423,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             delay,
             log_stalled: self.log_stalled,
         };
+        let mut shop = None;
         if let Some(sh) = self.shop.as_mut() {
             let decision = sh.before(
                 link.as_ref().ok(),
@@ -450,12 +435,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             if let Some(change) = decision.tool_change {
                 self.apply_tool_change(change);
             }
+            shop = decision.step;
         }
         let out = self.policy.step(&input, &mut self.law);
-        let shop = self.shop.as_mut().and_then(|sh| {
-            sh.after(out.write_override.map(|o| o.0));
-            sh.last()
-        });
         let mut plan = WritePlan::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
