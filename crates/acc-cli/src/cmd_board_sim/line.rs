@@ -193,16 +193,18 @@ mod tests {
         let writer = {
             let pace = Arc::clone(&pace);
             std::thread::spawn(move || {
-                let start = std::time::Instant::now();
+                let wall = SystemClock::new();
+                let start = wall.now();
                 pace.command_answered();
-                start.elapsed()
+                wall.now() - start
             })
         };
         assert!(
             pace.next_command(Duration::from_secs(1)),
             "the write arrived"
         );
-        std::thread::sleep(Duration::from_millis(100));
+        let wall = SystemClock::new();
+        wall.sleep_until(wall.now() + Duration::from_millis(100));
         pace.take_all();
         let waited = writer.join().expect("writer");
         assert!(
@@ -216,8 +218,9 @@ mod tests {
     fn a_closed_pace_releases_the_writer() {
         let pace = CommandPace::default();
         pace.close();
-        let start = std::time::Instant::now();
+        let wall = SystemClock::new();
+        let start = wall.now();
         pace.command_answered();
-        assert!(start.elapsed() < Duration::from_millis(500));
+        assert!(wall.now() - start < Duration::from_millis(500));
     }
 }
