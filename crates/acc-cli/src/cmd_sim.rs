@@ -110,6 +110,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         sc.use_model(model)?;
     }
     let program = crate::cmd_sim_program::load(&args.program, &sc)?;
+    let lookahead = crate::cmd_sim_program::lookahead(&args.program, &sc)?;
     if let Some(p) = &program {
         sc = p.scenario_for(&sc);
     }
@@ -159,6 +160,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         } else {
             time_scale.map_or(acc_sim::run::Pace::Stepped, acc_sim::run::Pace::Wall)
         },
+        lookahead,
     };
     let (result, _) = acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)?;
     tel.finish_lingering(args.live_keep);

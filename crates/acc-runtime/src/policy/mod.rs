@@ -178,6 +178,11 @@ impl FaultPolicy {
         self.shop_limits = limits;
     }
 
+    /// The command limits in force for the next [`FaultPolicy::step`].
+    pub fn command_limits(&self) -> CommandLimits {
+        self.shop_limits
+    }
+
     /// This policy with wear and breakage limits `limits` (default [`WatchLimits::default`]).
     pub fn with_watch_limits(mut self, limits: WatchLimits) -> Self {
         self.breakage.detector.set_limits(limits);
