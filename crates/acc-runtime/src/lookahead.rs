@@ -335,24 +335,7 @@ mod tests {
     use super::*;
 
     fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
-        PlanRow {
-            block,
-            tool: 1,
-            start_mm: a,
-            end_mm: b,
-            x_mm: 0.0,
-            y_mm: 0.0,
-            z_mm: 0.0,
-            rapid: false,
-            feed_mm_min: 600.0,
-            radial_mm: 0.0,
-            axial_mm: 5.0,
-            force_100_n: f100,
-            force_min_100_n: f100,
-            override_pct: ov,
-            force_planned_n: f100 * f64::from(ov) / 100.0,
-            feed_exponent: 1.0,
-        }
+        crate::plan::test_row(block, a, b, 600.0, f100, ov)
     }
 
     fn status(block: u16, feed: u16) -> BoardStatus {

@@ -120,11 +120,12 @@ pub const PLAN_COLUMNS: [&str; 16] = [
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     /// The file cannot be read.
-    #[error("{file}: cannot read the plan: {source}")]
+    #[error("{file}: cannot read the plan")]
     Io {
         /// The plan file.
         file: PathBuf,
         /// The I/O error.
+        #[source]
         source: std::io::Error,
     },
     /// A line of the file is wrong.
@@ -327,29 +328,36 @@ impl Plan {
     }
 }
 
+/// A plan row for tests: block `block` from `a` to `b` mm at `feed` mm/min, force `f100` N
+/// at 100 % (its smallest too), planned override `ov` %.
+#[cfg(test)]
+pub(crate) fn test_row(block: u32, a: f64, b: f64, feed: f64, f100: f64, ov: u16) -> PlanRow {
+    PlanRow {
+        block,
+        tool: 1,
+        start_mm: a,
+        end_mm: b,
+        x_mm: 0.0,
+        y_mm: 0.0,
+        z_mm: 0.0,
+        rapid: false,
+        feed_mm_min: feed,
+        radial_mm: 1.0,
+        axial_mm: 5.0,
+        force_100_n: f100,
+        force_min_100_n: f100,
+        override_pct: ov,
+        force_planned_n: f100 * f64::from(ov) / 100.0,
+        feed_exponent: 1.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
-        PlanRow {
-            block,
-            tool: 1,
-            start_mm: a,
-            end_mm: b,
-            x_mm: 0.0,
-            y_mm: 0.0,
-            z_mm: 0.0,
-            rapid: false,
-            feed_mm_min: 200.0,
-            radial_mm: 1.0,
-            axial_mm: 5.0,
-            force_100_n: f100,
-            force_min_100_n: f100,
-            override_pct: ov,
-            force_planned_n: f100 * f64::from(ov) / 100.0,
-            feed_exponent: 1.0,
-        }
+        test_row(block, a, b, 200.0, f100, ov)
     }
 
     #[test]
