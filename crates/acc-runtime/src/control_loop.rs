@@ -485,6 +485,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
                 limits.cap_pct = Some(limits.cap_pct.map_or(c, |s| s.min(c)));
             }
             self.policy.set_command_limits(limits);
+            self.policy.set_exit_planned(st.exit_planned);
             lookahead = Some(st);
         }
         let out = self.policy.step(&input, &mut self.law);

@@ -91,6 +91,12 @@ pub struct LookAheadStep {
     pub disagreement: Option<Disagreement>,
     /// The board's block is not in the plan (or the board reports none).
     pub lost: bool,
+    /// The plan explains a force drop this period: its force band reaches air (the tool may
+    /// be leaving the material) or the measured force is inside it, and the measured force
+    /// has not been above the plan. The breakage watch does not judge such a period
+    /// ([`crate::FaultPolicy::set_exit_planned`]): a broken tool's force falls below the
+    /// plan's band, a spike rises above it.
+    pub exit_planned: bool,
 }
 
 impl LookAheadStep {
@@ -242,7 +248,7 @@ impl LookAhead {
             return self.last;
         }
         let x = self.x_mm.clamp(0.0, self.plan.length_mm());
-        let disagreement = self.check(force, v, x, dx);
+        let (disagreement, drop_planned) = self.check(force, v, x, dx);
         let cap_pct = if disagreement == Some(Disagreement::Below) {
             None
         } else {
@@ -253,21 +259,32 @@ impl LookAhead {
             position_mm: Some(x),
             disagreement,
             lost: false,
+            exit_planned: drop_planned,
         };
         self.last
     }
 
     /// The disagreement check of the period that ended at `x` (mm), at feed `v` (mm/min),
     /// having moved `dx` (mm).
-    fn check(&mut self, force: &ForceSample, v: f64, x: f64, dx: f64) -> Option<Disagreement> {
-        if !(force.valid && force.force_n.is_finite()) {
-            return None;
-        }
+    /// Also whether the plan explains a force drop this period: its band reaches air (a
+    /// row without force), or the valid measured force is inside the band.
+    fn check(
+        &mut self,
+        force: &ForceSample,
+        v: f64,
+        x: f64,
+        dx: f64,
+    ) -> (Option<Disagreement>, bool) {
         let (a, b) = (
             self.row_at(x - dx - self.unc_mm),
             self.row_at(x + self.unc_mm),
         );
-        let band = self.plan.rows[a..=b]
+        let rows = &self.plan.rows[a..=b];
+        let air = rows.iter().any(|r| !r.cuts());
+        if !(force.valid && force.force_n.is_finite()) {
+            return (None, air);
+        }
+        let band = rows
             .iter()
             .map(|r| (r.force_min_at_feed_n(v), r.force_at_feed_n(v)))
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), f| {
@@ -280,13 +297,14 @@ impl LookAhead {
         self.above = if above { self.above + 1 } else { 0 };
         self.below = if below { self.below + 1 } else { 0 };
         let n = self.cfg.persist_periods.max(1);
-        if self.above >= n {
+        let d = if self.above >= n {
             Some(Disagreement::Above)
         } else if self.below >= n {
             Some(Disagreement::Below)
         } else {
             None
-        }
+        };
+        (d, self.above == 0 && (air || !(above || below)))
     }
 
     /// The lowest planned override of the feed rows from `x − uncertainty` to where the
