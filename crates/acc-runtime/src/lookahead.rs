@@ -409,6 +409,21 @@ mod tests {
     #[test]
     fn disagreement_needs_persistence_and_below_lifts_the_cap() {
         let mut la = lookahead();
+        // Entering from air: a drop here would be the plan's (the band reaches air).
+        assert!(
+            la.step(Some(&status(20, 180)), &force(720.0), 0.1)
+                .exit_planned
+        );
+        // In the cut at the planned force: the plan explains the force.
+        assert!(
+            la.step(Some(&status(20, 180)), &force(720.0), 0.1)
+                .exit_planned
+        );
+        // A collapse to nothing where the plan says metal is not explained (a broken tool).
+        assert!(
+            !la.step(Some(&status(20, 180)), &force(0.0), 0.1)
+                .exit_planned
+        );
         la.step(Some(&status(20, 180)), &force(720.0), 0.1);
         // The plan predicts 720 N at 180 mm/min; 1500 N is above for three periods.
         let d: Vec<_> = (0..3)
@@ -416,6 +431,7 @@ mod tests {
             .collect();
         assert_eq!(d[1].disagreement, None);
         assert_eq!(d[2].disagreement, Some(Disagreement::Above));
+        assert!(d.iter().all(|s| !s.exit_planned));
         assert_eq!(d[2].cap_pct, Some(30));
         // Air where the plan says metal: below, and the cap is lifted.
         let d: Vec<_> = (0..3)
