@@ -46,6 +46,7 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
         prepare: &mut |b| b.set_engagement_source(Some(Box::new(p.clone()))),
         observe: &mut |_| {},
         pace: acc_sim::run::Pace::Stepped,
+        lookahead: None,
     };
     let (run, _) =
         acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup).expect("run");
