@@ -13,27 +13,12 @@ use acc_sim::engagement::ToolGeometry;
 use acc_sim::plan::PlanParams;
 use acc_sim::program::{event_peaks, EventKind, ProgramPath, ProgramSpec, StockSource};
 use acc_sim::{LawKind, RunResult, Scenario};
-use e2e_support::{acc_bin, root};
+use e2e_support::{acc_bin, pocket_program, root};
 
 const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
 
 fn scenario() -> Scenario {
     Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario")
-}
-
-fn pocket(sc: &Scenario, stock_box: &str) -> ProgramPath {
-    let spec = ProgramSpec {
-        program: root().join("tests/nc/pocket_rect.ngc"),
-        stock: StockSource::Box(stock_box.parse().expect("box"), 0.25),
-        tools: None,
-    };
-    ProgramPath::build(
-        &spec,
-        &ToolGeometry::of(&sc.tool),
-        sc.machine.spindle.rpm,
-        sc.machine.feed_drive.rapid_mm_min,
-    )
-    .expect("program")
 }
 
 /// Run `path` with the scenario's own law, with `plan`'s look-ahead if given.
@@ -80,7 +65,7 @@ fn peaks(path: &ProgramPath, run: &RunResult) -> (f64, f64) {
 fn the_plan_brings_every_entry_and_corner_of_the_pocket_to_fr() {
     let sc = scenario();
     let fr = sc.controller.force_ref_n;
-    let path = pocket(&sc, POCKET_BOX);
+    let path = pocket_program(&sc, POCKET_BOX);
     let plan = path.plan(&PlanParams::of(&sc));
     let alone = run(&sc, &path, None);
     let ahead = run(&sc, &path, Some(plan));
@@ -107,9 +92,9 @@ fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
     let sc = scenario();
     // Planned on a stock 1 mm lower than the one on the table: where the plan says air at
     // the top there is metal, and every pass cuts deeper than planned.
-    let planned = pocket(&sc, "-20,-20,-10,60,50,-1");
+    let planned = pocket_program(&sc, "-20,-20,-10,60,50,-1");
     let plan = planned.plan(&PlanParams::of(&sc));
-    let path = pocket(&sc, POCKET_BOX);
+    let path = pocket_program(&sc, POCKET_BOX);
     let alone = run(&sc, &path, None);
     let wrong = run(&sc, &path, Some(plan));
     let top = |r: &RunResult| {

@@ -11,31 +11,18 @@ use std::process::Command;
 use acc_sim::engagement::{EngagementSource, ToolGeometry};
 use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
 use acc_sim::{LawKind, Scenario};
-use e2e_support::{acc_bin, read_log, root};
+use e2e_support::{acc_bin, pocket_program, read_log, root};
 
 fn scenario() -> Scenario {
     Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario")
 }
 
-fn pocket(sc: &Scenario) -> ProgramPath {
-    let spec = ProgramSpec {
-        program: root().join("tests/nc/pocket_rect.ngc"),
-        stock: StockSource::Box("-20,-20,-10,60,50,0".parse().expect("box"), 0.25),
-        tools: None,
-    };
-    ProgramPath::build(
-        &spec,
-        &ToolGeometry::of(&sc.tool),
-        sc.machine.spindle.rpm,
-        sc.machine.feed_drive.rapid_mm_min,
-    )
-    .expect("program")
-}
+const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
 
 #[test]
 fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
     let base = scenario();
-    let path = pocket(&base);
+    let path = pocket_program(&base, POCKET_BOX);
     let sc = path.scenario_for(&base);
     let mut law = sc.build_law(LawKind::Ours).expect("law");
     let mut channel = sc.build_channel().expect("channel");
@@ -105,7 +92,7 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
 #[test]
 fn a_program_answers_feed_block_and_tool_along_its_path() {
     let sc = scenario();
-    let path = pocket(&sc);
+    let path = pocket_program(&sc, POCKET_BOX);
     let len = path.path_length_mm().expect("length");
     assert!(len > 700.0, "{len}");
     // The first piece is the rapid to the start: the rapid rate, not overridden.

@@ -26,14 +26,7 @@ fn production_rows(dead_tail: usize) -> (acc_sim::Scenario, Vec<RunRecord>) {
     let mut rows: Vec<RunRecord> = res
         .rows
         .into_iter()
-        .map(|r| RunRecord {
-            x_true_mm: None,
-            radial_depth_mm: None,
-            axial_depth_mm: None,
-            force_true_n: None,
-            feed_true_mm_min: None,
-            ..r
-        })
+        .map(acc_sim::truth::without_truth)
         .collect();
     let tail = board_gone(&rows, dead_tail, "disconnected");
     rows.extend(tail);

@@ -34,14 +34,7 @@ fn main() {
     let rows: Vec<acc_runtime::RunRecord> = res
         .rows
         .into_iter()
-        .map(|r| acc_runtime::RunRecord {
-            x_true_mm: None,
-            radial_depth_mm: None,
-            axial_depth_mm: None,
-            force_true_n: None,
-            feed_true_mm_min: None,
-            ..r
-        })
+        .map(acc_sim::truth::without_truth)
         .collect();
     let model0 = Model::load(&dir.join("models/paper_vmc_production.toml")).expect("model");
     let eng = PathEngagement::load(&wp_path, model0.tool.diameter_mm, 0.0).expect("engagement");
