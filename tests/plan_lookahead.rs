@@ -9,9 +9,8 @@ mod e2e_support;
 use std::process::Command;
 
 use acc_runtime::{LookAhead, LookAheadConfig, Plan};
-use acc_sim::engagement::ToolGeometry;
 use acc_sim::plan::PlanParams;
-use acc_sim::program::{event_peaks, EventKind, ProgramPath, ProgramSpec, StockSource};
+use acc_sim::program::{event_peaks, EventKind, ProgramPath};
 use acc_sim::{LawKind, RunResult, Scenario};
 use e2e_support::{acc_bin, pocket_program, root};
 
