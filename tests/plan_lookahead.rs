@@ -6,13 +6,11 @@
 
 mod e2e_support;
 
-use std::process::Command;
-
 use acc_runtime::{LookAhead, LookAheadConfig, Plan};
 use acc_sim::plan::PlanParams;
 use acc_sim::program::{event_peaks, EventKind, ProgramPath};
 use acc_sim::{LawKind, RunResult, Scenario};
-use e2e_support::{acc_bin, pocket_program, root};
+use e2e_support::{pocket_program, root};
 
 const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
 
@@ -127,15 +125,8 @@ fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
 }
 
 fn acc(args: &[&str]) -> (bool, String) {
-    let out = Command::new(acc_bin())
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("acc");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let (ok, _, err) = e2e_support::acc_output(args);
+    (ok, err)
 }
 
 #[test]

@@ -6,12 +6,11 @@
 mod e2e_support;
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use acc_sim::engagement::{EngagementSource, ToolGeometry};
 use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
 use acc_sim::{LawKind, Scenario};
-use e2e_support::{acc_bin, pocket_program, read_log, root};
+use e2e_support::{acc_output as acc, pocket_program, read_log, root};
 
 fn scenario() -> Scenario {
     Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario")
@@ -165,19 +164,6 @@ fn a_program_that_leaves_the_machines_travel_is_refused_with_its_line() {
         .expect_err("refused")
         .to_string();
     assert!(e.contains("travel.x_mm") && e.contains("m.toml"), "{e}");
-}
-
-fn acc(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(acc_bin())
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("acc");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]

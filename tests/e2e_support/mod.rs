@@ -398,3 +398,17 @@ pub fn pocket_program(sc: &acc_sim::Scenario, stock_box: &str) -> acc_sim::progr
     )
     .expect("program")
 }
+
+/// Run `acc <args>` from the repository root to its end: (exit 0, stdout, stderr).
+pub fn acc_output(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(acc_bin())
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run acc");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
