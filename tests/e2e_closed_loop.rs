@@ -23,7 +23,7 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
     let run_log = dir.path().join("run.csv");
     let scenario = root().join("configs/scenarios/paper_case3.toml");
     let sim_log_s = sim_log.to_string_lossy().to_string();
-    let (mut board, pty) = spawn_board_sim(&["--log", &sim_log_s]);
+    let (mut board, pty) = spawn_board_sim(&["--log", &sim_log_s, "--pace", "controller"]);
     let run = spawn_run("configs/runtime/board_sim_fast.toml", &pty, &run_log);
     assert!(
         board.wait_for("workpiece finished", Duration::from_secs(60)),

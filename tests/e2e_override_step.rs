@@ -69,7 +69,7 @@ fn acc_run_drives_a_one_percent_board_with_sigma_delta() {
     let run_log = dir.path().join("run.csv");
     let (mut board, pty) = spawn_board_sim_on(
         &scenario.to_string_lossy(),
-        &["--log", &sim_log.to_string_lossy()],
+        &["--log", &sim_log.to_string_lossy(), "--pace", "controller"],
     );
     let run = spawn_run(&runtime.to_string_lossy(), &pty, &run_log);
     assert!(

@@ -51,7 +51,7 @@ fn run_until_the_board_dies(dir: &Path, timeout_s: f64) -> (Proc, PathBuf, PathB
     let cfg = config(dir, timeout_s);
     let run_log = dir.join("run.csv");
     let dev = dir.join("board");
-    let (mut board, pty) = spawn_board_sim(&["--fault", "operator@5:100"]);
+    let (mut board, pty) = spawn_board_sim(&["--fault", "operator@5:100", "--pace", "controller"]);
     point(&dev, &pty);
     let run = spawn_run(&cfg.to_string_lossy(), &dev.to_string_lossy(), &run_log);
     assert!(
@@ -72,7 +72,8 @@ fn acc_run_reopens_the_board_device_when_it_comes_back() {
     // A second of wall time (4 s of machine time) without the device, then a new board
     // behind the same name.
     std::thread::sleep(Duration::from_secs(1));
-    let (mut board2, pty2) = spawn_board_sim(&["--fault", "operator@3:100"]);
+    let (mut board2, pty2) =
+        spawn_board_sim(&["--fault", "operator@3:100", "--pace", "controller"]);
     point(&dev, &pty2);
     assert!(
         board2.wait_for("fault Operator(100)", Duration::from_secs(60)),

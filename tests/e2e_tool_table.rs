@@ -37,7 +37,10 @@ fn acc_run_switches_the_force_limit_with_the_boards_tool_number() {
     let dir = tempfile::tempdir().expect("temp dir");
     let config = run_config_with_tools(dir.path());
     let run_log = dir.path().join("run.csv");
-    let (board, pty) = spawn_board_sim_on("configs/scenarios/two_tools.toml", &[]);
+    let (board, pty) = spawn_board_sim_on(
+        "configs/scenarios/two_tools.toml",
+        &["--pace", "controller"],
+    );
     // 15 mm of air at 150 %, then tool 1 to x = 60 mm (about 20 s), then tool 2.
     let run = spawn_run_for(&config.to_string_lossy(), &pty, &run_log, "50", &[]);
     let (code, out, err) = run.finish(Duration::from_secs(60));

@@ -67,7 +67,16 @@ fn production_log() -> &'static Path {
 /// One closed loop at a time, and nothing CPU-heavy of this file beside it ([`machine`]).
 fn closed_loop(scenario: &str, run_config: &str, log: &Path) {
     let _turn = machine();
-    let (mut board, pty) = spawn_board_sim_on(scenario, &["--exit-when-done", "--linger-s", "0.5"]);
+    let (mut board, pty) = spawn_board_sim_on(
+        scenario,
+        &[
+            "--exit-when-done",
+            "--linger-s",
+            "0.5",
+            "--pace",
+            "controller",
+        ],
+    );
     let run = spawn_run(run_config, &pty, log);
     assert!(
         board.wait_for("workpiece finished", Duration::from_secs(60)),

@@ -10,9 +10,9 @@
 
 #![allow(clippy::unwrap_used)]
 
+use acc_core::spindle_force::{block_stats, BlockStats};
 use acc_sim::config::{MotorEfficiency, NoloadDrift};
 use acc_sim::motor::{BuiltinMotor, ExtraLosses, MotorEffects, MotorSim};
-use acc_spindle::{block_stats, BlockStats};
 
 /// Control period, s.
 const PERIOD_S: f64 = 0.1;
@@ -345,7 +345,7 @@ fn case3_channel(
     lowpass: Option<SensorLowpass>,
     seed: Option<u64>,
 ) -> (
-    SpindlePowerChannel<acc_spindle::SpindleSource>,
+    SpindlePowerChannel<acc_core::spindle_force::SpindleSource>,
     acc_sim::Scenario,
 ) {
     let mut sc = case3();
@@ -509,7 +509,7 @@ fn sensor_lowpass_reported_power_follows_the_time_constant() {
 fn case3_calibration(
     seed: u64,
     lowpass: Option<SensorLowpass>,
-) -> (acc_spindle::calibrate::PowerEfficiency, f64, f64) {
+) -> (acc_core::spindle_force::PowerEfficiency, f64, f64) {
     let (ch, _) = case3_channel(lowpass, Some(seed));
     let est = ch.source().estimator();
     let nl = est.no_load().lookup(RPM).unwrap();
@@ -542,8 +542,8 @@ fn sensor_lowpass_leaves_the_calibration_constants() {
         .map(|k| k * sc.controller.force_ref_n);
     // Largest relative difference between the forces `pe` and `base` make of `base`'s
     // input-power rise at each calibration level.
-    let worst = |pe: acc_spindle::calibrate::PowerEfficiency,
-                 base: acc_spindle::calibrate::PowerEfficiency| {
+    let worst = |pe: acc_core::spindle_force::PowerEfficiency,
+                 base: acc_core::spindle_force::PowerEfficiency| {
         forces
             .iter()
             .map(|&f| {

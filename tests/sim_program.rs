@@ -6,36 +6,22 @@
 mod e2e_support;
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use acc_sim::engagement::{EngagementSource, ToolGeometry};
 use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
 use acc_sim::{LawKind, Scenario};
-use e2e_support::{acc_bin, read_log, root};
+use e2e_support::{acc_output as acc, pocket_program, read_log, root};
 
 fn scenario() -> Scenario {
     Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario")
 }
 
-fn pocket(sc: &Scenario) -> ProgramPath {
-    let spec = ProgramSpec {
-        program: root().join("tests/nc/pocket_rect.ngc"),
-        stock: StockSource::Box("-20,-20,-10,60,50,0".parse().expect("box"), 0.25),
-        tools: None,
-    };
-    ProgramPath::build(
-        &spec,
-        &ToolGeometry::of(&sc.tool),
-        sc.machine.spindle.rpm,
-        sc.machine.feed_drive.rapid_mm_min,
-    )
-    .expect("program")
-}
+const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
 
 #[test]
 fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
     let base = scenario();
-    let path = pocket(&base);
+    let path = pocket_program(&base, POCKET_BOX);
     let sc = path.scenario_for(&base);
     let mut law = sc.build_law(LawKind::Ours).expect("law");
     let mut channel = sc.build_channel().expect("channel");
@@ -46,6 +32,7 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
         prepare: &mut |b| b.set_engagement_source(Some(Box::new(p.clone()))),
         observe: &mut |_| {},
         pace: acc_sim::run::Pace::Stepped,
+        lookahead: None,
     };
     let (run, _) =
         acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup).expect("run");
@@ -104,7 +91,7 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
 #[test]
 fn a_program_answers_feed_block_and_tool_along_its_path() {
     let sc = scenario();
-    let path = pocket(&sc);
+    let path = pocket_program(&sc, POCKET_BOX);
     let len = path.path_length_mm().expect("length");
     assert!(len > 700.0, "{len}");
     // The first piece is the rapid to the start: the rapid rate, not overridden.
@@ -177,19 +164,6 @@ fn a_program_that_leaves_the_machines_travel_is_refused_with_its_line() {
         .expect_err("refused")
         .to_string();
     assert!(e.contains("travel.x_mm") && e.contains("m.toml"), "{e}");
-}
-
-fn acc(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(acc_bin())
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("acc");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]

@@ -5,10 +5,10 @@
 
 #![allow(clippy::unwrap_used)]
 
+use acc_core::spindle_force::block_stats;
 use acc_sim::motor::{BuiltinMotor, FeedDriveCurrent, FeedDriveCurrentSpec, MotorSim};
 use acc_sim::run::configs_dir;
 use acc_sim::Scenario;
-use acc_spindle::block_stats;
 use acc_spindle::fusion::{Biquad, Fusion, FusionConfig};
 
 /// Samples per 1 kHz output sample (the machine and the DAQ run at 10 kHz).

@@ -3,12 +3,12 @@
 
 #![allow(clippy::unwrap_used)]
 
+use acc_core::spindle_force::{
+    AdaptRule, Constants, EstimatorConfig, Invalid, Method, NoLoadMode, NoLoadModel, PhaseSamples,
+    SpindleEstimator, SpindleInput, SpindleSource,
+};
 use acc_core::{ForceSample, ForceSource, PeriodInput};
-use acc_spindle::calibrate::Constants;
-use acc_spindle::estimate::{EstimatorConfig, Invalid, Method, NoLoadMode, SpindleEstimator};
-use acc_spindle::noload::{AdaptRule, NoLoadModel};
 use acc_spindle::stream::{SampleFormat, SampleStream, StreamError, StreamForceSource};
-use acc_spindle::{PhaseSamples, SpindleInput, SpindleSource};
 
 fn estimator() -> SpindleEstimator {
     let mut nl = NoLoadModel::new(AdaptRule::default());

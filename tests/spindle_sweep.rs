@@ -5,13 +5,13 @@
 
 use std::path::PathBuf;
 
+use acc_core::spindle_force::{
+    block_stats, AdaptOutcome, AdaptRule, Constants, EstimatorConfig, Method, NoLoadMode,
+    NoLoadModel, SpindleEstimator,
+};
 use acc_sim::motor::sweep::{self, SweepConfig};
 use acc_sim::motor::MotorSim;
-use acc_spindle::block_stats;
-use acc_spindle::calibrate::{Constants, SpindleCalibration};
-use acc_spindle::estimate::{EstimatorConfig, Method, NoLoadMode, SpindleEstimator};
-use acc_spindle::noload::AdaptOutcome;
-use acc_spindle::noload::{AdaptRule, NoLoadModel};
+use acc_spindle::calibrate::SpindleCalibration;
 
 fn sweep_file() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("configs/calibration/seed000-sweep.toml")

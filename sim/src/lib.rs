@@ -34,6 +34,7 @@ pub use acc_plant::{
 
 pub mod baselines;
 pub mod oracle;
+pub mod plan;
 pub mod program;
 pub mod program_summary;
 pub mod run;

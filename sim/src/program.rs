@@ -275,6 +275,11 @@ impl ProgramPath {
         &self.segments
     }
 
+    /// Path position where each piece starts, mm.
+    pub fn piece_starts_mm(&self) -> &[f64] {
+        &self.start_mm
+    }
+
     /// Index of the piece at path position `x_mm` (the last one past the end).
     fn segment_at(&self, x_mm: f64) -> usize {
         self.start_mm

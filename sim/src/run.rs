@@ -267,6 +267,8 @@ pub struct RunSetup<'a, W: Write> {
     pub observe: &'a mut (dyn FnMut(&RunRecord) + Send),
     /// How the run keeps time.
     pub pace: Pace,
+    /// The plan's look-ahead, if the run follows one ([`acc_runtime::lookahead`]).
+    pub lookahead: Option<acc_runtime::LookAhead>,
 }
 
 /// Run `law` on a fresh machine built from `scenario`, measuring with the scenario's
@@ -306,6 +308,7 @@ pub fn run_with_shop<W: Write + Send>(
         prepare: &mut |_| {},
         observe: &mut |_| {},
         pace: Pace::Stepped,
+        lookahead: None,
     };
     run_setup(scenario, law, channel, setup).map(|(r, _)| r)
 }
@@ -325,6 +328,7 @@ pub fn run_with_shop_control(
         prepare: &mut |_| {},
         observe: &mut |_| {},
         pace: Pace::Stepped,
+        lookahead: None,
     };
     let (r, sh) = run_setup(scenario, law, channel, setup)?;
     Ok((r, sh.unwrap_or(shop)))
@@ -361,6 +365,7 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
         shop,
         prepare,
         observe,
+        lookahead,
         ..
     } = setup;
     let period_s = scenario.controller.period_s;
@@ -377,6 +382,9 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
     );
     if let Some(sh) = shop {
         control = control.with_shop(sh);
+    }
+    if let Some(la) = lookahead {
+        control = control.with_lookahead(la);
     }
     let mut board = scenario.build_board();
     prepare(&mut board);

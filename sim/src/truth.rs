@@ -20,3 +20,16 @@ pub fn apply(truth: &PlantTruth, row: &mut RunRecord) {
 pub fn add_truth(row: &mut RunRecord, rec: &PeriodRecord<'_>, true_force_n: f64) {
     apply(&PlantTruth::of(rec, true_force_n), row);
 }
+
+/// `row` as `acc run` logs it: the simulator-only columns emptied (a production log for
+/// the twin, written by the simulator).
+pub fn without_truth(row: RunRecord) -> RunRecord {
+    RunRecord {
+        x_true_mm: None,
+        radial_depth_mm: None,
+        axial_depth_mm: None,
+        force_true_n: None,
+        feed_true_mm_min: None,
+        ..row
+    }
+}

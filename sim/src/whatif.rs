@@ -230,6 +230,7 @@ pub fn run_what_if(
         prepare: &mut prepare,
         observe: &mut |_| {},
         pace: Pace::Stepped,
+        lookahead: None,
     };
     run_setup(&sc, &mut law, channel.as_mut(), setup).map(|(r, _)| r)
 }

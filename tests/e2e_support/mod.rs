@@ -380,3 +380,35 @@ pub fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
+
+/// The pocket program `tests/nc/pocket_rect.ngc` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm,
+/// 0.25 mm cells), with `sc`'s tool, spindle speed and rapid rate.
+pub fn pocket_program(sc: &acc_sim::Scenario, stock_box: &str) -> acc_sim::program::ProgramPath {
+    use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
+    let spec = ProgramSpec {
+        program: root().join("tests/nc/pocket_rect.ngc"),
+        stock: StockSource::Box(stock_box.parse().expect("box"), 0.25),
+        tools: None,
+    };
+    ProgramPath::build(
+        &spec,
+        &acc_sim::engagement::ToolGeometry::of(&sc.tool),
+        sc.machine.spindle.rpm,
+        sc.machine.feed_drive.rapid_mm_min,
+    )
+    .expect("program")
+}
+
+/// Run `acc <args>` from the repository root to its end: (exit 0, stdout, stderr).
+pub fn acc_output(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(acc_bin())
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run acc");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}

@@ -55,8 +55,10 @@ pub struct DiscrepancyArgs {
     /// Also fit the speed exponent γ with every candidate when the speed varies.
     #[arg(long)]
     pub fit_speed_exponent: bool,
-    /// Below this effect-to-noise ratio an effect is named only if no other candidate
-    /// passes in its round (0..=10; default 0 = off; the twin's evaluation uses 1 with
+    /// Below this effect-to-noise ratio (the change an effect makes to the prediction
+    /// against the noise, the log's rounding and the model error it leaves) an effect is
+    /// named only if no other candidate passes in its round and it is the first name
+    /// (0..=10; default 0 = off; the twin's evaluation uses 1 with
     /// `--effects all` — see docs/twin.md).
     #[arg(long, default_value_t = 0.0)]
     pub min_enr: f64,

@@ -14,17 +14,14 @@
 
 use std::path::{Path, PathBuf};
 
+use acc_core::spindle_force::{AdaptRule, EstimatorConfig, Method, NoLoadMode};
 use acc_core::{ForceSource, PeriodInput};
 use acc_plot::{time_series, xy_chart, Figure, HLine, Panel, Series, XyChart, PALETTE};
 use acc_sim::motor::sweep::{self, SweepConfig, SweepResult};
 use acc_spindle::calibrate::{calibrate_recording, CalPoint};
 use acc_spindle::datasets::{read_calibration_periods, read_mill, read_turning, TurningRow};
 use acc_spindle::eval::{cross_tool, min_median_max, wax_check, TurningModel, WaxSetup};
-use acc_spindle::AdaptRule;
-use acc_spindle::{
-    EstimatorConfig, Method, NoLoadMode, SampleFormat, SampleStream, SpindleCalibration,
-    SpindleEstimator, StreamForceSource,
-};
+use acc_spindle::{SampleFormat, SampleStream, SpindleCalibration, StreamForceSource};
 use anyhow::{bail, Context as _};
 
 /// Arguments of `acc estimate-eval`.
@@ -401,7 +398,7 @@ fn run_stream(args: &EstimateEvalArgs, stream: &Path) -> anyhow::Result<()> {
         no_load: NoLoadMode::Adaptive,
         ..EstimatorConfig::default()
     };
-    let est = SpindleEstimator::from_calibration(cfg, &cal)?;
+    let est = cal.estimator(cfg)?;
     let reader = SampleStream::open(stream, format)?;
     let mut src = StreamForceSource::new(reader, args.rate_hz, est)?;
     println!("t_s,force_n,power_w,valid,reason");

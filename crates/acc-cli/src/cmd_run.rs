@@ -46,6 +46,11 @@ pub struct RunArgs {
     /// Run-log CSV (same schema as `acc sim`), flushed every period.
     #[arg(long, default_value = "out/run.csv")]
     pub log: PathBuf,
+    /// Follow the plan `acc plan` wrote for the program (`plan.csv`): the loop lowers the
+    /// override ahead of every engagement change the plan names (board protocol v2:
+    /// `BLOCK_NUMBER` and `ACTUAL_FEED`; docs/plan.md).
+    #[arg(long, value_name = "plan.csv")]
+    pub plan: Option<PathBuf>,
     /// Stop after this much machine time, s (default: run until Ctrl-C).
     #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
@@ -205,6 +210,10 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     // 1. Everything validated before the port is touched.
     let cfg = RunConfig::load_for(&args.config, args.port.as_deref(), args.can.as_deref())
         .exit_as(RunExit::Usage)?;
+    // The plan is checked here, before the port is touched (drive reads it again).
+    if let Some(p) = &args.plan {
+        acc_runtime::Plan::load(p).exit_as(RunExit::Usage)?;
+    }
     if let Some(d) = args.duration_s {
         if !(d.is_finite() && d > 0.0) {
             return Err(anyhow::anyhow!(
@@ -375,6 +384,15 @@ fn drive<P: Board + Send>(
     .with_air_force_n(cfg.shutdown.air_force_n);
     if let Some(table) = cfg.tools.clone() {
         control = control.with_shop(acc_runtime::ShopControl::new(table, period_s));
+    }
+    if let Some(p) = &args.plan {
+        let plan = acc_runtime::Plan::load(p).exit_as(RunExit::Usage)?;
+        let la = acc_runtime::LookAheadConfig::new(
+            period_s,
+            ccfg.force_ref_n,
+            cfg.policy.max_override_pct,
+        );
+        control = control.with_lookahead(acc_runtime::LookAhead::new(plan, la));
     }
 
     // Run log (created before the port was opened) and the signals: the first Ctrl-C or

@@ -113,6 +113,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         sc.use_model(model)?;
     }
     let program = crate::cmd_sim_program::load(&args.program, &sc)?;
+    let lookahead = crate::cmd_sim_program::lookahead(&args.program, &sc)?;
     if let Some(p) = &program {
         sc = p.scenario_for(&sc);
     }
@@ -124,6 +125,19 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot create", log_path.display()))?;
     let mut writer = RunLogWriter::new(BufWriter::new(file))?;
     let mut law = sc.build_law(args.law)?;
+    if let (Some(p), LawKind::ConstantSafeFeed) = (&program, args.law) {
+        // A program's constant safe feed is its own: from the plan of its engagement.
+        let params = acc_sim::plan::PlanParams::of(&sc);
+        let pct =
+            acc_sim::plan::PlanFigures::of(&p.plan(&params), params.grid.max_pct).safe_override_pct;
+        println!("constant safe feed of the program: {pct} %");
+        law = Box::new(acc_sim::baselines::ConstantFeed::at(
+            sc.controller.override_spec,
+            sc.controller.force_ref_n,
+            pct,
+            "constant-safe",
+        ));
+    }
     if let Some(x) = args.time_scale {
         if !(x.is_finite() && (0.01..=1000.0).contains(&x)) {
             anyhow::bail!("--time-scale {x}: allowed 0.01 ..= 1000 (machine s per wall s)");
@@ -163,6 +177,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         } else {
             time_scale.map_or(acc_sim::run::Pace::Stepped, acc_sim::run::Pace::Wall)
         },
+        lookahead,
     };
     let (result, _) = acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)?;
     tel.finish_lingering(args.live_keep);

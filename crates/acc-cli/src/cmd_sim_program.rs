@@ -39,6 +39,10 @@ pub struct ProgramArgs {
     /// (without it, or for T0, the scenario's tool).
     #[arg(long, value_name = "FILE.tbl", requires = "program")]
     pub tools: Option<PathBuf>,
+    /// Follow the plan `acc plan` wrote (`plan.csv`): the loop lowers the override ahead
+    /// of every engagement change the plan names (look-ahead, docs/plan.md).
+    #[arg(long, value_name = "plan.csv", requires = "program")]
+    pub plan: Option<PathBuf>,
 }
 
 impl Default for ProgramArgs {
@@ -49,8 +53,27 @@ impl Default for ProgramArgs {
             stock_box: None,
             cell: 0.25,
             tools: None,
+            plan: None,
         }
     }
+}
+
+/// The look-ahead of `--plan` for scenario `sc`, if given: the plan file read and checked
+/// (an error names the file, the line and the column).
+pub fn lookahead(
+    args: &ProgramArgs,
+    sc: &Scenario,
+) -> anyhow::Result<Option<acc_runtime::LookAhead>> {
+    let Some(p) = &args.plan else {
+        return Ok(None);
+    };
+    let plan = acc_runtime::Plan::load(p)?;
+    let cfg = acc_runtime::LookAheadConfig::new(
+        sc.controller.period_s,
+        sc.controller.force_ref_n,
+        sc.policy.max_override_pct,
+    );
+    Ok(Some(acc_runtime::LookAhead::new(plan, cfg)))
 }
 
 /// The program's path through its stock, with the warnings printed; `None` without

@@ -10,6 +10,7 @@ mod cmd_estimate_eval;
 mod cmd_fault_matrix;
 mod cmd_history;
 mod cmd_nc;
+mod cmd_plan;
 mod cmd_report;
 mod cmd_run;
 mod cmd_sim;
@@ -44,6 +45,10 @@ enum Command {
     /// Run a scenario on the simulated machine: run log (CSV), per-segment summary, and the
     /// paper-style plot (force, override, feed, Kc_hat, Kp, Ki; SVG + PNG).
     Sim(cmd_sim::SimArgs),
+    /// The cutting plan of an NC program on a stock: per block and engagement change the
+    /// engagement, the predicted force at 100 %, the override that gives Fr and the path
+    /// position (plan.csv), a plot of the force along the program and a summary.
+    Plan(cmd_plan::PlanArgs),
     /// Run every baseline and our controller on one scenario and seed: one table (force RMS
     /// error, peak force, time above 1.1·Fr, cycle time, override switches) and an overlay plot.
     Compare(cmd_compare::CompareArgs),
@@ -154,6 +159,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Stability(args) => cmd_stability::run(&args),
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
         Command::Sim(args) => cmd_sim::run_cmd(&args),
+        Command::Plan(args) => cmd_plan::run_cmd(&args),
         Command::Compare(args) => cmd_compare::run_cmd(&args),
         Command::WhatIf(args) => cmd_what_if::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),

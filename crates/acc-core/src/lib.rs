@@ -14,6 +14,7 @@
 //! | [`override_spec`] | [`FeedOverride`], board step (10 % or 1 %) and range 0 … 150 % |
 //! | [`stability`] | companion-matrix poles (nalgebra), Jury test, stable Kc ranges and margins |
 //! | [`source`] | the [`ForceSource`] measurement-channel trait |
+//! | [`spindle_force`] | the force from spindle power (or current) per period: block power, no-load model, estimators, [`spindle_force::SpindleSource`] |
 //! | [`filter`] | [`filter::FirstOrderLag`]: the one first-order lag (exact ZOH discretisation) |
 //! | [`stats`] | [`stats::rms`]: the one root mean square |
 //!
@@ -57,6 +58,7 @@ pub mod override_spec;
 pub mod pi;
 pub mod poles;
 pub mod source;
+pub mod spindle_force;
 pub mod stability;
 pub mod stats;
 

@@ -19,6 +19,7 @@
 //! assert!(a.report.accepted.is_empty());
 //! ```
 
+pub mod dead;
 pub mod effects;
 pub mod engagement;
 pub mod fit;

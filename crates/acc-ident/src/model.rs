@@ -11,6 +11,7 @@
 use std::path::Path;
 
 use acc_config::{check_range, ConfigError};
+use acc_core::spindle_force;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectKind, Effects, MotorEfficiency};
@@ -99,7 +100,7 @@ pub struct Measurement {
     #[serde(default)]
     pub power_window_s: f64,
     /// The spindle-power force estimator whose output the log's `force_n` holds (the
-    /// simulator's `[measurement] kind = "spindle-power"` channel, `acc_spindle`'s
+    /// simulator's `[measurement] kind = "spindle-power"` channel, `acc_core::spindle_force`'s
     /// `power` / `power-efficiency` method): absent, `force_n` is a force sensor. With it,
     /// the force channel is replayed as the estimator sees the spindle: the model's power
     /// (motor `spindle_motor`, window `power_window_s`, drift, losses, sensor low-pass)
@@ -111,7 +112,7 @@ pub struct Measurement {
 
 /// `[measurement.force_estimator]`: the installation's spindle-power force estimator
 /// (its calibration file): `F = T(P − P_air)/r` with `T` the root of
-/// `c·T² + a·ω·T = ΔP` (`acc_spindle::calibrate::PowerEfficiency`), forces within
+/// `c·T² + a·ω·T = ΔP` (`acc_core::spindle_force::PowerEfficiency`), forces within
 /// `noise_floor_sigma·σ_air/(a·ω·r)` reported as 0, a load below
 /// `−max(negative_sigma·σ_air, 0.05·P_air)` invalid (logged as 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -124,10 +125,10 @@ pub struct ForceEstimator {
     /// Tool radius the estimator divides the torque by, mm.
     pub tool_radius_mm: f64,
     /// The learned air-cut point (speed, `P_air`, its σ).
-    pub no_load: acc_spindle::NoLoadPoint,
+    pub no_load: spindle_force::NoLoadPoint,
     /// The no-load adaptation rule (`None`: fixed no-load).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub adapt: Option<acc_spindle::AdaptRule>,
+    pub adapt: Option<spindle_force::AdaptRule>,
     /// Dead band in σ of the air-cut power, −.
     pub noise_floor_sigma: f64,
     /// Negative-load limit in σ of the air-cut power, −.
@@ -135,23 +136,23 @@ pub struct ForceEstimator {
 }
 
 impl ForceEstimator {
-    /// The estimator of a calibrated `acc_spindle` estimator (`power` or
+    /// The estimator of a calibrated `acc_core::spindle_force` estimator (`power` or
     /// `power-efficiency` method, one learned speed); `None` for the current methods.
-    pub fn from_estimator(est: &acc_spindle::SpindleEstimator) -> Option<ForceEstimator> {
+    pub fn from_estimator(est: &spindle_force::SpindleEstimator) -> Option<ForceEstimator> {
         let cfg = est.config();
         let pe = match cfg.method {
-            acc_spindle::Method::Power => acc_spindle::calibrate::PowerEfficiency {
+            spindle_force::Method::Power => spindle_force::PowerEfficiency {
                 gain: 1.0,
                 loss_w_per_nm2: 0.0,
             },
-            acc_spindle::Method::PowerEfficiency => est.constants().power_efficiency?,
+            spindle_force::Method::PowerEfficiency => est.constants().power_efficiency?,
             _ => return None,
         };
         let no_load = est.no_load().points().next()?;
         let (adapt, floor) = match cfg.no_load {
-            acc_spindle::NoLoadMode::Off => return None,
-            acc_spindle::NoLoadMode::Fixed => (None, cfg.noise_floor_sigma),
-            acc_spindle::NoLoadMode::Adaptive => (
+            spindle_force::NoLoadMode::Off => return None,
+            spindle_force::NoLoadMode::Fixed => (None, cfg.noise_floor_sigma),
+            spindle_force::NoLoadMode::Adaptive => (
                 est.no_load().rule().enabled.then(|| *est.no_load().rule()),
                 cfg.noise_floor_sigma,
             ),
@@ -170,11 +171,11 @@ impl ForceEstimator {
     /// The no-load power and its σ in force at each logged row: the adaptation replayed on
     /// the logged power (`lookup` before `observe`, as the estimator does), W.
     pub fn no_load_track(&self, rpm: &[f64], power_w: &[f64]) -> Vec<(f64, f64)> {
-        let rule = self.adapt.unwrap_or(acc_spindle::AdaptRule {
+        let rule = self.adapt.unwrap_or(spindle_force::AdaptRule {
             enabled: false,
-            ..acc_spindle::AdaptRule::default()
+            ..spindle_force::AdaptRule::default()
         });
-        let Ok(mut m) = acc_spindle::NoLoadModel::from_points(&[self.no_load], rule) else {
+        let Ok(mut m) = spindle_force::NoLoadModel::from_points(&[self.no_load], rule) else {
             return vec![(self.no_load.power_w, self.no_load.sigma_power_w); rpm.len()];
         };
         m.set_adapt(self.adapt.is_some());
@@ -206,7 +207,7 @@ impl ForceEstimator {
         if dp < -limit {
             return 0.0;
         }
-        let pe = acc_spindle::calibrate::PowerEfficiency {
+        let pe = spindle_force::PowerEfficiency {
             gain: self.gain,
             loss_w_per_nm2: self.loss_w_per_nm2,
         };

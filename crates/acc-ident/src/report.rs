@@ -30,6 +30,22 @@ pub struct InputInfo {
     pub sealed_from_s: f64,
     /// Number of contiguous cross-validation folds.
     pub folds: usize,
+    /// Rows without a valid measurement on the channel, per reason: replayed, but in
+    /// neither the selection nor the sealed part, nor in the noise.
+    pub excluded_rows: Vec<ExcludedRows>,
+}
+
+/// Rows left out of an analysis for one reason ([`crate::dead::DeadReason`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct ExcludedRows {
+    /// The reason (`link_lost`, `skipped`, `implausible`, `no_sample`, `feed_hold_in_air`).
+    pub reason: String,
+    /// Rows left out for it.
+    pub rows: usize,
+    /// First such row's 1-based line in the log file (the header is line 1).
+    pub first_line: usize,
+    /// Last such row's line.
+    pub last_line: usize,
 }
 
 /// Correlation of the nominal residual with a candidate signal.
@@ -95,7 +111,10 @@ pub struct CandidateResult {
     /// The signature is gone: its correlation with the residual is not significant
     /// (p > 0.01) after adding the effect, or the ratio above is at most 0.25.
     pub signature_gone: bool,
-    /// Effect-to-noise ratio: RMS of the effect's contribution over σ.
+    /// Effect-to-noise ratio: RMS of the change the candidate makes to the prediction over
+    /// the selection rows (its fit's prediction less the base model's) over what it is
+    /// judged against — the noise σ, the log's rounding q/√12 and the variance its own
+    /// residual leaves above its noise, in quadrature.
     pub effect_to_noise: f64,
     /// Other candidates that passed in the same round while this one's effect is below
     /// [`crate::workflow::Options::min_effect_to_noise`]: it is then not named (empty

@@ -13,7 +13,9 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::dead::{DeadReason, RowFlags};
 use crate::engagement::PathEngagement;
+use crate::model::Channel;
 
 /// A run-log reading or writing error; names file, line and column where they exist.
 #[derive(Debug, thiserror::Error)]
@@ -125,6 +127,11 @@ pub struct RunLog {
     /// (`acc run`'s flags: `seq_repeat` = 0, `seq_skip:<n>` = n, otherwise 1); `None` when
     /// every row moved by one.
     pub sample_advance: Option<Vec<u32>>,
+    /// What each row's flags and cells say about its sample (a log written by `acc`);
+    /// `None` when every row holds a sample (the importers, logs built in code). Rows
+    /// without a valid measurement on the compared channel ([`RunLog::dead_rows`]) are
+    /// replayed but never compared.
+    pub row_flags: Option<Vec<RowFlags>>,
 }
 
 /// The columns a run log must have.
@@ -154,6 +161,15 @@ impl RunLog {
         let dt = self.t_s.get(1)? - self.t_s.first()?;
         let start = x0 - self.feed_mm_min.first()? * dt / 60.0;
         start.is_finite().then_some(start)
+    }
+
+    /// Per row, why it has no valid measurement on `channel` ([`RowFlags::dead_on`]);
+    /// `None` for a valid row.
+    pub fn dead_rows(&self, channel: Channel) -> Vec<Option<DeadReason>> {
+        match &self.row_flags {
+            Some(f) => f.iter().map(|f| f.dead_on(channel)).collect(),
+            None => vec![None; self.len()],
+        }
     }
 
     /// Number of rows.
@@ -200,6 +216,10 @@ impl RunLog {
                 .map(|v| keep.iter().map(|&i| v[i].clone()).collect()),
             sample_advance: self
                 .sample_advance
+                .as_ref()
+                .map(|v| keep.iter().map(|&i| v[i]).collect()),
+            row_flags: self
+                .row_flags
                 .as_ref()
                 .map(|v| keep.iter().map(|&i| v[i]).collect()),
         }
@@ -491,6 +511,11 @@ pub fn from_records_with(
             (radial, axial, x)
         }
     };
+    let row_flags: Vec<RowFlags> = rows
+        .iter()
+        .zip(radial.iter().zip(&axial))
+        .map(|(r, (d, ap))| RowFlags::of_record(r, *d > 0.0 && *ap > 0.0))
+        .collect();
     let power = |r: &acc_runtime::RunRecord| r.power_w;
     let force = |r: &acc_runtime::RunRecord| r.force_n;
     let has =
@@ -515,6 +540,7 @@ pub fn from_records_with(
             let adv: Vec<u32> = rows.iter().map(|r| sample_advance(&r.flags)).collect();
             adv.iter().any(|&a| a != 1).then_some(adv)
         },
+        row_flags: Some(row_flags),
     })
 }
 
@@ -701,6 +727,7 @@ pub fn read_csv_from_with(
         wear_vb_um: take(6)?,
         phase: idx_phase.map(|_| phase),
         sample_advance: None,
+        row_flags: None,
     };
     log.validate(path)?;
     Ok(log)

@@ -43,8 +43,8 @@ pub trait MeasurementChannel: Send {
     fn measure(&mut self, period: &PeriodRecord<'_>) -> Reading;
     /// The force source of the production loop when this channel's sensor is the board's
     /// power transducer: the estimator calibrated by the channel's start-up cut, reading
-    /// the board's power register (`acc_spindle::SpindleInput::BoardPower`, the source
-    /// `acc run` uses). After the call the channel only measures: [`Reading::sample`] is
+    /// the board's power register (`acc_core::spindle_force::SpindleInput::BoardPower`, the
+    /// source `acc run` uses). After the call the channel only measures: [`Reading::sample`] is
     /// then invalid and the loop estimates from the status read. `None` (the default):
     /// the sensor is not on the board (a dynamometer, a current method on the three-phase
     /// block) and the loop takes [`Reading::sample`].

@@ -7,26 +7,25 @@ use std::path::{Path, PathBuf};
 use acc_config::{
     check_range, from_table, load_toml_with, referenced, resolve_relative, ConfigError, KeyRange,
 };
+use acc_core::spindle_force::{EstimatorConfig, SpindleEstimator, SpindleInput, SpindleSource};
 use acc_core::ControllerConfig;
 use acc_pmc::can::{CanConfig, CanLinkConfig};
 use acc_pmc::regs::FallbackMode;
 use acc_pmc::serial::{RtuConfig, RtuSettings};
 use acc_spindle::calibrate::SpindleCalibration;
-use acc_spindle::estimate::{EstimatorConfig, SpindleEstimator};
-use acc_spindle::source::{SpindleInput, SpindleSource};
 use serde::Deserialize;
 
 use crate::policy::PolicyConfig;
 
-/// `[force]`: spindle power from the board → cutting force (acc-spindle's estimator on
-/// `POWER_HI:POWER_LO`).
+/// `[force]`: spindle power from the board → cutting force (acc-core's `spindle_force`
+/// estimator on `POWER_HI:POWER_LO`).
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ForceSection {
     /// Spindle calibration file (no-load model and constants), relative to the run config.
     pub calibration: PathBuf,
-    /// Estimator settings (`method`, `tool_radius_mm`, `no_load`, …; acc-spindle's
-    /// `EstimatorConfig`, defaults there).
+    /// Estimator settings (`method`, `tool_radius_mm`, `no_load`, …;
+    /// `acc_core::spindle_force::EstimatorConfig`, defaults there).
     #[serde(default)]
     pub estimator: EstimatorConfig,
 }
@@ -692,9 +691,9 @@ impl RunConfig {
 
 /// An estimator error of the run config `file`: a range error names
 /// `force.estimator.<key>`, anything else `force.estimator`.
-fn estimator_error(file: &Path, e: acc_spindle::SpindleError) -> ConfigError {
+fn estimator_error(file: &Path, e: acc_core::spindle_force::SpindleError) -> ConfigError {
     match e {
-        acc_spindle::SpindleError::OutOfRange(r) => {
+        acc_core::spindle_force::SpindleError::OutOfRange(r) => {
             ConfigError::OutOfRange(r.prefixed("force.estimator").in_file(file))
         }
         other => ConfigError::Invalid {
@@ -708,7 +707,7 @@ fn estimator_error(file: &Path, e: acc_spindle::SpindleError) -> ConfigError {
 fn build_source(
     cal: &SpindleCalibration,
     est: EstimatorConfig,
-) -> Result<SpindleSource, acc_spindle::SpindleError> {
+) -> Result<SpindleSource, acc_core::spindle_force::SpindleError> {
     let no_load = cal.no_load_model()?;
     let e = SpindleEstimator::new(est, cal.constants, no_load)?;
     SpindleSource::new(SpindleInput::BoardPower, e)

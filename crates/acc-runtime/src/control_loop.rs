@@ -14,6 +14,7 @@ use crate::echo::{DelayReading, LoopDelay};
 use crate::guard::{Expected, Guarded, LineGuard};
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
+use crate::runner::execute_writes;
 use crate::shop::{ShopControl, ShopState, ShopStep, ToolChange};
 
 /// The largest `SAMPLE_SEQ` advance logged as `seq_skip:<n>` (ten seconds of samples at
@@ -83,6 +84,8 @@ pub struct CycleRecord {
     pub delay_margin_periods: Option<u32>,
     /// The run log's writer was stalled past the logger's buffer this period.
     pub log_stalled: bool,
+    /// What the look-ahead decided, if the loop runs with a plan ([`crate::lookahead`]).
+    pub lookahead: Option<crate::lookahead::LookAheadStep>,
 }
 
 /// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
@@ -171,6 +174,9 @@ impl CycleRecord {
         if self.log_stalled {
             r.flag("log_stalled");
         }
+        if let Some(la) = self.lookahead {
+            la.flag_onto(&mut r);
+        }
         if let Some(sh) = self.shop {
             if sh.state == ShopState::Entry {
                 r.flag("entry");
@@ -219,23 +225,6 @@ pub fn saturation_name(s: Saturation) -> &'static str {
     }
 }
 
-/// Perform a write plan on a board.
-pub fn execute_writes<P: Board>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
-    let mut r = WriteResult::default();
-    if let Some((cmd, hb)) = plan.override_and_heartbeat {
-        if let Err(e) = pmc.write_override(cmd, hb) {
-            r.override_error = Some(e.kind());
-        }
-    }
-    if let Some(c) = plan.control {
-        match pmc.write_control(c) {
-            Ok(()) => r.control_written = Some(c),
-            Err(e) => r.control_error = Some(e.kind()),
-        }
-    }
-    r
-}
-
 /// The loop's state between periods: the policy, the law, the force source, the heartbeat
 /// counter and what the board was last given.
 #[derive(Debug)]
@@ -255,6 +244,8 @@ pub struct ControlLoop<L, F> {
     delay: LoopDelay,
     /// The run log's writer is stalled past the logger's buffer ([`Self::set_log_stalled`]).
     log_stalled: bool,
+    /// The plan's look-ahead, if any ([`ControlLoop::with_lookahead`]).
+    lookahead: Option<crate::lookahead::LookAhead>,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -276,7 +267,21 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             last_feed_mm_min: 0.0,
             shop: None,
             log_stalled: false,
+            lookahead: None,
         }
+    }
+
+    /// Run with a plan's look-ahead ([`crate::lookahead`]): every period, after the shop
+    /// layer, its cap joins the command limits (the lower cap wins), so the plan can only
+    /// lower the law's command.
+    pub fn with_lookahead(mut self, lookahead: crate::lookahead::LookAhead) -> Self {
+        self.lookahead = Some(lookahead);
+        self
+    }
+
+    /// The look-ahead, if any.
+    pub fn lookahead(&self) -> Option<&crate::lookahead::LookAhead> {
+        self.lookahead.as_ref()
     }
 
     /// Run with the shop layer (tool table by `TOOL_NUMBER`, entry control): see
@@ -439,6 +444,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             delay,
             log_stalled: self.log_stalled,
         };
+        let mut shop = None;
         if let Some(sh) = self.shop.as_mut() {
             let decision = sh.before(
                 link.as_ref().ok(),
@@ -450,12 +456,25 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             if let Some(change) = decision.tool_change {
                 self.apply_tool_change(change);
             }
+            shop = decision.step;
+        }
+        // The plan's look-ahead: its cap joins the shop layer's limits (the lower wins).
+        let mut lookahead = None;
+        if let Some(la) = self.lookahead.as_mut() {
+            let st = la.step(link.as_ref().ok(), &force, self.period_s);
+            let mut limits = if self.shop.is_some() {
+                self.policy.command_limits()
+            } else {
+                crate::policy::CommandLimits::default()
+            };
+            if let Some(c) = st.cap_pct {
+                limits.cap_pct = Some(limits.cap_pct.map_or(c, |s| s.min(c)));
+            }
+            self.policy.set_command_limits(limits);
+            self.policy.set_exit_planned(st.exit_planned);
+            lookahead = Some(st);
         }
         let out = self.policy.step(&input, &mut self.law);
-        let shop = self.shop.as_mut().and_then(|sh| {
-            sh.after(out.write_override.map(|o| o.0));
-            sh.last()
-        });
         let mut plan = WritePlan::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
@@ -485,6 +504,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             delay,
             delay_margin_periods,
             log_stalled: self.log_stalled,
+            lookahead,
         };
         self.index += 1;
         rec

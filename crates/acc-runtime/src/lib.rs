@@ -10,6 +10,8 @@
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`shop`]: the tool table per `TOOL_NUMBER` and entry/exit control (limits on the law's
 //!   command);
+//! - [`plan`], [`lookahead`]: the cutting plan (`plan.csv`) and the look-ahead step that
+//!   caps the command ahead of an engagement change;
 //! - [`control_loop`]: the control loop: one period against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v3, older versions
 //!   migrated;
@@ -34,7 +36,9 @@ pub mod echo;
 pub mod guard;
 pub mod history;
 mod log_backlog;
+pub mod lookahead;
 pub mod opcua_config;
+pub mod plan;
 pub mod policy;
 pub mod record;
 pub mod runner;
@@ -49,6 +53,8 @@ pub mod watch;
 
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use control_loop::{ControlLoop, CycleRecord, WritePlan, WriteResult};
+pub use lookahead::{LookAhead, LookAheadConfig, LookAheadStep};
+pub use plan::{Plan, PlanError, PlanRow};
 pub use policy::{
     AccState, Alarms, CommandLimits, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig,
     Rearm, Release,

@@ -51,7 +51,7 @@ use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus};
 use crossbeam_channel::{bounded, RecvTimeoutError};
 
 use crate::clock::Clock;
-use crate::control_loop::{execute_writes, ControlLoop, WritePlan, WriteResult};
+use crate::control_loop::{ControlLoop, WritePlan, WriteResult};
 use crate::log_backlog::{Backlog, LOG_QUEUE};
 use crate::policy::{AccState, Alarms};
 use crate::record::RunRecord;
@@ -318,6 +318,24 @@ struct StatusMsg {
 /// The callback that reopens a vanished link ([`drive`]): a fresh link, or why
 /// not.
 pub type Reopen<'a, P> = &'a mut dyn FnMut() -> Result<P, String>;
+
+/// Perform a write plan on a board: the I/O thread does it after the control thread's
+/// decision, [`ControlLoop::cycle`] in a single-threaded period.
+pub fn execute_writes<P: Board>(pmc: &mut P, plan: &WritePlan) -> WriteResult {
+    let mut r = WriteResult::default();
+    if let Some((cmd, hb)) = plan.override_and_heartbeat {
+        if let Err(e) = pmc.write_override(cmd, hb) {
+            r.override_error = Some(e.kind());
+        }
+    }
+    if let Some(c) = plan.control {
+        match pmc.write_control(c) {
+            Ok(()) => r.control_written = Some(c),
+            Err(e) => r.control_error = Some(e.kind()),
+        }
+    }
+    r
+}
 
 /// Run the loop until `stop` is set or `opts.max_periods` is reached. See the module docs.
 /// A vanished device is never reopened (see [`drive`]).

@@ -137,6 +137,8 @@ pub struct ShopDecision {
     pub limits: CommandLimits,
     /// The tool changed (or was first seen) this period: for the law.
     pub tool_change: Option<ToolChange>,
+    /// This period's shop state for the run log (`None` without a status).
+    pub step: Option<ShopStep>,
 }
 
 /// The per-tool numbers the loop needs every period (no allocation).
@@ -501,13 +503,9 @@ impl ShopControl {
         ShopDecision {
             limits,
             tool_change,
+            step: self.last,
         }
     }
-
-    /// After the policy stepped: the command written this period (for learning).
-    /// (Learning uses the force per override of the periods themselves, so the command
-    /// is not needed; kept for symmetry with `before`.)
-    pub fn after(&mut self, _written: Option<u16>) {}
 
     fn settle_periods(&self) -> u32 {
         (self.table.entry.settle_s / self.period_s).round() as u32

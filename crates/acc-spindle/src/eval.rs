@@ -10,11 +10,13 @@
 
 use std::collections::BTreeMap;
 
-use crate::calibrate::{least_squares, Constants};
+use acc_core::spindle_force::{
+    AdaptRule, Constants, EstimatorConfig, Invalid, Method, NoLoadMode, NoLoadModel, SpindleError,
+    SpindleEstimator,
+};
+
+use crate::calibrate::least_squares;
 use crate::datasets::{MillRow, TurningRow};
-use crate::estimate::{EstimatorConfig, Invalid, Method, NoLoadMode, SpindleEstimator};
-use crate::noload::{AdaptRule, NoLoadModel};
-use crate::SpindleError;
 
 /// RMS of `est − truth`.
 pub fn rms_error(est: &[f64], truth: &[f64]) -> f64 {

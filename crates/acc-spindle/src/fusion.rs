@@ -23,8 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::SpindleError;
-
+use acc_core::spindle_force::SpindleError;
 use acc_core::RangeError;
 
 /// Fusion settings. TOML keys are the field names.

@@ -17,12 +17,9 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, ErrorKind, Read};
 use std::path::Path;
 
+use acc_core::spindle_force::{SpindleError, SpindleEstimator, SpindleInput, SpindleSource};
 use acc_core::RangeError;
 use acc_core::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
-
-use crate::source::{SpindleInput, SpindleSource};
-use crate::SpindleError;
-use crate::SpindleEstimator;
 
 /// Layout of the sample stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,6 +1,7 @@
 //! A counting global allocator for the no-allocation tests: the test binary that includes
-//! this module (acc-core's and acc-spindle's `no_alloc.rs`) counts every allocation made on
-//! each thread; [`allocations`] reads the current thread's count.
+//! this module (acc-core's `no_alloc.rs` and `spindle_no_alloc.rs`, acc-runtime's
+//! `watch_no_alloc.rs`) counts every allocation made on each thread; [`allocations`] reads
+//! the current thread's count.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -4,19 +4,21 @@
 #[allow(unused_imports)]
 use super::*;
 
-/// Noise from the differenced air and steady-cut stretches of `residual` (rows `0..n`);
-/// falls back to 50-row chunks of the whole residual if there are none.
+/// Noise from the differenced air and steady-cut stretches of `residual` (the stretches
+/// `segs`, clipped to the selection part); falls back to 50-row chunks of the residual on
+/// the selection rows `rows` if there are none.
 ///
 /// The result is floored at the resolution of the measured data (`floor`, the σ of
 /// uniform quantization `q/√12`), so a quantized noise-free channel is not taken as
 /// perfectly known.
-pub(super) fn noise_of(residual: &[f64], segs: &[Segment], n: usize, floor: f64) -> Noise {
-    let mut nz = noise_raw(residual, segs, n);
+pub(super) fn noise_of(residual: &[f64], segs: &[Segment], rows: &[usize], floor: f64) -> Noise {
+    let mut nz = noise_raw(residual, segs, rows);
     nz.sigma = nz.sigma.max(floor);
     nz
 }
 
-pub(super) fn noise_raw(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
+pub(super) fn noise_raw(residual: &[f64], segs: &[Segment], rows: &[usize]) -> Noise {
+    let n = rows.last().map_or(0, |&i| i + 1);
     use crate::segment::Regime;
     let stretches: Vec<&[f64]> = segs
         .iter()
@@ -33,7 +35,8 @@ pub(super) fn noise_raw(residual: &[f64], segs: &[Segment], n: usize) -> Noise {
     if nz.samples >= 30 && nz.sigma > 0.0 {
         return nz;
     }
-    let chunks: Vec<&[f64]> = residual[..n].chunks(50).collect();
+    let on_rows = pick(residual, rows);
+    let chunks: Vec<&[f64]> = on_rows.chunks(50).collect();
     stats::pooled_noise_diff(&chunks)
 }
 
@@ -95,22 +98,23 @@ pub(super) fn correlate(
 pub(super) fn metrics(
     inp: &Inputs,
     pred: &[f64],
-    rows: std::ops::Range<usize>,
+    rows: &[usize],
     segs: &[Segment],
     noise: Noise,
     min_len: usize,
 ) -> Metrics {
-    let y = &inp.measured[rows.clone()];
-    let e: Vec<f64> = rows.clone().map(|i| inp.measured[i] - pred[i]).collect();
-    let ym = mean(y);
+    let y = pick(&inp.measured, rows);
+    let e: Vec<f64> = rows.iter().map(|&i| inp.measured[i] - pred[i]).collect();
+    let first = rows.first().copied().unwrap_or(0);
+    let ym = mean(&y);
     let dev = y.iter().map(|v| (v - ym).powi(2)).sum::<f64>().sqrt();
     let en = e.iter().map(|v| v * v).sum::<f64>().sqrt();
     let full: Vec<f64> = (0..inp.len()).map(|i| inp.measured[i] - pred[i]).collect();
     let clipped: Vec<Segment> = segs
         .iter()
-        .filter(|s| s.end > rows.start)
+        .filter(|s| s.end > first)
         .map(|s| Segment {
-            start: s.start.max(rows.start),
+            start: s.start.max(first),
             ..*s
         })
         .collect();
@@ -139,14 +143,33 @@ impl Prepared {
                 folds: opts.folds,
             });
         }
-        let n_sel = ((1.0 - opts.sealed_fraction) * n as f64).round() as usize;
-        let sel: Vec<usize> = (0..n_sel).collect();
-        let fold_len = n_sel / opts.folds;
+        // Rows without a valid measurement are replayed (the plant integrates through
+        // them) but never compared: not in selection, noise or the sealed part.
+        let dead = log.dead_rows(inp.channel);
+        let valid: Vec<usize> = (0..n).filter(|&i| dead[i].is_none()).collect();
+        let excluded = Excluded::of(&dead);
+        if valid.len() < needed {
+            return Err(WorkflowError::TooFewValid {
+                valid: valid.len(),
+                rows: n,
+                needed,
+                folds: opts.folds,
+                why: excluded.text(),
+            });
+        }
+        // The sealed part is the last `sealed_fraction` of the valid rows; the selection
+        // part (rows `0..n_sel`) ends where it begins.
+        let k_sel = ((1.0 - opts.sealed_fraction) * valid.len() as f64).round() as usize;
+        let sel: Vec<usize> = valid[..k_sel].to_vec();
+        let sealed_rows: Vec<usize> = valid[k_sel..].to_vec();
+        let n_sel = sealed_rows[0];
+        // Contiguous folds over the selection rows (positions in `sel`).
+        let fold_len = k_sel / opts.folds;
         let folds: Vec<std::ops::Range<usize>> = (0..opts.folds)
             .map(|k| {
                 let a = k * fold_len;
                 let b = if k + 1 == opts.folds {
-                    n_sel
+                    k_sel
                 } else {
                     a + fold_len
                 };
@@ -157,7 +180,7 @@ impl Prepared {
 
         // 1. Locate.
         let labels = label_rows(&inp, opts.transient_s);
-        let segs = segments(&labels);
+        let segs = without_dead(&segments(&labels), &dead);
         let sel_segs: Vec<Segment> = segs
             .iter()
             .filter(|s| s.start < n_sel)
@@ -171,14 +194,14 @@ impl Prepared {
             .map(|i| inp.measured[i] - nominal_replay.predicted[i])
             .collect();
         let q_floor = crate::stats::quantization_sigma(&inp.measured);
-        let raw_sigma = noise_raw(&r0_full, &sel_segs, n_sel).sigma;
-        let noise0 = noise_of(&r0_full, &sel_segs, n_sel, q_floor);
+        let raw_sigma = noise_raw(&r0_full, &sel_segs, &sel).sigma;
+        let noise0 = noise_of(&r0_full, &sel_segs, &sel, q_floor);
         let sigs = signals(&inp, &nominal_replay);
         inp.prior = Some(crate::fit::Prior::around(model, noise0.sigma.max(1e-9)));
         let locate = Locate {
-            residual_rms: stats::rms(&r0_full[..n_sel]),
+            residual_rms: stats::rms(&pick(&r0_full, &sel)),
             segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
-            correlations: correlate(&r0_full[..n_sel], &sigs, &sel, opts.alpha),
+            correlations: correlate(&pick(&r0_full, &sel), &sigs, &sel, opts.alpha),
         };
         let force_vs_power = inp.force_from_power.as_ref().and_then(|(est, floor)| {
             let t0 = inp.t_s.first().copied().unwrap_or(0.0);
@@ -195,6 +218,8 @@ impl Prepared {
             n,
             n_sel,
             sel,
+            sealed_rows,
+            excluded,
             folds,
             min_len,
             segs,
@@ -233,46 +258,32 @@ pub(super) fn force_drifts_against_power(
     })
 }
 
-/// The sealed part (stage 5; rows `n_sel..n`, never used in selection): the nominal
-/// model, the nominal refit and the updated model (`updated`, its prediction) compared.
+/// The sealed part (stage 5; the valid rows from `n_sel` on, never used in selection): the
+/// nominal model, the nominal refit and the updated model (`updated`, its prediction)
+/// compared.
 pub(super) fn sealed_check(
     p: &Prepared,
     nominal_refit: &Model,
     updated: &[f64],
     noise_f: Noise,
 ) -> Sealed {
-    let (inp, n, n_sel) = (&p.inp, p.n, p.n_sel);
-    let sealed_rows = n_sel..n;
+    let (inp, sealed_rows) = (&p.inp, &p.sealed_rows);
     let m_nom = metrics(
         inp,
         &p.nominal_replay.predicted,
-        sealed_rows.clone(),
+        sealed_rows,
         &p.segs,
         noise_f,
         p.min_len,
     );
     let refit_pred = replay(nominal_refit, inp).predicted;
-    let m_ref = metrics(
-        inp,
-        &refit_pred,
-        sealed_rows.clone(),
-        &p.segs,
-        noise_f,
-        p.min_len,
-    );
-    let m_upd = metrics(
-        inp,
-        updated,
-        sealed_rows.clone(),
-        &p.segs,
-        noise_f,
-        p.min_len,
-    );
+    let m_ref = metrics(inp, &refit_pred, sealed_rows, &p.segs, noise_f, p.min_len);
+    let m_upd = metrics(inp, updated, sealed_rows, &p.segs, noise_f, p.min_len);
     let red = |a: f64, b: f64| if a > 0.0 { 100.0 * (a - b) / a } else { 0.0 };
     Sealed {
-        from_s: inp.t_s[n_sel],
-        to_s: inp.t_s[n - 1],
-        rows: n - n_sel,
+        from_s: inp.t_s[sealed_rows[0]],
+        to_s: inp.t_s[sealed_rows[sealed_rows.len() - 1]],
+        rows: sealed_rows.len(),
         rms_reduction_pct: red(m_nom.rms, m_upd.rms),
         rms_reduction_vs_refit_pct: red(m_ref.rms, m_upd.rms),
         nominal: m_nom,
@@ -386,24 +397,25 @@ impl ResidualCheck<'_> {
         let rf: Vec<f64> = (0..self.inp.len())
             .map(|i| self.inp.measured[i] - r.predicted[i])
             .collect();
-        let noise = noise_of(&rf, self.segs, self.n_sel, self.q_floor);
+        let noise = noise_of(&rf, self.segs, self.sel, self.q_floor);
+        let on_sel = pick(&rf, self.sel);
         let flagged: Vec<_> = segment_biases(&rf, self.segs, &self.inp.t_s, noise, self.min_len)
             .into_iter()
             .filter(|b| b.significant)
             .collect();
         let var_ratio = if noise.sigma > 0.0 {
-            (stats::rms(&rf[..self.n_sel]) / noise.sigma).powi(2)
+            (stats::rms(&on_sel) / noise.sigma).powi(2)
         } else {
             1.0
         };
-        let ne = n_eff(self.n_sel, noise.rho);
+        let ne = n_eff(self.sel.len(), noise.rho);
         let var_z = (var_ratio - 1.0) / (2.0 / ne).sqrt();
         let too_big = var_z > 2.0 * normal_quantile(1.0 - self.alpha / 2.0) && var_ratio > 1.1;
         let un = (!flagged.is_empty() || too_big).then(|| Unexplained {
             segments: flagged,
             variance_ratio: var_ratio,
             variance_z: var_z,
-            correlations: correlate(&rf[..self.n_sel], self.sigs, self.sel, self.alpha),
+            correlations: correlate(&on_sel, self.sigs, self.sel, self.alpha),
         });
         (noise, un)
     }

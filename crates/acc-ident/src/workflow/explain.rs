@@ -80,7 +80,7 @@ pub(super) fn fail_reasons(c: &CandidateResult, folds: usize, opts: &Options) ->
     }
     if !c.contested_by.is_empty() {
         v.push(format!(
-            "its effect is {:.1}× the noise (below {:.1}× a name needs to be the only fit) and {} fit as well",
+            "its effect is {:.1}× the noise (below {:.1}× a name needs to be the only fit and the first) and {} fit as well or are in the model already",
             c.effect_to_noise,
             opts.min_effect_to_noise,
             c.contested_by.join(", ")

@@ -7,11 +7,13 @@
 mod checks;
 mod explain;
 mod report;
+mod rows;
 mod selection;
 
 use checks::*;
 use explain::*;
 use report::*;
+use rows::*;
 pub use selection::WEAR_SIZE;
 use selection::*;
 
@@ -46,9 +48,11 @@ pub struct Options {
     pub min_segment_s: f64,
     /// Smallest held-out MSE reduction that counts, % of the base model's. Default 5.
     pub min_gain_pct: f64,
-    /// Below this effect-to-noise ratio (RMS of the candidate's contribution to the
-    /// prediction over the noise σ) a candidate is named only if no other candidate
-    /// passes in its round. Default 0 (off); the twin's evaluation (`twin::run_case`, the
+    /// Below this effect-to-noise ratio ([`crate::report::CandidateResult::effect_to_noise`]:
+    /// the change the candidate makes to the prediction against the noise, the log's
+    /// rounding and the model error it leaves) a candidate is named only if no other
+    /// candidate passes in its round and no effect is in the model yet (a second name
+    /// must exceed it). Default 0 (off); the twin's evaluation (`twin::run_case`, the
     /// whole library) uses 1. There a structure smaller than the noise is matched about
     /// equally by several effects' shapes (the tooth-level force replayed by the mean
     /// model — ENR 1–2 — passed as `tool_wear`, `sensor_gain_drift`, `depth_exponent` and
@@ -159,6 +163,22 @@ pub enum WorkflowError {
         needed: usize,
         /// Folds asked for.
         folds: usize,
+    },
+    /// Too few rows with a valid measurement on the compared channel.
+    #[error(
+        "the log has {valid} rows with a valid measurement of {rows}; at least {needed} are needed for {folds} folds and a sealed part (rows left out: {why})"
+    )]
+    TooFewValid {
+        /// Rows with a valid measurement.
+        valid: usize,
+        /// Rows in the log.
+        rows: usize,
+        /// Rows needed.
+        needed: usize,
+        /// Folds asked for.
+        folds: usize,
+        /// The rows left out, per reason with their lines.
+        why: String,
     },
     /// An option is out of range (the key is the [`Options`] field).
     #[error("{0}")]
@@ -284,7 +304,6 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let check = ResidualCheck {
         inp: &p.inp,
         segs: &p.sel_segs,
-        n_sel: p.n_sel,
         q_floor: p.q_floor,
         min_len: p.min_len,
         alpha: opts.alpha,
@@ -337,15 +356,19 @@ struct Prepared {
     inp: Inputs,
     /// Rows in the log.
     n: usize,
-    /// Rows in the selection part (`0..n_sel`); the sealed part is `n_sel..n`.
+    /// End of the selection part (rows `0..n_sel`); the sealed part begins there.
     n_sel: usize,
-    /// The selection rows.
+    /// The selection rows: the valid rows of `0..n_sel`.
     sel: Vec<usize>,
-    /// Contiguous folds over the selection rows.
+    /// The sealed rows: the valid rows from `n_sel` on.
+    sealed_rows: Vec<usize>,
+    /// Rows without a valid measurement (in neither part), per reason.
+    excluded: Excluded,
+    /// Contiguous folds over the selection rows (ranges of positions in `sel`).
     folds: Vec<std::ops::Range<usize>>,
     /// Shortest segment tested for a bias, rows.
     min_len: usize,
-    /// Segments over the whole log.
+    /// Segments over the whole log, without the rows that have no valid measurement.
     segs: Vec<Segment>,
     /// Segments clipped to the selection part.
     sel_segs: Vec<Segment>,
@@ -464,7 +487,6 @@ enum WearTimeVerdict {
 struct ResidualCheck<'a> {
     inp: &'a Inputs,
     segs: &'a [Segment],
-    n_sel: usize,
     q_floor: f64,
     min_len: usize,
     alpha: f64,

@@ -3,6 +3,14 @@
 #[allow(unused_imports)]
 use super::*;
 
+/// The channel's name in text (`power`, `force`).
+fn unit_channel(c: Channel) -> &'static str {
+    match c {
+        Channel::Power => "power",
+        Channel::Force => "force",
+    }
+}
+
 /// Assemble the report, the plot series and the updated model.
 pub(super) fn assemble(
     model: &Model,
@@ -149,6 +157,17 @@ pub(super) fn assemble(
     let mut conclusion =
         conclusion_with_notes(inp, &s, &named, unexplained.as_ref(), &sealed, unit);
     conclusion.push_str(&wear_time_note);
+    let excluded_note = (p.excluded.total() > 0).then(|| {
+        format!(
+            "{} of {n} rows have no valid measurement on the {} channel and were left out of selection, noise and the sealed part (the replay runs through them): {}",
+            p.excluded.total(),
+            unit_channel(inp.channel),
+            p.excluded.text()
+        )
+    });
+    if let Some(t) = &excluded_note {
+        conclusion.push_str(&format!(" {t}."));
+    }
     if !withheld.is_empty() {
         let list: Vec<&str> = withheld.iter().map(|w| w.effect.as_str()).collect();
         conclusion = format!(
@@ -177,14 +196,27 @@ pub(super) fn assemble(
     }
     // Nothing named although candidates predicted better: say when their effects were
     // only too small to name (the one criterion they failed), not "nothing supported".
+    let mut small: Vec<&CandidateResult> = s
+        .rounds
+        .iter()
+        .flat_map(|r| r.candidates.iter())
+        .filter(|c| !c.contested_by.is_empty())
+        .collect();
+    small.sort_by(|a, b| b.effect_to_noise.total_cmp(&a.effect_to_noise));
+    small.dedup_by(|a, b| a.effect == b.effect);
+    if !named.is_empty() && !small.is_empty() {
+        let list: Vec<String> = small
+            .iter()
+            .map(|c| format!("`{}` ({:.1}×)", c.effect, c.effect_to_noise))
+            .collect();
+        conclusion.push_str(&format!(
+            " Not named beside it: {} — below {:.1}× the noise a second name adds nothing the noise could not.",
+            list.join(", "),
+            opts.min_effect_to_noise
+        ));
+    }
     if named.is_empty() && withheld.is_empty() && s.ambiguous.is_empty() {
-        if let Some(r) = s.rounds.first() {
-            let mut small: Vec<&CandidateResult> = r
-                .candidates
-                .iter()
-                .filter(|c| !c.contested_by.is_empty())
-                .collect();
-            small.sort_by(|a, b| b.effect_to_noise.total_cmp(&a.effect_to_noise));
+        {
             if let Some(top) = small.first() {
                 let list: Vec<&str> = small.iter().map(|c| c.effect.as_str()).collect();
                 conclusion = conclusion.replace(
@@ -244,19 +276,17 @@ pub(super) fn assemble(
         input: InputInfo {
             rows: n,
             period_s: inp.period_s,
-            channel: match inp.channel {
-                Channel::Power => "power".into(),
-                Channel::Force => "force".into(),
-            },
+            channel: unit_channel(inp.channel).into(),
             unit: unit.into(),
             feed_source: if inp.feed_cmd_mm_min.is_some() {
                 "command".into()
             } else {
                 "recorded".into()
             },
-            selection_rows: n_sel,
+            selection_rows: p.sel.len(),
             sealed_from_s: inp.t_s[n_sel],
             folds: opts.folds,
+            excluded_rows: p.excluded.report(),
         },
         noise: p.noise0,
         locate: p.locate,
@@ -282,7 +312,7 @@ pub(super) fn assemble(
         updated_params: absolute(s.base_params, &s.params_start, model),
         sealed,
         conclusion,
-        warnings: Vec::new(),
+        warnings: excluded_note.into_iter().collect(),
     };
     Analysis {
         report,

@@ -117,21 +117,23 @@ pub(super) fn with_null(model: &Model, kind: EffectKind) -> Model {
 }
 
 impl Ctx<'_> {
-    /// Held-out residuals over the selection rows: each fold predicted by the model
-    /// refitted (warm start from `start`) on the other folds.
+    /// Held-out residuals over the selection rows (in the order of `sel`): each fold
+    /// predicted by the model refitted (warm start from `start`) on the other folds.
     pub(super) fn cv_errors(&self, start: &Model, free: &[Free]) -> Vec<f64> {
         let mut e = vec![0.0; self.sel.len()];
         for fold in &self.folds {
             let train: Vec<usize> = self
                 .sel
                 .iter()
-                .copied()
-                .filter(|i| !fold.contains(i))
+                .enumerate()
+                .filter(|(k, _)| !fold.contains(k))
+                .map(|(_, &i)| i)
                 .collect();
             let m = fit::refine(start, free, self.inp, &train);
             let r = replay(&m, self.inp);
-            for i in fold.clone() {
-                e[i] = self.inp.measured[i] - r.predicted[i];
+            for k in fold.clone() {
+                let i = self.sel[k];
+                e[k] = self.inp.measured[i] - r.predicted[i];
             }
         }
         e
@@ -256,7 +258,7 @@ impl Selection {
                     .collect::<Vec<_>>()
             },
             &p.sel_segs,
-            p.n_sel,
+            &p.sel,
             p.q_floor,
         );
         let pool: Vec<EffectKind> = opts
@@ -282,25 +284,30 @@ impl Selection {
             results.push(result);
             scored.extend(passed);
         }
-        // An effect below the noise is named only if it alone fits (see
-        // `Options::min_effect_to_noise`).
+        // An effect below the noise is named only if it alone fits and is the first name
+        // (see `Options::min_effect_to_noise`): the others passing in its round, and the
+        // effects already in the model, are its rivals.
         let passing: Vec<String> = results
             .iter()
             .filter(|r| r.passed)
             .map(|r| r.effect.clone())
             .collect();
-        if passing.len() >= 2 {
-            for r in results.iter_mut() {
-                if r.passed && r.effect_to_noise < opts.min_effect_to_noise {
-                    r.passed = false;
-                    r.contested_by = passing
-                        .iter()
-                        .filter(|e| **e != r.effect)
-                        .cloned()
-                        .collect();
-                    scored.retain(|sc| sc.0.name() != r.effect);
-                }
+        for r in results.iter_mut() {
+            if !(r.passed && r.effect_to_noise < opts.min_effect_to_noise) {
+                continue;
             }
+            let rivals: Vec<String> = passing
+                .iter()
+                .filter(|e| **e != r.effect)
+                .cloned()
+                .chain(self.accepted.iter().map(|k| k.name().to_string()))
+                .collect();
+            if rivals.is_empty() {
+                continue;
+            }
+            r.passed = false;
+            r.contested_by = rivals;
+            scored.retain(|sc| sc.0.name() != r.effect);
         }
         scored.sort_by(|a, b| a.3.total_cmp(&b.3));
         let base_names: Vec<String> = self.accepted.iter().map(|k| k.name().to_string()).collect();
@@ -373,6 +380,21 @@ impl Selection {
         });
         true
     }
+}
+
+/// What a candidate's effect is judged against ([`CandidateResult::effect_to_noise`]), in
+/// the channel's unit: the noise σ (`sigma_ref`), the log's rounding (`q_sigma` = q/√12 of
+/// its smallest step: on a steady stretch the rounding error is a constant bias that the
+/// residual's differences do not see, and across stretches it is uniform over ±q/2) and
+/// the model error the candidate leaves — the variance of its residual `after` (selection
+/// rows) above its own noise σ `fit_sigma`, structure the model with it still cannot
+/// represent — added in quadrature. A candidate that explains the log leaves noise, and
+/// the last term is 0; one that borrows part of a structure outside the library (the
+/// tooth-level force replayed by the mean-force model) is judged against what it leaves.
+pub(super) fn judged_sigma(sigma_ref: f64, q_sigma: f64, fit_sigma: f64, after: &[f64]) -> f64 {
+    let left = mean(&after.iter().map(|e| e * e).collect::<Vec<_>>());
+    let model_error = (left - fit_sigma * fit_sigma).max(0.0);
+    (sigma_ref * sigma_ref + q_sigma * q_sigma + model_error).sqrt()
 }
 
 /// Screen one candidate against the round's base: fit it jointly with the base's free
@@ -478,13 +500,20 @@ pub(super) fn screen_candidate(
             .map(|i| inp.measured[i] - with.predicted[i])
             .collect::<Vec<_>>(),
         &p.sel_segs,
-        n_sel,
+        sel,
         p.q_floor,
     )
     .sigma;
     let sigma_ref = base.noise.sigma.min(fit_sigma);
-    let enr = if sigma_ref > 0.0 {
-        stats::rms(&contrib) / sigma_ref
+    let sigma_judge = judged_sigma(sigma_ref, p.q_floor, fit_sigma, &after);
+    let net: Vec<f64> = base
+        .base_res
+        .iter()
+        .zip(&after)
+        .map(|(b, a)| b - a)
+        .collect();
+    let enr = if sigma_judge > 0.0 {
+        stats::rms(&net) / sigma_judge
     } else {
         0.0
     };
@@ -624,4 +653,27 @@ pub(super) fn choose_best(
         }
     }
     Some((best, best_fit, verdict, encompassing))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::judged_sigma;
+
+    #[test]
+    fn a_name_is_judged_against_noise_rounding_and_the_model_error_it_leaves() {
+        // A residual of pure noise (RMS = its σ): noise and rounding only.
+        let noise: Vec<f64> = (0..400)
+            .map(|i| if i % 2 == 0 { 0.5 } else { -0.5 })
+            .collect();
+        let s = judged_sigma(0.5, 1.0 / 12f64.sqrt(), 0.5, &noise);
+        assert!((s - (0.25f64 + 1.0 / 12.0).sqrt()).abs() < 1e-12, "{s}");
+        // The same noise on a structure of 0.8 RMS the candidate left: it counts.
+        let left: Vec<f64> = noise
+            .iter()
+            .enumerate()
+            .map(|(i, e)| e + if (i / 50) % 2 == 0 { 0.8 } else { -0.8 })
+            .collect();
+        let s2 = judged_sigma(0.5, 0.0, 0.5, &left);
+        assert!((s2 - (0.25f64 + 0.64).sqrt()).abs() < 1e-9, "{s2}");
+    }
 }

@@ -3,6 +3,7 @@
 
 use std::f64::consts::PI;
 
+use acc_core::spindle_force;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -80,7 +81,7 @@ pub struct SpindlePowerSpec {
     /// Built-in motor. Default `seed002-small-mill`.
     pub motor: BuiltinMotor,
     /// Estimator. Default `power-efficiency`.
-    pub method: acc_spindle::Method,
+    pub method: spindle_force::Method,
     /// Where the force is estimated. `true` (the default): the simulated board publishes
     /// the measured spindle power in its `POWER` registers and the production loop's
     /// spindle source estimates the force from the status read, as `acc run` does (power
@@ -89,7 +90,7 @@ pub struct SpindlePowerSpec {
     /// cables; the current methods need it) and hands the loop its estimate.
     pub board_power: bool,
     /// No-load handling. Default `adaptive`.
-    pub no_load: acc_spindle::NoLoadMode,
+    pub no_load: spindle_force::NoLoadMode,
     /// Calibration cut forces as multiples of the force reference, −. Default
     /// `[0.25, 0.5, 0.75, 1.0, 1.25, 1.5]`.
     pub calibration_levels: [f64; 6],
@@ -102,16 +103,16 @@ impl Default for SpindlePowerSpec {
     fn default() -> Self {
         Self {
             motor: BuiltinMotor::Seed002SmallMill,
-            method: acc_spindle::Method::PowerEfficiency,
+            method: spindle_force::Method::PowerEfficiency,
             board_power: true,
-            no_load: acc_spindle::NoLoadMode::Adaptive,
+            no_load: spindle_force::NoLoadMode::Adaptive,
             calibration_levels: [0.25, 0.5, 0.75, 1.0, 1.25, 1.5],
             window_s: 0.05,
         }
     }
 }
 
-impl SpindlePowerChannel<acc_spindle::SpindleSource> {
+impl SpindlePowerChannel<spindle_force::SpindleSource> {
     /// Build the channel as it would be commissioned on a machine: an air cut and a
     /// calibration cut at `rpm` against a dynamometer (the reference force is the resultant
     /// force the controller regulates; `torque_per_n` converts it to spindle torque, e.g.
@@ -197,19 +198,19 @@ impl SpindlePowerChannel<acc_spindle::SpindleSource> {
             spindle.sensor_lowpass,
         )?;
         let constants = acc_spindle::calibrate::calibrate(&groups.concat(), &nl, tool_radius_mm)?;
-        let est_cfg = acc_spindle::EstimatorConfig {
+        let est_cfg = spindle_force::EstimatorConfig {
             method: spec.method,
             tool_radius_mm,
             no_load: spec.no_load,
-            ..acc_spindle::EstimatorConfig::default()
+            ..spindle_force::EstimatorConfig::default()
         };
-        let est = acc_spindle::SpindleEstimator::new(est_cfg, constants, nl)?;
+        let est = spindle_force::SpindleEstimator::new(est_cfg, constants, nl)?;
         let input = if spec.board_power {
-            acc_spindle::SpindleInput::BoardPower
+            spindle_force::SpindleInput::BoardPower
         } else {
-            acc_spindle::SpindleInput::Phases
+            spindle_force::SpindleInput::Phases
         };
-        let source = acc_spindle::SpindleSource::new(input, est)?;
+        let source = spindle_force::SpindleSource::new(input, est)?;
         let motor = MotorSim::new(cfg, seed).with_effects(effects);
         let mut channel =
             Self::new(motor, source, spec.window_s).with_sensor_lowpass(spindle.sensor_lowpass);
@@ -257,7 +258,7 @@ enum BoardEstimate {
     Channel,
     /// The channel's source until the production loop takes this board-power source
     /// ([`crate::channel::MeasurementChannel::take_board_source`]).
-    Offered(Box<acc_spindle::SpindleSource>),
+    Offered(Box<spindle_force::SpindleSource>),
     /// The loop estimates from the board's power register; the channel only measures.
     Loop,
 }
@@ -268,8 +269,8 @@ const MIN_RESCALE_POWER_W: f64 = 1.0;
 
 /// The spindle-power measurement channel of the simulated machine: the period's cutting
 /// torque (the machine's internal samples) drives [`MotorSim`], and a force source —
-/// normally an [`acc_spindle::SpindleSource`] on the three-phase block — estimates the force
-/// the controller sees. The true force reported next to it is the period's mean resultant
+/// normally an [`acc_core::spindle_force::SpindleSource`] on the three-phase block —
+/// estimates the force the controller sees. The true force reported next to it is the period's mean resultant
 /// force, as the dynamometer channel reports it.
 #[derive(Debug)]
 pub struct SpindlePowerChannel<S> {
@@ -353,7 +354,7 @@ impl<S: acc_core::ForceSource> crate::channel::MeasurementChannel for SpindlePow
                 .run_period_tail(period.spindle_rpm, &self.torques, period.period_s, w);
         self.last = block.truth;
         let mut phases = block.samples.tail_block(w);
-        let measured_w = acc_spindle::block_stats(&phases).ok().map(|s| s.power_w);
+        let measured_w = spindle_force::block_stats(&phases).ok().map(|s| s.power_w);
         let reported_w = measured_w.map(|p| self.sensor.read(p, period.period_s));
         if let (Some(p), Some(p_lp)) = (measured_w, reported_w) {
             if p_lp != p && p.abs() >= MIN_RESCALE_POWER_W {

@@ -234,7 +234,7 @@ mod tests {
         }
 
         fn estimate(&mut self, input: &acc_core::PeriodInput<'_>) -> acc_core::ForceSample {
-            let s = acc_spindle::block_stats(&input.phases.unwrap()).unwrap();
+            let s = acc_core::spindle_force::block_stats(&input.phases.unwrap()).unwrap();
             self.0.push((s.power_w, s.current_rms_a, input.power_w));
             acc_core::ForceSample::INVALID
         }

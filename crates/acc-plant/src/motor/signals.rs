@@ -4,8 +4,8 @@
 use std::f64::consts::PI;
 
 use acc_core::filter::FirstOrderLag;
+use acc_core::spindle_force::PhaseSamples;
 use acc_core::PhaseBlock;
-use acc_spindle::power::PhaseSamples;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};

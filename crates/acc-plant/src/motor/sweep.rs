@@ -7,11 +7,12 @@
 use std::path::{Path, PathBuf};
 
 use acc_config::{check_range, resolve_relative, ConfigError};
+use acc_core::spindle_force::{
+    block_stats, AdaptRule, EstimatorConfig, Invalid, Method, NoLoadMode, NoLoadModel,
+    SpindleError, SpindleEstimator,
+};
 use acc_spindle::calibrate::{calibrate, CalPoint, SpindleCalibration};
-use acc_spindle::estimate::{EstimatorConfig, Invalid, Method, NoLoadMode, SpindleEstimator};
 use acc_spindle::eval::{error_rate_pct, rms_error};
-use acc_spindle::noload::{AdaptRule, NoLoadModel};
-use acc_spindle::{block_stats, SpindleError};
 use serde::Deserialize;
 
 use super::{MotorConfig, MotorSim, PowerSensor};

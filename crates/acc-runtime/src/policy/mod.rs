@@ -22,7 +22,8 @@
 //! 5. `shutdown.rs` — is this period out of the cut (the drain of a stop)?
 //! 6. `operator.rs` — the switch and the knob as seen (a latch needs the switch off, then on);
 //! 7. `overload.rs` — has the force been above the overload limit for too long?
-//! 8. `breakage.rs` — did the tool break?
+//! 8. `breakage.rs` — did the tool break? (Not judged in a period where the plan's
+//!    look-ahead explains a force drop: [`FaultPolicy::set_exit_planned`].)
 //!
 //! Then by state. **Active**, first answer that acts wins:
 //! 9. `operator.rs` — switch off (release) or knob down (hand back, or cap on a v1 board);
@@ -134,6 +135,9 @@ pub struct FaultPolicy {
     cycle_active: bool,
     /// Command limits of the shop layer for the next step ([`FaultPolicy::set_command_limits`]).
     shop_limits: CommandLimits,
+    /// The plan says the tool may leave the material this period
+    /// ([`FaultPolicy::set_exit_planned`]).
+    exit_planned: bool,
     link: LinkJudge,
     staleness: Staleness,
     power: PowerJudge,
@@ -160,6 +164,7 @@ impl FaultPolicy {
             protocol: None,
             cycle_active: true,
             shop_limits: CommandLimits::default(),
+            exit_planned: false,
             link: LinkJudge::default(),
             staleness: Staleness::default(),
             power: PowerJudge::default(),
@@ -176,6 +181,20 @@ impl FaultPolicy {
     /// previous ones; see [`CommandLimits`]).
     pub fn set_command_limits(&mut self, limits: CommandLimits) {
         self.shop_limits = limits;
+    }
+
+    /// The plan's look-ahead says the tool may leave the material in the next
+    /// [`FaultPolicy::step`]'s period (its predicted force band reaches air): a force drop
+    /// there is the planned exit, not a broken tool, and the breakage watch does not judge
+    /// the period. A plan the measured force is above is not believed (the caller passes
+    /// `false`).
+    pub fn set_exit_planned(&mut self, planned: bool) {
+        self.exit_planned = planned;
+    }
+
+    /// The command limits in force for the next [`FaultPolicy::step`].
+    pub fn command_limits(&self) -> CommandLimits {
+        self.shop_limits
     }
 
     /// This policy with wear and breakage limits `limits` (default [`WatchLimits::default`]).
@@ -432,8 +451,9 @@ impl FaultPolicy {
                 }
                 OverloadVerdict::Hold { .. } => {}
             }
-            // 8. Breakage watch (tool gone / spike), judged on valid samples only.
-            let broken = force_valid
+            // 8. Breakage watch (tool gone / spike), judged on valid samples only, and not
+            //    where the plan says the tool may be leaving the material this period.
+            let broken = (force_valid && !self.exit_planned)
                 .then(|| self.breakage.judge(f.force_n, &s, self.feed_hold))
                 .flatten();
             if let Some(b) = broken {

@@ -3,7 +3,7 @@
 //! more than 5·10⁷ sample instants per second.
 #![allow(missing_docs)]
 
-use acc_spindle::power::{block_stats, PhaseSamples};
+use acc_core::spindle_force::power::{block_stats, PhaseSamples};
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 
 fn bench_power(c: &mut Criterion) {

@@ -30,7 +30,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::SpindleError;
+use super::SpindleError;
 
 /// Most speeds the model holds (the table is allocated once, at construction).
 pub const MAX_BINS: usize = 64;

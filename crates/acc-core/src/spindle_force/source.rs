@@ -6,11 +6,10 @@
 //! negative power, a speed transient, a speed the no-load model does not know — the loop
 //! gets [`ForceSample::INVALID`] and [`SpindleSource::last`] says why.
 
-use acc_core::{ForceSample, ForceSource, PeriodInput};
-
-use crate::estimate::{Estimate, Invalid, Method, SpindleEstimator};
-use crate::power::block_stats;
-use crate::SpindleError;
+use super::estimate::{Estimate, Invalid, Method, SpindleEstimator};
+use super::power::block_stats;
+use super::SpindleError;
+use crate::{ForceSample, ForceSource, PeriodInput};
 
 /// Which field of [`PeriodInput`] the source reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -154,10 +153,10 @@ impl ForceSource for SpindleSource {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibrate::Constants;
-    use crate::estimate::{EstimatorConfig, NoLoadMode};
-    use crate::noload::{AdaptRule, NoLoadModel};
-    use acc_core::PhaseBlock;
+    use crate::spindle_force::constants::{Constants, CurrentConstant};
+    use crate::spindle_force::estimate::{EstimatorConfig, NoLoadMode};
+    use crate::spindle_force::noload::{AdaptRule, NoLoadModel};
+    use crate::PhaseBlock;
 
     fn source(input: SpindleInput) -> SpindleSource {
         let mut nl = NoLoadModel::new(AdaptRule::default());
@@ -244,7 +243,7 @@ mod tests {
             ..Default::default()
         };
         let c = Constants {
-            current: Some(crate::calibrate::CurrentConstant { kt_nm_per_a: 1.0 }),
+            current: Some(CurrentConstant { kt_nm_per_a: 1.0 }),
             ..Default::default()
         };
         let est = SpindleEstimator::new(cfg, c, nl).unwrap();

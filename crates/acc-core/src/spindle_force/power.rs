@@ -10,9 +10,8 @@
 //! the fast path has no per-sample branch; only on error is the block scanned again to
 //! name the channel and index.
 
-use acc_core::PhaseBlock;
-
-use crate::SpindleError;
+use super::SpindleError;
+use crate::PhaseBlock;
 
 /// Statistics of one block of three-phase samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,7 +65,7 @@ impl Sums {
 /// names the channel and the sample index).
 ///
 /// ```
-/// use acc_spindle::power::{block_stats, PhaseSamples};
+/// use acc_core::spindle_force::power::{block_stats, PhaseSamples};
 /// // A balanced 50 Hz system sampled at 10 kHz: 100 V line, 10 A phase, current in phase
 /// // with the phase voltage (PF = 1): P = √3 · 100 · 10 = 1732 W.
 /// let w = PhaseSamples::balanced(1000, 1e4, 100.0, 10.0, 0.0);

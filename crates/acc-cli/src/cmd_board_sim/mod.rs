@@ -44,19 +44,29 @@
 //!   the controller's reads fail with EIO, as when a USB adapter is unplugged; the machine
 //!   runs on under the board's own logic) and `hard@T:S:F` (a hard spot: the material's
 //!   `Ks` × F for S s of machine time, 0 < F <= 20).
+//! - `--pace controller` moves the machine in lockstep with the controller: one period per
+//!   command write (FC 16 with a new `HEARTBEAT`), and the write's reply leaves only after
+//!   the period, so the controller's next read sees the period its command drove. A run is
+//!   then the same on a loaded host as on a quiet one (the end-to-end tests use it); the
+//!   default `--pace wall` moves the machine on its own ticker, as a real machine moves
+//!   whatever the controller does, and is what the timing faults need: `unplug`, `vanish`
+//!   and `stall` are refused with `--pace controller`.
 //! - `--watchdog-time machine` runs the board's clock (its watchdog, `WATCHDOG_MS`) on
 //!   machine time, as on the real machine; the default `wall` keeps it on wall time, which
 //!   is more forgiving of a loaded host at high `--time-scale`.
 
+mod faults;
+mod line;
+
 use std::collections::VecDeque;
 use std::fs::File;
-use std::io::{BufWriter, Read, Write};
+use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, PoisonError};
 use std::time::Duration;
 
-use acc_pmc::emu::{lock_board, spawn_server, EmulatedProtocol, Paced, PtyBoard, SharedBoard};
+use acc_pmc::emu::{lock_board, spawn_server, EmulatedProtocol, PtyBoard, SharedBoard};
 use acc_runtime::record::{RunLogWriter, RunRecord};
 use acc_runtime::shutdown::install_stop_flag;
 use acc_runtime::{Clock, SystemClock, Ticker};
@@ -64,6 +74,9 @@ use acc_sim::board::PowerFault;
 use acc_sim::truth::add_truth;
 use acc_sim::Scenario;
 use anyhow::{bail, Context};
+
+use faults::{parse_fault, Scheduled};
+use line::{wrap, CommandPace, FaultQueue};
 
 /// Arguments of `acc board-sim`.
 #[derive(Debug, clap::Args)]
@@ -124,6 +137,10 @@ pub struct BoardSimArgs {
     /// The board's clock (its watchdog): `wall` time or `machine` time (wall × time scale).
     #[arg(long, value_enum, default_value_t = WatchdogTime::Wall)]
     pub watchdog_time: WatchdogTime,
+    /// What moves the machine: its own `wall` ticker, or the `controller`'s command writes
+    /// (one period per write, in lockstep).
+    #[arg(long, value_enum, default_value_t = Pace::Wall)]
+    pub pace: Pace,
     /// Telemetry of the machine side (`--shdr`, `--mqtt`): the board's registers and the
     /// plant's truth every period.
     #[command(flatten)]
@@ -137,6 +154,19 @@ pub enum WatchdogTime {
     Wall,
     /// Machine time (wall time × `--time-scale`).
     Machine,
+}
+
+/// What moves the simulated machine from one period to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Pace {
+    /// Its own ticker, every `T / time_scale` of wall time, as a real machine moves
+    /// whatever the controller does.
+    Wall,
+    /// One period per command write of the controller (FC 16 with a new `HEARTBEAT`); the
+    /// reply leaves after the period. The run is then the same on a loaded host as on a
+    /// quiet one; faults that silence the controller (`unplug`, `vanish`, `stall`) would
+    /// stop the machine and are refused.
+    Controller,
 }
 
 /// How an emulated v1 board answers the v2 registers.
@@ -158,184 +188,6 @@ impl BoardSimArgs {
         }
     }
 }
-
-/// A fault on the replies the board sends.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum ReplyFault {
-    Crc,
-    Drop,
-    Late(Duration),
-    Stall(Duration),
-}
-
-/// A scheduled fault.
-#[derive(Debug, Clone, PartialEq)]
-enum Scheduled {
-    Replies(ReplyFault, usize),
-    Restart,
-    FreezeSeq(f64),
-    BadPower(f64),
-    Lock(f64),
-    Switch(bool),
-    Operator(u16),
-    /// The cable is pulled, for good (`None`) or for this many machine seconds.
-    Unplug(Option<f64>),
-    /// The device disappears: the pty is closed.
-    Vanish,
-    /// A hard spot: `Ks` × factor for this many machine seconds.
-    Hard(f64, f64),
-}
-
-fn parse_fault(spec: &str, late: Duration) -> anyhow::Result<(f64, Scheduled)> {
-    let err = || {
-        anyhow::anyhow!(
-            "--fault `{spec}`: expected KIND@T[:ARG] with KIND one of crc, drop, late, restart, freeze-seq, bad-power, lock, stall, switch, operator, knob, unplug, vanish, hard (T in machine seconds; hard@T:S:F)"
-        )
-    };
-    let (kind, rest) = spec.split_once('@').ok_or_else(err)?;
-    let (t, arg) = match rest.split_once(':') {
-        Some((t, a)) => (t, Some(a)),
-        None => (rest, None),
-    };
-    let t: f64 = t.parse().map_err(|_| err())?;
-    if !(t.is_finite() && t >= 0.0) {
-        return Err(err());
-    }
-    let count = || -> anyhow::Result<usize> {
-        arg.unwrap_or("1")
-            .parse::<usize>()
-            .ok()
-            .filter(|n| (1..=10_000).contains(n))
-            .ok_or_else(err)
-    };
-    let secs = || -> anyhow::Result<f64> {
-        arg.and_then(|a| a.parse::<f64>().ok())
-            .filter(|s| s.is_finite() && *s > 0.0 && *s <= 3600.0)
-            .ok_or_else(err)
-    };
-    let f = match kind {
-        "crc" => Scheduled::Replies(ReplyFault::Crc, count()?),
-        "drop" => Scheduled::Replies(ReplyFault::Drop, count()?),
-        "late" => Scheduled::Replies(ReplyFault::Late(late), count()?),
-        "stall" => Scheduled::Replies(ReplyFault::Stall(Duration::from_secs_f64(secs()?)), 1),
-        "restart" => Scheduled::Restart,
-        "freeze-seq" => Scheduled::FreezeSeq(secs()?),
-        "bad-power" => Scheduled::BadPower(secs()?),
-        "lock" => Scheduled::Lock(secs()?),
-        "switch" => match arg {
-            Some("on") => Scheduled::Switch(true),
-            Some("off") => Scheduled::Switch(false),
-            _ => return Err(err()),
-        },
-        "unplug" => Scheduled::Unplug(match arg {
-            None => None,
-            Some(_) => Some(secs()?),
-        }),
-        "vanish" => Scheduled::Vanish,
-        "hard" => {
-            let (secs, factor) = arg.and_then(|a| a.split_once(':')).ok_or_else(err)?;
-            let secs: f64 = secs.parse().map_err(|_| err())?;
-            let factor: f64 = factor.parse().map_err(|_| err())?;
-            let secs_ok = secs.is_finite() && secs > 0.0 && secs <= 3600.0;
-            let factor_ok = factor.is_finite() && factor > 0.0 && factor <= 20.0;
-            if !(secs_ok && factor_ok) {
-                return Err(err());
-            }
-            Scheduled::Hard(secs, factor)
-        }
-        "operator" | "knob" => Scheduled::Operator(
-            arg.and_then(|a| a.parse::<u16>().ok())
-                .filter(|p| *p <= 150)
-                .ok_or_else(err)?,
-        ),
-        _ => return Err(err()),
-    };
-    Ok((t, f))
-}
-
-type FaultQueue = Arc<Mutex<VecDeque<ReplyFault>>>;
-
-/// The board's side of the line with reply faults: each `write` of the server is one reply.
-/// While `unplugged` is set the cable is out: whatever arrives is read and lost (the server
-/// sees a silent line) and replies go nowhere.
-struct FaultyReplies<P> {
-    inner: P,
-    queue: FaultQueue,
-    unplugged: Arc<AtomicBool>,
-    /// Late and stalled replies wait on the wall clock.
-    wall: SystemClock,
-}
-
-impl<P: Read> Read for FaultyReplies<P> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.inner.read(buf)?;
-        if self.unplugged.load(Ordering::Relaxed) {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::TimedOut,
-                "cable unplugged",
-            ));
-        }
-        Ok(n)
-    }
-}
-
-impl<P: Write> Write for FaultyReplies<P> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        if self.unplugged.load(Ordering::Relaxed) {
-            return Ok(buf.len());
-        }
-        let fault = self
-            .queue
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .pop_front();
-        match fault {
-            None => self.inner.write_all(buf)?,
-            Some(ReplyFault::Drop) => {}
-            Some(ReplyFault::Crc) => {
-                let mut b = buf.to_vec();
-                if let Some(x) = b.get_mut(3) {
-                    *x ^= 0x01;
-                }
-                self.inner.write_all(&b)?;
-            }
-            Some(ReplyFault::Late(d)) | Some(ReplyFault::Stall(d)) => {
-                self.wall.sleep_until(self.wall.now() + d);
-                self.inner.write_all(buf)?;
-            }
-        }
-        Ok(buf.len())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
-    }
-}
-
-fn wrap<P: Read + Write + Send + 'static>(
-    inner: P,
-    queue: FaultQueue,
-    unplugged: Arc<AtomicBool>,
-    paced: Option<u32>,
-) -> Box<dyn ReadWrite> {
-    match paced {
-        Some(baud) => Box::new(FaultyReplies {
-            inner: Paced::new(inner, baud, 10),
-            queue,
-            unplugged,
-            wall: SystemClock::new(),
-        }),
-        None => Box::new(FaultyReplies {
-            inner,
-            queue,
-            unplugged,
-            wall: SystemClock::new(),
-        }),
-    }
-}
-
-trait ReadWrite: Read + Write + Send {}
-impl<T: Read + Write + Send> ReadWrite for T {}
 
 /// The emulated board's clock: wall time, or machine time (wall × `time_scale`).
 fn board_clock(kind: WatchdogTime, time_scale: f64) -> Box<dyn acc_pmc::clock::Clock> {
@@ -379,6 +231,13 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         .map(|f| parse_fault(f, late))
         .collect::<anyhow::Result<_>>()?;
     schedule.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if args.pace == Pace::Controller {
+        if let Some((at, f)) = schedule.iter().find(|(_, f)| f.silences_controller()) {
+            bail!(
+                "--fault {f:?} at {at} s with --pace controller: a fault that silences the controller would stop the machine; use --pace wall"
+            );
+        }
+    }
     let mut schedule: VecDeque<_> = schedule.into();
 
     let period_s = sc.controller.period_s;
@@ -391,6 +250,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let queue: FaultQueue = Arc::default();
     let unplugged = Arc::new(AtomicBool::new(false));
     let paced = args.paced.then_some(args.baud);
+    let pace = (args.pace == Pace::Controller).then(|| Arc::new(CommandPace::default()));
 
     // The board's own clock, shared by the server (watchdog on requests) and the machine
     // loop below (watchdog ticks every period, also when no request arrives at all).
@@ -406,7 +266,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 Arc::clone(&board),
                 args.slave,
                 args.baud,
-                move |p| wrap(p, q, u, paced),
+                {
+                    let pace = pace.clone();
+                    move |p| wrap(p, q, u, paced, pace)
+                },
                 Box::new(Arc::clone(&clock)),
             )
             .context("creating the pseudo-terminal")?;
@@ -428,7 +291,13 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 .open_native()
                 .with_context(|| format!("--port {dev}: cannot open"))?;
             let h = spawn_server(
-                wrap(port, Arc::clone(&queue), Arc::clone(&unplugged), paced),
+                wrap(
+                    port,
+                    Arc::clone(&queue),
+                    Arc::clone(&unplugged),
+                    paced,
+                    pace.clone(),
+                ),
                 args.slave,
                 Arc::clone(&board),
                 Arc::clone(&stop_server),
@@ -475,6 +344,10 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let wall = SystemClock::new();
     if args.wait_for_controller {
         while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
+            // The controller's writes before its request move nothing.
+            if let Some(pace) = &pace {
+                pace.take_all();
+            }
             wall.sleep_until(wall.now() + Duration::from_millis(2));
         }
         // The request arrived a write's time after the controller's tick, and so would
@@ -484,7 +357,11 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         // power sample it reads with it — the discrepancy workflow's replay of `acc run`'s
         // log went 0.033 mm off in position at every such row (docs/twin.md). Half a period
         // later the writes land mid-period.
-        wall.sleep_until(wall.now() + Duration::from_secs_f64(0.5 * period_s / args.time_scale));
+        if pace.is_none() {
+            wall.sleep_until(
+                wall.now() + Duration::from_secs_f64(0.5 * period_s / args.time_scale),
+            );
+        }
         eprintln!("board-sim: controller connected (ACC_REQUEST set); machine time starts");
     }
     let mut ticker = Ticker::new(wall, Duration::from_secs_f64(period_s / args.time_scale))?;
@@ -497,8 +374,44 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     // ticker skipped (board-sim fell more than a period behind the wall clock) is not a lost
     // machine period — the machine advances one period per loop — and is flagged instead.
     let mut machine_period: u64 = 0;
+    // `--pace controller`: the heartbeat of the command the last period was taken for.
+    let mut last_heartbeat = None;
+    let mut last_command = wall.now();
     while !stop.load(Ordering::SeqCst) {
-        let tick = ticker.wait();
+        let tick = match &pace {
+            None => ticker.wait(),
+            Some(pace) => {
+                if !pace.next_command(Duration::from_millis(50)) {
+                    // A finished workpiece and a controller gone quiet (it stopped out of
+                    // the cut) for the linger time: nothing will move the machine again.
+                    let quiet = wall.now().saturating_sub(last_command);
+                    if args.exit_when_done
+                        && done_at.is_some()
+                        && quiet.as_secs_f64() >= args.linger_s / args.time_scale
+                    {
+                        break;
+                    }
+                    continue;
+                }
+                last_command = wall.now();
+                let heartbeat = lock_board(&board).heartbeat();
+                if last_heartbeat == Some(heartbeat) {
+                    // A repeated write (a retry after a lost reply): no new period.
+                    pace.take_all();
+                    continue;
+                }
+                last_heartbeat = Some(heartbeat);
+                let now = wall.now();
+                acc_runtime::Tick {
+                    index: machine_period,
+                    deadline: now,
+                    woke: now,
+                    lateness: Duration::ZERO,
+                    overrun: false,
+                    skipped: 0,
+                }
+            }
+        };
         let t = sim.machine().t_s();
         while schedule.front().is_some_and(|(at, _)| *at <= t) {
             let Some((at, f)) = schedule.pop_front() else {
@@ -631,6 +544,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             w.write(&row)?;
         }
         tel.tap.publish(&row);
+        if let Some(pace) = &pace {
+            pace.take_all();
+        }
         if sim.machine().finished() && done_at.is_none() {
             done_at = Some(sim.machine().t_s());
             eprintln!(
@@ -643,6 +559,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
                 break;
             }
         }
+    }
+    if let Some(pace) = &pace {
+        pace.close();
     }
     tel.finish();
     let st = ticker.stats();
@@ -690,52 +609,6 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const LATE: Duration = Duration::from_millis(60);
-
-    #[test]
-    fn unplug_and_knob_faults_parse() {
-        assert_eq!(
-            parse_fault("unplug@12.5", LATE).expect("for good"),
-            (12.5, Scheduled::Unplug(None))
-        );
-        assert_eq!(
-            parse_fault("unplug@3:2", LATE).expect("for 2 s"),
-            (3.0, Scheduled::Unplug(Some(2.0)))
-        );
-        assert_eq!(
-            parse_fault("knob@4:60", LATE).expect("knob"),
-            (4.0, Scheduled::Operator(60))
-        );
-        assert_eq!(
-            parse_fault("restart@7", LATE).expect("restart"),
-            (7.0, Scheduled::Restart)
-        );
-        assert_eq!(
-            parse_fault("vanish@9", LATE).expect("vanish"),
-            (9.0, Scheduled::Vanish)
-        );
-        assert_eq!(
-            parse_fault("hard@40:2:2.5", LATE).expect("hard"),
-            (40.0, Scheduled::Hard(2.0, 2.5))
-        );
-        for bad in [
-            "hard@40:2",
-            "hard@40:0:2",
-            "hard@40:2:0",
-            "hard@40:2:21",
-            "hard@40:x:2",
-            "unplug@3:0",
-            "unplug@3:-1",
-            "unplug@3:x",
-            "knob@1:151",
-            "knob@1",
-            "plug@1",
-        ] {
-            let e = parse_fault(bad, LATE).expect_err(bad).to_string();
-            assert!(e.contains(bad) && e.contains("unplug"), "{bad}: {e}");
-        }
-    }
 
     #[test]
     fn protocol_arguments_choose_the_emulated_board() {

@@ -4,16 +4,15 @@
 //! only) sees zero allocations on the thread.
 #![allow(clippy::unwrap_used)]
 
-use acc_core::{ForceSource, PeriodInput};
-use acc_spindle::calibrate::{Constants, PowerEfficiency};
-use acc_spindle::{
-    EstimatorConfig, Method, NoLoadMode, NoLoadModel, PhaseSamples, SpindleEstimator, SpindleInput,
-    SpindleSource,
+use acc_core::spindle_force::{
+    Constants, EstimatorConfig, Method, NoLoadMode, NoLoadModel, PhaseSamples, PowerEfficiency,
+    SpindleEstimator, SpindleInput, SpindleSource,
 };
+use acc_core::{ForceSource, PeriodInput};
 
 // A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
 #[allow(unsafe_code)]
-#[path = "../../acc-core/tests/support/counting_alloc.rs"]
+#[path = "support/counting_alloc.rs"]
 mod counting_alloc;
 use counting_alloc::allocations;
 

@@ -20,7 +20,7 @@
 //! mostly magnetising (in quadrature) plus an iron-loss part (in phase). Then
 //! `|I|² = I_air² + 2·I_fe·I_r + I_r²(1 + …)` with `I_r ∝ T_c`: a quadratic in the cutting
 //! torque, `I² − I_air² = a·T_c + b·T_c²`, with the motor constants lumped into `a` and `b`
-//! (fitted by [`crate::calibrate`]). Subtracting `I_air` linearly, as the conventional
+//! (fitted by `acc_spindle::calibrate`). Subtracting `I_air` linearly, as the conventional
 //! method does, ignores the quadrature and is why its `Kt` drifts with load (seed 000
 //! Table 2).
 //!
@@ -34,11 +34,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::Constants;
-use crate::noload::{AdaptOutcome, NoLoad, NoLoadModel};
-use crate::SpindleError;
-
-use acc_core::RangeError;
+use super::constants::Constants;
+use super::noload::{AdaptOutcome, NoLoad, NoLoadModel};
+use super::SpindleError;
+use crate::RangeError;
 
 /// Which estimator turns power/current into force.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -87,7 +86,7 @@ pub enum NoLoadMode {
     Off,
     /// The learned model, never adapted while running.
     Fixed,
-    /// The learned model, adapted while running ([`crate::noload`] rule).
+    /// The learned model, adapted while running ([`super::noload`] rule).
     Adaptive,
 }
 
@@ -275,14 +274,6 @@ impl SpindleEstimator {
         })
     }
 
-    /// Build from a calibration file's content (no-load model, its rule, constants).
-    pub fn from_calibration(
-        cfg: EstimatorConfig,
-        cal: &crate::calibrate::SpindleCalibration,
-    ) -> Result<Self, SpindleError> {
-        Self::new(cfg, cal.constants, cal.no_load_model()?)
-    }
-
     /// The configuration.
     pub fn config(&self) -> &EstimatorConfig {
         &self.cfg
@@ -412,8 +403,8 @@ impl SpindleEstimator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibrate::{CurrentConstant, MotorCharacteristic, PowerEfficiency};
-    use crate::noload::AdaptRule;
+    use crate::spindle_force::constants::{CurrentConstant, MotorCharacteristic, PowerEfficiency};
+    use crate::spindle_force::noload::AdaptRule;
 
     fn est(method: Method) -> SpindleEstimator {
         let mut nl = NoLoadModel::new(AdaptRule::default());

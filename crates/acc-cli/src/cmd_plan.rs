@@ -1,0 +1,174 @@
+//! `acc plan part.ngc --stock stock.toml | --stock-box … [--tools T.tbl] [--scenario S]
+//! --out DIR`: the cutting plan of an NC program (`acc_sim::plan`): `plan.csv`, the
+//! predicted force along the program (`plan.svg`, `plan.png`) and a summary on stdout.
+
+use std::path::PathBuf;
+
+use acc_plot::{Figure, HLine, Panel, Series, Style};
+use acc_runtime::plan::Plan;
+use acc_sim::plan::{PlanFigures, PlanParams};
+use anyhow::Context as _;
+
+/// Arguments of `acc plan`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// The NC program (RS274/NGC).
+    #[arg(value_name = "FILE.ngc")]
+    pub program: PathBuf,
+    /// The scenario whose machine, tool, force law, Fr and override grid the plan uses
+    /// (a name under configs/scenarios or a path).
+    #[arg(long, default_value = "paper_case3")]
+    pub scenario: String,
+    /// The program's stock: a `stock.toml` (a box or a height map, docs/stock.md).
+    #[arg(long, value_name = "stock.toml", conflicts_with = "stock_box")]
+    pub stock: Option<PathBuf>,
+    /// The program's stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
+    pub stock_box: Option<String>,
+    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
+    #[arg(long, value_name = "MM", default_value_t = 0.25)]
+    pub cell: f64,
+    /// LinuxCNC tool table (`.tbl`, mm) with the diameters of the program's T numbers.
+    #[arg(long, value_name = "FILE.tbl")]
+    pub tools: Option<PathBuf>,
+    /// Output directory (default `out/plan-<program>`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Do not draw the plot.
+    #[arg(long)]
+    pub no_plot: bool,
+}
+
+/// Run `acc plan`.
+pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
+    let sc = crate::cmd_sim::load_scenario(&args.scenario, None)?;
+    let program_args = crate::cmd_sim_program::ProgramArgs {
+        program: Some(args.program.clone()),
+        stock: args.stock.clone(),
+        stock_box: args.stock_box.clone(),
+        cell: args.cell,
+        tools: args.tools.clone(),
+        plan: None,
+    };
+    let path = crate::cmd_sim_program::load(&program_args, &sc)?
+        .ok_or_else(|| anyhow::anyhow!("no program"))?;
+    let params = PlanParams::of(&sc);
+    let plan = path.plan(&params);
+    let out = args.out.clone().unwrap_or_else(|| {
+        let stem = args
+            .program
+            .file_stem()
+            .map_or_else(|| "program".into(), |s| s.to_string_lossy().into_owned());
+        PathBuf::from("out").join(format!("plan-{stem}"))
+    });
+    std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let csv = out.join("plan.csv");
+    std::fs::write(&csv, plan.to_csv()?)
+        .with_context(|| format!("{}: cannot write", csv.display()))?;
+    let fr = params.force_ref_n;
+    let f = PlanFigures::of(&plan, params.grid.max_pct);
+    println!(
+        "plan of {} on {} ({} N Fr, grid {} %, {} ..= {} %)",
+        args.program.display(),
+        sc.name,
+        fr,
+        params.grid.step_pct,
+        params.grid.min_pct,
+        params.grid.max_pct
+    );
+    println!(
+        "{} rows ({} cutting) over {:.1} mm of path; {} engagement changes",
+        f.rows,
+        f.cutting_rows,
+        plan.length_mm(),
+        plan.rows.len().saturating_sub(1)
+    );
+    println!(
+        "predicted peak of the feed moves at 100 %: {:.0} N = {:.2} Fr; at the planned overrides: {:.0} N = {:.2} Fr",
+        f.peak_100_n,
+        f.peak_100_n / fr,
+        f.peak_planned_n,
+        f.peak_planned_n / fr
+    );
+    if f.rapid_cut_rows > 0 {
+        println!(
+            "warning: {} rows of rapid moves run through the stock (not overridden)",
+            f.rapid_cut_rows
+        );
+    }
+    println!(
+        "constant safe feed of the program: {} % (every cutting row's force ≤ Fr)",
+        f.safe_override_pct
+    );
+    println!(
+        "machine time (no acceleration): {:.1} s at 100 %, {:.1} s at the planned overrides, \
+         {:.1} s at the constant safe feed",
+        f.nominal_time_s, f.planned_time_s, f.safe_time_s
+    );
+    let events = path.events();
+    println!(
+        "entries: {}, corners: {} (path positions, mm: {})",
+        events
+            .iter()
+            .filter(|e| e.kind == acc_sim::program::EventKind::Entry)
+            .count(),
+        events
+            .iter()
+            .filter(|e| e.kind == acc_sim::program::EventKind::Corner)
+            .count(),
+        events
+            .iter()
+            .take(12)
+            .map(|e| format!("{:.1}", e.at_mm))
+            .collect::<Vec<_>>()
+            .join(", ")
+            + if events.len() > 12 { ", …" } else { "" }
+    );
+    println!("plan: {}", csv.display());
+    if !args.no_plot {
+        let w = plot(&plan, fr, &sc.name, &out.join("plan.svg"))?;
+        println!("plot: {} and {}", w.svg.display(), w.png.display());
+    }
+    Ok(())
+}
+
+/// The predicted force (at 100 % and at the planned overrides) and the planned override
+/// along the program's path.
+fn plot(
+    plan: &Plan,
+    fr: f64,
+    name: &str,
+    out: &std::path::Path,
+) -> anyhow::Result<acc_plot::Written> {
+    let steps = |f: &dyn Fn(&acc_runtime::plan::PlanRow) -> f64| {
+        plan.rows
+            .iter()
+            .flat_map(|r| [(r.start_mm, f(r)), (r.end_mm, f(r))])
+            .collect::<Vec<_>>()
+    };
+    let fig = Figure {
+        title: format!("plan on {name}"),
+        x_label: "path position [mm]".into(),
+        panels: vec![
+            Panel {
+                y_label: "predicted force [N]".into(),
+                series: vec![
+                    Series::line("at 100 %", steps(&|r| r.force_100_n)).with_style(Style::Dashed),
+                    Series::line("at the planned override", steps(&|r| r.force_planned_n)),
+                ],
+                hlines: vec![HLine::new("Fr", fr)],
+                ..Panel::default()
+            },
+            Panel {
+                y_label: "planned override [%]".into(),
+                series: vec![Series::line(
+                    "override",
+                    steps(&|r| f64::from(r.override_pct)),
+                )],
+                ..Panel::default()
+            },
+        ],
+        ..Figure::default()
+    };
+    Ok(acc_plot::time_series(&fig, out)?)
+}

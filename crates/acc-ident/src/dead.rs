@@ -1,0 +1,178 @@
+//! Rows without a valid measurement: what a run log's flags and empty cells say about
+//! each row's sample ([`RowFlags`]), and why a row cannot be compared on a channel
+//! ([`DeadReason`]).
+//!
+//! A run log has a row for every control period ([`runlog.md`](../../../docs/runlog.md)),
+//! also for the periods whose status read failed (the link lost, the board gone), that
+//! the ticker skipped, or whose status was implausible. The reader carries the last known
+//! value into such a row's empty cells, so the row still holds a number — one the machine
+//! did not measure in that period. The discrepancy workflow replays every row (the plant
+//! integrates through them) but leaves these rows out of selection, noise and the sealed
+//! part, and its report counts them per reason.
+
+use crate::model::Channel;
+
+/// What a run-log row's flags and cells say about its sample (a bit set).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RowFlags(pub u8);
+
+impl RowFlags {
+    /// The status read failed (`link:<kind>` in `flags`: the link lost, the board gone).
+    pub const NO_STATUS: u8 = 1;
+    /// The ticker skipped the period (`skipped`): no cycle ran.
+    pub const SKIPPED: u8 = 1 << 1;
+    /// `power_w` is empty.
+    pub const NO_POWER: u8 = 1 << 2;
+    /// `force_n` is empty (no usable force sample).
+    pub const NO_FORCE: u8 = 1 << 3;
+    /// A status value was out of range (`implausible:<register>`): the sample was not used.
+    pub const IMPLAUSIBLE: u8 = 1 << 4;
+    /// Feed hold requested (`feed_hold`) with the tool out of the material: nothing moves
+    /// and nothing is cut, so the row says nothing about the process or the feed path.
+    pub const FEED_HOLD_IN_AIR: u8 = 1 << 5;
+
+    /// Whether bit `b` is set.
+    pub fn has(self, b: u8) -> bool {
+        self.0 & b != 0
+    }
+
+    /// Why the row's sample cannot be compared on `channel`, the first reason in the order
+    /// of [`DeadReason::ALL`]; `None` for a valid row.
+    pub fn dead_on(self, channel: Channel) -> Option<DeadReason> {
+        let missing = match channel {
+            Channel::Power => Self::NO_POWER,
+            Channel::Force => Self::NO_FORCE,
+        };
+        [
+            (Self::NO_STATUS, DeadReason::LinkLost),
+            (Self::SKIPPED, DeadReason::Skipped),
+            (Self::IMPLAUSIBLE, DeadReason::Implausible),
+            (missing, DeadReason::NoSample),
+            (Self::FEED_HOLD_IN_AIR, DeadReason::FeedHoldInAir),
+        ]
+        .into_iter()
+        .find(|(b, _)| self.has(*b))
+        .map(|(_, r)| r)
+    }
+
+    /// The flags of one run-log record; `cutting` says whether the tool was in the
+    /// material in that period (the engagement the log carries or the workpiece gives).
+    pub fn of_record(r: &acc_runtime::RunRecord, cutting: bool) -> RowFlags {
+        let mut b = 0;
+        for f in r.flags.split(';') {
+            if f.starts_with("link:") {
+                b |= Self::NO_STATUS;
+            } else if f == "skipped" {
+                b |= Self::SKIPPED;
+            } else if f.starts_with("implausible:") {
+                b |= Self::IMPLAUSIBLE;
+            }
+        }
+        if r.power_w.is_none() {
+            b |= Self::NO_POWER;
+        }
+        if r.force_n.is_none() {
+            b |= Self::NO_FORCE;
+        }
+        if r.feed_hold && !cutting {
+            b |= Self::FEED_HOLD_IN_AIR;
+        }
+        RowFlags(b)
+    }
+}
+
+/// Why a row has no valid measurement on the compared channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum DeadReason {
+    /// The status read failed: the link lost or the board gone (`link:<kind>`).
+    LinkLost,
+    /// The ticker skipped the period (`skipped`).
+    Skipped,
+    /// A status value was implausible and not used (`implausible:<register>`).
+    Implausible,
+    /// The channel's cell is empty (no usable sample).
+    NoSample,
+    /// Feed hold with the tool in the air.
+    FeedHoldInAir,
+}
+
+impl DeadReason {
+    /// Every reason, in the order [`RowFlags::dead_on`] tries them.
+    pub const ALL: [DeadReason; 5] = [
+        DeadReason::LinkLost,
+        DeadReason::Skipped,
+        DeadReason::Implausible,
+        DeadReason::NoSample,
+        DeadReason::FeedHoldInAir,
+    ];
+
+    /// The reason in words, with the run-log evidence.
+    pub fn text(self) -> &'static str {
+        match self {
+            DeadReason::LinkLost => {
+                "link lost or board gone (`link:<kind>` in `flags`: the status read failed)"
+            }
+            DeadReason::Skipped => "period skipped by the ticker (`skipped`)",
+            DeadReason::Implausible => {
+                "implausible status value, sample not used (`implausible:<register>`)"
+            }
+            DeadReason::NoSample => "no sample on the compared channel (empty cell)",
+            DeadReason::FeedHoldInAir => "feed hold with the tool in the air (`feed_hold`)",
+        }
+    }
+
+    /// Short name for reports (`link_lost`, `skipped`, `implausible`, `no_sample`,
+    /// `feed_hold_in_air`).
+    pub fn name(self) -> &'static str {
+        match self {
+            DeadReason::LinkLost => "link_lost",
+            DeadReason::Skipped => "skipped",
+            DeadReason::Implausible => "implausible",
+            DeadReason::NoSample => "no_sample",
+            DeadReason::FeedHoldInAir => "feed_hold_in_air",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(
+        flags: &str,
+        power: Option<f64>,
+        force: Option<f64>,
+        hold: bool,
+    ) -> acc_runtime::RunRecord {
+        acc_runtime::RunRecord {
+            flags: flags.into(),
+            power_w: power,
+            force_n: force,
+            feed_hold: hold,
+            ..acc_runtime::RunRecord::default()
+        }
+    }
+
+    #[test]
+    fn a_row_is_dead_for_the_reason_its_log_gives() {
+        let ok = RowFlags::of_record(&rec("late;seq_repeat", Some(700.0), Some(5.0), false), true);
+        assert_eq!(ok.dead_on(Channel::Power), None);
+        assert_eq!(ok.dead_on(Channel::Force), None);
+        let gone = RowFlags::of_record(&rec("link:disconnected", None, None, false), true);
+        assert_eq!(gone.dead_on(Channel::Power), Some(DeadReason::LinkLost));
+        let no_force = RowFlags::of_record(&rec("force_invalid", Some(700.0), None, false), true);
+        assert_eq!(no_force.dead_on(Channel::Power), None);
+        assert_eq!(no_force.dead_on(Channel::Force), Some(DeadReason::NoSample));
+        let bad = RowFlags::of_record(&rec("implausible:power", Some(9e9), None, false), true);
+        assert_eq!(bad.dead_on(Channel::Power), Some(DeadReason::Implausible));
+        let skipped = RowFlags::of_record(&rec("skipped", None, None, false), false);
+        assert_eq!(skipped.dead_on(Channel::Force), Some(DeadReason::Skipped));
+        let hold_air = RowFlags::of_record(&rec("", Some(700.0), Some(0.0), true), false);
+        assert_eq!(
+            hold_air.dead_on(Channel::Power),
+            Some(DeadReason::FeedHoldInAir)
+        );
+        let hold_cut = RowFlags::of_record(&rec("", Some(900.0), Some(300.0), true), true);
+        assert_eq!(hold_cut.dead_on(Channel::Power), None);
+    }
+}

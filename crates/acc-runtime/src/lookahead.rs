@@ -1,0 +1,465 @@
+//! Look-ahead: the plan ([`crate::plan`]) read by the loop, one step of its decision path
+//! ([`crate::ControlLoop::with_lookahead`]). Every period it answers: *where is the tool
+//! on the plan, what is the lowest planned override the tool meets before the next
+//! command can act, and does the measured force agree with the plan?*
+//!
+//! **Where the tool is.** The board has no path-position register
+//! (`../shared/docs/pmc-board.md`): the position is the path the NC's `ACTUAL_FEED`
+//! (protocol v2) covered since the start, set on the plan by the block the board reports
+//! (`BLOCK_NUMBER`). A new block number is looked up in the plan from the block the tool
+//! was in (a program that loops meets a block again): the first visit of it that ends at or
+//! after the position. When the position is outside that visit, the block began somewhere
+//! in the last period, at most at the block's top speed (its feed × the grid's maximum, a
+//! rapid's rapid rate): the position becomes the block's start plus half that path, ± that
+//! much (the uncertainty, kept until the next such correction). A position inside the
+//! visit is kept (a block report may lag the feed by a period: the line guard holds a
+//! changed status until the next read confirms it).
+//!
+//! **The cap.** The override written now acts after the board's override delay and the
+//! feed drive's lag, and holds until the next period's command acts: about one period plus
+//! the delay. The cap is the lowest `override_pct` of the plan's feed rows from the
+//! position's uncertainty behind the tool to where it can be `horizon_s` ahead, walked at
+//! each row's programmed feed × the grid's maximum override (the law may raise the
+//! command this period; a rapid at its rapid rate). The cap only ever lowers the law's
+//! command ([`crate::CommandLimits::cap_pct`], applied last by the tool-limits judge): the
+//! plan never raises the override above what the feedback law and the tool limits allow.
+//!
+//! **Disagreement.** The plan predicts the period's force at the period's `ACTUAL_FEED`
+//! (`force_100_n · (f/f_prog)^β` of the rows the tool crossed in the period, ± the
+//! uncertainty). A valid measured force above the band's top by more than `tolerance` ×
+//! top + `tolerance_n` for `persist_periods` in a row is [`Disagreement::Above`] (the
+//! plan under-predicts: more metal than planned); below the band's bottom likewise is
+//! [`Disagreement::Below`] (the plan over-predicts). The measured force wins: the law
+//! acts on it in both cases, and while the plan over-predicts its cap is lifted (it would
+//! slow the tool for metal that is not there). The run log flags both
+//! (`plan_disagree:above`, `plan_disagree:below`), the cap in force (`plan_cap:<pct>`),
+//! and a block the plan does not know (`plan_lost`: no cap until a known block).
+
+use acc_core::ForceSample;
+use acc_pmc::BoardStatus;
+
+use crate::plan::{Plan, PlanRow};
+
+/// Tuning of the look-ahead.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LookAheadConfig {
+    /// How far ahead the cap looks, s of travel at the grid's maximum override (default:
+    /// two control periods, which covers the period, the override delay and the feed
+    /// drive's lag of the shipped machines: 16 ms and 8 ms against T = 0.1 s).
+    pub horizon_s: f64,
+    /// Relative tolerance of the disagreement check, − (default 0.25).
+    pub tolerance: f64,
+    /// Absolute tolerance of the disagreement check, N (default 5 % of Fr).
+    pub tolerance_n: f64,
+    /// Periods in a row outside the band before a disagreement is declared (default 3).
+    pub persist_periods: u32,
+    /// The grid's maximum override, percent (the policy's `max_override_pct`).
+    pub max_pct: u16,
+}
+
+impl LookAheadConfig {
+    /// The defaults for control period `period_s` (s), force reference `force_ref_n` (N)
+    /// and the grid's maximum override `max_pct` (%).
+    pub fn new(period_s: f64, force_ref_n: f64, max_pct: u16) -> Self {
+        LookAheadConfig {
+            horizon_s: 2.0 * period_s,
+            tolerance: 0.25,
+            tolerance_n: 0.05 * force_ref_n,
+            persist_periods: 3,
+            max_pct,
+        }
+    }
+}
+
+/// The measured force and the plan disagree (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Disagreement {
+    /// Measured above the plan's band: more engagement than planned.
+    Above,
+    /// Measured below the plan's band: less engagement than planned.
+    Below,
+}
+
+/// What the look-ahead decided in one period.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LookAheadStep {
+    /// The cap on the command from the plan, percent (`None`: no cap).
+    pub cap_pct: Option<u16>,
+    /// Estimated path position on the plan, mm (`None`: not located).
+    pub position_mm: Option<f64>,
+    /// A persistent disagreement between the plan and the measured force.
+    pub disagreement: Option<Disagreement>,
+    /// The board's block is not in the plan (or the board reports none).
+    pub lost: bool,
+    /// The plan explains a force drop this period: its force band reaches air (the tool may
+    /// be leaving the material) or the measured force is inside it, and the measured force
+    /// has not been above the plan. The breakage watch does not judge such a period
+    /// ([`crate::FaultPolicy::set_exit_planned`]): a broken tool's force falls below the
+    /// plan's band, a spike rises above it.
+    pub exit_planned: bool,
+}
+
+impl LookAheadStep {
+    /// Add this step's run-log flags to `r`: `plan_cap:<pct>` (the plan's cap in force),
+    /// `plan_disagree:above` / `plan_disagree:below`, `plan_lost`.
+    pub fn flag_onto(&self, r: &mut crate::record::RunRecord) {
+        if let Some(c) = self.cap_pct {
+            r.flag(&format!("plan_cap:{c}"));
+        }
+        match self.disagreement {
+            Some(Disagreement::Above) => r.flag("plan_disagree:above"),
+            Some(Disagreement::Below) => r.flag("plan_disagree:below"),
+            None => {}
+        }
+        if self.lost {
+            r.flag("plan_lost");
+        }
+    }
+}
+
+/// The look-ahead state between periods.
+#[derive(Debug, Clone)]
+pub struct LookAhead {
+    plan: Plan,
+    cfg: LookAheadConfig,
+    /// For each row, the index of the last row of its block visit.
+    visit_end: Vec<usize>,
+    /// First row of the visit the tool is in.
+    visit: Option<usize>,
+    last_block: Option<u16>,
+    x_mm: f64,
+    unc_mm: f64,
+    above: u32,
+    below: u32,
+    last: LookAheadStep,
+}
+
+impl LookAhead {
+    /// A look-ahead on `plan` (at least one row: [`Plan::load`] refuses an empty one).
+    pub fn new(plan: Plan, cfg: LookAheadConfig) -> Self {
+        let n = plan.rows.len();
+        let mut visit_end = vec![0; n];
+        for i in (0..n).rev() {
+            visit_end[i] = if i + 1 < n && plan.rows[i + 1].block == plan.rows[i].block {
+                visit_end[i + 1]
+            } else {
+                i
+            };
+        }
+        LookAhead {
+            plan,
+            cfg,
+            visit_end,
+            visit: None,
+            last_block: None,
+            x_mm: 0.0,
+            unc_mm: 0.0,
+            above: 0,
+            below: 0,
+            last: LookAheadStep::default(),
+        }
+    }
+
+    /// The plan.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The last step's decision.
+    pub fn last(&self) -> LookAheadStep {
+        self.last
+    }
+
+    /// The first row of the visit of `block` (low 16 bits) the tool at `x` (mm) can be in:
+    /// the first visit from the one before `from` (or the start) that ends at or after
+    /// `x`, wrapping once.
+    fn find_visit(&self, block: u16, from: Option<usize>, x: f64) -> Option<usize> {
+        let n = self.plan.rows.len();
+        let start = from.unwrap_or(0);
+        let is_start = |i: usize| i == 0 || self.plan.rows[i - 1].block != self.plan.rows[i].block;
+        let ok = |i: usize| is_start(i) && (self.plan.rows[i].block & 0xFFFF) as u16 == block;
+        (start..n)
+            .find(|&i| ok(i) && self.plan.rows[self.visit_end[i]].end_mm >= x - 1e-9)
+            .or_else(|| (start..n).chain(0..start.min(n)).find(|&i| ok(i)))
+    }
+
+    /// Index of the row containing path position `x` within rows `lo ..`.
+    fn row_at(&self, x: f64) -> usize {
+        self.plan
+            .rows
+            .partition_point(|r| r.end_mm < x)
+            .min(self.plan.rows.len() - 1)
+    }
+
+    /// One period: the status read (`None`: the read failed), the force sample, the
+    /// control period `period_s` (s).
+    pub fn step(
+        &mut self,
+        status: Option<&BoardStatus>,
+        force: &ForceSample,
+        period_s: f64,
+    ) -> LookAheadStep {
+        let Some(s) = status else {
+            // Nothing read: keep the last decision (the policy holds the command anyway).
+            return self.last;
+        };
+        if !s.is_v2() || s.block_number == 0 {
+            self.visit = None;
+            self.last_block = None;
+            self.last = LookAheadStep {
+                lost: true,
+                ..LookAheadStep::default()
+            };
+            return self.last;
+        }
+        let v = f64::from(s.actual_feed_mm_min);
+        let dx = v * period_s / 60.0;
+        // The path the NC reports, whatever the block (a block report may lag a period
+        // behind the feed: the line guard holds a changed status until it is confirmed).
+        self.x_mm += dx;
+        if self.last_block != Some(s.block_number) || self.visit.is_none() {
+            self.last_block = Some(s.block_number);
+            self.visit = self.find_visit(s.block_number, self.visit, self.x_mm);
+            if let Some(i) = self.visit {
+                let (start, end) = (
+                    self.plan.rows[i].start_mm,
+                    self.plan.rows[self.visit_end[i]].end_mm,
+                );
+                if !(start..=end).contains(&self.x_mm) {
+                    // The block began somewhere in the last period, at most at the block's
+                    // own top speed (its feed × the grid's maximum, a rapid's rapid rate).
+                    let r = &self.plan.rows[i];
+                    let top = if r.rapid {
+                        r.feed_mm_min
+                    } else {
+                        r.feed_mm_min * f64::from(self.cfg.max_pct) / 100.0
+                    };
+                    let d = dx.min(top * period_s / 60.0);
+                    self.x_mm = start + 0.5 * d;
+                    self.unc_mm = 0.5 * d;
+                }
+            }
+        }
+        if self.visit.is_none() {
+            self.last = LookAheadStep {
+                lost: true,
+                ..LookAheadStep::default()
+            };
+            return self.last;
+        }
+        let x = self.x_mm.clamp(0.0, self.plan.length_mm());
+        let (disagreement, drop_planned) = self.check(force, v, x, dx);
+        let cap_pct = if disagreement == Some(Disagreement::Below) {
+            None
+        } else {
+            self.cap(x)
+        };
+        self.last = LookAheadStep {
+            cap_pct,
+            position_mm: Some(x),
+            disagreement,
+            lost: false,
+            exit_planned: drop_planned,
+        };
+        self.last
+    }
+
+    /// The disagreement check of the period that ended at `x` (mm), at feed `v` (mm/min),
+    /// having moved `dx` (mm).
+    /// Also whether the plan explains a force drop this period: its band reaches air (a
+    /// row without force), or the valid measured force is inside the band.
+    fn check(
+        &mut self,
+        force: &ForceSample,
+        v: f64,
+        x: f64,
+        dx: f64,
+    ) -> (Option<Disagreement>, bool) {
+        let (a, b) = (
+            self.row_at(x - dx - self.unc_mm),
+            self.row_at(x + self.unc_mm),
+        );
+        let rows = &self.plan.rows[a..=b];
+        let air = rows.iter().any(|r| !r.cuts());
+        if !(force.valid && force.force_n.is_finite()) {
+            return (None, air);
+        }
+        let band = rows
+            .iter()
+            .map(|r| (r.force_min_at_feed_n(v), r.force_at_feed_n(v)))
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), f| {
+                (lo.min(f.0), hi.max(f.1))
+            });
+        let f = force.force_n;
+        let tol = self.cfg.tolerance;
+        let above = f > band.1 * (1.0 + tol) + self.cfg.tolerance_n;
+        let below = f < band.0 * (1.0 - tol) - self.cfg.tolerance_n;
+        self.above = if above { self.above + 1 } else { 0 };
+        self.below = if below { self.below + 1 } else { 0 };
+        let n = self.cfg.persist_periods.max(1);
+        let d = if self.above >= n {
+            Some(Disagreement::Above)
+        } else if self.below >= n {
+            Some(Disagreement::Below)
+        } else {
+            None
+        };
+        (d, self.above == 0 && (air || !(above || below)))
+    }
+
+    /// The lowest planned override of the feed rows from `x − uncertainty` to where the
+    /// tool can be `horizon_s` later (`None`: nothing below the grid's maximum).
+    fn cap(&self, x: f64) -> Option<u16> {
+        let rows = &self.plan.rows;
+        let max = f64::from(self.cfg.max_pct.max(1)) / 100.0;
+        let mut i = self.row_at(x - self.unc_mm);
+        let mut at = (x - self.unc_mm).max(rows[i].start_mm);
+        let mut left_s = self.cfg.horizon_s;
+        let mut cap = u16::MAX;
+        // The uncertainty ahead costs no time: the tool may already be there.
+        let mut free_mm = 2.0 * self.unc_mm;
+        loop {
+            let r: &PlanRow = &rows[i];
+            if !r.rapid {
+                cap = cap.min(r.override_pct);
+            }
+            let speed = if r.rapid {
+                r.feed_mm_min
+            } else {
+                r.feed_mm_min * max
+            } / 60.0;
+            let mut len = (r.end_mm - at).max(0.0);
+            let free = free_mm.min(len);
+            free_mm -= free;
+            len -= free;
+            let t = if speed > 0.0 {
+                len / speed
+            } else {
+                f64::INFINITY
+            };
+            if t >= left_s || i + 1 >= rows.len() {
+                break;
+            }
+            left_s -= t;
+            i += 1;
+            at = rows[i].start_mm;
+        }
+        (cap < self.cfg.max_pct).then_some(cap)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
+        crate::plan::test_row(block, a, b, 600.0, f100, ov)
+    }
+
+    fn status(block: u16, feed: u16) -> BoardStatus {
+        BoardStatus {
+            protocol_version: 2,
+            block_number: block,
+            actual_feed_mm_min: feed,
+            ..BoardStatus::default()
+        }
+    }
+
+    fn force(f: f64) -> ForceSample {
+        ForceSample {
+            force_n: f,
+            power_w: None,
+            valid: true,
+        }
+    }
+
+    /// Air in block 10 for 20 mm, then a cut planned at 30 % in block 20.
+    fn lookahead() -> LookAhead {
+        let plan = Plan {
+            rows: vec![
+                row(10, 0.0, 20.0, 0.0, 150),
+                row(20, 20.0, 60.0, 2400.0, 30),
+            ],
+        };
+        LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150))
+    }
+
+    #[test]
+    fn caps_before_the_entry_not_long_before() {
+        let mut la = lookahead();
+        // 900 mm/min = 1.5 mm per period; at 150 % of 600 the horizon (0.2 s) is 3 mm.
+        let mut caps = Vec::new();
+        for _ in 0..13 {
+            caps.push(la.step(Some(&status(10, 900)), &force(0.0), 0.1));
+        }
+        let first = caps
+            .iter()
+            .position(|s| s.cap_pct == Some(30))
+            .expect("capped");
+        let x = caps[first].position_mm.expect("located");
+        assert!((15.0..20.0).contains(&x), "capped at {x} mm");
+        assert!(caps[..first].iter().all(|s| s.cap_pct.is_none()));
+        // In the cut, the block change locates the tool at the block's start.
+        let s = la.step(Some(&status(20, 180)), &force(720.0), 0.1);
+        assert_eq!(s.cap_pct, Some(30));
+        assert!((s.position_mm.expect("x") - 20.15).abs() < 1e-9);
+        assert_eq!(s.disagreement, None);
+    }
+
+    #[test]
+    fn disagreement_needs_persistence_and_below_lifts_the_cap() {
+        let mut la = lookahead();
+        // Entering from air: a drop here would be the plan's (the band reaches air).
+        assert!(
+            la.step(Some(&status(20, 180)), &force(720.0), 0.1)
+                .exit_planned
+        );
+        // In the cut at the planned force: the plan explains the force.
+        assert!(
+            la.step(Some(&status(20, 180)), &force(720.0), 0.1)
+                .exit_planned
+        );
+        // A collapse to nothing where the plan says metal is not explained (a broken tool).
+        assert!(
+            !la.step(Some(&status(20, 180)), &force(0.0), 0.1)
+                .exit_planned
+        );
+        la.step(Some(&status(20, 180)), &force(720.0), 0.1);
+        // The plan predicts 720 N at 180 mm/min; 1500 N is above for three periods.
+        let d: Vec<_> = (0..3)
+            .map(|_| la.step(Some(&status(20, 180)), &force(1500.0), 0.1))
+            .collect();
+        assert_eq!(d[1].disagreement, None);
+        assert_eq!(d[2].disagreement, Some(Disagreement::Above));
+        assert!(d.iter().all(|s| !s.exit_planned));
+        assert_eq!(d[2].cap_pct, Some(30));
+        // Air where the plan says metal: below, and the cap is lifted.
+        let d: Vec<_> = (0..3)
+            .map(|_| la.step(Some(&status(20, 180)), &force(0.0), 0.1))
+            .collect();
+        assert_eq!(d[2].disagreement, Some(Disagreement::Below));
+        assert_eq!(d[2].cap_pct, None);
+    }
+
+    #[test]
+    fn unknown_block_or_v1_board_is_lost() {
+        let mut la = lookahead();
+        let s = la.step(Some(&status(99, 100)), &force(0.0), 0.1);
+        assert!(s.lost && s.cap_pct.is_none());
+        let s = la.step(Some(&BoardStatus::default()), &force(0.0), 0.1);
+        assert!(s.lost);
+        // A block met again later in the program is found forward from the last one.
+        let plan = Plan {
+            rows: vec![
+                row(5, 0.0, 10.0, 0.0, 150),
+                row(6, 10.0, 20.0, 1000.0, 80),
+                row(5, 20.0, 30.0, 0.0, 150),
+            ],
+        };
+        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+        la.step(Some(&status(5, 60)), &force(0.0), 0.1);
+        la.step(Some(&status(6, 60)), &force(0.0), 0.1);
+        let s = la.step(Some(&status(5, 60)), &force(0.0), 0.1);
+        assert!((s.position_mm.expect("x") - 20.05).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,403 @@
+//! The cutting plan as data the loop reads: `plan.csv`, written by `acc plan` (the planner,
+//! `acc_sim::plan`) and read by `acc sim --plan` / `acc run --plan` ([`crate::lookahead`]).
+//!
+//! One row per stretch of the program's path along which the block and the planned
+//! override stay the same, in path order, contiguous (`start_mm` of a row is `end_mm` of
+//! the one before). Columns (units in the names):
+//!
+//! | column | unit | meaning |
+//! | --- | --- | --- |
+//! | `block` | — | the block the board reports as `BLOCK_NUMBER` (N word, else line number) |
+//! | `tool` | — | the tool number (`TOOL_NUMBER`) |
+//! | `start_mm`, `end_mm` | mm | path position where the stretch starts and ends (along the whole program, rapids included) |
+//! | `x_mm`, `y_mm`, `z_mm` | mm | tool position where the stretch starts (program frame) |
+//! | `rapid` | bool | a rapid move (not overridden) |
+//! | `feed_mm_min` | mm/min | programmed feed (a rapid: the machine's rapid rate) |
+//! | `radial_mm`, `axial_mm` | mm | engagement where the force of the stretch is largest (0 radial: air) |
+//! | `force_100_n` | N | largest predicted mean force along the stretch at 100 % override |
+//! | `force_min_100_n` | N | smallest predicted mean force along the stretch at 100 % override |
+//! | `override_pct` | % | the planned override: the largest on the board's grid whose predicted force is ≤ Fr, clamped to the tool's limits (the maximum in air and on rapids) |
+//! | `force_planned_n` | N | predicted largest force at `override_pct` |
+//! | `feed_exponent` | — | β of the force law `F ∝ f^β` (seed 002 eq. 1): the force at another feed `f` is `force_100_n · (f / feed_mm_min)^β` |
+//!
+//! Reading checks every cell and the order; an error names the file, the line and the
+//! column, and the allowed range.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+/// One stretch of the plan (see the module docs for the columns).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanRow {
+    /// Block number (N word, else line number).
+    pub block: u32,
+    /// Tool number.
+    pub tool: u32,
+    /// Path position where the stretch starts, mm.
+    pub start_mm: f64,
+    /// Path position where the stretch ends, mm.
+    pub end_mm: f64,
+    /// Tool position where the stretch starts, mm (program frame).
+    pub x_mm: f64,
+    /// See `x_mm`.
+    pub y_mm: f64,
+    /// See `x_mm`.
+    pub z_mm: f64,
+    /// A rapid move (not overridden).
+    pub rapid: bool,
+    /// Programmed feed, mm/min (rapid: the rapid rate).
+    pub feed_mm_min: f64,
+    /// Radial engagement where the stretch's force is largest, mm (0: air).
+    pub radial_mm: f64,
+    /// Axial engagement there, mm.
+    pub axial_mm: f64,
+    /// Largest predicted mean force at 100 % override, N.
+    pub force_100_n: f64,
+    /// Smallest predicted mean force at 100 % override, N.
+    pub force_min_100_n: f64,
+    /// Planned override, percent (on the board's grid, within the tool's limits).
+    pub override_pct: u16,
+    /// Largest predicted force at the planned override, N.
+    pub force_planned_n: f64,
+    /// Feed exponent β of the force law, −.
+    pub feed_exponent: f64,
+}
+
+impl PlanRow {
+    /// Predicted force of this stretch at actual feed `feed_mm_min` (mm/min), N:
+    /// `force_100_n · (f / f_prog)^β` (seed 002 eq. 1).
+    pub fn force_at_feed_n(&self, feed_mm_min: f64) -> f64 {
+        self.scale_to_feed(self.force_100_n, feed_mm_min)
+    }
+
+    /// [`PlanRow::force_at_feed_n`] of the stretch's smallest force, N.
+    pub fn force_min_at_feed_n(&self, feed_mm_min: f64) -> f64 {
+        self.scale_to_feed(self.force_min_100_n, feed_mm_min)
+    }
+
+    fn scale_to_feed(&self, f100_n: f64, feed_mm_min: f64) -> f64 {
+        if f100_n <= 0.0 || self.feed_mm_min <= 0.0 || feed_mm_min <= 0.0 {
+            return 0.0;
+        }
+        f100_n * (feed_mm_min / self.feed_mm_min).powf(self.feed_exponent)
+    }
+
+    /// Whether the tool cuts along this stretch (a predicted force).
+    pub fn cuts(&self) -> bool {
+        self.force_100_n > 0.0
+    }
+}
+
+/// A whole plan: its rows in path order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Plan {
+    /// The stretches, in path order, contiguous.
+    pub rows: Vec<PlanRow>,
+}
+
+/// The column names of `plan.csv`, in order.
+pub const PLAN_COLUMNS: [&str; 16] = [
+    "block",
+    "tool",
+    "start_mm",
+    "end_mm",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "rapid",
+    "feed_mm_min",
+    "radial_mm",
+    "axial_mm",
+    "force_100_n",
+    "force_min_100_n",
+    "override_pct",
+    "force_planned_n",
+    "feed_exponent",
+];
+
+/// Why a plan file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The file cannot be read.
+    #[error("{file}: cannot read the plan")]
+    Io {
+        /// The plan file.
+        file: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A line of the file is wrong.
+    #[error("{file}:{line}: {what}")]
+    Line {
+        /// The plan file.
+        file: PathBuf,
+        /// 1-based line number.
+        line: u64,
+        /// What is wrong (names the column and the allowed range).
+        what: String,
+    },
+    /// The file has no rows.
+    #[error("{file}: the plan has no rows (write one with `acc plan`)")]
+    Empty {
+        /// The plan file.
+        file: PathBuf,
+    },
+    /// The plan cannot be written.
+    #[error("cannot write the plan: {0}")]
+    Write(String),
+}
+
+/// Tolerance of the contiguity check between rows, mm.
+const CONTIGUOUS_MM: f64 = 1e-3;
+
+impl Plan {
+    /// Read `plan.csv` at `path`.
+    pub fn load(path: &Path) -> Result<Self, PlanError> {
+        let text = std::fs::read_to_string(path).map_err(|source| PlanError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(path, &text)
+    }
+
+    /// Parse the text of a plan file (`file` names it in errors).
+    pub fn parse(file: &Path, text: &str) -> Result<Self, PlanError> {
+        let err = |line: u64, what: String| PlanError::Line {
+            file: file.to_path_buf(),
+            line,
+            what,
+        };
+        let mut rd = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .from_reader(text.as_bytes());
+        let header = rd
+            .headers()
+            .map_err(|e| err(1, format!("header: {e}")))?
+            .clone();
+        let got: Vec<&str> = header.iter().collect();
+        if got != PLAN_COLUMNS {
+            return Err(err(
+                1,
+                format!(
+                    "header `{}`: expected `{}`",
+                    got.join(","),
+                    PLAN_COLUMNS.join(",")
+                ),
+            ));
+        }
+        let mut rows: Vec<PlanRow> = Vec::new();
+        for rec in rd.records() {
+            let rec = rec.map_err(|e| {
+                let line = e.position().map_or(0, |p| p.line());
+                err(line, e.to_string())
+            })?;
+            let line = rec.position().map_or(0, |p| p.line());
+            let cell = |i: usize| rec.get(i).unwrap_or("");
+            let num = |i: usize, lo: f64, hi: f64| -> Result<f64, PlanError> {
+                let s = cell(i);
+                let v: f64 = s.trim().parse().map_err(|_| {
+                    err(
+                        line,
+                        format!("column `{}`: `{s}` is not a number", PLAN_COLUMNS[i]),
+                    )
+                })?;
+                if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                    return Err(err(
+                        line,
+                        format!("column `{}`: {v} outside {lo} ..= {hi}", PLAN_COLUMNS[i]),
+                    ));
+                }
+                Ok(v)
+            };
+            let int = |i: usize, hi: f64| -> Result<u32, PlanError> {
+                let v = num(i, 0.0, hi)?;
+                if v.fract() != 0.0 {
+                    return Err(err(
+                        line,
+                        format!("column `{}`: {v} is not a whole number", PLAN_COLUMNS[i]),
+                    ));
+                }
+                Ok(v as u32)
+            };
+            let rapid = match cell(7).trim() {
+                "true" | "1" => true,
+                "false" | "0" => false,
+                s => {
+                    return Err(err(
+                        line,
+                        format!("column `rapid`: `{s}`: allowed true or false"),
+                    ))
+                }
+            };
+            let big = 1e9;
+            let row = PlanRow {
+                block: int(0, f64::from(u32::MAX))?,
+                tool: int(1, f64::from(u32::MAX))?,
+                start_mm: num(2, 0.0, big)?,
+                end_mm: num(3, 0.0, big)?,
+                x_mm: num(4, -big, big)?,
+                y_mm: num(5, -big, big)?,
+                z_mm: num(6, -big, big)?,
+                rapid,
+                feed_mm_min: num(8, 0.0, 1e7)?,
+                radial_mm: num(9, 0.0, 1e4)?,
+                axial_mm: num(10, 0.0, 1e4)?,
+                force_100_n: num(11, 0.0, 1e9)?,
+                force_min_100_n: num(12, 0.0, 1e9)?,
+                override_pct: int(13, 150.0)? as u16,
+                force_planned_n: num(14, 0.0, 1e9)?,
+                feed_exponent: num(15, 0.1, 2.0)?,
+            };
+            if row.force_min_100_n > row.force_100_n {
+                return Err(err(
+                    line,
+                    format!(
+                        "column `force_min_100_n`: {} above force_100_n {}",
+                        row.force_min_100_n, row.force_100_n
+                    ),
+                ));
+            }
+            if row.end_mm < row.start_mm {
+                return Err(err(
+                    line,
+                    format!(
+                        "column `end_mm`: {} before start_mm {}",
+                        row.end_mm, row.start_mm
+                    ),
+                ));
+            }
+            if let Some(prev) = rows.last() {
+                if (row.start_mm - prev.end_mm).abs() > CONTIGUOUS_MM {
+                    return Err(err(
+                        line,
+                        format!(
+                            "column `start_mm`: {} does not continue the row before (end_mm {}); \
+                             rows must be in path order",
+                            row.start_mm, prev.end_mm
+                        ),
+                    ));
+                }
+            }
+            rows.push(row);
+        }
+        if rows.is_empty() {
+            return Err(PlanError::Empty {
+                file: file.to_path_buf(),
+            });
+        }
+        Ok(Plan { rows })
+    }
+
+    /// The plan as `plan.csv` text.
+    pub fn to_csv(&self) -> Result<String, PlanError> {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.write_record(PLAN_COLUMNS)
+            .map_err(|e| PlanError::Write(e.to_string()))?;
+        for r in &self.rows {
+            w.write_record([
+                r.block.to_string(),
+                r.tool.to_string(),
+                format!("{:.3}", r.start_mm),
+                format!("{:.3}", r.end_mm),
+                format!("{:.3}", r.x_mm),
+                format!("{:.3}", r.y_mm),
+                format!("{:.3}", r.z_mm),
+                r.rapid.to_string(),
+                format!("{:.1}", r.feed_mm_min),
+                format!("{:.3}", r.radial_mm),
+                format!("{:.3}", r.axial_mm),
+                format!("{:.1}", r.force_100_n),
+                format!("{:.1}", r.force_min_100_n),
+                r.override_pct.to_string(),
+                format!("{:.1}", r.force_planned_n),
+                format!("{}", r.feed_exponent),
+            ])
+            .map_err(|e| PlanError::Write(e.to_string()))?;
+        }
+        let bytes = w
+            .into_inner()
+            .map_err(|e| PlanError::Write(e.to_string()))?;
+        String::from_utf8(bytes).map_err(|e| PlanError::Write(e.to_string()))
+    }
+
+    /// Length of the planned path, mm.
+    pub fn length_mm(&self) -> f64 {
+        self.rows.last().map_or(0.0, |r| r.end_mm)
+    }
+}
+
+/// A plan row for tests: block `block` from `a` to `b` mm at `feed` mm/min, force `f100` N
+/// at 100 % (its smallest too), planned override `ov` %.
+#[cfg(test)]
+pub(crate) fn test_row(block: u32, a: f64, b: f64, feed: f64, f100: f64, ov: u16) -> PlanRow {
+    PlanRow {
+        block,
+        tool: 1,
+        start_mm: a,
+        end_mm: b,
+        x_mm: 0.0,
+        y_mm: 0.0,
+        z_mm: 0.0,
+        rapid: false,
+        feed_mm_min: feed,
+        radial_mm: 1.0,
+        axial_mm: 5.0,
+        force_100_n: f100,
+        force_min_100_n: f100,
+        override_pct: ov,
+        force_planned_n: f100 * f64::from(ov) / 100.0,
+        feed_exponent: 1.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
+        test_row(block, a, b, 200.0, f100, ov)
+    }
+
+    #[test]
+    fn round_trip_and_force_at_feed() {
+        let p = Plan {
+            rows: vec![row(10, 0.0, 5.0, 0.0, 150), row(20, 5.0, 9.5, 1600.0, 50)],
+        };
+        let text = p.to_csv().expect("csv");
+        let back = Plan::parse(Path::new("p.csv"), &text).expect("parse");
+        assert_eq!(back, p);
+        assert!((back.rows[1].force_at_feed_n(100.0) - 800.0).abs() < 1e-9);
+        assert_eq!(back.length_mm(), 9.5);
+    }
+
+    #[test]
+    fn bad_files_name_the_line_and_column() {
+        let p = Plan {
+            rows: vec![row(10, 0.0, 5.0, 0.0, 150), row(20, 5.0, 9.5, 1600.0, 50)],
+        };
+        let text = p.to_csv().expect("csv");
+        let f = Path::new("plan.csv");
+        let bad = text.replace("1600.0", "lots");
+        let e = Plan::parse(f, &bad).expect_err("not a number").to_string();
+        assert!(e.contains("plan.csv:3") && e.contains("force_100_n"), "{e}");
+        let gap = text.replace("\n20,1,5.000", "\n20,1,6.000");
+        let e = Plan::parse(f, &gap).expect_err("gap").to_string();
+        assert!(e.contains("plan.csv:3") && e.contains("start_mm"), "{e}");
+        let ov = text.replace(",50,", ",170,");
+        let e = Plan::parse(f, &ov).expect_err("override").to_string();
+        assert!(e.contains("override_pct") && e.contains("150"), "{e}");
+        let e = Plan::parse(f, "a,b\n1,2\n")
+            .expect_err("header")
+            .to_string();
+        assert!(e.contains("plan.csv:1") && e.contains("header"), "{e}");
+        let e = Plan::parse(f, &PLAN_COLUMNS.join(","))
+            .expect_err("empty")
+            .to_string();
+        assert!(e.contains("no rows"), "{e}");
+        let short = text.lines().take(2).collect::<Vec<_>>().join("\n") + "\n20,1,5.0\n";
+        let e = Plan::parse(f, &short).expect_err("short").to_string();
+        assert!(e.contains("plan.csv:3"), "{e}");
+    }
+}

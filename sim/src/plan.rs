@@ -1,0 +1,376 @@
+//! The planner of `acc plan`: the cutting plan of a path ([`acc_runtime::plan::Plan`]),
+//! from the engagement known before the run and the plant's own force law.
+//!
+//! It asks the same [`EngagementSource`] the plant asks ([`EngagementSource::engagement_at`]
+//! for the engagement, [`EngagementSource::path_at`] for the programmed feed, block and
+//! tool) and evaluates the same mean-force law (seed 002 eq. 1,
+//! [`acc_plant::process::ForceLaw::mean_force_n`]) with the scenario's constants: the tool's
+//! `Ks` calibration, the spindle's commanded speed, the tool's initial wear factor. So on
+//! a noise-free run at a constant override the plan's force and the plant's agree up to
+//! what the plant adds over time (wear growth, a sagging spindle speed, the feed drive's
+//! transient) and the plant's axial depth, which it holds per control period.
+//!
+//! The path is cut into intervals between knots (the source's engagement breakpoints and
+//! the pieces' starts, where the feed changes); the engagement is linear between knots, so
+//! the largest force of an interval is at one of its ends, and the plan's bound holds over
+//! the whole interval. Per interval: the largest force at 100 % override `F₁₀₀`, and the
+//! planned override, the largest position of the board's grid at or below
+//! `100 · (Fr / F₁₀₀)^(1/β)` (the force law solved for the feed), clamped to the tool's
+//! limits and at least one grid step (an override of 0 stops the program); the grid's
+//! maximum in air and on rapids. Consecutive intervals with the same block, tool, kind of
+//! move, planned override and cutting or not are one row (its smallest and largest force
+//! kept: the band the look-ahead checks the measured force against).
+
+use acc_core::OverrideSpec;
+use acc_plant::engagement::{EngagementSource, ToolGeometry};
+use acc_plant::process::ForceLaw;
+use acc_runtime::plan::{Plan, PlanRow};
+
+use crate::program::ProgramPath;
+use crate::Scenario;
+
+/// The constants of the plan: the tool, the force law and the grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanParams {
+    /// The cutter.
+    pub tool: ToolGeometry,
+    /// The plant's mean-force law (seed 002 eq. 1).
+    pub law: ForceLaw,
+    /// Spindle speed, rpm.
+    pub rpm: f64,
+    /// `Ks` factor of the tool (its initial wear factor), −.
+    pub ks_factor: f64,
+    /// Force reference Fr, N.
+    pub force_ref_n: f64,
+    /// The board's grid and the tool's override limits, percent.
+    pub grid: OverrideSpec,
+}
+
+impl PlanParams {
+    /// The constants of `scenario`: its tool and force law, the spindle's commanded speed,
+    /// the tool's initial wear factor, its Fr and its override grid within the fault
+    /// policy's limits.
+    pub fn of(scenario: &Scenario) -> Self {
+        let mut grid = scenario.controller.override_spec;
+        grid.min_pct = grid.min_pct.max(scenario.policy.min_override_pct);
+        grid.max_pct = grid.max_pct.min(scenario.policy.max_override_pct);
+        PlanParams {
+            tool: ToolGeometry::of(&scenario.tool),
+            law: ForceLaw::new(scenario.tool.process),
+            rpm: scenario.machine.spindle.rpm,
+            ks_factor: scenario.wear.initial_factor,
+            force_ref_n: scenario.controller.force_ref_n,
+            grid,
+        }
+    }
+
+    /// The planned override for a largest force `f100_n` (N) at 100 %: the grid position at
+    /// or below the one that gives Fr, at least one step; the maximum without force.
+    pub fn override_for(&self, f100_n: f64) -> u16 {
+        let step = self.grid.step_pct.max(1);
+        let top = self.grid.floor(self.grid.max_pct).0;
+        if f100_n <= 0.0 {
+            return top;
+        }
+        let beta = self.law.spec.beta;
+        let exact = 100.0 * (self.force_ref_n / f100_n).powf(1.0 / beta);
+        let pct = exact.floor().clamp(0.0, f64::from(top)) as u16;
+        self.grid.floor(pct).0.max(step.max(self.grid.min_pct))
+    }
+}
+
+/// One interval's figures.
+struct Interval {
+    a: f64,
+    b: f64,
+    block: u32,
+    tool: u32,
+    rapid: bool,
+    feed: f64,
+    f100: f64,
+    fmin: f64,
+    radial: f64,
+    axial: f64,
+}
+
+/// The plan of the path of `source` between the increasing path positions `knots` (mm;
+/// the first is the start of the path, the last its end), with `position` the tool's
+/// position in space at a path position (mm).
+pub fn plan_along(
+    source: &mut dyn EngagementSource,
+    knots: &[f64],
+    position: impl Fn(f64) -> [f64; 3],
+    p: &PlanParams,
+) -> Plan {
+    let force = |source: &mut dyn EngagementSource, x: f64, feed: f64| {
+        let e = source.engagement_at(&p.tool, x);
+        let f = p.law.mean_force_n(
+            e.radial_mm,
+            e.axial_mm,
+            feed,
+            p.rpm,
+            e.ks_factor * p.ks_factor,
+        );
+        (f, e.radial_mm, e.axial_mm)
+    };
+    let mut intervals: Vec<Interval> = Vec::with_capacity(knots.len());
+    for w in knots.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if b <= a {
+            continue;
+        }
+        let mid = 0.5 * (a + b);
+        let pt = source.path_at(mid);
+        let (feed, block, tool, rapid) = pt.map_or((0.0, 0, 0, false), |q| {
+            (q.feed_mm_min, q.block, q.tool, q.rapid)
+        });
+        let (fa, ra, aa) = force(source, a, feed);
+        let (fb, rb, ab) = force(source, b, feed);
+        let (f100, radial, axial) = if fb > fa { (fb, rb, ab) } else { (fa, ra, aa) };
+        intervals.push(Interval {
+            a,
+            b,
+            block,
+            tool,
+            rapid,
+            feed,
+            f100,
+            fmin: fa.min(fb),
+            radial,
+            axial,
+        });
+    }
+    let top = p.grid.floor(p.grid.max_pct).0;
+    let beta = p.law.spec.beta;
+    let mut rows: Vec<PlanRow> = Vec::new();
+    for iv in intervals {
+        let ov = if iv.rapid {
+            top
+        } else {
+            p.override_for(iv.f100)
+        };
+        let same = rows.last().is_some_and(|r| {
+            r.block == iv.block
+                && r.tool == iv.tool
+                && r.rapid == iv.rapid
+                && r.override_pct == ov
+                && r.cuts() == (iv.f100 > 0.0)
+        });
+        if same {
+            if let Some(r) = rows.last_mut() {
+                r.end_mm = iv.b;
+                r.force_min_100_n = r.force_min_100_n.min(iv.fmin);
+                if iv.f100 > r.force_100_n {
+                    r.force_100_n = iv.f100;
+                    r.radial_mm = iv.radial;
+                    r.axial_mm = iv.axial;
+                }
+            }
+            continue;
+        }
+        let [x, y, z] = position(iv.a);
+        rows.push(PlanRow {
+            block: iv.block,
+            tool: iv.tool,
+            start_mm: iv.a,
+            end_mm: iv.b,
+            x_mm: x,
+            y_mm: y,
+            z_mm: z,
+            rapid: iv.rapid,
+            feed_mm_min: iv.feed,
+            radial_mm: iv.radial,
+            axial_mm: iv.axial,
+            force_100_n: iv.f100,
+            force_min_100_n: iv.fmin,
+            override_pct: ov,
+            force_planned_n: 0.0,
+            feed_exponent: beta,
+        });
+    }
+    for r in &mut rows {
+        let scale = if r.rapid {
+            1.0
+        } else {
+            f64::from(r.override_pct) / 100.0
+        };
+        r.force_planned_n = r.force_100_n * scale.powf(beta);
+    }
+    Plan { rows }
+}
+
+impl ProgramPath {
+    /// The plan of this program ([`plan_along`] on a copy of its engagement, between its
+    /// engagement steps and its pieces' starts).
+    pub fn plan(&self, p: &PlanParams) -> Plan {
+        let mut knots: Vec<f64> = self.steps.iter().map(|(x, _)| *x).collect();
+        knots.extend(self.piece_starts_mm());
+        knots.push(EngagementSource::path_length_mm(self).unwrap_or(0.0));
+        knots.push(0.0);
+        knots.sort_by(f64::total_cmp);
+        knots.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        let mut source = self.clone();
+        plan_along(&mut source, &knots, |x| self.position_at(x), p)
+    }
+}
+
+/// What a plan says about a program, for the summary of `acc plan` and the program table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanFigures {
+    /// Rows of the plan.
+    pub rows: usize,
+    /// Rows with a predicted force (cutting).
+    pub cutting_rows: usize,
+    /// Largest predicted force of the feed moves at 100 % override, N.
+    pub peak_100_n: f64,
+    /// Rows of rapid moves through the stock (not overridden: the plan cannot help).
+    pub rapid_cut_rows: usize,
+    /// Largest predicted force of the feed moves at the planned overrides, N.
+    pub peak_planned_n: f64,
+    /// The program's constant safe feed: the lowest planned override of the cutting rows
+    /// (one override for the whole program whose predicted peak is ≤ Fr), percent.
+    pub safe_override_pct: u16,
+    /// Machine time of the path at the planned overrides (rapids at the rapid rate; no
+    /// acceleration), s.
+    pub planned_time_s: f64,
+    /// Machine time at 100 %, s.
+    pub nominal_time_s: f64,
+    /// Machine time at the constant safe feed, s.
+    pub safe_time_s: f64,
+}
+
+impl PlanFigures {
+    /// The figures of `plan` on the grid's maximum `max_pct` (%).
+    pub fn of(plan: &Plan, max_pct: u16) -> Self {
+        let cutting: Vec<&PlanRow> = plan.rows.iter().filter(|r| r.cuts() && !r.rapid).collect();
+        let safe = cutting
+            .iter()
+            .map(|r| r.override_pct)
+            .min()
+            .unwrap_or(max_pct);
+        let time = |ov: &dyn Fn(&PlanRow) -> u16| {
+            plan.rows
+                .iter()
+                .map(|r| {
+                    let pct = if r.rapid { 100.0 } else { f64::from(ov(r)) };
+                    let f = r.feed_mm_min * pct / 100.0;
+                    if f > 0.0 {
+                        60.0 * (r.end_mm - r.start_mm) / f
+                    } else {
+                        0.0
+                    }
+                })
+                .sum::<f64>()
+        };
+        PlanFigures {
+            rows: plan.rows.len(),
+            cutting_rows: cutting.len(),
+            peak_100_n: cutting.iter().map(|r| r.force_100_n).fold(0.0, f64::max),
+            peak_planned_n: cutting
+                .iter()
+                .map(|r| r.force_planned_n)
+                .fold(0.0, f64::max),
+            rapid_cut_rows: plan.rows.iter().filter(|r| r.rapid && r.cuts()).count(),
+            safe_override_pct: safe,
+            planned_time_s: time(&|r| r.override_pct),
+            nominal_time_s: time(&|_| 100),
+            safe_time_s: time(&|_| safe),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use acc_plant::engagement::{Engagement, EngagementProfile};
+    use acc_plant::process::ProcessSpec;
+
+    fn params() -> PlanParams {
+        PlanParams {
+            tool: ToolGeometry {
+                diameter_mm: 16.0,
+                flutes: 4,
+            },
+            law: ForceLaw::new(ProcessSpec::paper()),
+            rpm: 600.0,
+            ks_factor: 1.0,
+            force_ref_n: 800.0,
+            grid: OverrideSpec {
+                step_pct: 10,
+                min_pct: 0,
+                max_pct: 150,
+                ..OverrideSpec::default()
+            },
+        }
+    }
+
+    #[test]
+    fn override_solves_the_force_law_on_the_grid() {
+        let p = params();
+        // Paper law: 2 mm × 16 mm at 200 mm/min gives 800 N; at 4 mm, 1600 N → 50 %.
+        assert_eq!(p.override_for(1600.0), 50);
+        assert_eq!(p.override_for(1700.0), 40);
+        assert_eq!(p.override_for(0.0), 150);
+        assert_eq!(p.override_for(1e9), 10);
+        assert_eq!(p.override_for(100.0), 150);
+    }
+
+    /// A 1-D profile with a program's feed (200 mm/min) and blocks (10 before 20 mm, 20 after).
+    #[derive(Debug, Clone)]
+    struct Prog(EngagementProfile);
+
+    impl EngagementSource for Prog {
+        fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
+            self.0.at(x_mm)
+        }
+        fn path_at(&self, x_mm: f64) -> Option<acc_plant::engagement::PathPoint> {
+            Some(acc_plant::engagement::PathPoint {
+                feed_mm_min: 200.0,
+                rapid: false,
+                block: if x_mm < 20.0 { 10 } else { 20 },
+                tool: 1,
+            })
+        }
+    }
+
+    #[test]
+    fn rows_follow_the_engagement_and_bound_the_force() {
+        // Air to 10 mm, 2 mm deep to 20 mm, 4 mm deep to 30 mm, 16 mm axial.
+        let e = |r: f64| Engagement {
+            radial_mm: r,
+            axial_mm: 16.0,
+            ks_factor: 1.0,
+        };
+        let mut prog = Prog(
+            EngagementProfile::new(
+                vec![0.0, 10.0, 10.0, 20.0, 20.0, 30.0],
+                vec![e(0.0), e(0.0), e(2.0), e(2.0), e(4.0), e(4.0)],
+            )
+            .expect("profile"),
+        );
+        let knots = [0.0, 10.0, 15.0, 20.0, 25.0, 30.0];
+        let plan = plan_along(&mut prog, &knots, |x| [x, 0.0, 0.0], &params());
+        let got: Vec<(u32, f64, f64, u16)> = plan
+            .rows
+            .iter()
+            .map(|r| (r.block, r.start_mm, r.end_mm, r.override_pct))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                (10, 0.0, 10.0, 150),
+                (10, 10.0, 20.0, 100),
+                (20, 20.0, 30.0, 50)
+            ]
+        );
+        assert!((plan.rows[2].force_100_n - 1600.0).abs() < 1e-6);
+        assert!(plan.rows.iter().all(|r| r.force_planned_n <= 800.0 + 1e-6));
+        let figs = PlanFigures::of(&plan, 150);
+        assert_eq!(figs.safe_override_pct, 50);
+        assert_eq!(figs.cutting_rows, 2);
+        // 30 mm at 200 mm/min is 9 s at 100 %; at 50 % throughout 18 s.
+        assert!((figs.nominal_time_s - 9.0).abs() < 1e-9);
+        assert!((figs.safe_time_s - 18.0).abs() < 1e-9);
+        assert!((figs.planned_time_s - (3.0 / 1.5 + 3.0 + 3.0 / 0.5)).abs() < 1e-9);
+    }
+}

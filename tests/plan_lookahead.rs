@@ -1,0 +1,181 @@
+//! The plan and its look-ahead (`acc plan`, `acc sim --plan`): on the pocket program the
+//! look-ahead brings every entry and corner to Fr where feedback alone is far above; a
+//! wrong plan (a stock higher than planned) never raises the force above feedback alone
+//! and the log flags the disagreement; a missing or corrupt plan file is refused naming the
+//! file and line.
+
+mod e2e_support;
+
+use acc_runtime::{LookAhead, LookAheadConfig, Plan};
+use acc_sim::plan::PlanParams;
+use acc_sim::program::{event_peaks, EventKind, ProgramPath};
+use acc_sim::{LawKind, RunResult, Scenario};
+use e2e_support::{pocket_program, root};
+
+const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
+
+fn scenario() -> Scenario {
+    Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario")
+}
+
+/// Run `path` with the scenario's own law, with `plan`'s look-ahead if given.
+fn run(base: &Scenario, path: &ProgramPath, plan: Option<Plan>) -> RunResult {
+    let sc = path.scenario_for(base);
+    let mut law = sc.build_law(LawKind::Ours).expect("law");
+    let mut channel = sc.build_channel().expect("channel");
+    let lookahead = plan.map(|p| {
+        LookAhead::new(
+            p,
+            LookAheadConfig::new(
+                sc.controller.period_s,
+                sc.controller.force_ref_n,
+                sc.policy.max_override_pct,
+            ),
+        )
+    });
+    let setup = acc_sim::run::RunSetup::<std::io::Sink> {
+        log: None,
+        shop: None,
+        prepare: &mut |b| b.set_engagement_source(Some(Box::new(path.clone()))),
+        observe: &mut |_| {},
+        pace: acc_sim::run::Pace::Stepped,
+        lookahead,
+    };
+    acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)
+        .expect("run")
+        .0
+}
+
+/// The highest peak (N) at the path's entries and at its corners the run reached.
+fn peaks(path: &ProgramPath, run: &RunResult) -> (f64, f64) {
+    let p = event_peaks(&run.rows, &path.events(), 1.0);
+    let max = |k: EventKind| {
+        p.iter()
+            .filter(|(e, _)| e.kind == k)
+            .filter_map(|(_, f)| *f)
+            .fold(0.0, f64::max)
+    };
+    (max(EventKind::Entry), max(EventKind::Corner))
+}
+
+#[test]
+fn the_plan_brings_every_entry_and_corner_of_the_pocket_to_fr() {
+    let sc = scenario();
+    let fr = sc.controller.force_ref_n;
+    let path = pocket_program(&sc, POCKET_BOX);
+    let plan = path.plan(&PlanParams::of(&sc));
+    let alone = run(&sc, &path, None);
+    let ahead = run(&sc, &path, Some(plan));
+    assert!(alone.finished && ahead.finished);
+    assert!(event_peaks(&ahead.rows, &path.events(), 1.0)
+        .iter()
+        .all(|(_, p)| p.is_some()));
+    let (e0, c0) = peaks(&path, &alone);
+    let (e1, c1) = peaks(&path, &ahead);
+    // Feedback alone: the loop sees the entry a period after the tool.
+    assert!(
+        e0 > 3.0 * fr && c0 > 1.5 * fr,
+        "feedback alone {e0} / {c0} N"
+    );
+    assert!(e1 <= 1.05 * fr, "entries with the plan {:.3} Fr", e1 / fr);
+    assert!(c1 <= 1.05 * fr, "corners with the plan {:.3} Fr", c1 / fr);
+    // The plan agrees with the plant it was made for.
+    assert!(!ahead.rows.iter().any(|r| r.flags.contains("plan_disagree")));
+    assert!(ahead.rows.iter().any(|r| r.flags.contains("plan_cap:")));
+}
+
+#[test]
+fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
+    let sc = scenario();
+    // Planned on a stock 1 mm lower than the one on the table: where the plan says air at
+    // the top there is metal, and every pass cuts deeper than planned.
+    let planned = pocket_program(&sc, "-20,-20,-10,60,50,-1");
+    let plan = planned.plan(&PlanParams::of(&sc));
+    let path = pocket_program(&sc, POCKET_BOX);
+    let alone = run(&sc, &path, None);
+    let wrong = run(&sc, &path, Some(plan));
+    let top = |r: &RunResult| {
+        r.rows
+            .iter()
+            .filter_map(|x| x.force_true_n)
+            .fold(0.0, f64::max)
+    };
+    assert!(
+        top(&wrong) <= top(&alone) * 1.001,
+        "wrong plan {:.0} N above feedback alone {:.0} N",
+        top(&wrong),
+        top(&alone)
+    );
+    // Where the run stops early, it stops in feed hold (the breakage watch sees the force
+    // drop at an exit the plan did not know of), never at a higher feed.
+    assert!(wrong.finished || wrong.ended_in_feed_hold);
+    let (e0, _) = peaks(&path, &alone);
+    let (e1, _) = peaks(&path, &wrong);
+    assert!(
+        e1 <= e0 * 1.001,
+        "entries: wrong plan {e1:.0} N, alone {e0:.0} N"
+    );
+    assert!(
+        wrong
+            .rows
+            .iter()
+            .any(|r| r.flags.contains("plan_disagree:above")),
+        "the measured force above the plan is flagged"
+    );
+}
+
+fn acc(args: &[&str]) -> (bool, String) {
+    let (ok, _, err) = e2e_support::acc_output(args);
+    (ok, err)
+}
+
+#[test]
+fn a_missing_or_corrupt_plan_is_refused_naming_the_file_and_line() {
+    let dir = std::env::temp_dir().join(format!("acc-plan-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let sim = |plan: &std::path::Path| {
+        acc(&[
+            "sim",
+            "paper_case3",
+            "--program",
+            "tests/nc/pocket_rect.ngc",
+            &format!("--stock-box={POCKET_BOX}"),
+            "--no-plot",
+            "--out",
+            &dir.join("out").display().to_string(),
+            "--plan",
+            &plan.display().to_string(),
+        ])
+    };
+    let missing = dir.join("missing.csv");
+    let (ok, err) = sim(&missing);
+    assert!(
+        !ok && err.contains("missing.csv") && err.contains("cannot read the plan"),
+        "{err}"
+    );
+    // A plan `acc plan` wrote, with one cell broken on its fourth line.
+    let (ok, err) = acc(&[
+        "plan",
+        "tests/nc/pocket_rect.ngc",
+        &format!("--stock-box={POCKET_BOX}"),
+        "--no-plot",
+        "--out",
+        &dir.display().to_string(),
+    ]);
+    assert!(ok, "{err}");
+    let good = std::fs::read_to_string(dir.join("plan.csv")).expect("plan.csv");
+    let mut lines: Vec<String> = good.lines().map(String::from).collect();
+    lines[3] = lines[3].replacen(",false,", ",maybe,", 1);
+    let corrupt = dir.join("corrupt.csv");
+    std::fs::write(&corrupt, lines.join("\n") + "\n").expect("write");
+    let (ok, err) = sim(&corrupt);
+    assert!(
+        !ok && err.contains("corrupt.csv:4") && err.contains("rapid"),
+        "{err}"
+    );
+    assert!(
+        !dir.join("out").join("run.csv").exists(),
+        "nothing ran on a bad plan"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
