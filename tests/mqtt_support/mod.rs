@@ -50,6 +50,17 @@ impl Broker {
     }
 }
 
+impl Broker {
+    /// Stop the broker as an operator would (SIGTERM: it saves its persistent sessions) and
+    /// wait for it to exit.
+    pub fn terminate(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let _ = self.child.wait();
+    }
+}
+
 impl Drop for Broker {
     fn drop(&mut self) {
         let _ = self.child.kill();
@@ -74,4 +85,21 @@ pub fn mosquitto_ready() -> bool {
         "mosquitto (apt package mosquitto)",
         Command::new("test").args(["-x", &mosquitto()]),
     )
+}
+
+/// Write a broker config for `127.0.0.1:port` that keeps its sessions and queued messages
+/// across a restart (`persistence true`, the database in `dir`). `user root` keeps a broker
+/// started as root from dropping to the `mosquitto` user, who could not write into the
+/// test's private temporary folder (a broker not started as root ignores it).
+pub fn write_persistent_conf(dir: &std::path::Path, port: u16) -> std::path::PathBuf {
+    let conf = dir.join("mosquitto-persistent.conf");
+    std::fs::write(
+        &conf,
+        format!(
+            "listener {port} 127.0.0.1\nallow_anonymous true\nuser root\npersistence true\npersistence_location {}/\n",
+            dir.display()
+        ),
+    )
+    .expect("mosquitto.conf");
+    conf
 }

@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use acc_fleet::collect::{CollectOptions, CollectStats};
 use acc_runtime::config::MqttSettings;
+use acc_runtime::Clock;
 use anyhow::Context;
 
 /// `acc collect` arguments.
@@ -57,7 +58,7 @@ pub fn run(args: &CollectArgs) -> anyhow::Result<()> {
     if let Some(d) = args.duration_s {
         let stop = stop.clone();
         std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(d));
+            acc_runtime::SystemClock::new().sleep_until(Duration::from_secs_f64(d));
             stop.store(true, Ordering::SeqCst);
         });
     }

@@ -407,7 +407,8 @@ fn drive<P: Board + Send>(
             .unwrap_or(std::path::Path::new("."))
             .join("pki"),
     );
-    let tel = crate::telemetry::Telemetry::start(&tel_cfg, false).exit_as(RunExit::Usage)?;
+    let tel =
+        crate::telemetry::Telemetry::start(&tel_cfg, false, period_s).exit_as(RunExit::Usage)?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: format!("acc run: {}", args.config.display()),
         overload_n: Some(cfg.policy.overload_force_n),

@@ -152,6 +152,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
             &out.join("pki"),
         ),
         false,
+        sc.controller.period_s,
     )?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: format!("acc sim: {}", sc.name),

@@ -104,8 +104,8 @@ mod tests {
         let batch = period_batch(&[PeriodRow::default()]).expect("batch");
         let props = WriterProperties::builder()
             .set_key_value_metadata(Some(vec![
-                KeyValue::new(VERSION_KEY.into(), version.into()),
-                KeyValue::new(TABLE_KEY.into(), "period".into()),
+                KeyValue::new(VERSION_KEY.to_string(), version.to_string()),
+                KeyValue::new(TABLE_KEY.to_string(), "period".to_string()),
             ]))
             .build();
         let mut w = ArrowWriter::try_new(

@@ -17,7 +17,9 @@
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use acc_runtime::{Clock, SystemClock};
 
 use rumqttc::{Client, Event, MqttOptions, Packet, Publish, QoS};
 use serde::Deserialize;
@@ -259,7 +261,8 @@ pub fn run(
                         if stop.load(Ordering::SeqCst) {
                             break;
                         }
-                        std::thread::sleep(RECONNECT_DELAY);
+                        let clock = SystemClock::new();
+                        clock.sleep_until(RECONNECT_DELAY);
                     }
                     Err(_) => break,
                 }
@@ -284,7 +287,8 @@ fn consume(
 ) -> Result<(), FleetError> {
     let mut unacked: Vec<Publish> = Vec::new();
     let mut seen_cuts: HashSet<(String, i64, i64)> = HashSet::new();
-    let mut last_commit = Instant::now();
+    let clock = SystemClock::new();
+    let mut last_commit = clock.now();
     let commit = |store: &mut StoreWriter, unacked: &mut Vec<Publish>| -> Result<(), FleetError> {
         let before = store.committed();
         store.commit()?;
@@ -337,9 +341,9 @@ fn consume(
             Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
             Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
         }
-        if unacked.len() >= opts.max_unacked || last_commit.elapsed() >= opts.commit_every {
+        if unacked.len() >= opts.max_unacked || clock.now() - last_commit >= opts.commit_every {
             commit(store, &mut unacked)?;
-            last_commit = Instant::now();
+            last_commit = clock.now();
         }
         if stop.load(Ordering::SeqCst) && rx.is_empty() {
             break;

@@ -148,30 +148,38 @@ impl StoreWriter {
     }
 
     fn commit_periods(&mut self, key: &Key) -> Result<(), FleetError> {
-        let Some(rows) = self.periods.get(key).filter(|r| !r.is_empty()) else {
-            self.periods.remove(key);
+        let Some(rows) = self.periods.remove(key).filter(|r| !r.is_empty()) else {
             return Ok(());
         };
         let path = self.next_path("period", key);
-        let batch = period_batch(rows).map_err(|e| FleetError::write(&path, e))?;
-        write_file(&path, "period", &batch)?;
+        let written = period_batch(&rows)
+            .map_err(|e| FleetError::write(&path, e))
+            .and_then(|batch| write_file(&path, "period", &batch));
+        if let Err(e) = written {
+            // Keep the rows for the next commit.
+            self.periods.insert(key.clone(), rows);
+            return Err(e);
+        }
         self.committed.periods += rows.len() as u64;
         self.committed.files += 1;
-        self.periods.remove(key);
         Ok(())
     }
 
     fn commit_cuts(&mut self, key: &Key) -> Result<(), FleetError> {
-        let Some(rows) = self.cuts.get(key).filter(|r| !r.is_empty()) else {
-            self.cuts.remove(key);
+        let Some(rows) = self.cuts.remove(key).filter(|r| !r.is_empty()) else {
             return Ok(());
         };
         let path = self.next_path("cut", key);
-        let batch = cut_batch(rows).map_err(|e| FleetError::write(&path, e))?;
-        write_file(&path, "cut", &batch)?;
+        let written = cut_batch(&rows)
+            .map_err(|e| FleetError::write(&path, e))
+            .and_then(|batch| write_file(&path, "cut", &batch));
+        if let Err(e) = written {
+            // Keep the rows for the next commit.
+            self.cuts.insert(key.clone(), rows);
+            return Err(e);
+        }
         self.committed.cuts += rows.len() as u64;
         self.committed.files += 1;
-        self.cuts.remove(key);
         Ok(())
     }
 

@@ -4,7 +4,8 @@
 //!
 //! Threads: the publisher reads a [`Subscriber`] of the runtime's tap and hands each message
 //! to rumqttc's bounded request queue with `try_publish` (a full queue — broker down, slow
-//! network — drops and counts, [`MqttStats::dropped`]); the connection thread drives
+//! network — drops and counts, [`MqttStats::dropped`]; a cut waits in a
+//! [`CutOutbox`] instead, and while the broker is down no period is queued); the connection thread drives
 //! rumqttc's event loop and, when the broker is gone, retries every
 //! [`RECONNECT_DELAY`] until it is back (then `online` is published again).
 
@@ -20,6 +21,7 @@ use rumqttc::{Client, Event, LastWill, MqttOptions, Packet, QoS};
 use serde::Serialize;
 
 use crate::items::{available, execution, levels, Level, CONDITIONS};
+use crate::mqtt_outbox::CutOutbox;
 
 /// Pause between two connection attempts while the broker is down.
 pub const RECONNECT_DELAY: Duration = Duration::from_millis(500);
@@ -224,45 +226,6 @@ impl CutJson {
     }
 }
 
-/// A [`acc_runtime::cuts::CutRecorder`] whose period is taken from the first two records'
-/// times (the publisher is not told the loop's period).
-#[derive(Debug, Default)]
-struct CutFeed {
-    first_t_s: Option<f64>,
-    pending: Vec<RunRecord>,
-    rec: Option<acc_runtime::cuts::CutRecorder>,
-}
-
-impl CutFeed {
-    fn push(&mut self, r: &RunRecord) -> Option<acc_runtime::cuts::CutRecord> {
-        if self.rec.is_none() {
-            match self.first_t_s {
-                None => {
-                    self.first_t_s = Some(r.t_s);
-                    self.pending.push(r.clone());
-                    return None;
-                }
-                Some(t0) => {
-                    let dt = r.t_s - t0;
-                    let period_s = if dt.is_finite() && dt > 0.0 { dt } else { 0.1 };
-                    let mut rec = acc_runtime::cuts::CutRecorder::new(period_s);
-                    for p in self.pending.drain(..) {
-                        let _ = rec.push(&p);
-                    }
-                    self.rec = Some(rec);
-                }
-            }
-        }
-        self.rec.as_mut().and_then(|rec| rec.push(r))
-    }
-
-    fn finish(&mut self) -> Option<acc_runtime::cuts::CutRecord> {
-        self.rec
-            .as_mut()
-            .and_then(acc_runtime::cuts::CutRecorder::finish)
-    }
-}
-
 /// Counters of a running publisher.
 #[derive(Debug, Default)]
 pub struct MqttStats {
@@ -300,9 +263,10 @@ impl std::fmt::Debug for MqttPublisher {
 }
 
 impl MqttPublisher {
-    /// Start publishing the records of `sub` to the broker of `cfg`. Never fails for a broker
-    /// that is down: the connection thread keeps trying.
-    pub fn start(cfg: MqttConfig, sub: Subscriber) -> std::io::Result<Self> {
+    /// Start publishing the records of `sub` to the broker of `cfg`; `period_s` is the
+    /// loop's period T (s), which the per-cut records count time in cut with. Never fails for
+    /// a broker that is down: the connection thread keeps trying.
+    pub fn start(cfg: MqttConfig, sub: Subscriber, period_s: f64) -> std::io::Result<Self> {
         let mut opts = MqttOptions::new(cfg.client_id.clone(), cfg.host.clone(), cfg.port);
         opts.set_keep_alive(Duration::from_secs(5));
         opts.set_last_will(LastWill::new(
@@ -364,26 +328,28 @@ impl MqttPublisher {
                         let status = cfg.topic("status");
                         // The per-cut records, from the records this thread receives (the
                         // same `CutRecorder` as `acc report` and the tool history).
-                        let mut cuts = CutFeed::default();
-                        let publish_cut = |c: &acc_runtime::cuts::CutRecord| {
+                        let mut cuts = acc_runtime::cuts::CutRecorder::new(period_s);
+                        // Cuts wait here while the request queue is full (crate::mqtt_outbox).
+                        let mut outbox = CutOutbox::default();
+                        let flush = |outbox: &mut CutOutbox| {
+                            let sent = outbox.flush(|body| {
+                                client
+                                    .try_publish(
+                                        cut_topic.clone(),
+                                        QoS::AtLeastOnce,
+                                        false,
+                                        body.clone(),
+                                    )
+                                    .map_err(|_| body)
+                            });
+                            stats.queued.fetch_add(sent as u64, Ordering::Relaxed);
+                        };
+                        let cut_body = |c: &acc_runtime::cuts::CutRecord| {
                             let json = CutJson {
                                 run_start_us,
                                 ..CutJson::of(c)
                             };
-                            let Ok(body) = serde_json::to_vec(&json) else {
-                                return;
-                            };
-                            // Cuts at QoS 1 whatever `qos`: rumqttc resends an unacknowledged
-                            // one after a reconnection.
-                            match client.try_publish(
-                                cut_topic.clone(),
-                                QoS::AtLeastOnce,
-                                false,
-                                body,
-                            ) {
-                                Ok(()) => stats.queued.fetch_add(1, Ordering::Relaxed),
-                                Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
-                            };
+                            serde_json::to_vec(&json).ok()
                         };
                         loop {
                             if stats.online_pending.load(Ordering::SeqCst)
@@ -395,8 +361,14 @@ impl MqttPublisher {
                             }
                             match sub.recv_timeout(Duration::from_millis(50)) {
                                 Ok(r) => {
-                                    if let Some(c) = cuts.push(&r) {
-                                        publish_cut(&c);
+                                    if let Some(body) = cuts.push(&r).as_ref().and_then(cut_body) {
+                                        outbox.push(body);
+                                    }
+                                    flush(&mut outbox);
+                                    if !stats.connected.load(Ordering::SeqCst) {
+                                        // Broker down: keep the queue's room for the cuts.
+                                        stats.dropped.fetch_add(1, Ordering::Relaxed);
+                                        continue;
                                     }
                                     let json = PeriodJson {
                                         run_start_us,
@@ -411,22 +383,22 @@ impl MqttPublisher {
                                         Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
                                     };
                                 }
-                                Err(RecvTimeoutError::Timeout) => {
+                                Err(e) => {
+                                    flush(&mut outbox);
                                     if stop.load(Ordering::SeqCst) {
-                                        if let Some(c) = cuts.finish() {
-                                            publish_cut(&c);
+                                        if let Some(body) =
+                                            cuts.finish().as_ref().and_then(cut_body)
+                                        {
+                                            outbox.push(body);
                                         }
+                                        flush(&mut outbox);
+                                        let lost = outbox.len() as u64 + outbox.overflowed;
+                                        stats.dropped.fetch_add(lost, Ordering::Relaxed);
                                         break;
                                     }
-                                }
-                                Err(RecvTimeoutError::Disconnected) => {
-                                    if stop.load(Ordering::SeqCst) {
-                                        if let Some(c) = cuts.finish() {
-                                            publish_cut(&c);
-                                        }
-                                        break;
+                                    if e == RecvTimeoutError::Disconnected {
+                                        std::thread::sleep(Duration::from_millis(50));
                                     }
-                                    std::thread::sleep(Duration::from_millis(50));
                                 }
                             }
                         }
