@@ -1,6 +1,6 @@
-//! The fleet store written by `acc sim --fleet` for two machines, read by three engines:
-//! `acc history query` (embedded DataFusion), and two we did not write, DuckDB and pyarrow
-//! (`tests/peers/fleet_engines.py`). Per machine, the period rows equal the run log's rows,
+//! The fleet store written by `acc sim --fleet` for two machines, read by four engines:
+//! `acc history query` (embedded DataFusion), and three we did not write, DuckDB, pyarrow
+//! and Spark in local mode (`tests/peers/fleet_engines.py`). Per machine, the period rows equal the run log's rows,
 //! the cuts and their time saved equal the SQLite tool history's, and every engine gives
 //! the same counts, sums and Kc trend.
 
@@ -54,7 +54,7 @@ fn engines_we_did_not_write_read_the_store_of_acc_sim_runs() {
     for m in df.values() {
         assert!(!m.kc_trend.is_empty(), "tool 1 has a Kc trend: {m:?}");
     }
-    for engine in ["duckdb", "pyarrow"] {
+    for engine in ["duckdb", "pyarrow", "spark"] {
         if let Some(other) = by_python(engine, &store) {
             assert_same(&format!("{engine} vs DataFusion"), &other, &df);
         }

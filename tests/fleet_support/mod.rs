@@ -116,11 +116,19 @@ pub fn by_datafusion(store: &Path) -> BTreeMap<String, Machine> {
 /// The figures by an engine of `tests/peers/fleet_engines.py` (`None`: skipped).
 pub fn by_python(engine: &str, store: &Path) -> Option<BTreeMap<String, Machine>> {
     let script = root().join("tests/peers/fleet_engines.py");
-    let module = if engine == "duckdb" {
-        "duckdb"
-    } else {
-        "pyarrow.dataset"
+    let module = match engine {
+        "duckdb" => "duckdb",
+        "spark" => "pyspark",
+        _ => "pyarrow.dataset",
     };
+    if engine == "spark"
+        && !peer_ready(
+            "java (Spark runs on it; apt default-jre-headless)",
+            Command::new("java").arg("-version"),
+        )
+    {
+        return None;
+    }
     if !peer_ready(
         &format!("python3 {engine}"),
         Command::new("python3").args(["-c", &format!("import {module}")]),

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Read an acc fleet store with engines acc did not write: DuckDB and pyarrow.
+"""Read an acc fleet store with engines acc did not write: DuckDB, pyarrow and Spark (local
+mode, through pyspark; the recipe of docs/fleet.md).
 
-Usage: fleet_engines.py duckdb|pyarrow STORE [TOOL]
+Usage: fleet_engines.py duckdb|pyarrow|spark STORE [TOOL]
 
 Prints one JSON object: per machine the number of period rows, the number of cut rows,
 the sum of the cuts' time saved (s), the sum of kc_hat over the period rows, and for TOOL
@@ -69,11 +70,48 @@ def with_pyarrow(store, tool):
     return out
 
 
+def with_spark(store, tool):
+    from pyspark.sql import SparkSession
+
+    spark = (
+        SparkSession.builder.master("local[2]")
+        .appName("acc-fleet-check")
+        .config("spark.ui.enabled", "false")
+        .config("spark.ui.showConsoleProgress", "false")
+        .config("spark.sql.session.timeZone", "UTC")
+        .getOrCreate()
+    )
+    spark.sparkContext.setLogLevel("ERROR")
+    for name in ("period", "cut"):
+        path = f"{store}/{name}"
+        spark.read.option("basePath", path).parquet(path).createOrReplaceTempView(name)
+    out = {}
+    for m, n, kc in spark.sql(
+        "SELECT machine, count(*), sum(kc_hat) FROM period GROUP BY machine"
+    ).collect():
+        out.setdefault(m, {})
+        out[m]["periods"] = n
+        out[m]["kc_sum"] = kc
+    for m, n, saved in spark.sql(
+        "SELECT machine, count(*), sum(time_saved_s) FROM cut GROUP BY machine"
+    ).collect():
+        out.setdefault(m, {})
+        out[m]["cuts"] = n
+        out[m]["time_saved_s"] = saved
+    for m, hour, kc in spark.sql(
+        "SELECT machine, date_format(date_trunc('HOUR', ts), \"yyyy-MM-dd'T'HH\"), avg(kc_hat)"
+        f" FROM period WHERE tool = {tool} AND kc_hat IS NOT NULL GROUP BY 1, 2 ORDER BY 1, 2"
+    ).collect():
+        out.setdefault(m, {}).setdefault("kc_trend", []).append([hour, kc])
+    spark.stop()
+    return out
+
+
 def main():
     engine, store = sys.argv[1], sys.argv[2]
     tool = int(sys.argv[3]) if len(sys.argv) > 3 else 12
     try:
-        result = {"duckdb": with_duckdb, "pyarrow": with_pyarrow}[engine](store, tool)
+        result = {"duckdb": with_duckdb, "pyarrow": with_pyarrow, "spark": with_spark}[engine](store, tool)
     except ImportError as e:
         print(f"{engine} does not import: {e}", file=sys.stderr)
         sys.exit(2)

@@ -82,5 +82,17 @@ pub fn run(args: &CollectArgs) -> anyhow::Result<()> {
         stats.connects.load(Ordering::SeqCst),
         stats.conn_errors.load(Ordering::SeqCst),
     );
+    let lag = stats
+        .lag
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .clone();
+    if let (Some(p50), Some(p99)) = (lag.quantile_ms(0.5), lag.quantile_ms(0.99)) {
+        println!(
+            "lag from publish to commit: p50 {p50} ms, p99 {p99} ms, max {} ms ({} periods)",
+            lag.max_ms(),
+            lag.len()
+        );
+    }
     result.with_context(|| format!("--out {}", args.out.display()))
 }

@@ -67,6 +67,71 @@ pub struct CollectStats {
     pub conn_errors: AtomicU64,
     /// Rows committed to Parquet (periods + cuts).
     pub committed: AtomicU64,
+    /// Lag of the committed periods from the machine's publish (`sent_us`) to the commit.
+    pub lag: std::sync::Mutex<LagHistogram>,
+}
+
+/// Lags in whole milliseconds, 0 ..= [`LagHistogram::MAX_MS`] (longer ones in the last
+/// bucket).
+#[derive(Debug, Clone)]
+pub struct LagHistogram {
+    counts: Vec<u64>,
+    n: u64,
+    max_ms: u64,
+}
+
+impl Default for LagHistogram {
+    fn default() -> Self {
+        Self {
+            counts: vec![0; Self::MAX_MS as usize + 1],
+            n: 0,
+            max_ms: 0,
+        }
+    }
+}
+
+impl LagHistogram {
+    /// The longest lag with its own bucket, ms.
+    pub const MAX_MS: u64 = 600_000;
+
+    /// Add one lag, µs (negative, from clocks that disagree, counts as 0).
+    pub fn add_us(&mut self, lag_us: i64) {
+        let ms = u64::try_from(lag_us.max(0) / 1000).unwrap_or(0);
+        self.max_ms = self.max_ms.max(ms);
+        self.counts[ms.min(Self::MAX_MS) as usize] += 1;
+        self.n += 1;
+    }
+
+    /// Lags added.
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    /// No lag added.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The `q`-quantile (0 ..= 1), ms; `None` when empty.
+    pub fn quantile_ms(&self, q: f64) -> Option<u64> {
+        if self.n == 0 {
+            return None;
+        }
+        let rank = ((q.clamp(0.0, 1.0) * self.n as f64).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (ms, c) in self.counts.iter().enumerate() {
+            seen += c;
+            if seen >= rank {
+                return Some(ms as u64);
+            }
+        }
+        Some(self.max_ms)
+    }
+
+    /// The longest lag, ms.
+    pub fn max_ms(&self) -> u64 {
+        self.max_ms
+    }
 }
 
 /// The fields of a `<prefix>/<machine>/period` message the store keeps (the publisher's
@@ -75,6 +140,8 @@ pub struct CollectStats {
 struct PeriodMsg {
     #[serde(default)]
     run_start_us: i64,
+    #[serde(default)]
+    sent_us: i64,
     period: u64,
     t_s: f64,
     #[serde(default)]
@@ -185,7 +252,8 @@ fn run_log_alarm_name(mqtt: &str) -> &str {
 /// A message, parsed: the machine and its row.
 #[derive(Debug)]
 enum Parsed {
-    Period(String, PeriodRow),
+    /// The machine, the row and the publish time (µs since the epoch; 0: not sent).
+    Period(String, PeriodRow, i64),
     Cut(String, CutRow),
 }
 
@@ -204,7 +272,8 @@ fn parse(prefix: &str, topic: &str, payload: &[u8]) -> Result<Option<Parsed>, St
     let bad = |e: serde_json::Error| format!("topic {topic}: not a {leaf} message: {e}");
     Ok(Some(if leaf == "period" {
         let m: PeriodMsg = serde_json::from_slice(payload).map_err(bad)?;
-        Parsed::Period(machine.to_string(), m.row())
+        let sent_us = m.sent_us;
+        Parsed::Period(machine.to_string(), m.row(), sent_us)
     } else {
         let m: CutMsg = serde_json::from_slice(payload).map_err(bad)?;
         Parsed::Cut(machine.to_string(), m.row())
@@ -289,9 +358,23 @@ fn consume(
     let mut seen_cuts: HashSet<(String, i64, i64)> = HashSet::new();
     let clock = SystemClock::new();
     let mut last_commit = clock.now();
-    let commit = |store: &mut StoreWriter, unacked: &mut Vec<Publish>| -> Result<(), FleetError> {
+    // Publish times of the periods not yet committed (the lag histogram's input).
+    let mut sent: Vec<i64> = Vec::new();
+    let commit = |store: &mut StoreWriter,
+                  unacked: &mut Vec<Publish>,
+                  sent: &mut Vec<i64>|
+     -> Result<(), FleetError> {
         let before = store.committed();
         store.commit()?;
+        let now = crate::schema::now_us();
+        let mut lag = stats
+            .lag
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        for s in sent.drain(..) {
+            lag.add_us(now - s);
+        }
+        drop(lag);
         let after = store.committed();
         stats.committed.fetch_add(
             (after.periods + after.cuts) - (before.periods + before.cuts),
@@ -305,8 +388,11 @@ fn consume(
     loop {
         match rx.recv_timeout(Duration::from_millis(100)) {
             Ok(p) => match parse(&opts.prefix, &p.topic, &p.payload) {
-                Ok(Some(Parsed::Period(m, row))) => {
+                Ok(Some(Parsed::Period(m, row, sent_us))) => {
                     store.push_period(&m, row)?;
+                    if sent_us > 0 {
+                        sent.push(sent_us);
+                    }
                     stats.periods.fetch_add(1, Ordering::Relaxed);
                     if p.qos != QoS::AtMostOnce {
                         unacked.push(p);
@@ -342,19 +428,40 @@ fn consume(
             Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
         }
         if unacked.len() >= opts.max_unacked || clock.now() - last_commit >= opts.commit_every {
-            commit(store, &mut unacked)?;
+            commit(store, &mut unacked, &mut sent)?;
             last_commit = clock.now();
         }
         if stop.load(Ordering::SeqCst) && rx.is_empty() {
             break;
         }
     }
-    commit(store, &mut unacked)
+    commit(store, &mut unacked, &mut sent)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lag_quantiles_count_whole_milliseconds() {
+        let mut h = LagHistogram::default();
+        assert_eq!(h.quantile_ms(0.5), None);
+        for ms in 1..=100 {
+            h.add_us(ms * 1000 + 999);
+        }
+        h.add_us(-5_000);
+        assert_eq!(h.len(), 101);
+        assert_eq!(h.quantile_ms(0.5), Some(50), "rank 51 of 0, 1, …, 100");
+        assert_eq!(h.quantile_ms(0.99), Some(99));
+        assert_eq!(h.max_ms(), 100);
+        h.add_us(3_600_000_000);
+        assert_eq!(
+            h.max_ms(),
+            3_600_000,
+            "beyond the last bucket: the max is kept"
+        );
+        assert_eq!(h.quantile_ms(1.0), Some(LagHistogram::MAX_MS));
+    }
 
     #[test]
     fn messages_parse_by_topic_and_bad_ones_name_the_topic() {
@@ -364,8 +471,8 @@ mod tests {
             "kc_hat":2.5,"override_cmd_pct":110,"override_applied_pct":110,
             "override_operator_pct":100,"feed_hold":false,"alarm_bits":16,"alarms":[]}"#;
         match parse("fleet", "fleet/m1/period", body) {
-            Ok(Some(Parsed::Period(m, r))) => {
-                assert_eq!(m, "m1");
+            Ok(Some(Parsed::Period(m, r, sent_us))) => {
+                assert_eq!((m.as_str(), sent_us), ("m1", 0), "no sent_us: not timed");
                 assert_eq!(
                     (r.period, r.tool, r.program, r.alarms),
                     (3, Some(12), None, 16)
@@ -419,7 +526,7 @@ mod tests {
         };
         let body = serde_json::to_vec(&json).expect("json");
         match parse("p", "p/m/period", &body) {
-            Ok(Some(Parsed::Period(_, row))) => assert_eq!(row, PeriodRow::of(&r, 7_000_000)),
+            Ok(Some(Parsed::Period(_, row, _))) => assert_eq!(row, PeriodRow::of(&r, 7_000_000)),
             other => panic!("{other:?}"),
         }
         let c = CutRecord {

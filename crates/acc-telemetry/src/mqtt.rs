@@ -4,8 +4,8 @@
 //!
 //! Threads: the publisher reads a [`Subscriber`] of the runtime's tap and hands each message
 //! to rumqttc's bounded request queue with `try_publish` (a full queue — broker down, slow
-//! network — drops and counts, [`MqttStats::dropped`]; a cut waits in a
-//! [`CutOutbox`] instead, and while the broker is down no period is queued); the connection thread drives
+//! network — drops a period and counts it, [`MqttStats::dropped`]; a cut waits in a
+//! [`CutOutbox`] instead); the connection thread drives
 //! rumqttc's event loop and, when the broker is gone, retries every
 //! [`RECONNECT_DELAY`] until it is back (then `online` is published again).
 
@@ -66,6 +66,9 @@ pub struct PeriodJson {
     /// Wall-clock start of the run, µs since the Unix epoch (the publisher's start; 0 when
     /// not set). With `t_s` it dates the period (`acc collect`).
     pub run_start_us: i64,
+    /// Wall-clock time the publisher handed the message on, µs since the Unix epoch (0 when
+    /// not set): `acc collect` measures the lag from here to the Parquet commit.
+    pub sent_us: i64,
     /// Period index.
     pub period: u64,
     /// Machine time of the period, s since the run began.
@@ -130,6 +133,7 @@ impl PeriodJson {
         let fin = |v: Option<f64>| v.filter(|x| x.is_finite());
         Self {
             run_start_us: 0,
+            sent_us: 0,
             period: r.period,
             t_s: r.t_s,
             availability: if available(r) {
@@ -365,13 +369,9 @@ impl MqttPublisher {
                                         outbox.push(body);
                                     }
                                     flush(&mut outbox);
-                                    if !stats.connected.load(Ordering::SeqCst) {
-                                        // Broker down: keep the queue's room for the cuts.
-                                        stats.dropped.fetch_add(1, Ordering::Relaxed);
-                                        continue;
-                                    }
                                     let json = PeriodJson {
                                         run_start_us,
+                                        sent_us: now_us(),
                                         ..PeriodJson::of(&r)
                                     };
                                     let Ok(body) = serde_json::to_vec(&json) else {

@@ -1,10 +1,9 @@
 //! The per-cut records a machine has not yet handed to the MQTT client: a cut that finds
 //! rumqttc's request queue full (broker down for long, a slow network) waits here and is
-//! handed on, oldest first, as soon as the queue takes it. While the broker is down the
-//! publisher hands no period messages to the queue (they are QoS 0 by default and would be
-//! stale), so the queue keeps its room for cuts; rumqttc resends a cut it had sent but not
-//! seen acknowledged after the reconnection. Together: a machine that reconnects loses no
-//! cut, up to [`CUT_OUTBOX`] cuts waiting.
+//! handed on, oldest first, as soon as the queue takes it (a period that finds the queue
+//! full is dropped and counted instead). rumqttc resends a cut it had sent but not seen
+//! acknowledged after the reconnection. Together: a machine that reconnects loses no cut,
+//! up to [`CUT_OUTBOX`] cuts waiting.
 
 use std::collections::VecDeque;
 
