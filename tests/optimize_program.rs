@@ -20,7 +20,7 @@ use std::process::Command;
 
 use acc_sim::optimize::{optimize, OptimizeParams, Optimized};
 use acc_sim::plan::PlanParams;
-use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
+use acc_sim::program::ProgramPath;
 use acc_sim::Scenario;
 use e2e_support::{acc_output, root};
 
@@ -63,18 +63,7 @@ fn scenario() -> Scenario {
 }
 
 fn build(sc: &Scenario, program: &Path, (stock_box, cell): (&str, f64)) -> ProgramPath {
-    let spec = ProgramSpec {
-        program: program.to_path_buf(),
-        stock: StockSource::Box(stock_box.parse().expect("box"), cell),
-        tools: None,
-    };
-    ProgramPath::build(
-        &spec,
-        &acc_sim::engagement::ToolGeometry::of(&sc.tool),
-        sc.machine.spindle.rpm,
-        sc.machine.feed_drive.rapid_mm_min,
-    )
-    .expect("program")
+    e2e_support::program_path(sc, program, stock_box, cell)
 }
 
 const AIR_FEED: f64 = acc_config::DEFAULT_AIR_FEED_MM_MIN;

@@ -27,7 +27,7 @@
 
 use std::fmt::Write as _;
 
-use acc_nc::{arc_angles, Canon, CanonCall, LineWords, Units};
+use acc_nc::{Canon, CanonCall, LineWords, Units};
 
 use crate::plan::{Interval, PlanParams};
 use crate::program::{ProgramPath, CHORD_TOL_MM};
@@ -230,34 +230,6 @@ fn f_word(feed_mm_min: f64, units: Units) -> String {
     format!("F{}", num(q, dec))
 }
 
-/// The point at fraction `t` (0..=1) along a feed call, work coordinates, mm.
-fn point_at(call: &Canon, t: f64) -> [f64; 3] {
-    match call {
-        Canon::Arc {
-            from,
-            to,
-            center,
-            clockwise,
-            turns,
-            ..
-        } => {
-            if t >= 1.0 {
-                return *to;
-            }
-            let (a0, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
-            let a = a0 + sweep * t;
-            let r = r0 + (r1 - r0) * t;
-            [
-                center[0] + r * a.cos(),
-                center[1] + r * a.sin(),
-                from[2] + (to[2] - from[2]) * t,
-            ]
-        }
-        Canon::Feed { from, to, .. } => [0, 1, 2].map(|k| from[k] + (to[k] - from[k]) * t),
-        _ => [0.0; 3],
-    }
-}
-
 /// The motion words of the pieces of `fc` (the first piece's words separately, for the
 /// original line): `(first, [next lines])`.
 fn piece_words(fc: &FeedCall<'_>) -> (String, Vec<String>) {
@@ -284,7 +256,7 @@ fn piece_words(fc: &FeedCall<'_>) -> (String, Vec<String>) {
         } else {
             (q.b - fc.a) / len
         };
-        let end = point_at(&fc.call.call, t);
+        let end = fc.call.call.point_at(t).unwrap_or(from);
         let mut w = String::new();
         let mut next = cur;
         for (k, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
