@@ -161,40 +161,24 @@ fn pieces(ivs: &[Piece], min_mm: f64) -> Vec<Piece> {
         };
         let nb = if right { k + 1 } else { k - 1 };
         let feed = out[k].feed.min(out[nb].feed);
-        if right {
-            let cut = out[k].a + min_mm;
-            if out[nb].b - cut < min_mm {
-                out[k] = Piece {
-                    a: out[k].a,
-                    b: out[nb].b,
-                    feed,
-                };
-                out.remove(nb);
-            } else {
-                out[k] = Piece {
-                    a: out[k].a,
-                    b: cut,
-                    feed,
-                };
-                out[nb].a = cut;
-            }
+        // What the short piece lacks moves from the neighbour into it.
+        let lack = min_mm - (out[k].b - out[k].a);
+        if out[nb].b - out[nb].a - lack < min_mm {
+            let (lo, hi) = (k.min(nb), k.max(nb));
+            out[lo] = Piece {
+                a: out[lo].a,
+                b: out[hi].b,
+                feed,
+            };
+            out.remove(hi);
+        } else if right {
+            out[k].b += lack;
+            out[nb].a = out[k].b;
+            out[k].feed = feed;
         } else {
-            let cut = out[k].b - min_mm;
-            if cut - out[nb].a < min_mm {
-                out[nb] = Piece {
-                    a: out[nb].a,
-                    b: out[k].b,
-                    feed,
-                };
-                out.remove(k);
-            } else {
-                out[k] = Piece {
-                    a: cut,
-                    b: out[k].b,
-                    feed,
-                };
-                out[nb].b = cut;
-            }
+            out[k].a -= lack;
+            out[nb].b = out[k].a;
+            out[k].feed = feed;
         }
         merge_equal(&mut out);
     }
