@@ -693,8 +693,8 @@ impl FaultPolicy {
             out.fault = true;
             return self.release(Release::Delay, out, law);
         }
-        // 17. The control step, on the feed the loop computed once for this period, then
-        //     the limits on its command.
+        // 17. The control step, on the feed the loop computed once for this period, its
+        //     command placed on the grid within the bounds judged here (one quantization).
         let m = Measurement {
             force_n: if force_valid {
                 input.force.force_n
@@ -705,21 +705,17 @@ impl FaultPolicy {
             programmed_feed_mm_min: input.programmed_feed_mm_min,
             valid: force_valid,
         };
-        let step = law.step(&m);
-        self.breakage.force_ref_n = Some(step.trace.force_ref_n);
-        let limited = tool_limits::limit(
-            &grid,
-            step.command.0,
+        let bounds = tool_limits::bounds(
+            grid,
             force_valid,
             last,
             self.operator.knob_ceiling,
             self.shop_limits,
         );
-        if limited.changed() {
-            law.engage(FeedOverride(limited.cmd));
-        }
-        self.last_cmd = Some(limited.cmd);
-        out.write_override = Some(FeedOverride(limited.cmd));
+        let step = law.step_within(&m, &bounds);
+        self.breakage.force_ref_n = Some(step.trace.force_ref_n);
+        self.last_cmd = Some(step.command.0);
+        out.write_override = Some(step.command);
         out.step = Some(step);
         out.measurement = Some(m);
     }
