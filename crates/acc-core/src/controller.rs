@@ -25,8 +25,12 @@
 //!    residue is reset at a limit (saturation writes the limit at once), at engage, and a
 //!    held step (invalid sample, no programmed feed) holds the last position without
 //!    touching the residue, so the dither never raises the feed on a held step. The written
-//!    position is never more than one step above the continuous command; the fault policy's
-//!    clamps act after it.
+//!    position is never more than one step above the continuous command.
+//! 7. Under a policy ([`OverrideLaw::step_within`]) the position is put within the policy's
+//!    [`CommandBounds`] in the same step ([`OverrideSpec::place`]: the range on the board's
+//!    grid, no raise on an invalid sample, the knob, the tool's and the plan's limits), and
+//!    a command the limits changed re-engages the law there (the integrator re-seated on
+//!    it: no windup against the limit).
 //!
 //! ```
 //! use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};

@@ -19,6 +19,12 @@
 //! `SAMPLE_SEQ` against the period count: the sequence unwrapped, less the period index, is
 //! the board's sample offset; its drop below the highest offset seen is the sample's lag in
 //! periods (a buffering line drops it by N at once; a board restart starts it again).
+//!
+//! The tracker does not keep the commands: the loop books the command in force after each
+//! period once the policy has decided it (a skipped period keeps the last one, a period out
+//! of ACC books none, a failed write marks it unknown) and hands that history, with what
+//! happened since ([`Booked`]: a release, a broken line), to [`LoopDelay::period`] once per
+//! period, before the force source runs.
 
 use acc_pmc::BoardStatus;
 
