@@ -384,10 +384,26 @@ pub fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
 /// The pocket program `tests/nc/pocket_rect.ngc` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm,
 /// 0.25 mm cells), with `sc`'s tool, spindle speed and rapid rate.
 pub fn pocket_program(sc: &acc_sim::Scenario, stock_box: &str) -> acc_sim::program::ProgramPath {
+    program_path(
+        sc,
+        &root().join("tests/nc/pocket_rect.ngc"),
+        stock_box,
+        0.25,
+    )
+}
+
+/// The program `file` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm, cells of `cell_mm`), with
+/// `sc`'s tool, spindle speed and rapid rate.
+pub fn program_path(
+    sc: &acc_sim::Scenario,
+    file: &Path,
+    stock_box: &str,
+    cell_mm: f64,
+) -> acc_sim::program::ProgramPath {
     use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
     let spec = ProgramSpec {
-        program: root().join("tests/nc/pocket_rect.ngc"),
-        stock: StockSource::Box(stock_box.parse().expect("box"), 0.25),
+        program: file.to_path_buf(),
+        stock: StockSource::Box(stock_box.parse().expect("box"), cell_mm),
         tools: None,
     };
     ProgramPath::build(

@@ -10,6 +10,7 @@ mod cmd_estimate_eval;
 mod cmd_fault_matrix;
 mod cmd_history;
 mod cmd_nc;
+mod cmd_optimize;
 mod cmd_plan;
 mod cmd_report;
 mod cmd_run;
@@ -49,6 +50,10 @@ enum Command {
     /// engagement, the predicted force at 100 %, the override that gives Fr and the path
     /// position (plan.csv), a plot of the force along the program and a summary.
     Plan(cmd_plan::PlanArgs),
+    /// The program with its F words rewritten per block from the plan (blocks split where
+    /// the engagement changes) so that the predicted force stays at or below Fr and air
+    /// moves run at the tool's air feed; the predicted cycle time before and after.
+    Optimize(cmd_optimize::OptimizeArgs),
     /// Run every baseline and our controller on one scenario and seed: one table (force RMS
     /// error, peak force, time above 1.1·Fr, cycle time, override switches) and an overlay plot.
     Compare(cmd_compare::CompareArgs),
@@ -160,6 +165,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
         Command::Sim(args) => cmd_sim::run_cmd(&args),
         Command::Plan(args) => cmd_plan::run_cmd(&args),
+        Command::Optimize(args) => cmd_optimize::run_cmd(&args),
         Command::Compare(args) => cmd_compare::run_cmd(&args),
         Command::WhatIf(args) => cmd_what_if::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),

@@ -25,8 +25,12 @@
 //!    residue is reset at a limit (saturation writes the limit at once), at engage, and a
 //!    held step (invalid sample, no programmed feed) holds the last position without
 //!    touching the residue, so the dither never raises the feed on a held step. The written
-//!    position is never more than one step above the continuous command; the fault policy's
-//!    clamps act after it.
+//!    position is never more than one step above the continuous command.
+//! 7. Under a policy ([`OverrideLaw::step_within`]) the position is put within the policy's
+//!    [`CommandBounds`] in the same step ([`OverrideSpec::place`]: the range on the board's
+//!    grid, no raise on an invalid sample, the knob, the tool's and the plan's limits), and
+//!    a command the limits changed re-engages the law there (the integrator re-seated on
+//!    it: no windup against the limit).
 //!
 //! ```
 //! use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
@@ -54,7 +58,8 @@ use crate::pi::PiState;
 use crate::poles::{self, PiGains};
 use crate::RangeError;
 use crate::{
-    CoreError, DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec, Quantizer, SigmaDelta,
+    CommandBounds, CoreError, Demand, DesiredPoles, EstimatorConfig, FeedOverride, OverrideSpec,
+    Placed, SigmaDelta,
 };
 
 /// What the controller sees once per period `T`.
@@ -184,6 +189,20 @@ pub trait OverrideLaw: Send {
     fn engage(&mut self, current: FeedOverride);
     /// Advance one period.
     fn step(&mut self, m: &Measurement) -> StepOutput;
+    /// Advance one period under a policy's `bounds`: the command is the law's position
+    /// within them ([`CommandBounds::place`]); when the limits changed it, the law is
+    /// re-engaged on the written command (bumpless, no windup against the limit). The
+    /// default steps the law and then places its command; [`Controller`] places it in its
+    /// own quantization step ([`OverrideSpec::place`]).
+    fn step_within(&mut self, m: &Measurement, bounds: &CommandBounds) -> StepOutput {
+        let mut out = self.step(m);
+        let placed = bounds.place(out.command);
+        if placed.reseat {
+            self.engage(placed.cmd);
+        }
+        out.command = placed.cmd;
+        out
+    }
     /// Freeze integrators (e.g. `OVERRIDE_LOCKED`): the next steps hold state.
     fn set_frozen(&mut self, frozen: bool);
     /// Change the force reference Fr, N (a tool change; default: ignored). Values that are
@@ -214,6 +233,9 @@ impl<T: OverrideLaw + ?Sized> OverrideLaw for &mut T {
     }
     fn step(&mut self, m: &Measurement) -> StepOutput {
         (**self).step(m)
+    }
+    fn step_within(&mut self, m: &Measurement, bounds: &CommandBounds) -> StepOutput {
+        (**self).step_within(m, bounds)
     }
     fn set_frozen(&mut self, frozen: bool) {
         (**self).set_frozen(frozen)
@@ -356,6 +378,75 @@ impl Controller {
             },
         }
     }
+
+    /// One period ([`OverrideLaw::step`]); the command is placed once, by the spec's
+    /// quantizer within `bounds` ([`OverrideSpec::place`]), and a command the limits
+    /// changed re-engages the law on it.
+    fn step_placed(&mut self, m: &Measurement, bounds: Option<&CommandBounds>) -> StepOutput {
+        let fp = m.programmed_feed_mm_min;
+        let feed_ok = fp.is_finite() && fp > 0.0;
+        if feed_ok {
+            if let Some(cur) = self.pending_engage.take() {
+                self.pi.set_integral_mm_min(cur.feed_mm_min(fp));
+            }
+        }
+        let spec = self.cfg.override_spec;
+        if !(feed_ok && m.valid && m.force_n.is_finite()) {
+            let mut out = self.held_output(m, feed_ok);
+            let placed = spec.place(
+                Demand::Held,
+                self.last_command,
+                &mut self.sigma_delta,
+                bounds,
+            );
+            out.command = self.settle(placed);
+            return out;
+        }
+        let error_n = self.cfg.force_ref_n - m.force_n; // eq. 2
+        let active = self.estimator.update(m.force_n, m.feed_mm_min); // eqs. 11-12
+        let gains = self.gains(); // eq. 14 or fixed
+        let s = self.pi.step(
+            gains,
+            error_n,
+            self.cfg.period_s,
+            fp,
+            &spec,
+            self.cfg.anti_windup,
+            !self.frozen,
+        ); // eq. 4
+        let demand = match s.saturation {
+            Saturation::None => Demand::Within(s.unquantized_pct),
+            Saturation::Low | Saturation::High => Demand::Saturated(s.command),
+        };
+        let placed = spec.place(demand, self.last_command, &mut self.sigma_delta, bounds);
+        self.last_command = placed.law;
+        self.last_saturation = s.saturation;
+        StepOutput {
+            command: self.settle(placed),
+            trace: Trace {
+                force_ref_n: self.cfg.force_ref_n,
+                error_n,
+                kc_hat: self.estimator.kc_hat(),
+                kp: gains.kp,
+                ki: gains.ki,
+                integral_mm_min: s.integral_mm_min,
+                feed_cmd_mm_min: s.feed_cmd_mm_min,
+                unquantized_pct: s.unquantized_pct,
+                saturation: s.saturation,
+                mode: self.mode(),
+                estimator_active: active,
+                excitation: self.estimator.excitation(),
+            },
+        }
+    }
+
+    /// The command to write: re-engaged on it when the limits changed the law's position.
+    fn settle(&mut self, placed: Placed) -> FeedOverride {
+        if placed.reseat {
+            self.engage(placed.cmd);
+        }
+        placed.cmd
+    }
 }
 
 impl OverrideLaw for Controller {
@@ -381,62 +472,12 @@ impl OverrideLaw for Controller {
     /// One period. An invalid or non-finite measurement, or a programmed feed that is not
     /// > 0, holds the last command, the integrator and the estimator (never raises the feed).
     fn step(&mut self, m: &Measurement) -> StepOutput {
-        let fp = m.programmed_feed_mm_min;
-        let feed_ok = fp.is_finite() && fp > 0.0;
-        if feed_ok {
-            if let Some(cur) = self.pending_engage.take() {
-                self.pi.set_integral_mm_min(cur.feed_mm_min(fp));
-            }
-        }
-        if !(feed_ok && m.valid && m.force_n.is_finite()) {
-            return self.held_output(m, feed_ok);
-        }
-        let error_n = self.cfg.force_ref_n - m.force_n; // eq. 2
-        let active = self.estimator.update(m.force_n, m.feed_mm_min); // eqs. 11-12
-        let gains = self.gains(); // eq. 14 or fixed
-        let s = self.pi.step(
-            gains,
-            error_n,
-            self.cfg.period_s,
-            fp,
-            &self.cfg.override_spec,
-            self.cfg.anti_windup,
-            !self.frozen,
-        ); // eq. 4
-        let spec = self.cfg.override_spec;
-        let command = match (s.saturation, spec.quantizer) {
-            (Saturation::None, Quantizer::Round) => {
-                spec.quantize_hysteresis(s.unquantized_pct, self.last_command)
-            }
-            (Saturation::None, Quantizer::SigmaDelta) => {
-                self.sigma_delta.step(&spec, s.unquantized_pct)
-            }
-            // Saturated: the limit is written at once (never held back by the deadband or
-            // the dither).
-            (Saturation::Low | Saturation::High, _) => {
-                self.sigma_delta.reset();
-                s.command
-            }
-        };
-        self.last_command = command;
-        self.last_saturation = s.saturation;
-        StepOutput {
-            command,
-            trace: Trace {
-                force_ref_n: self.cfg.force_ref_n,
-                error_n,
-                kc_hat: self.estimator.kc_hat(),
-                kp: gains.kp,
-                ki: gains.ki,
-                integral_mm_min: s.integral_mm_min,
-                feed_cmd_mm_min: s.feed_cmd_mm_min,
-                unquantized_pct: s.unquantized_pct,
-                saturation: s.saturation,
-                mode: self.mode(),
-                estimator_active: active,
-                excitation: self.estimator.excitation(),
-            },
-        }
+        self.step_placed(m, None)
+    }
+
+    /// [`OverrideLaw::step`] with the policy's bounds applied in the one quantization step.
+    fn step_within(&mut self, m: &Measurement, bounds: &CommandBounds) -> StepOutput {
+        self.step_placed(m, Some(bounds))
     }
 
     /// Frozen: the integrator holds (the P term still acts on the error); the estimator

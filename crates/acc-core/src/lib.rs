@@ -67,7 +67,9 @@ pub use controller::{
     Saturation, StepOutput, Trace,
 };
 pub use estimator::{EstimatorConfig, EstimatorGain, KcEstimator};
-pub use override_spec::{FeedOverride, OverrideSpec, Quantizer, SigmaDelta};
+pub use override_spec::{
+    CommandBounds, CommandLimits, Demand, FeedOverride, OverrideSpec, Placed, Quantizer, SigmaDelta,
+};
 pub use poles::{DesiredPoles, PiGains, PoleError};
 pub use source::{ForceSample, ForceSource, PeriodInput, PhaseBlock};
 

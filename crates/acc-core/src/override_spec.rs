@@ -432,6 +432,134 @@ impl OverrideSpec {
     }
 }
 
+/// Limits on a law's command set from outside the law for one period: the tool table and
+/// entry control of the shop layer, and the plan's look-ahead cap (the lower cap wins).
+/// Applied by [`CommandBounds::place`] after the guards, the cap last.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CommandLimits {
+    /// Highest command this period, percent (floored onto the grid).
+    pub cap_pct: Option<u16>,
+    /// Lowest command this period while the force sample is valid, percent (ceiled onto the
+    /// grid; never above the cap).
+    pub floor_pct: Option<u16>,
+}
+
+/// Everything outside the law that bounds its command in one period, handed to the law's
+/// quantization ([`OverrideSpec::place`]) so that the grid is applied once, in one place.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CommandBounds {
+    /// The configured command range on the board's `OVERRIDE_STEP` grid: the law's position
+    /// is floored onto it ([`OverrideSpec::floor`]; never raised).
+    pub grid: OverrideSpec,
+    /// The force sample is valid: the limits' floor applies only then.
+    pub valid: bool,
+    /// Never above this command, percent: the last command on an invalid sample (taken as
+    /// it is; it is already a position).
+    pub hold_pct: Option<u16>,
+    /// Never above the operator's knob when it caps ACC, percent (floored onto the grid).
+    pub knob_pct: Option<u16>,
+    /// The shop layer's and the plan's limits.
+    pub limits: CommandLimits,
+}
+
+/// Where [`OverrideSpec::place`] put a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Placed {
+    /// The law's own position (its quantizer, before the bounds).
+    pub law: FeedOverride,
+    /// The command to write: the law's position on the grid within the bounds.
+    pub cmd: FeedOverride,
+    /// The limits (floor or cap) changed the command: the law re-seats its integrator on
+    /// `cmd` (bumpless, no windup against the limit). The grid and the guards (hold, knob)
+    /// do not re-seat.
+    pub reseat: bool,
+}
+
+/// What the law asks of the quantizer in one period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Demand {
+    /// Hold the last position (invalid sample, no programmed feed).
+    Held,
+    /// The demand is beyond a limit of the law's range: this limit, written at once (never
+    /// held back by the deadband or the dither).
+    Saturated(FeedOverride),
+    /// A continuous command inside the range, percent.
+    Within(f64),
+}
+
+impl CommandBounds {
+    /// The bounds on `position` (a position of the law's spec): floored onto the grid, never
+    /// above `hold_pct`, never above the floored knob; then, while valid, never below the
+    /// limits' floor (ceiled onto the grid), and never above their cap (floored), last.
+    ///
+    /// ```
+    /// use acc_core::{CommandBounds, CommandLimits, FeedOverride, OverrideSpec};
+    /// let b = CommandBounds {
+    ///     grid: OverrideSpec::range(0, 150).on_grid(10),
+    ///     valid: true,
+    ///     hold_pct: None,
+    ///     knob_pct: None,
+    ///     limits: CommandLimits { cap_pct: Some(87), floor_pct: None },
+    /// };
+    /// let p = b.place(FeedOverride(120));
+    /// assert_eq!((p.cmd, p.reseat), (FeedOverride(80), true));
+    /// ```
+    pub fn place(&self, position: FeedOverride) -> Placed {
+        let grid = &self.grid;
+        let mut cmd = grid.floor(position.0).0;
+        if let Some(h) = self.hold_pct {
+            cmd = cmd.min(h);
+        }
+        if let Some(knob) = self.knob_pct {
+            cmd = cmd.min(grid.floor(knob).0);
+        }
+        let guarded = cmd;
+        if let Some(f) = self.limits.floor_pct.filter(|_| self.valid) {
+            cmd = cmd.max(grid.ceil(f).0);
+        }
+        if let Some(c) = self.limits.cap_pct {
+            cmd = cmd.min(grid.floor(c).0);
+        }
+        Placed {
+            law: position,
+            cmd: FeedOverride(cmd),
+            reseat: cmd != guarded,
+        }
+    }
+}
+
+impl OverrideSpec {
+    /// The law's one quantization step: the position for `demand` by this spec's quantizer
+    /// (hysteresis relative to `prev`, the law's last position; or the σ-Δ `sigma`, reset at
+    /// a limit), then within `bounds` when the law runs under a policy
+    /// ([`CommandBounds::place`]). Without bounds the command is the law's position.
+    pub fn place(
+        &self,
+        demand: Demand,
+        prev: FeedOverride,
+        sigma: &mut SigmaDelta,
+        bounds: Option<&CommandBounds>,
+    ) -> Placed {
+        let position = match (demand, self.quantizer) {
+            (Demand::Held, _) => prev,
+            (Demand::Within(pct), Quantizer::Round) => self.quantize_hysteresis(pct, prev),
+            (Demand::Within(pct), Quantizer::SigmaDelta) => sigma.step(self, pct),
+            (Demand::Saturated(limit), _) => {
+                sigma.reset();
+                limit
+            }
+        };
+        match bounds {
+            Some(b) => b.place(position),
+            None => Placed {
+                law: position,
+                cmd: position,
+                reseat: false,
+            },
+        }
+    }
+}
+
 impl Default for OverrideSpec {
     /// [`OverrideSpec::paper`].
     fn default() -> Self {

@@ -10,7 +10,7 @@
 use acc_core::{ForceSample, ForceSource, Mode, OverrideLaw, PeriodInput, Saturation};
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
-use crate::echo::{DelayReading, LoopDelay};
+use crate::echo::{Booked, DelayReading, LoopDelay, MAX_ECHO_PERIODS};
 use crate::guard::{Expected, Guarded, LineGuard};
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
@@ -225,6 +225,44 @@ pub fn saturation_name(s: Saturation) -> &'static str {
     }
 }
 
+/// The override commands in force on the board after each of the last periods, newest
+/// first (`None`: ACC not driving, or unknown): booked by the loop once the policy has
+/// decided a period (or skipped it); read by the line guard (the echoes to expect) and the
+/// loop delay ([`LoopDelay::period`]) in the next period.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct InForce {
+    /// Newest first.
+    pub(crate) cmds: [Option<u16>; MAX_ECHO_PERIODS],
+    /// A period was booked with ACC not driving since the loop delay last looked.
+    pub(crate) released: bool,
+}
+
+impl InForce {
+    /// Book the command in force after this period: `written` while `driving` (`None`: the
+    /// last one is kept), nothing known while ACC is not driving.
+    pub(crate) fn book(&mut self, driving: bool, written: Option<u16>) {
+        let now = if driving {
+            written.or(self.cmds[0])
+        } else {
+            self.released = true;
+            None
+        };
+        self.cmds.rotate_right(1);
+        self.cmds[0] = now;
+    }
+
+    /// What the loop delay reads this period (`line_broke`: the line lost its cadence);
+    /// the release is reported once.
+    pub(crate) fn take(&mut self, line_broke: bool) -> Booked<'_> {
+        let released = std::mem::take(&mut self.released);
+        Booked {
+            in_force: &self.cmds,
+            released,
+            line_broke,
+        }
+    }
+}
+
 /// The loop's state between periods: the policy, the law, the force source, the heartbeat
 /// counter and what the board was last given.
 #[derive(Debug)]
@@ -242,6 +280,8 @@ pub struct ControlLoop<L, F> {
     shop: Option<ShopControl>,
     guard: LineGuard,
     delay: LoopDelay,
+    /// The commands in force after the last periods (for the guard and the loop delay).
+    in_force: InForce,
     /// The run log's writer is stalled past the logger's buffer ([`Self::set_log_stalled`]).
     log_stalled: bool,
     /// The plan's look-ahead, if any ([`ControlLoop::with_lookahead`]).
@@ -255,6 +295,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         Self {
             guard,
             delay: LoopDelay::new(),
+            in_force: InForce::default(),
             policy,
             law,
             source,
@@ -332,8 +373,8 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     pub fn skip(&mut self, t_s: f64) -> RunRecord {
         self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
         self.guard.skipped();
-        self.delay
-            .period_done(self.policy.state() == crate::policy::AccState::Active, None);
+        self.in_force
+            .book(self.policy.state() == crate::policy::AccState::Active, None);
         let mut r = RunRecord::skipped(self.index, t_s, self.policy.state().name());
         r.x_mm = Some(self.path_mm);
         r.alarms = self.policy.alarms().bits();
@@ -382,7 +423,11 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             acc_requested: self.control_on_board.is_some_and(|c| c.acc_request),
             ..Expected::default()
         };
-        for (slot, c) in expect.commands.iter_mut().zip(self.delay.recent_commands()) {
+        for (slot, c) in expect
+            .commands
+            .iter_mut()
+            .zip(self.in_force.cmds.iter().flatten().copied())
+        {
             *slot = c;
             expect.count += 1;
         }
@@ -392,13 +437,15 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             Ok(_) => guard.status.ok_or(BoardErrorKind::Protocol),
         };
         let held = read.is_ok() && guard.hold;
-        if read.is_err() || self.write_error.is_some() {
-            self.delay.resync();
+        // The line or the board lost its cadence: whether the board took the commands
+        // booked so far is unknown.
+        let line_broke = read.is_err() || self.write_error.is_some();
+        if line_broke {
+            self.in_force.cmds = [None; MAX_ECHO_PERIODS];
         }
-        let mut delay = match link {
-            Ok(s) if !held => self.delay.observe(self.index, &s),
-            _ => self.delay.last(),
-        };
+        let accepted = link.ok().filter(|_| !held);
+        let booked = self.in_force.take(line_broke);
+        let mut delay = self.delay.period(self.index, &booked, accepted.as_ref());
         delay.replay_lag_periods = guard.replay_lag_periods;
         let feeds = link.ok().map(|s| {
             let programmed = if s.programmed_feed_mm_min > 0 {
@@ -483,7 +530,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         if self.control_on_board != Some(out.control) {
             plan.control = Some(out.control);
         }
-        self.delay.period_done(
+        self.in_force.book(
             out.state == crate::policy::AccState::Active,
             out.write_override.map(|o| o.0),
         );
@@ -547,7 +594,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             self.control_on_board = Some(c);
         }
         if r.override_error.is_some() {
-            self.delay.write_failed();
+            // Whether the board took this period's command is unknown: no echo is judged
+            // until it has left the history.
+            self.in_force.cmds[0] = None;
         }
         self.write_error = r.error();
     }

@@ -19,6 +19,12 @@
 //! `SAMPLE_SEQ` against the period count: the sequence unwrapped, less the period index, is
 //! the board's sample offset; its drop below the highest offset seen is the sample's lag in
 //! periods (a buffering line drops it by N at once; a board restart starts it again).
+//!
+//! The tracker does not keep the commands: the loop books the command in force after each
+//! period once the policy has decided it (a skipped period keeps the last one, a period out
+//! of ACC books none, a failed write marks it unknown) and hands that history, with what
+//! happened since ([`Booked`]: a release, a broken line), to [`LoopDelay::period`] once per
+//! period, before the force source runs.
 
 use acc_pmc::BoardStatus;
 
@@ -95,9 +101,6 @@ impl Scores {
 /// The loop-delay tracker.
 #[derive(Debug, Clone, Default)]
 pub struct LoopDelay {
-    /// Command in force on the board after each of the last periods, newest first (`None`:
-    /// not driven by ACC, or unknown).
-    in_force: [Option<u16>; MAX_ECHO_PERIODS],
     applied: Scores,
     feed: Scores,
     seq_unwrapped: Option<i64>,
@@ -117,18 +120,43 @@ impl LoopDelay {
         Self::default()
     }
 
-    /// The commands in force over the last periods (newest first, known ones only).
-    pub fn recent_commands(&self) -> impl Iterator<Item = u16> + '_ {
-        self.in_force.iter().flatten().copied()
-    }
-
     /// The last reading.
     pub fn last(&self) -> DelayReading {
         self.last
     }
 
-    /// Observe period `index`'s accepted status (before this period's write).
-    pub fn observe(&mut self, index: u64, s: &BoardStatus) -> DelayReading {
+    /// Period `index`, before this period's write: what the loop booked since the last
+    /// call (`booked`), then the accepted status `status`, if any (`None`: a link error, a
+    /// status the guard refused or held: the last reading stands).
+    pub fn period(
+        &mut self,
+        index: u64,
+        booked: &Booked,
+        status: Option<&BoardStatus>,
+    ) -> DelayReading {
+        if booked.line_broke || booked.released {
+            // A release: a new engagement is judged on its own echoes (what was measured
+            // before it, perhaps on a line that has since been fixed, does not carry over).
+            // A broken line: the replies that follow may be shifted until it
+            // resynchronises, so nothing measured so far is kept.
+            self.applied = Scores::default();
+            self.feed = Scores::default();
+        }
+        if booked.line_broke {
+            self.on_cadence = 0;
+        }
+        match status {
+            Some(s) => self.observe(index, s, booked.in_force),
+            None => self.last,
+        }
+    }
+
+    fn observe(
+        &mut self,
+        index: u64,
+        s: &BoardStatus,
+        in_force: &[Option<u16>; MAX_ECHO_PERIODS],
+    ) -> DelayReading {
         // Only a board on its regular cadence (one new sample per period) is judged: after a
         // stall, a repeated or a skipped sample, the board may still be working through
         // queued requests, and its echo says nothing about the line.
@@ -143,7 +171,7 @@ impl LoopDelay {
         }
         let driven = s.acc_active && !s.override_locked && !s.feed_hold_active;
         let settled = self.on_cadence as usize >= MAX_ECHO_PERIODS;
-        if let (true, true, Some(preds)) = (driven, settled, self.predictions()) {
+        if let (true, true, Some(preds)) = (driven, settled, predictions(in_force)) {
             let applied = s.override_applied_pct;
             self.applied.observe(&preds, |p| p == applied);
             if s.is_v2() && s.programmed_feed_mm_min > 0 {
@@ -187,53 +215,35 @@ impl LoopDelay {
         };
         self.last
     }
+}
 
-    /// The command in force after this period: `Some(cmd)` when ACC drives the override and
-    /// wrote `cmd` (or kept the last one: `written` = `None` while driving), `None` when ACC is
-    /// not driving.
-    pub fn period_done(&mut self, driving: bool, written: Option<u16>) {
-        let now = if driving {
-            written.or(self.in_force[0])
-        } else {
-            // A new engagement is judged on its own echoes: what was measured before the
-            // release (perhaps on a line that has since been fixed) does not carry over.
-            self.applied = Scores::default();
-            self.feed = Scores::default();
-            None
-        };
-        self.in_force.rotate_right(1);
-        self.in_force[0] = now;
-    }
+/// What the loop booked about its commands up to a period ([`LoopDelay::period`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Booked<'a> {
+    /// The command in force on the board after each of the last periods, newest first
+    /// (`None`: not driven by ACC, or unknown: a failed write, a broken line).
+    pub in_force: &'a [Option<u16>; MAX_ECHO_PERIODS],
+    /// ACC was not driving the override in a period booked since the last call.
+    pub released: bool,
+    /// The line or the board lost its cadence this period (a lost, late or garbled reply,
+    /// a failed write).
+    pub line_broke: bool,
+}
 
-    /// This period's override write failed, or its reply was lost or garbled: whether the
-    /// board took the command is unknown, so no echo is judged until it has left the
-    /// history.
-    pub fn write_failed(&mut self) {
-        self.in_force[0] = None;
+/// The echo each candidate delay predicts: the command in force `d` periods back, if all
+/// are known.
+fn predictions(in_force: &[Option<u16>; MAX_ECHO_PERIODS]) -> Option<[u16; MAX_ECHO_PERIODS]> {
+    let mut p = [0; MAX_ECHO_PERIODS];
+    for (slot, c) in p.iter_mut().zip(in_force.iter()) {
+        *slot = (*c)?;
     }
-
-    /// The line or the board lost its cadence (a lost, late or garbled reply, a stalled
-    /// board): the replies that follow may be shifted until it resynchronises, so nothing
-    /// measured so far is kept.
-    pub fn resync(&mut self) {
-        self.applied = Scores::default();
-        self.feed = Scores::default();
-        self.on_cadence = 0;
-        self.in_force = [None; MAX_ECHO_PERIODS];
-    }
-
-    fn predictions(&self) -> Option<[u16; MAX_ECHO_PERIODS]> {
-        let mut p = [0; MAX_ECHO_PERIODS];
-        for (slot, c) in p.iter_mut().zip(self.in_force.iter()) {
-            *slot = (*c)?;
-        }
-        Some(p)
-    }
+    Some(p)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control_loop::InForce;
 
     fn status(applied: u16, seq: u16) -> BoardStatus {
         BoardStatus {
@@ -250,19 +260,33 @@ mod tests {
         }
     }
 
+    /// The tracker and the loop's booking of its commands, as `ControlLoop` drives them.
+    #[derive(Default)]
+    struct Rig {
+        t: LoopDelay,
+        f: InForce,
+    }
+
+    impl Rig {
+        /// Period `k` reads `s` (`None`: no accepted status) on an unbroken line.
+        fn read(&mut self, k: u64, s: Option<BoardStatus>) -> DelayReading {
+            self.t.period(k, &self.f.take(false), s.as_ref())
+        }
+    }
+
+    const DITHER: [u16; 7] = [50, 60, 60, 70, 50, 50, 60];
+
     /// A board whose replies reach the loop `lag` reads late, driven by a dithering command.
     fn run(lag: usize, periods: usize) -> DelayReading {
-        let mut t = LoopDelay::new();
-        let cmds: Vec<u16> = (0..periods)
-            .map(|k| [50, 60, 60, 70, 50, 50, 60][k % 7])
-            .collect();
+        let mut rig = Rig::default();
+        let cmds: Vec<u16> = (0..periods).map(|k| DITHER[k % 7]).collect();
         // applied on the board after period k = cmds[k]; the read of period k sees the
         // board as it was after period k − 1 − lag.
         let mut r = DelayReading::default();
         for k in 0..periods {
             let seen = k.checked_sub(1 + lag).map_or(50, |j| cmds[j]);
-            r = t.observe(k as u64, &status(seen, (k.saturating_sub(lag)) as u16));
-            t.period_done(true, Some(cmds[k]));
+            r = rig.read(k as u64, Some(status(seen, (k.saturating_sub(lag)) as u16)));
+            rig.f.book(true, Some(cmds[k]));
         }
         r
     }
@@ -286,49 +310,118 @@ mod tests {
 
     #[test]
     fn a_failed_write_is_not_judged_and_a_release_starts_afresh() {
-        let mut t = LoopDelay::new();
-        let cmds = [50u16, 60, 60, 70, 50, 50, 60];
+        let mut rig = Rig::default();
         for k in 0..60usize {
-            let seen = k.checked_sub(1).map_or(50, |j| cmds[j % 7]);
-            t.observe(k as u64, &status(seen, k as u16));
-            t.period_done(true, Some(cmds[k % 7]));
+            let seen = k.checked_sub(1).map_or(50, |j| DITHER[j % 7]);
+            rig.read(k as u64, Some(status(seen, k as u16)));
+            rig.f.book(true, Some(DITHER[k % 7]));
             if k == 30 {
                 // The write's reply was garbled, but the board took the command.
-                t.write_failed();
+                rig.f.cmds[0] = None;
             }
-            let r = t.last();
+            let r = rig.t.last();
             assert!(r.echo_periods.is_none_or(|e| e == 1), "k {k}: {r:?}");
         }
-        t.period_done(false, None);
-        t.observe(61, &status(60, 61));
+        assert_eq!(rig.t.last().echo_periods, Some(1));
+        rig.f.book(false, None);
+        rig.read(60, Some(status(60, 60)));
         assert_eq!(
-            t.last().echo_periods,
+            rig.t.last().echo_periods,
             None,
             "a new engagement starts without one"
         );
     }
 
+    /// Drive the designed delay for `periods`, skipping period `skip` the way
+    /// `ControlLoop::skip` does (no read, nothing written, the command booked as kept while
+    /// `driving`). The board's sample sequence advances in the skipped period when
+    /// `seq_moves` (the board's tick) and not otherwise (a board sampling per read). Returns
+    /// every reading after the skip.
+    fn run_with_skip(skip: usize, driving: bool, seq_moves: bool) -> Vec<DelayReading> {
+        let mut rig = Rig::default();
+        let mut on_board = 50;
+        let mut after = Vec::new();
+        let mut seq = 0u16;
+        for k in 0..80 {
+            if k == skip {
+                rig.f.book(driving, None);
+                seq += u16::from(seq_moves);
+                continue;
+            }
+            let r = rig.read(k as u64, Some(status(on_board, seq)));
+            seq += 1;
+            if k > skip {
+                after.push(r);
+            }
+            on_board = DITHER[k % 7];
+            rig.f.book(true, Some(on_board));
+        }
+        after
+    }
+
+    #[test]
+    fn a_skipped_period_keeps_the_command_in_force() {
+        for seq_moves in [false, true] {
+            let after = run_with_skip(30, true, seq_moves);
+            assert!(
+                after.iter().all(|r| r.echo_periods.is_none_or(|e| e == 1)),
+                "seq_moves {seq_moves}: {after:?}"
+            );
+            assert_eq!(after.last().and_then(|r| r.echo_periods), Some(1));
+            // On the board's cadence the estimate carries on through the skip; a sample
+            // skipped with it is judged again from scratch.
+            let first = after[0].echo_periods;
+            assert_eq!(first, (!seq_moves).then_some(1), "seq_moves {seq_moves}");
+        }
+    }
+
+    #[test]
+    fn a_skipped_period_out_of_acc_starts_afresh_at_the_next_read() {
+        // Same cadence as the first case above: only the release clears the estimate.
+        let after = run_with_skip(30, false, false);
+        assert_eq!(after[0].echo_periods, None, "{:?}", after[0]);
+        assert_eq!(after.last().and_then(|r| r.echo_periods), Some(1));
+    }
+
+    #[test]
+    fn a_period_without_an_accepted_status_keeps_the_last_reading() {
+        let mut rig = Rig::default();
+        for k in 0..40usize {
+            let seen = k.checked_sub(1).map_or(50, |j| DITHER[j % 7]);
+            rig.read(k as u64, Some(status(seen, k as u16)));
+            rig.f.book(true, Some(DITHER[k % 7]));
+        }
+        let before = rig.t.last();
+        assert_eq!(before.echo_periods, Some(1));
+        assert_eq!(rig.read(40, None), before);
+        // A broken line forgets the estimate even without a status.
+        let broke = rig.t.period(41, &rig.f.take(true), None);
+        assert_eq!(broke, before, "the reading stands until the next status");
+        let s = status(DITHER[39 % 7], 42);
+        assert_eq!(rig.read(42, Some(s)).echo_periods, None);
+    }
+
     #[test]
     fn a_constant_command_tells_nothing() {
-        let mut t = LoopDelay::new();
+        let mut rig = Rig::default();
         for k in 0..50 {
-            t.observe(k, &status(70, k as u16));
-            t.period_done(true, Some(70));
+            rig.read(k, Some(status(70, k as u16)));
+            rig.f.book(true, Some(70));
         }
-        assert_eq!(t.last().echo_periods, None);
+        assert_eq!(rig.t.last().echo_periods, None);
     }
 
     #[test]
     fn the_sequence_lag_follows_a_stale_line() {
-        let mut t = LoopDelay::new();
+        let mut rig = Rig::default();
         for k in 0..20u64 {
-            t.observe(k, &status(70, 100 + k as u16));
+            rig.read(k, Some(status(70, 100 + k as u16)));
         }
-        assert_eq!(t.last().seq_lag_periods, Some(0));
+        assert_eq!(rig.t.last().seq_lag_periods, Some(0));
         // From period 20 the line delivers the reply of three reads earlier.
         for k in 20..30u64 {
-            t.observe(k, &status(70, 100 + (k - 3) as u16));
+            rig.read(k, Some(status(70, 100 + (k - 3) as u16)));
         }
-        assert_eq!(t.last().seq_lag_periods, Some(3));
+        assert_eq!(rig.t.last().seq_lag_periods, Some(3));
     }
 }

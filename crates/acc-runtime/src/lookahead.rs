@@ -21,7 +21,7 @@
 //! position's uncertainty behind the tool to where it can be `horizon_s` ahead, walked at
 //! each row's programmed feed × the grid's maximum override (the law may raise the
 //! command this period; a rapid at its rapid rate). The cap only ever lowers the law's
-//! command ([`crate::CommandLimits::cap_pct`], applied last by the tool-limits judge): the
+//! command ([`crate::CommandLimits::cap_pct`], applied last in the law's bounds): the
 //! plan never raises the override above what the feedback law and the tool limits allow.
 //!
 //! **Disagreement.** The plan predicts the period's force at the period's `ACTUAL_FEED`

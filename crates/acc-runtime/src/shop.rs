@@ -1,7 +1,8 @@
 //! The shop layer of the production loop: the tool table chosen by the board's
 //! `TOOL_NUMBER`, and entry/exit control. It never writes the override and never touches
 //! the law: once per period, before the fault policy steps the law, it returns
-//! [`CommandLimits`] (a cap and a floor) that the policy applies to the law's command, and
+//! [`CommandLimits`] (a cap and a floor) that bound the law's command (in its one
+//! quantization step, [`acc_core::OverrideSpec::place`]), and
 //! on a tool change a [`ToolChange`] event that the loop applies to the law
 //! ([`crate::ControlLoop::decide`]). Everything it does can only lower the command below
 //! what the law asks, except the tool's minimum override while cutting (the setter's floor).

@@ -36,7 +36,9 @@
 //! 15. `log.rs` — can the period be recorded (the run log's writer not stalled past its
 //!     buffer)? No record, no cut (feed hold, release).
 //! 16. `delay.rs` — is the line's delay beyond the gains' margin (feed hold, release)?
-//! 17. the law's step, then `tool_limits.rs` — what may its command become?
+//! 17. `tool_limits.rs` — what bounds the law's command (range, invalid sample, knob, the
+//!     shop layer's and the plan's limits)? Then the law's step within those bounds
+//!     ([`OverrideLaw::step_within`]: its one quantization step applies them).
 //!
 //! **Active without a status**: over the link budget, over the power budget, else hold.
 //! **Idle**: a tripped watchdog latches; the switch on in a clean period arms (clean: link
@@ -72,7 +74,8 @@
 //!   (`hold_on_raising_release`, default on). Every feed-hold request stays until the
 //!   operator re-arms ACC (switch off, then on).
 //! - **Never above the maximum**: every command is floored onto the board's grid within
-//!   `[min_override_pct, max_override_pct]` by the override spec ([`OverrideSpec::floor`]).
+//!   `[min_override_pct, max_override_pct]` by the override spec ([`OverrideSpec::floor`];
+//!   the law's command in its quantization step, [`acc_core::CommandBounds::place`]).
 //!
 //! Invariant (property-tested): a period with a fault input never writes a command higher
 //! than the last one written.
@@ -693,8 +696,8 @@ impl FaultPolicy {
             out.fault = true;
             return self.release(Release::Delay, out, law);
         }
-        // 17. The control step, on the feed the loop computed once for this period, then
-        //     the limits on its command.
+        // 17. The control step, on the feed the loop computed once for this period, its
+        //     command placed on the grid within the bounds judged here (one quantization).
         let m = Measurement {
             force_n: if force_valid {
                 input.force.force_n
@@ -705,21 +708,17 @@ impl FaultPolicy {
             programmed_feed_mm_min: input.programmed_feed_mm_min,
             valid: force_valid,
         };
-        let step = law.step(&m);
-        self.breakage.force_ref_n = Some(step.trace.force_ref_n);
-        let limited = tool_limits::limit(
-            &grid,
-            step.command.0,
+        let bounds = tool_limits::bounds(
+            grid,
             force_valid,
             last,
             self.operator.knob_ceiling,
             self.shop_limits,
         );
-        if limited.changed() {
-            law.engage(FeedOverride(limited.cmd));
-        }
-        self.last_cmd = Some(limited.cmd);
-        out.write_override = Some(FeedOverride(limited.cmd));
+        let step = law.step_within(&m, &bounds);
+        self.breakage.force_ref_n = Some(step.trace.force_ref_n);
+        self.last_cmd = Some(step.command.0);
+        out.write_override = Some(step.command);
         out.step = Some(step);
         out.measurement = Some(m);
     }
