@@ -308,6 +308,35 @@ pub fn spawn_board_sim_on(scenario: &str, extra: &[&str]) -> (Proc, String) {
     (board, pty)
 }
 
+/// `configs/runtime/board_sim_fast.toml` written to `dir` with its relative paths made
+/// absolute, `extra` TOML appended, and the link and power hold long enough
+/// (`link_hold_periods`, `invalid_power_periods` = 1000) that a reply late on a loaded host
+/// holds the override instead of ending the run: for the tests whose subject is not the
+/// link's timing (with `acc board-sim --pace controller`, late replies do not change what
+/// the machine does).
+pub fn load_tolerant_config(dir: &Path, extra: &str) -> PathBuf {
+    let cfg_dir = root().join("configs/runtime");
+    let text = std::fs::read_to_string(cfg_dir.join("board_sim_fast.toml")).expect("config");
+    let abs = |rel: &str| format!("{:?}", cfg_dir.join(rel).to_string_lossy());
+    let mut set = 0;
+    let lines: Vec<String> = text
+        .lines()
+        .map(|l| match l.split_once(" = ").map(|(k, _)| k) {
+            Some(k @ ("link_hold_periods" | "invalid_power_periods")) => {
+                set += 1;
+                format!("{k} = 1000")
+            }
+            Some("controller") => format!("controller = {}", abs("../presets/case3.toml")),
+            Some("calibration") => format!("calibration = {}", abs("paper_vmc_power.toml")),
+            _ => l.to_string(),
+        })
+        .collect();
+    assert_eq!(set, 2, "board_sim_fast.toml: both hold keys");
+    let path = dir.join("run_tolerant.toml");
+    std::fs::write(&path, format!("{}\n{extra}", lines.join("\n"))).expect("write config");
+    path
+}
+
 /// Start `acc run --config <config> --port <pty> --log <log>`.
 pub fn spawn_run(config: &str, pty: &str, log: &Path) -> Proc {
     Proc::spawn(

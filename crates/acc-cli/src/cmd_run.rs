@@ -51,7 +51,8 @@ pub struct RunArgs {
     /// `BLOCK_NUMBER` and `ACTUAL_FEED`; docs/plan.md).
     #[arg(long, value_name = "plan.csv")]
     pub plan: Option<PathBuf>,
-    /// Stop after this much machine time, s (default: run until Ctrl-C).
+    /// Stop after this much machine time, s, skipped periods included (default: run until
+    /// Ctrl-C).
     #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
     /// Tool-history database (SQLite): cuts, Kc trend per tool and alarms, kept across runs
