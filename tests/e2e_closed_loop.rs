@@ -25,9 +25,11 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
     let sim_log_s = sim_log.to_string_lossy().to_string();
     let (mut board, pty) = spawn_board_sim(&["--log", &sim_log_s, "--pace", "controller"]);
     let run = spawn_run("configs/runtime/board_sim_fast.toml", &pty, &run_log);
+    // The machine advances with the controller's writes (slower than 4x on a loaded host):
+    // the deadline only guards a hang.
     assert!(
-        board.wait_for("workpiece finished", Duration::from_secs(60)),
-        "the workpiece was not finished within 60 s: {:?}",
+        board.wait_for("workpiece finished", Duration::from_secs(300)),
+        "the workpiece was not finished within 300 s: {:?}",
         board.err_lines
     );
     let (out, _) = interrupt_expect_clean_exit(run);
