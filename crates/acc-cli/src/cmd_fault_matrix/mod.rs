@@ -48,8 +48,8 @@
 //!
 //! The faults are timing faults, so the rows run on the wall clock. A row that fails, or
 //! never reaches the fault moment, while the host was too loaded for `acc run` to keep its
-//! period (its run log's `late` and `skipped` periods, [`rerun::HostLoad`]) is run once
-//! more; the table's verdict then names the first attempt beside the second one's verdict
+//! period (its run log's `late` and `skipped` periods, [`rerun::HostLoad`]) or to start (its
+//! start-up transactions unanswered, exit 5, before a period) is run once more; the table's verdict then names the first attempt beside the second one's verdict
 //! (and the JSON has it as `first_attempt`), its logs kept in `<row>-first`.
 
 mod faults;
@@ -132,13 +132,17 @@ fn run_row_rerun_if_overloaded(
 ) -> anyhow::Result<Row> {
     let first = run_row(args, f, protocol, dir);
     let run_log = harness::read(&dir.join("run.csv")).unwrap_or_default();
+    let run_err = std::fs::read_to_string(dir.join("run.stderr")).unwrap_or_default();
     let (outcome, load) = match &first {
         Ok(row) if row.ok => return first,
         Ok(row) => (
             row.verdict.clone(),
             HostLoad::of(&run_log, f, row.t_fault_s),
         ),
-        Err(e) => (format!("error: {e:#}"), HostLoad::of(&run_log, f, None)),
+        Err(e) => (
+            format!("error: {e:#}"),
+            HostLoad::of(&run_log, f, None).with_start(&run_err),
+        ),
     };
     if !load.overloaded() {
         return first;

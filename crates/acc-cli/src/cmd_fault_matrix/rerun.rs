@@ -24,6 +24,10 @@ pub struct HostLoad {
     pub periods: usize,
     /// Of those, flagged `late` or `skipped`.
     pub late_or_skipped: usize,
+    /// `acc run` ended before its first period because the board did not answer its
+    /// start-up transactions (exit 5): the emulated board on a pty always answers on a host
+    /// that runs it in time.
+    pub start_failed: bool,
 }
 
 impl HostLoad {
@@ -46,18 +50,31 @@ impl HostLoad {
         Self {
             periods: judged.len(),
             late_or_skipped,
+            start_failed: false,
         }
     }
 
-    /// The host was too loaded for the controller to keep its period: at least
+    /// The attempt's `acc run` ended at start, the board not answering (exit 5, `stderr`
+    /// its error lines), before writing a period.
+    pub fn with_start(mut self, stderr: &str) -> Self {
+        self.start_failed = self.periods == 0 && stderr.contains("(exit code 5)");
+        self
+    }
+
+    /// The host was too loaded for the controller to start or to keep its period: a start
+    /// that failed ([`Self::with_start`]), or at least
     /// [`OVERLOAD_MIN_PERIODS`] and [`OVERLOAD_SHARE`] of the periods late or skipped.
     pub fn overloaded(&self) -> bool {
-        self.late_or_skipped >= OVERLOAD_MIN_PERIODS
-            && self.late_or_skipped as f64 >= OVERLOAD_SHARE * self.periods as f64
+        self.start_failed
+            || self.late_or_skipped >= OVERLOAD_MIN_PERIODS
+                && self.late_or_skipped as f64 >= OVERLOAD_SHARE * self.periods as f64
     }
 
     /// `12 of 450 acc run periods late or skipped`.
     pub fn describe(&self) -> String {
+        if self.start_failed {
+            return "acc run's start-up transactions got no reply in time (exit 5)".into();
+        }
         format!(
             "{} of {} acc run periods late or skipped",
             self.late_or_skipped, self.periods
@@ -121,10 +138,27 @@ mod tests {
     }
 
     #[test]
+    fn a_run_that_never_started_for_a_silent_board_is_an_overloaded_host() {
+        let f = fault("crc");
+        let exit5 = "acc run: ended: the board did not answer at start or cannot be driven: ACC never drove the override (exit code 5)";
+        let never = HostLoad::of(&[], f, None).with_start(exit5);
+        assert!(never.overloaded());
+        assert!(never.describe().contains("exit 5"), "{}", never.describe());
+        // Another exit at start is not the host's load; nor is exit 5 after periods ran.
+        assert!(!HostLoad::of(&[], f, None)
+            .with_start("acc run: ended: … (exit code 2)")
+            .overloaded());
+        assert!(!HostLoad::of(&rows(10, &[]), f, None)
+            .with_start(exit5)
+            .overloaded());
+    }
+
+    #[test]
     fn the_first_attempt_is_reported_with_the_load() {
         let load = HostLoad {
             periods: 450,
             late_or_skipped: 12,
+            start_failed: false,
         };
         assert_eq!(
             first_attempt("FAIL: force 883 → 978 N", &load),
