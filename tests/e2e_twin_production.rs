@@ -24,8 +24,7 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use e2e_support::{
-    acc_bin, interrupt_expect_clean_exit, load_tolerant_config, read_log, root, spawn_board_sim_on,
-    spawn_run,
+    acc_bin, interrupt_expect_clean_exit, read_log, root, spawn_board_sim_on, spawn_run,
 };
 
 const SCENARIO: &str = "configs/scenarios/hidden_wear.toml";
@@ -42,8 +41,7 @@ fn production_log() -> &'static Path {
         std::fs::create_dir_all(&dir).expect("log dir");
         let log = dir.join("run.csv");
         let start = Instant::now();
-        let config = load_tolerant_config(&dir, "");
-        closed_loop(SCENARIO, &config.to_string_lossy(), &log);
+        closed_loop(SCENARIO, RUN_CONFIG, &log);
         println!(
             "closed loop on the hidden-wear machine: {:.1} s wall",
             start.elapsed().as_secs_f64()
@@ -80,8 +78,6 @@ fn closed_loop(scenario: &str, run_config: &str, log: &Path) {
         ],
     );
     let run = spawn_run(run_config, &pty, log);
-    // The machine advances with the controller's writes: on a loaded host that is slower
-    // than 4x (a skipped period writes nothing), so the deadline is only a hang guard.
     assert!(
         board.wait_for("workpiece finished", Duration::from_secs(300)),
         "the workpiece was not finished within 300 s: {:?}",
@@ -360,8 +356,7 @@ fn a_tooth_model_null_log_replays_to_the_register_rounding() {
         .join(format!("e2e_twin_tooth-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("log dir");
     let log = dir.join("run.csv");
-    let config = load_tolerant_config(&dir, "");
-    closed_loop(scenario, &config.to_string_lossy(), &log);
+    closed_loop(scenario, RUN_CONFIG, &log);
     let _turn = machine();
     let sc = acc_sim::Scenario::load(root().join(scenario)).expect("scenario");
     let model = acc_ident::twin::model_for_scenario(&sc, Channel::Power);
@@ -387,20 +382,34 @@ fn a_tooth_model_null_log_replays_to_the_register_rounding() {
     );
 }
 
-/// The run config with the breakage watch off (`[watch] breakage = false`), for the random
-/// cases. A random part can end in a fast exit (a ramp running out at 1.29 mm left at
-/// 150 %: 781 → 689 → 540 → 387 → 274 N); when a late board tick (a loaded test machine)
-/// makes one read find a sample again and the next skip one, the watch sees the fall one
-/// sample shorter than it was and holds the feed as for a broken tool (`breakage:drop`), so
-/// the part is never finished. That is the watch's trade-off between a missed sample and a
-/// tool broken mid-window, not the replay this test is about.
-fn run_config_without_breakage_watch(dir: &Path) -> PathBuf {
+/// `RUN_CONFIG` with its files named absolutely and the breakage watch off (`[watch]
+/// breakage = false`), for the random cases. A random part can end in a fast exit (a
+/// ramp running out at 1.29 mm left at 150 %: 781 → 689 → 540 → 387 → 274 N); when a late
+/// board tick (a loaded test machine) makes one read find a sample again and the next
+/// skip one, the watch sees the fall one sample shorter than it was and holds the feed as
+/// for a broken tool (`breakage:drop`), so the part is never finished. That is the
+/// watch's trade-off between a missed sample and a tool broken mid-window (see the issue
+/// note), not the replay this test is about.
+fn run_config_without_breakage_watch() -> String {
+    let runtime = root().join("configs/runtime");
     let text = std::fs::read_to_string(root().join(RUN_CONFIG)).expect("run config");
     assert!(
         !text.contains("[watch]"),
         "{RUN_CONFIG} has no [watch] table"
     );
-    load_tolerant_config(dir, "[watch]\nbreakage = false\n")
+    let absolute = |line: &str| -> Option<String> {
+        let (key, value) = line.split_once(" = ")?;
+        let file = value.trim().strip_prefix('"')?.strip_suffix('"')?;
+        ["controller", "calibration"]
+            .contains(&key.trim())
+            .then(|| format!("{key} = {:?}", runtime.join(file)))
+    };
+    let mut out: String = text
+        .lines()
+        .map(|l| absolute(l).unwrap_or_else(|| l.to_string()) + "\n")
+        .collect();
+    out += "\n[watch]\nbreakage = false\n";
+    out
 }
 
 /// One random production-path case: seed, force model, wear, programmed feed and workpiece
@@ -520,7 +529,8 @@ fn random_production_logs_replay_to_the_register_rounding() {
         std::fs::write(&scenario, case.scenario_toml()).expect("scenario");
         let log = dir.join("run.csv");
         let start = Instant::now();
-        let run_config = run_config_without_breakage_watch(&dir);
+        let run_config = dir.join("run.toml");
+        std::fs::write(&run_config, run_config_without_breakage_watch()).expect("run config");
         closed_loop(
             &scenario.to_string_lossy(),
             &run_config.to_string_lossy(),
