@@ -308,6 +308,46 @@ pub fn spawn_board_sim_on(scenario: &str, extra: &[&str]) -> (Proc, String) {
     (board, pty)
 }
 
+/// `configs/runtime/board_sim_fast.toml` written to `dir` with its relative paths made
+/// absolute, `extra` TOML appended, and made tolerant of a loaded host: 2x time instead of
+/// 4x (T = 50 ms of wall time) with a 40 ms reply timeout (45 ms budget), so that the board
+/// answers the start-up writes in time, and the link and power hold long enough
+/// (`link_hold_periods`, `invalid_power_periods` = 1000) that a late reply holds the
+/// override instead of ending the run. For the tests whose subject is not the link's timing,
+/// against `acc board-sim --pace controller` (whose machine moves with the controller's
+/// writes, whatever its `--time-scale`).
+pub fn load_tolerant_config(dir: &Path, extra: &str) -> PathBuf {
+    let cfg_dir = root().join("configs/runtime");
+    let text = std::fs::read_to_string(cfg_dir.join("board_sim_fast.toml")).expect("config");
+    let abs = |rel: &str| format!("{:?}", cfg_dir.join(rel).to_string_lossy());
+    let mut set = 0;
+    let lines: Vec<String> = text
+        .lines()
+        .map(|l| match l.split_once(" = ").map(|(k, _)| k) {
+            Some(k @ ("link_hold_periods" | "invalid_power_periods")) => {
+                set += 1;
+                format!("{k} = 1000")
+            }
+            Some(k @ ("time_scale" | "timeout_ms" | "budget_ms")) => {
+                set += 1;
+                let v = match k {
+                    "time_scale" => "2.0",
+                    "timeout_ms" => "40",
+                    _ => "45",
+                };
+                format!("{k} = {v}")
+            }
+            Some("controller") => format!("controller = {}", abs("../presets/case3.toml")),
+            Some("calibration") => format!("calibration = {}", abs("paper_vmc_power.toml")),
+            _ => l.to_string(),
+        })
+        .collect();
+    assert_eq!(set, 5, "board_sim_fast.toml: the hold, time and link keys");
+    let path = dir.join("run_tolerant.toml");
+    std::fs::write(&path, format!("{}\n{extra}", lines.join("\n"))).expect("write config");
+    path
+}
+
 /// Start `acc run --config <config> --port <pty> --log <log>`.
 pub fn spawn_run(config: &str, pty: &str, log: &Path) -> Proc {
     Proc::spawn(

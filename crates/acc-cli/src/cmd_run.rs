@@ -51,7 +51,8 @@ pub struct RunArgs {
     /// `BLOCK_NUMBER` and `ACTUAL_FEED`; docs/plan.md).
     #[arg(long, value_name = "plan.csv")]
     pub plan: Option<PathBuf>,
-    /// Stop after this much machine time, s (default: run until Ctrl-C).
+    /// Stop after this much machine time, s, skipped periods included (default: run until
+    /// Ctrl-C).
     #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
     /// Tool-history database (SQLite): cuts, Kc trend per tool and alarms, kept across runs
@@ -118,6 +119,24 @@ fn fallback_mode_name(m: FallbackMode) -> &'static str {
     }
 }
 
+/// Attempts of each start-up transaction (`WATCHDOG_MS`, the first status, `FALLBACK_MODE`),
+/// each within the link's own timeout, retries and budget: nothing is driven yet, so a reply
+/// lost or late at start (a board powering up, a loaded host) costs another attempt, not
+/// the run.
+const START_ATTEMPTS: u32 = 3;
+
+/// `transaction`, tried up to [`START_ATTEMPTS`] times until it succeeds; the last error.
+fn at_start<T, E>(mut transaction: impl FnMut() -> Result<T, E>) -> Result<T, E> {
+    let mut result = transaction();
+    for _ in 1..START_ATTEMPTS {
+        if result.is_ok() {
+            break;
+        }
+        result = transaction();
+    }
+    result
+}
+
 /// Open the serial board: port (framing verified), `WATCHDOG_MS`, the first status (which
 /// settles the protocol), and on a v2 board `FALLBACK_MODE`. Used at start and to reopen.
 fn open_rtu(
@@ -126,7 +145,7 @@ fn open_rtu(
 ) -> anyhow::Result<(RtuBoard<acc_pmc::serialport::TTYPort>, BoardStatus)> {
     let port = acc_pmc::serial::open_port(rtu_cfg).exit_as(RunExit::Usage)?;
     let mut rtu = RtuBoard::new(port, rtu_cfg.link);
-    rtu.write_watchdog_ms(rtu_cfg.watchdog_ms)
+    at_start(|| rtu.write_watchdog_ms(rtu_cfg.watchdog_ms))
         .with_context(|| {
             format!(
                 "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
@@ -137,12 +156,11 @@ fn open_rtu(
             )
         })
         .exit_as(RunExit::BoardNotAnswering)?;
-    let status = rtu
-        .read_status()
+    let status = at_start(|| rtu.read_status())
         .with_context(|| format!("reading the board status on {}", rtu_cfg.port))
         .exit_as(RunExit::BoardNotAnswering)?;
     if rtu.protocol() == Some(BoardProtocol::V2) {
-        rtu.write_fallback_mode(cfg.fallback_mode)
+        at_start(|| rtu.write_fallback_mode(cfg.fallback_mode))
             .with_context(|| {
                 format!(
                     "{}: writing `board.fallback_mode` = \"{}\" (FALLBACK_MODE) to slave {} on {}",
