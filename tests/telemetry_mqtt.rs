@@ -298,3 +298,47 @@ fn acc_sim_mqtt_to_mosquitto_survives_a_broker_restart() {
     assert_eq!(String::from_utf8_lossy(&st.stdout).trim(), "offline");
     assert!(stdout.contains("telemetry: MQTT"), "{stdout}");
 }
+
+/// A broker that is not there (a port nothing listens on) is one line on stderr naming the
+/// broker and the error, and the run is the run without MQTT: same rows, same forces.
+#[test]
+fn an_unreachable_broker_is_one_line_and_the_run_goes_on() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let port = free_port(); // released: nothing listens on it
+    let run = |out: &str, mqtt: Option<String>| {
+        let mut c = Command::new(acc_bin());
+        c.args(["sim", "paper_case1", "--no-plot", "--out"])
+            .arg(dir.path().join(out))
+            .current_dir(root());
+        if let Some(url) = mqtt {
+            c.args(["--mqtt", &url]);
+        }
+        let o = c.output().expect("acc sim");
+        assert!(o.status.success(), "acc sim {out}: {o:?}");
+        (
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+            read_log(&dir.path().join(out).join("run.csv")),
+        )
+    };
+    let (stderr, with) = run("with", Some(format!("mqtt://127.0.0.1:{port}/acctest")));
+    let (_, without) = run("without", None);
+    let named: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains(&format!("MQTT broker 127.0.0.1:{port}:")))
+        .collect();
+    assert_eq!(named.len(), 1, "one line per outage, got: {stderr}");
+    assert!(
+        named[0].contains("refused") && named[0].contains("retrying"),
+        "names the error and the retry: {}",
+        named[0]
+    );
+    assert_eq!(with.len(), without.len(), "rows with and without MQTT");
+    for (a, b) in with.iter().zip(&without) {
+        assert_eq!(a.force_n, b.force_n, "period {}", a.period);
+        assert_eq!(
+            a.override_cmd_pct, b.override_cmd_pct,
+            "period {}",
+            a.period
+        );
+    }
+}

@@ -286,8 +286,12 @@ impl MqttPublisher {
         let mut threads = Vec::new();
         {
             let (stats, stop) = (stats.clone(), stop.clone());
+            let broker = format!("{}:{}", cfg.host, cfg.port);
             threads.push(std::thread::Builder::new().name("mqtt-conn".into()).spawn(
                 move || {
+                    // One line per outage (the first failed attempt, or the loss of a
+                    // connection), not one per retry.
+                    let mut down = false;
                     // Blocking `recv`: a timeout would cancel a connection attempt half-way
                     // (the broker then publishes the will, `offline`, for it).
                     loop {
@@ -296,6 +300,10 @@ impl MqttPublisher {
                                 stats.connects.fetch_add(1, Ordering::SeqCst);
                                 stats.connected.store(true, Ordering::SeqCst);
                                 tracing::info!("MQTT broker connected");
+                                if down {
+                                    eprintln!("telemetry: MQTT broker {broker} is back");
+                                    down = false;
+                                }
                                 // The publisher thread sends `online` first thing (the
                                 // request queue may still be full of what piled up while
                                 // the broker was down).
@@ -304,8 +312,13 @@ impl MqttPublisher {
                             Ok(Ok(Event::Outgoing(rumqttc::Outgoing::Disconnect))) => break,
                             Ok(Ok(_)) => {}
                             Ok(Err(e)) => {
-                                if stats.connected.swap(false, Ordering::SeqCst) {
-                                    tracing::warn!(error = %e, "MQTT broker lost: retrying");
+                                stats.connected.store(false, Ordering::SeqCst);
+                                if !down {
+                                    eprintln!(
+                                        "telemetry: MQTT broker {broker}: {e}; retrying every {} ms (the control loop does not wait; messages beyond the queue are dropped and counted)",
+                                        RECONNECT_DELAY.as_millis()
+                                    );
+                                    down = true;
                                 }
                                 stats.conn_errors.fetch_add(1, Ordering::SeqCst);
                                 if stop.load(Ordering::SeqCst) {
