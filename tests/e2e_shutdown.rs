@@ -1,5 +1,6 @@
 //! Ctrl-C in the middle of a cut never raises the feed: `acc run` against `acc board-sim`
-//! over a pty (paper case III, 4x time), SIGINT while the tool is deep in the 4 mm step.
+//! over a pty (paper case III; the board paced by the controller's writes), SIGINT while the
+//! tool is deep in the 4 mm step.
 //! ACC keeps control through the drain (`[shutdown] drain_s`, 10 s of machine time by
 //! default); the cut is still going when the drain ends, so `acc run` requests feed hold,
 //! then releases with the hold kept, and exits with code 3. The machine-side log of
@@ -9,7 +10,7 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{one_at_a_time, read_log, spawn_board_sim, spawn_run};
+use e2e_support::{load_tolerant_config, one_at_a_time, read_log, spawn_board_sim, spawn_run};
 
 #[test]
 fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force() {
@@ -20,8 +21,18 @@ fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force()
     let sim_log_s = sim_log.to_string_lossy().to_string();
     // A no-op operator fault at 40 s of machine time marks the moment (the knob stays at
     // 100 %): the 4 mm step runs from about 31 s to 55 s.
-    let (mut board, pty) = spawn_board_sim(&["--log", &sim_log_s, "--fault", "operator@40:100"]);
-    let run = spawn_run("configs/runtime/board_sim_fast.toml", &pty, &run_log);
+    // The machine moves one period per command write of `acc run` (`--pace controller`):
+    // the signal lands at the same machine time whatever the host's load.
+    let (mut board, pty) = spawn_board_sim(&[
+        "--log",
+        &sim_log_s,
+        "--fault",
+        "operator@40:100",
+        "--pace",
+        "controller",
+    ]);
+    let config = load_tolerant_config(dir.path(), "");
+    let run = spawn_run(&config.to_string_lossy(), &pty, &run_log);
     assert!(
         board.wait_for("fault Operator(100)", Duration::from_secs(60)),
         "board-sim did not reach t = 40 s: {:?}",
