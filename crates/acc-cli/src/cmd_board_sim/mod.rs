@@ -50,7 +50,9 @@
 //!   then the same on a loaded host as on a quiet one (the end-to-end tests use it); the
 //!   default `--pace wall` moves the machine on its own ticker, as a real machine moves
 //!   whatever the controller does, and is what the timing faults need: `unplug`, `vanish`
-//!   and `stall` are refused with `--pace controller`.
+//!   and `stall` are refused with `--pace controller`. Once the controller has released
+//!   (`ACC_REQUEST` cleared, e.g. after a feed-hold stop), a controller-paced machine runs on
+//!   its own ticker again, as a real machine runs on when ACC lets go.
 //! - `--watchdog-time machine` runs the board's clock (its watchdog, `WATCHDOG_MS`) on
 //!   machine time, as on the real machine; the default `wall` keeps it on wall time, which
 //!   is more forgiving of a loaded host at high `--time-scale`.
@@ -378,10 +380,25 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     // `--pace controller`: the heartbeat of the command the last period was taken for.
     let mut last_heartbeat = None;
     let mut last_command = wall.now();
+    // `--pace controller`: the machine runs on its own ticker again once the controller has
+    // released (ACC_REQUEST cleared after a run), as a real machine runs on when ACC lets go.
+    let mut on_own_ticker = pace.is_none();
     while !stop.load(Ordering::SeqCst) {
+        let controlled = lock_board(&board).control().acc_request;
         let tick = match &pace {
+            Some(pace) if !controlled => {
+                if !on_own_ticker {
+                    ticker =
+                        Ticker::new(wall, Duration::from_secs_f64(period_s / args.time_scale))?;
+                    on_own_ticker = true;
+                }
+                // Writes while released move nothing (as before the request).
+                pace.take_all();
+                ticker.wait()
+            }
             None => ticker.wait(),
             Some(pace) => {
+                on_own_ticker = false;
                 if !pace.next_command(Duration::from_millis(50)) {
                     // A finished workpiece and a controller gone quiet (it stopped out of
                     // the cut) for the linger time: nothing will move the machine again.
