@@ -288,6 +288,7 @@ pub(super) fn assemble(
             folds: opts.folds,
             excluded_rows: p.excluded.report(),
         },
+        spindle_calibration: None,
         noise: p.noise0,
         locate: p.locate,
         rounds: s.rounds,
