@@ -67,9 +67,10 @@ fn main() {
                 )
             });
             println!(
-                "{} seed {seed} {label:>31}: named {:?} unexplained {} wear ENR {enr:.1} sigma {:.2} W{cal}",
+                "{} seed {seed} {label:>31}: named {:?} withheld {:?} unexplained {} wear ENR {enr:.1} sigma {:.2} W{cal}",
                 hidden.label(),
                 r.accepted,
+                r.withheld.iter().map(|w| &w.effect).collect::<Vec<_>>(),
                 r.unexplained.is_some(),
                 r.noise.sigma
             );

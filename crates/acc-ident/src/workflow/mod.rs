@@ -7,6 +7,7 @@
 
 mod checks;
 mod explain;
+mod extra;
 mod report;
 mod rows;
 mod selection;
@@ -14,6 +15,7 @@ mod spindle;
 
 use checks::*;
 use explain::*;
+use extra::*;
 use report::*;
 use rows::*;
 pub use selection::WEAR_SIZE;
