@@ -179,7 +179,8 @@ pub(super) fn calibrate(
     let w0 = model.measurement.power_window_s;
     let mut best: Option<(f64, Curve)> = fit_curve(model, inp, nominal, sel).map(|c| (w0, c));
     for f in WINDOW_FRACTIONS {
-        let w = f * inp.period_s;
+        // Rounded to the µs: the window is written to the updated model.
+        let w = (f * inp.period_s * 1e6).round() / 1e6;
         if (w - w0).abs() < 1e-9 {
             continue;
         }
