@@ -35,6 +35,9 @@ pub const MIN_CUT_ROWS: usize = 20;
 /// Smallest coefficient of variation of the replayed cutting power over the cutting rows
 /// for which the copper-loss curvature is fitted, −.
 pub const MIN_LOAD_SPREAD: f64 = 0.02;
+/// The model's spindle is recalibrated only when its residual over the cutting rows
+/// exceeds the calibrated curve's by this factor, −.
+pub const MISMATCH_RATIO: f64 = 10.0;
 /// Averaging windows of the power channel tried, fractions of the control period (0: the
 /// whole period), −.
 pub const WINDOW_FRACTIONS: [f64; 10] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
@@ -211,6 +214,13 @@ pub(super) fn calibrate(
         });
     }
     let before = fit_curve(model, inp, nominal, sel).map_or(curve.rms_before, |c| c.rms_before);
+    // Only a spindle that clearly does not match is recalibrated: one whose curve misses
+    // the cutting rows by more than [`MISMATCH_RATIO`] times what the calibrated curve
+    // leaves; a model that matches within its effects is judged as given (a copper loss
+    // or a drift in it stays an effect to name).
+    if before < MISMATCH_RATIO * curve.rms_fit {
+        return None;
+    }
     Some((
         m,
         SpindleCalibration {
