@@ -472,7 +472,14 @@ fn bad_configs_and_arguments_fail_with_exit_2_before_anything_is_sent() {
         ],
     });
 
-    assert!(cases.len() >= 38, "{} cases", cases.len());
+    cases.push(arg(
+        "a plan file that does not exist (--plan)",
+        None,
+        "/dev/null",
+        &["--plan", "/proc/acc-no-such-dir/plan.csv"],
+        &["/proc/acc-no-such-dir/plan.csv", "cannot read the plan"],
+    ));
+    assert!(cases.len() >= 39, "{} cases", cases.len());
     for c in &cases {
         // A fresh board per case: its request count belongs to this case alone.
         let board = PtyBoard::spawn(BoardLogic::default(), 1, 115_200).expect("pty board");

@@ -1,10 +1,12 @@
 //! End to end over a real pty pair: `acc run` (production code: config, serial port, RTU
 //! client, threaded runtime, fault policy, controller, spindle-power force source) against
 //! `acc board-sim` (RtuServer + BoardLogic + the simulated machine) on the paper's 2-3-4 mm
-//! workpiece, case III, in closed loop. Both run 4x faster than real time
-//! (`runtime.time_scale = 4`, `--time-scale 4`): T = 0.1 s of machine time every 25 ms,
-//! about 16 s of wall time for the 62 s cut. The simulator's settled-force criterion is
-//! judged on the board-sim's machine-side log with the simulator's own summary.
+//! workpiece, case III, in closed loop. The machine moves with the controller's writes
+//! (`--pace controller`); `acc run` runs `board_sim_fast.toml` made tolerant of a loaded host
+//! (2x time, T = 0.1 s of machine time every 50 ms, late replies held:
+//! `e2e_support::load_tolerant_config`), about 31 s of wall time for the 62 s cut on an idle
+//! host. The simulator's settled-force criterion is judged on the board-sim's machine-side
+//! log with the simulator's own summary.
 
 mod e2e_support;
 
@@ -24,10 +26,13 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
     let scenario = root().join("configs/scenarios/paper_case3.toml");
     let sim_log_s = sim_log.to_string_lossy().to_string();
     let (mut board, pty) = spawn_board_sim(&["--log", &sim_log_s, "--pace", "controller"]);
-    let run = spawn_run("configs/runtime/board_sim_fast.toml", &pty, &run_log);
+    let config = e2e_support::load_tolerant_config(dir.path(), "");
+    let run = spawn_run(&config.to_string_lossy(), &pty, &run_log);
+    // The machine advances with the controller's writes (slower on a loaded host):
+    // the deadline only guards a hang.
     assert!(
-        board.wait_for("workpiece finished", Duration::from_secs(60)),
-        "the workpiece was not finished within 60 s: {:?}",
+        board.wait_for("workpiece finished", Duration::from_secs(300)),
+        "the workpiece was not finished within 300 s: {:?}",
         board.err_lines
     );
     let (out, _) = interrupt_expect_clean_exit(run);
@@ -50,7 +55,15 @@ fn closed_loop_over_a_pty_meets_the_settled_force_criterion() {
             .any(|l| l.contains("final ACC_REQUEST=0 ACC_ACTIVE=0")),
         "the board saw ACC_REQUEST cleared: {berr:?}"
     );
-    assert!(rows.iter().filter(|r| r.mode == "adaptive_pi").count() > rows.len() * 9 / 10);
+    // The adaptive PI drove: of the periods the law was stepped (a late reply holds the
+    // override without a step), nine in ten in `adaptive_pi`, and most periods stepped.
+    let stepped = rows.iter().filter(|r| !r.mode.is_empty()).count();
+    let adaptive = rows.iter().filter(|r| r.mode == "adaptive_pi").count();
+    assert!(
+        adaptive > stepped * 9 / 10 && stepped > rows.len() / 2,
+        "{adaptive} adaptive_pi of {stepped} stepped periods, {} rows",
+        rows.len()
+    );
     assert_faults_never_raise(&rows);
 
     // The machine's log, judged like `acc sim`.

@@ -73,7 +73,7 @@ fn acc_run_drives_a_one_percent_board_with_sigma_delta() {
     );
     let run = spawn_run(&runtime.to_string_lossy(), &pty, &run_log);
     assert!(
-        board.wait_for("workpiece finished", Duration::from_secs(90)),
+        board.wait_for("workpiece finished", Duration::from_secs(300)),
         "the workpiece was not finished: {:?}",
         board.err_lines
     );

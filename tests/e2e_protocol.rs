@@ -7,15 +7,20 @@ mod e2e_support;
 
 use std::time::Duration;
 
-use e2e_support::{one_at_a_time, spawn_board_sim, spawn_run_for};
+use e2e_support::{load_tolerant_config, one_at_a_time, spawn_board_sim, spawn_run_for};
 
-/// `acc run --duration-s 2` against a board-sim started with `board_args`; returns its
-/// stdout and stderr lines.
+/// `acc run --duration-s 2` against a board-sim started with `board_args` and paced by the
+/// controller's writes; returns its stdout and stderr lines. The subject is the protocol, not
+/// the link's timing: the run config holds the override through late replies on a loaded
+/// host ([`load_tolerant_config`]).
 fn short_run(board_args: &[&str]) -> (String, Vec<String>) {
     let dir = tempfile::tempdir().expect("temp dir");
     let log = dir.path().join("run.csv");
-    let (board, pty) = spawn_board_sim(board_args);
-    let run = spawn_run_for("configs/runtime/board_sim_fast.toml", &pty, &log, "2", &[]);
+    let config = load_tolerant_config(dir.path(), "");
+    let mut args = board_args.to_vec();
+    args.extend(["--pace", "controller"]);
+    let (board, pty) = spawn_board_sim(&args);
+    let run = spawn_run_for(&config.to_string_lossy(), &pty, &log, "2", &[]);
     let (code, out, err) = run.finish(Duration::from_secs(30));
     assert_eq!(code, Some(0), "stdout:\n{out}\nstderr:\n{err:#?}");
     board.sigint();

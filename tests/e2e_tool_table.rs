@@ -10,25 +10,14 @@ use std::time::Duration;
 
 use e2e_support::{cmd, read_log, root, spawn_board_sim_on, spawn_run_for};
 
-/// `configs/runtime/board_sim_fast.toml` with `[tools] file = configs/tooltable.toml`, written
-/// to `dir` with its relative paths made absolute.
+/// The run config: `board_sim_fast.toml` with `[tools] file = configs/tooltable.toml`,
+/// tolerant of late replies on a loaded host ([`e2e_support::load_tolerant_config`]).
 fn run_config_with_tools(dir: &std::path::Path) -> std::path::PathBuf {
-    let cfg_dir = root().join("configs/runtime");
-    let text = std::fs::read_to_string(cfg_dir.join("board_sim_fast.toml")).expect("config");
-    let abs = |rel: &str| cfg_dir.join(rel).to_string_lossy().to_string();
-    let text = text
-        .replace(
-            "\"../presets/case3.toml\"",
-            &format!("{:?}", abs("../presets/case3.toml")),
-        )
-        .replace(
-            "\"paper_vmc_power.toml\"",
-            &format!("{:?}", abs("paper_vmc_power.toml")),
-        );
-    let text = format!("{text}\n[tools]\nfile = {:?}\n", abs("../tooltable.toml"));
-    let path = dir.join("run_tools.toml");
-    std::fs::write(&path, text).expect("write config");
-    path
+    let table = root().join("configs/tooltable.toml");
+    e2e_support::load_tolerant_config(
+        dir,
+        &format!("[tools]\nfile = {:?}\n", table.to_string_lossy()),
+    )
 }
 
 #[test]

@@ -79,8 +79,8 @@ fn closed_loop(scenario: &str, run_config: &str, log: &Path) {
     );
     let run = spawn_run(run_config, &pty, log);
     assert!(
-        board.wait_for("workpiece finished", Duration::from_secs(60)),
-        "the workpiece was not finished within 60 s: {:?}",
+        board.wait_for("workpiece finished", Duration::from_secs(300)),
+        "the workpiece was not finished within 300 s: {:?}",
         board.err_lines
     );
     interrupt_expect_clean_exit(run);

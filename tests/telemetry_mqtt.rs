@@ -9,62 +9,14 @@
 //! drops, `crates/acc-telemetry`), measured by the loop-jitter benchmark.
 
 mod e2e_support;
+mod mqtt_support;
 
 use std::io::Write as _;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use e2e_support::{acc_bin, peer_ready, read_log, root};
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
-
-/// `mosquitto` on PATH, or Debian's `/usr/sbin/mosquitto` (not on a user's PATH).
-fn mosquitto() -> String {
-    let on_path = Command::new("sh")
-        .args(["-c", "command -v mosquitto"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
-    on_path.unwrap_or_else(|| "/usr/sbin/mosquitto".into())
-}
-
-struct Broker {
-    child: Child,
-}
-
-impl Broker {
-    fn start(conf: &std::path::Path, port: u16) -> Self {
-        let child = Command::new(mosquitto())
-            .arg("-c")
-            .arg(conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("mosquitto");
-        let t0 = Instant::now();
-        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-            assert!(
-                t0.elapsed() < Duration::from_secs(5),
-                "mosquitto did not start"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        Self { child }
-    }
-}
-
-impl Drop for Broker {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+use mqtt_support::{free_port, mosquitto, Broker};
 
 /// `mosquitto_sub -v` on `topic`, its output read on a thread (a full pipe would stall it).
 struct Sub {

@@ -18,7 +18,8 @@ use std::time::{Duration, Instant};
 
 use acc_runtime::RunRecord;
 use e2e_support::{
-    acc_bin, one_at_a_time, peer_ready, read_log, root, spawn_board_sim, spawn_run_for, Proc,
+    acc_bin, load_tolerant_config, one_at_a_time, peer_ready, read_log, root, spawn_board_sim,
+    spawn_run_for, Proc,
 };
 
 fn free_port() -> u16 {
@@ -28,12 +29,23 @@ fn free_port() -> u16 {
         .expect("a free port")
 }
 
-fn wait_listening(port: u16, what: &str) {
+/// Wait until `proc` accepts connections on `port` (its OPC UA server logs that it started
+/// before the socket takes connections, so the port itself is the signal). The deadline only
+/// guards a hang (a loaded host starts slowly); a process that ends first fails at once with
+/// its stderr.
+fn wait_listening(proc: &mut Proc, port: u16, what: &str) {
     let t0 = Instant::now();
     while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        if let Ok(Some(st)) = proc.child.try_wait() {
+            proc.drain();
+            panic!(
+                "{what} ended ({st}) before listening on port {port}: {:?}",
+                proc.err_lines
+            );
+        }
         assert!(
-            t0.elapsed() < Duration::from_secs(30),
-            "{what} did not listen on port {port}"
+            t0.elapsed() < Duration::from_secs(180),
+            "{what} did not listen on port {port} within 180 s"
         );
         std::thread::sleep(Duration::from_millis(50));
     }
@@ -105,7 +117,7 @@ impl Peer {
             if let Ok(Some(s)) = self.child.try_wait() {
                 return s.code();
             }
-            if t0.elapsed() > Duration::from_secs(20) {
+            if t0.elapsed() > Duration::from_secs(60) {
                 let _ = self.child.kill();
                 return None;
             }
@@ -253,9 +265,9 @@ fn peer_against_paced_sim(peer: fn(&str, u64, &[&str]) -> Command, periods: u64)
         Stdio::piped(),
     );
     let mut steps = sim.child.stdin.take().expect("stdin piped");
-    wait_listening(port, "acc sim --opcua");
+    wait_listening(&mut sim, port, "acc sim --opcua");
     let mut client = Peer::spawn(peer(&url, periods - 1, &[]));
-    let ready = client.json_with("ready", Duration::from_secs(60));
+    let ready = client.json_with("ready", Duration::from_secs(180));
     check_browse(&ready["browse"]);
     assert_eq!(
         ready["browse"]["tool_read"], "BadWaitingForInitialData",
@@ -343,7 +355,7 @@ fn peer_against_acc_run(peer: fn(&str, u64, &[&str]) -> Command) {
     let dir = tempfile::tempdir().expect("tempdir");
     let (p_run, p_board) = (free_port(), free_port());
     let board_url = format!("opc.tcp://127.0.0.1:{p_board}");
-    let (mut board, pty) = spawn_board_sim(&["--opcua", &board_url]);
+    let (mut board, pty) = spawn_board_sim(&["--opcua", &board_url, "--pace", "controller"]);
     assert!(
         board.wait_for("telemetry: OPC UA server on", Duration::from_secs(20)),
         "board-sim: {:?}",
@@ -351,18 +363,20 @@ fn peer_against_acc_run(peer: fn(&str, u64, &[&str]) -> Command) {
     );
     let log = dir.path().join("run.csv");
     let url = format!("opc.tcp://127.0.0.1:{p_run}");
-    let run = spawn_run_for(
-        "configs/runtime/board_sim_fast.toml",
+    let config = load_tolerant_config(dir.path(), "");
+    let mut run = spawn_run_for(
+        &config.to_string_lossy(),
         &pty,
         &log,
         "60",
         &["--opcua", &url],
     );
-    wait_listening(p_run, "acc run --opcua");
+    wait_listening(&mut run, p_run, "acc run --opcua");
     let mut client = Peer::spawn(peer(&url, u64::MAX >> 12, &["--timeout", "8"]));
-    client.json_with("ready", Duration::from_secs(30));
-    let result = client.json_with("samples", Duration::from_secs(60));
-    let (code, out, err) = run.finish(Duration::from_secs(60));
+    // Hang guards only: 60 s of machine time is 15 s of wall time on an idle host.
+    client.json_with("ready", Duration::from_secs(180));
+    let result = client.json_with("samples", Duration::from_secs(240));
+    let (code, out, err) = run.finish(Duration::from_secs(240));
     assert_eq!(code, Some(0), "{out}\n{err:?}");
     drop(board);
     let rows = read_log(&log);
@@ -426,7 +440,7 @@ fn secure_endpoint_refuses_a_wrong_password_and_logs_it() {
         Stdio::piped(),
     );
     let mut steps = sim.child.stdin.take().expect("stdin piped");
-    wait_listening(port, "acc sim --opcua (secure)");
+    wait_listening(&mut sim, port, "acc sim --opcua (secure)");
     let certs = dir.path().join("client-pki");
     let certs_s = certs.to_string_lossy().into_owned();
     let pw_arg = |p: &Path| p.to_string_lossy().into_owned();

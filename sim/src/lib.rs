@@ -33,6 +33,7 @@ pub use acc_plant::{
 };
 
 pub mod baselines;
+pub mod optimize;
 pub mod oracle;
 pub mod plan;
 pub mod program;

@@ -79,29 +79,39 @@ impl PlanParams {
     }
 }
 
-/// One interval's figures.
-struct Interval {
-    a: f64,
-    b: f64,
-    block: u32,
-    tool: u32,
-    rapid: bool,
-    feed: f64,
-    f100: f64,
-    fmin: f64,
-    radial: f64,
-    axial: f64,
+/// One interval of the path between two knots: what it says and the largest force on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interval {
+    /// Path position where the interval starts, mm.
+    pub a: f64,
+    /// Path position where it ends, mm.
+    pub b: f64,
+    /// Block (BLOCK_NUMBER) at its middle.
+    pub block: u32,
+    /// Tool at its middle.
+    pub tool: u32,
+    /// A rapid move.
+    pub rapid: bool,
+    /// Programmed feed (clamped at the rapid rate; a rapid: the rapid rate), mm/min.
+    pub feed: f64,
+    /// Largest predicted mean force at 100 % override (at one of its ends), N.
+    pub f100: f64,
+    /// Smallest predicted mean force at 100 % override, N.
+    pub fmin: f64,
+    /// Radial engagement where the force is largest, mm.
+    pub radial: f64,
+    /// Axial engagement where the force is largest, mm.
+    pub axial: f64,
 }
 
-/// The plan of the path of `source` between the increasing path positions `knots` (mm;
-/// the first is the start of the path, the last its end), with `position` the tool's
-/// position in space at a path position (mm).
-pub fn plan_along(
+/// The intervals of the path of `source` between the increasing path positions `knots`
+/// (mm): the engagement is linear between knots, so an interval's largest force is at one
+/// of its ends (seed 002 eq. 1 at the interval's programmed feed).
+pub fn intervals(
     source: &mut dyn EngagementSource,
     knots: &[f64],
-    position: impl Fn(f64) -> [f64; 3],
     p: &PlanParams,
-) -> Plan {
+) -> Vec<Interval> {
     let force = |source: &mut dyn EngagementSource, x: f64, feed: f64| {
         let e = source.engagement_at(&p.tool, x);
         let f = p.law.mean_force_n(
@@ -113,7 +123,7 @@ pub fn plan_along(
         );
         (f, e.radial_mm, e.axial_mm)
     };
-    let mut intervals: Vec<Interval> = Vec::with_capacity(knots.len());
+    let mut out: Vec<Interval> = Vec::with_capacity(knots.len());
     for w in knots.windows(2) {
         let (a, b) = (w[0], w[1]);
         if b <= a {
@@ -127,7 +137,7 @@ pub fn plan_along(
         let (fa, ra, aa) = force(source, a, feed);
         let (fb, rb, ab) = force(source, b, feed);
         let (f100, radial, axial) = if fb > fa { (fb, rb, ab) } else { (fa, ra, aa) };
-        intervals.push(Interval {
+        out.push(Interval {
             a,
             b,
             block,
@@ -140,6 +150,19 @@ pub fn plan_along(
             axial,
         });
     }
+    out
+}
+
+/// The plan of the path of `source` between the increasing path positions `knots` (mm;
+/// the first is the start of the path, the last its end), with `position` the tool's
+/// position in space at a path position (mm).
+pub fn plan_along(
+    source: &mut dyn EngagementSource,
+    knots: &[f64],
+    position: impl Fn(f64) -> [f64; 3],
+    p: &PlanParams,
+) -> Plan {
+    let intervals = intervals(source, knots, p);
     let top = p.grid.floor(p.grid.max_pct).0;
     let beta = p.law.spec.beta;
     let mut rows: Vec<PlanRow> = Vec::new();
@@ -201,16 +224,28 @@ pub fn plan_along(
 
 impl ProgramPath {
     /// The plan of this program ([`plan_along`] on a copy of its engagement, between its
-    /// engagement steps and its pieces' starts).
+    /// [`ProgramPath::knots`]).
     pub fn plan(&self, p: &PlanParams) -> Plan {
+        let mut source = self.clone();
+        plan_along(&mut source, &self.knots(), |x| self.position_at(x), p)
+    }
+
+    /// The [`intervals`] of this program between its [`ProgramPath::knots`].
+    pub fn intervals(&self, p: &PlanParams) -> Vec<Interval> {
+        let mut source = self.clone();
+        intervals(&mut source, &self.knots(), p)
+    }
+
+    /// The knots of the plan: the path's start and end, its engagement steps and its
+    /// pieces' starts (where the feed changes), in order, mm.
+    pub fn knots(&self) -> Vec<f64> {
         let mut knots: Vec<f64> = self.steps.iter().map(|(x, _)| *x).collect();
         knots.extend(self.piece_starts_mm());
         knots.push(EngagementSource::path_length_mm(self).unwrap_or(0.0));
         knots.push(0.0);
         knots.sort_by(f64::total_cmp);
         knots.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-        let mut source = self.clone();
-        plan_along(&mut source, &knots, |x| self.position_at(x), p)
+        knots
     }
 }
 

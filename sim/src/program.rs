@@ -61,6 +61,8 @@ pub struct ProgramSpec {
 /// The program's path with the engagement of every step along it.
 #[derive(Debug, Clone)]
 pub struct ProgramPath {
+    /// The program's canonical calls (what `segments` came from).
+    calls: Vec<acc_nc::CanonCall>,
     segments: Vec<PathSegment>,
     /// Path position where each segment starts, mm.
     start_mm: Vec<f64>,
@@ -257,6 +259,7 @@ impl ProgramPath {
         let profile = EngagementProfile::new(x, points)
             .ok_or_else(|| SimError::Program("engagement profile out of order".into()))?;
         Ok(ProgramPath {
+            calls: program.calls,
             segments,
             start_mm,
             length_mm: at,
@@ -268,6 +271,12 @@ impl ProgramPath {
             stock_after,
             steps,
         })
+    }
+
+    /// The program's canonical calls, in execution order (the interpreter's output the
+    /// path was made of).
+    pub fn calls(&self) -> &[acc_nc::CanonCall] {
+        &self.calls
     }
 
     /// The straight pieces of the path.

@@ -183,23 +183,21 @@ impl<C: Clock> Board for SteppedPlant<'_, C> {
 }
 
 /// The simulator's side of every period, on the driver's control thread: the plant's truth
-/// into the record, the caller's `observe`, and the end conditions (path finished, a fault's
+/// into the record and the end conditions (path finished, a fault's
 /// feed hold for [`FEED_HOLD_END_S`]).
-struct SimObserver<'a> {
+struct SimObserver {
     shared: SharedPeriod,
     period_s: f64,
     held_s: f64,
     ended_in_feed_hold: bool,
-    observe: &'a mut (dyn FnMut(&RunRecord) + Send),
 }
 
-impl PeriodObserver for SimObserver<'_> {
+impl PeriodObserver for SimObserver {
     fn period(&mut self, row: &mut RunRecord) -> Verdict {
         let plant = *lock(&self.shared);
         if let Some(t) = plant.truth {
             crate::truth::apply(&t, row);
         }
-        (self.observe)(row);
         if plant.finished {
             return Verdict::Finish;
         }
@@ -217,16 +215,20 @@ impl PeriodObserver for SimObserver<'_> {
     }
 }
 
-/// The run's records: kept in memory for the summary and, with a writer, in the run log.
+/// The run's records: kept in memory for the summary, handed to the caller's `observe` (the
+/// telemetry tap), and, with a writer, in the run log. Every row the driver writes passes
+/// here, a skipped period's too, so the telemetry sees the rows the run log holds.
 struct SimSink<'a, W: Write> {
     rows: Vec<RunRecord>,
     log: Option<&'a mut RunLogWriter<W>>,
+    observe: &'a mut (dyn FnMut(&RunRecord) + Send),
 }
 
 impl<W: Write> LogSink for SimSink<'_, W> {
     type Error = acc_runtime::record::RunLogError;
 
     fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
+        (self.observe)(rec);
         if let Some(w) = self.log.as_deref_mut() {
             w.write(rec)?;
         }
@@ -262,8 +264,8 @@ pub struct RunSetup<'a, W: Write> {
     /// Applied to the fresh simulated board before the first period (the what-if sets the
     /// recorded engagement or the start position).
     pub prepare: &'a mut dyn FnMut(&mut crate::SimBoard),
-    /// Called with every period's record on the control thread (`acc sim` publishes it on
-    /// the telemetry tap).
+    /// Called with every record the run log gets, a skipped period's too, on the driver's
+    /// logger thread (`acc sim` publishes it on the telemetry tap).
     pub observe: &'a mut (dyn FnMut(&RunRecord) + Send),
     /// How the run keeps time.
     pub pace: Pace,
@@ -403,11 +405,11 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
         period_s,
         held_s: 0.0,
         ended_in_feed_hold: false,
-        observe,
     };
     let mut sink = SimSink {
         rows: Vec::with_capacity((max_periods as usize).min(1 << 20)),
         log,
+        observe,
     };
     let opts = RunOptions {
         max_periods: Some(max_periods),

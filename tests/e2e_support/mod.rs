@@ -308,6 +308,46 @@ pub fn spawn_board_sim_on(scenario: &str, extra: &[&str]) -> (Proc, String) {
     (board, pty)
 }
 
+/// `configs/runtime/board_sim_fast.toml` written to `dir` with its relative paths made
+/// absolute, `extra` TOML appended, and made tolerant of a loaded host: 2x time instead of
+/// 4x (T = 50 ms of wall time) with a 40 ms reply timeout (45 ms budget), so that the board
+/// answers the start-up writes in time, and the link and power hold long enough
+/// (`link_hold_periods`, `invalid_power_periods` = 1000) that a late reply holds the
+/// override instead of ending the run. For the tests whose subject is not the link's timing,
+/// against `acc board-sim --pace controller` (whose machine moves with the controller's
+/// writes, whatever its `--time-scale`).
+pub fn load_tolerant_config(dir: &Path, extra: &str) -> PathBuf {
+    let cfg_dir = root().join("configs/runtime");
+    let text = std::fs::read_to_string(cfg_dir.join("board_sim_fast.toml")).expect("config");
+    let abs = |rel: &str| format!("{:?}", cfg_dir.join(rel).to_string_lossy());
+    let mut set = 0;
+    let lines: Vec<String> = text
+        .lines()
+        .map(|l| match l.split_once(" = ").map(|(k, _)| k) {
+            Some(k @ ("link_hold_periods" | "invalid_power_periods")) => {
+                set += 1;
+                format!("{k} = 1000")
+            }
+            Some(k @ ("time_scale" | "timeout_ms" | "budget_ms")) => {
+                set += 1;
+                let v = match k {
+                    "time_scale" => "2.0",
+                    "timeout_ms" => "40",
+                    _ => "45",
+                };
+                format!("{k} = {v}")
+            }
+            Some("controller") => format!("controller = {}", abs("../presets/case3.toml")),
+            Some("calibration") => format!("calibration = {}", abs("paper_vmc_power.toml")),
+            _ => l.to_string(),
+        })
+        .collect();
+    assert_eq!(set, 5, "board_sim_fast.toml: the hold, time and link keys");
+    let path = dir.join("run_tolerant.toml");
+    std::fs::write(&path, format!("{}\n{extra}", lines.join("\n"))).expect("write config");
+    path
+}
+
 /// Start `acc run --config <config> --port <pty> --log <log>`.
 pub fn spawn_run(config: &str, pty: &str, log: &Path) -> Proc {
     Proc::spawn(
@@ -384,10 +424,26 @@ pub fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
 /// The pocket program `tests/nc/pocket_rect.ngc` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm,
 /// 0.25 mm cells), with `sc`'s tool, spindle speed and rapid rate.
 pub fn pocket_program(sc: &acc_sim::Scenario, stock_box: &str) -> acc_sim::program::ProgramPath {
+    program_path(
+        sc,
+        &root().join("tests/nc/pocket_rect.ngc"),
+        stock_box,
+        0.25,
+    )
+}
+
+/// The program `file` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm, cells of `cell_mm`), with
+/// `sc`'s tool, spindle speed and rapid rate.
+pub fn program_path(
+    sc: &acc_sim::Scenario,
+    file: &Path,
+    stock_box: &str,
+    cell_mm: f64,
+) -> acc_sim::program::ProgramPath {
     use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
     let spec = ProgramSpec {
-        program: root().join("tests/nc/pocket_rect.ngc"),
-        stock: StockSource::Box(stock_box.parse().expect("box"), 0.25),
+        program: file.to_path_buf(),
+        stock: StockSource::Box(stock_box.parse().expect("box"), cell_mm),
         tools: None,
     };
     ProgramPath::build(

@@ -3,7 +3,10 @@
 # by `acc sim` on the paper's machine and tool (scenario paper_case3) with ACC feedback
 # alone, with ACC and the plan's look-ahead (`--plan`), and at the program's constant safe
 # feed (`--law constant-safe`: the one override whose predicted peak over the whole program
-# is ≤ Fr), on the stock given. Prints two markdown tables (feedback alone; with the plan).
+# is ≤ Fr), on the stock given; then rewritten by `acc optimize` and the optimized program
+# run at a constant 100 % override (`--law constant`, no ACC), with ACC, and with ACC and
+# the look-ahead of the optimized program's own plan. Prints three
+# markdown tables (feedback alone; with the plan; cycle time and peak force of every way).
 #
 #   tests/nc/table.sh            # uses ${ACC:-target/release/acc}
 set -euo pipefail
@@ -21,7 +24,7 @@ nc3:linuxcnc_3D_Chips.ngc -50,-50,-50,50,50,0'
 ev() { sed -n "s/^$1: \([0-9]*\); highest true peak \([0-9.]*\) Fr.*mean peak \([0-9.]*\) Fr/\1: \2 \/ \3/p" <<<"$2"; }
 cyc() { local c; c=$(sed -n 's/^cycle time \([0-9.]*\) s;.*/\1/p' <<<"$1"); grep -q "ended before the end" <<<"$1" && c="${c} (did not finish)"; echo "${c}"; }
 rms() { sed -n 's/.*force RMS error while cutting \([0-9.]*\) N.*/\1/p' <<<"$1"; }
-declare -A FB LA SAFE PLAN
+declare -A FB LA SAFE PLAN OPT OPT100 OPTACC OPTLA
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
     [[ -f ${file} ]] || continue
@@ -32,6 +35,12 @@ while read -r prog stock; do
     FB[${name}]=$(run fb --law ours)
     LA[${name}]=$(run la --law ours --plan "${d}/plan/plan.csv")
     SAFE[${name}]=$(run safe --law constant-safe)
+    OPT[${name}]=$("${ACC}" optimize "${file}" --stock-box="${stock}" --out "${d}/opt/${name%.ngc}.opt.ngc" 2>/dev/null)
+    runopt() { "${ACC}" sim paper_case3 --program "${d}/opt/${name%.ngc}.opt.ngc" --stock-box="${stock}" --no-plot --out "${d}/$1" "${@:2}" 2>/dev/null; }
+    OPT100[${name}]=$(runopt opt100 --law constant)
+    OPTACC[${name}]=$(runopt optacc --law ours)
+    "${ACC}" plan "${d}/opt/${name%.ngc}.opt.ngc" --stock-box="${stock}" --no-plot --out "${d}/optplan" >/dev/null 2>&1
+    OPTLA[${name}]=$(runopt optla --law ours --plan "${d}/optplan/plan.csv")
 done <<<"${LIST}"
 echo "Feedback alone (ACC, no plan):"
 echo
@@ -62,5 +71,21 @@ while read -r prog stock; do
     peak=$(sed -n 's/^predicted peak of the feed moves at 100 %: [0-9]* N = \([0-9.]*\) Fr.*/\1/p' <<<"${p}")
     dis=$(grep -c plan_disagree "${OUT}/${name}/la/run.csv" || true)
     echo "| ${name} | ${rows} | ${peak} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(cyc "${o}") | ${dis} |" | sed 's/|  |/| none |/g'
+done <<<"${LIST}"
+echo
+echo "Cycle time, s, and the run's highest force / Fr (\`acc sim\`; the optimized program by \`acc optimize\`):"
+echo
+echo "| program | constant safe feed | ACC alone | ACC + look-ahead | optimized, 100 % (no ACC) | optimized + ACC | optimized + ACC + look-ahead | ratio to the constant safe feed: optimized + ACC / + look-ahead |"
+echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
+# The run's highest force: the largest peak/Fr of the per-tool table.
+peak() { awk '/^ tool  blocks/{t=1;next} /^highest peaks/{t=0} t&&NF>=6{if($6>m)m=$6} END{printf "%.2f", m}' <<<"$1"; }
+cell() { echo "$(cyc "$1") ($(peak "$1"))"; }
+while read -r prog stock; do
+    file=${prog/#nc3:/${NC3}/}
+    name=$(basename "${file}")
+    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | |"; continue; }
+    s=${SAFE[${name}]}; o=${OPTACC[${name}]}; l=${OPTLA[${name}]}
+    ratio() { awk -v a="$(cyc "$1" | cut -d' ' -f1)" -v b="$(cyc "${s}" | cut -d' ' -f1)" 'BEGIN{printf "%.2f", a/b}'; }
+    echo "| ${name} | $(cell "${s}") | $(cell "${FB[${name}]}") | $(cell "${LA[${name}]}") | $(cell "${OPT100[${name}]}") | $(cell "${o}") | $(cell "${l}") | $(ratio "${o}") / $(ratio "${l}") |"
 done <<<"${LIST}"
 rm -rf "${OUT}"

@@ -2,16 +2,18 @@
 //! --out DIR`: the cutting plan of an NC program (`acc_sim::plan`): `plan.csv`, the
 //! predicted force along the program (`plan.svg`, `plan.png`) and a summary on stdout.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use acc_plot::{Figure, HLine, Panel, Series, Style};
 use acc_runtime::plan::Plan;
 use acc_sim::plan::{PlanFigures, PlanParams};
+use acc_sim::program::ProgramPath;
+use acc_sim::Scenario;
 use anyhow::Context as _;
 
-/// Arguments of `acc plan`.
+/// The program, its stock and the machine of `acc plan` and `acc optimize`.
 #[derive(Debug, Clone, clap::Args)]
-pub struct PlanArgs {
+pub struct PlanInput {
     /// The NC program (RS274/NGC).
     #[arg(value_name = "FILE.ngc")]
     pub program: PathBuf,
@@ -31,6 +33,32 @@ pub struct PlanArgs {
     /// LinuxCNC tool table (`.tbl`, mm) with the diameters of the program's T numbers.
     #[arg(long, value_name = "FILE.tbl")]
     pub tools: Option<PathBuf>,
+}
+
+impl PlanInput {
+    /// The scenario and `program`'s path through the stock (warnings printed).
+    pub fn load(&self, program: &Path) -> anyhow::Result<(Scenario, ProgramPath)> {
+        let sc = crate::cmd_sim::load_scenario(&self.scenario, None)?;
+        let program_args = crate::cmd_sim_program::ProgramArgs {
+            program: Some(program.to_path_buf()),
+            stock: self.stock.clone(),
+            stock_box: self.stock_box.clone(),
+            cell: self.cell,
+            tools: self.tools.clone(),
+            plan: None,
+        };
+        let path = crate::cmd_sim_program::load(&program_args, &sc)?
+            .ok_or_else(|| anyhow::anyhow!("no program"))?;
+        Ok((sc, path))
+    }
+}
+
+/// Arguments of `acc plan`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// Program, stock and machine.
+    #[command(flatten)]
+    pub input: PlanInput,
     /// Output directory (default `out/plan-<program>`).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -41,21 +69,12 @@ pub struct PlanArgs {
 
 /// Run `acc plan`.
 pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
-    let sc = crate::cmd_sim::load_scenario(&args.scenario, None)?;
-    let program_args = crate::cmd_sim_program::ProgramArgs {
-        program: Some(args.program.clone()),
-        stock: args.stock.clone(),
-        stock_box: args.stock_box.clone(),
-        cell: args.cell,
-        tools: args.tools.clone(),
-        plan: None,
-    };
-    let path = crate::cmd_sim_program::load(&program_args, &sc)?
-        .ok_or_else(|| anyhow::anyhow!("no program"))?;
+    let (sc, path) = args.input.load(&args.input.program)?;
     let params = PlanParams::of(&sc);
     let plan = path.plan(&params);
     let out = args.out.clone().unwrap_or_else(|| {
         let stem = args
+            .input
             .program
             .file_stem()
             .map_or_else(|| "program".into(), |s| s.to_string_lossy().into_owned());
@@ -69,7 +88,7 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
     let f = PlanFigures::of(&plan, params.grid.max_pct);
     println!(
         "plan of {} on {} ({} N Fr, grid {} %, {} ..= {} %)",
-        args.program.display(),
+        args.input.program.display(),
         sc.name,
         fr,
         params.grid.step_pct,

@@ -51,7 +51,8 @@ pub struct RunArgs {
     /// `BLOCK_NUMBER` and `ACTUAL_FEED`; docs/plan.md).
     #[arg(long, value_name = "plan.csv")]
     pub plan: Option<PathBuf>,
-    /// Stop after this much machine time, s (default: run until Ctrl-C).
+    /// Stop after this much machine time, s, skipped periods included (default: run until
+    /// Ctrl-C).
     #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
     /// Tool-history database (SQLite): cuts, Kc trend per tool and alarms, kept across runs
@@ -64,6 +65,9 @@ pub struct RunArgs {
     /// Telemetry (`--shdr`, `--mqtt`; over the config's `[telemetry]`).
     #[command(flatten)]
     pub telemetry: crate::telemetry::TelemetryArgs,
+    /// The fleet store (`--fleet`, `--machine`).
+    #[command(flatten)]
+    pub fleet: crate::fleet_cli::FleetArgs,
 }
 
 /// One-line description of a status block.
@@ -115,6 +119,24 @@ fn fallback_mode_name(m: FallbackMode) -> &'static str {
     }
 }
 
+/// Attempts of each start-up transaction (`WATCHDOG_MS`, the first status, `FALLBACK_MODE`),
+/// each within the link's own timeout, retries and budget: nothing is driven yet, so a reply
+/// lost or late at start (a board powering up, a loaded host) costs another attempt, not
+/// the run.
+const START_ATTEMPTS: u32 = 3;
+
+/// `transaction`, tried up to [`START_ATTEMPTS`] times until it succeeds; the last error.
+fn at_start<T, E>(mut transaction: impl FnMut() -> Result<T, E>) -> Result<T, E> {
+    let mut result = transaction();
+    for _ in 1..START_ATTEMPTS {
+        if result.is_ok() {
+            break;
+        }
+        result = transaction();
+    }
+    result
+}
+
 /// Open the serial board: port (framing verified), `WATCHDOG_MS`, the first status (which
 /// settles the protocol), and on a v2 board `FALLBACK_MODE`. Used at start and to reopen.
 fn open_rtu(
@@ -123,7 +145,7 @@ fn open_rtu(
 ) -> anyhow::Result<(RtuBoard<acc_pmc::serialport::TTYPort>, BoardStatus)> {
     let port = acc_pmc::serial::open_port(rtu_cfg).exit_as(RunExit::Usage)?;
     let mut rtu = RtuBoard::new(port, rtu_cfg.link);
-    rtu.write_watchdog_ms(rtu_cfg.watchdog_ms)
+    at_start(|| rtu.write_watchdog_ms(rtu_cfg.watchdog_ms))
         .with_context(|| {
             format!(
                 "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
@@ -134,12 +156,11 @@ fn open_rtu(
             )
         })
         .exit_as(RunExit::BoardNotAnswering)?;
-    let status = rtu
-        .read_status()
+    let status = at_start(|| rtu.read_status())
         .with_context(|| format!("reading the board status on {}", rtu_cfg.port))
         .exit_as(RunExit::BoardNotAnswering)?;
     if rtu.protocol() == Some(BoardProtocol::V2) {
-        rtu.write_fallback_mode(cfg.fallback_mode)
+        at_start(|| rtu.write_fallback_mode(cfg.fallback_mode))
             .with_context(|| {
                 format!(
                     "{}: writing `board.fallback_mode` = \"{}\" (FALLBACK_MODE) to slave {} on {}",
@@ -246,11 +267,18 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
     )
     .with_context(|| "the tool history (--history or [watch] history)".to_string())
     .exit_as(RunExit::Usage)?;
+    // The fleet store likewise (its cuts from a copy of the same watch).
+    let fleet = args
+        .fleet
+        .open(crate::fleet_cli::now_us())
+        .exit_as(RunExit::Usage)?
+        .map(|f| f.feed(watch.clone()));
     let sinks = RunSinks {
         log: writer,
         history,
         watch,
         history_writer,
+        fleet,
     };
     match &cfg.link {
         LinkSettings::Rtu(rtu_cfg) => {
@@ -324,6 +352,7 @@ struct RunSinks {
     history: PathBuf,
     watch: acc_runtime::history::Watch,
     history_writer: acc_runtime::history::HistoryWriter,
+    fleet: Option<acc_fleet::sink::MachineFeed>,
 }
 
 /// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
@@ -396,7 +425,8 @@ fn drive<P: Board + Send>(
             .unwrap_or(std::path::Path::new("."))
             .join("pki"),
     );
-    let tel = crate::telemetry::Telemetry::start(&tel_cfg, false).exit_as(RunExit::Usage)?;
+    let tel =
+        crate::telemetry::Telemetry::start(&tel_cfg, false, period_s).exit_as(RunExit::Usage)?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: format!("acc run: {}", args.config.display()),
         overload_n: Some(cfg.policy.overload_force_n),
@@ -408,10 +438,14 @@ fn drive<P: Board + Send>(
         history,
         watch,
         history_writer,
+        fleet,
     } = sinks;
     let mut sink = WatchSink {
         inner: acc_runtime::TapSink {
-            inner: RunLogSink::new(writer),
+            inner: acc_fleet::FleetSink {
+                inner: RunLogSink::new(writer),
+                feed: fleet,
+            },
             tap: tel.tap.clone(),
         },
         watch,
@@ -464,6 +498,17 @@ fn drive<P: Board + Send>(
     )
     .exit_as(RunExit::Internal)?;
     // The run log and the tap (the watch's summary and history writer are used below).
+    if let Some(f) = &sink.inner.inner.feed {
+        let c = f.store.committed();
+        println!(
+            "fleet store: {} periods, {} cuts of machine {} in {} files under {}",
+            c.periods,
+            c.cuts,
+            f.machine,
+            c.files,
+            f.store.root().display()
+        );
+    }
     drop(sink.inner);
     tel.finish();
 

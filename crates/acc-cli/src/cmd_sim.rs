@@ -59,6 +59,9 @@ pub struct SimArgs {
     /// An NC program on a stock (`--program`, `--stock`, `--stock-box`, `--tools`).
     #[command(flatten)]
     pub program: crate::cmd_sim_program::ProgramArgs,
+    /// The fleet store (`--fleet`, `--machine`).
+    #[command(flatten)]
+    pub fleet: crate::fleet_cli::FleetArgs,
 }
 
 /// Parse a law name of `--law`.
@@ -114,6 +117,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     if let Some(p) = &program {
         sc = p.scenario_for(&sc);
     }
+    let fleet = args.fleet.open(crate::fleet_cli::now_us())?;
     let out = args.out.clone().unwrap_or_else(|| default_out(&sc));
     std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
     let log_path = out.join("run.csv");
@@ -148,6 +152,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
             &out.join("pki"),
         ),
         false,
+        sc.controller.period_s,
     )?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: format!("acc sim: {}", sc.name),
@@ -202,6 +207,9 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         &result.rows,
     )?;
     crate::watch_cli::print_summary(&acc_runtime::history::WatchSummary::of(&items), &history);
+    if let Some(f) = fleet {
+        f.write_run(&result.rows, &items)?;
+    }
     if !args.no_plot {
         let w = plot_run(&sc, &result, &out.join("run.svg"), program.is_none())?;
         println!("plot: {} and {}", w.svg.display(), w.png.display());
@@ -371,6 +379,7 @@ mod tests {
             live_keep: 0.0,
             telemetry: Default::default(),
             program: Default::default(),
+            fleet: Default::default(),
         };
         run_cmd(&args).expect("acc sim");
         let log = std::fs::read_to_string(dir.join("run.csv")).expect("run log");

@@ -3,11 +3,14 @@
 use clap::{Parser, Subcommand};
 
 mod cmd_board_sim;
+mod cmd_collect;
 mod cmd_compare;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
+mod cmd_history;
 mod cmd_nc;
+mod cmd_optimize;
 mod cmd_plan;
 mod cmd_report;
 mod cmd_run;
@@ -18,6 +21,7 @@ mod cmd_stability;
 mod cmd_what_if;
 mod configs;
 mod exit;
+mod fleet_cli;
 mod harness;
 mod telemetry;
 mod watch_cli;
@@ -46,6 +50,10 @@ enum Command {
     /// engagement, the predicted force at 100 %, the override that gives Fr and the path
     /// position (plan.csv), a plot of the force along the program and a summary.
     Plan(cmd_plan::PlanArgs),
+    /// The program with its F words rewritten per block from the plan (blocks split where
+    /// the engagement changes) so that the predicted force stays at or below Fr and air
+    /// moves run at the tool's air feed; the predicted cycle time before and after.
+    Optimize(cmd_optimize::OptimizeArgs),
     /// Run every baseline and our controller on one scenario and seed: one table (force RMS
     /// error, peak force, time above 1.1·Fr, cycle time, override switches) and an overlay plot.
     Compare(cmd_compare::CompareArgs),
@@ -85,6 +93,12 @@ enum Command {
     /// N, kind, end point, feed, length, tool) and a summary (blocks, feed and rapid length,
     /// time at programmed feed). Errors name file:line:column, the word and what is allowed.
     Nc(cmd_nc::NcArgs),
+    /// The fleet store (`--fleet` of `acc sim` / `acc run`, `acc collect`): `acc history
+    /// query DIR "SQL"` runs SQL over its tables `period` and `cut` (embedded DataFusion).
+    History(cmd_history::HistoryArgs),
+    /// Write the fleet store from MQTT: subscribes to `PREFIX/+/period` and `PREFIX/+/cut`
+    /// (`+` = machine id) and commits them as the same Parquet partitions as `--fleet`.
+    Collect(cmd_collect::CollectArgs),
 }
 
 /// Exit code for a failed command other than `acc run` (bad config, bad file, ...).
@@ -151,6 +165,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::EstimateEval(args) => cmd_estimate_eval::run(&args),
         Command::Sim(args) => cmd_sim::run_cmd(&args),
         Command::Plan(args) => cmd_plan::run_cmd(&args),
+        Command::Optimize(args) => cmd_optimize::run_cmd(&args),
         Command::Compare(args) => cmd_compare::run_cmd(&args),
         Command::WhatIf(args) => cmd_what_if::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),
@@ -160,5 +175,7 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Soak(args) => cmd_soak::run_cmd(&args),
         Command::Report(args) => cmd_report::run(&args),
         Command::Nc(args) => cmd_nc::run(&args),
+        Command::History(args) => cmd_history::run(&args),
+        Command::Collect(args) => cmd_collect::run(&args),
     }
 }

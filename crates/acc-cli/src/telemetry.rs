@@ -124,9 +124,9 @@ fn say(stderr: bool, line: &str) {
 }
 
 impl Telemetry {
-    /// Start what `cfg` asks for (nothing: a tap without subscribers); status lines on
-    /// stderr if `stderr`.
-    pub fn start(cfg: &TelemetryConfig, stderr: bool) -> anyhow::Result<Self> {
+    /// Start what `cfg` asks for (nothing: a tap without subscribers) for a loop of period
+    /// `period_s` (s); status lines on stderr if `stderr`.
+    pub fn start(cfg: &TelemetryConfig, stderr: bool, period_s: f64) -> anyhow::Result<Self> {
         let tap = Tap::new();
         let shdr = match cfg.shdr {
             Some(a) => {
@@ -144,7 +144,7 @@ impl Telemetry {
         let mqtt = match &cfg.mqtt {
             Some(m) => {
                 let sub = tap.subscribe(SUBSCRIBER_QUEUE);
-                let p = MqttPublisher::start(m.clone(), sub.clone())
+                let p = MqttPublisher::start(m.clone(), sub.clone(), period_s)
                     .context("starting the MQTT publisher")?;
                 say(
                     stderr,

@@ -24,7 +24,7 @@ pub mod tools;
 pub use acc_core::RangeError;
 pub use diagnose::{from_table, KeyRange};
 pub use preset::{load_controller, load_preset, parse_preset, resolve_preset, Preset, PresetFile};
-pub use tools::{EntrySpec, OverloadReaction, ToolLimits, ToolTable};
+pub use tools::{EntrySpec, OverloadReaction, ToolLimits, ToolTable, DEFAULT_AIR_FEED_MM_MIN};
 
 /// A configuration error: which file, which key, what is wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

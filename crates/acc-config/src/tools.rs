@@ -90,9 +90,19 @@ pub struct ToolLimits {
     /// Initial Kc_hat for this tool when it is first seen in a run, N/(mm/min) (optional,
     /// 1e-6 ..= 1e6; without it the estimate carries over from the previous tool).
     pub kc_init: Option<f64>,
+    /// Feed for the air moves of a program `acc optimize` rewrites (feed moves that engage
+    /// no stock), mm/min (1 ..= 100 000, default [`DEFAULT_AIR_FEED_MM_MIN`]; `acc optimize`
+    /// also keeps it at or below the machine's rapid rate). The production loop does not
+    /// read it.
+    pub air_feed_mm_min: f64,
     /// Material this entry was set up for (free text, default empty).
     pub material: String,
 }
+
+/// Default air feed of a tool (`air_feed_mm_min`), mm/min: a third of the paper machine's
+/// 10 000 mm/min rapid rate, far below any rapid, so a feed move that the plan thinks is in
+/// air is still a feed move the operator can stop with the override.
+pub const DEFAULT_AIR_FEED_MM_MIN: f64 = 3000.0;
 
 /// Entry and exit control settings (`[entry]`), see `docs/shop.md`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -161,6 +171,7 @@ struct ToolFile {
     breakage_drop_pct: Option<f64>,
     breakage_spike_x: Option<f64>,
     kc_init: Option<f64>,
+    air_feed_mm_min: Option<f64>,
     material: Option<String>,
 }
 
@@ -408,8 +419,18 @@ fn resolve_tool(
         Some(v) => Some(check_range(file, &k("kc_init"), v, 1e-6, 1e6)?),
         None => None,
     };
+    let air_feed_mm_min = check_range(
+        file,
+        &k("air_feed_mm_min"),
+        t.air_feed_mm_min
+            .or(base.air_feed_mm_min)
+            .unwrap_or(DEFAULT_AIR_FEED_MM_MIN),
+        1.0,
+        1e5,
+    )?;
     Ok(ToolLimits {
         tool,
+        air_feed_mm_min,
         fr_n,
         min_override_pct: min,
         max_override_pct: max,
@@ -479,6 +500,23 @@ overload_reaction = "warning"
         // Unknown tool and tool 0 fall back to [default].
         assert_eq!(t.get(7).tool, 0);
         assert_eq!(t.get(0).fr_n, 800.0);
+        assert_eq!(t.get(1).air_feed_mm_min, DEFAULT_AIR_FEED_MM_MIN);
+    }
+
+    #[test]
+    fn air_feed_inherits_and_is_bounded() {
+        let t = ToolTable::parse(
+            "t.toml",
+            "[default]\nfr_n = 800.0\nair_feed_mm_min = 2500.0\n[tool.4]\nair_feed_mm_min = 900.0\n",
+        )
+        .expect("ok");
+        assert_eq!(t.get(1).air_feed_mm_min, 2500.0);
+        assert_eq!(t.get(4).air_feed_mm_min, 900.0);
+        let e = err("[default]\nfr_n = 800.0\n[tool.4]\nair_feed_mm_min = 0.0\n");
+        assert!(
+            e.contains("tool.4.air_feed_mm_min") && e.contains("1 ..= 100000"),
+            "{e}"
+        );
     }
 
     #[test]

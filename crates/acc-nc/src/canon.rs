@@ -139,6 +139,21 @@ pub struct CanonCall {
     pub line: u32,
     /// The block's N number, if it has one.
     pub block: Option<u32>,
+    /// The modes the block's words were read in (not part of rs274's canon: what a tool
+    /// that rewrites the block's words needs, `acc optimize`).
+    pub modes: Modes,
+}
+
+/// The modes that decide how a block's length words are read, as in force for its motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Modes {
+    /// Length units (G20 / G21).
+    pub units: Units,
+    /// G90 (absolute axis words): true; G91 (incremental): false.
+    pub absolute: bool,
+    /// G90.1 (absolute arc centre I J): true; G91.1 (centre relative to the start, the
+    /// default): false.
+    pub arc_absolute: bool,
 }
 
 impl CanonCall {

@@ -148,6 +148,23 @@ impl Params {
 }
 
 impl Expr {
+    /// The value of an expression that reads no parameter (`None` if it reads one or does
+    /// not evaluate).
+    pub(crate) fn constant(&self) -> Option<f64> {
+        fn reads(e: &Expr) -> bool {
+            match e {
+                Expr::Num(_) => false,
+                Expr::Param(_) | Expr::Exists(_) => true,
+                Expr::Neg(a) | Expr::Func(_, a) => reads(a),
+                Expr::Bin(_, a, b) | Expr::Atan(a, b) => reads(a) || reads(b),
+            }
+        }
+        if reads(self) {
+            return None;
+        }
+        self.eval(&Params::default()).ok()
+    }
+
     /// The value of the expression with the parameters `p`.
     pub(crate) fn eval(&self, p: &Params) -> Result<f64, String> {
         let v = match self {

@@ -199,6 +199,11 @@ impl<'a> State<'a> {
             call,
             line: self.line,
             block: self.n,
+            modes: crate::canon::Modes {
+                units: self.units,
+                absolute: self.absolute,
+                arc_absolute: self.arc_absolute,
+            },
         });
     }
 

@@ -23,6 +23,8 @@ pub(crate) struct Word {
     pub span: Span,
     /// The word as written, spaces removed, letters upper case (for error messages).
     pub text: String,
+    /// Column (1-based, in characters) of the word's last character.
+    pub end_column: u32,
 }
 
 /// A parameter setting `#…=value`, applied after the line is read.
@@ -150,6 +152,7 @@ pub(crate) fn parse_line(number: u32, text: &str) -> Result<Line, At> {
                 value,
                 span: p.span(start),
                 text: p.text(start, p.i),
+                end_column: p.span(p.i.saturating_sub(1)).column,
             });
         } else {
             return Err(p.err(start, "a word (a letter and a value) or `#` parameter"));

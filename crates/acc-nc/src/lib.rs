@@ -37,12 +37,14 @@ mod interp;
 mod lexer;
 mod path;
 mod tools;
+mod words;
 
-pub use canon::{Canon, CanonCall, Units};
+pub use canon::{Canon, CanonCall, Modes, Units};
 pub use error::{ErrorKind, NcError, Span};
 pub use interp::interpret;
 pub use path::{arc_angles, PathSegment, Summary};
 pub use tools::{parse_work_offsets_var, Setup, ToolEntry, ToolTable};
+pub use words::{line_words, LineWords, WordAt};
 
 /// An interpreted program: its canonical calls in order.
 #[derive(Debug, Clone, PartialEq)]

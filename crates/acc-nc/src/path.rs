@@ -80,6 +80,38 @@ pub fn arc_angles(
 }
 
 impl Canon {
+    /// The point of a motion at fraction `t` (0 ..= 1) of it, work coordinates, mm: along
+    /// the line, or along the arc at the angle `t` of its sweep (radius and Z linear in
+    /// `t`); exactly the end at `t = 1`. `None` for other calls.
+    pub fn point_at(&self, t: f64) -> Option<[f64; 3]> {
+        match self {
+            Canon::Traverse { from, to } | Canon::Feed { from, to, .. } => {
+                Some([0, 1, 2].map(|k| from[k] + (to[k] - from[k]) * t))
+            }
+            Canon::Arc {
+                from,
+                to,
+                center,
+                clockwise,
+                turns,
+                ..
+            } => {
+                if t >= 1.0 {
+                    return Some(*to);
+                }
+                let (a0, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
+                let a = a0 + sweep * t;
+                let r = r0 + (r1 - r0) * t;
+                Some([
+                    center[0] + r * a.cos(),
+                    center[1] + r * a.sin(),
+                    from[2] + (to[2] - from[2]) * t,
+                ])
+            }
+            _ => None,
+        }
+    }
+
     /// Path length of a motion, mm (helical length for arcs); 0 for other calls.
     pub fn length_mm(&self) -> f64 {
         match self {
@@ -149,24 +181,13 @@ impl Program {
                     turns,
                     feed_mm_min,
                 } => {
-                    let (a0, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
+                    let (_, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
                     let r = r0.max(r1).max(1e-9);
                     let step = (2.0 * (1.0 - (tol / r).min(1.0)).acos()).clamp(1e-9, TAU / 4.0);
                     let n = (sweep.abs() / step).ceil().clamp(1.0, MAX_CHORDS) as usize;
                     let mut prev = *from;
                     for k in 1..=n {
-                        let t = k as f64 / n as f64;
-                        let p = if k == n {
-                            *to
-                        } else {
-                            let a = a0 + sweep * t;
-                            let rr = r0 + (r1 - r0) * t;
-                            [
-                                center[0] + rr * a.cos(),
-                                center[1] + rr * a.sin(),
-                                from[2] + (to[2] - from[2]) * t,
-                            ]
-                        };
+                        let p = c.call.point_at(k as f64 / n as f64).unwrap_or(*to);
                         out.push(seg(prev, p, *feed_mm_min, false));
                         prev = p;
                     }

@@ -76,6 +76,10 @@ pub struct CycleRecord {
     pub plan: WritePlan,
     /// What the shop layer (tool table, entry control) did, if the loop has one.
     pub shop: Option<ShopStep>,
+    /// Force reference Fr of the tool in use, N (the shop layer's tool table; `None`
+    /// without one or before the first status): the Fr the law holds after this period's
+    /// tool change, logged also in periods where the law was not stepped.
+    pub tool_force_ref_n: Option<f64>,
     /// What the line guard made of the read ([`crate::guard`]).
     pub guard: Guarded,
     /// The loop delay measured on the line ([`crate::echo`]).
@@ -101,7 +105,8 @@ pub fn kind_name(k: BoardErrorKind) -> String {
 }
 
 impl CycleRecord {
-    /// The period's run-log record (`force_ref_n`: Fr to log when the law was not stepped).
+    /// The period's run-log record (`force_ref_n`: Fr to log when the law was not stepped
+    /// and no tool table gives the Fr of the tool in use).
     /// The plant-truth columns stay empty; the simulator fills them in.
     pub fn record(&self, force_ref_n: Option<f64>) -> RunRecord {
         let status = self.link.ok();
@@ -118,7 +123,10 @@ impl CycleRecord {
             force_n: (status.is_some() && self.force.valid && self.force.force_n.is_finite())
                 .then_some(self.force.force_n),
             force_valid: self.out.force_valid,
-            force_ref_n: trace.map(|t| t.force_ref_n).or(force_ref_n),
+            force_ref_n: trace
+                .map(|t| t.force_ref_n)
+                .or(self.tool_force_ref_n)
+                .or(force_ref_n),
             kc_hat: trace.map(|t| t.kc_hat),
             kp: trace.map(|t| t.kp),
             ki: trace.map(|t| t.ki),
@@ -547,6 +555,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             out,
             plan,
             shop,
+            tool_force_ref_n: self.shop.as_ref().and_then(ShopControl::force_ref_n),
             guard,
             delay,
             delay_margin_periods,

@@ -88,7 +88,9 @@ impl LogSink for VecSink {
 pub struct RunOptions {
     /// Control period T.
     pub period: Duration,
-    /// Stop after this many periods (`None`: until the stop flag).
+    /// Stop after this many periods of the clock (`None`: until the stop flag): the cycles
+    /// run plus the periods the ticker skipped, so that a run on a loaded host ends at the
+    /// same machine time (the first period at or past it).
     pub max_periods: Option<u64>,
     /// Records the logger may fall behind before the loop holds the feed (the logger's
     /// queue plus the control thread's backlog; default 6000, ten minutes at T = 0.1 s).
@@ -481,6 +483,8 @@ where
         let mut rtt = LatencyStats::new();
         let mut writes = WriteResult::default();
         let mut periods = 0u64;
+        // Periods of the clock the ticker skipped (they count toward `max_periods`).
+        let mut skipped_periods = 0u64;
         let mut last_status = None;
         let origin = clock.now();
         let mut drain_since: Option<std::time::Duration> = None;
@@ -492,7 +496,10 @@ where
             if finished.load(Ordering::SeqCst) {
                 break Ended::Finished;
             }
-            if opts.max_periods.is_some_and(|m| periods >= m) {
+            if opts
+                .max_periods
+                .is_some_and(|m| periods + skipped_periods >= m)
+            {
                 break Ended::Completed;
             }
             let lost_for = gone_since.map(|t| clock.now().saturating_sub(t));
@@ -575,10 +582,12 @@ where
             } else if gone == 0 {
                 gone_since = None;
             }
+            let skipped = if periods == 0 { 0 } else { tick.skipped };
+            skipped_periods += skipped;
             let msg = StatusMsg {
                 seq: periods,
                 t_s: (tick.deadline.saturating_sub(origin)).as_secs_f64(),
-                skipped: if periods == 0 { 0 } else { tick.skipped },
+                skipped,
                 link,
                 writes,
                 lateness: tick.lateness,

@@ -257,6 +257,11 @@ impl ShopControl {
         self.tool
     }
 
+    /// Force reference Fr of the tool in use, N (`None` before the first status).
+    pub fn force_ref_n(&self) -> Option<f64> {
+        self.tool.map(|_| self.params.fr_n)
+    }
+
     /// The entry state.
     pub fn state(&self) -> ShopState {
         self.state

@@ -167,3 +167,33 @@ fn a_tool_change_sets_the_laws_fr_and_kc_and_never_raises_the_command_at_once() 
         "tool 1's own last Kc_hat"
     );
 }
+
+#[test]
+fn a_period_without_a_law_step_logs_the_fr_of_the_tool_in_use() {
+    let mut rig = Rig::new();
+    for _ in 0..10 {
+        rig.step();
+    }
+    rig.b.board.set_tool_number(2);
+    rig.step_to_change();
+    // The status read times out: the law is not stepped this period; the row still carries
+    // tool 2's Fr, not the run's fallback (tool 1's, here passed as the preset's 800 N).
+    rig.b.inject(
+        acc_runtime::testing::LinkFault::RequestLost(acc_pmc::BoardErrorKind::Timeout),
+        1,
+    );
+    let lost = rig.step();
+    assert!(lost.link.is_err(), "the read failed");
+    assert!(lost.out.step.is_none(), "the law was not stepped");
+    assert_eq!(lost.record(Some(800.0)).force_ref_n, Some(1200.0));
+    // Without a tool table the fallback stays the run's Fr.
+    assert_eq!(
+        CycleRecord {
+            tool_force_ref_n: None,
+            ..lost
+        }
+        .record(Some(800.0))
+        .force_ref_n,
+        Some(800.0)
+    );
+}

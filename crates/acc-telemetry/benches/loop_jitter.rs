@@ -243,7 +243,7 @@ fn one_round(a: &Args, mode: Mode, dir: &std::path::Path, mqtt_port: u16) -> Rou
         let mut m =
             MqttSettings::from_url(&format!("mqtt://127.0.0.1:{mqtt_port}/bench")).expect("url");
         m.client_id = format!("acc-bench-{}", std::process::id());
-        let mqtt = MqttPublisher::start(m, tap.subscribe(256)).expect("mqtt");
+        let mqtt = MqttPublisher::start(m, tap.subscribe(256), 0.1).expect("mqtt");
         for _ in 0..3 {
             clients.push(reader(
                 live.local_addr().port(),

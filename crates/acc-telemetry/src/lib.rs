@@ -9,6 +9,7 @@
 pub mod items;
 pub mod live;
 pub mod mqtt;
+pub mod mqtt_outbox;
 pub mod opcua;
 pub mod shdr;
 

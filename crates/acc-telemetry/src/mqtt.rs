@@ -1,10 +1,11 @@
 //! MQTT publisher (rumqttc): the data items of every period as one JSON message on
-//! `<prefix>/period`, the per-cut records on `<prefix>/cut`, and `online` / `offline`
+//! `<prefix>/period`, the per-cut records on `<prefix>/cut` (always QoS 1), and `online` / `offline`
 //! (retained; `offline` is also the broker-sent last will) on `<prefix>/status`.
 //!
 //! Threads: the publisher reads a [`Subscriber`] of the runtime's tap and hands each message
 //! to rumqttc's bounded request queue with `try_publish` (a full queue — broker down, slow
-//! network — drops and counts, [`MqttStats::dropped`]); the connection thread drives
+//! network — drops a period and counts it, [`MqttStats::dropped`]; a cut waits in a
+//! [`CutOutbox`] instead); the connection thread drives
 //! rumqttc's event loop and, when the broker is gone, retries every
 //! [`RECONNECT_DELAY`] until it is back (then `online` is published again).
 
@@ -20,6 +21,7 @@ use rumqttc::{Client, Event, LastWill, MqttOptions, Packet, QoS};
 use serde::Serialize;
 
 use crate::items::{available, execution, levels, Level, CONDITIONS};
+use crate::mqtt_outbox::CutOutbox;
 
 /// Pause between two connection attempts while the broker is down.
 pub const RECONNECT_DELAY: Duration = Duration::from_millis(500);
@@ -39,6 +41,13 @@ fn qos(c: &MqttConfig) -> QoS {
     }
 }
 
+/// Now, µs since the Unix epoch.
+fn now_us() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_micros()).unwrap_or(i64::MAX))
+}
+
 /// One alarm in a period message.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct AlarmJson {
@@ -54,6 +63,12 @@ pub struct AlarmJson {
 /// names; `null` when unknown.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct PeriodJson {
+    /// Wall-clock start of the run, µs since the Unix epoch (the publisher's start; 0 when
+    /// not set). With `t_s` it dates the period (`acc collect`).
+    pub run_start_us: i64,
+    /// Wall-clock time the publisher handed the message on, µs since the Unix epoch (0 when
+    /// not set): `acc collect` measures the lag from here to the Parquet commit.
+    pub sent_us: i64,
     /// Period index.
     pub period: u64,
     /// Machine time of the period, s since the run began.
@@ -64,12 +79,16 @@ pub struct PeriodJson {
     pub execution: &'static str,
     /// ACC policy state (`active`, `idle`, latched reason).
     pub acc_state: String,
+    /// The run log's `flags` (`;`-separated: `skipped`, `late`, `link:…`, …).
+    pub flags: String,
     /// Override in force on the PMC, %.
     pub override_applied_pct: Option<u16>,
     /// Override ACC commanded, %.
     pub override_cmd_pct: Option<u16>,
     /// Operator's knob, %.
     pub override_operator_pct: Option<u16>,
+    /// Programmed feed of the active block, mm/min.
+    pub programmed_feed_mm_min: Option<f64>,
     /// Actual path feed, mm/min.
     pub feed_mm_min: Option<f64>,
     /// Spindle speed, rpm.
@@ -78,6 +97,8 @@ pub struct PeriodJson {
     pub spindle_power_w: Option<f64>,
     /// Estimated cutting force, N.
     pub force_n: Option<f64>,
+    /// The fault policy used the force sample as valid.
+    pub force_valid: bool,
     /// Force reference Fr, N.
     pub force_ref_n: Option<f64>,
     /// Estimated process gain Kc_hat, N/(mm/min).
@@ -111,6 +132,8 @@ impl PeriodJson {
             .collect();
         let fin = |v: Option<f64>| v.filter(|x| x.is_finite());
         Self {
+            run_start_us: 0,
+            sent_us: 0,
             period: r.period,
             t_s: r.t_s,
             availability: if available(r) {
@@ -120,13 +143,16 @@ impl PeriodJson {
             },
             execution: execution(r),
             acc_state: r.state.clone(),
+            flags: r.flags.clone(),
             override_applied_pct: r.override_applied_pct,
             override_cmd_pct: r.override_cmd_pct,
             override_operator_pct: r.override_operator_pct,
+            programmed_feed_mm_min: fin(r.programmed_feed_mm_min),
             feed_mm_min: fin(r.feed_mm_min),
             spindle_rpm: fin(r.spindle_rpm),
             spindle_power_w: fin(r.power_w),
             force_n: fin(r.force_n),
+            force_valid: r.force_valid,
             force_ref_n: fin(r.force_ref_n),
             kc_hat: fin(r.kc_hat),
             tool: r.tool,
@@ -144,6 +170,8 @@ impl PeriodJson {
 /// one from elsewhere.
 #[derive(Debug, Clone, Serialize, PartialEq, Default)]
 pub struct CutJson {
+    /// Wall-clock start of the run, µs since the Unix epoch (as in the period messages).
+    pub run_start_us: i64,
     /// Tool number.
     pub tool: Option<u16>,
     /// Program number.
@@ -187,6 +215,7 @@ impl CutJson {
             .collect();
         alarms.extend(c.watch_alarms.iter().cloned());
         CutJson {
+            run_start_us: 0,
             tool: known(c.tool),
             program: known(c.program),
             block_first: known(c.block_first),
@@ -198,45 +227,6 @@ impl CutJson {
             time_saved_s: c.time_saved_s,
             alarms,
         }
-    }
-}
-
-/// A [`acc_runtime::cuts::CutRecorder`] whose period is taken from the first two records'
-/// times (the publisher is not told the loop's period).
-#[derive(Debug, Default)]
-struct CutFeed {
-    first_t_s: Option<f64>,
-    pending: Vec<RunRecord>,
-    rec: Option<acc_runtime::cuts::CutRecorder>,
-}
-
-impl CutFeed {
-    fn push(&mut self, r: &RunRecord) -> Option<acc_runtime::cuts::CutRecord> {
-        if self.rec.is_none() {
-            match self.first_t_s {
-                None => {
-                    self.first_t_s = Some(r.t_s);
-                    self.pending.push(r.clone());
-                    return None;
-                }
-                Some(t0) => {
-                    let dt = r.t_s - t0;
-                    let period_s = if dt.is_finite() && dt > 0.0 { dt } else { 0.1 };
-                    let mut rec = acc_runtime::cuts::CutRecorder::new(period_s);
-                    for p in self.pending.drain(..) {
-                        let _ = rec.push(&p);
-                    }
-                    self.rec = Some(rec);
-                }
-            }
-        }
-        self.rec.as_mut().and_then(|rec| rec.push(r))
-    }
-
-    fn finish(&mut self) -> Option<acc_runtime::cuts::CutRecord> {
-        self.rec
-            .as_mut()
-            .and_then(acc_runtime::cuts::CutRecorder::finish)
     }
 }
 
@@ -260,6 +250,7 @@ pub struct MqttStats {
 /// A running MQTT publisher; [`MqttPublisher::stop`] publishes `offline` and disconnects.
 pub struct MqttPublisher {
     cfg: MqttConfig,
+    run_start_us: i64,
     client: Option<Client>,
     stats: Arc<MqttStats>,
     stop: Arc<AtomicBool>,
@@ -276,9 +267,10 @@ impl std::fmt::Debug for MqttPublisher {
 }
 
 impl MqttPublisher {
-    /// Start publishing the records of `sub` to the broker of `cfg`. Never fails for a broker
-    /// that is down: the connection thread keeps trying.
-    pub fn start(cfg: MqttConfig, sub: Subscriber) -> std::io::Result<Self> {
+    /// Start publishing the records of `sub` to the broker of `cfg`; `period_s` is the
+    /// loop's period T (s), which the per-cut records count time in cut with. Never fails for
+    /// a broker that is down: the connection thread keeps trying.
+    pub fn start(cfg: MqttConfig, sub: Subscriber, period_s: f64) -> std::io::Result<Self> {
         let mut opts = MqttOptions::new(cfg.client_id.clone(), cfg.host.clone(), cfg.port);
         opts.set_keep_alive(Duration::from_secs(5));
         opts.set_last_will(LastWill::new(
@@ -290,6 +282,7 @@ impl MqttPublisher {
         let (client, mut connection) = Client::new(opts, REQUEST_QUEUE);
         let stats = Arc::new(MqttStats::default());
         let stop = Arc::new(AtomicBool::new(false));
+        let run_start_us = now_us();
         let mut threads = Vec::new();
         {
             let (stats, stop) = (stats.clone(), stop.clone());
@@ -339,15 +332,28 @@ impl MqttPublisher {
                         let status = cfg.topic("status");
                         // The per-cut records, from the records this thread receives (the
                         // same `CutRecorder` as `acc report` and the tool history).
-                        let mut cuts = CutFeed::default();
-                        let publish_cut = |c: &acc_runtime::cuts::CutRecord| {
-                            let Ok(body) = serde_json::to_vec(&CutJson::of(c)) else {
-                                return;
+                        let mut cuts = acc_runtime::cuts::CutRecorder::new(period_s);
+                        // Cuts wait here while the request queue is full (crate::mqtt_outbox).
+                        let mut outbox = CutOutbox::default();
+                        let flush = |outbox: &mut CutOutbox| {
+                            let sent = outbox.flush(|body| {
+                                client
+                                    .try_publish(
+                                        cut_topic.clone(),
+                                        QoS::AtLeastOnce,
+                                        false,
+                                        body.clone(),
+                                    )
+                                    .map_err(|_| body)
+                            });
+                            stats.queued.fetch_add(sent as u64, Ordering::Relaxed);
+                        };
+                        let cut_body = |c: &acc_runtime::cuts::CutRecord| {
+                            let json = CutJson {
+                                run_start_us,
+                                ..CutJson::of(c)
                             };
-                            match client.try_publish(cut_topic.clone(), qos(&cfg), false, body) {
-                                Ok(()) => stats.queued.fetch_add(1, Ordering::Relaxed),
-                                Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
-                            };
+                            serde_json::to_vec(&json).ok()
                         };
                         loop {
                             if stats.online_pending.load(Ordering::SeqCst)
@@ -359,10 +365,16 @@ impl MqttPublisher {
                             }
                             match sub.recv_timeout(Duration::from_millis(50)) {
                                 Ok(r) => {
-                                    if let Some(c) = cuts.push(&r) {
-                                        publish_cut(&c);
+                                    if let Some(body) = cuts.push(&r).as_ref().and_then(cut_body) {
+                                        outbox.push(body);
                                     }
-                                    let Ok(body) = serde_json::to_vec(&PeriodJson::of(&r)) else {
+                                    flush(&mut outbox);
+                                    let json = PeriodJson {
+                                        run_start_us,
+                                        sent_us: now_us(),
+                                        ..PeriodJson::of(&r)
+                                    };
+                                    let Ok(body) = serde_json::to_vec(&json) else {
                                         continue;
                                     };
                                     match client.try_publish(topic.clone(), qos(&cfg), false, body)
@@ -371,22 +383,22 @@ impl MqttPublisher {
                                         Err(_) => stats.dropped.fetch_add(1, Ordering::Relaxed),
                                     };
                                 }
-                                Err(RecvTimeoutError::Timeout) => {
+                                Err(e) => {
+                                    flush(&mut outbox);
                                     if stop.load(Ordering::SeqCst) {
-                                        if let Some(c) = cuts.finish() {
-                                            publish_cut(&c);
+                                        if let Some(body) =
+                                            cuts.finish().as_ref().and_then(cut_body)
+                                        {
+                                            outbox.push(body);
                                         }
+                                        flush(&mut outbox);
+                                        let lost = outbox.len() as u64 + outbox.overflowed;
+                                        stats.dropped.fetch_add(lost, Ordering::Relaxed);
                                         break;
                                     }
-                                }
-                                Err(RecvTimeoutError::Disconnected) => {
-                                    if stop.load(Ordering::SeqCst) {
-                                        if let Some(c) = cuts.finish() {
-                                            publish_cut(&c);
-                                        }
-                                        break;
+                                    if e == RecvTimeoutError::Disconnected {
+                                        std::thread::sleep(Duration::from_millis(50));
                                     }
-                                    std::thread::sleep(Duration::from_millis(50));
                                 }
                             }
                         }
@@ -396,6 +408,7 @@ impl MqttPublisher {
         tracing::info!(host = %cfg.host, port = cfg.port, prefix = %cfg.prefix, "MQTT publisher started");
         Ok(Self {
             cfg,
+            run_start_us,
             client: Some(client),
             stats,
             stop,
@@ -405,11 +418,15 @@ impl MqttPublisher {
 
     /// Publish one per-cut record on `<prefix>/cut` (never waits: a full queue drops).
     pub fn publish_cut(&self, cut: &CutJson) -> bool {
-        let Ok(body) = serde_json::to_vec(cut) else {
+        let json = CutJson {
+            run_start_us: self.run_start_us,
+            ..cut.clone()
+        };
+        let Ok(body) = serde_json::to_vec(&json) else {
             return false;
         };
         let ok = self.client.as_ref().is_some_and(|c| {
-            c.try_publish(self.cfg.topic("cut"), qos(&self.cfg), false, body)
+            c.try_publish(self.cfg.topic("cut"), QoS::AtLeastOnce, false, body)
                 .is_ok()
         });
         let c = if ok {

@@ -336,6 +336,7 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     let tel = crate::telemetry::Telemetry::start(
         &crate::telemetry::with_default_pki(args.telemetry.over(&Default::default()), &pki),
         true,
+        sc.controller.period_s,
     )?;
     tel.set_live_info(acc_telemetry::LiveInfo {
         title: "acc board-sim (the simulated machine, as the board sees it)".into(),

@@ -61,7 +61,10 @@ pub fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {
             r.log_rows,
             if r.log_complete { "yes" } else { "NO" },
             r.exit,
-            r.verdict
+            match &r.first_attempt {
+                Some(first) => format!("{}; re-run, first attempt: {first}", r.verdict),
+                None => r.verdict.clone(),
+            }
         ));
     }
     t

@@ -95,10 +95,9 @@ pub fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> a
         run_log.to_string_lossy().into_owned(),
     ];
     let (mut run, _) = Proc::spawn(&rargs, dir, "run")?;
-    // Wait for the moment (machine time `at` plus start-up slack).
-    let line = board
-        .wait_for(": fault ", wall(at) + Duration::from_secs(30))
-        .with_context(|| {
+    // Wait for the moment: machine time `at`, plus start-up slack for a loaded host.
+    let line =
+        wait_for_moment(&mut board, &mut run, wall(at) + MOMENT_SLACK).with_context(|| {
             format!(
                 "acc board-sim never reached t = {at} s; see {}",
                 dir.display()
@@ -177,6 +176,27 @@ pub fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> a
         line: line.as_ref(),
     };
     Ok(judge(f, protocol, t_fault, logs, exit, args))
+}
+
+/// Wall time beyond the fault moment's own that the processes may take to start and reach
+/// it (a loaded host starts `acc run`, and on a hostile line the Python proxy, slowly).
+const MOMENT_SLACK: Duration = Duration::from_secs(120);
+
+/// The board's line at the fault moment, waiting at most `timeout`; an `acc run` that ends
+/// before it is an error at once (with its exit), not a wait to the deadline.
+fn wait_for_moment(board: &mut Proc, run: &mut Proc, timeout: Duration) -> anyhow::Result<String> {
+    let end = std::time::Instant::now() + timeout;
+    loop {
+        if let Some(line) = board.wait_for(": fault ", Duration::from_millis(500)) {
+            return Ok(line);
+        }
+        if let Ok(Some(st)) = run.child.try_wait() {
+            bail!("acc run ended ({}) before the fault moment", describe(st));
+        }
+        if std::time::Instant::now() >= end {
+            bail!("not within {:.0} s of wall time", timeout.as_secs_f64());
+        }
+    }
 }
 
 /// `board-sim: t = 40.0 s: fault Operator(100) (scheduled at 40 s)` → 40.0.

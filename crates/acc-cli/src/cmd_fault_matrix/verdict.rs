@@ -84,6 +84,10 @@ pub struct Row {
     pub ok: bool,
     /// Hostile-line rows: the proxy's alterations and the controller's flags.
     pub line: Option<LineReport>,
+    /// The row was run twice: the first attempt's verdict (or error) on an overloaded host,
+    /// with the controller's late and skipped periods ([`super::rerun`]); `verdict` and `ok`
+    /// are the second attempt's.
+    pub first_attempt: Option<String>,
 }
 
 /// What a row is judged from: the machine-side log, `acc run`'s log, and on a hostile line
@@ -237,6 +241,7 @@ pub fn judge(
         verdict,
         ok,
         line,
+        first_attempt: None,
     }
 }
 
