@@ -289,10 +289,10 @@ pub struct SpindleCalibration {
     /// The same with the `Ks` growth per removed volume fitted beside the curve (and left
     /// out of it, for the effect search to name), W.
     pub residual_rms_with_wear_w: f64,
-    /// The same with the model's own curve shape (its copper loss and power window) and
-    /// only the no-load power and the slope refitted, W: the calibration is adopted only
-    /// when this is well above `residual_rms_with_wear_w` (a mismatch in the shape).
-    pub residual_rms_model_shape_w: f64,
+    /// Noise σ measured on the nominal residual with the model's spindle and with the
+    /// calibrated one, W (the calibration is adopted only when the first is above
+    /// `acc_ident::workflow`'s `NOISE_RATIO` times the second).
+    pub noise_sigma: (f64, f64),
 }
 
 impl SpindleCalibration {
@@ -337,12 +337,13 @@ impl SpindleCalibration {
         );
         let _ = writeln!(
             s,
-            "\nFitted on {} cutting rows with `Ks` at the model's value: `P − P_air = P_c/η + c·P_c²/1000`; residual RMS {:.2} W with the model's spindle, {:.2} W calibrated ({:.2} W with a `Ks` growth per removed volume fitted beside the curve and left out of it, for the effect search; {:.2} W with the model's own curve shape and only its no-load power and slope refitted). The effects below are judged against the calibrated spindle, which the updated model carries.\n",
+            "\nFitted on {} cutting rows with `Ks` at the model's value: `P − P_air = P_c/η + c·P_c²/1000`; residual RMS {:.2} W with the model's spindle, {:.2} W calibrated ({:.2} W with a `Ks` growth per removed volume fitted beside the curve and left out of it, for the effect search). The noise σ is {:.2} W with the model's spindle and {:.2} W calibrated. The effects below are judged against the calibrated spindle, which the updated model carries.\n",
             self.cut_rows,
             self.residual_rms_w.0,
             self.residual_rms_w.1,
             self.residual_rms_with_wear_w,
-            self.residual_rms_model_shape_w
+            self.noise_sigma.0,
+            self.noise_sigma.1
         );
     }
 }

@@ -253,7 +253,8 @@ struct Ctx<'a> {
 /// The stages are the private functions below, in order: `check_options`, `Prepared::new`
 /// (split and locate), `spindle::calibrate` (on the power channel of a model without a
 /// motor curve: no-load power, efficiency, copper loss and power window from the selection
-/// part, then `Prepared::new` again on the calibrated model), `Selection::nominal` (nominal refit), `Selection::run` (rounds of
+/// part, then `Prepared::new` again on the calibrated model, adopted when the model's
+/// spindle inflates the noise), `Selection::nominal` (nominal refit), `Selection::run` (rounds of
 /// `screen_candidate` and `choose_best`), `ResidualCheck::run` (unexplained),
 /// `sealed_check` and `assemble` (report).
 pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
@@ -313,10 +314,16 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         .flatten();
     let cal_model;
     let (model, spindle_calibration) = match calibrated {
-        Some((m, c)) => {
-            p = Prepared::new(&m, log, opts)?;
-            cal_model = m;
-            (&cal_model, Some(c))
+        Some((m, mut c)) => {
+            let pc = Prepared::new(&m, log, opts)?;
+            c.noise_sigma = (p.noise0.sigma, pc.noise0.sigma);
+            if spindle::inflates_noise(&c) {
+                p = pc;
+                cal_model = m;
+                (&cal_model, Some(c))
+            } else {
+                (model, None)
+            }
         }
         None => (model, None),
     };
