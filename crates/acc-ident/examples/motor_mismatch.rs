@@ -2,7 +2,7 @@
 //! spindle model (`configs/models/paper_vmc.toml`) and with the matching model: names,
 //! wear's effect-to-noise ratio and the noise σ, per seed.
 //!
-//! cargo run --release -p acc-ident --example motor_mismatch -- tool_wear=0.005 1000 1001 …
+//! cargo run -p acc-ident --example motor_mismatch -- tool_wear=0.005 1000 1001 …
 //! (case III on `steps_2_3_4` with the tool's own wear, 0.005/cm³; `null`: the tool does
 //! not wear). `WINDOW=s` sets the shipped model's power window; `DUMP=prefix` writes the
 //! series as `prefix.<model>.<seed>.csv`.
@@ -57,13 +57,15 @@ fn main() {
                 .map_or(f64::NAN, |c| c.effect_to_noise);
             let cal = r.spindle_calibration.as_ref().map_or(String::new(), |c| {
                 format!(
-                    " | window {:.3} P_air {:.1} W eta {:.3} c {:?} fit RMS {:.2} -> {:.2} W",
+                    " | window {:.3} P_air {:.1} W eta {:.3} c {:?} fit RMS {:.2} -> {:.2} W noise sigma {:.2} -> {:.2} W",
                     c.power_window_s.1,
                     c.no_load_power_w.1,
                     c.efficiency.1,
                     c.copper_loss_per_kw.1,
                     c.residual_rms_w.0,
-                    c.residual_rms_w.1
+                    c.residual_rms_w.1,
+                    c.noise_sigma.0,
+                    c.noise_sigma.1
                 )
             });
             println!(
