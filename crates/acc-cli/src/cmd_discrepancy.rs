@@ -83,6 +83,12 @@ pub struct DiscrepancyArgs {
     /// anchored there and the logged path `x_mm` is counted from it.
     #[arg(long, default_value_t = acc_ident::engagement::DEFAULT_X0_MM, allow_negative_numbers = true)]
     pub x0_mm: f64,
+    /// Judge the effects against the model's spindle as given: without it, on the power
+    /// channel of a model without a motor curve, the spindle's no-load power, efficiency,
+    /// copper loss and power window are first calibrated from the log's selection part
+    /// (report section "Spindle calibration", docs/twin.md).
+    #[arg(long)]
+    pub no_spindle_calibration: bool,
 }
 
 /// The engagement source of `--workpiece` (with `--x0-mm`) for `model`'s tool, if given.
@@ -179,6 +185,7 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
         fit_speed_exponent: args.fit_speed_exponent,
         min_effect_to_noise: args.min_enr,
         withhold_on_structure: args.strict.then_some(true),
+        calibrate_spindle: !args.no_spindle_calibration,
         ..workflow::Options::default()
     };
     if args.effects.as_deref().map(str::trim) == Some("all") {

@@ -266,6 +266,88 @@ pub struct Sealed {
     pub rms_reduction_vs_refit_pct: f64,
 }
 
+/// The spindle's power law calibrated from the log's selection part before effects are
+/// judged (`acc_ident::workflow`'s spindle calibration; report section "Spindle
+/// calibration").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SpindleCalibration {
+    /// No-load power before (the model's) and after, W.
+    pub no_load_power_w: (f64, f64),
+    /// Efficiency `η` before and after, −.
+    pub efficiency: (f64, f64),
+    /// Copper-loss coefficient `c` before and after, 1/kW (`None`: not fitted, too few
+    /// load levels; the model's kept).
+    pub copper_loss_per_kw: (f64, Option<f64>),
+    /// Averaging window of the power channel before and after, s (0: the whole period).
+    pub power_window_s: (f64, f64),
+    /// Air-cut rows the no-load power was taken from (0: kept the model's).
+    pub air_rows: usize,
+    /// Cutting rows the curve was fitted on.
+    pub cut_rows: usize,
+    /// RMS of the logged power less the model's over the rows used, before and after, W.
+    pub residual_rms_w: (f64, f64),
+    /// The same with the `Ks` growth per removed volume fitted beside the curve (and left
+    /// out of it, for the effect search to name), W.
+    pub residual_rms_with_wear_w: f64,
+    /// Noise σ measured on the nominal residual with the model's spindle and with the
+    /// calibrated one, W (the calibration is adopted only when the first is above
+    /// `acc_ident::workflow`'s `NOISE_RATIO` times the second).
+    pub noise_sigma: (f64, f64),
+}
+
+impl SpindleCalibration {
+    /// The report section "Spindle calibration".
+    fn write_markdown(&self, s: &mut String) {
+        let _ = writeln!(
+            s,
+            "## Spindle calibration (from the selection part, before the effects)
+"
+        );
+        let _ = writeln!(s, "| parameter | model | calibrated |");
+        let _ = writeln!(s, "| --- | ---: | ---: |");
+        let air = match self.air_rows {
+            0 => "kept: too few air-cut rows".to_string(),
+            n => format!("{n} air-cut rows"),
+        };
+        let _ = writeln!(
+            s,
+            "| no-load power (W; {air}) | {:.1} | {:.1} |",
+            self.no_load_power_w.0, self.no_load_power_w.1
+        );
+        let _ = writeln!(
+            s,
+            "| efficiency η (−) | {:.4} | {:.4} |",
+            self.efficiency.0, self.efficiency.1
+        );
+        let c = self
+            .copper_loss_per_kw
+            .1
+            .map_or("kept: too few load levels".to_string(), |c| {
+                format!("{c:.4}")
+            });
+        let _ = writeln!(
+            s,
+            "| copper loss c (1/kW) | {:.4} | {c} |",
+            self.copper_loss_per_kw.0
+        );
+        let _ = writeln!(
+            s,
+            "| power window (s, 0 = whole period) | {:.3} | {:.3} |",
+            self.power_window_s.0, self.power_window_s.1
+        );
+        let _ = writeln!(
+            s,
+            "\nFitted on {} cutting rows with `Ks` at the model's value: `P − P_air = P_c/η + c·P_c²/1000`; residual RMS {:.2} W with the model's spindle, {:.2} W calibrated ({:.2} W with a `Ks` growth per removed volume fitted beside the curve and left out of it, for the effect search). The noise σ is {:.2} W with the model's spindle and {:.2} W calibrated. The effects below are judged against the calibrated spindle, which the updated model carries.\n",
+            self.cut_rows,
+            self.residual_rms_w.0,
+            self.residual_rms_w.1,
+            self.residual_rms_with_wear_w,
+            self.noise_sigma.0,
+            self.noise_sigma.1
+        );
+    }
+}
+
 /// The whole report.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -273,6 +355,10 @@ pub struct Report {
     pub schema_version: u32,
     /// Input description.
     pub input: InputInfo,
+    /// The spindle calibrated from the log before effects were judged (power channel, a
+    /// model without a motor curve); the effects are judged against it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spindle_calibration: Option<SpindleCalibration>,
     /// Noise of the channel (differenced air and steady-cut stretches, AR(1)).
     pub noise: Noise,
     /// Locate step.
@@ -346,6 +432,9 @@ impl Report {
             "Noise (differenced air and steady-cut stretches, AR(1)): σ = {:.4} {u}, AR(1) ρ = {:.3}, {} samples.\n",
             self.noise.sigma, self.noise.rho, self.noise.samples
         );
+        if let Some(c) = &self.spindle_calibration {
+            c.write_markdown(&mut s);
+        }
         let _ = writeln!(s, "## Sealed final part (never seen by selection)\n");
         let _ = writeln!(s, "| model | RMS ({u}) | fit % | bias ({u}) |");
         let _ = writeln!(s, "| --- | ---: | ---: | ---: |");

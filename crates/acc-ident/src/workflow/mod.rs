@@ -1,17 +1,21 @@
 //! The discrepancy workflow: locate, fit candidates, select by held-out prediction,
 //! check the sealed final part.
 //!
-//! Files: [`selection`] (fits and rounds), [`checks`] (statistics of a replay),
+//! Files: [`spindle`] (the spindle's power law calibrated from the log before effects are
+//! judged), [`selection`] (fits and rounds), [`checks`] (statistics of a replay),
 //! [`report`] (assembly) and [`explain`] (the text).
 
 mod checks;
 mod explain;
+mod extra;
 mod report;
 mod rows;
 mod selection;
+mod spindle;
 
 use checks::*;
 use explain::*;
+use extra::*;
 use report::*;
 use rows::*;
 pub use selection::WEAR_SIZE;
@@ -88,6 +92,10 @@ pub struct Options {
     /// error, reported as "unexplained" next to the name, and the wear/time finding is a
     /// note in the conclusion.
     pub withhold_on_structure: Option<bool>,
+    /// Calibrate the spindle's power law (no-load power, efficiency, copper loss, power
+    /// window) from the selection part before effects are judged, on the power channel of
+    /// a model without a motor curve (`spindle` calibration, see its module). Default true.
+    pub calibrate_spindle: bool,
 }
 
 impl Default for Options {
@@ -106,6 +114,7 @@ impl Default for Options {
             workpiece: None,
             anchor_to_log: false,
             withhold_on_structure: None,
+            calibrate_spindle: true,
         }
     }
 }
@@ -242,7 +251,10 @@ struct Ctx<'a> {
 /// signature → unexplained check → sealed-part comparison.
 ///
 /// The stages are the private functions below, in order: `check_options`, `Prepared::new`
-/// (split and locate), `Selection::nominal` (nominal refit), `Selection::run` (rounds of
+/// (split and locate), `spindle::calibrate` (on the power channel of a model without a
+/// motor curve: no-load power, efficiency, copper loss and power window from the selection
+/// part, then `Prepared::new` again on the calibrated model, adopted when the model's
+/// spindle inflates the noise), `Selection::nominal` (nominal refit), `Selection::run` (rounds of
 /// `screen_candidate` and `choose_best`), `ResidualCheck::run` (unexplained),
 /// `sealed_check` and `assemble` (report).
 pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, WorkflowError> {
@@ -294,7 +306,27 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         );
         return Ok(an);
     }
-    let p = Prepared::new(model, log, opts)?;
+    let mut p = Prepared::new(model, log, opts)?;
+    // The spindle calibrated from the selection part before effects are judged.
+    let calibrated = opts
+        .calibrate_spindle
+        .then(|| spindle::calibrate(model, &p.inp, &p.nominal_replay, &p.sel))
+        .flatten();
+    let cal_model;
+    let (model, spindle_calibration) = match calibrated {
+        Some((m, mut c)) => {
+            let pc = Prepared::new(&m, log, opts)?;
+            c.noise_sigma = (p.noise0.sigma, pc.noise0.sigma);
+            if spindle::inflates_noise(&c) {
+                p = pc;
+                cal_model = m;
+                (&cal_model, Some(c))
+            } else {
+                (model, None)
+            }
+        }
+        None => (model, None),
+    };
     let ctx = Ctx {
         inp: &p.inp,
         sel: p.sel.clone(),
@@ -320,6 +352,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let sealed = sealed_check(&p, &s.nominal_refit, &upd_replay.predicted, noise_f);
     let mut a = assemble(model, p, s, upd_replay, unexplained, sealed, opts);
     a.report.warnings.append(&mut warnings);
+    a.report.spindle_calibration = spindle_calibration;
     Ok(a)
 }
 
