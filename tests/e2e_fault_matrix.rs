@@ -9,7 +9,11 @@
 //! the middle on the serial line (`tests/peers/mitm_proxy.py`): replies corrupted with a
 //! valid CRC (1 %, 10 %) or every status read answered with the reply of 2, 3 or 5 reads
 //! earlier; there the force must not rise while the feed moves, no release may be labelled
-//! the operator's, and every corrupted status read must be flagged in acc run's log. Then a
+//! the operator's, and every corrupted status read must be flagged in acc run's log. The
+//! wrong-plan rows run `acc run --plan` against `acc board-sim --program` (the pocket
+//! program): a plan made for a lower stock must keep the force at most that of feedback
+//! alone and be flagged, a missing plan file must be refused before the board sees a
+//! request. Then a
 //! short soak on the same hostile line (1 % garbage throughout, two delay episodes) with a
 //! random board fault every few seconds for 200 s of machine time: no lost rows, no dead
 //! thread, the invariant holds.
@@ -38,7 +42,7 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
     );
     let json = std::fs::read_to_string(out.join("fault-matrix.json")).expect("json");
     let rows: Vec<serde_json::Value> = serde_json::from_str(&json).expect("rows");
-    assert_eq!(rows.len(), 42, "21 faults x 2 boards");
+    assert_eq!(rows.len(), 46, "23 faults x 2 boards");
     // Rows run twice on an overloaded host name their first attempt and the load.
     for r in rows.iter().filter(|r| !r["first_attempt"].is_null()) {
         let first = r["first_attempt"].as_str().unwrap_or_default();
@@ -117,6 +121,20 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
             .find(|r| r["fault"] == "overload" && r["protocol"] == p)
             .expect("overload row");
         assert_eq!(row["feed_hold_after"].as_bool(), Some(true), "{row}");
+    }
+    // A wrong plan: the plan made for a lower stock ran its 30 s (judged on the force and
+    // the flags); a missing plan file was refused at start (exit 2, no log).
+    for p in [1, 2] {
+        let row = |name: &str| {
+            rows.iter()
+                .find(|r| r["fault"] == name && r["protocol"] == p)
+                .unwrap_or_else(|| panic!("v{p} {name} row"))
+        };
+        let low = row("plan-low-stock");
+        assert!(low["log_rows"].as_u64().unwrap_or(0) >= 290, "{low}");
+        let missing = row("plan-missing");
+        assert_eq!(missing["exit"].as_str(), Some("2"), "{missing}");
+        assert_eq!(missing["log_rows"].as_u64(), Some(0), "{missing}");
     }
     // Signals end the run with a feed hold mid-cut (exit 3), never at the knob.
     for sig in ["sigint", "sigterm", "sigint-twice"] {

@@ -45,7 +45,6 @@ impl PlanInput {
             stock_box: self.stock_box.clone(),
             cell: self.cell,
             tools: self.tools.clone(),
-            plan: None,
         };
         let path = crate::cmd_sim_program::load(&program_args, &sc)?
             .ok_or_else(|| anyhow::anyhow!("no program"))?;

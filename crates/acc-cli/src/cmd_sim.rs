@@ -59,6 +59,10 @@ pub struct SimArgs {
     /// An NC program on a stock (`--program`, `--stock`, `--stock-box`, `--tools`).
     #[command(flatten)]
     pub program: crate::cmd_sim_program::ProgramArgs,
+    /// Follow the plan `acc plan` wrote (`plan.csv`): the loop lowers the override ahead
+    /// of every engagement change the plan names (look-ahead, docs/plan.md).
+    #[arg(long, value_name = "plan.csv", requires = "program")]
+    pub plan: Option<PathBuf>,
     /// The fleet store (`--fleet`, `--machine`).
     #[command(flatten)]
     pub fleet: crate::fleet_cli::FleetArgs,
@@ -113,7 +117,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         sc.use_model(model)?;
     }
     let program = crate::cmd_sim_program::load(&args.program, &sc)?;
-    let lookahead = crate::cmd_sim_program::lookahead(&args.program, &sc)?;
+    let lookahead = crate::cmd_sim_program::lookahead(args.plan.as_deref(), &sc)?;
     if let Some(p) = &program {
         sc = p.scenario_for(&sc);
     }
@@ -379,6 +383,7 @@ mod tests {
             live_keep: 0.0,
             telemetry: Default::default(),
             program: Default::default(),
+            plan: None,
             fleet: Default::default(),
         };
         run_cmd(&args).expect("acc sim");

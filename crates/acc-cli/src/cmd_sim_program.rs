@@ -1,6 +1,8 @@
 //! `acc sim <scenario> --program part.ngc --stock stock.toml | --stock-box …`: the
 //! scenario's machine, tool, controller and channel on an NC program cut from a Z-map stock
 //! (`acc_sim::program`); the report per block and per tool, and the stock after the run.
+//! `acc board-sim --program …` takes the same options ([`ProgramArgs`], [`load`]): the
+//! machine behind the served board then follows the program.
 
 use std::path::{Path, PathBuf};
 
@@ -9,7 +11,7 @@ use acc_sim::program_summary::summarize_program;
 use acc_sim::{RunResult, Scenario};
 use anyhow::Context as _;
 
-/// The program options of `acc sim`.
+/// The program options of `acc sim` and `acc board-sim`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ProgramArgs {
     /// Run an NC program (RS274/NGC) instead of the scenario's 1-D workpiece; the
@@ -39,10 +41,6 @@ pub struct ProgramArgs {
     /// (without it, or for T0, the scenario's tool).
     #[arg(long, value_name = "FILE.tbl", requires = "program")]
     pub tools: Option<PathBuf>,
-    /// Follow the plan `acc plan` wrote (`plan.csv`): the loop lowers the override ahead
-    /// of every engagement change the plan names (look-ahead, docs/plan.md).
-    #[arg(long, value_name = "plan.csv", requires = "program")]
-    pub plan: Option<PathBuf>,
 }
 
 impl Default for ProgramArgs {
@@ -53,18 +51,17 @@ impl Default for ProgramArgs {
             stock_box: None,
             cell: 0.25,
             tools: None,
-            plan: None,
         }
     }
 }
 
-/// The look-ahead of `--plan` for scenario `sc`, if given: the plan file read and checked
-/// (an error names the file, the line and the column).
+/// The look-ahead of `acc sim --plan` (`plan`) for scenario `sc`, if given: the plan file
+/// read and checked (an error names the file, the line and the column).
 pub fn lookahead(
-    args: &ProgramArgs,
+    plan: Option<&Path>,
     sc: &Scenario,
 ) -> anyhow::Result<Option<acc_runtime::LookAhead>> {
-    let Some(p) = &args.plan else {
+    let Some(p) = plan else {
         return Ok(None);
     };
     let plan = acc_runtime::Plan::load(p)?;

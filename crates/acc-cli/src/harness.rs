@@ -125,6 +125,17 @@ impl Proc {
             .status();
     }
 
+    /// The exit of a process still running at the end of its window: Ctrl-C, then at most
+    /// 20 s of wall time, as the tables show it (`running; stopped by the harness (<exit>)`,
+    /// or `hung (killed by the harness)`: dropping the process kills it).
+    pub fn stop_running(&mut self) -> String {
+        self.signal("INT");
+        match self.wait(Duration::from_secs(20)) {
+            Some(st) => format!("running; stopped by the harness ({})", describe(st)),
+            None => "hung (killed by the harness)".into(),
+        }
+    }
+
     /// Wait for the exit at most `timeout`; `None` if still running.
     pub fn wait(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
         let end = Instant::now() + timeout;

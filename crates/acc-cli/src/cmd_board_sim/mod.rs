@@ -53,6 +53,13 @@
 //!   and `stall` are refused with `--pace controller`. Once the controller has released
 //!   (`ACC_REQUEST` cleared, e.g. after a feed-hold stop), a controller-paced machine runs on
 //!   its own ticker again, as a real machine runs on when ACC lets go.
+//! - `--program part.ngc --stock-box X0,Y0,Z0,X1,Y1,Z1` (or `--stock stock.toml`, with
+//!   `--tools T.tbl`, `--cell MM`): the machine follows the NC program through its stock
+//!   instead of the scenario's 1-D workpiece — the same options, path and engagement source
+//!   as `acc sim --program` (`crate::cmd_sim_program::load`) — and the board reports the
+//!   program's `BLOCK_NUMBER` (N word, else line number), `TOOL_NUMBER`,
+//!   `PROGRAMMED_FEED` (per block; a rapid's is the rapid rate) and `ACTUAL_FEED`; the
+//!   machine log's `x_mm` is the path position along the program.
 //! - `--watchdog-time machine` runs the board's clock (its watchdog, `WATCHDOG_MS`) on
 //!   machine time, as on the real machine; the default `wall` keeps it on wall time, which
 //!   is more forgiving of a loaded host at high `--time-scale`.
@@ -147,6 +154,10 @@ pub struct BoardSimArgs {
     /// plant's truth every period.
     #[command(flatten)]
     pub telemetry: crate::telemetry::TelemetryArgs,
+    /// An NC program on a stock (`--program`, `--stock`, `--stock-box`, `--cell`,
+    /// `--tools`), as `acc sim --program`.
+    #[command(flatten)]
+    pub program: crate::cmd_sim_program::ProgramArgs,
 }
 
 /// Which time the emulated board's watchdog counts.
@@ -206,7 +217,12 @@ fn board_clock(kind: WatchdogTime, time_scale: f64) -> Box<dyn acc_pmc::clock::C
 /// `acc board-sim`.
 pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     acc_runtime::shutdown::init_tracing(acc_runtime::shutdown::LogFormat::Text, "warn");
-    let sc = Scenario::load(&args.scenario)?;
+    let mut sc = Scenario::load(&args.scenario)?;
+    // The program's path through its stock, checked before the pty exists.
+    let program = crate::cmd_sim_program::load(&args.program, &sc)?;
+    if let Some(p) = &program {
+        sc = p.scenario_for(&sc);
+    }
     if !(args.time_scale.is_finite() && (0.1..=100.0).contains(&args.time_scale)) {
         bail!("--time-scale {}: allowed 0.1 ..= 100", args.time_scale);
     }
@@ -246,6 +262,9 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     // The same simulated board and plant `acc sim` steps in process, served over the link.
     let protocol = args.emulated_protocol();
     let mut sim = sc.build_board_with(protocol);
+    if let Some(p) = program {
+        sim.set_engagement_source(Some(Box::new(p)));
+    }
     sim.logic_mut()
         .set_operator_override_pct(args.operator_override);
     let board: SharedBoard = sim.serve();

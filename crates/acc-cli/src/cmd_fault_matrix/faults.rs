@@ -24,6 +24,18 @@ pub enum Action {
         /// Reads of delay (0: none).
         delay_reads: u32,
     },
+    /// `acc run --plan` with a wrong plan, against `acc board-sim --program` (the plan rows,
+    /// [`super::plan`]).
+    Plan(PlanFault),
+}
+
+/// What is wrong with the plan of a plan row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanFault {
+    /// Made for a stock 1 mm lower than the one on the table: the machine cuts more.
+    LowerStock,
+    /// The plan file does not exist.
+    Missing,
 }
 
 /// One fault of the matrix.
@@ -200,6 +212,20 @@ pub const FAULTS: &[Fault] = &[
             corrupt: 0.0,
             delay_reads: 5,
         },
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "plan-low-stock",
+        what: "acc run --plan with a plan made for a stock 1 mm lower than the one on the table (the machine cuts more than planned), the pocket program",
+        action: Action::Plan(PlanFault::LowerStock),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "plan-missing",
+        what: "acc run --plan names a plan file that does not exist",
+        action: Action::Plan(PlanFault::Missing),
         v1_unsafe: None,
         not_judged: None,
     },

@@ -46,13 +46,18 @@
 //!   flagged rows after the fault ≥ altered reads that must be flagged, and says so.
 //!   Delayed replies are not required to be flagged (nothing in one frame shows them).
 //!
-//! The faults are timing faults, so the rows run on the wall clock. A row that fails, or
+//! **Wrong-plan rows** (`plan-low-stock`, `plan-missing`): `acc run --plan` against `acc
+//! board-sim --program` cutting the pocket program, with a plan made for a lower stock or a
+//! plan file that does not exist; their criteria are in [`plan`].
+//!
+//! The other faults are timing faults, so their rows run on the wall clock. A row that fails, or
 //! never reaches the fault moment, while the host was too loaded for `acc run` to keep its
 //! period (its run log's `late` and `skipped` periods, [`rerun::HostLoad`]) or to start (its
 //! start-up transactions unanswered, exit 5, before a period) is run once more; the table's verdict then names the first attempt beside the second one's verdict
 //! (and the JSON has it as `first_attempt`), its logs kept in `<row>-first`.
 
 mod faults;
+mod plan;
 mod report;
 mod rerun;
 mod row;
@@ -95,6 +100,10 @@ pub struct FaultMatrixArgs {
     /// `acc run` configuration (its `runtime.time_scale` must equal `--time-scale`).
     #[arg(long, default_value = "configs/runtime/fault_matrix.toml")]
     pub config: PathBuf,
+    /// `acc run` configuration of the wrong-plan rows (`plan-*`: `--pace controller`, a link
+    /// tolerant of a loaded host).
+    #[arg(long, default_value = "configs/runtime/fault_matrix_plan.toml")]
+    pub plan_config: PathBuf,
     /// Machine seconds per wall second for both processes (1 ..= 20).
     #[arg(long, default_value_t = 5.0)]
     pub time_scale: f64,
@@ -194,7 +203,11 @@ pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
             bail!("{flag} {v}: allowed 0 < s <= 600");
         }
     }
-    for (what, p) in [("--scenario", &args.scenario), ("--config", &args.config)] {
+    for (what, p) in [
+        ("--scenario", &args.scenario),
+        ("--config", &args.config),
+        ("--plan-config", &args.plan_config),
+    ] {
         if !p.is_file() {
             bail!("{what} {}: no such file", p.display());
         }

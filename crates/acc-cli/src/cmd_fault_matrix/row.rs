@@ -18,6 +18,9 @@ fn s(v: impl ToString) -> String {
 /// One row: `acc board-sim` with the fault (or a marker at the moment), the proxy on a
 /// hostile line, `acc run`; the fault brought about at the moment; then both logs judged.
 pub fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyhow::Result<Row> {
+    if let Action::Plan(kind) = f.action {
+        return super::plan::run_plan_row(args, f, protocol, dir, kind);
+    }
     let machine_log = dir.join("machine.csv");
     let run_log = dir.join("run.csv");
     let at = args.at_s;
@@ -126,7 +129,7 @@ pub fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> a
                 p.signal("USR1");
             }
         }
-        Action::Board(_) => {}
+        Action::Board(_) | Action::Plan(_) => {}
     }
     // The window after the fault (and a signalled acc run's drain: at most 10 s + slack).
     let exit = if harness_stop {
@@ -137,13 +140,7 @@ pub fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> a
         }
         match st {
             Some(st) => describe(st),
-            None => {
-                run.signal("INT");
-                match run.wait(Duration::from_secs(20)) {
-                    Some(st) => format!("running; stopped by the harness ({})", describe(st)),
-                    None => "hung (killed by the harness)".into(),
-                }
-            }
+            None => run.stop_running(),
         }
     } else {
         match run.wait(wall(15.0) + Duration::from_secs(10)) {

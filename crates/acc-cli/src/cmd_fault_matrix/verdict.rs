@@ -372,6 +372,7 @@ mod tests {
             only: vec![],
             scenario: PathBuf::from("s"),
             config: PathBuf::from("c"),
+            plan_config: PathBuf::from("pc"),
             time_scale: 10.0,
             at_s: 1.0,
             before_s: 1.0,

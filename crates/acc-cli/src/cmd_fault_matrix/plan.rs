@@ -1,0 +1,424 @@
+//! The wrong-plan rows of `acc fault-matrix`: `acc run --plan` against `acc board-sim
+//! --program`, the machine cutting the pocket program (`tests/nc/pocket_rect.ngc`) on a box
+//! stock. These are not timing faults: the board runs `--pace controller` (the machine
+//! moves one period per command write, so it stands still once `acc run` has ended), and
+//! `acc run` runs on `--plan-config` (`configs/runtime/fault_matrix_plan.toml`: 2× time, a
+//! link tolerant of a loaded host).
+//!
+//! - **`plan-low-stock`**: the harness plans the program (`acc plan`) for a stock 1 mm lower
+//!   than the one on the table, so the machine cuts more than planned. Two runs of
+//!   [`PLAN_RUN_S`] s of machine time each: the reference with feedback alone (no plan, in
+//!   `<row>/alone/`) and the run with the wrong plan. Pass: the largest true force with the
+//!   wrong plan ≤ 1.05 × the reference's (the force stays controlled), no period commands
+//!   above the plan's cap in force (`plan_cap:<pct>`: the plan only lowers the law's
+//!   command) nor raises the command with an unusable force sample, `acc run`'s log flags
+//!   the disagreement (`plan_disagree:above`; a v1 board has no `BLOCK_NUMBER`, so the
+//!   look-ahead cannot place the tool and flags `plan_lost` instead, with no cap at all),
+//!   and its log misses no period.
+//! - **`plan-missing`**: `acc run --plan` names a file that does not exist. Pass: `acc run`
+//!   exits with the usage code (2) naming the file, writes no run log, and the board served
+//!   no request (nothing was sent to it).
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{bail, Context};
+
+use super::faults::{Fault, PlanFault};
+use super::verdict::Row;
+use super::FaultMatrixArgs;
+use crate::harness::{describe, fault_periods_raising, read, Proc};
+
+/// The NC program of the plan rows (relative to the working directory: the repository).
+pub const PLAN_PROGRAM: &str = "tests/nc/pocket_rect.ngc";
+/// The stock on the table, `X0,Y0,Z0,X1,Y1,Z1` mm: the pocket's box.
+pub const PLAN_STOCK: &str = "-20,-20,-10,60,50,0";
+/// The stock the wrong plan was made for: 1 mm lower.
+pub const PLAN_STOCK_LOW: &str = "-20,-20,-10,60,50,-1";
+/// Machine time of each plan run, s: the approach, the plunge and the first pass (its
+/// slotting entry and the zig-zag's corners).
+pub const PLAN_RUN_S: f64 = 30.0;
+
+fn s(v: impl ToString) -> String {
+    v.to_string()
+}
+
+/// The outcome of one closed loop of a plan row.
+struct Loop {
+    machine: Vec<acc_runtime::record::RunRecord>,
+    run: Vec<acc_runtime::record::RunRecord>,
+    exit: String,
+}
+
+/// `acc board-sim --program … --pace controller` and `acc run [--plan plan]` for
+/// [`PLAN_RUN_S`] s of machine time, logs in `dir` (`machine.csv`, `run.csv`).
+fn closed_loop(
+    args: &FaultMatrixArgs,
+    protocol: u8,
+    dir: &Path,
+    plan: Option<&Path>,
+) -> anyhow::Result<Loop> {
+    std::fs::create_dir_all(dir)?;
+    let machine_log = dir.join("machine.csv");
+    let run_log = dir.join("run.csv");
+    let mut bargs = board_args(args, protocol, &machine_log);
+    bargs.extend([
+        s("--program"),
+        s(PLAN_PROGRAM),
+        format!("--stock-box={PLAN_STOCK}"),
+    ]);
+    let (mut board, pty) = spawn_board(&bargs, dir)?;
+    let mut rargs = run_args(args, &pty, &run_log);
+    if let Some(p) = plan {
+        rargs.extend([s("--plan"), p.to_string_lossy().into_owned()]);
+    }
+    let (mut run, _) = Proc::spawn(&rargs, dir, "run")?;
+    // At most real time (the plan config runs at 2×), plus start-up slack.
+    let exit = match run.wait(Duration::from_secs_f64(PLAN_RUN_S) + Duration::from_secs(60)) {
+        Some(st) => describe(st),
+        None => run.stop_running(),
+    };
+    stop_board(&mut board);
+    Ok(Loop {
+        machine: read(&machine_log)?,
+        run: read(&run_log).unwrap_or_default(),
+        exit,
+    })
+}
+
+/// `acc board-sim` on the matrix's scenario and time scale, `--pace controller`.
+fn board_args(args: &FaultMatrixArgs, protocol: u8, machine_log: &Path) -> Vec<String> {
+    let mut bargs = vec![
+        s("board-sim"),
+        s("--scenario"),
+        args.scenario.to_string_lossy().into_owned(),
+        s("--time-scale"),
+        format!("{}", args.time_scale),
+        s("--baud"),
+        s("115200"),
+        s("--wait-for-controller"),
+        s("--pace"),
+        s("controller"),
+        s("--protocol"),
+        protocol.to_string(),
+        s("--log"),
+        machine_log.to_string_lossy().into_owned(),
+    ];
+    if protocol == 1 {
+        bargs.extend([s("--v1-registers"), s("exception")]);
+    }
+    bargs
+}
+
+/// `acc run` on the plan rows' config (`--plan-config`) for [`PLAN_RUN_S`] s of machine time.
+fn run_args(args: &FaultMatrixArgs, port: &str, run_log: &Path) -> Vec<String> {
+    vec![
+        s("run"),
+        s("--config"),
+        args.plan_config.to_string_lossy().into_owned(),
+        s("--port"),
+        s(port),
+        s("--log"),
+        run_log.to_string_lossy().into_owned(),
+        s("--duration-s"),
+        format!("{PLAN_RUN_S}"),
+    ]
+}
+
+fn spawn_board(bargs: &[String], dir: &Path) -> anyhow::Result<(Proc, String)> {
+    let (mut board, pty) = Proc::spawn(bargs, dir, "board-sim")?;
+    match pty.filter(|p| p.starts_with('/')) {
+        Some(p) => Ok((board, p)),
+        None => {
+            board.wait(Duration::from_secs(2));
+            board.drain(Duration::from_millis(200));
+            bail!(
+                "acc board-sim printed no pty path: {}",
+                board.seen.join(" / ")
+            )
+        }
+    }
+}
+
+/// Ctrl-C to `acc board-sim` (killed if it does not stop), its stderr collected.
+fn stop_board(board: &mut Proc) {
+    board.signal("INT");
+    if board.wait(Duration::from_secs(10)).is_none() {
+        board.signal("KILL");
+    }
+    board.drain(Duration::from_millis(200));
+}
+
+/// `N` of board-sim's `served N requests` line (`None`: no such line).
+fn served_requests(lines: &[String]) -> Option<u64> {
+    lines
+        .iter()
+        .find_map(|l| l.split("served ").nth(1)?.split(' ').next()?.parse().ok())
+}
+
+/// One plan row (see the module docs).
+pub fn run_plan_row(
+    args: &FaultMatrixArgs,
+    f: &Fault,
+    protocol: u8,
+    dir: &Path,
+    kind: PlanFault,
+) -> anyhow::Result<Row> {
+    match kind {
+        PlanFault::LowerStock => low_stock_row(args, f, protocol, dir),
+        PlanFault::Missing => missing_row(args, f, protocol, dir),
+    }
+}
+
+/// The row's fields that a plan row does not measure.
+fn row_of(f: &Fault, protocol: u8, exit: String) -> Row {
+    Row {
+        fault: f.name.into(),
+        what: f.what.into(),
+        protocol,
+        // The plan is wrong from the start.
+        t_fault_s: Some(0.0),
+        last_cmd_pct: None,
+        max_applied_after_pct: None,
+        force_before_n: 0.0,
+        force_after_n: 0.0,
+        force_after_released_n: 0.0,
+        raised_in_fault: 0,
+        feed_hold_after: false,
+        log_rows: 0,
+        log_complete: false,
+        exit,
+        verdict: String::new(),
+        ok: false,
+        line: None,
+        first_attempt: None,
+    }
+}
+
+fn verdict(row: &mut Row, problems: &[String]) {
+    row.ok = problems.is_empty();
+    row.verdict = if row.ok {
+        "pass".into()
+    } else {
+        format!("FAIL: {}", problems.join("; "))
+    };
+}
+
+fn low_stock_row(
+    args: &FaultMatrixArgs,
+    f: &Fault,
+    protocol: u8,
+    dir: &Path,
+) -> anyhow::Result<Row> {
+    let plan = write_plan(args, dir)?;
+    let alone = closed_loop(args, protocol, &dir.join("alone"), None)?;
+    let wrong = closed_loop(args, protocol, dir, Some(&plan))?;
+    Ok(judge_low_stock(f, protocol, &alone, &wrong))
+}
+
+/// `acc plan` of the program for [`PLAN_STOCK_LOW`] into `dir/plan/plan.csv`.
+fn write_plan(args: &FaultMatrixArgs, dir: &Path) -> anyhow::Result<PathBuf> {
+    let out = dir.join("plan");
+    let exe = std::env::current_exe().context("path of the acc binary")?;
+    let o = std::process::Command::new(exe)
+        .args(["plan", PLAN_PROGRAM])
+        .arg(format!("--stock-box={PLAN_STOCK_LOW}"))
+        .arg("--scenario")
+        .arg(&args.scenario)
+        .args(["--no-plot", "--out"])
+        .arg(&out)
+        .output()
+        .context("running acc plan")?;
+    if !o.status.success() {
+        bail!("acc plan failed: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    Ok(out.join("plan.csv"))
+}
+
+/// Periods of `acc run` that commanded above the plan's cap in force (`plan_cap:<pct>`).
+fn above_cap(run: &[acc_runtime::record::RunRecord]) -> usize {
+    run.iter()
+        .filter(|r| {
+            let cap = r
+                .flags
+                .split(';')
+                .find_map(|f| f.strip_prefix("plan_cap:")?.parse::<u16>().ok());
+            matches!((cap, r.override_cmd_pct), (Some(cap), Some(c)) if c > cap)
+        })
+        .count()
+}
+
+fn judge_low_stock(f: &Fault, protocol: u8, alone: &Loop, wrong: &Loop) -> Row {
+    let top = |rows: &[acc_runtime::record::RunRecord], released: bool| {
+        rows.iter()
+            .filter(|x| !released || x.state != "acc_active")
+            .filter_map(|x| x.force_true_n)
+            .fold(0.0, f64::max)
+    };
+    let (r, m) = (&wrong.run, &wrong.machine);
+    let mut row = row_of(f, protocol, wrong.exit.clone());
+    row.force_before_n = top(&alone.machine, false);
+    row.force_after_n = top(m, false);
+    row.force_after_released_n = top(m, true);
+    row.raised_in_fault = fault_periods_raising(r) + above_cap(r);
+    row.feed_hold_after = m.iter().any(|x| x.feed_hold);
+    row.log_rows = r.len();
+    row.log_complete =
+        !r.is_empty() && r.windows(2).all(|w| w[1].period == w[0].period + 1) && r[0].period == 0;
+    row.last_cmd_pct = r
+        .iter()
+        .rev()
+        .filter(|x| x.state == "active")
+        .find_map(|x| x.override_cmd_pct);
+    let mut problems = Vec::new();
+    if alone.machine.is_empty() || m.is_empty() {
+        problems.push("no machine rows".to_string());
+    }
+    if row.last_cmd_pct.is_none() {
+        problems.push("ACC was never active with the plan".into());
+    }
+    if row.force_after_n > 1.05 * row.force_before_n {
+        problems.push(format!(
+            "force {:.0} N with the wrong plan above {:.0} N with feedback alone (> 1.05×)",
+            row.force_after_n, row.force_before_n
+        ));
+    }
+    if row.raised_in_fault > 0 {
+        problems.push(format!(
+            "{} periods commanded above the plan's cap or raised with an unusable force",
+            row.raised_in_fault
+        ));
+    }
+    let flag = if protocol == 1 {
+        "plan_lost"
+    } else {
+        "plan_disagree:above"
+    };
+    if !r.iter().any(|x| x.flags.contains(flag)) {
+        problems.push(format!("acc run's log never flags `{flag}`"));
+    }
+    if !row.log_complete {
+        problems.push("acc run's log misses periods".into());
+    }
+    verdict(&mut row, &problems);
+    row
+}
+
+fn missing_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyhow::Result<Row> {
+    let machine_log = dir.join("machine.csv");
+    let run_log = dir.join("run.csv");
+    let missing = dir.join("no-such-plan.csv");
+    let _ = std::fs::remove_file(&run_log);
+    let (mut board, pty) = spawn_board(&board_args(args, protocol, &machine_log), dir)?;
+    let mut rargs = run_args(args, &pty, &run_log);
+    rargs.extend([s("--plan"), missing.to_string_lossy().into_owned()]);
+    let (mut run, _) = Proc::spawn(&rargs, dir, "run")?;
+    let exit = match run.wait(Duration::from_secs(60)) {
+        Some(st) => describe(st),
+        None => {
+            run.signal("KILL");
+            "hung (killed by the harness)".into()
+        }
+    };
+    run.drain(Duration::from_millis(200));
+    // Give a run that did open the port the time to be served, then stop the board.
+    std::thread::sleep(Duration::from_millis(300));
+    stop_board(&mut board);
+    let served = served_requests(&board.seen);
+    let mut row = row_of(f, protocol, exit.clone());
+    // No run log: no period to miss.
+    row.log_complete = true;
+    let mut problems = Vec::new();
+    if exit != "2" {
+        problems.push(format!(
+            "acc run exit {exit} (2 expected: refused at start)"
+        ));
+    }
+    if !run.seen.iter().any(|l| l.contains("no-such-plan.csv")) {
+        problems.push("acc run's error does not name the plan file".into());
+    }
+    if run_log.exists() {
+        problems.push("acc run wrote a run log".into());
+        row.log_rows = read(&run_log).map(|r| r.len()).unwrap_or_default();
+    }
+    match served {
+        Some(0) => {}
+        Some(n) => problems.push(format!("the board served {n} requests")),
+        None => problems.push("board-sim printed no request count".into()),
+    }
+    verdict(&mut row, &problems);
+    Ok(row)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use acc_runtime::record::RunRecord;
+
+    fn rec(period: u64, cmd: u16, flags: &str, force: f64) -> RunRecord {
+        RunRecord {
+            t_s: 0.1 * period as f64,
+            period,
+            state: "active".into(),
+            override_cmd_pct: Some(cmd),
+            force_valid: true,
+            flags: flags.into(),
+            force_true_n: Some(force),
+            ..RunRecord::default()
+        }
+    }
+
+    fn row(alone_force: f64, wrong: Vec<RunRecord>, protocol: u8) -> Row {
+        let f = super::super::faults::FAULTS
+            .iter()
+            .find(|f| f.name == "plan-low-stock")
+            .expect("row");
+        let alone = Loop {
+            machine: vec![rec(0, 100, "", alone_force)],
+            run: vec![],
+            exit: "0".into(),
+        };
+        let wrong = Loop {
+            machine: wrong.clone(),
+            run: wrong,
+            exit: "0".into(),
+        };
+        judge_low_stock(f, protocol, &alone, &wrong)
+    }
+
+    #[test]
+    fn a_wrong_plan_passes_only_below_the_cap_flagged_and_controlled() {
+        let good = vec![
+            rec(0, 60, "plan_cap:60", 700.0),
+            rec(1, 50, "plan_cap:80;plan_disagree:above", 820.0),
+        ];
+        let r = row(800.0, good.clone(), 2);
+        assert!(r.ok, "{r:?}");
+        // The same log on a v1 board must flag plan_lost instead.
+        let r = row(800.0, good.clone(), 1);
+        assert!(!r.ok && r.verdict.contains("`plan_lost`"), "{r:?}");
+        // A command above the cap in force.
+        let mut over = good.clone();
+        over[0].override_cmd_pct = Some(70);
+        let r = row(800.0, over, 2);
+        assert!(!r.ok && r.raised_in_fault == 1, "{r:?}");
+        // More force than feedback alone.
+        let r = row(700.0, good.clone(), 2);
+        assert!(!r.ok && r.verdict.contains("820 N"), "{r:?}");
+        // No disagreement flagged.
+        let mut quiet = good;
+        quiet[1].flags = "plan_cap:80".into();
+        let r = row(800.0, quiet, 2);
+        assert!(!r.ok && r.verdict.contains("plan_disagree:above"), "{r:?}");
+    }
+
+    #[test]
+    fn the_request_count_is_read_from_board_sims_last_line() {
+        let lines = vec![
+            "board-sim: 0 periods".to_string(),
+            "board-sim: served 0 requests (0 exceptions, 0 replies dropped undelivered, 0 read errors)".into(),
+        ];
+        assert_eq!(served_requests(&lines), Some(0));
+        assert_eq!(served_requests(&lines[..1]), None);
+    }
+}
