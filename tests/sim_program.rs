@@ -81,10 +81,10 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
     // which the stock removes and the plant's side-milling force law does not see.
     let plunges = 2.0 * std::f64::consts::PI * 8.0 * 8.0 * 2.0;
     assert!(
-        (run.volume_mm3 + plunges - path.removed_mm3).abs() < 0.01 * path.removed_mm3,
+        (run.volume_mm3 + plunges - path.removed_mm3()).abs() < 0.01 * path.removed_mm3(),
         "plant {:.0} mm³, stock {:.0} mm³",
         run.volume_mm3,
-        path.removed_mm3
+        path.removed_mm3()
     );
 }
 

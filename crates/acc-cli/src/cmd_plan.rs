@@ -46,6 +46,7 @@ impl PlanInput {
             cell: self.cell,
             tools: self.tools.clone(),
             plan: None,
+            oracle: false,
         };
         let path = crate::cmd_sim_program::load(&program_args, &sc)?
             .ok_or_else(|| anyhow::anyhow!("no program"))?;
