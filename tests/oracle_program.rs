@@ -44,8 +44,7 @@ fn run(sc: &Scenario, path: &ProgramPath, law: LawKind, plan: bool) -> RunResult
 
 #[test]
 fn no_shipped_law_beats_the_oracle_on_the_pocket_program() {
-    let base =
-        Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
+    let base = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
     let path = pocket_program(&base, POCKET_BOX);
     let sc = path.scenario_for(&base);
     let fr = sc.controller.force_ref_n;
@@ -115,8 +114,7 @@ fn no_shipped_law_beats_the_oracle_on_the_pocket_program() {
 /// The search has no randomness: the same program, the same figures.
 #[test]
 fn the_program_oracle_is_deterministic() {
-    let base =
-        Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
+    let base = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
     let path = e2e_support::program_path(
         &base,
         &root().join("tests/nc/slot_straight.ngc"),
