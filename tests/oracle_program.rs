@@ -7,40 +7,11 @@
 mod e2e_support;
 
 use acc_sim::oracle_program::{peak_n, program_oracle, ProgramPlant};
-use acc_sim::program::ProgramPath;
 use acc_sim::program_summary::{summarize_program, ProgramSummary};
-use acc_sim::{LawKind, RunResult, Scenario};
-use e2e_support::{pocket_program, root};
+use acc_sim::{LawKind, Scenario};
+use e2e_support::{pocket_program, root, run_program};
 
 const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
-
-/// `law` on the program, as `acc sim --program` runs it (the board's engagement source is
-/// the program; with `plan` the look-ahead of the program's own plan, as `--plan`).
-fn run(sc: &Scenario, path: &ProgramPath, law: LawKind, plan: bool) -> RunResult {
-    let mut l = path.build_law(sc, law).expect("law");
-    let mut channel = sc.build_channel().expect("channel");
-    let lookahead = plan.then(|| {
-        let params = acc_sim::plan::PlanParams::of(sc);
-        let cfg = acc_runtime::LookAheadConfig::new(
-            sc.controller.period_s,
-            sc.controller.force_ref_n,
-            sc.policy.max_override_pct,
-        );
-        acc_runtime::LookAhead::new(path.plan(&params), cfg)
-    });
-    let p = path.clone();
-    let setup = acc_sim::run::RunSetup::<std::io::Sink> {
-        log: None,
-        shop: None,
-        prepare: &mut |b| b.set_engagement_source(Some(Box::new(p.clone()))),
-        observe: &mut |_| {},
-        pace: acc_sim::run::Pace::Stepped,
-        lookahead,
-    };
-    acc_sim::run::run_setup(sc, l.as_mut(), channel.as_mut(), setup)
-        .expect("run")
-        .0
-}
 
 #[test]
 fn no_shipped_law_beats_the_oracle_on_the_pocket_program() {
@@ -68,10 +39,12 @@ fn no_shipped_law_beats_the_oracle_on_the_pocket_program() {
     let o_peak = o.peak_n.expect("the constant safe feed finishes");
     let mut checked = 0;
     for law in LawKind::ALL {
-        for plan in [false, true] {
-            let r = run(&sc, &path, law, plan);
+        for with_plan in [false, true] {
+            let mut l = path.build_law(&sc, law).expect("law");
+            let plan = with_plan.then(|| path.plan(&acc_sim::plan::PlanParams::of(&sc)));
+            let r = run_program(&sc, &path, l.as_mut(), plan);
             let s: ProgramSummary = summarize_program(&r.rows, fr, sc.controller.period_s);
-            let who = format!("{law:?}{}", if plan { " + plan" } else { "" });
+            let who = format!("{law:?}{}", if with_plan { " + plan" } else { "" });
             eprintln!(
                 "{who}: RMS {:.1} N ({:.2} × oracle), peak {:.0} N, cycle {:.1} s{}",
                 s.rms_error_n,

@@ -130,8 +130,13 @@ pub fn report(
     };
     let o_cycle = ProgramPlant::cycle_s(&o.safe);
     let mut s = format!(
-        "oracle force RMS error {:.1} N (a grid law that knows the engagement ahead, noise-free plant; docs/programs.md)\n",
-        o.rms.summary.rms_error_n
+        "oracle force RMS error {:.1} N (a grid law that knows the engagement ahead, noise-free plant; docs/programs.md){}\n",
+        o.rms.summary.rms_error_n,
+        if o.rms.finished {
+            ""
+        } else {
+            "; its run does not reach the end of the program within the time limit"
+        }
     );
     s += &match o.peak_n {
         Some(p) => format!(
