@@ -6,7 +6,7 @@
 
 mod e2e_support;
 
-use acc_runtime::{LookAhead, LookAheadConfig, Plan};
+use acc_runtime::Plan;
 use acc_sim::plan::PlanParams;
 use acc_sim::program::{event_peaks, EventKind, ProgramPath};
 use acc_sim::{LawKind, RunResult, Scenario};
@@ -22,28 +22,7 @@ fn scenario() -> Scenario {
 fn run(base: &Scenario, path: &ProgramPath, plan: Option<Plan>) -> RunResult {
     let sc = path.scenario_for(base);
     let mut law = sc.build_law(LawKind::Ours).expect("law");
-    let mut channel = sc.build_channel().expect("channel");
-    let lookahead = plan.map(|p| {
-        LookAhead::new(
-            p,
-            LookAheadConfig::new(
-                sc.controller.period_s,
-                sc.controller.force_ref_n,
-                sc.policy.max_override_pct,
-            ),
-        )
-    });
-    let setup = acc_sim::run::RunSetup::<std::io::Sink> {
-        log: None,
-        shop: None,
-        prepare: &mut |b| b.set_engagement_source(Some(Box::new(path.clone()))),
-        observe: &mut |_| {},
-        pace: acc_sim::run::Pace::Stepped,
-        lookahead,
-    };
-    acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)
-        .expect("run")
-        .0
+    e2e_support::run_program(&sc, path, law.as_mut(), plan)
 }
 
 /// The highest peak (N) at the path's entries and at its corners the run reached.

@@ -24,18 +24,7 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
     let path = pocket_program(&base, POCKET_BOX);
     let sc = path.scenario_for(&base);
     let mut law = sc.build_law(LawKind::Ours).expect("law");
-    let mut channel = sc.build_channel().expect("channel");
-    let p = path.clone();
-    let setup = acc_sim::run::RunSetup::<std::io::Sink> {
-        log: None,
-        shop: None,
-        prepare: &mut |b| b.set_engagement_source(Some(Box::new(p.clone()))),
-        observe: &mut |_| {},
-        pace: acc_sim::run::Pace::Stepped,
-        lookahead: None,
-    };
-    let (run, _) =
-        acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup).expect("run");
+    let run = e2e_support::run_program(&sc, &path, law.as_mut(), None);
     assert!(run.finished, "the program ran to its end");
     // The blocks the board reported are the program's, in program order.
     let program_blocks: Vec<u16> = path
@@ -81,10 +70,10 @@ fn the_loop_runs_a_pocket_program_and_the_board_reports_its_blocks() {
     // which the stock removes and the plant's side-milling force law does not see.
     let plunges = 2.0 * std::f64::consts::PI * 8.0 * 8.0 * 2.0;
     assert!(
-        (run.volume_mm3 + plunges - path.removed_mm3).abs() < 0.01 * path.removed_mm3,
+        (run.volume_mm3 + plunges - path.removed_mm3()).abs() < 0.01 * path.removed_mm3(),
         "plant {:.0} mm³, stock {:.0} mm³",
         run.volume_mm3,
-        path.removed_mm3
+        path.removed_mm3()
     );
 }
 

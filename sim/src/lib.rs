@@ -35,6 +35,7 @@ pub use acc_plant::{
 pub mod baselines;
 pub mod optimize;
 pub mod oracle;
+pub mod oracle_program;
 pub mod plan;
 pub mod program;
 pub mod program_summary;

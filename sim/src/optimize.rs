@@ -412,7 +412,7 @@ pub fn optimize(
     let ranges = call_ranges(file, path)?;
     // Path positions of the plunge steps: the force law does not cover them.
     let plunges: Vec<f64> = path
-        .steps
+        .steps()
         .iter()
         .filter(|(_, s)| s.kind == acc_stock::StepKind::Plunge)
         .map(|(x, _)| *x)

@@ -46,6 +46,10 @@
 //! override (the crossing of Fr is found by bisection, warm-started at the last period's
 //! choice); below the crossing a Dinkelbach step tries every position on the 10 % grid, and
 //! on the 1 % grid the ten below the crossing and every tenth below them.
+//!
+//! One search serves every plant ([`OraclePlant`]): a 1-D scenario ([`oracle`], rows
+//! attributed to cuts by the workpiece's segments) and an NC program on a stock
+//! ([`crate::oracle_program`], rows attributed by force as the program summary does).
 
 use acc_runtime::RunRecord;
 
@@ -54,13 +58,76 @@ use crate::run::RunResult;
 use crate::scenario::Scenario;
 use crate::summary::{summarize, Attribution, Summary};
 
-/// The three oracle figures of a scenario, each with the run that reaches it.
+/// What the oracle searches on: the plant, which periods count in the RMS, and the
+/// summary its runs go through (the same code as the laws' runs).
+pub trait OraclePlant: Sync {
+    /// The summary of one run.
+    type Summary: Send;
+    /// The scenario: override grid, control period, time limit.
+    fn scenario(&self) -> &Scenario;
+    /// A fresh plant at the start of the run.
+    fn build_machine(&self) -> Machine;
+    /// Whether a period counts in the RMS: `row` is the candidate override's row, `fastest`
+    /// the row of the same period at the grid's top override.
+    fn in_cut(&self, row: &RunRecord, fastest: &RunRecord) -> bool;
+    /// The summary of a run.
+    fn summarize(&self, run: &RunResult) -> Self::Summary;
+    /// A summary's force RMS error while cutting, N.
+    fn rms_n(summary: &Self::Summary) -> f64;
+    /// A summary's cycle time, s (`None`: the run did not finish).
+    fn cycle_s(summary: &Self::Summary) -> Option<f64>;
+    /// The constant safe feed (the peak figure's time budget runs at it), percent.
+    fn safe_override_pct(&self) -> u16;
+}
+
+/// A 1-D scenario as the oracle's plant: rows attributed to cuts by the workpiece's
+/// segments ([`Attribution`]), the per-segment [`Summary`].
+struct ScenarioPlant<'a> {
+    scenario: &'a Scenario,
+    attribution: Attribution,
+}
+
+impl OraclePlant for ScenarioPlant<'_> {
+    type Summary = Summary;
+
+    fn scenario(&self) -> &Scenario {
+        self.scenario
+    }
+
+    fn build_machine(&self) -> Machine {
+        self.scenario.build_machine()
+    }
+
+    fn in_cut(&self, row: &RunRecord, _fastest: &RunRecord) -> bool {
+        let i = self.attribution.segment(row.x_true_mm.unwrap_or(0.0));
+        self.scenario.workpiece.segments[i].is_cut()
+    }
+
+    fn summarize(&self, run: &RunResult) -> Summary {
+        summarize(run, self.scenario)
+    }
+
+    fn rms_n(summary: &Summary) -> f64 {
+        summary.rms_error_cut_n
+    }
+
+    fn cycle_s(summary: &Summary) -> Option<f64> {
+        summary.cycle_time_s
+    }
+
+    fn safe_override_pct(&self) -> u16 {
+        self.scenario.safe_override_pct()
+    }
+}
+
+/// The three oracle figures of a plant, each with the run that reaches it (`S`: the
+/// plant's summary, [`OraclePlant::Summary`]).
 #[derive(Debug, Clone)]
-pub struct Oracle {
-    /// The lowest-RMS run (its `rms_error_cut_n` is the RMS figure).
-    pub rms: Summary,
-    /// The fastest run with no row above Fr (its `cycle_time_s` is the cycle figure).
-    pub safe: Summary,
+pub struct Oracle<S = Summary> {
+    /// The lowest-RMS run (its RMS error is the RMS figure).
+    pub rms: S,
+    /// The fastest run with no row above Fr (its cycle time is the cycle figure).
+    pub safe: S,
     /// The lowest peak force of a grid law no slower than the constant safe feed, N
     /// (`None`: the constant safe feed does not finish within the scenario's time limit).
     pub peak_n: Option<f64>,
@@ -99,28 +166,27 @@ struct Trial {
 }
 
 /// The plant, the grid and the metric's bookkeeping.
-struct Search<'a> {
-    scenario: &'a Scenario,
+struct Search<'a, P: OraclePlant> {
+    plant: &'a P,
     grid: Vec<u16>,
     period_s: f64,
     fr: f64,
-    attribution: Attribution,
     max_periods: usize,
 }
 
-impl<'a> Search<'a> {
-    fn new(scenario: &'a Scenario, force_ref_n: f64) -> Self {
+impl<'a, P: OraclePlant> Search<'a, P> {
+    fn new(plant: &'a P, force_ref_n: f64) -> Self {
+        let scenario = plant.scenario();
         let spec = scenario.controller.override_spec;
         let step = spec.step_pct.max(1);
         let lo = spec.min_pct.div_ceil(step) * step;
         let grid: Vec<u16> = (lo..=spec.max_pct).step_by(usize::from(step)).collect();
         let period_s = scenario.controller.period_s;
         Search {
-            scenario,
+            plant,
             grid: if grid.is_empty() { vec![lo] } else { grid },
             period_s,
             fr: force_ref_n,
-            attribution: Attribution::new(&scenario.workpiece, scenario.tool.diameter_mm),
             max_periods: (scenario.max_time_s / period_s).ceil() as usize,
         }
     }
@@ -143,6 +209,9 @@ impl<'a> Search<'a> {
             override_cmd_pct: Some(pct),
             override_applied_pct: Some(pct),
             state: "oracle".into(),
+            // A program's block and tool at the period's end, 16 bits as the board reports.
+            block: rec.path_point.map(|p| (p.block & 0xFFFF) as u16),
+            tool: rec.path_point.map(|p| (p.tool & 0xFFFF) as u16),
             ..RunRecord::default()
         };
         let dx_mm = rec.x_mm - x0;
@@ -151,12 +220,6 @@ impl<'a> Search<'a> {
             row,
             dx_mm,
         })
-    }
-
-    /// Whether a row counts in the RMS (attributed to a cutting segment).
-    fn in_cut(&self, row: &RunRecord) -> bool {
-        let i = self.attribution.segment(row.x_true_mm.unwrap_or(0.0));
-        self.scenario.workpiece.segments[i].is_cut()
     }
 
     /// A run from a fresh plant, choosing each period's override with `choose` (given the
@@ -169,7 +232,7 @@ impl<'a> Search<'a> {
         max_periods: usize,
         mut choose: impl FnMut(&Machine, usize) -> Result<(Trial, usize), OracleError>,
     ) -> Result<RunResult, OracleError> {
-        let mut m = self.scenario.build_machine();
+        let mut m = self.plant.build_machine();
         let mut rows = Vec::new();
         let mut prev = self.grid.len() - 1;
         while !m.finished() && rows.len() < max_periods.min(self.max_periods) {
@@ -264,8 +327,12 @@ impl<'a> Search<'a> {
                 Ok(())
             };
             eval(n - 1, &mut trials)?;
+            let fastest = trials[n - 1]
+                .as_ref()
+                .map(|t| t.row.clone())
+                .ok_or(OracleError::NotClonable)?;
             if let Some(t) = &trials[n - 1] {
-                if !self.in_cut(&t.row) {
+                if !self.plant.in_cut(&t.row, &fastest) {
                     let t = trials[n - 1].take().ok_or(OracleError::NotClonable)?;
                     return Ok((t, n - 1));
                 }
@@ -286,7 +353,7 @@ impl<'a> Search<'a> {
                 let Some(t) = trials[i].as_ref() else {
                     return Ok(f64::INFINITY);
                 };
-                let (cost, e2) = if self.in_cut(&t.row) {
+                let (cost, e2) = if self.plant.in_cut(&t.row, &fastest) {
                     let e2 = (t.row.force_n.unwrap_or(0.0) - self.fr).powi(2);
                     let cost = match lambda {
                         None => e2,
@@ -355,16 +422,27 @@ impl<'a> Search<'a> {
 /// Compute the oracle of `scenario` with the force reference `force_ref_n` (the summaries'
 /// Fr, N).
 pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleError> {
-    let s = Search::new(scenario, force_ref_n);
-    let summary = |r: &RunResult| {
-        let mut sum = summarize(r, scenario);
-        sum.law = "oracle".into();
-        sum
+    let plant = ScenarioPlant {
+        scenario,
+        attribution: Attribution::new(&scenario.workpiece, scenario.tool.diameter_mm),
     };
+    let mut o = oracle_on(&plant, force_ref_n)?;
+    o.rms.law = "oracle".into();
+    o.safe.law = "oracle".into();
+    Ok(o)
+}
+
+/// Compute the oracle on `plant` with the force reference `force_ref_n` (the summaries'
+/// Fr, N).
+pub fn oracle_on<P: OraclePlant>(
+    plant: &P,
+    force_ref_n: f64,
+) -> Result<Oracle<P::Summary>, OracleError> {
+    let s = Search::new(plant, force_ref_n);
     // The RMS figure on one thread, the cycle and peak figures on another.
     let (rms, rest) = std::thread::scope(|scope| {
-        let rms = scope.spawn(|| rms_figure(&s, &summary));
-        let rest = safe_and_peak(&s, scenario, force_ref_n, &summary);
+        let rms = scope.spawn(|| rms_figure(&s));
+        let rest = safe_and_peak(&s, force_ref_n);
         (rms.join(), rest)
     });
     let rms = rms.map_err(|_| OracleError::Panicked)??;
@@ -379,17 +457,13 @@ pub fn oracle(scenario: &Scenario, force_ref_n: f64) -> Result<Oracle, OracleErr
 }
 
 /// The RMS figure: the per-row optimum, then Dinkelbach steps on the ratio `Σe²/N`.
-fn rms_figure(
-    s: &Search<'_>,
-    summary: &(impl Fn(&RunResult) -> Summary + Sync),
-) -> Result<Summary, OracleError> {
-    let mut rms = summary(&s.rms_run(None)?);
+fn rms_figure<P: OraclePlant>(s: &Search<'_, P>) -> Result<P::Summary, OracleError> {
+    let mut rms = s.plant.summarize(&s.rms_run(None)?);
     for _ in 0..DINKELBACH_STEPS {
-        let lambda = rms.rms_error_cut_n.powi(2);
-        let next = summary(&s.rms_run(Some(lambda))?);
+        let lambda = P::rms_n(&rms).powi(2);
+        let next = s.plant.summarize(&s.rms_run(Some(lambda))?);
         // A run that stalls (dwells in air before a cut) does not cut the part: not a law.
-        if next.cycle_time_s.is_some() && next.rms_error_cut_n < rms.rms_error_cut_n * (1.0 - 1e-3)
-        {
+        if P::cycle_s(&next).is_some() && P::rms_n(&next) < P::rms_n(&rms) * (1.0 - 1e-3) {
             rms = next;
         } else {
             break;
@@ -400,16 +474,14 @@ fn rms_figure(
 
 /// The cycle figure (the fastest run with no row above Fr) and the peak figure with its
 /// time budget (the constant safe feed's cycle on the same plant), s.
-fn safe_and_peak(
-    s: &Search<'_>,
-    scenario: &Scenario,
+fn safe_and_peak<P: OraclePlant>(
+    s: &Search<'_, P>,
     force_ref_n: f64,
-    summary: &(impl Fn(&RunResult) -> Summary + Sync),
-) -> Result<(Summary, f64, f64), OracleError> {
+) -> Result<(P::Summary, f64, f64), OracleError> {
     let safe_run = s.safe_run(force_ref_n, usize::MAX)?;
-    let safe = summary(&safe_run);
+    let safe = s.plant.summarize(&safe_run);
     // Peak: the constant safe feed's cycle on the same plant is the time budget.
-    let pct = scenario.safe_override_pct();
+    let pct = s.plant.safe_override_pct();
     let constant = s.run("constant-safe", usize::MAX, |m, _| {
         Ok((s.trial(m, pct)?, 0))
     })?;

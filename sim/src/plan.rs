@@ -230,6 +230,33 @@ impl ProgramPath {
         plan_along(&mut source, &self.knots(), |x| self.position_at(x), p)
     }
 
+    /// The program's constant safe feed on `scenario` (the one override on the grid whose
+    /// predicted peak over the whole program is ≤ Fr: [`PlanFigures::safe_override_pct`] of
+    /// this program's plan), percent: `acc sim --law constant-safe` and the oracle's peak
+    /// budget.
+    pub fn safe_override_pct(&self, scenario: &Scenario) -> u16 {
+        let params = PlanParams::of(scenario);
+        PlanFigures::of(&self.plan(&params), params.grid.max_pct).safe_override_pct
+    }
+
+    /// Law `kind` on `scenario` for this program: [`Scenario::build_law`], except that the
+    /// constant safe feed is the program's own ([`ProgramPath::safe_override_pct`]).
+    pub fn build_law(
+        &self,
+        scenario: &Scenario,
+        kind: crate::LawKind,
+    ) -> Result<Box<dyn acc_core::OverrideLaw>, crate::SimError> {
+        if kind != crate::LawKind::ConstantSafeFeed {
+            return scenario.build_law(kind);
+        }
+        Ok(Box::new(crate::baselines::ConstantFeed::at(
+            scenario.controller.override_spec,
+            scenario.controller.force_ref_n,
+            self.safe_override_pct(scenario),
+            "constant-safe",
+        )))
+    }
+
     /// The [`intervals`] of this program between its [`ProgramPath::knots`].
     pub fn intervals(&self, p: &PlanParams) -> Vec<Interval> {
         let mut source = self.clone();
@@ -239,7 +266,7 @@ impl ProgramPath {
     /// The knots of the plan: the path's start and end, its engagement steps and its
     /// pieces' starts (where the feed changes), in order, mm.
     pub fn knots(&self) -> Vec<f64> {
-        let mut knots: Vec<f64> = self.steps.iter().map(|(x, _)| *x).collect();
+        let mut knots: Vec<f64> = self.steps().iter().map(|(x, _)| *x).collect();
         knots.extend(self.piece_starts_mm());
         knots.push(EngagementSource::path_length_mm(self).unwrap_or(0.0));
         knots.push(0.0);

@@ -11,6 +11,7 @@
 //! tool of the piece the tool is in.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use acc_nc::PathSegment;
 use acc_plant::engagement::{
@@ -58,11 +59,21 @@ pub struct ProgramSpec {
     pub tools: Option<PathBuf>,
 }
 
-/// The program's path with the engagement of every step along it.
+/// The program's path with the engagement of every step along it. The data is immutable
+/// once built and shared behind an [`Arc`]: a copy (one per plant copy the oracle tries,
+/// [`EngagementSource::boxed_clone`]) is a reference count, not a copy of the path, the
+/// engagement steps and the stock picture.
 #[derive(Debug, Clone)]
 pub struct ProgramPath {
+    data: Arc<PathData>,
+}
+
+/// What [`ProgramPath`] shares between its copies.
+#[derive(Debug)]
+struct PathData {
     /// The program's canonical calls (what `segments` came from).
     calls: Vec<acc_nc::CanonCall>,
+    /// The straight pieces, each with its block (N word, else line), tool and feed.
     segments: Vec<PathSegment>,
     /// Path position where each segment starts, mm.
     start_mm: Vec<f64>,
@@ -70,16 +81,15 @@ pub struct ProgramPath {
     rapid_mm_min: f64,
     profile: EngagementProfile,
     /// Steps whose rapid move ran through stock.
-    pub rapid_collisions: usize,
+    rapid_collisions: usize,
     /// Steps with material above the flutes.
-    pub beyond_flutes: usize,
+    beyond_flutes: usize,
     /// Material the whole program removes, mm³.
-    pub removed_mm3: f64,
+    removed_mm3: f64,
     /// The stock after the whole program.
-    pub stock_after: ZMap,
-    /// Path positions of the engagement steps, mm, and their engagement, for the plan's
-    /// figures (entries, corners).
-    pub steps: Vec<(f64, acc_stock::StepEngagement)>,
+    stock_after: ZMap,
+    /// Path positions of the engagement steps, mm, and their engagement.
+    steps: Vec<(f64, acc_stock::StepEngagement)>,
 }
 
 /// The tool the program's piece `seg` is cut with: the tool table's diameter for its T
@@ -259,63 +269,93 @@ impl ProgramPath {
         let profile = EngagementProfile::new(x, points)
             .ok_or_else(|| SimError::Program("engagement profile out of order".into()))?;
         Ok(ProgramPath {
-            calls: program.calls,
-            segments,
-            start_mm,
-            length_mm: at,
-            rapid_mm_min,
-            profile,
-            rapid_collisions: collisions,
-            beyond_flutes: beyond,
-            removed_mm3: removed,
-            stock_after,
-            steps,
+            data: Arc::new(PathData {
+                calls: program.calls,
+                segments,
+                start_mm,
+                length_mm: at,
+                rapid_mm_min,
+                profile,
+                rapid_collisions: collisions,
+                beyond_flutes: beyond,
+                removed_mm3: removed,
+                stock_after,
+                steps,
+            }),
         })
+    }
+
+    /// Steps whose rapid move ran through stock.
+    pub fn rapid_collisions(&self) -> usize {
+        self.data.rapid_collisions
+    }
+
+    /// Steps with material above the flutes.
+    pub fn beyond_flutes(&self) -> usize {
+        self.data.beyond_flutes
+    }
+
+    /// Material the whole program removes, mm³.
+    pub fn removed_mm3(&self) -> f64 {
+        self.data.removed_mm3
+    }
+
+    /// The stock after the whole program.
+    pub fn stock_after(&self) -> &ZMap {
+        &self.data.stock_after
+    }
+
+    /// Path positions of the engagement steps, mm, and their engagement, for the plan's
+    /// figures (entries, corners).
+    pub fn steps(&self) -> &[(f64, acc_stock::StepEngagement)] {
+        &self.data.steps
     }
 
     /// The program's canonical calls, in execution order (the interpreter's output the
     /// path was made of).
     pub fn calls(&self) -> &[acc_nc::CanonCall] {
-        &self.calls
+        &self.data.calls
     }
 
     /// The straight pieces of the path.
     pub fn segments(&self) -> &[PathSegment] {
-        &self.segments
+        &self.data.segments
     }
 
     /// Path position where each piece starts, mm.
     pub fn piece_starts_mm(&self) -> &[f64] {
-        &self.start_mm
+        &self.data.start_mm
     }
 
     /// Index of the piece at path position `x_mm` (the last one past the end).
     fn segment_at(&self, x_mm: f64) -> usize {
-        self.start_mm
+        self.data
+            .start_mm
             .partition_point(|s| *s <= x_mm)
             .saturating_sub(1)
-            .min(self.segments.len().saturating_sub(1))
+            .min(self.data.segments.len().saturating_sub(1))
     }
 
     /// The tool's position in space at path position `x_mm`, mm.
     pub fn position_at(&self, x_mm: f64) -> [f64; 3] {
         let i = self.segment_at(x_mm);
-        let s = &self.segments[i];
+        let s = &self.data.segments[i];
         let len = s.length_mm().max(1e-12);
-        let t = ((x_mm - self.start_mm[i]) / len).clamp(0.0, 1.0);
+        let t = ((x_mm - self.data.start_mm[i]) / len).clamp(0.0, 1.0);
         [0, 1, 2].map(|k| s.from[k] + t * (s.to[k] - s.from[k]))
     }
 
     /// The machine time of the whole path at its programmed feeds (rapids at the rapid
     /// rate), s.
     pub fn nominal_time_s(&self) -> f64 {
-        self.segments
+        self.data
+            .segments
             .iter()
             .map(|s| {
                 let f = if s.rapid {
-                    self.rapid_mm_min
+                    self.data.rapid_mm_min
                 } else {
-                    s.feed_mm_min.min(self.rapid_mm_min)
+                    s.feed_mm_min.min(self.data.rapid_mm_min)
                 };
                 60.0 * s.length_mm() / f.max(1e-9)
             })
@@ -335,7 +375,7 @@ impl ProgramPath {
 
     /// Whether no step of the program engages the stock (it cuts air: a warning).
     pub fn cuts_air_only(&self) -> bool {
-        self.steps.iter().all(|(_, s)| s.kind != StepKind::Cut)
+        self.data.steps.iter().all(|(_, s)| s.kind != StepKind::Cut)
     }
 }
 
@@ -367,11 +407,11 @@ impl ProgramPath {
     pub fn events(&self) -> Vec<PathEvent> {
         let mut out = Vec::new();
         let block_at = |x: f64| {
-            let s = &self.segments[self.segment_at(x)];
+            let s = &self.data.segments[self.segment_at(x)];
             s.block.unwrap_or(s.line)
         };
         let mut was_cut = false;
-        for (x, st) in &self.steps {
+        for (x, st) in &self.data.steps {
             let cut = st.kind == StepKind::Cut;
             if cut && !was_cut {
                 out.push(PathEvent {
@@ -388,16 +428,16 @@ impl ProgramPath {
             (n > 1e-9).then(|| [d[0] / n, d[1] / n])
         };
         let cos_max = CORNER_DEG.to_radians().cos();
-        for k in 1..self.segments.len() {
-            let (a, b) = (&self.segments[k - 1], &self.segments[k]);
+        for k in 1..self.data.segments.len() {
+            let (a, b) = (&self.data.segments[k - 1], &self.data.segments[k]);
             if a.rapid || b.rapid {
                 continue;
             }
             let (Some(u), Some(v)) = (dir(a), dir(b)) else {
                 continue;
             };
-            let at = self.start_mm[k];
-            let cutting = self.profile.at(at + 0.5 * self.steps_mm()).radial_mm > 0.0;
+            let at = self.data.start_mm[k];
+            let cutting = self.data.profile.at(at + 0.5 * self.steps_mm()).radial_mm > 0.0;
             if u[0] * v[0] + u[1] * v[1] < cos_max && cutting {
                 out.push(PathEvent {
                     kind: EventKind::Corner,
@@ -412,7 +452,8 @@ impl ProgramPath {
 
     /// The engagement steps' spacing along the path, mm.
     fn steps_mm(&self) -> f64 {
-        self.steps
+        self.data
+            .steps
             .windows(2)
             .map(|w| w[1].0 - w[0].0)
             .find(|d| *d > 0.0)
@@ -453,17 +494,17 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 
 impl EngagementSource for ProgramPath {
     fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
-        self.profile.at(x_mm)
+        self.data.profile.at(x_mm)
     }
 
     fn path_at(&self, x_mm: f64) -> Option<PathPoint> {
-        let s = &self.segments[self.segment_at(x_mm)];
+        let s = &self.data.segments[self.segment_at(x_mm)];
         Some(PathPoint {
             // The control clamps an F word at the machine's fastest feed (the rapid rate).
             feed_mm_min: if s.rapid {
-                self.rapid_mm_min
+                self.data.rapid_mm_min
             } else {
-                s.feed_mm_min.min(self.rapid_mm_min)
+                s.feed_mm_min.min(self.data.rapid_mm_min)
             },
             rapid: s.rapid,
             block: s.block.unwrap_or(s.line),
@@ -472,7 +513,7 @@ impl EngagementSource for ProgramPath {
     }
 
     fn path_length_mm(&self) -> Option<f64> {
-        Some(self.length_mm)
+        Some(self.data.length_mm)
     }
 
     fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {

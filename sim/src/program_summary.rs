@@ -59,10 +59,20 @@ pub struct ProgramSummary {
     pub rms_error_n: f64,
 }
 
+/// A row counts as cutting when its force is above this share of Fr (a program's rows are
+/// attributed to cuts by force: its path has no segments that say where the cuts are).
+pub const CUTTING_SHARE_OF_FR: f64 = 0.05;
+
+/// Whether `row` is cutting: its force above [`CUTTING_SHARE_OF_FR`] of `force_ref_n` (N).
+pub fn is_cutting(row: &RunRecord, force_ref_n: f64) -> bool {
+    row.force_n
+        .is_some_and(|f| f > CUTTING_SHARE_OF_FR * force_ref_n)
+}
+
 /// Summarise `rows` with the force reference `force_ref_n` (N) and control period
 /// `period_s` (s).
 pub fn summarize_program(rows: &[RunRecord], force_ref_n: f64, period_s: f64) -> ProgramSummary {
-    let cutting = |r: &RunRecord| r.force_n.is_some_and(|f| f > 0.05 * force_ref_n);
+    let cutting = |r: &RunRecord| is_cutting(r, force_ref_n);
     let mut blocks: Vec<BlockRow> = Vec::new();
     let mut sums: Vec<(f64, usize, f64, usize)> = Vec::new();
     for r in rows {

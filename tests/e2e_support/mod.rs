@@ -432,6 +432,39 @@ pub fn pocket_program(sc: &acc_sim::Scenario, stock_box: &str) -> acc_sim::progr
     )
 }
 
+/// `law` on the program `path` with `sc` (the program's scenario), as `acc sim --program`
+/// runs it: the board's engagement source is the program; with `plan` that plan's
+/// look-ahead, as `--plan`.
+pub fn run_program(
+    sc: &acc_sim::Scenario,
+    path: &acc_sim::program::ProgramPath,
+    law: &mut dyn acc_core::OverrideLaw,
+    plan: Option<acc_runtime::Plan>,
+) -> acc_sim::RunResult {
+    let mut channel = sc.build_channel().expect("channel");
+    let lookahead = plan.map(|p| {
+        acc_runtime::LookAhead::new(
+            p,
+            acc_runtime::LookAheadConfig::new(
+                sc.controller.period_s,
+                sc.controller.force_ref_n,
+                sc.policy.max_override_pct,
+            ),
+        )
+    });
+    let setup = acc_sim::run::RunSetup::<std::io::Sink> {
+        log: None,
+        shop: None,
+        prepare: &mut |b| b.set_engagement_source(Some(Box::new(path.clone()))),
+        observe: &mut |_| {},
+        pace: acc_sim::run::Pace::Stepped,
+        lookahead,
+    };
+    acc_sim::run::run_setup(sc, law, channel.as_mut(), setup)
+        .expect("run")
+        .0
+}
+
 /// The program `file` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm, cells of `cell_mm`), with
 /// `sc`'s tool, spindle speed and rapid rate.
 pub fn program_path(

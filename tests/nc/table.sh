@@ -5,10 +5,14 @@
 # feed (`--law constant-safe`: the one override whose predicted peak over the whole program
 # is ≤ Fr), on the stock given; then rewritten by `acc optimize` and the optimized program
 # run at a constant 100 % override (`--law constant`, no ACC), with ACC, and with ACC and
-# the look-ahead of the optimized program's own plan. Prints three
-# markdown tables (feedback alone; with the plan; cycle time and peak force of every way).
+# the look-ahead of the optimized program's own plan. The feedback-alone run also computes
+# the program's oracle (`--oracle`: the lowest force RMS error a law on the board's grid
+# that knows the engagement ahead reaches), and both ACC runs get their ratio to it.
+# Prints three markdown tables (feedback alone; with the plan; cycle time and peak force
+# of every way).
 #
-#   tests/nc/table.sh            # uses ${ACC:-target/release/acc}
+#   tests/nc/table.sh                      # uses ${ACC:-target/release/acc}
+#   ACC=target/debug/acc tests/nc/table.sh # the dev-profile build
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 ACC=${ACC:-${ROOT}/target/release/acc}
@@ -24,6 +28,8 @@ nc3:linuxcnc_3D_Chips.ngc -50,-50,-50,50,50,0'
 ev() { sed -n "s/^$1: \([0-9]*\); highest true peak \([0-9.]*\) Fr.*mean peak \([0-9.]*\) Fr/\1: \2 \/ \3/p" <<<"$2"; }
 cyc() { local c; c=$(sed -n 's/^cycle time \([0-9.]*\) s;.*/\1/p' <<<"$1"); grep -q "ended before the end" <<<"$1" && c="${c} (did not finish)"; echo "${c}"; }
 rms() { sed -n 's/.*force RMS error while cutting \([0-9.]*\) N.*/\1/p' <<<"$1"; }
+orms() { sed -n 's/^oracle force RMS error \([0-9.]*\) N.*/\1/p' <<<"$1"; }
+oratio() { awk -v a="$1" -v b="$2" 'BEGIN{if (b > 0) printf "%.2f", a/b; else printf "-"}'; }
 declare -A FB LA SAFE PLAN OPT OPT100 OPTACC OPTLA
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
@@ -32,7 +38,7 @@ while read -r prog stock; do
     d=${OUT}/${name}
     PLAN[${name}]=$("${ACC}" plan "${file}" --stock-box="${stock}" --no-plot --out "${d}/plan" 2>/dev/null)
     run() { "${ACC}" sim paper_case3 --program "${file}" --stock-box="${stock}" --no-plot --out "${d}/$1" "${@:2}" 2>/dev/null; }
-    FB[${name}]=$(run fb --law ours)
+    FB[${name}]=$(run fb --law ours --oracle)
     LA[${name}]=$(run la --law ours --plan "${d}/plan/plan.csv")
     SAFE[${name}]=$(run safe --law constant-safe)
     OPT[${name}]=$("${ACC}" optimize "${file}" --stock-box="${stock}" --out "${d}/opt/${name%.ngc}.opt.ngc" 2>/dev/null)
@@ -44,33 +50,33 @@ while read -r prog stock; do
 done <<<"${LIST}"
 echo "Feedback alone (ACC, no plan):"
 echo
-echo "| program | stock, mm | pieces | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | cycle with ACC, s | program's constant safe feed, % | cycle at it, s | ratio |"
-echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+echo "| program | stock, mm | pieces | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | oracle's force RMS error, N | RMS / oracle | cycle with ACC, s | program's constant safe feed, % | cycle at it, s | ratio |"
+echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
     name=$(basename "${file}")
-    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | | |"; continue; }
-    o=${FB[${name}]}; s=${SAFE[${name}]}
+    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | | | | |"; continue; }
+    o=${FB[${name}]}; s=${SAFE[${name}]}; orc=$(orms "${o}")
     pieces=$(sed -n 's/^program: \([0-9]*\) pieces.*/\1/p' <<<"${o}")
     pct=$(sed -n 's/^constant safe feed of the program: \([0-9]*\) %/\1/p' <<<"${s}")
     c1=$(cyc "${o}"); c0=$(cyc "${s}")
     ratio=$(awk -v a="${c1%% *}" -v b="${c0%% *}" 'BEGIN{printf "%.2f", a/b}')
-    echo "| ${name} | ${stock} | ${pieces} | $(ev entries "${o}") | $(ev corners "${o}" || true) | $(rms "${o}") | ${c1} | ${pct} | ${c0} | ${ratio} |" | sed 's/|  |/| none |/g'
+    echo "| ${name} | ${stock} | ${pieces} | $(ev entries "${o}") | $(ev corners "${o}" || true) | $(rms "${o}") | ${orc} | $(oratio "$(rms "${o}")" "${orc}") | ${c1} | ${pct} | ${c0} | ${ratio} |" | sed 's/|  |/| none |/g'
 done <<<"${LIST}"
 echo
 echo "ACC with the plan's look-ahead (\`acc plan\`, then \`acc sim --plan\`):"
 echo
-echo "| program | plan rows | predicted peak at 100 %, Fr | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | cycle, s | disagreement periods |"
-echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
+echo "| program | plan rows | predicted peak at 100 %, Fr | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | cycle, s | disagreement periods |"
+echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
     name=$(basename "${file}")
-    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | |"; continue; }
+    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | |"; continue; }
     o=${LA[${name}]}; p=${PLAN[${name}]}
     rows=$(sed -n 's/^\([0-9]*\) rows.*/\1/p' <<<"${p}")
     peak=$(sed -n 's/^predicted peak of the feed moves at 100 %: [0-9]* N = \([0-9.]*\) Fr.*/\1/p' <<<"${p}")
     dis=$(grep -c plan_disagree "${OUT}/${name}/la/run.csv" || true)
-    echo "| ${name} | ${rows} | ${peak} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(cyc "${o}") | ${dis} |" | sed 's/|  |/| none |/g'
+    echo "| ${name} | ${rows} | ${peak} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(oratio "$(rms "${o}")" "$(orms "${FB[${name}]}")") | $(cyc "${o}") | ${dis} |" | sed 's/|  |/| none |/g'
 done <<<"${LIST}"
 echo
 echo "Cycle time, s, and the run's highest force / Fr (\`acc sim\`; the optimized program by \`acc optimize\`):"

@@ -63,6 +63,11 @@ pub struct SimArgs {
     /// of every engagement change the plan names (look-ahead, docs/plan.md).
     #[arg(long, value_name = "plan.csv", requires = "program")]
     pub plan: Option<PathBuf>,
+    /// Also compute the oracle of the program (a law on the board's grid that knows the
+    /// engagement ahead, on the noise-free plant: the lowest force RMS error, peak and
+    /// cycle, docs/programs.md) and print the run's ratio to each.
+    #[arg(long, requires = "program")]
+    pub oracle: bool,
     /// The fleet store (`--fleet`, `--machine`).
     #[command(flatten)]
     pub fleet: crate::fleet_cli::FleetArgs,
@@ -128,19 +133,14 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
     let file = File::create(&log_path)
         .with_context(|| format!("{}: cannot create", log_path.display()))?;
     let mut writer = RunLogWriter::new(BufWriter::new(file))?;
-    let mut law = sc.build_law(args.law)?;
+    // A program's constant safe feed is its own: from the plan of its engagement.
+    let mut law = match &program {
+        Some(p) => p.build_law(&sc, args.law)?,
+        None => sc.build_law(args.law)?,
+    };
     if let (Some(p), LawKind::ConstantSafeFeed) = (&program, args.law) {
-        // A program's constant safe feed is its own: from the plan of its engagement.
-        let params = acc_sim::plan::PlanParams::of(&sc);
-        let pct =
-            acc_sim::plan::PlanFigures::of(&p.plan(&params), params.grid.max_pct).safe_override_pct;
+        let pct = p.safe_override_pct(&sc);
         println!("constant safe feed of the program: {pct} %");
-        law = Box::new(acc_sim::baselines::ConstantFeed::at(
-            sc.controller.override_spec,
-            sc.controller.force_ref_n,
-            pct,
-            "constant-safe",
-        ));
     }
     if let Some(x) = args.time_scale {
         if !(x.is_finite() && (0.01..=1000.0).contains(&x)) {
@@ -197,7 +197,9 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         sc.controller.period_s
     );
     match &program {
-        Some(p) => crate::cmd_sim_program::report(&sc, p, &result, &out, !args.no_plot)?,
+        Some(p) => {
+            crate::cmd_sim_program::report(args.oracle, &sc, p, &result, &out, !args.no_plot)?
+        }
         None => print!("{}", summarize(&result, &sc)),
     }
     println!("run log: {}", log_path.display());
@@ -384,6 +386,7 @@ mod tests {
             telemetry: Default::default(),
             program: Default::default(),
             plan: None,
+            oracle: false,
             fleet: Default::default(),
         };
         run_cmd(&args).expect("acc sim");

@@ -113,26 +113,28 @@ pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramP
             program.display()
         );
     }
-    if path.rapid_collisions > 0 {
+    if path.rapid_collisions() > 0 {
         eprintln!(
             "warning: {}: rapid moves run through the stock ({} steps)",
             program.display(),
-            path.rapid_collisions
+            path.rapid_collisions()
         );
     }
-    if path.beyond_flutes > 0 {
+    if path.beyond_flutes() > 0 {
         eprintln!(
             "warning: {}: material above the flutes at {} steps",
             program.display(),
-            path.beyond_flutes
+            path.beyond_flutes()
         );
     }
     Ok(Some(path))
 }
 
-/// Print the per-tool and per-block summary, write `blocks.csv` and draw the stock after
-/// the run (`stock.svg`, `stock.png`) into `out`.
+/// Print the per-tool and per-block summary (with `--oracle` the oracle's figures and the
+/// run's ratio to them), write `blocks.csv` and draw the stock after the run (`stock.svg`,
+/// `stock.png`) into `out`.
 pub fn report(
+    oracle: bool,
     sc: &Scenario,
     path: &ProgramPath,
     result: &RunResult,
@@ -149,7 +151,7 @@ pub fn report(
         path.segments().len(),
         acc_plant::engagement::EngagementSource::path_length_mm(path).unwrap_or(0.0),
         path.nominal_time_s(),
-        path.removed_mm3 / 1000.0
+        path.removed_mm3() / 1000.0
     );
     if !result.finished {
         println!(
@@ -188,12 +190,20 @@ pub fn report(
             None => println!("{name}: none reached"),
         }
     }
+    if oracle {
+        let plant = acc_sim::oracle_program::ProgramPlant::new(sc, path);
+        let o = acc_sim::oracle_program::program_oracle(&plant)?;
+        print!(
+            "{}",
+            acc_sim::oracle_program::report(&o, plant.safe_pct(), &s, result.finished)
+        );
+    }
     let csv = out.join("blocks.csv");
     std::fs::write(&csv, s.blocks_csv())
         .with_context(|| format!("{}: cannot write", csv.display()))?;
     println!("blocks: {}", csv.display());
     if plot {
-        let z = &path.stock_after;
+        let z = path.stock_after();
         let (nx, ny) = z.size();
         let c = z.corner_mm();
         let w = acc_plot::height_field(

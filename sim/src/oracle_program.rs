@@ -1,0 +1,161 @@
+//! The oracle ([`crate::oracle`]) on an NC program: the same search, on the plant that runs
+//! the program (the scenario's machine with the program's [`ProgramPath`] as its
+//! engagement source), with the program summary's attribution of rows to cuts and its
+//! figures ([`summarize_program`]).
+//!
+//! What differs from a 1-D scenario:
+//!
+//! - **Which rows count.** A program's path has no segments that say where the cuts are;
+//!   its summary counts a row as cutting when its force is above 5 % of Fr
+//!   ([`is_cutting`]), and the oracle's figures are read through that same summary. In the
+//!   search a period counts when its row at the grid's top override is cutting, whatever
+//!   override is chosen: a rule on the chosen row's own force would let the search make a
+//!   period "air" by slowing until the force drops under 5 % of Fr.
+//! - **The constant safe feed** (the peak figure's time budget) is the program's own, from
+//!   its plan ([`ProgramPath::safe_override_pct`]), as `acc sim --law constant-safe` runs it.
+//! - **What the plant copies cost.** Every trial copies the plant; the program's path,
+//!   engagement steps and stock picture are shared behind an `Arc`, so a copy is the
+//!   machine's own state (`cargo bench -p acc-sim --bench program_copy`).
+
+use acc_runtime::RunRecord;
+
+use crate::machine::Machine;
+use crate::oracle::{oracle_on, Oracle, OracleError, OraclePlant};
+use crate::program::ProgramPath;
+use crate::program_summary::{is_cutting, summarize_program, ProgramSummary};
+use crate::run::RunResult;
+use crate::scenario::Scenario;
+
+/// A program run as the oracle summarises it.
+#[derive(Debug, Clone)]
+pub struct ProgramRun {
+    /// The program summary of the run's rows.
+    pub summary: ProgramSummary,
+    /// Whether the run reached the end of the program.
+    pub finished: bool,
+}
+
+/// An NC program on the scenario's machine, as the oracle's plant.
+pub struct ProgramPlant {
+    scenario: Scenario,
+    path: ProgramPath,
+    safe_pct: u16,
+}
+
+impl ProgramPlant {
+    /// `path` on `scenario`'s machine, tool and grid (set up as the program runs:
+    /// [`ProgramPath::scenario_for`]).
+    pub fn new(scenario: &Scenario, path: &ProgramPath) -> Self {
+        let scenario = path.scenario_for(scenario);
+        let safe_pct = path.safe_override_pct(&scenario);
+        ProgramPlant {
+            scenario,
+            path: path.clone(),
+            safe_pct,
+        }
+    }
+
+    /// The program's constant safe feed, percent (the peak figure's time budget).
+    pub fn safe_pct(&self) -> u16 {
+        self.safe_pct
+    }
+}
+
+impl OraclePlant for ProgramPlant {
+    type Summary = ProgramRun;
+
+    fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    fn build_machine(&self) -> Machine {
+        let mut m = self.scenario.build_machine();
+        m.set_engagement_source(Some(Box::new(self.path.clone())));
+        m
+    }
+
+    fn in_cut(&self, _row: &RunRecord, fastest: &RunRecord) -> bool {
+        is_cutting(fastest, self.scenario.controller.force_ref_n)
+    }
+
+    fn summarize(&self, run: &RunResult) -> ProgramRun {
+        ProgramRun {
+            summary: summarize_program(
+                &run.rows,
+                self.scenario.controller.force_ref_n,
+                self.scenario.controller.period_s,
+            ),
+            finished: run.finished,
+        }
+    }
+
+    fn rms_n(summary: &ProgramRun) -> f64 {
+        summary.summary.rms_error_n
+    }
+
+    fn cycle_s(summary: &ProgramRun) -> Option<f64> {
+        summary.finished.then_some(summary.summary.cycle_s)
+    }
+
+    fn safe_override_pct(&self) -> u16 {
+        self.safe_pct
+    }
+}
+
+/// The oracle of `plant` with its scenario's Fr.
+pub fn program_oracle(plant: &ProgramPlant) -> Result<Oracle<ProgramRun>, OracleError> {
+    oracle_on(plant, plant.scenario.controller.force_ref_n)
+}
+
+/// The highest force of a program summary's rows, N (the largest per-tool peak).
+pub fn peak_n(summary: &ProgramSummary) -> f64 {
+    summary
+        .tools
+        .iter()
+        .map(|t| t.peak_force_n)
+        .fold(0.0, f64::max)
+}
+
+/// The oracle's figures and a run's ratio to each, as `acc sim --program … --oracle`
+/// prints them (`run`: the run's summary, `finished`: whether it reached the end).
+pub fn report(
+    o: &Oracle<ProgramRun>,
+    safe_pct: u16,
+    run: &ProgramSummary,
+    finished: bool,
+) -> String {
+    let ratio = |v: Option<f64>, o: Option<f64>| match (v, o) {
+        (Some(v), Some(o)) if o > 0.0 => format!("{:.2}", v / o),
+        _ => "-".into(),
+    };
+    let o_cycle = ProgramPlant::cycle_s(&o.safe);
+    let mut s = format!(
+        "oracle force RMS error {:.1} N (a grid law that knows the engagement ahead, noise-free plant; docs/programs.md){}\n",
+        o.rms.summary.rms_error_n,
+        if o.rms.finished {
+            ""
+        } else {
+            "; its run does not reach the end of the program within the time limit"
+        }
+    );
+    s += &match o.peak_n {
+        Some(p) => format!(
+            "oracle peak {p:.1} N (a grid law no slower than the constant safe feed {safe_pct} %, {:.1} s)\n",
+            o.peak_budget_s
+        ),
+        None => format!(
+            "oracle peak -: the constant safe feed {safe_pct} % does not finish within the time limit\n"
+        ),
+    };
+    s += &match o_cycle {
+        Some(c) => format!("oracle cycle {c:.1} s (no row above Fr)\n"),
+        None => "oracle cycle -: no run with every row at or below Fr finishes\n".into(),
+    };
+    s += &format!(
+        "RMS/oracle {}; peak/oracle {}; cycle/oracle {}\n",
+        ratio(Some(run.rms_error_n), Some(o.rms.summary.rms_error_n)),
+        ratio(Some(peak_n(run)), o.peak_n),
+        ratio(finished.then_some(run.cycle_s), o_cycle),
+    );
+    s
+}

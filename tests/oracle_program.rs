@@ -1,0 +1,104 @@
+//! The oracle on an NC program (`acc_sim::oracle_program`, `acc sim --program … --oracle`,
+//! docs/programs.md "The oracle of a program") is a lower bound: on the pocket program
+//! (a slotting entry at two depths, zig-zag clearing and a finishing pass with corners) no
+//! shipped law beats it, with or without the plan's look-ahead; and the search is
+//! deterministic.
+
+mod e2e_support;
+
+use acc_sim::oracle_program::{peak_n, program_oracle, ProgramPlant};
+use acc_sim::program_summary::{summarize_program, ProgramSummary};
+use acc_sim::{LawKind, Scenario};
+use e2e_support::{pocket_program, root, run_program};
+
+const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
+
+#[test]
+fn no_shipped_law_beats_the_oracle_on_the_pocket_program() {
+    let base = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
+    let path = pocket_program(&base, POCKET_BOX);
+    let sc = path.scenario_for(&base);
+    let fr = sc.controller.force_ref_n;
+    let plant = ProgramPlant::new(&sc, &path);
+    let t0 = std::time::Instant::now();
+    let o = program_oracle(&plant).expect("oracle");
+    eprintln!(
+        "oracle: RMS {:.1} N, peak {:?} N (budget {:.1} s at {} %), cycle {:?} s; {:.1} s wall",
+        o.rms.summary.rms_error_n,
+        o.peak_n,
+        o.peak_budget_s,
+        plant.safe_pct(),
+        o.safe.finished.then_some(o.safe.summary.cycle_s),
+        t0.elapsed().as_secs_f64()
+    );
+    // The oracle's runs reach the end of the program, and its fastest safe run has no
+    // row above Fr.
+    assert!(o.rms.finished && o.safe.finished);
+    assert!(peak_n(&o.safe.summary) <= fr + 1e-9);
+    assert!(o.rms.summary.rms_error_n > 0.0);
+    let o_peak = o.peak_n.expect("the constant safe feed finishes");
+    let mut checked = 0;
+    for law in LawKind::ALL {
+        for with_plan in [false, true] {
+            let mut l = path.build_law(&sc, law).expect("law");
+            let plan = with_plan.then(|| path.plan(&acc_sim::plan::PlanParams::of(&sc)));
+            let r = run_program(&sc, &path, l.as_mut(), plan);
+            let s: ProgramSummary = summarize_program(&r.rows, fr, sc.controller.period_s);
+            let who = format!("{law:?}{}", if with_plan { " + plan" } else { "" });
+            eprintln!(
+                "{who}: RMS {:.1} N ({:.2} × oracle), peak {:.0} N, cycle {:.1} s{}",
+                s.rms_error_n,
+                s.rms_error_n / o.rms.summary.rms_error_n,
+                peak_n(&s),
+                s.cycle_s,
+                if r.finished { "" } else { " (did not finish)" }
+            );
+            // A run stopped before the end (the breakage watch's feed hold) did not cut
+            // the part.
+            if !r.finished {
+                continue;
+            }
+            assert!(
+                s.rms_error_n >= o.rms.summary.rms_error_n,
+                "{who}: RMS {:.1} N below the oracle's {:.1} N",
+                s.rms_error_n,
+                o.rms.summary.rms_error_n
+            );
+            if s.cycle_s <= o.peak_budget_s + 1e-9 {
+                assert!(peak_n(&s) >= o_peak, "{who}: peak below the oracle's");
+            }
+            let true_peak = r
+                .rows
+                .iter()
+                .filter_map(|x| x.force_true_n)
+                .fold(0.0, f64::max);
+            if true_peak <= fr {
+                assert!(
+                    s.cycle_s >= o.safe.summary.cycle_s,
+                    "{who}: cycle below the oracle's"
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "only {checked} runs finished");
+}
+
+/// The search has no randomness: the same program, the same figures.
+#[test]
+fn the_program_oracle_is_deterministic() {
+    let base = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
+    let path = e2e_support::program_path(
+        &base,
+        &root().join("tests/nc/slot_straight.ngc"),
+        "-5,-20,-10,60,20,0",
+        0.25,
+    );
+    let plant = ProgramPlant::new(&base, &path);
+    let a = program_oracle(&plant).expect("oracle");
+    let b = program_oracle(&plant).expect("oracle");
+    assert!(a.rms.summary.rms_error_n > 0.0 && a.rms.finished);
+    assert_eq!(a.rms.summary, b.rms.summary);
+    assert_eq!(a.safe.summary, b.safe.summary);
+    assert_eq!(a.peak_n, b.peak_n);
+}
