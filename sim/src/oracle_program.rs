@@ -159,3 +159,35 @@ pub fn report(
     );
     s
 }
+
+/// Run `law` on the program `path` on `scenario` (already set up for the program:
+/// [`ProgramPath::scenario_for`]) on the stepped clock, measuring through the scenario's
+/// channel, with the plan's look-ahead when `plan` is given: the runs `acc compare
+/// --program` sets against the oracle.
+pub fn run_program(
+    scenario: &Scenario,
+    path: &ProgramPath,
+    law: &mut dyn acc_core::OverrideLaw,
+    plan: Option<acc_runtime::Plan>,
+) -> Result<RunResult, crate::SimError> {
+    let mut channel = scenario.build_channel()?;
+    let lookahead = plan.map(|p| {
+        acc_runtime::LookAhead::new(
+            p,
+            acc_runtime::LookAheadConfig::new(
+                scenario.controller.period_s,
+                scenario.controller.force_ref_n,
+                scenario.policy.max_override_pct,
+            ),
+        )
+    });
+    let setup = crate::run::RunSetup::<std::io::Sink> {
+        log: None,
+        shop: None,
+        prepare: &mut |b| b.set_engagement_source(Some(Box::new(path.clone()))),
+        observe: &mut |_| {},
+        pace: crate::run::Pace::Stepped,
+        lookahead,
+    };
+    Ok(crate::run::run_setup(scenario, law, channel.as_mut(), setup)?.0)
+}

@@ -441,28 +441,7 @@ pub fn run_program(
     law: &mut dyn acc_core::OverrideLaw,
     plan: Option<acc_runtime::Plan>,
 ) -> acc_sim::RunResult {
-    let mut channel = sc.build_channel().expect("channel");
-    let lookahead = plan.map(|p| {
-        acc_runtime::LookAhead::new(
-            p,
-            acc_runtime::LookAheadConfig::new(
-                sc.controller.period_s,
-                sc.controller.force_ref_n,
-                sc.policy.max_override_pct,
-            ),
-        )
-    });
-    let setup = acc_sim::run::RunSetup::<std::io::Sink> {
-        log: None,
-        shop: None,
-        prepare: &mut |b| b.set_engagement_source(Some(Box::new(path.clone()))),
-        observe: &mut |_| {},
-        pace: acc_sim::run::Pace::Stepped,
-        lookahead,
-    };
-    acc_sim::run::run_setup(sc, law, channel.as_mut(), setup)
-        .expect("run")
-        .0
+    acc_sim::oracle_program::run_program(sc, path, law, plan).expect("run")
 }
 
 /// The program `file` on a box stock (`X0,Y0,Z0,X1,Y1,Z1`, mm, cells of `cell_mm`), with

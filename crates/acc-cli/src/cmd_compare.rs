@@ -2,7 +2,8 @@
 //! seed; print one table (force RMS error while cutting, peak force, time above 1.1·Fr,
 //! cycle time, override switches), the oracle row (`acc_sim::oracle`: the lower bound of
 //! a grid law with foresight) with every law's ratio to it, and draw an overlay plot of
-//! force and override.
+//! force and override. With `--program` the laws run an NC program
+//! ([`crate::cmd_compare_program`]).
 
 use std::path::{Path, PathBuf};
 
@@ -29,6 +30,11 @@ pub struct CompareArgs {
     /// Do not draw the overlay plot.
     #[arg(long)]
     pub no_plot: bool,
+    /// An NC program on a stock (`--program`, `--stock`, `--stock-box`, `--tools`): every
+    /// law runs the program, without and with the plan's look-ahead, against the
+    /// program's oracle (one table; no overlay plot).
+    #[command(flatten)]
+    pub program: crate::cmd_sim_program::ProgramArgs,
 }
 
 /// Run every law of [`LawKind::ALL`] on `sc`.
@@ -107,6 +113,19 @@ pub fn quantizer_table(rows: &[(Quantizer, Summary)]) -> String {
 /// Run `acc compare`.
 pub fn run_cmd(args: &CompareArgs) -> anyhow::Result<()> {
     let sc = load_scenario(&args.scenario, args.seed)?;
+    if let Some(path) = crate::cmd_sim_program::load(&args.program, &sc)? {
+        println!(
+            "scenario: {} ({}), seed {}; program {}",
+            sc.name,
+            sc.path.display(),
+            sc.seed,
+            args.program
+                .program
+                .as_deref()
+                .map_or_else(String::new, |p| p.display().to_string())
+        );
+        return crate::cmd_compare_program::run_cmd(&sc, &path);
+    }
     let results = compare(&sc)?;
     println!(
         "scenario: {} ({}), seed {}",

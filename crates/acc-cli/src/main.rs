@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 mod cmd_board_sim;
 mod cmd_collect;
 mod cmd_compare;
+mod cmd_compare_program;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_fault_matrix;
