@@ -102,3 +102,41 @@ fn the_program_oracle_is_deterministic() {
     assert_eq!(a.safe.summary, b.safe.summary);
     assert_eq!(a.peak_n, b.peak_n);
 }
+
+/// `acc compare --program`: every law, without and with the look-ahead, in one table with
+/// the oracle's row; a law that reaches the end of the program is never below the oracle's
+/// force RMS error.
+#[test]
+fn acc_compare_on_a_program_prints_every_law_against_the_oracle() {
+    let out = std::process::Command::new(e2e_support::acc_bin())
+        .args([
+            "compare",
+            "paper_case3",
+            "--no-plot",
+            "--program",
+            "tests/nc/slot_straight.ngc",
+            "--stock-box=-5,-20,-10,60,20,0",
+        ])
+        .current_dir(root())
+        .output()
+        .expect("acc compare");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "acc compare: {out:?}");
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| law") && !l.starts_with("| ---"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    // 6 laws × (without, with the plan) + the oracle.
+    assert_eq!(rows.len(), 13, "{text}");
+    assert!(rows[12][0].contains("oracle"), "{text}");
+    let mut ratios = 0;
+    for r in &rows[..12] {
+        if let Ok(v) = r[5].parse::<f64>() {
+            assert!(v >= 1.0, "{}: rms/oracle {v} below the bound\n{text}", r[0]);
+            ratios += 1;
+        }
+    }
+    assert!(ratios >= 6, "only {ratios} laws reached the end\n{text}");
+    assert_eq!(rows.iter().filter(|r| r[1] == "plan").count(), 6, "{text}");
+}
