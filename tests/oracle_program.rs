@@ -104,8 +104,10 @@ fn the_program_oracle_is_deterministic() {
 }
 
 /// `acc compare --program`: every law, without and with the look-ahead, in one table with
-/// the oracle's row; a law that reaches the end of the program is never below the oracle's
-/// force RMS error.
+/// the oracle's row; a law that reaches the end of the program is not below the oracle's
+/// force RMS error by more than 1 %. (The oracle is optimal period by period, not over all
+/// sequences, docs/sim.md: on this slot the fixed-gain PI with the plan's look-ahead comes
+/// to 148.6 N against the oracle's 149.2 N.)
 #[test]
 fn acc_compare_on_a_program_prints_every_law_against_the_oracle() {
     let out = std::process::Command::new(e2e_support::acc_bin())
@@ -133,7 +135,7 @@ fn acc_compare_on_a_program_prints_every_law_against_the_oracle() {
     let mut ratios = 0;
     for r in &rows[..12] {
         if let Ok(v) = r[5].parse::<f64>() {
-            assert!(v >= 1.0, "{}: rms/oracle {v} below the bound\n{text}", r[0]);
+            assert!(v >= 0.99, "{}: rms/oracle {v} below the bound\n{text}", r[0]);
             ratios += 1;
         }
     }
