@@ -135,7 +135,11 @@ fn acc_compare_on_a_program_prints_every_law_against_the_oracle() {
     let mut ratios = 0;
     for r in &rows[..12] {
         if let Ok(v) = r[5].parse::<f64>() {
-            assert!(v >= 0.99, "{}: rms/oracle {v} below the bound\n{text}", r[0]);
+            assert!(
+                v >= 0.99,
+                "{}: rms/oracle {v} below the bound\n{text}",
+                r[0]
+            );
             ratios += 1;
         }
     }
