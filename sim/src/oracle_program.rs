@@ -116,6 +116,14 @@ pub fn peak_n(summary: &ProgramSummary) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// A figure's ratio to the oracle's, two decimals, or `-` where either side has none.
+pub fn ratio(v: Option<f64>, o: Option<f64>) -> String {
+    match (v, o) {
+        (Some(v), Some(o)) if o > 0.0 => format!("{:.2}", v / o),
+        _ => "-".into(),
+    }
+}
+
 /// The oracle's figures and a run's ratio to each, as `acc sim --program … --oracle`
 /// prints them (`run`: the run's summary, `finished`: whether it reached the end).
 pub fn report(
@@ -124,10 +132,6 @@ pub fn report(
     run: &ProgramSummary,
     finished: bool,
 ) -> String {
-    let ratio = |v: Option<f64>, o: Option<f64>| match (v, o) {
-        (Some(v), Some(o)) if o > 0.0 => format!("{:.2}", v / o),
-        _ => "-".into(),
-    };
     let o_cycle = ProgramPlant::cycle_s(&o.safe);
     let mut s = format!(
         "oracle force RMS error {:.1} N (a grid law that knows the engagement ahead, noise-free plant; docs/programs.md){}\n",

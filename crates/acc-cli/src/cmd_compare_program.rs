@@ -4,19 +4,11 @@
 //! table of force RMS error, peak and cycle with each one's ratio to the oracle's.
 
 use acc_sim::oracle::OraclePlant as _;
-use acc_sim::oracle_program::{peak_n, program_oracle, run_program, ProgramPlant};
+use acc_sim::oracle_program::{peak_n, program_oracle, ratio, run_program, ProgramPlant};
 use acc_sim::plan::PlanParams;
 use acc_sim::program::ProgramPath;
 use acc_sim::program_summary::summarize_program;
 use acc_sim::{LawKind, Scenario};
-
-/// A ratio to an oracle figure, or `-` where either side has none.
-fn ratio(v: Option<f64>, o: Option<f64>) -> String {
-    match (v, o) {
-        (Some(v), Some(o)) if o > 0.0 => format!("{:.2}", v / o),
-        _ => "-".into(),
-    }
-}
 
 /// Run every law on `path` (with `base`'s machine, controller and channel) and print the
 /// table with the oracle's row.
