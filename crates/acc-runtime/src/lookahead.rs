@@ -18,9 +18,12 @@
 //! **The cap.** The override written now acts after the board's override delay and the
 //! feed drive's lag, and holds until the next period's command acts: about one period plus
 //! the delay. The cap is the lowest `override_pct` of the plan's feed rows from the
-//! position's uncertainty behind the tool to where it can be `horizon_s` ahead, walked at
-//! each row's programmed feed × the grid's maximum override (the law may raise the
-//! command this period; a rapid at its rapid rate). The cap only ever lowers the law's
+//! position's uncertainty behind the tool to where it can be `horizon_s` ahead. The walk
+//! is self-consistent: a row is crossed at its programmed feed × the higher of the override
+//! in force now (`OVERRIDE_APPLIED`: the tool keeps it until the new command acts) and the
+//! cap found so far (the command written now is at most that; a rapid at its rapid rate).
+//! From air, where the override in force is the grid's maximum, the walk reaches as far as
+//! the law could drive the tool; in a cut held at 30 % it looks 30 % as far. The cap only ever lowers the law's
 //! command ([`crate::CommandLimits::cap_pct`], applied last in the law's bounds): the
 //! plan never raises the override above what the feedback law and the tool limits allow.
 //!
@@ -252,7 +255,7 @@ impl LookAhead {
         let cap_pct = if disagreement == Some(Disagreement::Below) {
             None
         } else {
-            self.cap(x)
+            self.cap(x, s.override_applied_pct)
         };
         self.last = LookAheadStep {
             cap_pct,
@@ -308,10 +311,11 @@ impl LookAhead {
     }
 
     /// The lowest planned override of the feed rows from `x − uncertainty` to where the
-    /// tool can be `horizon_s` later (`None`: nothing below the grid's maximum).
-    fn cap(&self, x: f64) -> Option<u16> {
+    /// tool can be `horizon_s` later, with `in_force_pct` the override in force now
+    /// (`None`: nothing below the grid's maximum).
+    fn cap(&self, x: f64, in_force_pct: u16) -> Option<u16> {
         let rows = &self.plan.rows;
-        let max = f64::from(self.cfg.max_pct.max(1)) / 100.0;
+        let in_force = in_force_pct.min(self.cfg.max_pct);
         let mut i = self.row_at(x - self.unc_mm);
         let mut at = (x - self.unc_mm).max(rows[i].start_mm);
         let mut left_s = self.cfg.horizon_s;
@@ -323,10 +327,12 @@ impl LookAhead {
             if !r.rapid {
                 cap = cap.min(r.override_pct);
             }
+            // The tool crosses this row at most at the override in force or the cap so far.
+            let pct = in_force.max(cap.min(self.cfg.max_pct)).max(1);
             let speed = if r.rapid {
                 r.feed_mm_min
             } else {
-                r.feed_mm_min * max
+                r.feed_mm_min * f64::from(pct) / 100.0
             } / 60.0;
             let mut len = (r.end_mm - at).max(0.0);
             let free = free_mm.min(len);
@@ -404,6 +410,40 @@ mod tests {
         assert_eq!(s.cap_pct, Some(30));
         assert!((s.position_mm.expect("x") - 20.15).abs() < 1e-9);
         assert_eq!(s.disagreement, None);
+    }
+
+    /// A cut planned at 40 % for 10 mm, then a corner planned at 20 % from 10 mm.
+    fn cut_then_corner() -> LookAhead {
+        let plan = Plan {
+            rows: vec![
+                row(30, 0.0, 10.0, 2000.0, 40),
+                row(31, 10.0, 20.0, 4000.0, 20),
+            ],
+        };
+        LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150))
+    }
+
+    fn in_force(block: u16, feed: u16, pct: u16) -> BoardStatus {
+        BoardStatus {
+            override_applied_pct: pct,
+            ..status(block, feed)
+        }
+    }
+
+    #[test]
+    fn the_walk_ahead_goes_as_far_as_the_override_in_force_lets_the_tool() {
+        // Held at 40 % of 600 mm/min (4 mm/s), 0.2 s ahead is 0.8 mm: at 8.8 mm the corner
+        // at 10 mm is out of reach, at 9.4 mm it is in reach.
+        let mut la = cut_then_corner();
+        let mut at = |x_mm: f64, pct: u16| {
+            la.x_mm = x_mm - 0.4;
+            la.step(Some(&in_force(30, 240, pct)), &force(790.0), 0.1)
+        };
+        assert_eq!(at(8.8, 40).cap_pct, Some(40));
+        assert_eq!(at(9.4, 40).cap_pct, Some(20));
+        // At 150 % in force (9 mm/s until the new command acts) 0.2 s reaches 1.8 mm: the
+        // corner is capped from 8.8 mm on, as from air.
+        assert_eq!(at(8.8, 150).cap_pct, Some(20));
     }
 
     #[test]
