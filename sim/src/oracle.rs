@@ -171,6 +171,9 @@ struct Search<'a, P: OraclePlant> {
     grid: Vec<u16>,
     period_s: f64,
     fr: f64,
+    /// The RMS figure's force ceiling, N: a candidate whose period force is above it is
+    /// not taken, except the crossing of Fr (infinite: no ceiling).
+    ceiling_n: f64,
     max_periods: usize,
 }
 
@@ -187,6 +190,7 @@ impl<'a, P: OraclePlant> Search<'a, P> {
             grid: if grid.is_empty() { vec![lo] } else { grid },
             period_s,
             fr: force_ref_n,
+            ceiling_n: f64::INFINITY,
             max_periods: (scenario.max_time_s / period_s).ceil() as usize,
         }
     }
@@ -353,6 +357,9 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                 let Some(t) = trials[i].as_ref() else {
                     return Ok(f64::INFINITY);
                 };
+                if i != c && t.row.force_n.unwrap_or(0.0) > self.ceiling_n {
+                    return Ok(f64::INFINITY);
+                }
                 let (cost, e2) = if self.plant.in_cut(&t.row, &fastest) {
                     let e2 = (t.row.force_n.unwrap_or(0.0) - self.fr).powi(2);
                     let cost = match lambda {
@@ -454,6 +461,21 @@ pub fn oracle_on<P: OraclePlant>(
         peak_budget_s: budget,
         force_ref_n,
     })
+}
+
+/// The RMS figure of a law whose period force never exceeds `ceiling_n` (N): the same
+/// search as [`Oracle::rms`] with the candidates above the ceiling left out (the crossing
+/// of Fr is always a candidate). The free oracle reaches its RMS partly by running the
+/// grid step just above Fr wherever that step is nearer to Fr than the step below; a law
+/// held to a peak target (≤ 1.05 Fr at entries and corners) is bounded by this figure.
+pub fn rms_within_on<P: OraclePlant>(
+    plant: &P,
+    force_ref_n: f64,
+    ceiling_n: f64,
+) -> Result<P::Summary, OracleError> {
+    let mut s = Search::new(plant, force_ref_n);
+    s.ceiling_n = ceiling_n;
+    rms_figure(&s)
 }
 
 /// The RMS figure: the per-row optimum, then Dinkelbach steps on the ratio `Σe²/N`.

@@ -116,6 +116,15 @@ pub fn peak_n(summary: &ProgramSummary) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The force RMS error, N, of the best grid law on `plant` whose period force never
+/// exceeds `ceiling` × Fr ([`crate::oracle::rms_within_on`]), with whether its run reaches
+/// the end of the program.
+pub fn program_rms_within(plant: &ProgramPlant, ceiling: f64) -> Result<(f64, bool), OracleError> {
+    let fr = plant.scenario.controller.force_ref_n;
+    let r = crate::oracle::rms_within_on(plant, fr, ceiling * fr)?;
+    Ok((r.summary.rms_error_n, r.finished))
+}
+
 /// A figure's ratio to the oracle's, two decimals, or `-` where either side has none.
 pub fn ratio(v: Option<f64>, o: Option<f64>) -> String {
     match (v, o) {
@@ -131,6 +140,7 @@ pub fn report(
     safe_pct: u16,
     run: &ProgramSummary,
     finished: bool,
+    within: Option<(f64, (f64, bool))>,
 ) -> String {
     let o_cycle = ProgramPlant::cycle_s(&o.safe);
     let mut s = format!(
@@ -142,6 +152,13 @@ pub fn report(
             "; its run does not reach the end of the program within the time limit"
         }
     );
+    if let Some((ceiling, (w, w_finished))) = within {
+        s += &format!(
+            "oracle force RMS error within {ceiling:.2} Fr {w:.1} N (the same search, no period above {ceiling:.2} Fr){}; RMS/oracle within {ceiling:.2} Fr {}\n",
+            if w_finished { "" } else { "; its run does not reach the end of the program" },
+            ratio(Some(run.rms_error_n), Some(w)),
+        );
+    }
     s += &match o.peak_n {
         Some(p) => format!(
             "oracle peak {p:.1} N (a grid law no slower than the constant safe feed {safe_pct} %, {:.1} s)\n",

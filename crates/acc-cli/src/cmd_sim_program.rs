@@ -130,6 +130,10 @@ pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramP
     Ok(Some(path))
 }
 
+/// The force ceiling of the second oracle figure of `--oracle`, × Fr: the peak target at
+/// entries and corners of a law that knows the cut ahead (docs/programs.md).
+const ORACLE_CEILING: f64 = 1.05;
+
 /// Print the per-tool and per-block summary (with `--oracle` the oracle's figures and the
 /// run's ratio to them), write `blocks.csv` and draw the stock after the run (`stock.svg`,
 /// `stock.png`) into `out`.
@@ -193,9 +197,16 @@ pub fn report(
     if oracle {
         let plant = acc_sim::oracle_program::ProgramPlant::new(sc, path);
         let o = acc_sim::oracle_program::program_oracle(&plant)?;
+        let within = acc_sim::oracle_program::program_rms_within(&plant, ORACLE_CEILING)?;
         print!(
             "{}",
-            acc_sim::oracle_program::report(&o, plant.safe_pct(), &s, result.finished)
+            acc_sim::oracle_program::report(
+                &o,
+                plant.safe_pct(),
+                &s,
+                result.finished,
+                Some((ORACLE_CEILING, within))
+            )
         );
     }
     let csv = out.join("blocks.csv");
