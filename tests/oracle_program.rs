@@ -6,7 +6,7 @@
 
 mod e2e_support;
 
-use acc_sim::oracle_program::{peak_n, program_oracle, ProgramPlant};
+use acc_sim::oracle_program::{peak_n, program_oracle, program_rms_within, ProgramPlant};
 use acc_sim::program_summary::{summarize_program, ProgramSummary};
 use acc_sim::{LawKind, Scenario};
 use e2e_support::{pocket_program, root, run_program};
@@ -82,6 +82,37 @@ fn no_shipped_law_beats_the_oracle_on_the_pocket_program() {
         }
     }
     assert!(checked >= 6, "only {checked} runs finished");
+}
+
+/// The oracle held to a force ceiling (`acc sim --oracle`'s "within 1.05 Fr" figure): no
+/// period of its run above the ceiling, and no better than the free oracle, whose
+/// candidates include all of its own.
+#[test]
+fn the_oracle_within_a_ceiling_stays_under_it_and_is_no_better_than_the_free_one() {
+    let base = Scenario::load(root().join("configs/scenarios/paper_case3.toml")).expect("scenario");
+    let path = pocket_program(&base, POCKET_BOX);
+    let sc = path.scenario_for(&base);
+    let fr = sc.controller.force_ref_n;
+    let plant = ProgramPlant::new(&sc, &path);
+    let free = program_oracle(&plant).expect("oracle");
+    let within = program_rms_within(&plant, 1.05).expect("oracle within 1.05 Fr");
+    let tight = program_rms_within(&plant, 1.0).expect("oracle within Fr");
+    eprintln!(
+        "pocket oracle RMS: free {:.1} N, within 1.05 Fr {:.1} N, within Fr {:.1} N",
+        free.rms.summary.rms_error_n, within.summary.rms_error_n, tight.summary.rms_error_n
+    );
+    assert!(within.finished && tight.finished);
+    assert!(peak_n(&within.summary) <= 1.05 * fr + 1e-9);
+    assert!(peak_n(&tight.summary) <= fr + 1e-9);
+    let (f, w, t) = (
+        free.rms.summary.rms_error_n,
+        within.summary.rms_error_n,
+        tight.summary.rms_error_n,
+    );
+    assert!(
+        f <= w * 1.001 && w <= t * 1.001,
+        "free {f}, within 1.05 {w}, within 1.0 {t}"
+    );
 }
 
 /// The search has no randomness: the same program, the same figures.

@@ -116,13 +116,11 @@ pub fn peak_n(summary: &ProgramSummary) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The force RMS error, N, of the best grid law on `plant` whose period force never
-/// exceeds `ceiling` × Fr ([`crate::oracle::rms_within_on`]), with whether its run reaches
-/// the end of the program.
-pub fn program_rms_within(plant: &ProgramPlant, ceiling: f64) -> Result<(f64, bool), OracleError> {
+/// The oracle's RMS run on `plant` for a grid law whose period force never exceeds
+/// `ceiling` × Fr ([`crate::oracle::rms_within_on`]).
+pub fn program_rms_within(plant: &ProgramPlant, ceiling: f64) -> Result<ProgramRun, OracleError> {
     let fr = plant.scenario.controller.force_ref_n;
-    let r = crate::oracle::rms_within_on(plant, fr, ceiling * fr)?;
-    Ok((r.summary.rms_error_n, r.finished))
+    crate::oracle::rms_within_on(plant, fr, ceiling * fr)
 }
 
 /// A figure's ratio to the oracle's, two decimals, or `-` where either side has none.
@@ -140,7 +138,7 @@ pub fn report(
     safe_pct: u16,
     run: &ProgramSummary,
     finished: bool,
-    within: Option<(f64, (f64, bool))>,
+    within: Option<(f64, &ProgramRun)>,
 ) -> String {
     let o_cycle = ProgramPlant::cycle_s(&o.safe);
     let mut s = format!(
@@ -152,11 +150,12 @@ pub fn report(
             "; its run does not reach the end of the program within the time limit"
         }
     );
-    if let Some((ceiling, (w, w_finished))) = within {
+    if let Some((ceiling, w)) = within {
         s += &format!(
-            "oracle force RMS error within {ceiling:.2} Fr {w:.1} N (the same search, no period above {ceiling:.2} Fr){}; RMS/oracle within {ceiling:.2} Fr {}\n",
-            if w_finished { "" } else { "; its run does not reach the end of the program" },
-            ratio(Some(run.rms_error_n), Some(w)),
+            "oracle force RMS error within {ceiling:.2} Fr {:.1} N (the same search, no period above {ceiling:.2} Fr){}; RMS/oracle within {ceiling:.2} Fr {}\n",
+            w.summary.rms_error_n,
+            if w.finished { "" } else { "; its run does not reach the end of the program" },
+            ratio(Some(run.rms_error_n), Some(w.summary.rms_error_n)),
         );
     }
     s += &match o.peak_n {

@@ -18,13 +18,15 @@
 //! `100 · (Fr / F₁₀₀)^(1/β)` (the force law solved for the feed), clamped to the tool's
 //! limits and at least one grid step (an override of 0 stops the program); the grid's
 //! maximum in air and on rapids. Consecutive intervals with the same block, tool, kind of
-//! move, planned override and cutting or not are one row (its smallest and largest force
-//! kept: the band the look-ahead checks the measured force against).
+//! move, planned override and cutting or not, along which the force is constant, are one
+//! row (its smallest and largest force kept: the band the look-ahead checks the measured
+//! force against); an interval along which the force rises or falls is a row of its own,
+//! with its `profile` (the look-ahead reads the force the tool can reach inside it).
 
 use acc_core::OverrideSpec;
 use acc_plant::engagement::{EngagementSource, ToolGeometry};
 use acc_plant::process::ForceLaw;
-use acc_runtime::plan::{Plan, PlanRow};
+use acc_runtime::plan::{ForceProfile, Plan, PlanRow};
 
 use crate::program::ProgramPath;
 use crate::Scenario;
@@ -102,6 +104,22 @@ pub struct Interval {
     pub radial: f64,
     /// Axial engagement where the force is largest, mm.
     pub axial: f64,
+    /// Force at 100 % at the interval's end `b`, N.
+    pub f_end: f64,
+}
+
+impl Interval {
+    /// The force along the interval: linear between its ends (the engagement is linear
+    /// between knots), so rising or falling; flat when both ends agree or in air.
+    pub fn profile(&self) -> ForceProfile {
+        if self.rapid || self.f100 <= 0.0 || self.f100 - self.fmin <= 1e-9 * self.f100 {
+            ForceProfile::Flat
+        } else if self.f_end >= self.f100 {
+            ForceProfile::Rising
+        } else {
+            ForceProfile::Falling
+        }
+    }
 }
 
 /// The intervals of the path of `source` between the increasing path positions `knots`
@@ -148,6 +166,7 @@ pub fn intervals(
             fmin: fa.min(fb),
             radial,
             axial,
+            f_end: fb,
         });
     }
     out
@@ -178,6 +197,10 @@ pub fn plan_along(
                 && r.rapid == iv.rapid
                 && r.override_pct == ov
                 && r.cuts() == (iv.f100 > 0.0)
+                // A row keeps its force's shape only as one interval: a rising or falling
+                // interval is a row of its own.
+                && r.profile == ForceProfile::Flat
+                && iv.profile() == ForceProfile::Flat
         });
         if same {
             if let Some(r) = rows.last_mut() {
@@ -209,6 +232,7 @@ pub fn plan_along(
             override_pct: ov,
             force_planned_n: 0.0,
             feed_exponent: beta,
+            profile: iv.profile(),
         });
     }
     for r in &mut rows {

@@ -205,7 +205,7 @@ pub fn report(
                 plant.safe_pct(),
                 &s,
                 result.finished,
-                Some((ORACLE_CEILING, within))
+                Some((ORACLE_CEILING, &within))
             )
         );
     }

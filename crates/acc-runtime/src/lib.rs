@@ -54,7 +54,7 @@ pub mod watch;
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use control_loop::{ControlLoop, CycleRecord, WritePlan, WriteResult};
 pub use lookahead::{LookAhead, LookAheadConfig, LookAheadStep};
-pub use plan::{Plan, PlanError, PlanRow};
+pub use plan::{ForceProfile, Plan, PlanError, PlanRow};
 pub use policy::{
     AccState, Alarms, CommandLimits, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig,
     Rearm, Release,

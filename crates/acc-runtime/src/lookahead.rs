@@ -23,7 +23,12 @@
 //! in force now (`OVERRIDE_APPLIED`: the tool keeps it until the new command acts) and the
 //! cap found so far (the command written now is at most that; a rapid at its rapid rate).
 //! From air, where the override in force is the grid's maximum, the walk reaches as far as
-//! the law could drive the tool; in a cut held at 30 % it looks 30 % as far. The cap only ever lowers the law's
+//! the law could drive the tool; in a cut held at 30 % it looks 30 % as far. A row whose
+//! force the plan gives as linear along it (`profile` rising or falling: one interval of
+//! the planner, the engagement linear between the stock's knots) counts only the part the
+//! tool can reach: its cap is the override that gives Fr at the largest force of that part
+//! (so the tool enters a corner at the override of the engagement it meets, not of the
+//! corner's deepest point); a `flat` row counts its planned override. The cap only ever lowers the law's
 //! command ([`crate::CommandLimits::cap_pct`], applied last in the law's bounds): the
 //! plan never raises the override above what the feedback law and the tool limits allow.
 //!
@@ -46,9 +51,9 @@ use crate::plan::{Plan, PlanRow};
 /// Tuning of the look-ahead.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LookAheadConfig {
-    /// How far ahead the cap looks, s of travel at the grid's maximum override (default:
-    /// two control periods, which covers the period, the override delay and the feed
-    /// drive's lag of the shipped machines: 16 ms and 8 ms against T = 0.1 s).
+    /// How far ahead the cap looks, s of travel at the override in force or the cap found
+    /// so far (default: two control periods, which covers the period, the override delay
+    /// and the feed drive's lag of the shipped machines: 16 ms and 8 ms against T = 0.1 s).
     pub horizon_s: f64,
     /// Relative tolerance of the disagreement check, − (default 0.25).
     pub tolerance: f64,
@@ -58,6 +63,9 @@ pub struct LookAheadConfig {
     pub persist_periods: u32,
     /// The grid's maximum override, percent (the policy's `max_override_pct`).
     pub max_pct: u16,
+    /// The loop's force reference Fr, N: inside a row whose force is linear along it, the
+    /// cap is the override that gives Fr at the part the tool can reach.
+    pub force_ref_n: f64,
 }
 
 impl LookAheadConfig {
@@ -70,6 +78,7 @@ impl LookAheadConfig {
             tolerance_n: 0.05 * force_ref_n,
             persist_periods: 3,
             max_pct,
+            force_ref_n,
         }
     }
 }
@@ -324,25 +333,41 @@ impl LookAhead {
         let mut free_mm = 2.0 * self.unc_mm;
         loop {
             let r: &PlanRow = &rows[i];
-            if !r.rapid {
-                cap = cap.min(r.override_pct);
-            }
-            // The tool crosses this row at most at the override in force or the cap so far.
-            let pct = in_force.max(cap.min(self.cfg.max_pct)).max(1);
-            let speed = if r.rapid {
-                r.feed_mm_min
-            } else {
-                r.feed_mm_min * f64::from(pct) / 100.0
-            } / 60.0;
-            let mut len = (r.end_mm - at).max(0.0);
+            let len = (r.end_mm - at).max(0.0);
             let free = free_mm.min(len);
-            free_mm -= free;
-            len -= free;
-            let t = if speed > 0.0 {
-                len / speed
-            } else {
-                f64::INFINITY
+            // The tool crosses this row at most at the override in force or the cap so far
+            // with this row's: `reach(c)` is how far into the row it gets at cap `c`, and
+            // the time it spends in the row.
+            let reach = |c: u16| {
+                let pct = in_force.max(cap.min(c).min(self.cfg.max_pct)).max(1);
+                let speed = if r.rapid {
+                    r.feed_mm_min
+                } else {
+                    r.feed_mm_min * f64::from(pct) / 100.0
+                } / 60.0;
+                let t = if speed > 0.0 {
+                    (len - free) / speed
+                } else {
+                    f64::INFINITY
+                };
+                let to = if t >= left_s {
+                    at + free + speed * left_s
+                } else {
+                    r.end_mm
+                };
+                (to, t)
             };
+            // The row's cap over the part the tool can reach; the reach of the lowest
+            // (whole-row) cap gives a first cap, and the reach at that cap the final one:
+            // a command at most the final cap moves the tool no farther than was judged.
+            let mut t = reach(u16::MAX).1;
+            if !r.rapid {
+                let c1 = self.row_cap(r, at, reach(r.override_pct).0);
+                let (to, t1) = reach(c1);
+                t = t1;
+                cap = cap.min(self.row_cap(r, at, to));
+            }
+            free_mm -= free;
             if t >= left_s || i + 1 >= rows.len() {
                 break;
             }
@@ -351,6 +376,31 @@ impl LookAhead {
             at = rows[i].start_mm;
         }
         (cap < self.cfg.max_pct).then_some(cap)
+    }
+
+    /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: the planned
+    /// override where the row's force is not known inside it (`flat`) or the part holds
+    /// its largest force; else the override at which the part's largest force
+    /// ([`PlanRow::force_100_over_n`]) is Fr, `100 · (Fr / F)^(1/β)` (seed 002 eq. 1 solved
+    /// for the feed), at least the planned override and at most the grid's maximum. The
+    /// tool's own override limits are the shop layer's (they join the cap, the lower wins).
+    fn row_cap(&self, r: &PlanRow, from_mm: f64, to_mm: f64) -> u16 {
+        let f = r.force_100_over_n(from_mm, to_mm);
+        if !r.cuts() || f >= r.force_100_n || !(self.cfg.force_ref_n > 0.0) {
+            return r.override_pct;
+        }
+        let top = f64::from(self.cfg.max_pct);
+        let o = if f > 0.0 {
+            let beta = if r.feed_exponent > 0.0 {
+                r.feed_exponent
+            } else {
+                1.0
+            };
+            (100.0 * (self.cfg.force_ref_n / f).powf(1.0 / beta)).min(top)
+        } else {
+            top
+        };
+        (o.floor() as u16).max(r.override_pct)
     }
 }
 
@@ -444,6 +494,42 @@ mod tests {
         // At 150 % in force (9 mm/s until the new command acts) 0.2 s reaches 1.8 mm: the
         // corner is capped from 8.8 mm on, as from air.
         assert_eq!(at(8.8, 150).cap_pct, Some(20));
+    }
+
+    #[test]
+    fn inside_a_rising_row_the_cap_follows_the_force_the_tool_can_reach() {
+        // A corner: the force at 100 % rises from 1000 N to 4000 N over 2 mm (planned 20 %
+        // for its end); Fr 800 N, held at 20 % of 600 mm/min = 2 mm/s: 0.4 mm in 0.2 s.
+        let mut corner = row(31, 10.0, 12.0, 4000.0, 20);
+        corner.force_min_100_n = 1000.0;
+        corner.profile = crate::plan::ForceProfile::Rising;
+        let plan = Plan {
+            rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner.clone()],
+        };
+        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+        let mut at = |x_mm: f64, pct: u16| {
+            la.x_mm = x_mm - 0.2;
+            la.step(Some(&in_force(31, 120, pct)), &force(700.0), 0.1)
+                .cap_pct
+                .expect("capped")
+        };
+        // At the corner's start, reaching 10.4 mm at most at 20 %...: 1600 N at 100 %. At
+        // 50 % (the first cap) it reaches 11.0 mm, 2500 N: the cap is 32 %.
+        let start = at(10.0, 20);
+        assert_eq!(start, 32);
+        // Deeper in, lower; at the end, the plan's own override.
+        let mid = at(11.0, 20);
+        assert!(mid < start && mid > 20, "{mid}");
+        assert_eq!(at(12.0, 20), 20);
+        // The same row flat (shape unknown): the plan's override throughout.
+        corner.profile = crate::plan::ForceProfile::Flat;
+        let plan = Plan {
+            rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner],
+        };
+        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+        la.x_mm = 9.8;
+        let s = la.step(Some(&in_force(31, 120, 20)), &force(700.0), 0.1);
+        assert_eq!(s.cap_pct, Some(20));
     }
 
     #[test]

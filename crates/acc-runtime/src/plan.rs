@@ -19,6 +19,7 @@
 //! | `override_pct` | % | the planned override: the largest on the board's grid whose predicted force is ≤ Fr, clamped to the tool's limits (the maximum in air and on rapids) |
 //! | `force_planned_n` | N | predicted largest force at `override_pct` |
 //! | `feed_exponent` | — | β of the force law `F ∝ f^β` (seed 002 eq. 1): the force at another feed `f` is `force_100_n · (f / feed_mm_min)^β` |
+//! | `profile` | — | the force along the stretch: `rising` (linear from `force_min_100_n` at `start_mm` to `force_100_n` at `end_mm`), `falling` (the reverse), `flat` (not known inside the stretch: take `force_100_n` throughout). Optional: a file without the column reads as `flat` |
 //!
 //! Reading checks every cell and the order; an error names the file, the line and the
 //! column, and the allowed range.
@@ -62,6 +63,33 @@ pub struct PlanRow {
     pub force_planned_n: f64,
     /// Feed exponent β of the force law, −.
     pub feed_exponent: f64,
+    /// The force along the stretch at 100 %.
+    pub profile: ForceProfile,
+}
+
+/// How the predicted force runs along a plan row (the planner's intervals have the
+/// engagement linear between the stock's knots; a row of several intervals is `Flat`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ForceProfile {
+    /// Linear from the smallest force at the row's start to the largest at its end.
+    Rising,
+    /// Linear from the largest force at the row's start to the smallest at its end.
+    Falling,
+    /// Not known inside the row: the largest force throughout (the safe reading).
+    #[default]
+    Flat,
+}
+
+impl ForceProfile {
+    /// The name in `plan.csv`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ForceProfile::Rising => "rising",
+            ForceProfile::Falling => "falling",
+            ForceProfile::Flat => "flat",
+        }
+    }
 }
 
 impl PlanRow {
@@ -87,6 +115,25 @@ impl PlanRow {
     pub fn cuts(&self) -> bool {
         self.force_100_n > 0.0
     }
+
+    /// The largest predicted force at 100 % over the part `from_mm ..= to_mm` of this
+    /// stretch, N: linear along a `rising` or `falling` stretch, `force_100_n` on a `flat`
+    /// one (positions clamped to the stretch).
+    pub fn force_100_over_n(&self, from_mm: f64, to_mm: f64) -> f64 {
+        let len = self.end_mm - self.start_mm;
+        if self.profile == ForceProfile::Flat || len <= 0.0 {
+            return self.force_100_n;
+        }
+        let at = |x: f64| {
+            let u = ((x - self.start_mm) / len).clamp(0.0, 1.0);
+            let (a, b) = match self.profile {
+                ForceProfile::Rising => (self.force_min_100_n, self.force_100_n),
+                _ => (self.force_100_n, self.force_min_100_n),
+            };
+            a + (b - a) * u
+        };
+        at(from_mm).max(at(to_mm))
+    }
 }
 
 /// A whole plan: its rows in path order.
@@ -97,7 +144,7 @@ pub struct Plan {
 }
 
 /// The column names of `plan.csv`, in order.
-pub const PLAN_COLUMNS: [&str; 16] = [
+pub const PLAN_COLUMNS: [&str; 17] = [
     "block",
     "tool",
     "start_mm",
@@ -114,7 +161,11 @@ pub const PLAN_COLUMNS: [&str; 16] = [
     "override_pct",
     "force_planned_n",
     "feed_exponent",
+    "profile",
 ];
+
+/// The columns a plan file must have (`profile` is optional: `flat` when absent).
+const REQUIRED_COLUMNS: usize = 16;
 
 /// Why a plan file was refused.
 #[derive(Debug, thiserror::Error)]
@@ -177,7 +228,8 @@ impl Plan {
             .map_err(|e| err(1, format!("header: {e}")))?
             .clone();
         let got: Vec<&str> = header.iter().collect();
-        if got != PLAN_COLUMNS {
+        let with_profile = got == PLAN_COLUMNS;
+        if !with_profile && got != PLAN_COLUMNS[..REQUIRED_COLUMNS] {
             return Err(err(
                 1,
                 format!(
@@ -231,6 +283,21 @@ impl Plan {
                     ))
                 }
             };
+            let profile = if with_profile {
+                match cell(16).trim() {
+                    "rising" => ForceProfile::Rising,
+                    "falling" => ForceProfile::Falling,
+                    "flat" => ForceProfile::Flat,
+                    s => {
+                        return Err(err(
+                            line,
+                            format!("column `profile`: `{s}`: allowed rising, falling or flat"),
+                        ))
+                    }
+                }
+            } else {
+                ForceProfile::Flat
+            };
             let big = 1e9;
             let row = PlanRow {
                 block: int(0, f64::from(u32::MAX))?,
@@ -249,6 +316,7 @@ impl Plan {
                 override_pct: int(13, 150.0)? as u16,
                 force_planned_n: num(14, 0.0, 1e9)?,
                 feed_exponent: num(15, 0.1, 2.0)?,
+                profile,
             };
             if row.force_min_100_n > row.force_100_n {
                 return Err(err(
@@ -313,6 +381,7 @@ impl Plan {
                 r.override_pct.to_string(),
                 format!("{:.1}", r.force_planned_n),
                 format!("{}", r.feed_exponent),
+                r.profile.as_str().to_string(),
             ])
             .map_err(|e| PlanError::Write(e.to_string()))?;
         }
@@ -349,6 +418,7 @@ pub(crate) fn test_row(block: u32, a: f64, b: f64, feed: f64, f100: f64, ov: u16
         override_pct: ov,
         force_planned_n: f100 * f64::from(ov) / 100.0,
         feed_exponent: 1.0,
+        profile: ForceProfile::Flat,
     }
 }
 
