@@ -171,8 +171,8 @@ struct Search<'a, P: OraclePlant> {
     grid: Vec<u16>,
     period_s: f64,
     fr: f64,
-    /// The RMS figure's force ceiling, N: a candidate whose period force is above it is
-    /// not taken, except the crossing of Fr (infinite: no ceiling).
+    /// The RMS figure's force ceiling, N: no position above the highest whose row stays at
+    /// or below it with the next row at the lowest position too (infinite: no ceiling).
     ceiling_n: f64,
     max_periods: usize,
 }
@@ -335,10 +335,27 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                 .as_ref()
                 .map(|t| t.row.clone())
                 .ok_or(OracleError::NotClonable)?;
+            // Under a ceiling: the highest position whose row stays at or below it and after
+            // which the lowest keeps the next row there too (as the cycle figure's run), so
+            // that the run slows before an entry it could not otherwise meet.
+            let top = if self.ceiling_n.is_finite() {
+                let limit = self.largest_passing(prev, |i| {
+                    let t = self.trial(m, self.grid[i])?;
+                    if t.row.force_n.unwrap_or(0.0) > self.ceiling_n {
+                        return Ok(false);
+                    }
+                    let next = self.trial(&t.machine, self.grid[0])?;
+                    Ok(next.row.force_n.unwrap_or(0.0) <= self.ceiling_n)
+                })?;
+                limit.unwrap_or(0)
+            } else {
+                n - 1
+            };
             if let Some(t) = &trials[n - 1] {
                 if !self.plant.in_cut(&t.row, &fastest) {
-                    let t = trials[n - 1].take().ok_or(OracleError::NotClonable)?;
-                    return Ok((t, n - 1));
+                    eval(top, &mut trials)?;
+                    let t = trials[top].take().ok_or(OracleError::NotClonable)?;
+                    return Ok((t, top));
                 }
             }
             let cross = self.largest_passing(prev, |i| {
@@ -347,8 +364,8 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                     .as_ref()
                     .is_some_and(|t| t.row.force_n.unwrap_or(0.0) <= self.fr))
             })?;
-            let c = cross.unwrap_or(0);
-            let mut best = (f64::INFINITY, n - 1);
+            let c = cross.unwrap_or(0).min(top);
+            let mut best = (f64::INFINITY, top);
             let consider = |i: usize,
                             trials: &mut Vec<Option<Trial>>,
                             best: &mut (f64, usize)|
@@ -357,9 +374,6 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                 let Some(t) = trials[i].as_ref() else {
                     return Ok(f64::INFINITY);
                 };
-                if i != c && t.row.force_n.unwrap_or(0.0) > self.ceiling_n {
-                    return Ok(f64::INFINITY);
-                }
                 let (cost, e2) = if self.plant.in_cut(&t.row, &fastest) {
                     let e2 = (t.row.force_n.unwrap_or(0.0) - self.fr).powi(2);
                     let cost = match lambda {
@@ -375,7 +389,7 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                 }
                 Ok(e2)
             };
-            for i in [n - 1, (c + 1).min(n - 1), c] {
+            for i in [top, (c + 1).min(top), c] {
                 consider(i, &mut trials, &mut best)?;
             }
             if lambda.is_some() {
@@ -464,10 +478,12 @@ pub fn oracle_on<P: OraclePlant>(
 }
 
 /// The RMS figure of a law whose period force never exceeds `ceiling_n` (N): the same
-/// search as [`Oracle::rms`] with the candidates above the ceiling left out (the crossing
-/// of Fr is always a candidate). The free oracle reaches its RMS partly by running the
-/// grid step just above Fr wherever that step is nearer to Fr than the step below; a law
-/// held to a peak target (≤ 1.05 Fr at entries and corners) is bounded by this figure.
+/// search as [`Oracle::rms`], each period among the positions no higher than the highest
+/// whose row stays at or below the ceiling and after which the lowest position keeps the
+/// next row there too (the cycle figure's rule, so the run slows before an entry); where
+/// even the lowest position exceeds it, the lowest. The free oracle may run the grid step
+/// above Fr wherever it is nearer to Fr than the step below; a law held to a peak target
+/// (≤ 1.05 Fr at entries and corners) is compared with this figure.
 pub fn rms_within_on<P: OraclePlant>(
     plant: &P,
     force_ref_n: f64,
