@@ -4,8 +4,9 @@
 //!    cuts, calibration cut, feed sweep; a table of RMS error and error rate per method
 //!    against the true force, and a plot like the paper's Fig. 8 (forces and errors over
 //!    the feed).
-//! 2. The turning data set in `../shared/data/vicomtech-turning/`: calibrate on one tool,
-//!    validate on the others, MAPE against the dynamometer `F_c`.
+//! 2. The turning data set in `../shared/data/vicomtech-turning/`: leave-one-tool-out
+//!    cross-validation (fit on six tools, validate on the seventh; the headline), then
+//!    calibrate on one tool and validate on the others; MAPE against the dynamometer `F_c`.
 //! 3. The wax-milling logs in `../shared/data/umich-cnc-mill/`: the estimator must report
 //!    no cutting load above its noise floor.
 //!
@@ -20,7 +21,8 @@ use acc_plot::{time_series, xy_chart, Figure, HLine, Panel, Series, XyChart, PAL
 use acc_sim::motor::sweep::{self, SweepConfig, SweepResult};
 use acc_spindle::calibrate::{calibrate_recording, CalPoint};
 use acc_spindle::datasets::{read_calibration_periods, read_mill, read_turning, TurningRow};
-use acc_spindle::eval::{cross_tool, min_median_max, wax_check, TurningModel, WaxSetup};
+use acc_spindle::eval::{min_median_max, wax_check, WaxSetup};
+use acc_spindle::turning::{cross_tool, leave_one_tool_out, LotoFold, TurningModel};
 use acc_spindle::{SampleFormat, SampleStream, SpindleCalibration, StreamForceSource};
 use anyhow::{bail, Context as _};
 
@@ -213,27 +215,25 @@ fn create_parent(out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Calibration tool of the turning plot (its fusion MAPE is the median of the table).
-const PLOT_CAL_TOOL: u32 = 4;
-
-/// Estimate vs dynamometer on the validation tools, calibrated on [`PLOT_CAL_TOOL`].
+/// Estimate vs dynamometer, every tool predicted by the model fitted on the other tools
+/// (leave-one-tool-out), for plain power and the chosen model.
 fn plot_turning(rows: &[TurningRow], out: &Path) -> anyhow::Result<acc_plot::Written> {
-    let cal: Vec<TurningRow> = rows
-        .iter()
-        .filter(|r| r.tool == PLOT_CAL_TOOL)
-        .copied()
-        .collect();
-    let val: Vec<&TurningRow> = rows.iter().filter(|r| r.tool != PLOT_CAL_TOOL).collect();
     let mut series = Vec::new();
-    for (j, m) in [TurningModel::Plain, TurningModel::FeedCurrent]
+    for (j, m) in [TurningModel::Plain, TurningModel::CHOSEN]
         .into_iter()
         .enumerate()
     {
-        let p = m.fit(&cal)?;
-        let pts = val.iter().map(|r| (r.force_n, m.predict(p, r))).collect();
+        let mut pts = Vec::new();
+        for fold in leave_one_tool_out(rows, m)? {
+            pts.extend(
+                rows.iter()
+                    .filter(|r| r.tool == fold.held_out_tool)
+                    .map(|r| (r.force_n, m.predict(fold.params, r))),
+            );
+        }
         series.push(Series::markers(m.label(), pts).with_color(PALETTE[j + 1]));
     }
-    let (lo, hi) = val
+    let (lo, hi) = rows
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
             (a.min(r.force_n), b.max(r.force_n))
@@ -242,9 +242,9 @@ fn plot_turning(rows: &[TurningRow], out: &Path) -> anyhow::Result<acc_plot::Wri
         Series::line("estimate = dynamometer", vec![(lo, lo), (hi, hi)]).with_color(PALETTE[0]),
     );
     let chart = XyChart {
-        title: format!(
-            "Turning data (Vicomtech, CC BY-SA 4.0): calibrated on tool {PLOT_CAL_TOOL}, other tools"
-        ),
+        title: "Turning data (Vicomtech, CC BY-SA 4.0): each tool estimated by the model \
+                fitted on the other six"
+            .into(),
         x_label: "dynamometer F_c [N]".into(),
         y_label: "estimated F_c [N]".into(),
         series,
@@ -252,6 +252,69 @@ fn plot_turning(rows: &[TurningRow], out: &Path) -> anyhow::Result<acc_plot::Wri
     };
     create_parent(out)?;
     Ok(xy_chart(&chart, out)?)
+}
+
+/// Print a markdown table: one row per model, one column per tool, then min/median/max
+/// (and the mean when `with_mean`).
+fn print_tool_table(head: &str, tools: &[u32], rows: &[(TurningModel, Vec<f64>)], mean: bool) {
+    print!("| model |");
+    for t in tools {
+        print!(" {head} {t} |");
+    }
+    println!(" min | median | max |{}", if mean { " mean |" } else { "" });
+    println!(
+        "| --- |{} ---: | ---: | ---: |{}",
+        " ---: |".repeat(tools.len()),
+        if mean { " ---: |" } else { "" }
+    );
+    for (m, v) in rows {
+        let (lo, med, hi) = min_median_max(v);
+        print!("| {} |", m.label());
+        for x in v {
+            print!(" {x:.2} |");
+        }
+        print!(" {lo:.2} | {med:.2} | {hi:.2} |");
+        if mean {
+            print!(" {:.2} |", v.iter().sum::<f64>() / v.len().max(1) as f64);
+        }
+        println!();
+    }
+    println!();
+}
+
+/// The leave-one-tool-out table (the headline) and the chosen model's bias per tool.
+fn print_loto(rows: &[TurningRow]) -> anyhow::Result<()> {
+    let folds: Vec<(TurningModel, Vec<LotoFold>)> = TurningModel::ALL
+        .iter()
+        .map(|&m| leave_one_tool_out(rows, m).map(|f| (m, f)))
+        .collect::<Result<_, _>>()?;
+    let tools: Vec<u32> = folds
+        .first()
+        .map(|(_, f)| f.iter().map(|x| x.held_out_tool).collect())
+        .unwrap_or_default();
+    println!(
+        "Leave-one-tool-out: fit on the other {} tools pooled, MAPE [%] vs dynamometer F_c on \
+         the held-out tool.",
+        tools.len().saturating_sub(1)
+    );
+    println!();
+    let table: Vec<(TurningModel, Vec<f64>)> = folds
+        .iter()
+        .map(|(m, f)| (*m, f.iter().map(|x| x.mape_pct).collect()))
+        .collect();
+    print_tool_table("held out", &tools, &table, true);
+    if let Some((m, f)) = folds.iter().find(|(m, _)| *m == TurningModel::CHOSEN) {
+        print!(
+            "Chosen: {}; mean signed error per held-out tool [%]:",
+            m.label()
+        );
+        for x in f {
+            print!(" {}: {:+.2}", x.held_out_tool, x.bias_pct);
+        }
+        println!();
+        println!();
+    }
+    Ok(())
 }
 
 fn real_data(data: &Path, plot_dir: Option<&Path>) -> anyhow::Result<()> {
@@ -265,36 +328,22 @@ fn real_data(data: &Path, plot_dir: Option<&Path>) -> anyhow::Result<()> {
             rows.len(),
             skipped
         );
-        println!("Calibrate on one tool, validate on the others: MAPE [%] vs dynamometer F_c.");
+        print_loto(&rows)?;
+        println!("Calibrate on one tool, validate on the others: MAPE [%] vs dynamometer F_c (mean over the validation tools).");
         println!();
-        let results: Vec<_> = TurningModel::ALL
+        let results: Vec<(TurningModel, Vec<f64>)> = TurningModel::ALL
             .iter()
-            .map(|&m| cross_tool(&rows, m).map(|r| (m, r)))
+            .map(|&m| {
+                cross_tool(&rows, m).map(|r| (m, r.iter().map(|x| x.mean_mape_pct).collect()))
+            })
             .collect::<Result<_, _>>()?;
-        let tools: Vec<u32> = results
-            .first()
-            .map(|(_, r)| r.iter().map(|x| x.calibration_tool).collect())
-            .unwrap_or_default();
-        print!("| model |");
-        for t in &tools {
-            print!(" cal. tool {t} |");
-        }
-        println!(" min | median | max |");
-        print!("| --- |");
-        for _ in &tools {
-            print!(" ---: |");
-        }
-        println!(" ---: | ---: | ---: |");
-        for (m, r) in &results {
-            let means: Vec<f64> = r.iter().map(|x| x.mean_mape_pct).collect();
-            let (lo, med, hi) = min_median_max(&means);
-            print!("| {} |", m.label());
-            for v in &means {
-                print!(" {v:.2} |");
-            }
-            println!(" {lo:.2} | {med:.2} | {hi:.2} |");
-        }
-        println!();
+        let tools: Vec<u32> = rows
+            .iter()
+            .map(|r| r.tool)
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        print_tool_table("cal. tool", &tools, &results, false);
         if let Some(dir) = plot_dir {
             let w = plot_turning(&rows, &dir.join("turning.svg"))?;
             println!("plot: {} and {}", w.svg.display(), w.png.display());

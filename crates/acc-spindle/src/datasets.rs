@@ -222,6 +222,8 @@ pub struct TurningRow {
     pub feed_current_a: f64,
     /// Flank wear `Vb`, µm.
     pub vb_um: f64,
+    /// 0-based index of the segment within its tool, in file (time) order.
+    pub segment: u32,
 }
 
 /// One 100 ms row of the wax-milling drive log.
@@ -268,6 +270,7 @@ pub fn read_turning(path: &Path) -> Result<(Vec<TurningRow>, usize), DatasetErro
     ])?;
     let mut skipped = 0;
     let mut out = Vec::new();
+    let mut segments: std::collections::BTreeMap<u32, u32> = std::collections::BTreeMap::new();
     for row in f.rows() {
         let row = row?;
         let feed = row.num(c[5])?;
@@ -275,9 +278,12 @@ pub fn read_turning(path: &Path) -> Result<(Vec<TurningRow>, usize), DatasetErro
             skipped += 1;
             continue;
         }
+        let tool = row.num(c[0])? as u32;
+        let segment = segments.entry(tool).or_default();
         out.push(TurningRow {
             line: row.line(),
-            tool: row.num(c[0])? as u32,
+            tool,
+            segment: *segment,
             force_n: row.num(c[1])?,
             power_w: row.num(c[2])?,
             power_elec: row.num(c[3])?,
@@ -286,6 +292,7 @@ pub fn read_turning(path: &Path) -> Result<(Vec<TurningRow>, usize), DatasetErro
             feed_current_a: row.num(c[6])?,
             vb_um: row.num(c[7])?,
         });
+        *segment += 1;
     }
     Ok((out, skipped))
 }

@@ -3,8 +3,8 @@
 //!
 //! * [`rms_error`], [`error_rate_pct`] (seed 000's "error rate": RMS error over the mean
 //!   true force), [`mape_pct`];
-//! * [`TurningModel`] and [`cross_tool`]: calibrate on one tool of the turning data set,
-//!   validate on the others;
+//! * [`min_median_max`] of a list of errors (the turning models are in
+//!   [`crate::turning`]);
 //! * [`wax_check`]: the estimator on the wax-milling logs, where a correct estimator
 //!   reports no cutting load above its noise floor.
 
@@ -15,8 +15,7 @@ use acc_core::spindle_force::{
     SpindleEstimator,
 };
 
-use crate::calibrate::least_squares;
-use crate::datasets::{MillRow, TurningRow};
+use crate::datasets::MillRow;
 
 /// RMS of `est − truth`.
 pub fn rms_error(est: &[f64], truth: &[f64]) -> f64 {
@@ -48,138 +47,6 @@ pub fn mape_pct(est: &[f64], truth: &[f64]) -> f64 {
         .map(|(e, t)| ((e - t) / t).abs())
         .sum();
     100.0 * s / n as f64
-}
-
-/// Force-from-power models for the turning data. Turning has no tool radius: `ω·r` of
-/// seed 000 eq. 14 becomes `k·n` (the workpiece radius is lumped into `k`); `n` is the
-/// encoder speed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum TurningModel {
-    /// `P = k·F·n` → `F = P/(k·n)` (eq. 14, no no-load term).
-    Plain,
-    /// `P = k·F·n + c·n²`: a speed-dependent no-load term.
-    SpeedNoLoad,
-    /// `P = k·F·n + q·(F·n)²`: load-dependent efficiency.
-    Efficiency,
-    /// `F = a·P/n + b·I_z`: spindle power plus the feed drive's current (the static form
-    /// of seed 004's spindle + feed-drive combination: the feed current carries the feed
-    /// force, which grows with flank wear).
-    FeedCurrent,
-}
-
-impl TurningModel {
-    /// All models, table order.
-    pub const ALL: [TurningModel; 4] = [
-        TurningModel::Plain,
-        TurningModel::SpeedNoLoad,
-        TurningModel::Efficiency,
-        TurningModel::FeedCurrent,
-    ];
-
-    /// Label for tables.
-    pub fn label(self) -> &'static str {
-        match self {
-            TurningModel::Plain => "power P/(k·n)",
-            TurningModel::SpeedNoLoad => "power − c·n² (no-load)",
-            TurningModel::Efficiency => "power, efficiency q·(Fn)²",
-            TurningModel::FeedCurrent => "power + feed-drive current",
-        }
-    }
-
-    /// Fit on `rows`; returns the parameters for [`TurningModel::predict`].
-    pub fn fit(self, rows: &[TurningRow]) -> Result<[f64; 2], SpindleError> {
-        let n = |r: &TurningRow| r.speed * 1e-7;
-        match self {
-            TurningModel::Plain => {
-                let m: Vec<_> = rows
-                    .iter()
-                    .map(|r| ([r.force_n * n(r)], r.power_w))
-                    .collect();
-                least_squares(&m, "turning plain").map(|[k]| [k, 0.0])
-            }
-            TurningModel::SpeedNoLoad => {
-                let m: Vec<_> = rows
-                    .iter()
-                    .map(|r| ([r.force_n * n(r), n(r) * n(r)], r.power_w))
-                    .collect();
-                least_squares(&m, "turning no-load")
-            }
-            TurningModel::Efficiency => {
-                let m: Vec<_> = rows
-                    .iter()
-                    .map(|r| {
-                        let fnn = r.force_n * n(r);
-                        ([fnn, fnn * fnn], r.power_w)
-                    })
-                    .collect();
-                least_squares(&m, "turning efficiency")
-            }
-            TurningModel::FeedCurrent => {
-                let m: Vec<_> = rows
-                    .iter()
-                    .map(|r| ([r.power_w / n(r), r.feed_current_a], r.force_n))
-                    .collect();
-                least_squares(&m, "turning feed current")
-            }
-        }
-    }
-
-    /// Predict the cutting force of one row, N.
-    pub fn predict(self, p: [f64; 2], r: &TurningRow) -> f64 {
-        let n = r.speed * 1e-7;
-        match self {
-            TurningModel::Plain => r.power_w / (p[0] * n),
-            TurningModel::SpeedNoLoad => (r.power_w - p[1] * n * n) / (p[0] * n),
-            TurningModel::Efficiency => {
-                // Root of q·x² + k·x − P = 0 that is 0 at P = 0, x = F·n.
-                let disc = (p[0] * p[0] + 4.0 * p[1] * r.power_w).max(0.0);
-                2.0 * r.power_w / (p[0] + disc.sqrt()) / n
-            }
-            TurningModel::FeedCurrent => p[0] * r.power_w / n + p[1] * r.feed_current_a,
-        }
-    }
-}
-
-/// One calibration tool's result.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CrossToolResult {
-    /// Tool used for calibration.
-    pub calibration_tool: u32,
-    /// MAPE on each other tool, %.
-    pub per_tool_mape_pct: Vec<(u32, f64)>,
-    /// Mean of `per_tool_mape_pct`, %.
-    pub mean_mape_pct: f64,
-}
-
-/// Calibrate `model` on each tool in turn and validate on the others.
-pub fn cross_tool(
-    rows: &[TurningRow],
-    model: TurningModel,
-) -> Result<Vec<CrossToolResult>, SpindleError> {
-    let mut by_tool: BTreeMap<u32, Vec<TurningRow>> = BTreeMap::new();
-    for r in rows {
-        by_tool.entry(r.tool).or_default().push(*r);
-    }
-    let mut out = Vec::new();
-    for (&cal, cal_rows) in &by_tool {
-        let p = model.fit(cal_rows)?;
-        let mut per = Vec::new();
-        for (&val, val_rows) in &by_tool {
-            if val == cal {
-                continue;
-            }
-            let est: Vec<f64> = val_rows.iter().map(|r| model.predict(p, r)).collect();
-            let truth: Vec<f64> = val_rows.iter().map(|r| r.force_n).collect();
-            per.push((val, mape_pct(&est, &truth)));
-        }
-        let mean = per.iter().map(|x| x.1).sum::<f64>() / per.len().max(1) as f64;
-        out.push(CrossToolResult {
-            calibration_tool: cal,
-            per_tool_mape_pct: per,
-            mean_mape_pct: mean,
-        });
-    }
-    Ok(out)
 }
 
 /// Minimum, median and maximum of a list.

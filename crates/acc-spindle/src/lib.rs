@@ -9,8 +9,8 @@
 //! * [`stream`]: a recorded or piped DAQ sample stream as a force source (file I/O, then
 //!   [`acc_core::spindle_force::SpindleSource`] per period);
 //! * [`fusion`]: spindle + feed-drive current fusion (seed 004);
-//! * [`datasets`] and [`eval`]: readers of the two public data sets and the error metrics
-//!   used by `acc estimate-eval`.
+//! * [`datasets`], [`eval`] and [`turning`]: readers of the two public data sets, the error
+//!   metrics and the force models validated on real turning data by `acc estimate-eval`.
 //!
 //! ```
 //! use acc_core::spindle_force::{AdaptRule, EstimatorConfig, Method, NoLoadModel};
@@ -46,6 +46,7 @@ pub mod datasets;
 pub mod eval;
 pub mod fusion;
 pub mod stream;
+pub mod turning;
 
 pub use calibrate::{CalPoint, SpindleCalibration};
 pub use stream::{SampleFormat, SampleStream, StreamError, StreamForceSource};
