@@ -386,7 +386,10 @@ impl LookAhead {
     /// tool's own override limits are the shop layer's (they join the cap, the lower wins).
     fn row_cap(&self, r: &PlanRow, from_mm: f64, to_mm: f64) -> u16 {
         let f = r.force_100_over_n(from_mm, to_mm);
-        if !r.cuts() || f >= r.force_100_n || !(self.cfg.force_ref_n > 0.0) {
+        if !r.cuts()
+            || f >= r.force_100_n
+            || self.cfg.force_ref_n.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        {
             return r.override_pct;
         }
         let top = f64::from(self.cfg.max_pct);
