@@ -463,7 +463,7 @@ mod tests {
         let e = |r: f64| Engagement {
             radial_mm: r,
             axial_mm: 16.0,
-            wear: WearSpec::default(),
+            ks_factor: 1.0,
         };
         let mut prog = Prog(
             EngagementProfile::new(
