@@ -10,6 +10,12 @@
 //! what the plant adds over time (wear growth, a sagging spindle speed, the feed drive's
 //! transient) and the plant's axial depth, which it holds per control period.
 //!
+//! With a wear law ([`PlanParams::wearing`], `acc plan --model`: the wear a model file
+//! learned from a run log) the tool's `Ks` factor grows along the path as the plant's does
+//! ([`acc_plant::process::WearSpec::factor`]): with the volume the path removed before each
+//! point (the engagement's cross-section swept along the path, rapids included, as the
+//! plant counts it) and the cutting time at the programmed feed.
+//!
 //! The path is cut into intervals between knots (the source's engagement breakpoints and
 //! the pieces' starts, where the feed changes); the engagement is linear between knots, so
 //! the largest force of an interval is at one of its ends, and the plan's bound holds over
@@ -25,7 +31,7 @@
 
 use acc_core::OverrideSpec;
 use acc_plant::engagement::{EngagementSource, ToolGeometry};
-use acc_plant::process::ForceLaw;
+use acc_plant::process::{ForceLaw, WearSpec};
 use acc_runtime::plan::{ForceProfile, Plan, PlanRow};
 
 use crate::program::ProgramPath;
@@ -40,8 +46,10 @@ pub struct PlanParams {
     pub law: ForceLaw,
     /// Spindle speed, rpm.
     pub rpm: f64,
-    /// `Ks` factor of the tool (its initial wear factor), −.
-    pub ks_factor: f64,
+    /// The tool's wear law: its `Ks` factor `initial · (1 + g_V·V^p + g_t·t)` after the
+    /// volume `V` the path removed so far (cm³) and the cutting time `t` (min, at the
+    /// programmed feed). [`PlanParams::of`]: the initial factor, no growth.
+    pub wear: WearSpec,
     /// Force reference Fr, N.
     pub force_ref_n: f64,
     /// The board's grid and the tool's override limits, percent.
@@ -50,8 +58,8 @@ pub struct PlanParams {
 
 impl PlanParams {
     /// The constants of `scenario`: its tool and force law, the spindle's commanded speed,
-    /// the tool's initial wear factor, its Fr and its override grid within the fault
-    /// policy's limits.
+    /// the tool's initial wear factor (held along the path), its Fr and its override grid
+    /// within the fault policy's limits.
     pub fn of(scenario: &Scenario) -> Self {
         let mut grid = scenario.controller.override_spec;
         grid.min_pct = grid.min_pct.max(scenario.policy.min_override_pct);
@@ -60,10 +68,19 @@ impl PlanParams {
             tool: ToolGeometry::of(&scenario.tool),
             law: ForceLaw::new(scenario.tool.process),
             rpm: scenario.machine.spindle.rpm,
-            ks_factor: scenario.wear.initial_factor,
+            wear: WearSpec {
+                initial_factor: scenario.wear.initial_factor,
+                ..WearSpec::default()
+            },
             force_ref_n: scenario.controller.force_ref_n,
             grid,
         }
+    }
+
+    /// These constants with the tool's `Ks` factor following the wear law `wear` along the
+    /// path (`acc plan --model`: the scenario's tool replaced by a model file's).
+    pub fn wearing(self, wear: WearSpec) -> Self {
+        PlanParams { wear, ..self }
     }
 
     /// The planned override for a largest force `f100_n` (N) at 100 %: the grid position at
@@ -124,21 +141,19 @@ impl Interval {
 
 /// The intervals of the path of `source` between the increasing path positions `knots`
 /// (mm): the engagement is linear between knots, so an interval's largest force is at one
-/// of its ends (seed 002 eq. 1 at the interval's programmed feed).
+/// of its ends (seed 002 eq. 1 at the interval's programmed feed; the wear factor of
+/// [`PlanParams::wear`] after the volume removed up to that end, which only grows).
 pub fn intervals(
     source: &mut dyn EngagementSource,
     knots: &[f64],
     p: &PlanParams,
 ) -> Vec<Interval> {
-    let force = |source: &mut dyn EngagementSource, x: f64, feed: f64| {
-        let e = source.engagement_at(&p.tool, x);
-        let f = p.law.mean_force_n(
-            e.radial_mm,
-            e.axial_mm,
-            feed,
-            p.rpm,
-            e.ks_factor * p.ks_factor,
-        );
+    // Removed volume (cm³) and cutting time (min) before the interval.
+    let (mut volume_cm3, mut cut_min) = (0.0, 0.0);
+    let force = |e: &acc_plant::engagement::Engagement, feed: f64, wear: f64| {
+        let f = p
+            .law
+            .mean_force_n(e.radial_mm, e.axial_mm, feed, p.rpm, e.ks_factor * wear);
         (f, e.radial_mm, e.axial_mm)
     };
     let mut out: Vec<Interval> = Vec::with_capacity(knots.len());
@@ -152,8 +167,20 @@ pub fn intervals(
         let (feed, block, tool, rapid) = pt.map_or((0.0, 0, 0, false), |q| {
             (q.feed_mm_min, q.block, q.tool, q.rapid)
         });
-        let (fa, ra, aa) = force(source, a, feed);
-        let (fb, rb, ab) = force(source, b, feed);
+        let ea = source.engagement_at(&p.tool, a);
+        let eb = source.engagement_at(&p.tool, b);
+        let (fa, ra, aa) = force(&ea, feed, p.wear.factor(volume_cm3, cut_min));
+        // The cross-section is linear between knots: the trapezoid is the swept volume
+        // when one of radial and axial depth is constant along the interval.
+        let vol_cm3 =
+            0.5 * (ea.radial_mm * ea.axial_mm + eb.radial_mm * eb.axial_mm) * (b - a) * 1e-3;
+        if vol_cm3 > 0.0 {
+            volume_cm3 += vol_cm3;
+            if feed > 0.0 {
+                cut_min += (b - a) / feed;
+            }
+        }
+        let (fb, rb, ab) = force(&eb, feed, p.wear.factor(volume_cm3, cut_min));
         let (f100, radial, axial) = if fb > fa { (fb, rb, ab) } else { (fa, ra, aa) };
         out.push(Interval {
             a,
@@ -379,7 +406,7 @@ mod tests {
             },
             law: ForceLaw::new(ProcessSpec::paper()),
             rpm: 600.0,
-            ks_factor: 1.0,
+            wear: WearSpec::default(),
             force_ref_n: 800.0,
             grid: OverrideSpec {
                 step_pct: 10,
@@ -416,6 +443,41 @@ mod tests {
                 block: if x_mm < 20.0 { 10 } else { 20 },
                 tool: 1,
             })
+        }
+    }
+
+    #[test]
+    fn a_wear_law_raises_the_force_with_the_volume_removed() {
+        // 2 mm × 16 mm at 200 mm/min: 800 N on a new tool, 32 mm³ removed per mm.
+        let e2 = Engagement {
+            radial_mm: 2.0,
+            axial_mm: 16.0,
+            ks_factor: 1.0,
+        };
+        let mut prog =
+            Prog(EngagementProfile::new(vec![0.0, 20.0], vec![e2, e2]).expect("profile"));
+        let knots = [0.0, 5.0, 10.0, 20.0];
+        let f = |p: &PlanParams, prog: &mut Prog| -> Vec<(f64, f64)> {
+            intervals(prog, &knots, p)
+                .iter()
+                .map(|i| (i.fmin, i.f100))
+                .collect()
+        };
+        assert!(f(&params(), &mut prog)
+            .iter()
+            .all(|&(a, b)| (a - 800.0).abs() < 1e-9 && (b - 800.0).abs() < 1e-9));
+        let wearing = params().wearing(WearSpec {
+            growth_per_cm3: 0.25,
+            ..WearSpec::default()
+        });
+        let got = f(&wearing, &mut prog);
+        // After 0.16, 0.32 and 0.64 cm³: × 1.04, 1.08, 1.16.
+        let want = [(800.0, 832.0), (832.0, 864.0), (864.0, 928.0)];
+        for (g, w) in got.iter().zip(want) {
+            assert!(
+                (g.0 - w.0).abs() < 1e-6 && (g.1 - w.1).abs() < 1e-6,
+                "{got:?}"
+            );
         }
     }
 

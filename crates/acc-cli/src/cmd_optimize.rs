@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use acc_sim::optimize::{OptimizeParams, DEFAULT_MIN_SEGMENT_MM};
-use acc_sim::plan::{PlanFigures, PlanParams};
+use acc_sim::plan::PlanFigures;
 use acc_sim::program::ProgramPath;
 use anyhow::Context as _;
 
@@ -42,10 +42,10 @@ fn times(path: &ProgramPath, rapid_mm_min: f64) -> (f64, f64) {
 /// Run `acc optimize`.
 pub fn run_cmd(args: &OptimizeArgs) -> anyhow::Result<()> {
     let input = &args.input;
-    let (sc, path) = input.load(&input.program)?;
+    let setup = input.setup()?;
+    let (sc, path, plan) = (&setup.scenario, &setup.path, setup.params);
     let text = std::fs::read_to_string(&input.program)
         .with_context(|| format!("{}: cannot read", input.program.display()))?;
-    let plan = PlanParams::of(&sc);
     let rapid = sc.machine.feed_drive.rapid_mm_min;
     let params = OptimizeParams {
         plan,
@@ -61,7 +61,7 @@ pub fn run_cmd(args: &OptimizeArgs) -> anyhow::Result<()> {
             })
     };
     let name = input.program.display().to_string();
-    let opt = acc_sim::optimize::optimize(&name, &text, &path, &params, &air)?;
+    let opt = acc_sim::optimize::optimize(&name, &text, path, &params, &air)?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create", dir.display()))?;
@@ -69,19 +69,20 @@ pub fn run_cmd(args: &OptimizeArgs) -> anyhow::Result<()> {
     std::fs::write(&args.out, &opt.text)
         .with_context(|| format!("{}: cannot write", args.out.display()))?;
     // The optimized program through the same stock: its time and its plan's peak.
-    let (_, after) = input.load(&args.out)?;
+    let after = input.load(sc, &args.out)?;
     let fr = plan.force_ref_n;
     let max = plan.grid.max_pct;
     let f0 = PlanFigures::of(&path.plan(&plan), max);
     let f1 = PlanFigures::of(&after.plan(&plan), max);
-    let (feed0, rapid0) = times(&path, rapid);
+    let (feed0, rapid0) = times(path, rapid);
     let (feed1, rapid1) = times(&after, rapid);
     let mut md = String::new();
     md += &format!(
-        "optimized {} on {} (Fr {fr} N, rapid {rapid} mm/min, shortest piece {} mm)\n\n",
+        "optimized {} on {} (Fr {fr} N, rapid {rapid} mm/min, shortest piece {} mm)\n{}\n\n",
         input.program.display(),
         sc.name,
-        args.min_segment
+        args.min_segment,
+        setup.predicted_by()
     );
     md += "| program | cycle, s | feed moves, s | rapids, s | predicted peak at 100 %, Fr |\n";
     md += "| --- | --- | --- | --- | --- |\n";

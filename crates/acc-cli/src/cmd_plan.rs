@@ -1,9 +1,12 @@
 //! `acc plan part.ngc --stock stock.toml | --stock-box … [--tools T.tbl] [--scenario S]
-//! --out DIR`: the cutting plan of an NC program (`acc_sim::plan`): `plan.csv`, the
-//! predicted force along the program (`plan.svg`, `plan.png`) and a summary on stdout.
+//! [--model M.toml] [--measured run.csv] --out DIR`: the cutting plan of an NC program
+//! (`acc_sim::plan`): `plan.csv`, the predicted force along the program (`plan.svg`,
+//! `plan.png`) and a summary on stdout; with `--measured`, the plan's force error against
+//! a run log (`acc_runtime::plan_error`).
 
 use std::path::{Path, PathBuf};
 
+use acc_ident::cutting::CuttingModel;
 use acc_plot::{Figure, HLine, Panel, Series, Style};
 use acc_runtime::plan::Plan;
 use acc_sim::plan::{PlanFigures, PlanParams};
@@ -33,12 +36,85 @@ pub struct PlanInput {
     /// LinuxCNC tool table (`.tbl`, mm) with the diameters of the program's T numbers.
     #[arg(long, value_name = "FILE.tbl")]
     pub tools: Option<PathBuf>,
+    /// Model file (e.g. `acc discrepancy`'s `model.updated.toml`) whose machine, tool and
+    /// cutting-force effects predict the force instead of the scenario's; its tool's wear
+    /// law (a learned `tool_wear`) raises the force along the path with the volume removed.
+    /// Fr, the override grid and the limits stay the scenario's.
+    #[arg(long, value_name = "MODEL.toml")]
+    pub model: Option<PathBuf>,
+}
+
+/// What `acc plan` and `acc optimize` plan with.
+#[derive(Debug, Clone)]
+pub struct PlanSetup {
+    /// The scenario (its machine and tool those of `--model` if given).
+    pub scenario: Scenario,
+    /// The program's path through the stock.
+    pub path: ProgramPath,
+    /// The planner's constants.
+    pub params: PlanParams,
+    /// `--model` and its cutting-force law.
+    pub model: Option<(PathBuf, CuttingModel)>,
+}
+
+impl PlanSetup {
+    /// Which model predicted the force, for the summary and the plan file.
+    pub fn predicted_by(&self) -> String {
+        let Some((path, m)) = &self.model else {
+            return format!("force predicted by scenario {}", self.scenario.name);
+        };
+        let w = &m.tool.wear;
+        let names = |v: &[acc_ident::EffectKind]| {
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
+            }
+        };
+        format!(
+            "force predicted by model {} (its machine and tool; Fr and grid of scenario {})\n\
+             tool wear: Ks factor {} · (1 + {:.5}·V^{:.3} + {:.5}·t) along the path (V removed cm³, t cutting min)\n\
+             effects carried into the tool: {}; not used (no change to the mean cutting force): {}",
+            path.display(),
+            self.scenario.name,
+            w.initial_factor,
+            w.growth_per_cm3,
+            w.volume_exponent,
+            w.growth_per_min,
+            names(&m.used),
+            names(&m.not_used)
+        )
+    }
 }
 
 impl PlanInput {
-    /// The scenario and `program`'s path through the stock (warnings printed).
-    pub fn load(&self, program: &Path) -> anyhow::Result<(Scenario, ProgramPath)> {
-        let sc = crate::cmd_sim::load_scenario(&self.scenario, None)?;
+    /// The scenario (with `--model`'s machine and tool), the planner's constants and the
+    /// path of the program.
+    pub fn setup(&self) -> anyhow::Result<PlanSetup> {
+        let mut sc = crate::cmd_sim::load_scenario(&self.scenario, None)?;
+        let model = match &self.model {
+            None => None,
+            Some(file) => {
+                let m = acc_ident::Model::load(file)?.cutting(file)?;
+                sc.use_machine_and_tool(file, m.machine.clone(), m.tool.clone())?;
+                Some((file.clone(), m))
+            }
+        };
+        let params = match &model {
+            None => PlanParams::of(&sc),
+            Some(_) => PlanParams::of(&sc).wearing(sc.wear),
+        };
+        let path = self.load(&sc, &self.program)?;
+        Ok(PlanSetup {
+            scenario: sc,
+            path,
+            params,
+            model,
+        })
+    }
+
+    /// `program`'s path through the stock on `sc`'s machine and tool (warnings printed).
+    pub fn load(&self, sc: &Scenario, program: &Path) -> anyhow::Result<ProgramPath> {
         let program_args = crate::cmd_sim_program::ProgramArgs {
             program: Some(program.to_path_buf()),
             stock: self.stock.clone(),
@@ -46,9 +122,8 @@ impl PlanInput {
             cell: self.cell,
             tools: self.tools.clone(),
         };
-        let path = crate::cmd_sim_program::load(&program_args, &sc)?
-            .ok_or_else(|| anyhow::anyhow!("no program"))?;
-        Ok((sc, path))
+        crate::cmd_sim_program::load(&program_args, sc)?
+            .ok_or_else(|| anyhow::anyhow!("no program"))
     }
 }
 
@@ -64,12 +139,22 @@ pub struct PlanArgs {
     /// Do not draw the plot.
     #[arg(long)]
     pub no_plot: bool,
+    /// A run log of the program (`acc sim --program … run.csv`, or `acc run`'s): print the
+    /// plan's force error against its measured force (RMS over the cutting periods of the
+    /// distance to the plan's force band at the logged feed, docs/plan.md).
+    #[arg(long, value_name = "run.csv")]
+    pub measured: Option<PathBuf>,
 }
 
 /// Run `acc plan`.
 pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
-    let (sc, path) = args.input.load(&args.input.program)?;
-    let params = PlanParams::of(&sc);
+    // The log first: a bad log is refused before anything is planned.
+    let measured = match &args.measured {
+        None => None,
+        Some(f) => Some(crate::cmd_what_if::read_log_of("--measured", f)?),
+    };
+    let setup = args.input.setup()?;
+    let (sc, path, params) = (&setup.scenario, &setup.path, setup.params);
     let plan = path.plan(&params);
     let out = args.out.clone().unwrap_or_else(|| {
         let stem = args
@@ -81,7 +166,11 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
     });
     std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
     let csv = out.join("plan.csv");
-    std::fs::write(&csv, plan.to_csv()?)
+    let notes = match setup.model {
+        Some(_) => vec![setup.predicted_by()],
+        None => Vec::new(),
+    };
+    std::fs::write(&csv, plan.to_csv_noted(&notes)?)
         .with_context(|| format!("{}: cannot write", csv.display()))?;
     let fr = params.force_ref_n;
     let f = PlanFigures::of(&plan, params.grid.max_pct);
@@ -94,6 +183,7 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
         params.grid.min_pct,
         params.grid.max_pct
     );
+    println!("{}", setup.predicted_by());
     println!(
         "{} rows ({} cutting) over {:.1} mm of path; {} engagement changes",
         f.rows,
@@ -142,6 +232,25 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
             .join(", ")
             + if events.len() > 12 { ", …" } else { "" }
     );
+    if let (Some(rows), Some(file)) = (&measured, &args.measured) {
+        let e = acc_runtime::plan_error::plan_force_error(&plan, rows);
+        if e.periods == 0 {
+            anyhow::bail!(
+                "{}: no cutting period of the log lies on the plan's cutting rows (is it a run of this program?)",
+                file.display()
+            );
+        }
+        println!(
+            "plan's force error against {}: RMS {:.1} N = {:.3} Fr, mean {:+.1} N over {} cutting periods ({} above the plan's band, {} below)",
+            file.display(),
+            e.rms_n,
+            e.rms_n / fr,
+            e.mean_n,
+            e.periods,
+            e.above,
+            e.below
+        );
+    }
     println!("plan: {}", csv.display());
     if !args.no_plot {
         let w = plot(&plan, fr, &sc.name, &out.join("plan.svg"))?;

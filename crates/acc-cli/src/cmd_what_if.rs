@@ -53,10 +53,16 @@ pub struct WhatIfArgs {
 
 /// The recorded rows of `path`; errors name the file.
 pub fn read_log(path: &Path) -> anyhow::Result<Vec<RunRecord>> {
-    let f = File::open(path).with_context(|| format!("--log {}: cannot open", path.display()))?;
-    let rows = read_run_log(f).with_context(|| format!("--log {}", path.display()))?;
+    read_log_of("--log", path)
+}
+
+/// The recorded rows of `path`, given by the option `option`; errors name both.
+pub fn read_log_of(option: &str, path: &Path) -> anyhow::Result<Vec<RunRecord>> {
+    let f =
+        File::open(path).with_context(|| format!("{option} {}: cannot open", path.display()))?;
+    let rows = read_run_log(f).with_context(|| format!("{option} {}", path.display()))?;
     if rows.is_empty() {
-        bail!("--log {}: the run log has no rows", path.display());
+        bail!("{option} {}: the run log has no rows", path.display());
     }
     Ok(rows)
 }

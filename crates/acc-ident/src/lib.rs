@@ -8,7 +8,8 @@
 //! residuals, noise (AR(1)), regimes and correlations ([`segment`], [`stats`]) → fit each
 //! candidate effect ([`effects`]) jointly with the nominal parameters it can be confused
 //! with ([`fit`], Levenberg–Marquardt) → select by contiguous-fold held-out prediction →
-//! sealed-part comparison → [`report::Report`] and an updated model file ([`model`]).
+//! sealed-part comparison → [`report::Report`] and an updated model file ([`model`]), whose
+//! cutting-force law the planner reads ([`cutting`]).
 //!
 //! ```
 //! use acc_ident::{synth, workflow};
@@ -19,6 +20,7 @@
 //! assert!(a.report.accepted.is_empty());
 //! ```
 
+pub mod cutting;
 pub mod dead;
 pub mod effects;
 pub mod engagement;

@@ -39,6 +39,7 @@ mod log_backlog;
 pub mod lookahead;
 pub mod opcua_config;
 pub mod plan;
+pub mod plan_error;
 pub mod policy;
 pub mod record;
 pub mod runner;

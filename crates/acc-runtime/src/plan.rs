@@ -21,8 +21,9 @@
 //! | `feed_exponent` | — | β of the force law `F ∝ f^β` (seed 002 eq. 1): the force at another feed `f` is `force_100_n · (f / feed_mm_min)^β` |
 //! | `profile` | — | the force along the stretch: `rising` (linear from `force_min_100_n` at `start_mm` to `force_100_n` at `end_mm`), `falling` (the reverse), `flat` (not known inside the stretch: take `force_100_n` throughout). Optional: a file without the column reads as `flat` |
 //!
-//! Reading checks every cell and the order; an error names the file, the line and the
-//! column, and the allowed range.
+//! Lines that start with `#` are comments (`acc plan --model` names the model that predicted
+//! the force on the first line). Reading checks every cell and the order; an error names
+//! the file, the line and the column, and the allowed range.
 
 use std::path::{Path, PathBuf};
 
@@ -222,16 +223,19 @@ impl Plan {
         };
         let mut rd = csv::ReaderBuilder::new()
             .has_headers(true)
+            .comment(Some(b'#'))
             .from_reader(text.as_bytes());
+        // The header is the first line that is not a comment.
+        let header_line = 1 + text.lines().take_while(|l| l.starts_with('#')).count() as u64;
         let header = rd
             .headers()
-            .map_err(|e| err(1, format!("header: {e}")))?
+            .map_err(|e| err(header_line, format!("header: {e}")))?
             .clone();
         let got: Vec<&str> = header.iter().collect();
         let with_profile = got == PLAN_COLUMNS;
         if !with_profile && got != PLAN_COLUMNS[..REQUIRED_COLUMNS] {
             return Err(err(
-                1,
+                header_line,
                 format!(
                     "header `{}`: expected `{}`",
                     got.join(","),
@@ -360,7 +364,19 @@ impl Plan {
 
     /// The plan as `plan.csv` text.
     pub fn to_csv(&self) -> Result<String, PlanError> {
-        let mut w = csv::Writer::from_writer(Vec::new());
+        self.to_csv_noted(&[])
+    }
+
+    /// The plan as `plan.csv` text with `notes` as comment lines (`# …`) above the header
+    /// (a line break inside a note starts a new comment line).
+    pub fn to_csv_noted(&self, notes: &[String]) -> Result<String, PlanError> {
+        let mut head = String::new();
+        for line in notes.iter().flat_map(|n| n.lines()) {
+            head.push_str("# ");
+            head.push_str(line);
+            head.push('\n');
+        }
+        let mut w = csv::Writer::from_writer(head.into_bytes());
         w.write_record(PLAN_COLUMNS)
             .map_err(|e| PlanError::Write(e.to_string()))?;
         for r in &self.rows {
@@ -440,6 +456,21 @@ mod tests {
         assert_eq!(back, p);
         assert!((back.rows[1].force_at_feed_n(100.0) - 800.0).abs() < 1e-9);
         assert_eq!(back.length_mm(), 9.5);
+        // Notes are comment lines above the header; errors still name the file's line.
+        let noted = p
+            .to_csv_noted(&["force predicted by model m.toml".into(), "a\nb".into()])
+            .expect("csv");
+        assert!(noted.starts_with("# force predicted by model m.toml\n# a\n# b\nblock,"));
+        assert_eq!(Plan::parse(Path::new("p.csv"), &noted).expect("parse"), p);
+        let bad = noted.replace("1600.0", "lots");
+        let e = Plan::parse(Path::new("p.csv"), &bad)
+            .expect_err("bad")
+            .to_string();
+        assert!(e.contains("p.csv:6") && e.contains("force_100_n"), "{e}");
+        let e = Plan::parse(Path::new("p.csv"), "# x\na,b\n1,2\n")
+            .expect_err("header")
+            .to_string();
+        assert!(e.contains("p.csv:2") && e.contains("header"), "{e}");
     }
 
     #[test]

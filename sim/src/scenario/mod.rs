@@ -209,6 +209,18 @@ impl Scenario {
     pub fn use_model(&mut self, model: impl AsRef<Path>) -> Result<(), ConfigError> {
         let model = model.as_ref();
         let (machine, tool) = load_model(model)?;
+        self.use_machine_and_tool(model, machine, tool)
+    }
+
+    /// Replace the machine, the tool and the wear by `machine` and `tool` (its `[wear]`),
+    /// read from the model file `model` (named in errors): the tool must fit the scenario's
+    /// workpiece and the machine's override step the controller's grid.
+    pub fn use_machine_and_tool(
+        &mut self,
+        model: &Path,
+        machine: MachineSpec,
+        tool: ToolSpec,
+    ) -> Result<(), ConfigError> {
         if let Err(e) = self.workpiece.check_tool(&self.path, tool.diameter_mm) {
             return Err(ConfigError::Invalid {
                 file: model.to_path_buf(),

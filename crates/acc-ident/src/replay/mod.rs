@@ -99,26 +99,30 @@ fn plant_trace(
         torque_lag_s: motor.as_ref().map_or(0.0, |c| c.drive.torque_lag_s),
         daq_rate_hz: motor.as_ref().map_or(0.0, |c| c.sensors.sample_rate_hz),
     };
-    let run = |drive: &acc_sim::replay::ReplayDrive<'_>| {
+    let run = |engagement: &acc_sim::replay::ReplayEngagement,
+               drive: &acc_sim::replay::ReplayDrive<'_>| {
         acc_sim::replay::trace(
             &machine,
             &tool,
             model.measurement.force_model.sim(),
-            &plant.engagement,
+            engagement,
             drive,
             &channel,
         )
     };
     let settled = plant.source == FeedSource::Command;
     let Some(sample) = inp.board_sample.as_ref().filter(|s| s.len() == inp.len()) else {
-        return run(&acc_sim::replay::ReplayDrive {
-            period_s: &inp.dt_s,
-            override_applied_pct: &plant.override_applied_pct,
-            programmed_feed_mm_min: &plant.programmed_feed_mm_min,
-            feed_hold: None,
-            spindle_rpm: plant.spindle_rpm.as_deref(),
-            settled,
-        });
+        return run(
+            &plant.engagement,
+            &acc_sim::replay::ReplayDrive {
+                period_s: &inp.dt_s,
+                override_applied_pct: &plant.override_applied_pct,
+                programmed_feed_mm_min: &plant.programmed_feed_mm_min,
+                feed_hold: None,
+                spindle_rpm: plant.spindle_rpm.as_deref(),
+                settled,
+            },
+        );
     };
     // On the board's periods. The override register a row reads is the one that drove the
     // sample it reads (the board takes a period at its tick, with the register as it is
@@ -131,6 +135,13 @@ fn plant_trace(
     let mut ov = Vec::with_capacity(periods);
     let mut prog = Vec::with_capacity(periods);
     let mut rpm = Vec::with_capacity(periods);
+    // A logged engagement is per row: on the board's periods, a period no row read takes
+    // the engagement of the row that read the next sample.
+    let logged = match &plant.engagement {
+        acc_sim::replay::ReplayEngagement::Logged(e) => Some(e),
+        acc_sim::replay::ReplayEngagement::Workpiece { .. } => None,
+    };
+    let mut eng = Vec::with_capacity(if logged.is_some() { periods } else { 0 });
     let mut row = 0;
     for s in 0..periods {
         while sample[row] < s {
@@ -143,15 +154,25 @@ fn plant_trace(
         if let Some(r) = &plant.spindle_rpm {
             rpm.push(r[from]);
         }
+        if let Some(e) = logged {
+            eng.push(e[row]);
+        }
     }
-    let grid = run(&acc_sim::replay::ReplayDrive {
-        period_s: &vec![inp.period_s; periods],
-        override_applied_pct: &ov,
-        programmed_feed_mm_min: &prog,
-        feed_hold: None,
-        spindle_rpm: plant.spindle_rpm.as_ref().map(|_| rpm.as_slice()),
-        settled,
-    });
+    let engagement = match logged {
+        Some(_) => acc_sim::replay::ReplayEngagement::Logged(eng),
+        None => plant.engagement.clone(),
+    };
+    let grid = run(
+        &engagement,
+        &acc_sim::replay::ReplayDrive {
+            period_s: &vec![inp.period_s; periods],
+            override_applied_pct: &ov,
+            programmed_feed_mm_min: &prog,
+            feed_hold: None,
+            spindle_rpm: plant.spindle_rpm.as_ref().map(|_| rpm.as_slice()),
+            settled,
+        },
+    );
     sample.iter().map(|&s| grid[s]).collect()
 }
 
@@ -400,5 +421,49 @@ fn replay_plant(
         for i in 0..n {
             out.predicted[i] = e.force_n(out.predicted[i], inp.spindle_rpm[i], nl[i]);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A log whose board skipped a sample (a `seq_skip:2` row: one board period no row
+    /// read) replays on its logged engagement, one prediction per row, still in step with
+    /// the measured force after the skip.
+    #[test]
+    fn a_skipped_board_sample_keeps_the_logged_engagement_in_step() {
+        let cfg = acc_sim::run::configs_dir();
+        let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
+            .expect("scenario");
+        let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
+        let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        let mut rows = res.rows;
+        let skip = rows.len() / 3;
+        rows[skip].flags = "seq_skip:2".into();
+        let log =
+            crate::runlog::from_records(&rows, std::path::Path::new("skip.csv")).expect("log");
+        let model = Model::load(&cfg.join("models/paper_vmc.toml")).expect("model");
+        let inp = Inputs::from_log(&log, &model).expect("inputs");
+        assert!(
+            inp.board_sample.is_some(),
+            "the board's period grid is used"
+        );
+        let r = replay(&model, &inp);
+        assert_eq!(r.predicted.len(), rows.len());
+        // After the skip the replayed force follows the measured one (the paper tool wears
+        // a little, the model's does not: within 5 % of Fr on average).
+        let after: Vec<f64> = rows[skip..]
+            .iter()
+            .zip(&r.predicted[skip..])
+            .filter(|(x, _)| x.force_valid)
+            .filter_map(|(x, p)| x.force_n.map(|f| (f - p).abs()))
+            .collect();
+        let mean = after.iter().sum::<f64>() / after.len().max(1) as f64;
+        assert!(
+            after.len() > 100 && mean < 0.05 * sc.controller.force_ref_n,
+            "{} rows, mean |residual| {mean} N",
+            after.len()
+        );
     }
 }
