@@ -123,13 +123,27 @@ pub struct Interval {
     pub axial: f64,
     /// Force at 100 % at the interval's end `b`, N.
     pub f_end: f64,
+    /// The force is linear along the interval within [`LINEAR_TOLERANCE`] of `f100`: no step
+    /// just inside either end, and the middle no higher than the chord.
+    pub linear: bool,
 }
 
+/// How far the force may depart from the chord between an interval's ends for the interval
+/// to count as linear (a `rising` or `falling` plan row), × its largest force: 1 %.
+pub const LINEAR_TOLERANCE: f64 = 0.01;
+
 impl Interval {
-    /// The force along the interval: linear between its ends (the engagement is linear
-    /// between knots), so rising or falling; flat when both ends agree or in air.
+    /// The force along the interval: rising or falling where it is linear between its
+    /// ends; flat (its largest force throughout, the safe reading) where both ends agree,
+    /// in air, on a rapid, or where the force is not linear along it (a step just inside
+    /// an end, or a middle above the chord: with a radial exponent α < 1 of eq. 1 the
+    /// force is concave in the radial depth).
     pub fn profile(&self) -> ForceProfile {
-        if self.rapid || self.f100 <= 0.0 || self.f100 - self.fmin <= 1e-9 * self.f100 {
+        if self.rapid
+            || !self.linear
+            || self.f100 <= 0.0
+            || self.f100 - self.fmin <= 1e-9 * self.f100
+        {
             ForceProfile::Flat
         } else if self.f_end >= self.f100 {
             ForceProfile::Rising
@@ -180,8 +194,19 @@ pub fn intervals(
                 cut_min += (b - a) / feed;
             }
         }
-        let (fb, rb, ab) = force(&eb, feed, p.wear.factor(volume_cm3, cut_min));
+        let wear_b = p.wear.factor(volume_cm3, cut_min);
+        let (fb, rb, ab) = force(&eb, feed, wear_b);
         let (f100, radial, axial) = if fb > fa { (fb, rb, ab) } else { (fa, ra, aa) };
+        // Linear along it? Just inside both ends and the middle (the end's wear: it only
+        // grows, so the check is on the safe side).
+        let linear = !rapid && f100 > 0.0 && {
+            let mut inside = |x: f64| force(&source.engagement_at(&p.tool, x), feed, wear_b).0;
+            let d = (b - a) * 1e-6;
+            let tol = LINEAR_TOLERANCE * f100 + 1e-9;
+            (inside(a + d) - fa).abs() <= tol
+                && (inside(b - d) - fb).abs() <= tol
+                && inside(mid) <= 0.5 * (fa + fb) + tol
+        };
         out.push(Interval {
             a,
             b,
@@ -194,6 +219,7 @@ pub fn intervals(
             radial,
             axial,
             f_end: fb,
+            linear,
         });
     }
     out
@@ -479,6 +505,37 @@ mod tests {
                 "{got:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_row_keeps_its_force_profile_only_where_the_force_is_linear_along_it() {
+        let e = |r: f64, ax: f64| Engagement {
+            radial_mm: r,
+            axial_mm: ax,
+            ks_factor: 1.0,
+        };
+        let plan_of = |xs: Vec<f64>, es: Vec<Engagement>| {
+            let knots: Vec<f64> = xs.iter().fold(Vec::new(), |mut k, &x| {
+                if k.last() != Some(&x) {
+                    k.push(x);
+                }
+                k
+            });
+            let mut prog = Prog(EngagementProfile::new(xs, es).expect("profile"));
+            plan_along(&mut prog, &knots, |x| [x, 0.0, 0.0], &params())
+        };
+        // Axial 2 → 4 mm at a constant radial depth: the force is linear in it.
+        let rising = plan_of(vec![0.0, 10.0], vec![e(4.0, 2.0), e(4.0, 4.0)]);
+        assert_eq!(rising.rows[0].profile, ForceProfile::Rising);
+        let falling = plan_of(vec![0.0, 10.0], vec![e(4.0, 4.0), e(4.0, 2.0)]);
+        assert_eq!(falling.rows[0].profile, ForceProfile::Falling);
+        // A step at a knot: the interval after it is at the step's far side throughout
+        // (not a ramp from the near side), and both rows are flat.
+        let step = plan_of(
+            vec![0.0, 5.0, 5.0, 10.0],
+            vec![e(4.0, 2.0), e(4.0, 2.0), e(4.0, 4.0), e(4.0, 4.0)],
+        );
+        assert!(step.rows.iter().all(|r| r.profile == ForceProfile::Flat));
     }
 
     #[test]
