@@ -152,7 +152,7 @@ pub fn report(
     );
     if let Some((ceiling, w)) = within {
         s += &format!(
-            "oracle force RMS error within {ceiling:.2} Fr {:.1} N (the same search, no period above {ceiling:.2} Fr){}; RMS/oracle within {ceiling:.2} Fr {}\n",
+            "oracle force RMS error within {ceiling:.2} Fr {:.1} N (the same search, each period at or below {ceiling:.2} Fr where the lowest override allows it){}; RMS/oracle within {ceiling:.2} Fr {}\n",
             w.summary.rms_error_n,
             if w.finished { "" } else { "; its run does not reach the end of the program" },
             ratio(Some(run.rms_error_n), Some(w.summary.rms_error_n)),

@@ -123,13 +123,13 @@ pub struct Interval {
     pub axial: f64,
     /// Force at 100 % at the interval's end `b`, N.
     pub f_end: f64,
-    /// The force is linear along the interval within [`LINEAR_TOLERANCE`] of `f100`: no step
+    /// The force is linear along the interval within [`LINEAR_TOLERANCE`] of `fmin`: no step
     /// just inside either end, and the middle no higher than the chord.
     pub linear: bool,
 }
 
 /// How far the force may depart from the chord between an interval's ends for the interval
-/// to count as linear (a `rising` or `falling` plan row), × its largest force: 1 %.
+/// to count as linear (a `rising` or `falling` plan row), × its smaller end's force: 1 %.
 pub const LINEAR_TOLERANCE: f64 = 0.01;
 
 impl Interval {
@@ -202,7 +202,9 @@ pub fn intervals(
         let linear = !rapid && f100 > 0.0 && {
             let mut inside = |x: f64| force(&source.engagement_at(&p.tool, x), feed, wear_b).0;
             let d = (b - a) * 1e-6;
-            let tol = LINEAR_TOLERANCE * f100 + 1e-9;
+            // Relative to the smaller end's force: near the low end of a steep row 1 % of
+            // the largest force would be several percent of the force there.
+            let tol = LINEAR_TOLERANCE * fa.min(fb) + 1e-9 * f100;
             (inside(a + d) - fa).abs() <= tol
                 && (inside(b - d) - fb).abs() <= tol
                 && inside(mid) <= 0.5 * (fa + fb) + tol

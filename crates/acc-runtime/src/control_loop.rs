@@ -516,6 +516,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         // The plan's look-ahead: its cap joins the shop layer's limits (the lower wins).
         let mut lookahead = None;
         if let Some(la) = self.lookahead.as_mut() {
+            if let Some(fr) = self.shop.as_ref().and_then(ShopControl::force_ref_n) {
+                la.set_force_ref_n(fr);
+            }
             let st = la.step(link.as_ref().ok(), &force, self.period_s);
             let mut limits = if self.shop.is_some() {
                 self.policy.command_limits()
@@ -530,6 +533,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             lookahead = Some(st);
         }
         let out = self.policy.step(&input, &mut self.law);
+        if let (Some(la), Some(cmd)) = (self.lookahead.as_mut(), out.write_override) {
+            la.note_written(cmd.0);
+        }
         let mut plan = WritePlan::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);

@@ -28,7 +28,13 @@
 //! the planner, the engagement linear between the stock's knots) counts only the part the
 //! tool can reach: its cap is the override that gives Fr at the largest force of that part
 //! (so the tool enters a corner at the override of the engagement it meets, not of the
-//! corner's deepest point); a `flat` row counts its planned override. The cap only ever lowers the law's
+//! corner's deepest point); a `flat` row counts its planned override, and so does every
+//! row while the measured force is above the plan's band (the plan under-predicts: its
+//! shape is not trusted). The walk counts the commands written in the last two periods
+//! with the override in force (the board may not apply a command at once), and where the
+//! feed changed it starts the change of the period's path behind the position and reaches
+//! that much farther: the position integrates `ACTUAL_FEED`, which an NC may report as an
+//! instantaneous value rather than the period's mean. The cap only ever lowers the law's
 //! command ([`crate::CommandLimits::cap_pct`], applied last in the law's bounds): the
 //! plan never raises the override above what the feedback law and the tool limits allow.
 //!
@@ -144,6 +150,11 @@ pub struct LookAhead {
     above: u32,
     below: u32,
     last: LookAheadStep,
+    /// The commands written in the last two periods, percent (a command written may not
+    /// be in `OVERRIDE_APPLIED` yet: the board's echo delay).
+    written: [u16; 2],
+    /// Path of the period before, mm.
+    dx_prev_mm: f64,
 }
 
 impl LookAhead {
@@ -169,6 +180,23 @@ impl LookAhead {
             above: 0,
             below: 0,
             last: LookAheadStep::default(),
+            written: [0; 2],
+            dx_prev_mm: 0.0,
+        }
+    }
+
+    /// The loop wrote `cmd_pct` (percent) this period: until the board applies it, the tool
+    /// may move at it, so the walk ahead counts the last two commands written with the
+    /// override in force.
+    pub fn note_written(&mut self, cmd_pct: u16) {
+        self.written = [cmd_pct, self.written[0]];
+    }
+
+    /// The force reference the law regulates to, N (the shop layer's tool Fr): the cap
+    /// inside a profiled row targets it. Ignored unless finite and > 0.
+    pub fn set_force_ref_n(&mut self, force_ref_n: f64) {
+        if force_ref_n.is_finite() && force_ref_n > 0.0 {
+            self.cfg.force_ref_n = force_ref_n;
         }
     }
 
@@ -261,10 +289,24 @@ impl LookAhead {
         }
         let x = self.x_mm.clamp(0.0, self.plan.length_mm());
         let (disagreement, drop_planned) = self.check(force, v, x, dx);
+        // The tool may move at the override in force or a command written and not yet
+        // applied. The position integrates a feed register that may be an instantaneous
+        // value: where the feed changed, it may be off by up to the change of the period's
+        // path, so the walk starts that much behind the position and reaches that much
+        // farther.
+        let in_force = s
+            .override_applied_pct
+            .max(self.written[0])
+            .max(self.written[1]);
+        let margin = (dx - self.dx_prev_mm).abs();
+        self.dx_prev_mm = dx;
+        // While the measurement shows more force than planned, the plan's shape inside a
+        // row is not trusted: each row is read at its largest force.
+        let shape = self.above == 0 && disagreement != Some(Disagreement::Above);
         let cap_pct = if disagreement == Some(Disagreement::Below) {
             None
         } else {
-            self.cap(x, s.override_applied_pct)
+            self.cap(x, self.unc_mm + margin, in_force, shape)
         };
         self.last = LookAheadStep {
             cap_pct,
@@ -319,18 +361,19 @@ impl LookAhead {
         (d, self.above == 0 && (air || !(above || below)))
     }
 
-    /// The lowest planned override of the feed rows from `x − uncertainty` to where the
-    /// tool can be `horizon_s` later, with `in_force_pct` the override in force now
-    /// (`None`: nothing below the grid's maximum).
-    fn cap(&self, x: f64, in_force_pct: u16) -> Option<u16> {
+    /// The lowest planned override of the feed rows from `x − unc_mm` to where the tool can
+    /// be `horizon_s` later, with `in_force_pct` the highest override the tool may move at
+    /// now (in force or written), reading a profiled row's shape when `shape` (`None`:
+    /// nothing below the grid's maximum).
+    fn cap(&self, x: f64, unc_mm: f64, in_force_pct: u16, shape: bool) -> Option<u16> {
         let rows = &self.plan.rows;
-        let in_force = in_force_pct.min(self.cfg.max_pct);
-        let mut i = self.row_at(x - self.unc_mm);
-        let mut at = (x - self.unc_mm).max(rows[i].start_mm);
+        let in_force = in_force_pct;
+        let mut i = self.row_at(x - unc_mm);
+        let mut at = (x - unc_mm).max(rows[i].start_mm);
         let mut left_s = self.cfg.horizon_s;
         let mut cap = u16::MAX;
         // The uncertainty ahead costs no time: the tool may already be there.
-        let mut free_mm = 2.0 * self.unc_mm;
+        let mut free_mm = 2.0 * unc_mm;
         loop {
             let r: &PlanRow = &rows[i];
             let len = (r.end_mm - at).max(0.0);
@@ -361,7 +404,10 @@ impl LookAhead {
             // (whole-row) cap gives a first cap, and the reach at that cap the final one:
             // a command at most the final cap moves the tool no farther than was judged.
             let mut t = reach(u16::MAX).1;
-            if !r.rapid {
+            if !r.rapid && !shape {
+                t = reach(r.override_pct).1;
+                cap = cap.min(r.override_pct);
+            } else if !r.rapid {
                 let c1 = self.row_cap(r, at, reach(r.override_pct).0);
                 let (to, t1) = reach(c1);
                 t = t1;
@@ -485,18 +531,24 @@ mod tests {
 
     #[test]
     fn the_walk_ahead_goes_as_far_as_the_override_in_force_lets_the_tool() {
-        // Held at 40 % of 600 mm/min (4 mm/s), 0.2 s ahead is 0.8 mm: at 8.8 mm the corner
-        // at 10 mm is out of reach, at 9.4 mm it is in reach.
+        // Held at 40 % of 600 mm/min (4 mm/s), 0.2 s ahead is 0.8 mm, and on the first
+        // period the change of its path from standstill (0.4 mm) behind and ahead of the
+        // position: at 8.6 mm the corner at 10 mm is out of reach, at 9.4 mm it is in reach.
         let mut la = cut_then_corner();
         let mut at = |x_mm: f64, pct: u16| {
             la.x_mm = x_mm - 0.4;
             la.step(Some(&in_force(30, 240, pct)), &force(790.0), 0.1)
         };
-        assert_eq!(at(8.8, 40).cap_pct, Some(40));
+        assert_eq!(at(8.6, 40).cap_pct, Some(40));
         assert_eq!(at(9.4, 40).cap_pct, Some(20));
         // At 150 % in force (9 mm/s until the new command acts) 0.2 s reaches 1.8 mm: the
-        // corner is capped from 8.8 mm on, as from air.
-        assert_eq!(at(8.8, 150).cap_pct, Some(20));
+        // corner is capped from 8.6 mm on, as from air.
+        assert_eq!(at(8.6, 150).cap_pct, Some(20));
+        // Likewise with 40 % applied and 150 % written but not yet applied.
+        la.note_written(150);
+        la.x_mm = 8.2;
+        let s = la.step(Some(&in_force(30, 240, 40)), &force(790.0), 0.1);
+        assert_eq!(s.cap_pct, Some(20));
     }
 
     #[test]
@@ -510,20 +562,24 @@ mod tests {
             rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner.clone()],
         };
         let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-        let mut at = |x_mm: f64, pct: u16| {
+        // 200 N measured at 20 %: what the plan predicts at the corner's start.
+        let mut at = |x_mm: f64, pct: u16, f: f64| {
             la.x_mm = x_mm - 0.2;
-            la.step(Some(&in_force(31, 120, pct)), &force(700.0), 0.1)
+            la.step(Some(&in_force(31, 120, pct)), &force(f), 0.1)
                 .cap_pct
                 .expect("capped")
         };
-        // At the corner's start, reaching 10.4 mm at most at 20 %...: 1600 N at 100 %. At
-        // 50 % (the first cap) it reaches 11.0 mm, 2500 N: the cap is 32 %.
-        let start = at(10.0, 20);
-        assert_eq!(start, 32);
+        // At the corner's start, with the first period's path (0.2 mm) behind and ahead: reaching
+        // 10.6 mm at 20 %, 1900 N at 100 %; at 42 % (the first cap) 11.04 mm, 2560 N: 31 %.
+        let start = at(10.0, 20, 200.0);
+        assert_eq!(start, 31);
         // Deeper in, lower; at the end, the plan's own override.
-        let mid = at(11.0, 20);
+        let mid = at(11.0, 20, 500.0);
         assert!(mid < start && mid > 20, "{mid}");
-        assert_eq!(at(12.0, 20), 20);
+        assert_eq!(at(12.0, 20, 800.0), 20);
+        // A measured force above the plan's band: its shape is not trusted, the row is read
+        // at its largest force.
+        assert_eq!(at(10.0, 20, 1500.0), 20);
         // The same row flat (shape unknown): the plan's override throughout.
         corner.profile = crate::plan::ForceProfile::Flat;
         let plan = Plan {
@@ -531,7 +587,7 @@ mod tests {
         };
         let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
         la.x_mm = 9.8;
-        let s = la.step(Some(&in_force(31, 120, 20)), &force(700.0), 0.1);
+        let s = la.step(Some(&in_force(31, 120, 20)), &force(200.0), 0.1);
         assert_eq!(s.cap_pct, Some(20));
     }
 
