@@ -367,7 +367,6 @@ impl LookAhead {
     /// nothing below the grid's maximum).
     fn cap(&self, x: f64, unc_mm: f64, in_force_pct: u16, shape: bool) -> Option<u16> {
         let rows = &self.plan.rows;
-        let in_force = in_force_pct;
         let mut i = self.row_at(x - unc_mm);
         let mut at = (x - unc_mm).max(rows[i].start_mm);
         let mut left_s = self.cfg.horizon_s;
@@ -382,7 +381,7 @@ impl LookAhead {
             // with this row's: `reach(c)` is how far into the row it gets at cap `c`, and
             // the time it spends in the row.
             let reach = |c: u16| {
-                let pct = in_force.max(cap.min(c).min(self.cfg.max_pct)).max(1);
+                let pct = in_force_pct.max(cap.min(c).min(self.cfg.max_pct)).max(1);
                 let speed = if r.rapid {
                     r.feed_mm_min
                 } else {
@@ -403,16 +402,16 @@ impl LookAhead {
             // The row's cap over the part the tool can reach; the reach of the lowest
             // (whole-row) cap gives a first cap, and the reach at that cap the final one:
             // a command at most the final cap moves the tool no farther than was judged.
-            let mut t = reach(u16::MAX).1;
-            if !r.rapid && !shape {
-                t = reach(r.override_pct).1;
-                cap = cap.min(r.override_pct);
-            } else if !r.rapid {
+            let (t, row_cap) = if r.rapid {
+                (reach(u16::MAX).1, u16::MAX)
+            } else if !shape {
+                (reach(r.override_pct).1, r.override_pct)
+            } else {
                 let c1 = self.row_cap(r, at, reach(r.override_pct).0);
                 let (to, t1) = reach(c1);
-                t = t1;
-                cap = cap.min(self.row_cap(r, at, to));
-            }
+                (t1, self.row_cap(r, at, to))
+            };
+            cap = cap.min(row_cap);
             free_mm -= free;
             if t >= left_s || i + 1 >= rows.len() {
                 break;
