@@ -525,7 +525,16 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             } else {
                 crate::policy::CommandLimits::default()
             };
-            if let Some(c) = st.cap_pct {
+            // The plan's lead, where there is one, is the period's command: the plan's cap
+            // and floor at once (the shop layer's cap, applied last, still wins).
+            let plan_cap = match st.lead_pct {
+                Some(l) => {
+                    limits.floor_pct = Some(limits.floor_pct.map_or(l, |f| f.max(l)));
+                    Some(l)
+                }
+                None => st.cap_pct,
+            };
+            if let Some(c) = plan_cap {
                 limits.cap_pct = Some(limits.cap_pct.map_or(c, |s| s.min(c)));
             }
             self.policy.set_command_limits(limits);

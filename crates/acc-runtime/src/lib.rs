@@ -10,8 +10,9 @@
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`shop`]: the tool table per `TOOL_NUMBER` and entry/exit control (limits on the law's
 //!   command);
-//! - [`plan`], [`lookahead`]: the cutting plan (`plan.csv`) and the look-ahead step that
-//!   caps the command ahead of an engagement change;
+//! - [`plan`], [`lookahead`], [`plan_lead`]: the cutting plan (`plan.csv`), the look-ahead
+//!   step that caps the command ahead of an engagement change, and the plan's lead that
+//!   raises it to the engagement ahead while the plan and the measurement agree;
 //! - [`control_loop`]: the control loop: one period against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v3, older versions
 //!   migrated;
@@ -40,6 +41,7 @@ pub mod lookahead;
 pub mod opcua_config;
 pub mod plan;
 pub mod plan_error;
+pub mod plan_lead;
 pub mod policy;
 pub mod record;
 pub mod runner;

@@ -53,6 +53,7 @@ use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
 
 use crate::plan::{Plan, PlanRow};
+use crate::plan_lead::{PlanLead, PlanScale, CUTTING, HIGH, WINDOW_SAMPLES};
 
 /// Tuning of the look-ahead.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,6 +73,11 @@ pub struct LookAheadConfig {
     /// The loop's force reference Fr, N: inside a row whose force is linear along it, the
     /// cap is the override that gives Fr at the part the tool can reach.
     pub force_ref_n: f64,
+    /// Time from writing a command to the feed following it, s: the board's override delay
+    /// plus the feed drive's lag, with margin (default 0.3 T: 30 ms against the shipped
+    /// machines' 16 ms + 8 ms at T = 0.1 s). The plan's lead ([`crate::plan_lead`]) judges
+    /// every period that can start within it.
+    pub command_delay_s: f64,
 }
 
 impl LookAheadConfig {
@@ -85,6 +91,7 @@ impl LookAheadConfig {
             persist_periods: 3,
             max_pct,
             force_ref_n,
+            command_delay_s: 0.3 * period_s,
         }
     }
 }
@@ -115,14 +122,22 @@ pub struct LookAheadStep {
     /// ([`crate::FaultPolicy::set_exit_planned`]): a broken tool's force falls below the
     /// plan's band, a spike rises above it.
     pub exit_planned: bool,
+    /// The plan's lead ([`crate::plan_lead`]), percent: while the tool cuts and the plan and
+    /// the measurement agree, the period's command (it replaces the cap and the law's
+    /// command; the shop layer's limits still bound it).
+    pub lead_pct: Option<u16>,
 }
 
 impl LookAheadStep {
-    /// Add this step's run-log flags to `r`: `plan_cap:<pct>` (the plan's cap in force),
+    /// Add this step's run-log flags to `r`: `plan_cap:<pct>` (the look-ahead's cap; not in
+    /// force in a period with a lead), `plan_lead:<pct>` (the plan's lead: the command),
     /// `plan_disagree:above` / `plan_disagree:below`, `plan_lost`.
     pub fn flag_onto(&self, r: &mut crate::record::RunRecord) {
         if let Some(c) = self.cap_pct {
             r.flag(&format!("plan_cap:{c}"));
+        }
+        if let Some(l) = self.lead_pct {
+            r.flag(&format!("plan_lead:{l}"));
         }
         match self.disagreement {
             Some(Disagreement::Above) => r.flag("plan_disagree:above"),
@@ -155,6 +170,10 @@ pub struct LookAhead {
     written: [u16; 2],
     /// Path of the period before, mm.
     dx_prev_mm: f64,
+    /// The plan's scale for the lead.
+    scale: PlanScale,
+    /// The lead's choice between two grid positions.
+    lead: PlanLead,
 }
 
 impl LookAhead {
@@ -182,6 +201,8 @@ impl LookAhead {
             last: LookAheadStep::default(),
             written: [0; 2],
             dx_prev_mm: 0.0,
+            scale: PlanScale::default(),
+            lead: PlanLead::default(),
         }
     }
 
@@ -244,6 +265,7 @@ impl LookAhead {
             return self.last;
         };
         if !s.is_v2() || s.block_number == 0 {
+            self.scale.clear();
             self.visit = None;
             self.last_block = None;
             self.last = LookAheadStep {
@@ -281,6 +303,7 @@ impl LookAhead {
             }
         }
         if self.visit.is_none() {
+            self.scale.clear();
             self.last = LookAheadStep {
                 lost: true,
                 ..LookAheadStep::default()
@@ -288,7 +311,7 @@ impl LookAhead {
             return self.last;
         }
         let x = self.x_mm.clamp(0.0, self.plan.length_mm());
-        let (disagreement, drop_planned) = self.check(force, v, x, dx);
+        let (disagreement, drop_planned, band) = self.check(force, v, x, dx);
         // The tool may move at the override in force or a command written and not yet
         // applied. The position integrates a feed register that may be an instantaneous
         // value: where the feed changed, it may be off by up to the change of the period's
@@ -308,12 +331,60 @@ impl LookAhead {
         } else {
             self.cap(x, self.unc_mm + margin, in_force, shape)
         };
+        let measured = (force.valid && force.force_n.is_finite()).then_some(force.force_n);
+        let agree = shape && disagreement.is_none() && self.below == 0;
+        if agree {
+            self.scale.update(measured, band, self.cfg.force_ref_n);
+        } else {
+            self.scale.clear();
+        }
+        // The plan's lead, while the tool cuts and the plan and the measurement agree: the
+        // command from the plan's force ahead, scaled by the measurement; it replaces the
+        // cap (and the law's command) for the period.
+        let fr = self.cfg.force_ref_n;
+        let lead = match (self.scale.scale(), measured) {
+            (Some(k), Some(f))
+                if agree && self.scale.agrees() && (CUTTING * fr..=HIGH * fr).contains(&f) =>
+            {
+                // The command acts within `command_delay_s`, at the override in force until
+                // then, and governs one period from there: every such period's mean force.
+                let unc = self.unc_mm + margin;
+                let (y0, y1) = (
+                    x - unc,
+                    self.advance(x, in_force, self.cfg.command_delay_s) + unc,
+                );
+                let worst = |o: u16| {
+                    k * (0..=WINDOW_SAMPLES)
+                        .map(|j| {
+                            let y = y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES);
+                            self.period_force(y, o, period_s)
+                        })
+                        .fold(0.0f64, f64::max)
+                };
+                let here = |o: u16| k * self.period_force(x, o, period_s);
+                let mut lead = self.lead;
+                let pick = lead.choose(
+                    self.cfg.max_pct,
+                    s.override_step_pct,
+                    fr,
+                    worst,
+                    here,
+                );
+                self.lead = lead;
+                pick
+            }
+            _ => {
+                self.lead.reset();
+                None
+            }
+        };
         self.last = LookAheadStep {
             cap_pct,
             position_mm: Some(x),
             disagreement,
             lost: false,
             exit_planned: drop_planned,
+            lead_pct: lead,
         };
         self.last
     }
@@ -321,29 +392,30 @@ impl LookAhead {
     /// The disagreement check of the period that ended at `x` (mm), at feed `v` (mm/min),
     /// having moved `dx` (mm).
     /// Also whether the plan explains a force drop this period: its band reaches air (a
-    /// row without force), or the valid measured force is inside the band.
+    /// row without force), or the valid measured force is inside the band; and the band,
+    /// `(lo, hi)` in N at the period's feed.
     fn check(
         &mut self,
         force: &ForceSample,
         v: f64,
         x: f64,
         dx: f64,
-    ) -> (Option<Disagreement>, bool) {
+    ) -> (Option<Disagreement>, bool, (f64, f64)) {
         let (a, b) = (
             self.row_at(x - dx - self.unc_mm),
             self.row_at(x + self.unc_mm),
         );
         let rows = &self.plan.rows[a..=b];
         let air = rows.iter().any(|r| !r.cuts());
-        if !(force.valid && force.force_n.is_finite()) {
-            return (None, air);
-        }
         let band = rows
             .iter()
             .map(|r| (r.force_min_at_feed_n(v), r.force_at_feed_n(v)))
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), f| {
                 (lo.min(f.0), hi.max(f.1))
             });
+        if !(force.valid && force.force_n.is_finite()) {
+            return (None, air, band);
+        }
         let f = force.force_n;
         let tol = self.cfg.tolerance;
         let above = f > band.1 * (1.0 + tol) + self.cfg.tolerance_n;
@@ -358,7 +430,7 @@ impl LookAhead {
         } else {
             None
         };
-        (d, self.above == 0 && (air || !(above || below)))
+        (d, self.above == 0 && (air || !(above || below)), band)
     }
 
     /// The lowest planned override of the feed rows from `x − unc_mm` to where the tool can
@@ -421,6 +493,69 @@ impl LookAhead {
             at = rows[i].start_mm;
         }
         (cap < self.cfg.max_pct).then_some(cap)
+    }
+
+    /// Where the tool is `time_s` (s) after `x` (mm) at override `pct` (a rapid at its
+    /// rapid rate), mm.
+    fn advance(&self, x: f64, pct: u16, time_s: f64) -> f64 {
+        let rows = &self.plan.rows;
+        let mut i = self.row_at(x);
+        let mut at = x.max(rows[i].start_mm);
+        let mut left_s = time_s;
+        let scale = f64::from(pct.max(1)) / 100.0;
+        loop {
+            let r: &PlanRow = &rows[i];
+            let speed = if r.rapid { r.feed_mm_min } else { r.feed_mm_min * scale } / 60.0;
+            let len = (r.end_mm - at).max(0.0);
+            let t = if speed > 0.0 { len / speed } else { f64::INFINITY };
+            if t >= left_s || i + 1 >= rows.len() {
+                return (at + speed * left_s).min(r.end_mm);
+            }
+            left_s -= t;
+            i += 1;
+            at = rows[i].start_mm;
+        }
+    }
+
+    /// The plan's mean force at override `o_pct` (N) over the path the tool covers in one
+    /// period from `x` (mm) at `o_pct` (a rapid at its rapid rate): the force the next
+    /// period's command governs, path-weighted, each feed row at `force_100 · (o/100)^β`.
+    fn period_force(&self, x: f64, o_pct: u16, period_s: f64) -> f64 {
+        let rows = &self.plan.rows;
+        let mut i = self.row_at(x);
+        let mut at = x.max(rows[i].start_mm);
+        let mut left_s = period_s;
+        let (mut sum, mut len_sum) = (0.0, 0.0);
+        let scale = f64::from(o_pct.max(1)) / 100.0;
+        loop {
+            let r: &PlanRow = &rows[i];
+            let speed = if r.rapid { r.feed_mm_min } else { r.feed_mm_min * scale } / 60.0;
+            let len = (r.end_mm - at).max(0.0);
+            let t = if speed > 0.0 { len / speed } else { f64::INFINITY };
+            let to = if t >= left_s { at + speed * left_s } else { r.end_mm };
+            let part = to - at;
+            if part > 0.0 {
+                let mid = 0.5 * (at + to);
+                let f = if !r.rapid && r.cuts() {
+                    r.force_100_over_n(mid, mid) * scale.powf(r.feed_exponent)
+                } else {
+                    0.0
+                };
+                sum += f * part;
+                len_sum += part;
+            }
+            if t >= left_s || i + 1 >= rows.len() {
+                break;
+            }
+            left_s -= t;
+            i += 1;
+            at = rows[i].start_mm;
+        }
+        if len_sum > 0.0 {
+            sum / len_sum
+        } else {
+            0.0
+        }
     }
 
     /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: the planned
@@ -623,6 +758,36 @@ mod tests {
             .collect();
         assert_eq!(d[2].disagreement, Some(Disagreement::Below));
         assert_eq!(d[2].cap_pct, None);
+    }
+
+    #[test]
+    fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
+        // 2000 N at 100 % of 600 mm/min, β = 1: 600 N at 30 %, 800 N at 40 % (Fr).
+        let plan = Plan {
+            rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
+        };
+        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+        let mut at = |f: f64| {
+            let mut st = in_force(30, 180, 30);
+            st.override_step_pct = 10;
+            la.step(Some(&st), &force(f), 0.1)
+        };
+        // Three periods where the measurement agrees with the plan (k = 1) before it leads:
+        // then 40 %, the position whose predicted force is Fr.
+        assert_eq!(at(600.0).lead_pct, None);
+        assert_eq!(at(600.0).lead_pct, None);
+        assert_eq!(at(600.0).lead_pct, Some(40));
+        // The measurement jumps 25 % off the scale: no lead that period, the cap and the
+        // law act; once the scale has followed (k = 1.25), the lead predicts 40 % at 1000 N
+        // (above 1.05 Fr) and holds 30 % (750 N).
+        let leads: Vec<_> = (0..6).map(|_| at(750.0).lead_pct).collect();
+        assert_eq!(leads[0], None);
+        assert_eq!(leads[5], Some(30));
+        // A force above the plan's band: no lead, and the scale starts again.
+        assert_eq!(at(1500.0).lead_pct, None);
+        assert_eq!(at(750.0).lead_pct, None);
+        // In air (no force): no lead; entries keep the cap.
+        assert_eq!(at(0.0).lead_pct, None);
     }
 
     #[test]

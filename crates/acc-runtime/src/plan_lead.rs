@@ -1,0 +1,213 @@
+//! The plan's lead: while the tool cuts and the plan and the measurement agree, the
+//! look-ahead ([`crate::lookahead`]) sets the period's command from the plan's force at the
+//! tool's next position, scaled by the measurement, instead of capping a feedback law that
+//! answers a change of engagement one period late.
+//!
+//! The feedback law sees a corner's exit one period after it and climbs back over several
+//! periods; on a 10 % grid at a low override its position is one step below Fr for as long
+//! as the engagement holds (a step is 25–33 % of the force at 30–40 %). The oracle that
+//! knows the engagement (`acc_sim::oracle`) chooses each period's command from the force
+//! of the next period. The lead does the same with the plan:
+//!
+//! - **Scale.** `k` is the median of the last [`SCALE_SAMPLES`] ratios of the measured force
+//!   to the plan's force at the period's actual feed, taken where the plan knows the force
+//!   well (the rows the tool crossed in the period predict within ±[`NARROW`] of their
+//!   middle, and the plan and the measurement are both above [`CUTTING`] × Fr). It corrects
+//!   the plan for the tool, the material and the model's error, as the law's Kc estimate
+//!   does (seed 002: the force is the process gain times the feed).
+//! - **Ceiling.** The highest grid position `o` at which every period the command can
+//!   govern has a predicted mean force `k · F(o)` at most [`CEILING`] × Fr: the periods that
+//!   start anywhere from the position's uncertainty behind the tool to where the override in
+//!   force carries it within the command delay and that uncertainty ahead
+//!   ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts), each
+//!   path-weighted over the rows it crosses at `force_100 · (o/100)^β` (seed 002 eq. 1).
+//!   The ceiling is the peak target at entries and corners (1.05 Fr) less a margin for
+//!   the plan's error between the scale's samples.
+//! - **Between two positions.** The command is that position or the one below, whichever
+//!   brings the running sum of predicted errors `Σ (k · F_here − Fr)` nearer zero (a σ-Δ
+//!   modulator in force, Candy & Temes 1992): on a coarse grid the period forces average to
+//!   Fr instead of sitting a step below it, and no period is predicted above the ceiling.
+//! - **When.** Only while the measured force is between [`CUTTING`] and [`HIGH`] × Fr (the
+//!   tool cuts: entries from air keep the look-ahead's cap), the tool is located on the
+//!   plan, no disagreement is pending or declared, the scale has at least
+//!   [`SCALE_MIN_SAMPLES`] samples and this period's ratio, where the plan knows the force
+//!   well, is within ±[`AGREE`] of `k`. Otherwise there is no lead: the law under the cap
+//!   sets the command, and the running sum restarts.
+//!
+//! The lead replaces the law's command for the period (the policy's floor and cap in
+//! [`acc_core::CommandLimits`]; the law re-engages on it, bumpless): the shop layer's and
+//! the tool's limits still bound it (the lower cap wins), and every guard of the policy
+//! (staleness, link, overload, operator) acts as without a plan.
+
+/// Samples of the plan's scale kept (the median is taken).
+pub const SCALE_SAMPLES: usize = 5;
+/// Samples needed before the lead acts.
+pub const SCALE_MIN_SAMPLES: usize = 3;
+/// A period predicts the force well when its band is within ± this of its middle, −.
+pub const NARROW: f64 = 0.1;
+/// The tool cuts: the plan and the measurement above this × Fr, −.
+pub const CUTTING: f64 = 0.2;
+/// No lead while the measured force is above this × Fr, −.
+pub const HIGH: f64 = 1.1;
+/// No lead while the period's ratio is off the scale by more than this (relative), −.
+pub const AGREE: f64 = 0.15;
+/// No period the lead governs is predicted above this × Fr, − (the peak target at entries
+/// and corners, 1.05, less a margin for the plan's error).
+pub const CEILING: f64 = 1.03;
+/// The window of period starts is sampled at this many intervals.
+pub const WINDOW_SAMPLES: u16 = 4;
+
+/// The plan's scale: the median ratio of measured to planned force over the last periods
+/// that predict the force well.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PlanScale {
+    ratios: Vec<f64>,
+    /// Whether this period's ratio agreed with the scale (or could not be judged).
+    agrees: bool,
+}
+
+impl PlanScale {
+    /// Forget the samples (the tool is lost on the plan, or the plan disagreed).
+    pub fn clear(&mut self) {
+        self.ratios.clear();
+        self.agrees = false;
+    }
+
+    /// One period: the valid measured force `measured_n` (N; `None`: not valid), the plan's
+    /// band `(lo, hi)` at the period's feed (N) and the force reference `force_ref_n` (N).
+    pub fn update(&mut self, measured_n: Option<f64>, band_n: (f64, f64), force_ref_n: f64) {
+        let Some(f) = measured_n.filter(|f| f.is_finite()) else {
+            self.agrees = false;
+            return;
+        };
+        let (lo, hi) = band_n;
+        let mid = 0.5 * (lo + hi);
+        let known = lo.is_finite()
+            && mid > CUTTING * force_ref_n
+            && hi - lo <= 2.0 * NARROW * mid
+            && f > CUTTING * force_ref_n;
+        if !known {
+            // Nothing to judge by: the period neither adds a sample nor breaks agreement.
+            self.agrees = true;
+            return;
+        }
+        let r = f / mid;
+        self.agrees = self.scale().is_none_or(|k| (r - k).abs() <= AGREE * k);
+        if self.ratios.len() == SCALE_SAMPLES {
+            self.ratios.remove(0);
+        }
+        self.ratios.push(r);
+    }
+
+    /// The scale `k`, − (`None`: fewer than [`SCALE_MIN_SAMPLES`] samples).
+    pub fn scale(&self) -> Option<f64> {
+        if self.ratios.len() < SCALE_MIN_SAMPLES {
+            return None;
+        }
+        let mut v = self.ratios.clone();
+        v.sort_by(f64::total_cmp);
+        Some(v[v.len() / 2])
+    }
+
+    /// Whether the last period's ratio agreed with the scale.
+    pub fn agrees(&self) -> bool {
+        self.agrees
+    }
+}
+
+/// The lead's choice between two grid positions: the running sum of predicted errors.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlanLead {
+    /// `Σ (k · F_here − Fr)` over the periods led so far, N (clamped to ± Fr).
+    error_sum_n: f64,
+}
+
+impl PlanLead {
+    /// No lead this period: the running sum restarts.
+    pub fn reset(&mut self) {
+        self.error_sum_n = 0.0;
+    }
+
+    /// The period's command, percent, on the grid of `step_pct` up to `max_pct`:
+    /// `worst(o)` is the largest predicted mean force (N, scaled) of any period the command
+    /// can govern at position `o`, `here(o)` the predicted mean force of the next period
+    /// from the tool's position (N). `None` (and the sum restarts) when even the lowest
+    /// position is predicted above [`CEILING`] × `force_ref_n`.
+    pub fn choose(
+        &mut self,
+        max_pct: u16,
+        step_pct: u16,
+        force_ref_n: f64,
+        worst: impl Fn(u16) -> f64,
+        here: impl Fn(u16) -> f64,
+    ) -> Option<u16> {
+        let step = step_pct.max(1);
+        let mut top = max_pct - max_pct % step;
+        while top >= step && worst(top) > CEILING * force_ref_n {
+            top -= step;
+        }
+        if top < step {
+            self.reset();
+            return None;
+        }
+        let below = (top - step).max(step);
+        let e_top = self.error_sum_n + here(top) - force_ref_n;
+        let e_below = self.error_sum_n + here(below) - force_ref_n;
+        let (pick, e) = if e_top.abs() <= e_below.abs() {
+            (top, e_top)
+        } else {
+            (below, e_below)
+        };
+        self.error_sum_n = e.clamp(-force_ref_n, force_ref_n);
+        Some(pick)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scale_is_the_median_of_known_periods() {
+        let mut s = PlanScale::default();
+        // A wide band (a corner's transition) says nothing.
+        s.update(Some(500.0), (200.0, 800.0), 800.0);
+        assert!(s.agrees() && s.scale().is_none());
+        for f in [550.0, 600.0, 575.0, 5000.0] {
+            s.update(Some(f), (480.0, 520.0), 800.0);
+        }
+        // 1.1, 1.2, 1.15, 10: the median ignores the one wild sample.
+        assert!((s.scale().expect("k") - 1.2).abs() < 1e-12);
+        // 10 was off the scale of the three before it (1.15) by far more than 15 %.
+        assert!(!s.agrees());
+        s.update(Some(600.0), (480.0, 520.0), 800.0);
+        assert!(s.agrees());
+        s.update(None, (480.0, 520.0), 800.0);
+        assert!(!s.agrees());
+        s.clear();
+        assert!(s.scale().is_none());
+    }
+
+    #[test]
+    fn the_lead_averages_to_fr_between_two_positions_under_the_ceiling() {
+        // F = 24 N per percent: 30 % gives 720 N, 40 % 960 N (above 1.05 × 800), so the
+        // ceiling allows 30 % only and the lead holds it.
+        let f = |o: u16| 24.0 * f64::from(o);
+        let mut lead = PlanLead::default();
+        for _ in 0..10 {
+            assert_eq!(lead.choose(150, 10, 800.0, f, f), Some(30));
+        }
+        // 20.5 N per percent: 30 % gives 615 N, 40 % 820 N (within 1.05 Fr). Alternating,
+        // the mean of the predicted forces goes to Fr and no period is above the ceiling.
+        let f = |o: u16| 20.5 * f64::from(o);
+        let mut lead = PlanLead::default();
+        let picks: Vec<u16> = (0..100)
+            .map(|_| lead.choose(150, 10, 800.0, f, f).expect("led"))
+            .collect();
+        let mean = picks.iter().map(|&o| f(o)).sum::<f64>() / picks.len() as f64;
+        assert!((mean - 800.0).abs() < 5.0, "mean {mean}");
+        assert!(picks.iter().all(|&o| o == 30 || o == 40));
+        // Even the lowest position predicted above the ceiling: no lead.
+        assert_eq!(lead.choose(150, 10, 800.0, |_| 1e6, f), None);
+    }
+}
