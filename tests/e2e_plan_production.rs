@@ -4,7 +4,8 @@
 //! loaded host), and `acc run --plan plan.csv` drives it for the first pass (the plunge, the
 //! slotting entry and the zig-zag's corners). Judged from the machine-side run log (the
 //! simulator's true force at the path's entries and corners) and `acc run`'s log (its
-//! `plan_cap:` flags): with the plan every entry and corner reached stays ≤ 1.05 Fr; without
+//! `plan_cap:` and `plan_lead:` flags): with the plan every entry and corner reached stays
+//! ≤ 1.05 Fr and the plan's lead sets the command in the cut (never exceeded); without
 //! it (the control) the entry peaks far above Fr.
 
 mod e2e_support;
@@ -98,9 +99,22 @@ fn acc_run_with_the_plan_holds_every_entry_and_corner_of_the_pocket_at_fr() {
     assert!(machine.iter().all(|r| r.tool == Some(1)), "tool T1");
     let capped = run.iter().filter(|r| r.flags.contains("plan_cap:")).count();
     assert!(capped > 10, "{capped} periods with the plan's cap");
+    // The plan's lead set the command in the cut, and nothing wrote above it.
+    let lead = |r: &RunRecord| -> Option<u16> {
+        let v = r.flags.split(';').find_map(|f| f.strip_prefix("plan_lead:"))?;
+        Some(v.parse().expect("plan_lead:<pct>"))
+    };
+    let led: Vec<_> = run.iter().filter_map(|r| Some((lead(r)?, r))).collect();
+    assert!(led.len() > 10, "{} periods with the plan's lead", led.len());
+    for (l, r) in &led {
+        if let Some(cmd) = r.override_cmd_pct {
+            assert!(cmd <= *l, "t = {} s: command {cmd} % above the lead {l} %", r.t_s);
+        }
+    }
     let ((entry, n_entry), (corner, n_corner)) = peaks(&machine, fr);
     println!(
-        "with the plan: {n_entry} entries, peak {entry:.3} Fr; {n_corner} corners, peak {corner:.3} Fr; {capped} capped periods"
+        "with the plan: {n_entry} entries, peak {entry:.3} Fr; {n_corner} corners, peak {corner:.3} Fr; {capped} capped periods, {} led",
+        led.len()
     );
     assert!(
         n_entry >= 1 && n_corner >= 2,
