@@ -5,7 +5,8 @@
 //! slotting entry and the zig-zag's corners). Judged from the machine-side run log (the
 //! simulator's true force at the path's entries and corners) and `acc run`'s log (its
 //! `plan_cap:` and `plan_lead:` flags): with the plan every entry and corner reached stays
-//! ≤ 1.05 Fr and the plan's lead sets the command in the cut (never exceeded); without
+//! ≤ 1.05 Fr, and with `--plan-lead` too while the lead sets the command in the cut (never
+//! exceeded); without
 //! it (the control) the entry peaks far above Fr.
 
 mod e2e_support;
@@ -23,8 +24,14 @@ const POCKET_BOX: &str = "-20,-20,-10,60,50,0";
 /// corners of the first pass.
 const RUN_S: &str = "20";
 
-/// One closed loop over a pty, with the plan at `plan` if given: (machine log, acc run log).
-fn closed_loop(dir: &Path, tag: &str, plan: Option<&Path>) -> (Vec<RunRecord>, Vec<RunRecord>) {
+/// One closed loop over a pty, with the plan at `plan` if given and `acc run`'s `more`
+/// arguments: (machine log, acc run log).
+fn closed_loop(
+    dir: &Path,
+    tag: &str,
+    plan: Option<&Path>,
+    more: &[&str],
+) -> (Vec<RunRecord>, Vec<RunRecord>) {
     let config = e2e_support::load_tolerant_config(dir, "");
     let machine_log = dir.join(format!("machine-{tag}.csv"));
     let run_log = dir.join(format!("run-{tag}.csv"));
@@ -41,10 +48,11 @@ fn closed_loop(dir: &Path, tag: &str, plan: Option<&Path>) -> (Vec<RunRecord>, V
         ],
     );
     let plan_arg = plan.map(|p| p.to_string_lossy().into_owned());
-    let extra: Vec<&str> = match &plan_arg {
+    let mut extra: Vec<&str> = match &plan_arg {
         Some(p) => vec!["--plan", p],
         None => vec![],
     };
+    extra.extend_from_slice(more);
     let run = spawn_run_for(&config.to_string_lossy(), &pty, &run_log, RUN_S, &extra);
     let (code, out, err) = run.finish(Duration::from_secs(120));
     board.sigint();
@@ -93,28 +101,19 @@ fn acc_run_with_the_plan_holds_every_entry_and_corner_of_the_pocket_at_fr() {
     let plan = plan_dir.join("plan.csv");
     let fr = 800.0;
 
-    let (machine, run) = closed_loop(dir.path(), "plan", Some(&plan));
+    let (machine, run) = closed_loop(dir.path(), "plan", Some(&plan), &[]);
     // The board reported the program's blocks, tools and feeds.
     assert!(run.iter().any(|r| r.block.is_some_and(|b| b > 1)), "blocks");
     assert!(machine.iter().all(|r| r.tool == Some(1)), "tool T1");
     let capped = run.iter().filter(|r| r.flags.contains("plan_cap:")).count();
     assert!(capped > 10, "{capped} periods with the plan's cap");
-    // The plan's lead set the command in the cut, and nothing wrote above it.
-    let lead = |r: &RunRecord| -> Option<u16> {
-        let v = r.flags.split(';').find_map(|f| f.strip_prefix("plan_lead:"))?;
-        Some(v.parse().expect("plan_lead:<pct>"))
-    };
-    let led: Vec<_> = run.iter().filter_map(|r| Some((lead(r)?, r))).collect();
-    assert!(led.len() > 10, "{} periods with the plan's lead", led.len());
-    for (l, r) in &led {
-        if let Some(cmd) = r.override_cmd_pct {
-            assert!(cmd <= *l, "t = {} s: command {cmd} % above the lead {l} %", r.t_s);
-        }
-    }
+    assert!(
+        !run.iter().any(|r| r.flags.contains("plan_lead:")),
+        "no lead by default"
+    );
     let ((entry, n_entry), (corner, n_corner)) = peaks(&machine, fr);
     println!(
-        "with the plan: {n_entry} entries, peak {entry:.3} Fr; {n_corner} corners, peak {corner:.3} Fr; {capped} capped periods, {} led",
-        led.len()
+        "with the plan: {n_entry} entries, peak {entry:.3} Fr; {n_corner} corners, peak {corner:.3} Fr; {capped} capped periods"
     );
     assert!(
         n_entry >= 1 && n_corner >= 2,
@@ -123,8 +122,37 @@ fn acc_run_with_the_plan_holds_every_entry_and_corner_of_the_pocket_at_fr() {
     assert!(entry <= 1.05, "entries with the plan {entry:.3} Fr");
     assert!(corner <= 1.05, "corners with the plan {corner:.3} Fr");
 
+    // `--plan-lead`: the plan's lead sets the command in the cut, nothing writes above it,
+    // and the entries and corners stay at Fr.
+    let (machine_l, run_l) = closed_loop(dir.path(), "lead", Some(&plan), &["--plan-lead"]);
+    let lead = |r: &RunRecord| -> Option<u16> {
+        let v = r
+            .flags
+            .split(';')
+            .find_map(|f| f.strip_prefix("plan_lead:"))?;
+        Some(v.parse().expect("plan_lead:<pct>"))
+    };
+    let led: Vec<_> = run_l.iter().filter_map(|r| Some((lead(r)?, r))).collect();
+    assert!(led.len() > 10, "{} periods with the plan's lead", led.len());
+    for (l, r) in &led {
+        if let Some(cmd) = r.override_cmd_pct {
+            assert!(
+                cmd <= *l,
+                "t = {} s: command {cmd} % above the lead {l} %",
+                r.t_s
+            );
+        }
+    }
+    let ((entry_l, _), (corner_l, _)) = peaks(&machine_l, fr);
+    println!(
+        "with the plan's lead: entries peak {entry_l:.3} Fr; corners peak {corner_l:.3} Fr; {} led periods",
+        led.len()
+    );
+    assert!(entry_l <= 1.05, "entries with the lead {entry_l:.3} Fr");
+    assert!(corner_l <= 1.05, "corners with the lead {corner_l:.3} Fr");
+
     // The control: the same loop without the plan sees the entry a period after the tool.
-    let (machine0, run0) = closed_loop(dir.path(), "alone", None);
+    let (machine0, run0) = closed_loop(dir.path(), "alone", None, &[]);
     assert!(!run0.iter().any(|r| r.flags.contains("plan_")));
     let ((entry0, _), (corner0, _)) = peaks(&machine0, fr);
     println!("feedback alone: entries peak {entry0:.3} Fr; corners peak {corner0:.3} Fr");

@@ -7,9 +7,11 @@
 # run at a constant 100 % override (`--law constant`, no ACC), with ACC, and with ACC and
 # the look-ahead of the optimized program's own plan. The feedback-alone run also computes
 # the program's oracle (`--oracle`: the lowest force RMS error a law on the board's grid
-# that knows the engagement ahead reaches), and both ACC runs get their ratio to it.
-# Prints three markdown tables (feedback alone; with the plan; cycle time and peak force
-# of every way).
+# that knows the engagement ahead reaches, free and with every period at or below 1.05 Fr),
+# and the ACC runs get their ratio to it; the look-ahead is run with its cap only and with
+# the plan's lead (`--plan-lead`).
+# Prints four markdown tables (feedback alone; with the plan; with the plan's lead; cycle
+# time and peak force of every way).
 #
 #   tests/nc/table.sh                      # uses ${ACC:-target/release/acc}
 #   ACC=target/debug/acc tests/nc/table.sh # the dev-profile build
@@ -29,8 +31,9 @@ ev() { sed -n "s/^$1: \([0-9]*\); highest true peak \([0-9.]*\) Fr.*mean peak \(
 cyc() { local c; c=$(sed -n 's/^cycle time \([0-9.]*\) s;.*/\1/p' <<<"$1"); grep -q "ended before the end" <<<"$1" && c="${c} (did not finish)"; echo "${c}"; }
 rms() { sed -n 's/.*force RMS error while cutting \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 orms() { sed -n 's/^oracle force RMS error \([0-9.]*\) N.*/\1/p' <<<"$1"; }
+wrms() { sed -n 's/^oracle force RMS error within 1.05 Fr \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 oratio() { awk -v a="$1" -v b="$2" 'BEGIN{if (b > 0) printf "%.2f", a/b; else printf "-"}'; }
-declare -A FB LA SAFE PLAN OPT OPT100 OPTACC OPTLA
+declare -A FB LA LEAD SAFE PLAN OPT OPT100 OPTACC OPTLA
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
     [[ -f ${file} ]] || continue
@@ -40,6 +43,7 @@ while read -r prog stock; do
     run() { "${ACC}" sim paper_case3 --program "${file}" --stock-box="${stock}" --no-plot --out "${d}/$1" "${@:2}" 2>/dev/null; }
     FB[${name}]=$(run fb --law ours --oracle)
     LA[${name}]=$(run la --law ours --plan "${d}/plan/plan.csv")
+    LEAD[${name}]=$(run lead --law ours --plan "${d}/plan/plan.csv" --plan-lead)
     SAFE[${name}]=$(run safe --law constant-safe)
     OPT[${name}]=$("${ACC}" optimize "${file}" --stock-box="${stock}" --out "${d}/opt/${name%.ngc}.opt.ngc" 2>/dev/null)
     runopt() { "${ACC}" sim paper_case3 --program "${d}/opt/${name%.ngc}.opt.ngc" --stock-box="${stock}" --no-plot --out "${d}/$1" "${@:2}" 2>/dev/null; }
@@ -66,17 +70,32 @@ done <<<"${LIST}"
 echo
 echo "ACC with the plan's look-ahead (\`acc plan\`, then \`acc sim --plan\`):"
 echo
-echo "| program | plan rows | predicted peak at 100 %, Fr | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | cycle, s | disagreement periods |"
+echo "| program | plan rows | predicted peak at 100 %, Fr | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | oracle within 1.05 Fr, N | RMS / oracle within 1.05 Fr | cycle, s | disagreement periods |"
+echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+while read -r prog stock; do
+    file=${prog/#nc3:/${NC3}/}
+    name=$(basename "${file}")
+    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | | | |"; continue; }
+    o=${LA[${name}]}; p=${PLAN[${name}]}; w=$(wrms "${FB[${name}]}")
+    rows=$(sed -n 's/^\([0-9]*\) rows.*/\1/p' <<<"${p}")
+    peak=$(sed -n 's/^predicted peak of the feed moves at 100 %: [0-9]* N = \([0-9.]*\) Fr.*/\1/p' <<<"${p}")
+    dis=$(grep -c plan_disagree "${OUT}/${name}/la/run.csv" || true)
+    echo "| ${name} | ${rows} | ${peak} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(oratio "$(rms "${o}")" "$(orms "${FB[${name}]}")") | ${w} | $(oratio "$(rms "${o}")" "${w}") | $(cyc "${o}") | ${dis} |" | sed 's/|  |/| none |/g'
+done <<<"${LIST}"
+echo
+echo "ACC with the plan's lead (\`acc sim --plan … --plan-lead\`):"
+echo
+echo "| program | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | RMS / oracle within 1.05 Fr | cycle, s | cutting periods led by the plan | disagreement periods |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
     name=$(basename "${file}")
     [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | |"; continue; }
-    o=${LA[${name}]}; p=${PLAN[${name}]}
-    rows=$(sed -n 's/^\([0-9]*\) rows.*/\1/p' <<<"${p}")
-    peak=$(sed -n 's/^predicted peak of the feed moves at 100 %: [0-9]* N = \([0-9.]*\) Fr.*/\1/p' <<<"${p}")
-    dis=$(grep -c plan_disagree "${OUT}/${name}/la/run.csv" || true)
-    echo "| ${name} | ${rows} | ${peak} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(oratio "$(rms "${o}")" "$(orms "${FB[${name}]}")") | $(cyc "${o}") | ${dis} |" | sed 's/|  |/| none |/g'
+    o=${LEAD[${name}]}; w=$(wrms "${FB[${name}]}")
+    dis=$(grep -c plan_disagree "${OUT}/${name}/lead/run.csv" || true)
+    # Cutting periods (force above 5 % of Fr, the summary's rule) whose command the lead set.
+    led=$(python3 -c 'import csv,sys; r=[x for x in csv.DictReader(open(sys.argv[1])) if x["force_n"] and float(x["force_n"])>0.05*float(x["force_ref_n"] or 0)]; n=sum("plan_lead:" in x["flags"] for x in r); print(f"{n} of {len(r)}")' "${OUT}/${name}/lead/run.csv")
+    echo "| ${name} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(oratio "$(rms "${o}")" "$(orms "${FB[${name}]}")") | $(oratio "$(rms "${o}")" "${w}") | $(cyc "${o}") | ${led} | ${dis} |" | sed 's/|  |/| none |/g'
 done <<<"${LIST}"
 echo
 echo "Cycle time, s, and the run's highest force / Fr (\`acc sim\`; the optimized program by \`acc optimize\`):"

@@ -51,6 +51,11 @@ pub struct RunArgs {
     /// `BLOCK_NUMBER` and `ACTUAL_FEED`; docs/plan.md).
     #[arg(long, value_name = "plan.csv")]
     pub plan: Option<PathBuf>,
+    /// With `--plan`: while the tool cuts and the measurement confirms the plan, the plan's
+    /// lead sets the command from the force ahead instead of only capping the law's command
+    /// (docs/plan.md, "The plan's lead").
+    #[arg(long, requires = "plan")]
+    pub plan_lead: bool,
     /// Stop after this much machine time, s, skipped periods included (default: run until
     /// Ctrl-C).
     #[arg(long, allow_hyphen_values = true)]
@@ -405,11 +410,14 @@ fn drive<P: Board + Send>(
     }
     if let Some(p) = &args.plan {
         let plan = acc_runtime::Plan::load(p).exit_as(RunExit::Usage)?;
-        let la = acc_runtime::LookAheadConfig::new(
-            period_s,
-            ccfg.force_ref_n,
-            cfg.policy.max_override_pct,
-        );
+        let la = acc_runtime::LookAheadConfig {
+            lead: args.plan_lead,
+            ..acc_runtime::LookAheadConfig::new(
+                period_s,
+                ccfg.force_ref_n,
+                cfg.policy.max_override_pct,
+            )
+        };
         control = control.with_lookahead(acc_runtime::LookAhead::new(plan, la));
     }
 

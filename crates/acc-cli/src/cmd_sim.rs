@@ -63,6 +63,10 @@ pub struct SimArgs {
     /// of every engagement change the plan names (look-ahead, docs/plan.md).
     #[arg(long, value_name = "plan.csv", requires = "program")]
     pub plan: Option<PathBuf>,
+    /// With `--plan`: while the tool cuts and the measurement confirms the plan, the plan's
+    /// lead sets the command from the force ahead (docs/plan.md, "The plan's lead").
+    #[arg(long, requires = "plan")]
+    pub plan_lead: bool,
     /// Also compute the oracle of the program (a law on the board's grid that knows the
     /// engagement ahead, on the noise-free plant: the lowest force RMS error, peak and
     /// cycle, docs/programs.md) and print the run's ratio to each.
@@ -122,7 +126,7 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         sc.use_model(model)?;
     }
     let program = crate::cmd_sim_program::load(&args.program, &sc)?;
-    let lookahead = crate::cmd_sim_program::lookahead(args.plan.as_deref(), &sc)?;
+    let lookahead = crate::cmd_sim_program::lookahead(args.plan.as_deref(), args.plan_lead, &sc)?;
     if let Some(p) = &program {
         sc = p.scenario_for(&sc);
     }
@@ -386,6 +390,7 @@ mod tests {
             telemetry: Default::default(),
             program: Default::default(),
             plan: None,
+            plan_lead: false,
             oracle: false,
             fleet: Default::default(),
         };

@@ -55,21 +55,26 @@ impl Default for ProgramArgs {
     }
 }
 
-/// The look-ahead of `acc sim --plan` (`plan`) for scenario `sc`, if given: the plan file
-/// read and checked (an error names the file, the line and the column).
+/// The look-ahead of `acc sim --plan` (`plan`) for scenario `sc`, if given, with the plan's
+/// lead when `lead` (`--plan-lead`), else its cap only: the plan file read and checked (an error names the
+/// file, the line and the column).
 pub fn lookahead(
     plan: Option<&Path>,
+    lead: bool,
     sc: &Scenario,
 ) -> anyhow::Result<Option<acc_runtime::LookAhead>> {
     let Some(p) = plan else {
         return Ok(None);
     };
     let plan = acc_runtime::Plan::load(p)?;
-    let cfg = acc_runtime::LookAheadConfig::new(
-        sc.controller.period_s,
-        sc.controller.force_ref_n,
-        sc.policy.max_override_pct,
-    );
+    let cfg = acc_runtime::LookAheadConfig {
+        lead,
+        ..acc_runtime::LookAheadConfig::new(
+            sc.controller.period_s,
+            sc.controller.force_ref_n,
+            sc.policy.max_override_pct,
+        )
+    };
     Ok(Some(acc_runtime::LookAhead::new(plan, cfg)))
 }
 

@@ -78,6 +78,10 @@ pub struct LookAheadConfig {
     /// machines' 16 ms + 8 ms at T = 0.1 s). The plan's lead ([`crate::plan_lead`]) judges
     /// every period that can start within it.
     pub command_delay_s: f64,
+    /// The plan's lead ([`crate::plan_lead`]) sets the command while the tool cuts and the
+    /// plan agrees with the measurement (`--plan-lead`); default `false`: the plan only caps
+    /// the law's command.
+    pub lead: bool,
 }
 
 impl LookAheadConfig {
@@ -92,6 +96,7 @@ impl LookAheadConfig {
             max_pct,
             force_ref_n,
             command_delay_s: 0.3 * period_s,
+            lead: false,
         }
     }
 }
@@ -344,13 +349,20 @@ impl LookAhead {
         let fr = self.cfg.force_ref_n;
         let lead = match (self.scale.scale(), measured) {
             (Some(k), Some(f))
-                if agree && self.scale.agrees() && (CUTTING * fr..=HIGH * fr).contains(&f) =>
+                if self.cfg.lead
+                    && agree
+                    && self.scale.agrees()
+                    && (CUTTING * fr..=HIGH * fr).contains(&f) =>
             {
                 // The command acts within `command_delay_s`, at the override in force until
                 // then, and governs one period from there: every such period's mean force.
+                // The position may be off by its uncertainty and the feed change's margin,
+                // and may lead the tool by one period's path (`ACTUAL_FEED` may be the feed
+                // the period starting now runs at): the periods from there on count.
                 let unc = self.unc_mm + margin;
+                let xl = x - dx;
                 let (y0, y1) = (
-                    x - unc,
+                    xl - unc,
                     self.advance(x, in_force, self.cfg.command_delay_s) + unc,
                 );
                 let worst = |o: u16| {
@@ -361,15 +373,9 @@ impl LookAhead {
                         })
                         .fold(0.0f64, f64::max)
                 };
-                let here = |o: u16| k * self.period_force(x, o, period_s);
+                let here = |o: u16| k * self.period_force(xl, o, period_s);
                 let mut lead = self.lead;
-                let pick = lead.choose(
-                    self.cfg.max_pct,
-                    s.override_step_pct,
-                    fr,
-                    worst,
-                    here,
-                );
+                let pick = lead.choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here);
                 self.lead = lead;
                 pick
             }
@@ -505,9 +511,17 @@ impl LookAhead {
         let scale = f64::from(pct.max(1)) / 100.0;
         loop {
             let r: &PlanRow = &rows[i];
-            let speed = if r.rapid { r.feed_mm_min } else { r.feed_mm_min * scale } / 60.0;
+            let speed = if r.rapid {
+                r.feed_mm_min
+            } else {
+                r.feed_mm_min * scale
+            } / 60.0;
             let len = (r.end_mm - at).max(0.0);
-            let t = if speed > 0.0 { len / speed } else { f64::INFINITY };
+            let t = if speed > 0.0 {
+                len / speed
+            } else {
+                f64::INFINITY
+            };
             if t >= left_s || i + 1 >= rows.len() {
                 return (at + speed * left_s).min(r.end_mm);
             }
@@ -529,10 +543,22 @@ impl LookAhead {
         let scale = f64::from(o_pct.max(1)) / 100.0;
         loop {
             let r: &PlanRow = &rows[i];
-            let speed = if r.rapid { r.feed_mm_min } else { r.feed_mm_min * scale } / 60.0;
+            let speed = if r.rapid {
+                r.feed_mm_min
+            } else {
+                r.feed_mm_min * scale
+            } / 60.0;
             let len = (r.end_mm - at).max(0.0);
-            let t = if speed > 0.0 { len / speed } else { f64::INFINITY };
-            let to = if t >= left_s { at + speed * left_s } else { r.end_mm };
+            let t = if speed > 0.0 {
+                len / speed
+            } else {
+                f64::INFINITY
+            };
+            let to = if t >= left_s {
+                at + speed * left_s
+            } else {
+                r.end_mm
+            };
             let part = to - at;
             if part > 0.0 {
                 let mid = 0.5 * (at + to);
@@ -766,7 +792,11 @@ mod tests {
         let plan = Plan {
             rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
         };
-        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+        let cfg = LookAheadConfig {
+            lead: true,
+            ..LookAheadConfig::new(0.1, 800.0, 150)
+        };
+        let mut la = LookAhead::new(plan, cfg);
         let mut at = |f: f64| {
             let mut st = in_force(30, 180, 30);
             st.override_step_pct = 10;
