@@ -1,12 +1,13 @@
 //! The plan and its look-ahead (`acc plan`, `acc sim --plan`): on the pocket program the
-//! look-ahead brings every entry and corner to Fr where feedback alone is far above; a
-//! wrong plan (a stock higher than planned) never raises the force above feedback alone
-//! and the log flags the disagreement; a missing or corrupt plan file is refused naming the
-//! file and line.
+//! look-ahead brings every entry and corner to Fr where feedback alone is far above, and
+//! so does the plan's lead (`--plan-lead`) at a lower force RMS error; a wrong plan (a
+//! stock higher than planned), with or without the lead, never raises the force above
+//! feedback alone and the log flags the disagreement; a missing or corrupt plan file is
+//! refused naming the file and line.
 
 mod e2e_support;
 
-use acc_runtime::Plan;
+use acc_runtime::{LookAhead, LookAheadConfig, Plan};
 use acc_sim::plan::PlanParams;
 use acc_sim::program::{event_peaks, EventKind, ProgramPath};
 use acc_sim::{LawKind, RunResult, Scenario};
@@ -63,6 +64,60 @@ fn the_plan_brings_every_entry_and_corner_of_the_pocket_to_fr() {
     assert!(ahead.rows.iter().any(|r| r.flags.contains("plan_cap:")));
 }
 
+/// Run `path` with `plan`'s look-ahead and its lead (`--plan-lead`).
+fn run_lead(base: &Scenario, path: &ProgramPath, plan: Plan) -> RunResult {
+    let sc = path.scenario_for(base);
+    let mut law = sc.build_law(LawKind::Ours).expect("law");
+    let cfg = LookAheadConfig {
+        lead: true,
+        ..LookAheadConfig::new(
+            sc.controller.period_s,
+            sc.controller.force_ref_n,
+            sc.policy.max_override_pct,
+        )
+    };
+    let la = LookAhead::new(plan, cfg);
+    acc_sim::oracle_program::run_program_ahead(&sc, path, law.as_mut(), Some(la)).expect("run")
+}
+
+#[test]
+fn the_plans_lead_keeps_every_entry_and_corner_at_fr_and_lowers_the_rms() {
+    let sc = scenario();
+    let fr = sc.controller.force_ref_n;
+    let path = pocket_program(&sc, POCKET_BOX);
+    let plan = path.plan(&PlanParams::of(&sc));
+    let capped = run(&sc, &path, Some(plan.clone()));
+    let led = run_lead(&sc, &path, plan);
+    assert!(capped.finished && led.finished);
+    let (e, c) = peaks(&path, &led);
+    assert!(e <= 1.05 * fr, "entries with the lead {:.3} Fr", e / fr);
+    assert!(c <= 1.05 * fr, "corners with the lead {:.3} Fr", c / fr);
+    let n_led = led
+        .rows
+        .iter()
+        .filter(|r| r.flags.contains("plan_lead:"))
+        .count();
+    assert!(n_led > 100, "{n_led} periods led");
+    assert!(!capped.rows.iter().any(|r| r.flags.contains("plan_lead:")));
+    // The force RMS error while cutting, the program summary's (force above 5 % of Fr).
+    let rms = |r: &RunResult| {
+        let e: Vec<f64> = r
+            .rows
+            .iter()
+            .filter_map(|x| x.force_n)
+            .filter(|f| *f > 0.05 * fr)
+            .map(|f| (f - fr).powi(2))
+            .collect();
+        (e.iter().sum::<f64>() / e.len() as f64).sqrt()
+    };
+    let (r0, r1) = (rms(&capped), rms(&led));
+    println!("pocket RMS: cap {r0:.1} N, lead {r1:.1} N; {n_led} periods led");
+    assert!(
+        r1 < 0.95 * r0,
+        "the lead lowers the RMS: {r1:.1} N against {r0:.1} N"
+    );
+}
+
 #[test]
 fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
     let sc = scenario();
@@ -72,7 +127,16 @@ fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
     let plan = planned.plan(&PlanParams::of(&sc));
     let path = pocket_program(&sc, POCKET_BOX);
     let alone = run(&sc, &path, None);
-    let wrong = run(&sc, &path, Some(plan));
+    for (name, wrong) in [
+        ("cap", run(&sc, &path, Some(plan.clone()))),
+        ("lead", run_lead(&sc, &path, plan)),
+    ] {
+        wrong_plan_checks(name, &path, &alone, &wrong);
+    }
+}
+
+/// A run with a wrong plan (`name`) against feedback alone: never a higher force, flagged.
+fn wrong_plan_checks(name: &str, path: &ProgramPath, alone: &RunResult, wrong: &RunResult) {
     let top = |r: &RunResult| {
         r.rows
             .iter()
@@ -80,26 +144,26 @@ fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
             .fold(0.0, f64::max)
     };
     assert!(
-        top(&wrong) <= top(&alone) * 1.001,
-        "wrong plan {:.0} N above feedback alone {:.0} N",
-        top(&wrong),
-        top(&alone)
+        top(wrong) <= top(alone) * 1.001,
+        "{name}: wrong plan {:.0} N above feedback alone {:.0} N",
+        top(wrong),
+        top(alone)
     );
     // Where the run stops early, it stops in feed hold (the breakage watch sees the force
     // drop at an exit the plan did not know of), never at a higher feed.
-    assert!(wrong.finished || wrong.ended_in_feed_hold);
-    let (e0, _) = peaks(&path, &alone);
-    let (e1, _) = peaks(&path, &wrong);
+    assert!(wrong.finished || wrong.ended_in_feed_hold, "{name}");
+    let (e0, _) = peaks(path, alone);
+    let (e1, _) = peaks(path, wrong);
     assert!(
         e1 <= e0 * 1.001,
-        "entries: wrong plan {e1:.0} N, alone {e0:.0} N"
+        "{name}: entries: wrong plan {e1:.0} N, alone {e0:.0} N"
     );
     assert!(
         wrong
             .rows
             .iter()
             .any(|r| r.flags.contains("plan_disagree:above")),
-        "the measured force above the plan is flagged"
+        "{name}: the measured force above the plan is flagged"
     );
 }
 

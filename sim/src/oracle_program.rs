@@ -190,7 +190,6 @@ pub fn run_program(
     law: &mut dyn acc_core::OverrideLaw,
     plan: Option<acc_runtime::Plan>,
 ) -> Result<RunResult, crate::SimError> {
-    let mut channel = scenario.build_channel()?;
     let lookahead = plan.map(|p| {
         acc_runtime::LookAhead::new(
             p,
@@ -201,6 +200,17 @@ pub fn run_program(
             ),
         )
     });
+    run_program_ahead(scenario, path, law, lookahead)
+}
+
+/// [`run_program`] with a look-ahead configured by the caller (the plan's lead, a horizon).
+pub fn run_program_ahead(
+    scenario: &Scenario,
+    path: &ProgramPath,
+    law: &mut dyn acc_core::OverrideLaw,
+    lookahead: Option<acc_runtime::LookAhead>,
+) -> Result<RunResult, crate::SimError> {
+    let mut channel = scenario.build_channel()?;
     let setup = crate::run::RunSetup::<std::io::Sink> {
         log: None,
         shop: None,
