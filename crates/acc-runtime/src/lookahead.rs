@@ -249,14 +249,6 @@ impl LookAhead {
             .or_else(|| (start..n).chain(0..start.min(n)).find(|&i| ok(i)))
     }
 
-    /// Index of the row containing path position `x` within rows `lo ..`.
-    fn row_at(&self, x: f64) -> usize {
-        self.plan
-            .rows
-            .partition_point(|r| r.end_mm < x)
-            .min(self.plan.rows.len() - 1)
-    }
-
     /// One period: the status read (`None`: the read failed), the force sample, the
     /// control period `period_s` (s).
     pub fn step(
@@ -363,17 +355,17 @@ impl LookAhead {
                 let xl = x - dx;
                 let (y0, y1) = (
                     xl - unc,
-                    self.advance(x, in_force, self.cfg.command_delay_s) + unc,
+                    self.plan.advance(x, in_force, self.cfg.command_delay_s) + unc,
                 );
                 let worst = |o: u16| {
                     k * (0..=WINDOW_SAMPLES)
                         .map(|j| {
                             let y = y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES);
-                            self.period_force(y, o, period_s)
+                            self.plan.period_force_n(y, o, period_s)
                         })
                         .fold(0.0f64, f64::max)
                 };
-                let here = |o: u16| k * self.period_force(xl, o, period_s);
+                let here = |o: u16| k * self.plan.period_force_n(xl, o, period_s);
                 let mut lead = self.lead;
                 let pick = lead.choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here);
                 self.lead = lead;
@@ -408,8 +400,8 @@ impl LookAhead {
         dx: f64,
     ) -> (Option<Disagreement>, bool, (f64, f64)) {
         let (a, b) = (
-            self.row_at(x - dx - self.unc_mm),
-            self.row_at(x + self.unc_mm),
+            self.plan.row_at(x - dx - self.unc_mm),
+            self.plan.row_at(x + self.unc_mm),
         );
         let rows = &self.plan.rows[a..=b];
         let air = rows.iter().any(|r| !r.cuts());
@@ -445,7 +437,7 @@ impl LookAhead {
     /// nothing below the grid's maximum).
     fn cap(&self, x: f64, unc_mm: f64, in_force_pct: u16, shape: bool) -> Option<u16> {
         let rows = &self.plan.rows;
-        let mut i = self.row_at(x - unc_mm);
+        let mut i = self.plan.row_at(x - unc_mm);
         let mut at = (x - unc_mm).max(rows[i].start_mm);
         let mut left_s = self.cfg.horizon_s;
         let mut cap = u16::MAX;
@@ -499,89 +491,6 @@ impl LookAhead {
             at = rows[i].start_mm;
         }
         (cap < self.cfg.max_pct).then_some(cap)
-    }
-
-    /// Where the tool is `time_s` (s) after `x` (mm) at override `pct` (a rapid at its
-    /// rapid rate), mm.
-    fn advance(&self, x: f64, pct: u16, time_s: f64) -> f64 {
-        let rows = &self.plan.rows;
-        let mut i = self.row_at(x);
-        let mut at = x.max(rows[i].start_mm);
-        let mut left_s = time_s;
-        let scale = f64::from(pct.max(1)) / 100.0;
-        loop {
-            let r: &PlanRow = &rows[i];
-            let speed = if r.rapid {
-                r.feed_mm_min
-            } else {
-                r.feed_mm_min * scale
-            } / 60.0;
-            let len = (r.end_mm - at).max(0.0);
-            let t = if speed > 0.0 {
-                len / speed
-            } else {
-                f64::INFINITY
-            };
-            if t >= left_s || i + 1 >= rows.len() {
-                return (at + speed * left_s).min(r.end_mm);
-            }
-            left_s -= t;
-            i += 1;
-            at = rows[i].start_mm;
-        }
-    }
-
-    /// The plan's mean force at override `o_pct` (N) over the path the tool covers in one
-    /// period from `x` (mm) at `o_pct` (a rapid at its rapid rate): the force the next
-    /// period's command governs, path-weighted, each feed row at `force_100 · (o/100)^β`.
-    fn period_force(&self, x: f64, o_pct: u16, period_s: f64) -> f64 {
-        let rows = &self.plan.rows;
-        let mut i = self.row_at(x);
-        let mut at = x.max(rows[i].start_mm);
-        let mut left_s = period_s;
-        let (mut sum, mut len_sum) = (0.0, 0.0);
-        let scale = f64::from(o_pct.max(1)) / 100.0;
-        loop {
-            let r: &PlanRow = &rows[i];
-            let speed = if r.rapid {
-                r.feed_mm_min
-            } else {
-                r.feed_mm_min * scale
-            } / 60.0;
-            let len = (r.end_mm - at).max(0.0);
-            let t = if speed > 0.0 {
-                len / speed
-            } else {
-                f64::INFINITY
-            };
-            let to = if t >= left_s {
-                at + speed * left_s
-            } else {
-                r.end_mm
-            };
-            let part = to - at;
-            if part > 0.0 {
-                let mid = 0.5 * (at + to);
-                let f = if !r.rapid && r.cuts() {
-                    r.force_100_over_n(mid, mid) * scale.powf(r.feed_exponent)
-                } else {
-                    0.0
-                };
-                sum += f * part;
-                len_sum += part;
-            }
-            if t >= left_s || i + 1 >= rows.len() {
-                break;
-            }
-            left_s -= t;
-            i += 1;
-            at = rows[i].start_mm;
-        }
-        if len_sum > 0.0 {
-            sum / len_sum
-        } else {
-            0.0
-        }
     }
 
     /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: the planned

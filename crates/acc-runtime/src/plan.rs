@@ -411,6 +411,87 @@ impl Plan {
     pub fn length_mm(&self) -> f64 {
         self.rows.last().map_or(0.0, |r| r.end_mm)
     }
+
+    /// Index of the row containing path position `x` (mm; the last row past the end).
+    /// The plan has at least one row ([`Plan::load`] refuses an empty one).
+    pub fn row_at(&self, x: f64) -> usize {
+        self.rows
+            .partition_point(|r| r.end_mm < x)
+            .min(self.rows.len().saturating_sub(1))
+    }
+
+    /// Walk the tool `time_s` (s) from `x` (mm) at override `pct` (a rapid at its rapid
+    /// rate): `part(row, from, to)` for each row's part it crosses (mm); where it ends, mm.
+    pub fn walk(
+        &self,
+        x: f64,
+        pct: u16,
+        time_s: f64,
+        mut part: impl FnMut(&PlanRow, f64, f64),
+    ) -> f64 {
+        let rows = &self.rows;
+        let mut i = self.row_at(x);
+        let mut at = x.max(rows[i].start_mm);
+        let mut left_s = time_s;
+        let scale = f64::from(pct.max(1)) / 100.0;
+        loop {
+            let r: &PlanRow = &rows[i];
+            let speed = if r.rapid {
+                r.feed_mm_min
+            } else {
+                r.feed_mm_min * scale
+            } / 60.0;
+            let len = (r.end_mm - at).max(0.0);
+            let t = if speed > 0.0 {
+                len / speed
+            } else {
+                f64::INFINITY
+            };
+            let to = if t >= left_s {
+                (at + speed * left_s).min(r.end_mm)
+            } else {
+                r.end_mm
+            };
+            part(r, at, to);
+            if t >= left_s || i + 1 >= rows.len() {
+                return to;
+            }
+            left_s -= t;
+            i += 1;
+            at = rows[i].start_mm;
+        }
+    }
+
+    /// Where the tool is `time_s` (s) after `x` (mm) at override `pct`, mm.
+    pub fn advance(&self, x: f64, pct: u16, time_s: f64) -> f64 {
+        self.walk(x, pct, time_s, |_, _, _| {})
+    }
+
+    /// The plan's mean force at override `o_pct` (N) over the path the tool covers in one
+    /// period from `x` (mm) at `o_pct` (a rapid at its rapid rate): the force the next
+    /// period's command governs, path-weighted, each feed row at `force_100 · (o/100)^β`.
+    pub fn period_force_n(&self, x: f64, o_pct: u16, period_s: f64) -> f64 {
+        let scale = f64::from(o_pct.max(1)) / 100.0;
+        let (mut sum, mut len_sum) = (0.0, 0.0);
+        self.walk(x, o_pct, period_s, |r, at, to| {
+            let part = to - at;
+            if part > 0.0 {
+                let mid = 0.5 * (at + to);
+                let f = if !r.rapid && r.cuts() {
+                    r.force_100_over_n(mid, mid) * scale.powf(r.feed_exponent)
+                } else {
+                    0.0
+                };
+                sum += f * part;
+                len_sum += part;
+            }
+        });
+        if len_sum > 0.0 {
+            sum / len_sum
+        } else {
+            0.0
+        }
+    }
 }
 
 /// A plan row for tests: block `block` from `a` to `b` mm at `feed` mm/min, force `f100` N
