@@ -165,6 +165,8 @@ pub struct LookAhead {
     /// First row of the visit the tool is in.
     visit: Option<usize>,
     last_block: Option<u16>,
+    /// The tool of the last period (`TOOL_NUMBER`): the plan's scale is per tool.
+    last_tool: Option<u16>,
     x_mm: f64,
     unc_mm: f64,
     above: u32,
@@ -199,6 +201,7 @@ impl LookAhead {
             visit_end,
             visit: None,
             last_block: None,
+            last_tool: None,
             x_mm: 0.0,
             unc_mm: 0.0,
             above: 0,
@@ -261,6 +264,11 @@ impl LookAhead {
             // Nothing read: keep the last decision (the policy holds the command anyway).
             return self.last;
         };
+        // The plan's scale belongs to the tool that was measured: a new tool starts again.
+        if self.last_tool != Some(s.tool_number) {
+            self.last_tool = Some(s.tool_number);
+            self.scale.clear();
+        }
         if !s.is_v2() || s.block_number == 0 {
             self.scale.clear();
             self.visit = None;
@@ -727,6 +735,20 @@ mod tests {
         assert_eq!(at(750.0).lead_pct, None);
         // In air (no force): no lead; entries keep the cap.
         assert_eq!(at(0.0).lead_pct, None);
+        // The scale is back (k = 1.25)...
+        assert!((0..3)
+            .map(|_| at(750.0).lead_pct)
+            .last()
+            .flatten()
+            .is_some());
+        // ...and a new tool starts it again (three agreeing periods before it leads).
+        let mut st = in_force(30, 180, 30);
+        st.override_step_pct = 10;
+        st.tool_number = 2;
+        let leads: Vec<_> = (0..3)
+            .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+            .collect();
+        assert_eq!(leads, [None, None, Some(40)]);
     }
 
     #[test]

@@ -14,7 +14,8 @@
 //!   well (the rows the tool crossed in the period predict within ±[`NARROW`] of their
 //!   middle, and the plan and the measurement are both above [`CUTTING`] × Fr). It corrects
 //!   the plan for the tool, the material and the model's error, as the law's Kc estimate
-//!   does (seed 002: the force is the process gain times the feed).
+//!   does (seed 002: the force is the process gain times the feed). A new `TOOL_NUMBER`
+//!   starts it again.
 //! - **Ceiling.** The highest grid position `o` at which every period the command can
 //!   govern has a predicted mean force `k · F(o)` at most [`CEILING`] × Fr: the periods that
 //!   start anywhere from the position's error behind the tool to where the override in
