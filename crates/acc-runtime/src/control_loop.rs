@@ -380,6 +380,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// `skipped`. The policy is not stepped (nothing was read or written).
     pub fn skip(&mut self, t_s: f64) -> RunRecord {
         self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
+        if let Some(la) = self.lookahead.as_mut() {
+            la.missed();
+        }
         self.guard.skipped();
         self.in_force
             .book(self.policy.state() == crate::policy::AccState::Active, None);
@@ -519,6 +522,13 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             if let Some(fr) = self.shop.as_ref().and_then(ShopControl::force_ref_n) {
                 la.set_force_ref_n(fr);
             }
+            // The lead's window assumes the designed loop delay.
+            la.set_line_nominal(
+                delay.echo_periods.is_none_or(|e| e <= 1)
+                    && delay.late_streak == 0
+                    && delay.seq_lag_periods.is_none_or(|l| l == 0)
+                    && delay.replay_lag_periods.is_none(),
+            );
             let st = la.step(link.as_ref().ok(), &force, self.period_s);
             let mut limits = if self.shop.is_some() {
                 self.policy.command_limits()

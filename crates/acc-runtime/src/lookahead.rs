@@ -37,6 +37,8 @@
 //! instantaneous value rather than the period's mean. The cap only ever lowers the law's
 //! command ([`crate::CommandLimits::cap_pct`], applied last in the law's bounds): the
 //! plan never raises the override above what the feedback law and the tool limits allow.
+//! The one exception is opt-in: the plan's lead ([`crate::plan_lead`],
+//! [`LookAheadConfig::lead`]) sets the command while the measurement confirms the plan.
 //!
 //! **Disagreement.** The plan predicts the period's force at the period's `ACTUAL_FEED`
 //! (`force_100_n · (f/f_prog)^β` of the rows the tool crossed in the period, ± the
@@ -181,6 +183,8 @@ pub struct LookAhead {
     scale: PlanScale,
     /// The lead's choice between two grid positions.
     lead: PlanLead,
+    /// The line runs as designed ([`LookAhead::set_line_nominal`]).
+    line_nominal: bool,
 }
 
 impl LookAhead {
@@ -211,7 +215,26 @@ impl LookAhead {
             dx_prev_mm: 0.0,
             scale: PlanScale::default(),
             lead: PlanLead::default(),
+            line_nominal: true,
         }
+    }
+
+    /// A period passed without a status read (a failed read, or a period the driver
+    /// skipped): the tool went on at about the last period's path, so the position moves
+    /// by it and its uncertainty grows by it; the plan's scale starts again.
+    pub fn missed(&mut self) {
+        self.x_mm += self.dx_prev_mm;
+        self.unc_mm += self.dx_prev_mm;
+        self.scale.clear();
+        self.lead.reset();
+    }
+
+    /// Whether the line runs as designed this period (`false`: the loop measures a longer
+    /// echo delay, late periods, a lagging sample sequence or a replayed line,
+    /// [`crate::echo::DelayReading`]): the plan's lead only acts on a nominal line, since
+    /// its window assumes the command acts within `command_delay_s`.
+    pub fn set_line_nominal(&mut self, nominal: bool) {
+        self.line_nominal = nominal;
     }
 
     /// The loop wrote `cmd_pct` (percent) this period: until the board applies it, the tool
@@ -261,7 +284,11 @@ impl LookAhead {
         period_s: f64,
     ) -> LookAheadStep {
         let Some(s) = status else {
-            // Nothing read: keep the last decision (the policy holds the command anyway).
+            // Nothing read: keep the last cap (the policy holds the command anyway); the
+            // tool went on at about the last period's path, which is now uncertain; the
+            // plan's scale is not confirmed.
+            self.missed();
+            self.last.lead_pct = None;
             return self.last;
         };
         // The plan's scale belongs to the tool that was measured: a new tool starts again.
@@ -338,21 +365,26 @@ impl LookAhead {
         };
         let measured = (force.valid && force.force_n.is_finite()).then_some(force.force_n);
         let agree = shape && disagreement.is_none() && self.below == 0;
-        if agree {
-            self.scale.update(measured, band, self.cfg.force_ref_n);
+        let fr = self.cfg.force_ref_n;
+        // The scale belongs to the cut it was measured in: out of the cut (a force below
+        // the cutting share, or none), and whenever plan and measurement disagree, it
+        // starts again.
+        if agree && measured.is_some_and(|f| f >= CUTTING * fr) {
+            self.scale.update(measured, band, fr);
         } else {
             self.scale.clear();
         }
         // The plan's lead, while the tool cuts and the plan and the measurement agree: the
         // command from the plan's force ahead, scaled by the measurement; it replaces the
         // cap (and the law's command) for the period.
-        let fr = self.cfg.force_ref_n;
         let lead = match (self.scale.scale(), measured) {
             (Some(k), Some(f))
                 if self.cfg.lead
+                    && self.line_nominal
+                    && !s.feed_hold_active
                     && agree
-                    && self.scale.agrees()
-                    && (CUTTING * fr..=HIGH * fr).contains(&f) =>
+                    && self.scale.confirmed()
+                    && f <= HIGH * fr =>
             {
                 // The command acts within `command_delay_s`, at the override in force until
                 // then, and governs one period from there: every such period's mean force.
@@ -365,12 +397,18 @@ impl LookAhead {
                     xl - unc,
                     self.plan.advance(x, in_force, self.cfg.command_delay_s) + unc,
                 );
+                // Period starts: evenly over the window and at every row boundary in it
+                // (where a heavy stretch begins).
+                let (a, b) = (self.plan.row_at(y0), self.plan.row_at(y1));
+                let starts: Vec<f64> = (0..=WINDOW_SAMPLES)
+                    .map(|j| y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES))
+                    .chain(self.plan.rows[a..=b].iter().map(|r| r.start_mm))
+                    .filter(|y| (y0..=y1).contains(y))
+                    .collect();
                 let worst = |o: u16| {
-                    k * (0..=WINDOW_SAMPLES)
-                        .map(|j| {
-                            let y = y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES);
-                            self.plan.period_force_n(y, o, period_s)
-                        })
+                    k * starts
+                        .iter()
+                        .map(|&y| self.plan.period_force_n(y, o, period_s))
                         .fold(0.0f64, f64::max)
                 };
                 let here = |o: u16| k * self.plan.period_force_n(xl, o, period_s);
@@ -735,12 +773,11 @@ mod tests {
         assert_eq!(at(750.0).lead_pct, None);
         // In air (no force): no lead; entries keep the cap.
         assert_eq!(at(0.0).lead_pct, None);
-        // The scale is back (k = 1.25)...
-        assert!((0..3)
-            .map(|_| at(750.0).lead_pct)
-            .last()
-            .flatten()
-            .is_some());
+        // Back in a cut: the scale of the last cut is not used; three agreeing periods of
+        // this one before it leads.
+        let back: Vec<_> = (0..3).map(|_| at(750.0).lead_pct).collect();
+        assert_eq!(back[..2], [None, None]);
+        assert!(back[2].is_some());
         // ...and a new tool starts it again (three agreeing periods before it leads).
         let mut st = in_force(30, 180, 30);
         st.override_step_pct = 10;

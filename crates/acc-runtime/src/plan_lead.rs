@@ -14,8 +14,7 @@
 //!   well (the rows the tool crossed in the period predict within ±[`NARROW`] of their
 //!   middle, and the plan and the measurement are both above [`CUTTING`] × Fr). It corrects
 //!   the plan for the tool, the material and the model's error, as the law's Kc estimate
-//!   does (seed 002: the force is the process gain times the feed). A new `TOOL_NUMBER`
-//!   starts it again.
+//!   does (seed 002: the force is the process gain times the feed).
 //! - **Ceiling.** The highest grid position `o` at which every period the command can
 //!   govern has a predicted mean force `k · F(o)` at most [`CEILING`] × Fr: the periods that
 //!   start anywhere from the position's error behind the tool to where the override in
@@ -23,20 +22,26 @@
 //!   position's uncertainty after a block change, the change of the period's path where
 //!   the feed changed, and one period's path; the position taken at most at the end of the
 //!   block the board reports)
-//!   ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts), each
+//!   ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts and every
+//!   row boundary in between), each
 //!   path-weighted over the rows it crosses at `force_100 · (o/100)^β` (seed 002 eq. 1).
 //!   The ceiling is the peak target at entries and corners (1.05 Fr) less a margin for
 //!   the plan's error between the scale's samples.
 //! - **Between two positions.** The command is that position or the one below, whichever
 //!   brings the running sum of predicted errors `Σ (k · F_here − Fr)` nearer zero (a σ-Δ
 //!   modulator in force, Candy & Temes 1992): on a coarse grid the period forces average to
-//!   Fr instead of sitting a step below it, and no period is predicted above the ceiling.
-//! - **When.** Only while the measured force is between [`CUTTING`] and [`HIGH`] × Fr (the
-//!   tool cuts: entries from air keep the look-ahead's cap), the tool is located on the
-//!   plan, no disagreement is pending or declared, the scale has at least
-//!   [`SCALE_MIN_SAMPLES`] samples and this period's ratio, where the plan knows the force
-//!   well, is within ±[`AGREE`] of `k`. Otherwise there is no lead: the law under the cap
-//!   sets the command, and the running sum restarts.
+//!   Fr instead of sitting a step below it; the step below is taken only where it too is
+//!   within the ceiling.
+//! - **When.** Only while the scale is confirmed in the cut the tool is in: a force below
+//!   [`CUTTING`] × Fr (air: entries keep the look-ahead's cap), a failed or skipped read, a
+//!   new tool, or any pending or declared disagreement starts the scale again; it needs
+//!   [`SCALE_MIN_SAMPLES`] samples, this period's ratio (where the plan knows the force
+//!   well) within ±[`AGREE`] of `k`, and a period judged and agreeing within the last
+//!   [`CONFIRM_PERIODS`]. Also: the measured force at most [`HIGH`] × Fr, the tool located
+//!   on the plan, no feed hold, and the line as designed (no longer echo delay, late
+//!   periods or lagging samples: the window assumes the command acts within the command
+//!   delay). Otherwise there is no lead: the law under the cap sets the command, and the
+//!   running sum restarts.
 //!
 //! The lead replaces the law's command for the period (the policy's floor and cap in
 //! [`acc_core::CommandLimits`]; the law re-engages on it, bumpless): the shop layer's and
@@ -53,6 +58,8 @@ pub const NARROW: f64 = 0.1;
 pub const CUTTING: f64 = 0.2;
 /// No lead while the measured force is above this × Fr, −.
 pub const HIGH: f64 = 1.1;
+/// The lead needs a period judged (and agreeing) within this many periods, −.
+pub const CONFIRM_PERIODS: u32 = 2;
 /// No lead while the period's ratio is off the scale by more than this (relative), −.
 pub const AGREE: f64 = 0.15;
 /// No period the lead governs is predicted above this × Fr, − (the peak target at entries
@@ -68,6 +75,8 @@ pub struct PlanScale {
     ratios: Vec<f64>,
     /// Whether this period's ratio agreed with the scale (or could not be judged).
     agrees: bool,
+    /// Periods since the last one whose ratio was judged (and agreed).
+    since_judged: u32,
 }
 
 impl PlanScale {
@@ -75,11 +84,13 @@ impl PlanScale {
     pub fn clear(&mut self) {
         self.ratios.clear();
         self.agrees = false;
+        self.since_judged = u32::MAX;
     }
 
     /// One period: the valid measured force `measured_n` (N; `None`: not valid), the plan's
     /// band `(lo, hi)` at the period's feed (N) and the force reference `force_ref_n` (N).
     pub fn update(&mut self, measured_n: Option<f64>, band_n: (f64, f64), force_ref_n: f64) {
+        self.since_judged = self.since_judged.saturating_add(1);
         let Some(f) = measured_n.filter(|f| f.is_finite()) else {
             self.agrees = false;
             return;
@@ -97,6 +108,9 @@ impl PlanScale {
         }
         let r = f / mid;
         self.agrees = self.scale().is_none_or(|k| (r - k).abs() <= AGREE * k);
+        if self.agrees {
+            self.since_judged = 0;
+        }
         if self.ratios.len() == SCALE_SAMPLES {
             self.ratios.remove(0);
         }
@@ -116,6 +130,14 @@ impl PlanScale {
     /// Whether the last period's ratio agreed with the scale.
     pub fn agrees(&self) -> bool {
         self.agrees
+    }
+
+    /// Whether the scale is confirmed now: at least [`SCALE_MIN_SAMPLES`] samples, this
+    /// period agreed (or could not be judged), and a period within the last
+    /// [`CONFIRM_PERIODS`] was judged and agreed (a corner's wide band cannot be judged:
+    /// the lead crosses it on the confirmation just before).
+    pub fn confirmed(&self) -> bool {
+        self.scale().is_some() && self.agrees && self.since_judged <= CONFIRM_PERIODS
     }
 }
 
@@ -157,7 +179,10 @@ impl PlanLead {
         let below = (top - step).max(step);
         let e_top = self.error_sum_n + here(top) - force_ref_n;
         let e_below = self.error_sum_n + here(below) - force_ref_n;
-        let (pick, e) = if e_top.abs() <= e_below.abs() {
+        // The step below is taken only where it too is within the ceiling (with β < 1 a
+        // shorter period may sit wholly in a narrow peak).
+        let below_ok = worst(below) <= CEILING * force_ref_n;
+        let (pick, e) = if !below_ok || e_top.abs() <= e_below.abs() {
             (top, e_top)
         } else {
             (below, e_below)
@@ -213,5 +238,14 @@ mod tests {
         assert!(picks.iter().all(|&o| o == 30 || o == 40));
         // Even the lowest position predicted above the ceiling: no lead.
         assert_eq!(lead.choose(150, 10, 800.0, |_| 1e6, f), None);
+        // The step below nearer Fr but with a period above the ceiling (a narrow peak a
+        // shorter period sits in): the step above.
+        let here = |o: u16| if o == 40 { 850.0 } else { 780.0 };
+        let worst = |o: u16| if o == 40 { 820.0 } else { 2000.0 };
+        let mut lead = PlanLead::default();
+        assert_eq!(lead.choose(40, 10, 800.0, worst, here), Some(40));
+        let worst = |o: u16| if o == 40 { 820.0 } else { 780.0 };
+        let mut lead = PlanLead::default();
+        assert_eq!(lead.choose(40, 10, 800.0, worst, here), Some(30));
     }
 }
