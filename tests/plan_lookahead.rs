@@ -2,8 +2,9 @@
 //! look-ahead brings every entry and corner to Fr where feedback alone is far above, and
 //! so does the plan's lead (`--plan-lead`) at a lower force RMS error; a wrong plan (a
 //! stock higher than planned), with or without the lead, never raises the force above
-//! feedback alone and the log flags the disagreement; a missing or corrupt plan file is
-//! refused naming the file and line.
+//! feedback alone and the log flags the disagreement; with a plan that over-predicts (a
+//! stock lower than planned) the lead's largest force is no higher than the cap's; a
+//! missing or corrupt plan file is refused naming the file and line.
 
 mod e2e_support;
 
@@ -133,6 +134,34 @@ fn a_plan_for_a_lower_stock_never_raises_the_force_and_is_flagged() {
     ] {
         wrong_plan_checks(name, &path, &alone, &wrong);
     }
+}
+
+#[test]
+fn a_plan_that_over_predicts_gains_nothing_unsafe_from_the_lead() {
+    let sc = scenario();
+    // Planned on the full stock, run on one 1 mm lower: the plan predicts metal that is not
+    // there (its scale falls below 1), then the passes below meet the planned metal.
+    let planned = pocket_program(&sc, POCKET_BOX);
+    let plan = planned.plan(&PlanParams::of(&sc));
+    let path = pocket_program(&sc, "-20,-20,-10,60,50,-1");
+    let top = |r: &RunResult| {
+        r.rows
+            .iter()
+            .filter_map(|x| x.force_true_n)
+            .fold(0.0, f64::max)
+    };
+    let alone = top(&run(&sc, &path, None));
+    let capped = top(&run(&sc, &path, Some(plan.clone())));
+    let led = top(&run_lead(&sc, &path, plan));
+    println!("over-predicting plan: largest true force alone {alone:.0} N, cap {capped:.0} N, lead {led:.0} N");
+    assert!(
+        led <= capped * 1.001,
+        "lead {led:.0} N above the cap's {capped:.0} N"
+    );
+    assert!(
+        led <= alone,
+        "lead {led:.0} N above feedback alone {alone:.0} N"
+    );
 }
 
 /// A run with a wrong plan (`name`) against feedback alone: never a higher force, flagged.
