@@ -389,8 +389,9 @@ impl LookAhead {
                 // The command acts within `command_delay_s`, at the override in force until
                 // then, and governs one period from there: every such period's mean force.
                 // The position may be off by its uncertainty and the feed change's margin,
-                // and may lead the tool by one period's path (`ACTUAL_FEED` may be the feed
-                // the period starting now runs at): the periods from there on count.
+                // and by up to one period's path more: the path integrated from
+                // `ACTUAL_FEED` (a whole number of mm/min) drifts from the tool's within a
+                // block. The periods from one period's path behind on count.
                 let unc = self.unc_mm + margin;
                 let xl = x - dx;
                 let (y0, y1) = (

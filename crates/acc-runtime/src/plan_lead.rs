@@ -17,12 +17,11 @@
 //!   does (seed 002: the force is the process gain times the feed).
 //! - **Ceiling.** The highest grid position `o` at which every period the command can
 //!   govern has a predicted mean force `k · F(o)` at most [`CEILING`] × Fr: the periods that
-//!   start anywhere from the position's error behind the tool to where the override in
-//!   force carries it within the command delay and that error ahead (the error: the
-//!   position's uncertainty after a block change, the change of the period's path where
-//!   the feed changed, and one period's path; the position taken at most at the end of the
-//!   block the board reports)
-//!   ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts and every
+//!   start anywhere from the position's error behind the tool (its uncertainty after a
+//!   block change, the change of the period's path where the feed changed, and one period's
+//!   path for the drift of the path integrated from `ACTUAL_FEED`, a whole number of
+//!   mm/min) to where the override in force carries it within the command delay and the
+//!   uncertainty ahead ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts and every
 //!   row boundary in between), each
 //!   path-weighted over the rows it crosses at `force_100 · (o/100)^β` (seed 002 eq. 1).
 //!   The ceiling is the peak target at entries and corners (1.05 Fr) less a margin for
