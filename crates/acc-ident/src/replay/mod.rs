@@ -176,15 +176,49 @@ fn plant_trace(
     sample.iter().map(|&s| grid[s]).collect()
 }
 
-/// Paths kept per [`Inputs`].
+/// Paths kept per [`Inputs`], at least: a fit's grid over the delays and time constants
+/// of the drive candidates alone tries more than twenty.
 const PATH_CACHE: usize = 24;
 
+/// Rows of plant trace kept per [`Inputs`] (about 100 bytes a row): more paths than
+/// [`PATH_CACHE`] on a log shorter than this over [`PATH_CACHE`] rows, so that a log of
+/// 10 minutes keeps every path its analysis tries (about 45 on one channel).
+const PATH_CACHE_ROWS: usize = 400_000;
+
+/// Keep `c`, dropping the path used longest ago when the cache is full.
 fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
+    let keep = PATH_CACHE.max(PATH_CACHE_ROWS / inp.len().max(1));
     let mut v = inp.cache.borrow_mut();
-    if v.len() >= PATH_CACHE {
+    if v.len() >= keep {
         v.remove(0);
     }
     v.push(c);
+}
+
+/// Replays kept per [`Inputs`] by [`replay_shared`].
+const REPLAY_CACHE: usize = 8;
+
+/// [`replay`], shared: the last [`REPLAY_CACHE`] replays on `inp` are kept with their
+/// models, and a model equal to one of them gets that replay back instead of a new one
+/// (a fit's Jacobian starts at the point whose residual it has just computed; each
+/// cross-validation fold starts at the same model). The replay is a function of the model
+/// and the inputs only, so the result is the same as [`replay`]'s.
+pub fn replay_shared(model: &Model, inp: &Inputs) -> std::rc::Rc<Replay> {
+    let mut v = inp.replays.borrow_mut();
+    if let Some(k) = v.iter().position(|(m, _)| m == model) {
+        let hit = v.remove(k);
+        let r = hit.1.clone();
+        v.push(hit);
+        return r;
+    }
+    drop(v);
+    let r = std::rc::Rc::new(replay(model, inp));
+    let mut v = inp.replays.borrow_mut();
+    if v.len() >= REPLAY_CACHE {
+        v.remove(0);
+    }
+    v.push((model.clone(), r.clone()));
+    r
 }
 
 fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
@@ -211,8 +245,14 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
     };
     // The last few paths: a fit's numerical derivatives and cross-validation folds
     // alternate between nearby delays and time constants, each a full plant replay.
-    if let Some(c) = inp.cache.borrow().iter().find(|c| c.key == key) {
-        return c.clone();
+    {
+        let mut v = inp.cache.borrow_mut();
+        if let Some(k) = v.iter().position(|c| c.key == key) {
+            // Most recently used last.
+            let c = v.remove(k);
+            v.push(c.clone());
+            return c;
+        }
     }
     let plant = plant_trace(model, inp, &inp.plant, &key);
     let c = std::rc::Rc::new(PathCache { key, plant });
