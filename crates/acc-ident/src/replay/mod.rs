@@ -281,6 +281,15 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     out
 }
 
+/// An optional effect as a flag and a value (`off` when absent), taken out of its
+/// `Option` before a loop over the rows. A `map_or` on the `Option` inside the loop is
+/// compiled to evaluate the term on the absent value's bytes as well and choose after —
+/// undefined bytes that can read as a subnormal number, a hundred cycles a multiplication
+/// on every row; a defined value costs nothing. The result is the same.
+fn present<T: Copy>(o: Option<T>, off: T) -> (bool, T) {
+    (o.is_some(), o.unwrap_or(off))
+}
+
 /// The candidate measurement-chain effects on the logged column: a pure delay, then a
 /// gain drift.
 fn measurement_chain(model: &Model, inp: &Inputs, y: &mut [f64]) {
@@ -377,6 +386,19 @@ fn replay_plant(
         ks_step_factors(fx.ks_step, &x_start, &x_end, &cut, &wf, &shape)
     });
     out.ks_step_boundary_mm = steps.as_ref().map(|s| s.0);
+    // The optional terms as plain values before the row loop (see [`present`]).
+    let sp = &model.machine.spindle;
+    let no_drift = acc_sim::config::NoloadDrift {
+        delta_w: 0.0,
+        tau_s: 1.0,
+    };
+    let no_loss = acc_sim::config::MotorEfficiency {
+        copper_loss_per_kw: 0.0,
+    };
+    let (sp_drift_on, sp_drift) = present(sp.noload_drift, no_drift);
+    let (fx_drift_on, fx_drift) = present(fx.noload_drift, no_drift);
+    let (sp_loss_on, sp_loss) = present(sp.motor_efficiency, no_loss);
+    let (fx_loss_on, fx_loss) = present(fx.motor_efficiency, no_loss);
     let mut cut_min = 0.0;
     let mut theta = 0.0;
     for i in 0..n {
@@ -416,9 +438,16 @@ fn replay_plant(
         out.predicted[i] = match power_chan {
             false => chan_force,
             true if s > 0.0 => {
-                let sp = &model.machine.spindle;
-                let drift_w = sp.noload_drift.map_or(0.0, |d| d.power_w(tt))
-                    + fx.noload_drift.map_or(0.0, |d| d.power_w(tt));
+                let fx_drift_w = if fx_drift_on {
+                    fx_drift.power_w(tt)
+                } else {
+                    0.0
+                };
+                let drift_w = if sp_drift_on {
+                    sp_drift.power_w(tt)
+                } else {
+                    0.0
+                } + fx_drift_w;
                 match motor {
                     Some(m) => {
                         let c = inp.motor_curve(m, s);
@@ -436,13 +465,13 @@ fn replay_plant(
                             // The copper loss of the simulator's motor is taken sample by
                             // sample on the instantaneous torque: its mean is c·⟨P_c²⟩, the
                             // tooth ripple's mean square included, not c·⟨P_c⟩².
-                            + sp.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
-                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
+                            + if sp_loss_on { sp_loss.loss_w(pc_rms) } else { 0.0 }
+                            + if fx_loss_on { fx_loss.loss_w(pc_rms) } else { 0.0 }
                     }
                     None => {
                         physics::input_power_w(sp, torque, s, tt)
-                            + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
-                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                            + fx_drift_w
+                            + if fx_loss_on { fx_loss.loss_w(pc) } else { 0.0 }
                     }
                 }
             }
@@ -467,6 +496,33 @@ fn replay_plant(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A shared replay is the replay of the same model; an equal model gets the kept one
+    /// back, another model a new one.
+    #[test]
+    fn a_shared_replay_is_the_replay_and_is_kept_per_model() {
+        let cfg = acc_sim::run::configs_dir();
+        let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
+            .expect("scenario");
+        let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
+        let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        let log = crate::runlog::from_records(&res.rows, std::path::Path::new("shared.csv"))
+            .expect("log");
+        let model = Model::load(&cfg.join("models/paper_vmc.toml")).expect("model");
+        let inp = Inputs::from_log(&log, &model).expect("inputs");
+        let a = replay_shared(&model, &inp);
+        assert_eq!(a.predicted, replay(&model, &inp).predicted);
+        assert!(std::rc::Rc::ptr_eq(
+            &a,
+            &replay_shared(&model.clone(), &inp)
+        ));
+        let mut worn = model.clone();
+        worn.effects.set(EffectKind::ToolWear, 0, 0.01);
+        let b = replay_shared(&worn, &inp);
+        assert!(!std::rc::Rc::ptr_eq(&a, &b));
+        assert_eq!(b.predicted, replay(&worn, &inp).predicted);
+        assert_ne!(a.predicted, b.predicted, "wear changes the replay");
+    }
 
     /// A log whose board skipped a sample (a `seq_skip:2` row: one board period no row
     /// read) replays on its logged engagement, one prediction per row, still in step with
