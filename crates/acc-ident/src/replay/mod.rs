@@ -497,15 +497,21 @@ fn replay_plant(
 mod tests {
     use super::*;
 
-    /// A shared replay is the replay of the same model; an equal model gets the kept one
-    /// back, another model a new one.
-    #[test]
-    fn a_shared_replay_is_the_replay_and_is_kept_per_model() {
+    /// The configs directory, paper case III with the dynamometer, and its closed-loop run.
+    fn case3_dynamometer_run() -> (std::path::PathBuf, acc_sim::Scenario, acc_sim::RunResult) {
         let cfg = acc_sim::run::configs_dir();
         let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
             .expect("scenario");
         let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
         let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        (cfg, sc, res)
+    }
+
+    /// A shared replay is the replay of the same model; an equal model gets the kept one
+    /// back, another model a new one.
+    #[test]
+    fn a_shared_replay_is_the_replay_and_is_kept_per_model() {
+        let (cfg, _, res) = case3_dynamometer_run();
         let log = crate::runlog::from_records(&res.rows, std::path::Path::new("shared.csv"))
             .expect("log");
         let model = Model::load(&cfg.join("models/paper_vmc.toml")).expect("model");
@@ -529,11 +535,7 @@ mod tests {
     /// the measured force after the skip.
     #[test]
     fn a_skipped_board_sample_keeps_the_logged_engagement_in_step() {
-        let cfg = acc_sim::run::configs_dir();
-        let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
-            .expect("scenario");
-        let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
-        let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        let (cfg, sc, res) = case3_dynamometer_run();
         let mut rows = res.rows;
         let skip = rows.len() / 3;
         rows[skip].flags = "seq_skip:2".into();
