@@ -5,9 +5,11 @@
 //! CLI's default options against `configs/models/paper_vmc_production.toml` on both
 //! channels. Prints each analysis's CPU time (user + system of the process, from
 //! `/proc/self/stat`: the figure that holds on a shared machine) and wall time, the best of
-//! `--repeat` runs (default 1).
+//! `--repeat` runs (default 1). With `--out DIR` it writes each channel's report
+//! (`DIR/force.md`, `DIR/force.json`, `DIR/power.md`, `DIR/power.json`) so that two builds'
+//! figures can be compared.
 //!
-//! cargo run --release -p acc-ident --example discrepancy_speed -- [--repeat N]
+//! cargo run --release -p acc-ident --example discrepancy_speed -- [--repeat N] [--out DIR]
 use std::path::Path;
 use std::time::Instant;
 
@@ -23,6 +25,14 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|s| s.parse().ok())
         .unwrap_or(1);
+    let out: Option<std::path::PathBuf> = args
+        .iter()
+        .position(|a| a == "--out")
+        .and_then(|i| args.get(i + 1))
+        .map(Into::into);
+    if let Some(o) = &out {
+        std::fs::create_dir_all(o).expect("--out directory");
+    }
     let dir = acc_sim::run::configs_dir();
     let mut sc = acc_sim::Scenario::load(dir.join("scenarios/hidden_wear.toml")).expect("scenario");
     let wp_path = dir.join("workpieces/twelve_cuts.toml");
@@ -60,6 +70,16 @@ fn main() {
             best = best.min(t.elapsed().as_secs_f64());
             best_cpu = best_cpu.min(cpu_s() - c);
             named = a.report.accepted.clone();
+            if let Some(o) = &out {
+                let stem = format!("{ch:?}").to_lowercase();
+                std::fs::write(o.join(format!("{stem}.md")), a.report.to_markdown())
+                    .expect("write the report");
+                std::fs::write(
+                    o.join(format!("{stem}.json")),
+                    a.report.to_json().expect("report as JSON"),
+                )
+                .expect("write the report");
+            }
         }
         println!(
             "{ch:?}: {best_cpu:.2} s CPU, {best:.2} s wall (best of {repeat}); named {named:?}"

@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use crate::effects::EffectKind;
 use crate::model::Model;
-use crate::replay::{replay, Inputs};
+use crate::replay::{replay_shared, Inputs};
 use crate::stats::{lag1, n_eff, t_critical};
 
 /// A free parameter.
@@ -315,7 +315,7 @@ impl<'a> Problem<'a> {
     /// the inputs carry a [`Prior`].
     fn resid(&self, theta: &[f64]) -> DVector<f64> {
         let m = apply(self.base, self.free, theta);
-        let r = replay(&m, self.inp);
+        let r = replay_shared(&m, self.inp);
         let data = self
             .rows
             .iter()
@@ -440,7 +440,7 @@ pub fn refine(base: &Model, free: &[Free], inp: &Inputs, rows: &[usize]) -> Mode
 
 /// Sum of squared residuals of `model` over `rows`.
 pub fn sse(model: &Model, inp: &Inputs, rows: &[usize]) -> f64 {
-    let r = replay(model, inp);
+    let r = replay_shared(model, inp);
     rows.iter()
         .map(|&i| (inp.measured[i] - r.predicted[i]).powi(2))
         .sum()

@@ -242,6 +242,8 @@ pub fn trace(
     let lag = FirstOrderLag::new(channel.torque_lag_s);
     let mut lagged = 0.0;
     let mut theta = 0.0f64;
+    // The last sample's end angle with its sine and cosine.
+    let mut end_sc: Option<(f64, f64, f64)> = None;
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
         let dt_row = drive.period_s[i];
@@ -277,10 +279,19 @@ pub fn trace(
             let th0 = theta;
             let th1 = th0 + dth;
             theta = crate::exact::rem_tau(th1);
+            // sin and cos of the sample's start: the last sample's end where the angle
+            // was not wrapped (the same number, so the same values).
+            let (s0, c0) = match end_sc {
+                Some((a, s, c)) if a == th0 => (s, c),
+                _ => th0.sin_cos(),
+            };
             let basis = if dth.abs() < 1e-12 {
-                [th0.cos(), -th0.sin()]
+                end_sc = None;
+                [c0, -s0]
             } else {
-                [(th1.sin() - th0.sin()) / dth, (th1.cos() - th0.cos()) / dth]
+                let (s1, c1) = th1.sin_cos();
+                end_sc = Some((th1, s1, c1));
+                [(s1 - s0) / dth, (c1 - c0) / dth]
             };
             rm[0] += s.force_n * basis[0];
             rm[1] += s.force_n * basis[1];

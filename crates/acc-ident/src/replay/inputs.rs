@@ -54,8 +54,10 @@ pub struct Inputs {
     /// `None`: row `k` read sample `k` — or the board samples faster than the control
     /// period (most rows moved by more than one sample), where the periods are the rows'.
     pub board_sample: Option<Vec<usize>>,
-    /// The last feed path and unit forces (see [`replay`]); not part of the inputs.
+    /// The last feed paths and unit forces (see [`replay`]); not part of the inputs.
     pub(super) cache: std::cell::RefCell<Vec<std::rc::Rc<PathCache>>>,
+    /// The last replays and their models (see [`replay_shared`]); not part of the inputs.
+    pub(super) replays: std::cell::RefCell<Vec<(Model, std::rc::Rc<Replay>)>>,
     /// Quadratic fits of the spindle motor's input power against torque, per speed.
     pub(super) motor_curves: std::cell::RefCell<Vec<(f64, [f64; 3])>>,
 }
@@ -266,6 +268,7 @@ impl Inputs {
                         .collect()
                 }),
             cache: Default::default(),
+            replays: Default::default(),
             motor_curves: Default::default(),
         })
     }
@@ -277,6 +280,7 @@ impl Inputs {
     pub fn use_workpiece(&mut self, workpiece: acc_sim::Workpiece, x0_mm: f64) {
         self.plant.engagement = acc_sim::replay::ReplayEngagement::Workpiece { workpiece, x0_mm };
         self.cache.borrow_mut().clear();
+        self.replays.borrow_mut().clear();
     }
 
     /// Input power of `motor` at `rpm` as a quadratic in the cutting torque,

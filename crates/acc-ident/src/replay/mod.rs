@@ -176,15 +176,49 @@ fn plant_trace(
     sample.iter().map(|&s| grid[s]).collect()
 }
 
-/// Paths kept per [`Inputs`].
+/// Paths kept per [`Inputs`], at least: a fit's grid over the delays and time constants
+/// of the drive candidates alone tries more than twenty.
 const PATH_CACHE: usize = 24;
 
+/// Rows of plant trace kept per [`Inputs`] (about 100 bytes a row): more paths than
+/// [`PATH_CACHE`] on a log shorter than this over [`PATH_CACHE`] rows, so that a log of
+/// 10 minutes keeps every path its analysis tries (about 45 on one channel).
+const PATH_CACHE_ROWS: usize = 400_000;
+
+/// Keep `c`, dropping the path used longest ago when the cache is full.
 fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
+    let keep = PATH_CACHE.max(PATH_CACHE_ROWS / inp.len().max(1));
     let mut v = inp.cache.borrow_mut();
-    if v.len() >= PATH_CACHE {
+    if v.len() >= keep {
         v.remove(0);
     }
     v.push(c);
+}
+
+/// Replays kept per [`Inputs`] by [`replay_shared`].
+const REPLAY_CACHE: usize = 8;
+
+/// [`replay`], shared: the last [`REPLAY_CACHE`] replays on `inp` are kept with their
+/// models, and a model equal to one of them gets that replay back instead of a new one
+/// (a fit's Jacobian starts at the point whose residual it has just computed; each
+/// cross-validation fold starts at the same model). The replay is a function of the model
+/// and the inputs only, so the result is the same as [`replay`]'s.
+pub fn replay_shared(model: &Model, inp: &Inputs) -> std::rc::Rc<Replay> {
+    let mut v = inp.replays.borrow_mut();
+    if let Some(k) = v.iter().position(|(m, _)| m == model) {
+        let hit = v.remove(k);
+        let r = hit.1.clone();
+        v.push(hit);
+        return r;
+    }
+    drop(v);
+    let r = std::rc::Rc::new(replay(model, inp));
+    let mut v = inp.replays.borrow_mut();
+    if v.len() >= REPLAY_CACHE {
+        v.remove(0);
+    }
+    v.push((model.clone(), r.clone()));
+    r
 }
 
 fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
@@ -211,8 +245,14 @@ fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
     };
     // The last few paths: a fit's numerical derivatives and cross-validation folds
     // alternate between nearby delays and time constants, each a full plant replay.
-    if let Some(c) = inp.cache.borrow().iter().find(|c| c.key == key) {
-        return c.clone();
+    {
+        let mut v = inp.cache.borrow_mut();
+        if let Some(k) = v.iter().position(|c| c.key == key) {
+            // Most recently used last.
+            let c = v.remove(k);
+            v.push(c.clone());
+            return c;
+        }
     }
     let plant = plant_trace(model, inp, &inp.plant, &key);
     let c = std::rc::Rc::new(PathCache { key, plant });
@@ -239,6 +279,15 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
     replay_plant(model, inp, &cached.plant, &mut out);
     measurement_chain(model, inp, &mut out.predicted);
     out
+}
+
+/// An optional effect as a flag and a value (`off` when absent), taken out of its
+/// `Option` before a loop over the rows. A `map_or` on the `Option` inside the loop is
+/// compiled to evaluate the term on the absent value's bytes as well and choose after —
+/// undefined bytes that can read as a subnormal number, a hundred cycles a multiplication
+/// on every row; a defined value costs nothing. The result is the same.
+fn present<T: Copy>(o: Option<T>, off: T) -> (bool, T) {
+    (o.is_some(), o.unwrap_or(off))
 }
 
 /// The candidate measurement-chain effects on the logged column: a pure delay, then a
@@ -337,6 +386,19 @@ fn replay_plant(
         ks_step_factors(fx.ks_step, &x_start, &x_end, &cut, &wf, &shape)
     });
     out.ks_step_boundary_mm = steps.as_ref().map(|s| s.0);
+    // The optional terms as plain values before the row loop (see [`present`]).
+    let sp = &model.machine.spindle;
+    let no_drift = acc_sim::config::NoloadDrift {
+        delta_w: 0.0,
+        tau_s: 1.0,
+    };
+    let no_loss = acc_sim::config::MotorEfficiency {
+        copper_loss_per_kw: 0.0,
+    };
+    let (sp_drift_on, sp_drift) = present(sp.noload_drift, no_drift);
+    let (fx_drift_on, fx_drift) = present(fx.noload_drift, no_drift);
+    let (sp_loss_on, sp_loss) = present(sp.motor_efficiency, no_loss);
+    let (fx_loss_on, fx_loss) = present(fx.motor_efficiency, no_loss);
     let mut cut_min = 0.0;
     let mut theta = 0.0;
     for i in 0..n {
@@ -376,9 +438,16 @@ fn replay_plant(
         out.predicted[i] = match power_chan {
             false => chan_force,
             true if s > 0.0 => {
-                let sp = &model.machine.spindle;
-                let drift_w = sp.noload_drift.map_or(0.0, |d| d.power_w(tt))
-                    + fx.noload_drift.map_or(0.0, |d| d.power_w(tt));
+                let fx_drift_w = if fx_drift_on {
+                    fx_drift.power_w(tt)
+                } else {
+                    0.0
+                };
+                let drift_w = if sp_drift_on {
+                    sp_drift.power_w(tt)
+                } else {
+                    0.0
+                } + fx_drift_w;
                 match motor {
                     Some(m) => {
                         let c = inp.motor_curve(m, s);
@@ -396,13 +465,13 @@ fn replay_plant(
                             // The copper loss of the simulator's motor is taken sample by
                             // sample on the instantaneous torque: its mean is c·⟨P_c²⟩, the
                             // tooth ripple's mean square included, not c·⟨P_c⟩².
-                            + sp.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
-                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc_rms))
+                            + if sp_loss_on { sp_loss.loss_w(pc_rms) } else { 0.0 }
+                            + if fx_loss_on { fx_loss.loss_w(pc_rms) } else { 0.0 }
                     }
                     None => {
                         physics::input_power_w(sp, torque, s, tt)
-                            + fx.noload_drift.map_or(0.0, |d| d.power_w(tt))
-                            + fx.motor_efficiency.map_or(0.0, |m| m.loss_w(pc))
+                            + fx_drift_w
+                            + if fx_loss_on { fx_loss.loss_w(pc) } else { 0.0 }
                     }
                 }
             }
@@ -428,16 +497,45 @@ fn replay_plant(
 mod tests {
     use super::*;
 
-    /// A log whose board skipped a sample (a `seq_skip:2` row: one board period no row
-    /// read) replays on its logged engagement, one prediction per row, still in step with
-    /// the measured force after the skip.
-    #[test]
-    fn a_skipped_board_sample_keeps_the_logged_engagement_in_step() {
+    /// The configs directory, paper case III with the dynamometer, and its closed-loop run.
+    fn case3_dynamometer_run() -> (std::path::PathBuf, acc_sim::Scenario, acc_sim::RunResult) {
         let cfg = acc_sim::run::configs_dir();
         let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
             .expect("scenario");
         let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
         let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        (cfg, sc, res)
+    }
+
+    /// A shared replay is the replay of the same model; an equal model gets the kept one
+    /// back, another model a new one.
+    #[test]
+    fn a_shared_replay_is_the_replay_and_is_kept_per_model() {
+        let (cfg, _, res) = case3_dynamometer_run();
+        let log = crate::runlog::from_records(&res.rows, std::path::Path::new("shared.csv"))
+            .expect("log");
+        let model = Model::load(&cfg.join("models/paper_vmc.toml")).expect("model");
+        let inp = Inputs::from_log(&log, &model).expect("inputs");
+        let a = replay_shared(&model, &inp);
+        assert_eq!(a.predicted, replay(&model, &inp).predicted);
+        assert!(std::rc::Rc::ptr_eq(
+            &a,
+            &replay_shared(&model.clone(), &inp)
+        ));
+        let mut worn = model.clone();
+        worn.effects.set(EffectKind::ToolWear, 0, 0.01);
+        let b = replay_shared(&worn, &inp);
+        assert!(!std::rc::Rc::ptr_eq(&a, &b));
+        assert_eq!(b.predicted, replay(&worn, &inp).predicted);
+        assert_ne!(a.predicted, b.predicted, "wear changes the replay");
+    }
+
+    /// A log whose board skipped a sample (a `seq_skip:2` row: one board period no row
+    /// read) replays on its logged engagement, one prediction per row, still in step with
+    /// the measured force after the skip.
+    #[test]
+    fn a_skipped_board_sample_keeps_the_logged_engagement_in_step() {
+        let (cfg, sc, res) = case3_dynamometer_run();
         let mut rows = res.rows;
         let skip = rows.len() / 3;
         rows[skip].flags = "seq_skip:2".into();

@@ -130,7 +130,7 @@ impl Ctx<'_> {
                 .map(|(_, &i)| i)
                 .collect();
             let m = fit::refine(start, free, self.inp, &train);
-            let r = replay(&m, self.inp);
+            let r = crate::replay::replay_shared(&m, self.inp);
             for k in fold.clone() {
                 let i = self.sel[k];
                 e[k] = self.inp.measured[i] - r.predicted[i];
@@ -187,7 +187,7 @@ impl Ctx<'_> {
     }
 
     pub(super) fn residual(&self, m: &Model) -> Vec<f64> {
-        let r = replay(m, self.inp);
+        let r = crate::replay::replay_shared(m, self.inp);
         self.sel
             .iter()
             .map(|&i| self.inp.measured[i] - r.predicted[i])
