@@ -490,7 +490,8 @@ pub enum Demand {
 impl CommandBounds {
     /// The bounds on `position` (a position of the law's spec): floored onto the grid, never
     /// above `hold_pct`, never above the floored knob; then, while valid, never below the
-    /// limits' floor (ceiled onto the grid), and never above their cap (floored), last.
+    /// limits' floor (ceiled onto the grid; the floor itself never above the knob), and
+    /// never above their cap (floored), last.
     ///
     /// ```
     /// use acc_core::{CommandBounds, CommandLimits, FeedOverride, OverrideSpec};
@@ -515,7 +516,12 @@ impl CommandBounds {
         }
         let guarded = cmd;
         if let Some(f) = self.limits.floor_pct.filter(|_| self.valid) {
-            cmd = cmd.max(grid.ceil(f).0);
+            // A floor never lifts the command above the operator's knob (operator priority).
+            let mut f = grid.ceil(f).0;
+            if let Some(knob) = self.knob_pct {
+                f = f.min(grid.floor(knob).0);
+            }
+            cmd = cmd.max(f);
         }
         if let Some(c) = self.limits.cap_pct {
             cmd = cmd.min(grid.floor(c).0);

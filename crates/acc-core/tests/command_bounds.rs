@@ -68,6 +68,27 @@ fn a_plan_cap_wins_over_the_entry_floor_and_the_floor_needs_a_valid_sample() {
 }
 
 #[test]
+fn a_floor_never_lifts_the_command_above_the_operators_knob() {
+    // The shop layer's (or the plan's lead's) floor at 71 % → 80 % on the grid; the
+    // operator's knob at 55 %: the knob wins (50 % on the grid).
+    let b = CommandBounds {
+        knob_pct: Some(55),
+        ..bounds(CommandLimits {
+            cap_pct: None,
+            floor_pct: Some(71),
+        })
+    };
+    assert_eq!(b.place(FeedOverride(30)).cmd, FeedOverride(50));
+    assert_eq!(b.place(FeedOverride(120)).cmd, FeedOverride(50));
+    // A knob above the floor leaves the floor acting.
+    let b = CommandBounds {
+        knob_pct: Some(95),
+        ..b
+    };
+    assert_eq!(b.place(FeedOverride(30)).cmd, FeedOverride(80));
+}
+
+#[test]
 fn the_guards_bound_the_command_without_reseating() {
     let knob = CommandBounds {
         knob_pct: Some(75),
