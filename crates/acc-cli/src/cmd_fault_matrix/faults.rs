@@ -34,6 +34,8 @@ pub enum Action {
 pub enum PlanFault {
     /// Made for a stock 1 mm lower than the one on the table: the machine cuts more.
     LowerStock,
+    /// The same plan followed with the plan's lead (`acc run --plan … --plan-lead`).
+    LowerStockLead,
     /// The plan file does not exist.
     Missing,
 }
@@ -219,6 +221,13 @@ pub const FAULTS: &[Fault] = &[
         name: "plan-low-stock",
         what: "acc run --plan with a plan made for a stock 1 mm lower than the one on the table (the machine cuts more than planned), the pocket program",
         action: Action::Plan(PlanFault::LowerStock),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "plan-lead-low-stock",
+        what: "acc run --plan --plan-lead with a plan made for a stock 1 mm lower than the one on the table (the machine cuts more than planned), the pocket program",
+        action: Action::Plan(PlanFault::LowerStockLead),
         v1_unsafe: None,
         not_judged: None,
     },

@@ -15,6 +15,9 @@
 //!   the disagreement (`plan_disagree:above`; a v1 board has no `BLOCK_NUMBER`, so the
 //!   look-ahead cannot place the tool and flags `plan_lost` instead, with no cap at all),
 //!   and its log misses no period.
+//! - **`plan-lead-low-stock`**: the same with the plan's lead (`--plan-lead`): the limit in
+//!   force in a period the lead set is the lead (`plan_lead:<pct>`), and no period commands
+//!   above it.
 //! - **`plan-missing`**: `acc run --plan` names a file that does not exist. Pass: `acc run`
 //!   exits with the usage code (2) naming the file, writes no run log, and the board served
 //!   no request (nothing was sent to it).
@@ -57,6 +60,7 @@ fn closed_loop(
     protocol: u8,
     dir: &Path,
     plan: Option<&Path>,
+    lead: bool,
 ) -> anyhow::Result<Loop> {
     std::fs::create_dir_all(dir)?;
     let machine_log = dir.join("machine.csv");
@@ -71,6 +75,9 @@ fn closed_loop(
     let mut rargs = run_args(args, &pty, &run_log);
     if let Some(p) = plan {
         rargs.extend([s("--plan"), p.to_string_lossy().into_owned()]);
+        if lead {
+            rargs.push(s("--plan-lead"));
+        }
     }
     let (mut run, _) = Proc::spawn(&rargs, dir, "run")?;
     // At most real time (the plan config runs at 2×), plus start-up slack.
@@ -165,7 +172,8 @@ pub fn run_plan_row(
     kind: PlanFault,
 ) -> anyhow::Result<Row> {
     match kind {
-        PlanFault::LowerStock => low_stock_row(args, f, protocol, dir),
+        PlanFault::LowerStock => low_stock_row(args, f, protocol, dir, false),
+        PlanFault::LowerStockLead => low_stock_row(args, f, protocol, dir, true),
         PlanFault::Missing => missing_row(args, f, protocol, dir),
     }
 }
@@ -209,10 +217,11 @@ fn low_stock_row(
     f: &Fault,
     protocol: u8,
     dir: &Path,
+    lead: bool,
 ) -> anyhow::Result<Row> {
     let plan = write_plan(args, dir)?;
-    let alone = closed_loop(args, protocol, &dir.join("alone"), None)?;
-    let wrong = closed_loop(args, protocol, dir, Some(&plan))?;
+    let alone = closed_loop(args, protocol, &dir.join("alone"), None, false)?;
+    let wrong = closed_loop(args, protocol, dir, Some(&plan), lead)?;
     Ok(judge_low_stock(f, protocol, &alone, &wrong))
 }
 
@@ -235,15 +244,18 @@ fn write_plan(args: &FaultMatrixArgs, dir: &Path) -> anyhow::Result<PathBuf> {
     Ok(out.join("plan.csv"))
 }
 
-/// Periods of `acc run` that commanded above the plan's cap in force (`plan_cap:<pct>`).
+/// Periods of `acc run` that commanded above the plan's limit in force: the lead where the
+/// plan's lead set the command (`plan_lead:<pct>`), else the cap (`plan_cap:<pct>`).
 fn above_cap(run: &[acc_runtime::record::RunRecord]) -> usize {
+    let flag = |r: &acc_runtime::record::RunRecord, name: &str| {
+        r.flags
+            .split(';')
+            .find_map(|f| f.strip_prefix(name)?.parse::<u16>().ok())
+    };
     run.iter()
         .filter(|r| {
-            let cap = r
-                .flags
-                .split(';')
-                .find_map(|f| f.strip_prefix("plan_cap:")?.parse::<u16>().ok());
-            matches!((cap, r.override_cmd_pct), (Some(cap), Some(c)) if c > cap)
+            let limit = flag(r, "plan_lead:").or_else(|| flag(r, "plan_cap:"));
+            matches!((limit, r.override_cmd_pct), (Some(l), Some(c)) if c > l)
         })
         .count()
 }
