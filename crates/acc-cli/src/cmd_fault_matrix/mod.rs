@@ -46,9 +46,10 @@
 //!   flagged rows after the fault ≥ altered reads that must be flagged, and says so.
 //!   Delayed replies are not required to be flagged (nothing in one frame shows them).
 //!
-//! **Wrong-plan rows** (`plan-low-stock`, `plan-missing`): `acc run --plan` against `acc
-//! board-sim --program` cutting the pocket program, with a plan made for a lower stock or a
-//! plan file that does not exist; their criteria are in [`plan`].
+//! **Wrong-plan rows** (`plan-low-stock`, `plan-lead-low-stock`, `plan-missing`): `acc run
+//! --plan` against `acc board-sim --program` cutting the pocket program, with a plan made for
+//! a lower stock (followed with the cap alone, or with the plan's lead) or a plan file that
+//! does not exist; their criteria are in [`plan`].
 //!
 //! The other faults are timing faults, so their rows run on the wall clock. A row that fails, or
 //! never reaches the fault moment, while the host was too loaded for `acc run` to keep its
