@@ -790,6 +790,40 @@ mod tests {
     }
 
     #[test]
+    fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
+        let plan = Plan {
+            rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
+        };
+        let cfg = LookAheadConfig {
+            lead: true,
+            ..LookAheadConfig::new(0.1, 800.0, 150)
+        };
+        let mut la = LookAhead::new(plan, cfg);
+        let mut st = in_force(30, 180, 30);
+        st.override_step_pct = 10;
+        let mut led = |la: &mut LookAhead| {
+            (0..3)
+                .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(led(&mut la), [None, None, Some(40)]);
+        // A failed read: no lead reported, the position moves on by the last path (0.3 mm)
+        // and is that much less certain, and the scale starts again.
+        let x = la.last().position_mm.expect("x");
+        assert_eq!(la.step(None, &force(600.0), 0.1).lead_pct, None);
+        assert!((la.x_mm - x - 0.3).abs() < 1e-9 && la.unc_mm >= 0.3 - 1e-9);
+        assert_eq!(led(&mut la), [None, None, Some(40)]);
+        // A period the driver skipped: the same.
+        la.missed();
+        assert_eq!(led(&mut la), [None, None, Some(40)]);
+        // A slow line (a longer echo delay measured): no lead while it lasts.
+        la.set_line_nominal(false);
+        assert_eq!(led(&mut la), [None, None, None]);
+        la.set_line_nominal(true);
+        assert_eq!(led(&mut la)[2], Some(40));
+    }
+
+    #[test]
     fn unknown_block_or_v1_board_is_lost() {
         let mut la = lookahead();
         let s = la.step(Some(&status(99, 100)), &force(0.0), 0.1);
