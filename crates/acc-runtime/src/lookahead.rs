@@ -801,7 +801,7 @@ mod tests {
         let mut la = LookAhead::new(plan, cfg);
         let mut st = in_force(30, 180, 30);
         st.override_step_pct = 10;
-        let mut led = |la: &mut LookAhead| {
+        let led = |la: &mut LookAhead| {
             (0..3)
                 .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
                 .collect::<Vec<_>>()
