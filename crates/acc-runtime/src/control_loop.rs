@@ -523,12 +523,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
                 la.set_force_ref_n(fr);
             }
             // The lead's window assumes the designed loop delay.
-            la.set_line_nominal(
-                delay.echo_periods.is_none_or(|e| e <= 1)
-                    && delay.late_streak == 0
-                    && delay.seq_lag_periods.is_none_or(|l| l == 0)
-                    && delay.replay_lag_periods.is_none(),
-            );
+            la.set_line_nominal(delay.as_designed());
             let st = la.step(link.as_ref().ok(), &force, self.period_s);
             let mut limits = if self.shop.is_some() {
                 self.policy.command_limits()

@@ -57,6 +57,17 @@ pub struct DelayReading {
     pub replay_lag_periods: Option<u32>,
 }
 
+impl DelayReading {
+    /// The loop runs as designed this period: the command's echo one period late (or not
+    /// yet measured), no late periods, no lagging or replayed samples.
+    pub fn as_designed(&self) -> bool {
+        self.echo_periods.is_none_or(|e| e <= 1)
+            && self.late_streak == 0
+            && self.seq_lag_periods.is_none_or(|l| l == 0)
+            && self.replay_lag_periods.is_none()
+    }
+}
+
 /// Mismatches per candidate delay over the last [`WINDOW`] informative periods.
 #[derive(Debug, Clone, Copy, Default)]
 struct Scores {

@@ -386,37 +386,7 @@ impl LookAhead {
                     && self.scale.confirmed()
                     && f <= HIGH * fr =>
             {
-                // The command acts within `command_delay_s`, at the override in force until
-                // then, and governs one period from there: every such period's mean force.
-                // The position may be off by its uncertainty and the feed change's margin,
-                // and by up to one period's path more: the path integrated from
-                // `ACTUAL_FEED` (a whole number of mm/min) drifts from the tool's within a
-                // block. The periods from one period's path behind on count.
-                let unc = self.unc_mm + margin;
-                let xl = x - dx;
-                let (y0, y1) = (
-                    xl - unc,
-                    self.plan.advance(x, in_force, self.cfg.command_delay_s) + unc,
-                );
-                // Period starts: evenly over the window and at every row boundary in it
-                // (where a heavy stretch begins).
-                let (a, b) = (self.plan.row_at(y0), self.plan.row_at(y1));
-                let starts: Vec<f64> = (0..=WINDOW_SAMPLES)
-                    .map(|j| y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES))
-                    .chain(self.plan.rows[a..=b].iter().map(|r| r.start_mm))
-                    .filter(|y| (y0..=y1).contains(y))
-                    .collect();
-                let worst = |o: u16| {
-                    k * starts
-                        .iter()
-                        .map(|&y| self.plan.period_force_n(y, o, period_s))
-                        .fold(0.0f64, f64::max)
-                };
-                let here = |o: u16| k * self.plan.period_force_n(xl, o, period_s);
-                let mut lead = self.lead;
-                let pick = lead.choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here);
-                self.lead = lead;
-                pick
+                self.lead_command(k, x, dx, self.unc_mm + margin, in_force, s, period_s)
             }
             _ => {
                 self.lead.reset();
@@ -432,6 +402,51 @@ impl LookAhead {
             lead_pct: lead,
         };
         self.last
+    }
+
+    /// The plan's lead ([`crate::plan_lead`]) with scale `k`, the tool at `x` (mm) having
+    /// moved `dx` (mm) this period, the position's uncertainty and feed-change margin
+    /// `unc_mm` (mm), the highest override it may move at `in_force_pct` (%) and the
+    /// board's grid from `s`: the command acts within `command_delay_s`, at the override in
+    /// force until then, and governs one period from there, so every such period's mean
+    /// force counts. The position may be off by `unc_mm` and by up to one period's path
+    /// more: the path integrated from `ACTUAL_FEED` (a whole number of mm/min) drifts from
+    /// the tool's within a block, so the periods from one period's path behind on count.
+    #[allow(clippy::too_many_arguments)]
+    fn lead_command(
+        &mut self,
+        k: f64,
+        x: f64,
+        dx: f64,
+        unc_mm: f64,
+        in_force_pct: u16,
+        s: &BoardStatus,
+        period_s: f64,
+    ) -> Option<u16> {
+        let plan = &self.plan;
+        let xl = x - dx;
+        let (y0, y1) = (
+            xl - unc_mm,
+            plan.advance(x, in_force_pct, self.cfg.command_delay_s) + unc_mm,
+        );
+        // Period starts: evenly over the window and at every row boundary in it (where a
+        // heavy stretch begins).
+        let rows = &plan.rows[plan.row_at(y0)..=plan.row_at(y1)];
+        let starts = || {
+            (0..=WINDOW_SAMPLES)
+                .map(move |j| y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES))
+                .chain(rows.iter().map(|r| r.start_mm))
+                .filter(move |y| (y0..=y1).contains(y))
+        };
+        let worst = |o: u16| {
+            k * starts()
+                .map(|y| plan.period_force_n(y, o, period_s))
+                .fold(0.0f64, f64::max)
+        };
+        let here = |o: u16| k * plan.period_force_n(xl, o, period_s);
+        let fr = self.cfg.force_ref_n;
+        self.lead
+            .choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here)
     }
 
     /// The disagreement check of the period that ended at `x` (mm), at feed `v` (mm/min),
@@ -742,9 +757,9 @@ mod tests {
         assert_eq!(d[2].cap_pct, None);
     }
 
-    #[test]
-    fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
-        // 2000 N at 100 % of 600 mm/min, β = 1: 600 N at 30 %, 800 N at 40 % (Fr).
+    /// A look-ahead with the plan's lead on one cut: 2000 N at 100 % of 600 mm/min, β = 1
+    /// (600 N at 30 %, 800 N = Fr at 40 %).
+    fn leading() -> LookAhead {
         let plan = Plan {
             rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
         };
@@ -752,12 +767,22 @@ mod tests {
             lead: true,
             ..LookAheadConfig::new(0.1, 800.0, 150)
         };
-        let mut la = LookAhead::new(plan, cfg);
-        let mut at = |f: f64| {
-            let mut st = in_force(30, 180, 30);
-            st.override_step_pct = 10;
-            la.step(Some(&st), &force(f), 0.1)
-        };
+        LookAhead::new(plan, cfg)
+    }
+
+    /// In that cut at 30 % of 600 mm/min on a 10 % board, with tool `tool`.
+    fn cutting(tool: u16) -> BoardStatus {
+        BoardStatus {
+            override_step_pct: 10,
+            tool_number: tool,
+            ..in_force(30, 180, 30)
+        }
+    }
+
+    #[test]
+    fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
+        let mut la = leading();
+        let mut at = |f: f64| la.step(Some(&cutting(0)), &force(f), 0.1);
         // Three periods where the measurement agrees with the plan (k = 1) before it leads:
         // then 40 %, the position whose predicted force is Fr.
         assert_eq!(at(600.0).lead_pct, None);
@@ -780,9 +805,7 @@ mod tests {
         assert_eq!(back[..2], [None, None]);
         assert!(back[2].is_some());
         // ...and a new tool starts it again (three agreeing periods before it leads).
-        let mut st = in_force(30, 180, 30);
-        st.override_step_pct = 10;
-        st.tool_number = 2;
+        let st = cutting(2);
         let leads: Vec<_> = (0..3)
             .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
             .collect();
@@ -791,16 +814,8 @@ mod tests {
 
     #[test]
     fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
-        let plan = Plan {
-            rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
-        };
-        let cfg = LookAheadConfig {
-            lead: true,
-            ..LookAheadConfig::new(0.1, 800.0, 150)
-        };
-        let mut la = LookAhead::new(plan, cfg);
-        let mut st = in_force(30, 180, 30);
-        st.override_step_pct = 10;
+        let mut la = leading();
+        let st = cutting(0);
         let led = |la: &mut LookAhead| {
             (0..3)
                 .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)

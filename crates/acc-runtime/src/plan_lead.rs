@@ -71,7 +71,12 @@ pub const WINDOW_SAMPLES: u16 = 4;
 /// that predict the force well.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PlanScale {
-    ratios: Vec<f64>,
+    /// The last ratios, a ring of [`SCALE_SAMPLES`] (no allocation on the control path).
+    ratios: [f64; SCALE_SAMPLES],
+    /// How many of `ratios` hold a sample.
+    len: usize,
+    /// Where the next sample goes.
+    next: usize,
     /// Whether this period's ratio agreed with the scale (or could not be judged).
     agrees: bool,
     /// Periods since the last one whose ratio was judged (and agreed).
@@ -81,7 +86,8 @@ pub struct PlanScale {
 impl PlanScale {
     /// Forget the samples (the tool is lost on the plan, or the plan disagreed).
     pub fn clear(&mut self) {
-        self.ratios.clear();
+        self.len = 0;
+        self.next = 0;
         self.agrees = false;
         self.since_judged = u32::MAX;
     }
@@ -110,18 +116,18 @@ impl PlanScale {
         if self.agrees {
             self.since_judged = 0;
         }
-        if self.ratios.len() == SCALE_SAMPLES {
-            self.ratios.remove(0);
-        }
-        self.ratios.push(r);
+        self.ratios[self.next] = r;
+        self.next = (self.next + 1) % SCALE_SAMPLES;
+        self.len = (self.len + 1).min(SCALE_SAMPLES);
     }
 
     /// The scale `k`, − (`None`: fewer than [`SCALE_MIN_SAMPLES`] samples).
     pub fn scale(&self) -> Option<f64> {
-        if self.ratios.len() < SCALE_MIN_SAMPLES {
+        if self.len < SCALE_MIN_SAMPLES {
             return None;
         }
-        let mut v = self.ratios.clone();
+        let mut v = self.ratios;
+        let v = &mut v[..self.len];
         v.sort_by(f64::total_cmp);
         Some(v[v.len() / 2])
     }
