@@ -65,6 +65,46 @@ fn the_plan_brings_every_entry_and_corner_of_the_pocket_to_fr() {
     assert!(ahead.rows.iter().any(|r| r.flags.contains("plan_cap:")));
 }
 
+#[test]
+fn a_plan_made_for_a_higher_fr_caps_at_the_runs_own_fr() {
+    // Planned for the scenario's Fr, run with a tool whose Fr is 5/8 of it (a tool table
+    // given to the run but not to the plan): the caps follow the run's Fr.
+    let sc = scenario();
+    let path = pocket_program(&sc, POCKET_BOX);
+    let plan = path.plan(&PlanParams::of(&sc));
+    assert!(plan
+        .rows
+        .iter()
+        .all(|r| r.force_ref_n == Some(sc.controller.force_ref_n)));
+    let mut low = sc.clone();
+    low.controller.force_ref_n *= 5.0 / 8.0;
+    let fr = low.controller.force_ref_n;
+    let ahead = run(&low, &path, Some(plan.clone()));
+    assert!(ahead.finished);
+    let (e, c) = peaks(&path, &ahead);
+    println!(
+        "planned for {:.0} N, run at Fr {fr:.0} N: entries {:.3} Fr, corners {:.3} Fr",
+        sc.controller.force_ref_n,
+        e / fr,
+        c / fr
+    );
+    assert!(e <= 1.05 * fr, "entries {:.3} Fr", e / fr);
+    assert!(c <= 1.05 * fr, "corners {:.3} Fr", c / fr);
+    // The same plan without its recorded Fr caps for the Fr it was made for: higher.
+    let mut unrecorded = plan;
+    for r in &mut unrecorded.rows {
+        r.force_ref_n = None;
+    }
+    let old = run(&low, &path, Some(unrecorded));
+    let (e0, c0) = peaks(&path, &old);
+    println!(
+        "without the plan's Fr: entries {:.3} Fr, corners {:.3} Fr",
+        e0 / fr,
+        c0 / fr
+    );
+    assert!(e0.max(c0) > e.max(c), "{e0} {c0} against {e} {c}");
+}
+
 /// Run `path` with `plan`'s look-ahead and its lead (`--plan-lead`).
 fn run_lead(base: &Scenario, path: &ProgramPath, plan: Plan) -> RunResult {
     let sc = path.scenario_for(base);

@@ -288,6 +288,7 @@ pub fn plan_along(
             force_planned_n: 0.0,
             feed_exponent: beta,
             profile: iv.profile(),
+            force_ref_n: Some(p.force_ref_n),
         });
     }
     for r in &mut rows {

@@ -534,12 +534,13 @@ impl LookAhead {
             // The row's cap over the part the tool can reach; the reach of the lowest
             // (whole-row) cap gives a first cap, and the reach at that cap the final one:
             // a command at most the final cap moves the tool no farther than was judged.
+            let planned = r.cap_for_fr(self.cfg.force_ref_n);
             let (t, row_cap) = if r.rapid {
                 (reach(u16::MAX).1, u16::MAX)
             } else if !shape {
-                (reach(r.override_pct).1, r.override_pct)
+                (reach(planned).1, planned)
             } else {
-                let c1 = self.row_cap(r, at, reach(r.override_pct).0);
+                let c1 = self.row_cap(r, at, reach(planned).0);
                 let (to, t1) = reach(c1);
                 (t1, self.row_cap(r, at, to))
             };
@@ -555,32 +556,26 @@ impl LookAhead {
         (cap < self.cfg.max_pct).then_some(cap)
     }
 
-    /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: the planned
-    /// override where the row's force is not known inside it (`flat`) or the part holds
-    /// its largest force; else the override at which the part's largest force
-    /// ([`PlanRow::force_100_over_n`]) is Fr, `100 · (Fr / F)^(1/β)` (seed 002 eq. 1 solved
-    /// for the feed), at least the planned override and at most the grid's maximum. The
-    /// tool's own override limits are the shop layer's (they join the cap, the lower wins).
+    /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: the row's planned
+    /// override for the loop's Fr ([`PlanRow::cap_for_fr`]) where the row's force is not
+    /// known inside it (`flat`) or the part holds its largest force; else the override at
+    /// which the part's largest force ([`PlanRow::force_100_over_n`]) is Fr,
+    /// `100 · (Fr / F)^(1/β)` (seed 002 eq. 1 solved for the feed), at least the planned
+    /// override and at most the grid's maximum. The tool's own override limits are the
+    /// shop layer's (they join the cap, the lower wins).
     fn row_cap(&self, r: &PlanRow, from_mm: f64, to_mm: f64) -> u16 {
+        let planned = r.cap_for_fr(self.cfg.force_ref_n);
         let f = r.force_100_over_n(from_mm, to_mm);
-        if !r.cuts()
-            || f >= r.force_100_n
-            || self.cfg.force_ref_n.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-        {
-            return r.override_pct;
+        if !r.cuts() || f >= r.force_100_n {
+            return planned;
         }
         let top = f64::from(self.cfg.max_pct);
-        let o = if f > 0.0 {
-            let beta = if r.feed_exponent > 0.0 {
-                r.feed_exponent
-            } else {
-                1.0
-            };
-            (100.0 * (self.cfg.force_ref_n / f).powf(1.0 / beta)).min(top)
-        } else {
-            top
+        let o = match r.override_for_fr(f, self.cfg.force_ref_n) {
+            Some(o) => o.min(top),
+            None if f <= 0.0 && self.cfg.force_ref_n > 0.0 => top,
+            None => return planned,
         };
-        (o.floor() as u16).max(r.override_pct)
+        (o.floor() as u16).max(planned)
     }
 }
 
@@ -640,6 +635,26 @@ mod tests {
         assert_eq!(s.cap_pct, Some(30));
         assert!((s.position_mm.expect("x") - 20.15).abs() < 1e-9);
         assert_eq!(s.disagreement, None);
+    }
+
+    #[test]
+    fn a_tool_fr_below_the_plans_lowers_the_cap_a_higher_one_never_raises_it() {
+        // The cut (2400 N at 100 %, β = 1) is planned at 30 % for Fr 800 N.
+        let in_cut = |plan_fr: Option<f64>, loop_fr: f64| {
+            let mut la = lookahead();
+            for r in &mut la.plan.rows {
+                r.force_ref_n = plan_fr;
+            }
+            la.set_force_ref_n(loop_fr);
+            la.step(Some(&status(20, 180)), &force(0.5 * loop_fr), 0.1)
+                .cap_pct
+        };
+        // A tool whose Fr is 500 N: 100 · 500 / 2400 = 20.8 → 20 %.
+        assert_eq!(in_cut(Some(800.0), 500.0), Some(20));
+        // A higher Fr keeps the plan's 30 %, and so does a plan that did not record its Fr.
+        assert_eq!(in_cut(Some(800.0), 1000.0), Some(30));
+        assert_eq!(in_cut(None, 500.0), Some(30));
+        assert_eq!(in_cut(Some(800.0), 800.0), Some(30));
     }
 
     /// A cut planned at 40 % for 10 mm, then a corner planned at 20 % from 10 mm.

@@ -20,6 +20,7 @@
 //! | `force_planned_n` | N | predicted largest force at `override_pct` |
 //! | `feed_exponent` | — | β of the force law `F ∝ f^β` (seed 002 eq. 1): the force at another feed `f` is `force_100_n · (f / feed_mm_min)^β` |
 //! | `profile` | — | the force along the stretch: `rising` (linear from `force_min_100_n` at `start_mm` to `force_100_n` at `end_mm`), `falling` (the reverse), `flat` (not known inside the stretch: take `force_100_n` throughout). Optional: a file without the column reads as `flat` |
+//! | `force_ref_n` | N | the force reference Fr the stretch was planned for (the tool's, from the tool table, else the scenario's). A run whose Fr for the tool is lower lowers the stretch's cap to its own Fr ([`PlanRow::cap_for_fr`]); a higher Fr never raises it. Optional (after `profile`): a file without the column caps at `override_pct` whatever the run's Fr |
 //!
 //! Lines that start with `#` are comments (`acc plan --model` names the model that predicted
 //! the force on the first line). Reading checks every cell and the order; an error names
@@ -66,6 +67,8 @@ pub struct PlanRow {
     pub feed_exponent: f64,
     /// The force along the stretch at 100 %.
     pub profile: ForceProfile,
+    /// The force reference Fr the stretch was planned for, N (`None`: not recorded).
+    pub force_ref_n: Option<f64>,
 }
 
 /// How the predicted force runs along a plan row (the planner's intervals have the
@@ -117,6 +120,38 @@ impl PlanRow {
         self.force_100_n > 0.0
     }
 
+    /// The override that gives force `fr_n` (N) at this stretch's force `f100_n` (N, at
+    /// 100 %), percent, unrounded: `100 · (Fr / F)^(1/β)` (seed 002 eq. 1 solved for the
+    /// feed; β taken as 1 if the file gives none). `None` without a force or a positive Fr.
+    pub fn override_for_fr(&self, f100_n: f64, fr_n: f64) -> Option<f64> {
+        if !(f100_n > 0.0 && fr_n > 0.0 && fr_n.is_finite()) {
+            return None;
+        }
+        let beta = if self.feed_exponent > 0.0 {
+            self.feed_exponent
+        } else {
+            1.0
+        };
+        Some(100.0 * (fr_n / f100_n).powf(1.0 / beta))
+    }
+
+    /// The stretch's planned override for a run whose force reference is `fr_n` (N),
+    /// percent: `override_pct`, lowered where `fr_n` is below the Fr the stretch was
+    /// planned for (`force_ref_n`) to the override that gives `fr_n` at the stretch's
+    /// largest force, rounded down, at least 1 %. A higher `fr_n`, a stretch without
+    /// force or a plan without `force_ref_n` keeps `override_pct`: the plan's Fr never
+    /// raises it.
+    pub fn cap_for_fr(&self, fr_n: f64) -> u16 {
+        let lower = self.force_ref_n.is_some_and(|planned| fr_n < planned);
+        match self.override_for_fr(self.force_100_n, fr_n) {
+            Some(o) if lower && self.cuts() => {
+                let scaled = (o.floor().max(1.0)).min(f64::from(self.override_pct));
+                scaled as u16
+            }
+            _ => self.override_pct,
+        }
+    }
+
     /// The largest predicted force at 100 % over the part `from_mm ..= to_mm` of this
     /// stretch, N: linear along a `rising` or `falling` stretch, `force_100_n` on a `flat`
     /// one (positions clamped to the stretch).
@@ -145,7 +180,7 @@ pub struct Plan {
 }
 
 /// The column names of `plan.csv`, in order.
-pub const PLAN_COLUMNS: [&str; 17] = [
+pub const PLAN_COLUMNS: [&str; 18] = [
     "block",
     "tool",
     "start_mm",
@@ -163,9 +198,11 @@ pub const PLAN_COLUMNS: [&str; 17] = [
     "force_planned_n",
     "feed_exponent",
     "profile",
+    "force_ref_n",
 ];
 
-/// The columns a plan file must have (`profile` is optional: `flat` when absent).
+/// The columns a plan file must have (`profile` and then `force_ref_n` are optional:
+/// `flat` and not recorded when absent).
 const REQUIRED_COLUMNS: usize = 16;
 
 /// Why a plan file was refused.
@@ -232,8 +269,10 @@ impl Plan {
             .map_err(|e| err(header_line, format!("header: {e}")))?
             .clone();
         let got: Vec<&str> = header.iter().collect();
-        let with_profile = got == PLAN_COLUMNS;
-        if !with_profile && got != PLAN_COLUMNS[..REQUIRED_COLUMNS] {
+        // The optional columns, in order: how many of them the header has.
+        let optional = (0..=PLAN_COLUMNS.len() - REQUIRED_COLUMNS)
+            .find(|&k| got == PLAN_COLUMNS[..REQUIRED_COLUMNS + k]);
+        let Some(optional) = optional else {
             return Err(err(
                 header_line,
                 format!(
@@ -242,7 +281,9 @@ impl Plan {
                     PLAN_COLUMNS.join(",")
                 ),
             ));
-        }
+        };
+        let with_profile = optional >= 1;
+        let with_fr = optional >= 2;
         let mut rows: Vec<PlanRow> = Vec::new();
         for rec in rd.records() {
             let rec = rec.map_err(|e| {
@@ -321,6 +362,11 @@ impl Plan {
                 force_planned_n: num(14, 0.0, 1e9)?,
                 feed_exponent: num(15, 0.1, 2.0)?,
                 profile,
+                force_ref_n: if with_fr {
+                    Some(num(17, 1.0, 1e9)?)
+                } else {
+                    None
+                },
             };
             if row.force_min_100_n > row.force_100_n {
                 return Err(err(
@@ -377,10 +423,17 @@ impl Plan {
             head.push('\n');
         }
         let mut w = csv::Writer::from_writer(head.into_bytes());
-        w.write_record(PLAN_COLUMNS)
+        // `force_ref_n` is written when every row has it (a column is whole or absent).
+        let with_fr = self.rows.iter().all(|r| r.force_ref_n.is_some());
+        let n = if with_fr {
+            PLAN_COLUMNS.len()
+        } else {
+            PLAN_COLUMNS.len() - 1
+        };
+        w.write_record(&PLAN_COLUMNS[..n])
             .map_err(|e| PlanError::Write(e.to_string()))?;
         for r in &self.rows {
-            w.write_record([
+            let cells = [
                 r.block.to_string(),
                 r.tool.to_string(),
                 format!("{:.3}", r.start_mm),
@@ -398,8 +451,10 @@ impl Plan {
                 format!("{:.1}", r.force_planned_n),
                 format!("{}", r.feed_exponent),
                 r.profile.as_str().to_string(),
-            ])
-            .map_err(|e| PlanError::Write(e.to_string()))?;
+                r.force_ref_n.map_or(String::new(), |f| format!("{f:.1}")),
+            ];
+            w.write_record(&cells[..n])
+                .map_err(|e| PlanError::Write(e.to_string()))?;
         }
         let bytes = w
             .into_inner()
@@ -516,6 +571,7 @@ pub(crate) fn test_row(block: u32, a: f64, b: f64, feed: f64, f100: f64, ov: u16
         force_planned_n: f100 * f64::from(ov) / 100.0,
         feed_exponent: 1.0,
         profile: ForceProfile::Flat,
+        force_ref_n: None,
     }
 }
 
@@ -552,6 +608,76 @@ mod tests {
             .expect_err("header")
             .to_string();
         assert!(e.contains("p.csv:2") && e.contains("header"), "{e}");
+    }
+
+    #[test]
+    fn the_plans_fr_round_trips_and_older_files_still_load() {
+        let mut p = Plan {
+            rows: vec![row(10, 0.0, 5.0, 0.0, 150), row(20, 5.0, 9.5, 1600.0, 50)],
+        };
+        for r in &mut p.rows {
+            r.force_ref_n = Some(800.0);
+        }
+        let text = p.to_csv().expect("csv");
+        assert!(text
+            .lines()
+            .next()
+            .expect("header")
+            .ends_with(",profile,force_ref_n"));
+        assert_eq!(Plan::parse(Path::new("p.csv"), &text).expect("parse"), p);
+        // Without the column (and without `profile` too) the rows read as not recorded.
+        let cut = |text: &str, cols: usize| -> String {
+            text.lines()
+                .map(|l| l.split(',').take(cols).collect::<Vec<_>>().join(","))
+                .collect::<Vec<_>>()
+                .join("\n")
+        };
+        for cols in [16, 17] {
+            let back = Plan::parse(Path::new("p.csv"), &cut(&text, cols)).expect("parse");
+            assert!(back.rows.iter().all(|r| r.force_ref_n.is_none()), "{cols}");
+        }
+        // A row without a recorded Fr writes no column at all.
+        p.rows[0].force_ref_n = None;
+        let text = p.to_csv().expect("csv");
+        assert!(text.lines().next().expect("header").ends_with(",profile"));
+        let e = Plan::parse(Path::new("p.csv"), &text.replace(",flat\n", ",flat,0.5\n"))
+            .expect_err("short header");
+        assert!(e.to_string().contains("p.csv:"), "{e}");
+        let bad = Plan::parse(
+            Path::new("p.csv"),
+            &Plan {
+                rows: vec![PlanRow {
+                    force_ref_n: Some(800.0),
+                    ..row(10, 0.0, 5.0, 0.0, 150)
+                }],
+            }
+            .to_csv()
+            .expect("csv")
+            .replace(",800.0", ",-3"),
+        )
+        .expect_err("negative Fr")
+        .to_string();
+        assert!(
+            bad.contains("force_ref_n") && bad.contains("1 ..="),
+            "{bad}"
+        );
+    }
+
+    #[test]
+    fn the_cap_for_a_lower_fr_is_the_override_that_gives_it() {
+        let r = PlanRow {
+            force_ref_n: Some(800.0),
+            ..row(20, 0.0, 5.0, 2400.0, 30)
+        };
+        assert_eq!(r.cap_for_fr(800.0), 30);
+        assert_eq!(r.cap_for_fr(500.0), 20);
+        assert_eq!(r.cap_for_fr(2000.0), 30);
+        assert_eq!(r.cap_for_fr(1.0), 1);
+        let air = PlanRow {
+            force_ref_n: Some(800.0),
+            ..row(10, 0.0, 5.0, 0.0, 150)
+        };
+        assert_eq!(air.cap_for_fr(100.0), 150);
     }
 
     #[test]
