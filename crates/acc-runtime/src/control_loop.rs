@@ -179,6 +179,9 @@ impl CycleRecord {
         if self.out.fault {
             r.flag("fault");
         }
+        if let Some(c) = self.out.settle_cap {
+            r.flag(&format!("settle:{c}"));
+        }
         if self.log_stalled {
             r.flag("log_stalled");
         }

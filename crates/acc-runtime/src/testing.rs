@@ -190,6 +190,8 @@ pub struct ScriptedLaw {
     pub frozen_calls: Vec<bool>,
     /// Measurements seen by `step`.
     pub seen: Vec<Measurement>,
+    /// Fr the law reports in its trace, N (`None`: NaN, as a law without one).
+    pub force_ref_n: Option<f64>,
 }
 
 impl ScriptedLaw {
@@ -235,9 +237,13 @@ impl OverrideLaw for ScriptedLaw {
         if let Some(v) = self.script.pop_front() {
             self.hold = v;
         }
+        let mut trace = empty_trace(Mode::Baseline);
+        if let Some(fr) = self.force_ref_n {
+            trace.force_ref_n = fr;
+        }
         StepOutput {
             command: FeedOverride(self.hold),
-            trace: empty_trace(Mode::Baseline),
+            trace,
         }
     }
 

@@ -17,6 +17,10 @@ struct Rig {
     b: ScriptedBoard,
     heartbeat: u16,
     k: u32,
+    /// The force of the samples, N.
+    force_n: f64,
+    /// The next period's input carries this failed write (of the period before).
+    write_error: Option<acc_pmc::BoardErrorKind>,
 }
 
 impl Rig {
@@ -32,6 +36,8 @@ impl Rig {
             b: ScriptedBoard::new(),
             heartbeat: 0,
             k: 0,
+            force_n: 600.0,
+            write_error: None,
         };
         for _ in 0..4 {
             rig.period(true);
@@ -49,9 +55,9 @@ impl Rig {
         let input = CycleInput {
             t_s: f64::from(self.k) * 0.1,
             link: Ok(s),
-            write_error: None,
+            write_error: self.write_error.take(),
             force: ForceSample {
-                force_n: 600.0,
+                force_n: self.force_n,
                 power_w: Some(1200.0),
                 valid,
             },
@@ -134,4 +140,53 @@ fn a_plan_cap_below_the_tools_floor_wins_and_the_floor_needs_a_valid_sample() {
         vec![50, 80],
         "the guards do not re-engage the law"
     );
+}
+
+#[test]
+fn after_a_fault_the_law_settles_under_what_acc_allowed_before_it() {
+    use acc_runtime::policy::SETTLE_PERIODS;
+    let mut rig = Rig::armed();
+    // The law regulates to Fr 800 N; the samples (600 N) show the tool cutting.
+    rig.law.force_ref_n = Some(800.0);
+    // A dither between 40 % and 50 % (a board on the 10 % grid holding Fr).
+    rig.law.script.extend([40, 50, 40, 50, 40]);
+    let before: Vec<_> = (0..5).map(|_| rig.period(true)).collect();
+    assert_eq!(before, [40, 50, 40, 50, 40].map(Some));
+    // A fault of the line: last period's write timed out (the ack lost), and this period's
+    // force sample is unusable. The command is held.
+    // The law asks for 60 % in every period it is stepped after the fault (a failing link
+    // holds without stepping it).
+    rig.law
+        .script
+        .extend(std::iter::repeat_n(60, SETTLE_PERIODS as usize + 1));
+    rig.write_error = Some(acc_pmc::BoardErrorKind::Timeout);
+    assert_eq!(rig.period(false), Some(40));
+    // The law, answering the held period, asks for 60 %: for the settling periods it gets
+    // at most 50 % (the highest of the dither), re-engaged there; then 60 % again.
+    rig.law.engaged.clear();
+    for k in 0..SETTLE_PERIODS {
+        assert_eq!(rig.period(true), Some(50), "period {k} after the fault");
+    }
+    assert!(
+        rig.law.engaged.iter().all(|&e| e == 50),
+        "{:?}",
+        rig.law.engaged
+    );
+    assert_eq!(rig.period(true), Some(60));
+    // In air (a valid force below 0.2 Fr) a fault caps nothing: the law may rise.
+    rig.force_n = 100.0;
+    rig.law.script.push_back(80);
+    rig.write_error = Some(acc_pmc::BoardErrorKind::Timeout);
+    assert_eq!(rig.period(false), Some(60));
+    assert_eq!(rig.period(true), Some(80));
+    // An unusable sample alone (no fault of the line) holds that period only: once the
+    // settling of the fault in air is over, back in the cut.
+    for _ in 0..SETTLE_PERIODS {
+        rig.period(true);
+    }
+    rig.force_n = 600.0;
+    rig.law.script.extend([50, 50, 90]);
+    assert_eq!(rig.period(true), Some(50));
+    assert_eq!(rig.period(false), Some(50));
+    assert_eq!(rig.period(true), Some(90));
 }

@@ -169,4 +169,8 @@ pub struct CycleOutput {
     /// Logged as the flags `seq_repeat` / `seq_skip:<n>`; the discrepancy workflow's replay
     /// maps each row to the board's sample with it.
     pub sample_advance: Option<u16>,
+    /// The settle judge's cap on the law's command this period, percent (`policy/settle.rs`:
+    /// after a fault input, no higher than what ACC allowed before it); logged
+    /// `settle:<pct>`.
+    pub settle_cap: Option<u16>,
 }

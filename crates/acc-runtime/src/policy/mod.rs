@@ -36,8 +36,9 @@
 //! 15. `log.rs` — can the period be recorded (the run log's writer not stalled past its
 //!     buffer)? No record, no cut (feed hold, release).
 //! 16. `delay.rs` — is the line's delay beyond the gains' margin (feed hold, release)?
-//! 17. `tool_limits.rs` — what bounds the law's command (range, invalid sample, knob, the
-//!     shop layer's and the plan's limits)? Then the law's step within those bounds
+//! 17. `settle.rs` — in the periods after a fault of the line or the board, no higher than
+//!     what ACC allowed before it; `tool_limits.rs` — what bounds the law's command (range, invalid sample,
+//!     knob, the shop layer's and the plan's limits, the settle cap)? Then the law's step within those bounds
 //!     ([`OverrideLaw::step_within`]: its one quantization step applies them).
 //!
 //! **Active without a status**: over the link budget, over the power budget, else hold.
@@ -96,6 +97,7 @@ mod operator;
 mod overload;
 mod plausibility;
 mod reset;
+mod settle;
 mod shutdown;
 mod staleness;
 mod state;
@@ -105,6 +107,7 @@ mod watchdog;
 pub use config::{PolicyConfig, PolicyConfigError};
 pub use delay::delay_exceeded;
 pub use io::{CycleInput, CycleOutput, Event, Events};
+pub use settle::{RECENT_PERIODS as SETTLE_RECENT_PERIODS, SETTLE_PERIODS};
 pub use state::{AccState, Alarms, Rearm, Release};
 pub use tool_limits::CommandLimits;
 
@@ -115,6 +118,7 @@ use operator::{OperatorJudge, OperatorVerdict};
 use overload::{OverloadJudge, OverloadVerdict};
 use plausibility::PowerJudge;
 use reset::{Ack, ResetJudge};
+use settle::SettleJudge;
 use shutdown::DrainJudge;
 use staleness::Staleness;
 use watchdog::WatchdogVerdict;
@@ -150,6 +154,7 @@ pub struct FaultPolicy {
     breakage: BreakageJudge,
     reset: ResetJudge,
     lock: LockJudge,
+    settle: SettleJudge,
 }
 
 impl FaultPolicy {
@@ -177,6 +182,7 @@ impl FaultPolicy {
             breakage: BreakageJudge::new(WatchLimits::default()),
             reset: ResetJudge::default(),
             lock: LockJudge::default(),
+            settle: SettleJudge::default(),
         }
     }
 
@@ -377,6 +383,7 @@ impl FaultPolicy {
             force_valid: false,
             fault: false,
             sample_advance: None,
+            settle_cap: None,
         };
 
         // 1. Link: read errors and last period's write errors.
@@ -472,6 +479,14 @@ impl FaultPolicy {
             }
         }
 
+        // The periods after a fault of the line or the board settle under what ACC allowed
+        // before it.
+        self.settle.observe(
+            link_fault.is_some()
+                || input.held
+                || status.is_some_and(|s| s.watchdog_tripped || s.override_locked),
+        );
+
         // 9.–17. By state. Arming needs a clean period: link answered, force valid,
         //    override not locked, the run log's writer not stalled.
         let clean = link_fault.is_none()
@@ -532,6 +547,7 @@ impl FaultPolicy {
             out.events.push(Event::FeedHold(false));
         }
         law.engage(FeedOverride(at));
+        self.settle.clear();
         let alarm_reset = s.watchdog_tripped || s.board_restarted;
         self.alarm_reset_pulse = alarm_reset;
         self.alarms = Alarms::default();
@@ -708,16 +724,23 @@ impl FaultPolicy {
             programmed_feed_mm_min: input.programmed_feed_mm_min,
             valid: force_valid,
         };
-        let bounds = tool_limits::bounds(
-            grid,
+        let mut limits = self.shop_limits;
+        out.settle_cap = self.settle.cap(SettleJudge::cutting(
             force_valid,
-            last,
-            self.operator.knob_ceiling,
-            self.shop_limits,
-        );
+            input.force.force_n,
+            self.breakage.force_ref_n,
+        ));
+        if let Some(c) = out.settle_cap {
+            limits.cap_pct = Some(limits.cap_pct.map_or(c, |l| l.min(c)));
+        }
+        let bounds =
+            tool_limits::bounds(grid, force_valid, last, self.operator.knob_ceiling, limits);
         let step = law.step_within(&m, &bounds);
         self.breakage.force_ref_n = Some(step.trace.force_ref_n);
         self.last_cmd = Some(step.command.0);
+        if !out.fault {
+            self.settle.written(step.command.0);
+        }
         out.write_override = Some(step.command);
         out.step = Some(step);
         out.measurement = Some(m);
