@@ -42,7 +42,7 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
     );
     let json = std::fs::read_to_string(out.join("fault-matrix.json")).expect("json");
     let rows: Vec<serde_json::Value> = serde_json::from_str(&json).expect("rows");
-    assert_eq!(rows.len(), 48, "24 faults x 2 boards");
+    assert_eq!(rows.len(), 50, "25 faults x 2 boards");
     // Rows run twice on an overloaded host name their first attempt and the load.
     for r in rows.iter().filter(|r| !r["first_attempt"].is_null()) {
         let first = r["first_attempt"].as_str().unwrap_or_default();

@@ -36,6 +36,9 @@ pub enum PlanFault {
     LowerStock,
     /// The same plan followed with the plan's lead (`acc run --plan … --plan-lead`).
     LowerStockLead,
+    /// The right plan followed with the plan's lead, the line turning slow mid-cut (every
+    /// status read answered with the reply of 2 reads earlier).
+    LeadSlowLine,
     /// The plan file does not exist.
     Missing,
 }
@@ -228,6 +231,13 @@ pub const FAULTS: &[Fault] = &[
         name: "plan-lead-low-stock",
         what: "acc run --plan --plan-lead with a plan made for a stock 1 mm lower than the one on the table (the machine cuts more than planned), the pocket program",
         action: Action::Plan(PlanFault::LowerStockLead),
+        v1_unsafe: None,
+        not_judged: None,
+    },
+    Fault {
+        name: "plan-lead-slow-line",
+        what: "acc run --plan --plan-lead with the right plan, the pocket program; mid-cut every status read is answered with the board's reply of 2 reads earlier (a buffering gateway), to the end",
+        action: Action::Plan(PlanFault::LeadSlowLine),
         v1_unsafe: None,
         not_judged: None,
     },

@@ -18,6 +18,18 @@
 //! - **`plan-lead-low-stock`**: the same with the plan's lead (`--plan-lead`): the limit in
 //!   force in a period the lead set is the lead (`plan_lead:<pct>`), and no period commands
 //!   above it.
+//! - **`plan-lead-slow-line`**: the right plan (made for the stock on the table) followed
+//!   with the plan's lead, and at [`SLOW_LINE_AT_S`] s of machine time, mid-cut, the man in
+//!   the middle (`tests/peers/mitm_proxy.py`) starts answering every status read with the
+//!   board's reply of 2 reads earlier (a buffering gateway), to the end of the run. The
+//!   reference is the same plan with its cap only on the same slow line. Pass: the largest
+//!   true force after the line went slow ≤ 1.05 × the reference's, no period commands above
+//!   the limit in force or raises the command with an unusable force sample, `acc run`'s
+//!   log shows the slow line (a replayed or lagging sample, a measured delay, or the delay
+//!   judge's state) and no period is led (`plan_lead:`) from [`SLOW_LINE_GRACE_S`] s after
+//!   the first such row on (the lead's window assumes the line as designed), the lead did
+//!   act before the moment (on v2; a v1 board has no `BLOCK_NUMBER` and no lead at all:
+//!   none may appear), and the log misses no period.
 //! - **`plan-missing`**: `acc run --plan` names a file that does not exist. Pass: `acc run`
 //!   exits with the usage code (2) naming the file, writes no run log, and the board served
 //!   no request (nothing was sent to it).
@@ -28,9 +40,12 @@ use std::time::Duration;
 use anyhow::{bail, Context};
 
 use super::faults::{Fault, PlanFault};
+use super::row::parse_fault_time;
 use super::verdict::Row;
 use super::FaultMatrixArgs;
-use crate::harness::{describe, fault_periods_raising, read, Proc};
+use crate::harness::{
+    describe, fault_periods_raising, read, spawn_proxy, stop_proxy, Proc, ProxyFiles,
+};
 
 /// The NC program of the plan rows (relative to the working directory: the repository).
 pub const PLAN_PROGRAM: &str = "tests/nc/pocket_rect.ngc";
@@ -41,6 +56,15 @@ pub const PLAN_STOCK_LOW: &str = "-20,-20,-10,60,50,-1";
 /// Machine time of each plan run, s: the approach, the plunge and the first pass (its
 /// slotting entry and the zig-zag's corners).
 pub const PLAN_RUN_S: f64 = 30.0;
+/// Machine time at which the line goes slow in `plan-lead-slow-line`, s: in the first pass,
+/// with the lead acting.
+pub const SLOW_LINE_AT_S: f64 = 14.0;
+/// Status reads of delay on the slow line (every read answered with the reply of this many
+/// reads earlier).
+pub const SLOW_LINE_DELAY_READS: u32 = 2;
+/// After `acc run`'s log first shows the slow line, the loop has this long to stop the
+/// lead, s.
+pub const SLOW_LINE_GRACE_S: f64 = 0.5;
 
 fn s(v: impl ToString) -> String {
     v.to_string()
@@ -51,16 +75,21 @@ struct Loop {
     machine: Vec<acc_runtime::record::RunRecord>,
     run: Vec<acc_runtime::record::RunRecord>,
     exit: String,
+    /// Machine time at which the line went slow, s (`None`: a clean line).
+    slow_from_s: Option<f64>,
 }
 
 /// `acc board-sim --program … --pace controller` and `acc run [--plan plan]` for
-/// [`PLAN_RUN_S`] s of machine time, logs in `dir` (`machine.csv`, `run.csv`).
+/// [`PLAN_RUN_S`] s of machine time, logs in `dir` (`machine.csv`, `run.csv`); with
+/// `slow_line`, the man in the middle between them, its delay switched on at
+/// [`SLOW_LINE_AT_S`] s.
 fn closed_loop(
     args: &FaultMatrixArgs,
     protocol: u8,
     dir: &Path,
     plan: Option<&Path>,
     lead: bool,
+    slow_line: bool,
 ) -> anyhow::Result<Loop> {
     std::fs::create_dir_all(dir)?;
     let machine_log = dir.join("machine.csv");
@@ -71,8 +100,31 @@ fn closed_loop(
         s(PLAN_PROGRAM),
         format!("--stock-box={PLAN_STOCK}"),
     ]);
+    if slow_line {
+        // A marker at the moment: the knob set to where it is.
+        bargs.extend([s("--fault"), format!("operator@{SLOW_LINE_AT_S}:100")]);
+    }
     let (mut board, pty) = spawn_board(&bargs, dir)?;
-    let mut rargs = run_args(args, &pty, &run_log);
+    let mut proxy = None;
+    let port = if slow_line {
+        let mut pargs = vec![
+            s("--seed"),
+            args.line_seed.to_string(),
+            s("--corrupt"),
+            s("0"),
+            s("--delay-reads"),
+            SLOW_LINE_DELAY_READS.to_string(),
+            s("--start"),
+            s("off"),
+        ];
+        pargs.extend(ProxyFiles::in_dir(dir).args());
+        let (p, port) = spawn_proxy(&args.proxy, &pty, &pargs, dir)?;
+        proxy = Some(p);
+        port
+    } else {
+        pty
+    };
+    let mut rargs = run_args(args, &port, &run_log);
     if let Some(p) = plan {
         rargs.extend([s("--plan"), p.to_string_lossy().into_owned()]);
         if lead {
@@ -81,15 +133,36 @@ fn closed_loop(
     }
     let (mut run, _) = Proc::spawn(&rargs, dir, "run")?;
     // At most real time (the plan config runs at 2×), plus start-up slack.
-    let exit = match run.wait(Duration::from_secs_f64(PLAN_RUN_S) + Duration::from_secs(60)) {
+    let deadline =
+        std::time::Instant::now() + Duration::from_secs_f64(PLAN_RUN_S) + Duration::from_secs(60);
+    let mut slow_from_s = None;
+    if let Some(p) = &proxy {
+        // The moment: board-sim prints its marker; the delay is on from then to the end.
+        while std::time::Instant::now() < deadline {
+            if let Some(line) = board.wait_for(": fault ", Duration::from_millis(200)) {
+                p.signal("USR1");
+                slow_from_s = Some(parse_fault_time(&line).unwrap_or(SLOW_LINE_AT_S));
+                break;
+            }
+            if let Ok(Some(_)) = run.child.try_wait() {
+                break;
+            }
+        }
+    }
+    let left = deadline.saturating_duration_since(std::time::Instant::now());
+    let exit = match run.wait(left) {
         Some(st) => describe(st),
         None => run.stop_running(),
     };
+    if let Some(p) = proxy.as_mut() {
+        stop_proxy(p);
+    }
     stop_board(&mut board);
     Ok(Loop {
         machine: read(&machine_log)?,
         run: read(&run_log).unwrap_or_default(),
         exit,
+        slow_from_s,
     })
 }
 
@@ -174,6 +247,7 @@ pub fn run_plan_row(
     match kind {
         PlanFault::LowerStock => low_stock_row(args, f, protocol, dir, false),
         PlanFault::LowerStockLead => low_stock_row(args, f, protocol, dir, true),
+        PlanFault::LeadSlowLine => slow_line_row(args, f, protocol, dir),
         PlanFault::Missing => missing_row(args, f, protocol, dir),
     }
 }
@@ -219,19 +293,31 @@ fn low_stock_row(
     dir: &Path,
     lead: bool,
 ) -> anyhow::Result<Row> {
-    let plan = write_plan(args, dir)?;
-    let alone = closed_loop(args, protocol, &dir.join("alone"), None, false)?;
-    let wrong = closed_loop(args, protocol, dir, Some(&plan), lead)?;
+    let plan = write_plan(args, dir, PLAN_STOCK_LOW)?;
+    let alone = closed_loop(args, protocol, &dir.join("alone"), None, false, false)?;
+    let wrong = closed_loop(args, protocol, dir, Some(&plan), lead, false)?;
     Ok(judge_low_stock(f, protocol, &alone, &wrong))
 }
 
-/// `acc plan` of the program for [`PLAN_STOCK_LOW`] into `dir/plan/plan.csv`.
-fn write_plan(args: &FaultMatrixArgs, dir: &Path) -> anyhow::Result<PathBuf> {
+fn slow_line_row(
+    args: &FaultMatrixArgs,
+    f: &Fault,
+    protocol: u8,
+    dir: &Path,
+) -> anyhow::Result<Row> {
+    let plan = write_plan(args, dir, PLAN_STOCK)?;
+    let capped = closed_loop(args, protocol, &dir.join("cap"), Some(&plan), false, true)?;
+    let led = closed_loop(args, protocol, dir, Some(&plan), true, true)?;
+    Ok(judge_slow_line(f, protocol, &capped, &led))
+}
+
+/// `acc plan` of the program for the stock `stock_box` into `dir/plan/plan.csv`.
+fn write_plan(args: &FaultMatrixArgs, dir: &Path, stock_box: &str) -> anyhow::Result<PathBuf> {
     let out = dir.join("plan");
     let exe = std::env::current_exe().context("path of the acc binary")?;
     let o = std::process::Command::new(exe)
         .args(["plan", PLAN_PROGRAM])
-        .arg(format!("--stock-box={PLAN_STOCK_LOW}"))
+        .arg(format!("--stock-box={stock_box}"))
         .arg("--scenario")
         .arg(&args.scenario)
         .args(["--no-plot", "--out"])
@@ -260,6 +346,44 @@ fn above_cap(run: &[acc_runtime::record::RunRecord]) -> usize {
         .count()
 }
 
+/// The fields and checks every closed-loop plan row shares: from `run`'s logs, the periods
+/// that commanded above the limit in force or raised on an unusable sample, the feed hold,
+/// the log's rows, the last command; `row.force_before_n` / `force_after_n` must be set.
+/// Returns the problems: no machine rows, ACC never active, the force above 1.05 × the
+/// reference (`what` names the run and the reference), a raising period.
+fn shared_checks(row: &mut Row, reference: &Loop, run: &Loop, what: (&str, &str)) -> Vec<String> {
+    let (r, m) = (&run.run, &run.machine);
+    row.raised_in_fault = fault_periods_raising(r) + above_cap(r);
+    row.feed_hold_after = m.iter().any(|x| x.feed_hold);
+    row.log_rows = r.len();
+    row.log_complete = complete(r);
+    row.last_cmd_pct = r
+        .iter()
+        .rev()
+        .filter(|x| x.state == "active")
+        .find_map(|x| x.override_cmd_pct);
+    let mut problems = Vec::new();
+    if reference.machine.is_empty() || m.is_empty() {
+        problems.push("no machine rows".to_string());
+    }
+    if row.last_cmd_pct.is_none() {
+        problems.push("ACC was never active with the plan".into());
+    }
+    if row.force_after_n > 1.05 * row.force_before_n {
+        problems.push(format!(
+            "force {:.0} N {} above {:.0} N {} (> 1.05×)",
+            row.force_after_n, what.0, row.force_before_n, what.1
+        ));
+    }
+    if row.raised_in_fault > 0 {
+        problems.push(format!(
+            "{} periods commanded above the plan's limit or raised with an unusable force",
+            row.raised_in_fault
+        ));
+    }
+    problems
+}
+
 fn judge_low_stock(f: &Fault, protocol: u8, alone: &Loop, wrong: &Loop) -> Row {
     let top = |rows: &[acc_runtime::record::RunRecord], released: bool| {
         rows.iter()
@@ -272,35 +396,12 @@ fn judge_low_stock(f: &Fault, protocol: u8, alone: &Loop, wrong: &Loop) -> Row {
     row.force_before_n = top(&alone.machine, false);
     row.force_after_n = top(m, false);
     row.force_after_released_n = top(m, true);
-    row.raised_in_fault = fault_periods_raising(r) + above_cap(r);
-    row.feed_hold_after = m.iter().any(|x| x.feed_hold);
-    row.log_rows = r.len();
-    row.log_complete =
-        !r.is_empty() && r.windows(2).all(|w| w[1].period == w[0].period + 1) && r[0].period == 0;
-    row.last_cmd_pct = r
-        .iter()
-        .rev()
-        .filter(|x| x.state == "active")
-        .find_map(|x| x.override_cmd_pct);
-    let mut problems = Vec::new();
-    if alone.machine.is_empty() || m.is_empty() {
-        problems.push("no machine rows".to_string());
-    }
-    if row.last_cmd_pct.is_none() {
-        problems.push("ACC was never active with the plan".into());
-    }
-    if row.force_after_n > 1.05 * row.force_before_n {
-        problems.push(format!(
-            "force {:.0} N with the wrong plan above {:.0} N with feedback alone (> 1.05×)",
-            row.force_after_n, row.force_before_n
-        ));
-    }
-    if row.raised_in_fault > 0 {
-        problems.push(format!(
-            "{} periods commanded above the plan's cap or raised with an unusable force",
-            row.raised_in_fault
-        ));
-    }
+    let mut problems = shared_checks(
+        &mut row,
+        alone,
+        wrong,
+        ("with the wrong plan", "with feedback alone"),
+    );
     let flag = if protocol == 1 {
         "plan_lost"
     } else {
@@ -308,6 +409,92 @@ fn judge_low_stock(f: &Fault, protocol: u8, alone: &Loop, wrong: &Loop) -> Row {
     };
     if !r.iter().any(|x| x.flags.contains(flag)) {
         problems.push(format!("acc run's log never flags `{flag}`"));
+    }
+    if !row.log_complete {
+        problems.push("acc run's log misses periods".into());
+    }
+    verdict(&mut row, &problems);
+    row
+}
+
+/// Whether `acc run`'s log is whole: every period from 0 on, none missing.
+fn complete(r: &[acc_runtime::record::RunRecord]) -> bool {
+    !r.is_empty() && r.windows(2).all(|w| w[1].period == w[0].period + 1) && r[0].period == 0
+}
+
+fn led(r: &acc_runtime::record::RunRecord) -> bool {
+    r.flags.split(';').any(|f| f.starts_with("plan_lead:"))
+}
+
+fn judge_slow_line(f: &Fault, protocol: u8, capped: &Loop, led_loop: &Loop) -> Row {
+    let (r, m) = (&led_loop.run, &led_loop.machine);
+    let mut row = row_of(f, protocol, led_loop.exit.clone());
+    let t0 = led_loop.slow_from_s;
+    row.t_fault_s = t0;
+    // The largest true force from the moment on (machine time), N.
+    let after = |l: &Loop| {
+        let from = l.slow_from_s.unwrap_or(f64::INFINITY);
+        l.machine
+            .iter()
+            .filter(|x| x.t_s >= from)
+            .filter_map(|x| x.force_true_n)
+            .fold(0.0, f64::max)
+    };
+    row.force_before_n = after(capped);
+    row.force_after_n = after(led_loop);
+    row.force_after_released_n = m
+        .iter()
+        .filter(|x| x.state != "acc_active" && x.t_s >= t0.unwrap_or(f64::INFINITY))
+        .filter_map(|x| x.force_true_n)
+        .fold(0.0, f64::max);
+    let Some(t0) = t0.filter(|_| capped.slow_from_s.is_some()) else {
+        row.log_rows = r.len();
+        row.log_complete = complete(r);
+        verdict(
+            &mut row,
+            &["the line never went slow (no moment from board-sim)".to_string()],
+        );
+        return row;
+    };
+    let mut problems = shared_checks(
+        &mut row,
+        capped,
+        led_loop,
+        ("with the lead on the slow line", "with the cap alone"),
+    );
+    // When the loop first saw the slow line: its log's first flag of a stale or replayed
+    // sample or of a measured delay, or the delay judge's state, from the moment on (the
+    // run's clock follows the machine's: the board is paced by the controller).
+    let seen = r.iter().find(|x| {
+        x.t_s >= t0 - 1.0
+            && (x.state == "delay"
+                || x.flags.contains("seq_repeat")
+                || x.flags.contains("seq_lag")
+                || x.flags.contains("delay:"))
+    });
+    match seen {
+        None => problems.push(format!(
+            "acc run's log never shows the slow line (from {t0:.1} s on)"
+        )),
+        Some(first) => {
+            let led_late = r
+                .iter()
+                .filter(|x| x.t_s >= first.t_s + SLOW_LINE_GRACE_S && led(x))
+                .count();
+            if led_late > 0 {
+                problems.push(format!(
+                    "{led_late} periods led more than {SLOW_LINE_GRACE_S} s after acc run saw the slow line ({:.1} s)",
+                    first.t_s
+                ));
+            }
+        }
+    }
+    let led_before = r.iter().filter(|x| x.t_s < t0 && led(x)).count();
+    if protocol == 2 && led_before == 0 {
+        problems.push("the lead never acted before the line went slow".into());
+    }
+    if protocol == 1 && r.iter().any(led) {
+        problems.push("a v1 board (no BLOCK_NUMBER) was led".into());
     }
     if !row.log_complete {
         problems.push("acc run's log misses periods".into());
@@ -389,11 +576,13 @@ mod tests {
             machine: vec![rec(0, 100, "", alone_force)],
             run: vec![],
             exit: "0".into(),
+            slow_from_s: None,
         };
         let wrong = Loop {
             machine: wrong.clone(),
             run: wrong,
             exit: "0".into(),
+            slow_from_s: None,
         };
         judge_low_stock(f, protocol, &alone, &wrong)
     }
@@ -422,6 +611,67 @@ mod tests {
         quiet[1].flags = "plan_cap:80".into();
         let r = row(800.0, quiet, 2);
         assert!(!r.ok && r.verdict.contains("plan_disagree:above"), "{r:?}");
+    }
+
+    fn slow(run: Vec<RunRecord>, machine_force: f64) -> Loop {
+        let machine = (0..40)
+            .map(|k| {
+                let mut m = rec(k, 100, "", if k >= 20 { machine_force } else { 500.0 });
+                m.t_s = 0.1 * k as f64;
+                m
+            })
+            .collect();
+        Loop {
+            machine,
+            run,
+            exit: "6".into(),
+            slow_from_s: Some(2.0),
+        }
+    }
+
+    #[test]
+    fn the_lead_on_a_slow_line_passes_only_when_it_stops_and_the_force_stays() {
+        let f = super::super::faults::FAULTS
+            .iter()
+            .find(|f| f.name == "plan-lead-slow-line")
+            .expect("row");
+        // Led before the moment (2.0 s), the slow line seen at 2.1 s, no lead after.
+        let run: Vec<RunRecord> = (0..40)
+            .map(|k| match k {
+                0..=20 => rec(k, 50, "plan_cap:60;plan_lead:50", 700.0),
+                21 => rec(k, 50, "seq_repeat;fault;plan_cap:60", 700.0),
+                _ => rec(k, 50, "plan_cap:60", 700.0),
+            })
+            .collect();
+        let capped = slow(vec![], 700.0);
+        let good = judge_slow_line(f, 2, &capped, &slow(run.clone(), 700.0));
+        assert!(good.ok, "{good:?}");
+        // A led period 0.5 s after the slow line was seen.
+        let mut late = run.clone();
+        late[27].flags = "plan_cap:60;plan_lead:50".into();
+        let r = judge_slow_line(f, 2, &capped, &slow(late, 700.0));
+        assert!(!r.ok && r.verdict.contains("1 periods led"), "{r:?}");
+        // The slow line never seen.
+        let mut unseen = run.clone();
+        unseen[21].flags = "plan_cap:60".into();
+        let r = judge_slow_line(f, 2, &capped, &slow(unseen, 700.0));
+        assert!(!r.ok && r.verdict.contains("never shows"), "{r:?}");
+        // More force after the moment than the cap alone on the same line.
+        let r = judge_slow_line(f, 2, &capped, &slow(run.clone(), 800.0));
+        assert!(!r.ok && r.verdict.contains("800 N"), "{r:?}");
+        // A v1 board is never led; and on v2 the lead must have acted before the moment.
+        let r = judge_slow_line(f, 1, &capped, &slow(run.clone(), 700.0));
+        assert!(!r.ok && r.verdict.contains("v1"), "{r:?}");
+        let unled: Vec<RunRecord> = run
+            .iter()
+            .map(|x| RunRecord {
+                flags: x.flags.replace(";plan_lead:50", ""),
+                ..x.clone()
+            })
+            .collect();
+        let r = judge_slow_line(f, 2, &capped, &slow(unled.clone(), 700.0));
+        assert!(!r.ok && r.verdict.contains("never acted"), "{r:?}");
+        assert!(judge_slow_line(f, 1, &capped, &slow(unled, 700.0)).ok);
     }
 
     #[test]

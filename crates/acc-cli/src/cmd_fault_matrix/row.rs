@@ -197,7 +197,7 @@ fn wait_for_moment(board: &mut Proc, run: &mut Proc, timeout: Duration) -> anyho
 }
 
 /// `board-sim: t = 40.0 s: fault Operator(100) (scheduled at 40 s)` → 40.0.
-fn parse_fault_time(line: &str) -> Option<f64> {
+pub(super) fn parse_fault_time(line: &str) -> Option<f64> {
     let rest = line.split("t = ").nth(1)?;
     rest.split(' ').next()?.parse().ok()
 }
