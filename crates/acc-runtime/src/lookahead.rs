@@ -540,9 +540,9 @@ impl LookAhead {
             } else if !shape {
                 (reach(planned).1, planned)
             } else {
-                let c1 = self.row_cap(r, at, reach(planned).0);
+                let c1 = self.row_cap(r, planned, at, reach(planned).0);
                 let (to, t1) = reach(c1);
-                (t1, self.row_cap(r, at, to))
+                (t1, self.row_cap(r, planned, at, to))
             };
             cap = cap.min(row_cap);
             free_mm -= free;
@@ -556,15 +556,14 @@ impl LookAhead {
         (cap < self.cfg.max_pct).then_some(cap)
     }
 
-    /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: the row's planned
-    /// override for the loop's Fr ([`PlanRow::cap_for_fr`]) where the row's force is not
+    /// The cap of feed row `r` over its part `from_mm ..= to_mm`, percent: `planned`, the
+    /// row's planned override for the loop's Fr ([`PlanRow::cap_for_fr`]), where the row's force is not
     /// known inside it (`flat`) or the part holds its largest force; else the override at
     /// which the part's largest force ([`PlanRow::force_100_over_n`]) is Fr,
     /// `100 · (Fr / F)^(1/β)` (seed 002 eq. 1 solved for the feed), at least the planned
     /// override and at most the grid's maximum. The tool's own override limits are the
     /// shop layer's (they join the cap, the lower wins).
-    fn row_cap(&self, r: &PlanRow, from_mm: f64, to_mm: f64) -> u16 {
-        let planned = r.cap_for_fr(self.cfg.force_ref_n);
+    fn row_cap(&self, r: &PlanRow, planned: u16, from_mm: f64, to_mm: f64) -> u16 {
         let f = r.force_100_over_n(from_mm, to_mm);
         if !r.cuts() || f >= r.force_100_n {
             return planned;

@@ -32,10 +32,8 @@ pub const CUTTING_SHARE: f64 = 0.2;
 pub(super) struct SettleJudge {
     recent: [Option<u16>; RECENT_PERIODS],
     next: usize,
-    /// Clean periods still to settle after this one.
+    /// Periods still capped, this one included (0: not settling).
     left: u32,
-    /// This period is capped.
-    now: bool,
     cap: Option<u16>,
 }
 
@@ -44,17 +42,13 @@ impl SettleJudge {
     /// the settling; the cap is taken when an episode starts and kept through it.
     pub(super) fn observe(&mut self, fault: bool) {
         if fault {
-            if !self.now {
+            if self.left == 0 {
                 self.cap = self.recent.iter().flatten().copied().max();
             }
-            self.left = SETTLE_PERIODS;
-            self.now = true;
-        } else if self.left > 0 {
-            self.left -= 1;
-            self.now = true;
+            // This period and the SETTLE_PERIODS after it.
+            self.left = SETTLE_PERIODS + 1;
         } else {
-            self.now = false;
-            self.cap = None;
+            self.left = self.left.saturating_sub(1);
         }
     }
 
@@ -73,7 +67,7 @@ impl SettleJudge {
     /// the tool not cutting: `cutting` is whether the period's valid force is at least
     /// [`CUTTING_SHARE`] × Fr).
     pub(super) fn cap(&self, cutting: bool) -> Option<u16> {
-        self.cap.filter(|_| self.now && cutting)
+        self.cap.filter(|_| self.left > 0 && cutting)
     }
 
     /// Whether a valid force `force_n` (N) shows the tool cutting against Fr `fr_n` (N).
