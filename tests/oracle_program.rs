@@ -113,6 +113,24 @@ fn the_oracle_within_a_ceiling_stays_under_it_and_is_no_better_than_the_free_one
         f <= w * 1.001 && w <= t * 1.001,
         "free {f}, within 1.05 {w}, within 1.0 {t}"
     );
+    // The runs behind the figure, period by period (`oracle_trace`): the figure is the
+    // best of them, and every row of every run is under the ceiling.
+    let runs = acc_sim::oracle_program::program_rms_within_runs(&plant, 1.05, 1).expect("the runs");
+    assert_eq!(runs.len(), 2);
+    let rms: Vec<f64> = runs
+        .iter()
+        .map(|r| summarize_program(&r.rows, fr, sc.controller.period_s).rms_error_n)
+        .collect();
+    assert!(
+        rms.iter().any(|x| (x - w).abs() < 1e-9) && rms.iter().all(|x| *x >= w - 1e-9),
+        "runs {rms:?}, figure {w}"
+    );
+    for r in &runs {
+        assert!(r
+            .rows
+            .iter()
+            .all(|x| x.force_n.unwrap_or(0.0) <= 1.05 * fr + 1e-9));
+    }
 }
 
 /// The search has no randomness: the same program, the same figures.

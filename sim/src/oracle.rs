@@ -570,3 +570,25 @@ fn safe_and_peak<P: OraclePlant>(
     }
     Ok((safe, best_peak, budget))
 }
+
+/// The runs behind [`rms_within_on`]'s figure, for a look period by period (the oracle's
+/// override, force and engagement in every row): first the run that minimises each
+/// period's squared error under the ceiling `ceiling_n` (N), then the run of each of
+/// `steps` Dinkelbach steps, each from the RMS of the run before it, whether or not it
+/// lowered the RMS.
+pub fn rms_within_runs_on<P: OraclePlant>(
+    plant: &P,
+    force_ref_n: f64,
+    ceiling_n: f64,
+    steps: usize,
+) -> Result<Vec<RunResult>, OracleError> {
+    let mut s = Search::new(plant, force_ref_n);
+    s.ceiling_n = ceiling_n;
+    let mut runs = vec![s.rms_run(None)?];
+    for _ in 0..steps {
+        let last = runs.last().map(|r| plant.summarize(r));
+        let lambda = last.map_or(0.0, |l| P::rms_n(&l).powi(2));
+        runs.push(s.rms_run(Some(lambda))?);
+    }
+    Ok(runs)
+}

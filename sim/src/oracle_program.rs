@@ -123,6 +123,17 @@ pub fn program_rms_within(plant: &ProgramPlant, ceiling: f64) -> Result<ProgramR
     crate::oracle::rms_within_on(plant, fr, ceiling * fr)
 }
 
+/// The runs of [`program_rms_within`] on `plant`, period by period: the per-period run,
+/// then `steps` Dinkelbach steps ([`crate::oracle::rms_within_runs_on`]).
+pub fn program_rms_within_runs(
+    plant: &ProgramPlant,
+    ceiling: f64,
+    steps: usize,
+) -> Result<Vec<RunResult>, OracleError> {
+    let fr = plant.scenario.controller.force_ref_n;
+    crate::oracle::rms_within_runs_on(plant, fr, ceiling * fr, steps)
+}
+
 /// A figure's ratio to the oracle's, two decimals, or `-` where either side has none.
 pub fn ratio(v: Option<f64>, o: Option<f64>) -> String {
     match (v, o) {

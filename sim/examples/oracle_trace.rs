@@ -1,0 +1,84 @@
+//! The oracle held to a force ceiling on an NC program, period by period: writes each run
+//! of its search as CSV (the per-period run, then each Dinkelbach step's) so that a law's
+//! `run.csv` can be set against it block by block (docs/plan.md, "The plan's lead").
+//!
+//!     cargo run -p acc-sim --example oracle_trace -- tests/nc/pocket_rect.ngc \
+//!         -20,-20,-10,60,50,0 out/oracle-pocket [CEILING × Fr, default 1.05]
+//!
+//! The scenario is `configs/scenarios/paper_case3.toml` with the program's stock on
+//! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it. Columns of
+//! `oracle-K.csv`: `t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
+//! axial_depth_mm` (the force is the period's true mean).
+use std::io::Write;
+
+use acc_sim::oracle_program::{program_rms_within_runs, ProgramPlant};
+use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
+use acc_sim::program_summary::summarize_program;
+use acc_sim::Scenario;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let [program, stock, out, rest @ ..] = &args[..] else {
+        return Err("usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING]".into());
+    };
+    let ceiling: f64 = match rest.first() {
+        Some(c) => c.parse().map_err(|e| format!("ceiling `{c}`: {e}"))?,
+        None => 1.05,
+    };
+    if !(0.5..=2.0).contains(&ceiling) {
+        return Err(format!("ceiling {ceiling}: allowed 0.5 ..= 2 (× Fr)").into());
+    }
+    let base = Scenario::load(acc_sim::run::configs_dir().join("scenarios/paper_case3.toml"))?;
+    let spec = ProgramSpec {
+        program: program.into(),
+        stock: StockSource::Box(stock.parse()?, 0.25),
+        tools: None,
+    };
+    let path = ProgramPath::build(
+        &spec,
+        &acc_sim::engagement::ToolGeometry::of(&base.tool),
+        base.machine.spindle.rpm,
+        base.machine.feed_drive.rapid_mm_min,
+    )?;
+    let sc = path.scenario_for(&base);
+    let fr = sc.controller.force_ref_n;
+    let runs = program_rms_within_runs(&ProgramPlant::new(&sc, &path), ceiling, 3)?;
+    std::fs::create_dir_all(out)?;
+    for (k, r) in runs.iter().enumerate() {
+        let s = summarize_program(&r.rows, fr, sc.controller.period_s);
+        println!(
+            "{}: force RMS error {:.1} N over {} rows, cycle {:.1} s{}",
+            if k == 0 {
+                "per period".to_string()
+            } else {
+                format!("Dinkelbach step {k}")
+            },
+            s.rms_error_n,
+            r.rows.len(),
+            s.cycle_s,
+            if r.finished { "" } else { " (did not finish)" }
+        );
+        let mut f = std::io::BufWriter::new(std::fs::File::create(
+            std::path::Path::new(out).join(format!("oracle-{k}.csv")),
+        )?);
+        writeln!(
+            f,
+            "t_s,block,x_true_mm,override_pct,force_n,radial_depth_mm,axial_depth_mm"
+        )?;
+        for x in &r.rows {
+            writeln!(
+                f,
+                "{:.3},{},{:.4},{},{:.2},{:.4},{:.4}",
+                x.t_s,
+                x.block.unwrap_or(0),
+                x.x_true_mm.unwrap_or(0.0),
+                x.override_cmd_pct.unwrap_or(0),
+                x.force_true_n.unwrap_or(0.0),
+                x.radial_depth_mm.unwrap_or(0.0),
+                x.axial_depth_mm.unwrap_or(0.0)
+            )?;
+        }
+        f.flush()?;
+    }
+    Ok(())
+}
