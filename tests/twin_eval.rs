@@ -361,8 +361,9 @@ fn the_replayed_estimator_is_the_one_in_the_loop() {
 
 /// The out-of-library effects on the logging path added for the evaluation set (item 3),
 /// at the larger of their two amplitudes.
-const NEW_LOGGING_PATH: [Hidden; 5] = [
+const NEW_LOGGING_PATH: [Hidden; 6] = [
     Hidden::LogZeroShift(0.05),
+    Hidden::LogZeroDrift(0.05),
     Hidden::LogInterference(0.03),
     Hidden::LogClip(0.75),
     Hidden::LogQuantize(0.05),
@@ -406,10 +407,47 @@ fn each_new_out_of_library_effect_changes_the_log_on_both_channels() {
     );
 }
 
+/// The NC's override cap is set in the simulated machine (out of the library); a pair
+/// sets both of its library effects and is judged on both.
+#[test]
+fn the_nc_cap_and_the_pairs_set_the_simulated_machine() {
+    let base = scenario("steps_2_3_4.toml");
+    let cap = Hidden::parse("nc_override_cap=120").expect("key");
+    assert_eq!(cap, Hidden::NcOverrideCap(120));
+    assert!(Hidden::parse("nc_override_cap=5").is_none());
+    assert!(cap.library().is_none() && cap.library_pair().is_none());
+    let (sc, _, _) = twin::hidden_case(&base, cap, Channel::Power);
+    assert_eq!(sc.machine.override_path.nc_max_pct, Some(120));
+    let pair = Hidden::parse("wear_and_feed_drive_lag=0.08").expect("key");
+    assert!(pair.library().is_none());
+    assert_eq!(
+        pair.library_pair(),
+        Some([
+            acc_ident::EffectKind::ToolWear,
+            acc_ident::EffectKind::FeedDriveLag
+        ])
+    );
+    let (sc, _, _) = twin::hidden_case(&base, pair, Channel::Force);
+    assert!((sc.wear.growth_per_cm3 - base.wear.growth_per_cm3 - 0.08).abs() < 1e-12);
+    assert!(
+        (sc.machine.feed_drive.tau_s - base.machine.feed_drive.tau_s - twin::PAIR_FEED_LAG_S).abs()
+            < 1e-12
+    );
+    let pair = Hidden::WearAndNoloadDrift(0.03);
+    let (sc, _, _) = twin::hidden_case(&base, pair, Channel::Power);
+    assert_eq!(
+        sc.machine.spindle.noload_drift.map(|d| d.delta_w),
+        Some(twin::PAIR_NOLOAD_DRIFT_W)
+    );
+    // A no-load drift is not in a dynamometer's force.
+    assert!(!pair.acts_on(Channel::Force, false) && pair.acts_on(Channel::Force, true));
+}
+
 /// The `Hidden::parse` key of one of [`NEW_LOGGING_PATH`].
 fn label_key(h: Hidden) -> String {
     match h {
         Hidden::LogZeroShift(v) => format!("log_zero_shift={v}"),
+        Hidden::LogZeroDrift(v) => format!("log_zero_drift={v}"),
         Hidden::LogInterference(v) => format!("log_interference={v}"),
         Hidden::LogClip(v) => format!("log_clip={v}"),
         Hidden::LogQuantize(v) => format!("log_quantize={v}"),

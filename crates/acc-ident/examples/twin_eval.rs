@@ -95,6 +95,20 @@ fn out_of_library() -> Vec<Hidden> {
         Hidden::LogStale(0.2),
         Hidden::DepthThreshold(0.1),
         Hidden::DepthThreshold(0.3),
+        Hidden::LogZeroDrift(0.02),
+        Hidden::LogZeroDrift(0.05),
+        Hidden::NcOverrideCap(120),
+        Hidden::NcOverrideCap(100),
+    ]
+}
+
+/// Two library effects at once (both should be named), at two amplitudes of the wear.
+fn pairs() -> Vec<Hidden> {
+    vec![
+        Hidden::WearAndNoloadDrift(0.03),
+        Hidden::WearAndNoloadDrift(0.08),
+        Hidden::WearAndFeedDriveLag(0.03),
+        Hidden::WearAndFeedDriveLag(0.08),
     ]
 }
 
@@ -254,10 +268,16 @@ fn median(v: &mut [f64]) -> f64 {
 /// The summary and confusion matrix of one channel.
 fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     let mut md = String::new();
-    let group = |h: &Hidden| match (h, h.library()) {
-        (Hidden::Null, _) => 0usize,
-        (_, Some(_)) => 1,
+    let group = |h: &Hidden| match (h, h.library(), h.library_pair()) {
+        (Hidden::Null, _, _) => 0usize,
+        (_, Some(_), _) => 1,
+        (_, _, Some(_)) => 3,
         _ => 2,
+    };
+    // A pair is recovered when both of its effects, and nothing else, are named.
+    let both = |h: &Hidden, r: &Row| {
+        h.library_pair()
+            .is_some_and(|p| r.named.len() == 2 && p.iter().all(|k| r.named.contains(k)))
     };
     let exact = |h: &Hidden, r: &Row| h.library().is_some_and(|k| r.named == [k]);
     let count = |f: &dyn Fn(&Hidden, &Row) -> bool| rows.iter().filter(|(h, r)| f(h, r)).count();
@@ -284,6 +304,14 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     let oob_col = |c: &str| count(&|h, r| group(h) == 2 && r.column() == c);
     let oob4_n = count(&|h, r| group(h) == 2 && r.enr >= ENR_MIN);
     let oob4_named = count(&|h, r| group(h) == 2 && r.enr >= ENR_MIN && !r.named.is_empty());
+    let pair_n = count(&|h, _| group(h) == 3);
+    let pair_ok = count(&|h, r| group(h) == 3 && both(h, r));
+    let pair_one = count(&|h, r| {
+        group(h) == 3
+            && !both(h, r)
+            && h.library_pair()
+                .is_some_and(|p| !r.named.is_empty() && r.named.iter().all(|k| p.contains(k)))
+    });
     let _ = writeln!(md, "### Channel `{name}`\n");
     let _ = writeln!(
         md,
@@ -319,6 +347,13 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
         pct(covc_ok, covc_n),
         pct(oobc_named, oobc_n)
     );
+    if pair_n > 0 {
+        let _ = writeln!(
+            md,
+            "- two library effects at once (both named, nothing else): **{pair_ok} of {pair_n}** ({:.1} %); one of the two named and nothing else: {pair_one}\n",
+            pct(pair_ok, pair_n)
+        );
+    }
     // Columns: the library effects named alone at least once on this channel (library
     // order), then several / ambiguous / unexplained / nothing.
     let mut cols: Vec<String> = EffectKind::ALL
@@ -332,7 +367,7 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
         .filter(|n| !cols.iter().any(|c| c == n))
         .collect();
     cols.extend(["several", "ambiguous", "unexplained", "nothing"].map(String::from));
-    // Rows in the evaluation's order (null, in library, out of library).
+    // Rows in the evaluation's order (null, in library, out of library, pairs).
     let mut order: Vec<(usize, String)> = Vec::new();
     let mut cells: HashMap<String, BTreeMap<String, usize>> = HashMap::new();
     let mut enrs: HashMap<String, Vec<f64>> = HashMap::new();
@@ -381,7 +416,7 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
             .iter()
             .map(|c| m.get(c).map(|x| x.to_string()).unwrap_or_default())
             .collect();
-        let gname = ["null", "in library", "out of library"][*g];
+        let gname = ["null", "in library", "out of library", "two in library"][*g];
         let _ = writeln!(
             md,
             "| {gname} | {l} | {n} | {e:.1} | {ec:.1} | {} |",
@@ -462,7 +497,11 @@ fn main() {
         for k in 0..null_seeds {
             cases.push((ch, Hidden::Null, (k as usize) % nwp, 5000 + k));
         }
-        for (set, seeds) in [(library(), lib_seeds), (out_of_library(), oob_seeds)] {
+        for (set, seeds) in [
+            (library(), lib_seeds),
+            (out_of_library(), oob_seeds),
+            (pairs(), lib_seeds),
+        ] {
             for h in set {
                 let l = h.label();
                 if !h.acts_on(ch, estimated)
@@ -621,7 +660,7 @@ fn main() {
     let finished = results.iter().filter(|r| r.is_some()).count();
     let _ = writeln!(
         md,
-        "{null_seeds} null seeds per channel (spread over {nwp} shipped workpieces), {lib_seeds} seed(s) × {nwp} workpieces per in-library cell, {oob_seeds} seed(s) × {nwp} workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.",
+        "{null_seeds} null seeds per channel (spread over {nwp} shipped workpieces), {lib_seeds} seed(s) × {nwp} workpieces per in-library cell and pair, {oob_seeds} seed(s) × {nwp} workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.",
         cases.len()
     );
     std::fs::write(out.join("twin.md"), &md).expect("write");

@@ -239,6 +239,7 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
             override_path: OverridePath {
                 delay_s: 0.0,
                 step_pct: 1,
+                nc_max_pct: None,
             },
             sim: Default::default(),
             travel: None,

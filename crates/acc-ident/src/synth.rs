@@ -110,6 +110,7 @@ pub fn nominal_model(case: &Case) -> Model {
             override_path: OverridePath {
                 delay_s: 0.1,
                 step_pct: 10,
+                nc_max_pct: None,
             },
             sim: Default::default(),
             travel: None,

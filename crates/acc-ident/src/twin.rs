@@ -208,7 +208,25 @@ pub enum Hidden {
     /// the part's depth `d` exceeds `d₀`; `k` here, −. Set on the workpiece's `Ks` factor
     /// (a ramp in pieces of 2 mm at their middle depth).
     DepthThreshold(f64),
+    /// Out of the library, the logging path: the sensor's zero drifts linearly (a
+    /// transducer warming up) from 0 at the log's start to this fraction of the channel's
+    /// median |value| at its end.
+    LogZeroDrift(f64),
+    /// Out of the library: the NC caps the override at this percent whatever the board
+    /// writes (`override_path.nc_max_pct`; the log shows the board's register).
+    NcOverrideCap(u16),
+    /// Two in the library at once: tool wear (`Ks` growth per cm³, this value) and a
+    /// no-load drift of [`PAIR_NOLOAD_DRIFT_W`] (τ 60 s). Both should be named.
+    WearAndNoloadDrift(f64),
+    /// Two in the library at once: tool wear (`Ks` growth per cm³, this value) and an extra
+    /// feed-drive lag of [`PAIR_FEED_LAG_S`]. Both should be named.
+    WearAndFeedDriveLag(f64),
 }
+
+/// The no-load drift of [`Hidden::WearAndNoloadDrift`], W.
+pub const PAIR_NOLOAD_DRIFT_W: f64 = 60.0;
+/// The extra feed-drive lag of [`Hidden::WearAndFeedDriveLag`], s.
+pub const PAIR_FEED_LAG_S: f64 = 0.05;
 
 /// The radial depth above which [`Hidden::DepthThreshold`] raises the force, mm.
 pub const DEPTH_THRESHOLD_MM: f64 = 2.5;
@@ -232,6 +250,16 @@ impl Hidden {
             Hidden::SecondOrderDrive(_) => K::SecondOrderDrive,
             _ => return None,
         })
+    }
+
+    /// The two library effects of a hidden pair (None: not a pair).
+    pub fn library_pair(self) -> Option<[crate::EffectKind; 2]> {
+        use crate::EffectKind as K;
+        match self {
+            Hidden::WearAndNoloadDrift(_) => Some([K::ToolWear, K::NoloadDrift]),
+            Hidden::WearAndFeedDriveLag(_) => Some([K::ToolWear, K::FeedDriveLag]),
+            _ => None,
+        }
     }
 
     /// Short label with the amplitude.
@@ -263,6 +291,14 @@ impl Hidden {
             Hidden::LogQuantize(v) => format!("log quantised {v}"),
             Hidden::LogStale(v) => format!("log stale samples {v}"),
             Hidden::DepthThreshold(v) => format!("force rise above {DEPTH_THRESHOLD_MM} mm ×{v}"),
+            Hidden::LogZeroDrift(v) => format!("log zero drift {v}"),
+            Hidden::NcOverrideCap(p) => format!("NC override cap {p} %"),
+            Hidden::WearAndNoloadDrift(v) => {
+                format!("tool_wear {v}/cm³ + noload_drift {PAIR_NOLOAD_DRIFT_W} W")
+            }
+            Hidden::WearAndFeedDriveLag(v) => {
+                format!("tool_wear {v}/cm³ + feed_drive_lag +{PAIR_FEED_LAG_S} s")
+            }
         }
     }
 
@@ -303,6 +339,12 @@ impl Hidden {
             "log_quantize" => Hidden::LogQuantize(v),
             "log_stale" => Hidden::LogStale(v),
             "depth_threshold" => Hidden::DepthThreshold(v),
+            "log_zero_drift" => Hidden::LogZeroDrift(v),
+            "nc_override_cap" if v.is_finite() && (10.0..=250.0).contains(&v) => {
+                Hidden::NcOverrideCap(v as u16)
+            }
+            "wear_and_noload_drift" => Hidden::WearAndNoloadDrift(v),
+            "wear_and_feed_drive_lag" => Hidden::WearAndFeedDriveLag(v),
             _ => return None,
         })
     }
@@ -314,7 +356,10 @@ impl Hidden {
             || !matches!(
                 (self, channel),
                 (
-                    Hidden::CopperLoss(_) | Hidden::NoloadDrift(_) | Hidden::SensorLowpass(_),
+                    Hidden::CopperLoss(_)
+                        | Hidden::NoloadDrift(_)
+                        | Hidden::SensorLowpass(_)
+                        | Hidden::WearAndNoloadDrift(_),
                     Channel::Force
                 )
             )
@@ -385,6 +430,18 @@ pub fn hidden_case(
             wp_model = base.workpiece.clone();
         }
         Hidden::ToothModel => sc.force_model = acc_sim::ForceModel::Tooth,
+        Hidden::NcOverrideCap(p) => sc.machine.override_path.nc_max_pct = Some(p),
+        Hidden::WearAndNoloadDrift(g) => {
+            sc.wear.growth_per_cm3 += g;
+            sc.machine.spindle.noload_drift = Some(acc_sim::config::NoloadDrift {
+                delta_w: PAIR_NOLOAD_DRIFT_W,
+                tau_s: 60.0,
+            });
+        }
+        Hidden::WearAndFeedDriveLag(g) => {
+            sc.wear.growth_per_cm3 += g;
+            sc.machine.feed_drive.tau_s += PAIR_FEED_LAG_S;
+        }
         Hidden::DepthScale(k) => {
             for g in sc.workpiece.segments.iter_mut() {
                 g.depth_start_mm *= k;
@@ -481,7 +538,8 @@ pub fn hidden_case(
         | Hidden::LogInterference(_)
         | Hidden::LogClip(_)
         | Hidden::LogQuantize(_)
-        | Hidden::LogStale(_) => {}
+        | Hidden::LogStale(_)
+        | Hidden::LogZeroDrift(_) => {}
     }
     (sc, model, wp_model)
 }
@@ -511,7 +569,8 @@ pub struct Verdict {
 }
 
 /// The logging-path effects ([`Hidden::LogGainDrift`], [`Hidden::LogDelay`],
-/// [`Hidden::LogSpikes`], [`Hidden::LogZeroShift`], [`Hidden::LogInterference`],
+/// [`Hidden::LogSpikes`], [`Hidden::LogZeroShift`], [`Hidden::LogZeroDrift`],
+/// [`Hidden::LogInterference`],
 /// [`Hidden::LogClip`], [`Hidden::LogQuantize`], [`Hidden::LogStale`]) on the logged
 /// measured column of `channel`, after the run.
 pub fn apply_logging_path(hidden: Hidden, channel: Channel, log: &mut RunLog) {
@@ -551,6 +610,14 @@ pub fn apply_logging_path(hidden: Hidden, channel: Channel, log: &mut RunLog) {
                     if *t >= t_mid {
                         *v += a * med;
                     }
+                }
+            }
+            Hidden::LogZeroDrift(a) => {
+                let med = median_abs(col);
+                let t0 = t_s.first().copied().unwrap_or(0.0);
+                let span = (t_s.last().copied().unwrap_or(0.0) - t0).max(1e-9);
+                for (v, t) in col.iter_mut().zip(&t_s) {
+                    *v += a * med * (t - t0) / span;
                 }
             }
             Hidden::LogInterference(a) => {
@@ -713,14 +780,10 @@ pub fn run_case(
 ) -> Result<Verdict, String> {
     let (log, model, wp) = case_log(base, hidden, channel, seed)?;
     let (enr, enr_calibrated) = enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, true)?;
+    // The configuration `acc discrepancy` runs by default.
     let opts = crate::workflow::Options {
         workpiece: Some((wp, 0.0)),
-        // The whole library, the measurement-chain additions included.
-        candidates: crate::EffectKind::ALL.to_vec(),
-        withhold_on_structure: Some(true),
-        // With the whole library a structure below the noise finds several shapes.
-        min_effect_to_noise: 1.0,
-        ..crate::workflow::Options::default()
+        ..crate::workflow::Options::evaluated()
     };
     let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;
     let named: Vec<crate::EffectKind> = a

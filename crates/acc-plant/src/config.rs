@@ -198,6 +198,11 @@ pub struct OverridePathSpec {
     pub delay_s: f64,
     /// Override resolution of the board, percent: 10 (4-bit board) or 1 (byte board).
     pub step_pct: u16,
+    /// The NC's own ceiling on the feed override, percent (a machine parameter: the
+    /// interpolator runs at most this override whatever the PMC's register holds). Default
+    /// none; range 10 ..= 250.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nc_max_pct: Option<u16>,
 }
 
 /// `[sim]` table: internal integration rates.
@@ -345,6 +350,9 @@ impl MachineSpec {
                 )
                 .in_file(f),
             ));
+        }
+        if let Some(m) = self.override_path.nc_max_pct {
+            check_range(f, "override_path.nc_max_pct", f64::from(m), 10.0, 250.0)?;
         }
         check_range(f, "sim.mean_rate_hz", self.sim.mean_rate_hz, 10.0, 1e5)?;
         check_range(f, "sim.tooth_rate_hz", self.sim.tooth_rate_hz, 100.0, 1e6)?;

@@ -177,6 +177,8 @@ pub struct Machine {
     /// Override values in flight on the override path, one per internal step.
     delay_line: VecDeque<u16>,
     delay_steps: usize,
+    /// The NC's ceiling on the override, percent (`override_path.nc_max_pct`).
+    nc_max_pct: Option<u16>,
     override_input_pct: u16,
     feed_hold: bool,
     /// Multiplier on the material's `Ks` (a hard spot injected by a fault schedule), 1 =
@@ -252,6 +254,7 @@ impl Machine {
             power_reported_w: None,
             delay_line: VecDeque::from(vec![100; delay_steps]),
             delay_steps,
+            nc_max_pct: machine.override_path.nc_max_pct,
             override_input_pct: 100,
             feed_hold: false,
             hardness_factor: 1.0,
@@ -292,6 +295,7 @@ impl Machine {
             power_reported_w: self.power_reported_w,
             delay_line: self.delay_line.clone(),
             delay_steps: self.delay_steps,
+            nc_max_pct: self.nc_max_pct,
             override_input_pct: self.override_input_pct,
             feed_hold: self.feed_hold,
             hardness_factor: self.hardness_factor,
@@ -463,6 +467,7 @@ impl Machine {
                     .pop_front()
                     .unwrap_or(self.override_input_pct)
             };
+            let ov = self.nc_max_pct.map_or(ov, |m| ov.min(m));
             let target = match (self.feed_hold, self.engagement.path_at(self.x_mm)) {
                 (true, _) => 0.0,
                 // A rapid runs at the rapid rate whatever the feed override.
@@ -605,6 +610,39 @@ mod tests {
         let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
         m.set_override_input_pct(100);
         (0..20).map(|_| m.advance(0.05).feed_mean_mm_min).collect()
+    }
+
+    /// The NC's own ceiling: an override above it runs at the ceiling, one below it as
+    /// written; an out-of-range ceiling in a machine file names the key and the range.
+    #[test]
+    fn the_nc_caps_the_override_at_its_own_ceiling() {
+        let dir = configs_dir();
+        let run = |cap: Option<u16>, pct: u16| {
+            let mut spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+            spec.override_path.nc_max_pct = cap;
+            let tool =
+                ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
+            let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("wp");
+            let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
+            m.set_override_input_pct(pct);
+            (0..20)
+                .map(|_| m.advance(0.1).feed_mean_mm_min)
+                .last()
+                .expect("rows")
+        };
+        assert!((run(None, 150) - 300.0).abs() < 1.0);
+        assert!((run(Some(120), 150) - 240.0).abs() < 1.0);
+        assert!((run(Some(120), 80) - 160.0).abs() < 1.0);
+        let mut spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
+        spec.override_path.nc_max_pct = Some(5);
+        let e = spec
+            .validate(std::path::Path::new("m.toml"))
+            .expect_err("5 %")
+            .to_string();
+        assert!(
+            e.contains("override_path.nc_max_pct") && e.contains("m.toml"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -5,6 +5,9 @@
 #[allow(unused_imports)]
 use super::*;
 
+/// A column's level in air counts as a reference for a gain when it is at least this
+/// share of its mean over the cutting rows, − ([`Inputs::gain_drift_separable`]).
+pub const GAIN_REFERENCE_SHARE: f64 = 0.05;
 /// The model inputs taken from a run log, prepared once per log.
 #[derive(Debug, Clone)]
 pub struct Inputs {
@@ -339,6 +342,9 @@ impl Inputs {
             EffectKind::KsStep if self.cut_rows() < 2 * MIN_SIDE_ROWS => {
                 Err("too few cutting rows to place a material boundary with cut rows on both sides")
             }
+            EffectKind::SensorGainDrift if !self.gain_drift_separable() => Err(
+                "not separable from the process on this log: no second view of the force and no level in air for a gain to scale (a gain drifting in time is then the curve of the cutting force drifting in time)",
+            ),
             EffectKind::FeedExponent if self.cut_feed_cv() < 0.02 => {
                 Err("not excited: the feed hardly varies while cutting")
             }
@@ -373,6 +379,44 @@ impl Inputs {
             c.windows(2)
                 .any(|w| (w[1] - w[0]).abs() > 0.01 * w[0].abs().max(w[1].abs()))
         })
+    }
+
+    /// Whether a gain drifting in log time (`sensor_gain_drift`) can be told from the
+    /// process's own force drifting (wear, a `Ks` rising with cutting time) on this log. A
+    /// gain multiplies the whole logged column; the process moves only its cutting part.
+    /// They differ only where
+    ///
+    /// - the log carries a second view of the force (the estimator's output on the logged
+    ///   power, [`Inputs::force_from_power`]: the force-against-power check decides), or
+    /// - the column has a level in air, early and late (air rows in the log's first and
+    ///   last third averaging at least [`GAIN_REFERENCE_SHARE`] of the cutting rows' mean:
+    ///   spindle power's no-load power, which a gain scales and the process does not).
+    ///
+    /// A force sensor's column, zero in air, has neither (a turning tool's log): there a
+    /// gain drift is the curve of a cutting coefficient drifting in time, and on one
+    /// removal rate the curve of wear per removed volume too (docs/twin.md "Naming").
+    pub fn gain_drift_separable(&self) -> bool {
+        if self.force_from_power.is_some() {
+            return true;
+        }
+        let n = self.len();
+        if n < 3 {
+            return false;
+        }
+        let (t0, t1) = (self.t_s[0], self.t_s[n - 1]);
+        let third = (t1 - t0) / 3.0;
+        let level = |cut: bool, from: f64, to: f64| {
+            let v: Vec<f64> = (0..n)
+                .filter(|&i| self.is_cut(i) == cut && self.t_s[i] >= from && self.t_s[i] <= to)
+                .map(|i| self.measured[i])
+                .collect();
+            (!v.is_empty()).then(|| crate::stats::mean(&v).abs())
+        };
+        let Some(cutting) = level(true, t0, t1).filter(|l| *l > 0.0) else {
+            return false;
+        };
+        let reference = |l: Option<f64>| l.is_some_and(|l| l >= GAIN_REFERENCE_SHARE * cutting);
+        reference(level(false, t0, t0 + third)) && reference(level(false, t1 - third, t1))
     }
 
     /// Coefficient of variation of the recorded feed over the cutting rows.

@@ -507,6 +507,39 @@ mod tests {
         (cfg, sc, res)
     }
 
+    /// A gain drift is told from the process only with a reference the process does not
+    /// move: a dynamometer's force (zero in air) has none; spindle power has its no-load
+    /// level in the air before and after the cut, and loses it when the log is cut to the
+    /// cutting rows.
+    #[test]
+    fn a_gain_drift_needs_a_level_in_air_early_and_late() {
+        let (cfg, _, res) = case3_dynamometer_run();
+        let model = Model::load(&cfg.join("models/paper_vmc.toml")).expect("model");
+        let mut power = model.clone();
+        power.measurement.channel = Channel::Power;
+        let log =
+            crate::runlog::from_records(&res.rows, std::path::Path::new("g.csv")).expect("log");
+        let force = Inputs::from_log(&log, &model).expect("inputs");
+        assert!(force.force_from_power.is_none());
+        assert!(!force.gain_drift_separable());
+        assert!(force.applicable(EffectKind::SensorGainDrift).is_err());
+        assert!(Inputs::from_log(&log, &power)
+            .expect("inputs")
+            .gain_drift_separable());
+        // From the first cutting row to the last: no air left in either third.
+        let cutting = |r: &acc_runtime::RunRecord| r.radial_depth_mm.unwrap_or(0.0) > 0.0;
+        let first = res.rows.iter().position(cutting).expect("a cut");
+        let last = res.rows.iter().rposition(cutting).expect("a cut");
+        let cut =
+            crate::runlog::from_records(&res.rows[first..=last], std::path::Path::new("cut.csv"))
+                .expect("log");
+        let inp = Inputs::from_log(&cut, &power).expect("inputs");
+        assert!(!inp.gain_drift_separable());
+        assert!(inp
+            .applicable(EffectKind::SensorGainDrift)
+            .is_err_and(|w| w.contains("not separable from the process")));
+    }
+
     /// A shared replay is the replay of the same model; an equal model gets the kept one
     /// back, another model a new one.
     #[test]

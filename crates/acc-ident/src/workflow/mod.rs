@@ -119,6 +119,24 @@ impl Default for Options {
     }
 }
 
+impl Options {
+    /// The configuration the twin's evaluation measures (docs/twin.md: its false
+    /// discoveries, recovery and coverage) and `acc discrepancy` runs by default: the whole
+    /// library ([`EffectKind::ALL`]), a name below the effect-to-noise floor 1 only as the
+    /// only fit and the first, and the strict rules where the replay is exact.
+    pub fn evaluated() -> Self {
+        Options {
+            candidates: EffectKind::ALL.to_vec(),
+            min_effect_to_noise: EVALUATED_MIN_ENR,
+            withhold_on_structure: Some(true),
+            ..Options::default()
+        }
+    }
+}
+
+/// The effect-to-noise floor of [`Options::evaluated`], −.
+pub const EVALUATED_MIN_ENR: f64 = 1.0;
+
 /// The replay's inputs from `log` for `model`, with the engagement of `opts.workpiece`
 /// (anchored to the log's first path position under `opts.anchor_to_log`).
 fn inputs(model: &Model, log: &RunLog, opts: &Options) -> Result<Inputs, WorkflowError> {
@@ -344,6 +362,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     };
     let mut s = Selection::nominal(model, &p, opts);
     s.run(&p, &ctx, opts);
+    withhold_extra_names(&mut s, &p, opts.alpha);
 
     // Unexplained?
     let upd_replay = replay(&s.base_model, &p.inp);
@@ -444,12 +463,27 @@ struct Selection {
     params_start: Model,
     /// Accepted effects, in order.
     accepted: Vec<EffectKind>,
+    /// The selection's state before each accepted effect was added (fitted without it),
+    /// in the same order.
+    before: Vec<SelectionState>,
+    /// Names after the first withheld because they did not improve the sealed part
+    /// ([`extra`]), with the reason.
+    withheld_extra: Vec<crate::report::Withheld>,
     /// Unresolved ambiguous pairs.
     ambiguous: Vec<(EffectKind, EffectKind)>,
     /// The two fitted explanations of each ambiguous pair (for the separating test cut).
     ambiguous_models: Vec<AmbiguousFits>,
     /// The rounds, for the report.
     rounds: Vec<Round>,
+}
+
+/// The fitted state of a selection between rounds.
+#[derive(Clone)]
+struct SelectionState {
+    model: Model,
+    free: Vec<Free>,
+    params: Vec<crate::fit::FittedParam>,
+    params_start: Model,
 }
 
 /// What a selection round compares every candidate with.

@@ -114,24 +114,9 @@ pub(super) fn assemble(
         }),
         u => u,
     };
-    // Every name after the first must improve the sealed part's prediction beyond its own
-    // noise (`extra`).
-    for e in named.clone().iter().skip(1) {
-        let Some(kind) = EffectKind::from_name(e) else {
-            continue;
-        };
-        let g = sealed_gain(&p, &s.base_model, kind, opts.alpha);
-        if !g.passes() {
-            withheld.push(Withheld {
-                effect: e.clone(),
-                reason: format!(
-                    "as a name after the first it does not improve the prediction of the sealed part beyond its own noise: the sealed sum of squares falls by {:.3} {unit}² against {:.3} {unit}² the noise makes of a change of {:.3} {unit} RMS",
-                    g.sse_drop, g.threshold, g.change_rms
-                ),
-            });
-            named.retain(|n| n != e);
-        }
-    }
+    // Names after the first that did not improve the sealed part (`extra`): the model
+    // went back to the one they were added to.
+    withheld.extend(s.withheld_extra.iter().cloned());
     // Tool wear against a `Ks` rising with cutting time: with the removal rate nearly
     // constant the two are the same curve. Where the replay is exact and the rule is asked
     // for, wear that a drift in time fits as well (or better) is not named and the pair is

@@ -208,6 +208,8 @@ impl Selection {
             nominal_refit: base_fit.model.clone(),
             params_start: model.clone(),
             accepted: Vec::new(),
+            before: Vec::new(),
+            withheld_extra: Vec::new(),
             ambiguous: Vec::new(),
             ambiguous_models: Vec::new(),
             rounds: Vec::new(),
@@ -366,6 +368,12 @@ impl Selection {
             return false;
         }
         self.accepted.push(best);
+        self.before.push(SelectionState {
+            model: zero_base.clone(),
+            free: self.base_free.clone(),
+            params: self.base_params.clone(),
+            params_start: self.params_start.clone(),
+        });
         self.base_free.extend(effect_free(best));
         self.base_model = best_fit.model.clone();
         self.base_params = best_fit.params.clone();
