@@ -120,10 +120,10 @@ if want compare; then
 fi
 
 # ---------------------------------------------------------------- twin.txt
-# A fixed subset (20 cases, a few minutes on 2 threads): per channel (power, force) 2 null
+# A fixed subset (28 cases, a few minutes on 2 threads): per channel (power, force) 2 null
 # seeds plus three in-library effects (tool wear, Ks step, log delay) and one out-of-library
 # effect (depth scale), each at both of its amplitudes, one seed, on the first shipped
-# workpiece (steps_1_2_3).
+# workpiece (steps_1_2_3), and the two pairs with tool wear (the `tool_wear` prefix selects them).
 TWIN_ARGS=(--null-seeds 2 --lib-seeds 1 --oob-seeds 1 --wp-limit 1 --threads 2
     --only "tool_wear,Ks step,log delay,depth scale")
 if want twin; then
