@@ -530,7 +530,7 @@ pub fn from_records_with(
         override_cmd_pct: Some(carry(rows, |r| {
             r.override_cmd_pct.or(r.override_applied_pct).map(f64::from)
         })),
-        override_applied_pct: Some(carry(rows, |r| r.override_applied_pct.map(f64::from))),
+        override_applied_pct: Some(carry_back(rows, |r| r.override_applied_pct.map(f64::from))),
         feed_mm_min: carry(rows, |r| r.feed_true_mm_min.or(r.feed_mm_min)),
         force_n: has(&force).then(|| carry(rows, force)),
         power_w: has(&power).then(|| carry(rows, power)),
@@ -546,13 +546,14 @@ pub fn from_records_with(
 
 /// Board samples a row's power read moved on from the previous row's, from its flags
 /// (`seq_repeat`: 0, `seq_skip:<n>`: n, otherwise 1). A row whose status read failed
-/// (`link:<kind>`) read nothing: 0 (its power cell carries the last sample; the next
-/// good read's `seq_skip` counts the samples it missed).
+/// (`link:<kind>`) or that the ticker skipped (`skipped`: no cycle ran) read nothing: 0
+/// (its power cell carries the last sample; the next good read's `seq_skip` counts the
+/// samples since the last good read, the dead rows' included).
 fn sample_advance(flags: &str) -> u32 {
     flags
         .split(';')
         .find_map(|f| match f {
-            "seq_repeat" => Some(0),
+            "seq_repeat" | "skipped" => Some(0),
             _ if f.starts_with("link:") => Some(0),
             _ => f.strip_prefix("seq_skip:").and_then(|n| n.parse().ok()),
         })
@@ -574,6 +575,30 @@ fn carry(
             last
         })
         .collect()
+}
+
+/// Column `f` of the records; an empty cell takes the next row's value (the last known
+/// value after the last one). For the override the board applied: a row without a read
+/// (a failed read, a skipped period) does not know it, and through such a stretch the
+/// board ran on its register, which the next read finds; the value before the stretch is
+/// the one the register held before the last write.
+fn carry_back(
+    rows: &[acc_runtime::RunRecord],
+    f: impl Fn(&acc_runtime::RunRecord) -> Option<f64>,
+) -> Vec<f64> {
+    let mut v = carry(rows, &f);
+    let mut next: Option<f64> = None;
+    for (i, r) in rows.iter().enumerate().rev() {
+        match f(r) {
+            Some(x) => next = Some(x),
+            None => {
+                if let Some(x) = next {
+                    v[i] = x;
+                }
+            }
+        }
+    }
+    v
 }
 
 /// Read a run log from a CSV file; see the module docs for the columns.
@@ -737,6 +762,43 @@ pub fn read_csv_from_with(
 mod tests {
     use super::*;
 
+    /// A stall of `acc run` (found by `tests/e2e_twin_production.rs` on a loaded machine):
+    /// a failed read, two periods the ticker skipped, then a read two samples on. The
+    /// board ran two periods in the gap, on the register the next read finds; counting the
+    /// skipped periods as samples put the replayed tool two periods off for the rest of the
+    /// log (70 W at every later cut edge), and carrying the applied override forward ran
+    /// the gap on the one before the last write.
+    #[test]
+    fn a_stall_is_replayed_on_the_samples_the_board_took() {
+        let row = |t: f64, flags: &str, applied: Option<u16>| acc_runtime::RunRecord {
+            t_s: t,
+            flags: flags.into(),
+            spindle_rpm: Some(600.0),
+            feed_mm_min: Some(120.0),
+            radial_depth_mm: Some(4.0),
+            axial_depth_mm: Some(5.0),
+            power_w: applied.map(|_| 1150.0),
+            override_cmd_pct: Some(70),
+            override_applied_pct: applied,
+            ..acc_runtime::RunRecord::default()
+        };
+        let rows = [
+            row(7.9, "", Some(60)),
+            row(8.0, "", Some(60)),
+            row(8.1, "link:timeout;fault", None),
+            row(8.2, "skipped", None),
+            row(8.3, "skipped", None),
+            row(8.4, "seq_skip:2;late", Some(70)),
+            row(8.5, "", Some(70)),
+        ];
+        let log = from_records(&rows, Path::new("stall.csv")).expect("log");
+        assert_eq!(log.sample_advance, Some(vec![1, 1, 0, 0, 0, 2, 1]));
+        assert_eq!(
+            log.override_applied_pct,
+            Some(vec![60.0, 60.0, 70.0, 70.0, 70.0, 70.0, 70.0])
+        );
+    }
+
     #[test]
     fn sample_advance_is_read_from_the_flags() {
         assert_eq!(sample_advance(""), 1);
@@ -745,5 +807,7 @@ mod tests {
         assert_eq!(sample_advance("late;seq_skip:3;force_invalid"), 3);
         assert_eq!(sample_advance("seq_skip:x"), 1);
         assert_eq!(sample_advance("link:timeout;fault"), 0);
+        // A period the ticker skipped read nothing: the next read's `seq_skip` counts it.
+        assert_eq!(sample_advance("skipped"), 0);
     }
 }
