@@ -27,6 +27,16 @@ pub enum Channel {
     Force,
 }
 
+impl Channel {
+    /// The channel's unit: `W` or `N`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Channel::Power => "W",
+            Channel::Force => "N",
+        }
+    }
+}
+
 /// Where the replayed feed comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]

@@ -60,10 +60,7 @@ pub(super) fn sealed_gain(p: &Prepared, model: &Model, before: &Model, alpha: f6
 /// Test every name after the first in the order they were added; at the first that fails,
 /// withhold it and every later name and put `s` back to the state it was added to.
 pub(super) fn withhold_extra_names(s: &mut Selection, p: &Prepared, alpha: f64) {
-    let unit = match p.inp.channel {
-        Channel::Power => "W",
-        Channel::Force => "N",
-    };
+    let unit = p.inp.channel.unit();
     let named = s.named();
     for e in named.iter().skip(1) {
         let Some(i) = s.accepted.iter().position(|k| k.name() == e) else {

@@ -22,10 +22,7 @@ pub(super) fn assemble(
     opts: &Options,
 ) -> Analysis {
     let (inp, n, n_sel) = (&p.inp, p.n, p.n_sel);
-    let unit = match inp.channel {
-        Channel::Power => "W",
-        Channel::Force => "N",
-    };
+    let unit = inp.channel.unit();
     // An effect is named only when the model with it explains the log down to the noise:
     // structure left in the residual after its fit (a biased segment, a variance above the
     // noise, a residual still correlated with a signal) means the fit may be borrowing the
