@@ -179,7 +179,16 @@ fn discrepancy_with(channel: &str, extra: &[&str]) -> serde_json::Value {
 }
 
 /// The report names tool wear and the updated model at least halves the sealed-part RMS.
+/// Without `--x0-mm` the start was searched and kept: board-sim's first read sees the
+/// held machine at the workpiece's start, exactly where `--x0-mm` 0 puts it.
 fn assert_wear_found(report: &serde_json::Value, unit: &str) {
+    let start = &report["path_shift"];
+    println!("path start: {start}");
+    assert_eq!(start["adopted"], false, "{start}");
+    assert!(
+        start["shift_mm"].as_f64().is_some_and(|s| s.abs() < 0.05),
+        "{start}"
+    );
     let accepted = report["accepted"].as_array().expect("accepted list");
     assert!(
         accepted.iter().any(|e| e == "tool_wear"),

@@ -80,9 +80,11 @@ pub struct DiscrepancyArgs {
     /// the machine (the end of the first row's period), mm (-1e5..=1e5). 0 = the start of
     /// the workpiece's first segment, where the simulated machine waits for the controller
     /// (`acc board-sim --wait-for-controller`), whatever the programmed feed. The replay is
-    /// anchored there and the logged path `x_mm` is counted from it.
-    #[arg(long, default_value_t = acc_ident::engagement::DEFAULT_X0_MM, allow_negative_numbers = true)]
-    pub x0_mm: f64,
+    /// anchored there and the logged path `x_mm` is counted from it. Without it the start
+    /// is searched within ±3 mm of 0 from the log's entries and depth changes, and used
+    /// where it fits clearly better (report line "Path start"; docs/twin.md).
+    #[arg(long, allow_negative_numbers = true)]
+    pub x0_mm: Option<f64>,
     /// Judge the effects against the model's spindle as given: without it, on the power
     /// channel of a model without a motor curve, the spindle's no-load power, efficiency,
     /// copper loss and power window are first calibrated from the log's selection part
@@ -97,26 +99,29 @@ fn path_engagement(
     model: Option<&Model>,
 ) -> anyhow::Result<Option<PathEngagement>> {
     let Some(wp) = &args.workpiece else {
-        if args.x0_mm != acc_ident::engagement::DEFAULT_X0_MM {
-            bail!(
-                "--x0-mm {} needs --workpiece (the offset is along the workpiece)",
-                args.x0_mm
-            );
+        if let Some(x0) = args.x0_mm {
+            bail!("--x0-mm {x0} needs --workpiece (the offset is along the workpiece)");
         }
         return Ok(None);
     };
+    let x0_mm = args.x0_mm.unwrap_or(acc_ident::engagement::DEFAULT_X0_MM);
     if args.import.is_some() {
         bail!("--workpiece applies to run logs written by `acc`, not to --import");
     }
     let Some(model) = model else {
         bail!("--workpiece needs --model (the engagement uses the model's tool diameter)");
     };
-    let eng = PathEngagement::load(wp, model.tool.diameter_mm, args.x0_mm)?;
+    let eng = PathEngagement::load(wp, model.tool.diameter_mm, x0_mm)?;
     eprintln!(
-        "engagement: from `{}` ({}), tool centre at {:+} mm of the workpiece at `acc run`'s first read (a simulator's log places itself by x_true_mm), tool diameter {} mm (the log's own depth columns, if any, are not used)",
+        "engagement: from `{}` ({}), tool centre at {:+} mm of the workpiece at `acc run`'s first read{} (a simulator's log places itself by x_true_mm), tool diameter {} mm (the log's own depth columns, if any, are not used)",
         wp.display(),
         eng.workpiece.name,
-        args.x0_mm,
+        x0_mm,
+        if args.x0_mm.is_some() {
+            ""
+        } else {
+            ", the start searched from there"
+        },
         eng.tool_diameter_mm
     );
     if eng.has_material_changes() {
@@ -217,6 +222,7 @@ pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
     if let Some(eng) = path_engagement(args, Some(&model))? {
         opts.workpiece = Some((eng.workpiece, eng.x0_mm));
         opts.anchor_to_log = true;
+        opts.estimate_path_start = args.x0_mm.is_none();
     }
     let analysis = workflow::analyse(&model, &log, &opts)
         .with_context(|| format!("analysing {}", args.measured.display()))?;

@@ -4,7 +4,8 @@
 //! as `acc run` writes it (production columns, no plant truth), then analysed with the
 //! CLI's default options and with the configuration the twin's evaluation measures
 //! (`Options::evaluated`) against `configs/models/paper_vmc_production.toml` on both
-//! channels. Prints each analysis's CPU time (user + system of the process, from
+//! channels, the tool's start searched from the log as `acc discrepancy` does without
+//! `--x0-mm`. Prints each analysis's CPU time (user + system of the process, from
 //! `/proc/self/stat`: the figure that holds on a shared machine) and wall time, the best of
 //! `--repeat` runs (default 1). With `--out DIR` it writes each channel's report
 //! (`DIR/default-force.md`, `DIR/default-force.json`, … `DIR/evaluated-power.json`) so that two builds'
@@ -17,6 +18,7 @@ use std::time::Instant;
 use acc_ident::engagement::PathEngagement;
 use acc_ident::model::Channel;
 use acc_ident::{runlog, workflow, Model};
+use acc_sim::scenario::MeasurementSpec;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -65,19 +67,38 @@ fn main() {
         let opts = workflow::Options {
             workpiece: Some((eng.workpiece.clone(), eng.x0_mm)),
             anchor_to_log: true,
+            // As `acc discrepancy` without `--x0-mm`: the simulator's first read comes
+            // after its first period, not where `--x0-mm` 0 (board-sim's held machine)
+            // puts the tool, so the start is searched.
+            estimate_path_start: true,
             ..base
         };
         for ch in [Channel::Force, Channel::Power] {
             let mut model = model0.clone();
             model.measurement.channel = ch;
+            // The log's `force_n` is the scenario's dynamometer (`acc sim` measures
+            // `hidden_wear.toml` with one, averaging the last 0.05 s of each period), not
+            // the whole-period estimate from spindle power that `acc run` logs and the
+            // production model describes.
+            if let (Channel::Force, MeasurementSpec::Dynamometer { window_s, .. }) =
+                (ch, &sc.measurement)
+            {
+                model.measurement.force_window_s = *window_s;
+            }
             let (mut best, mut best_cpu) = (f64::INFINITY, f64::INFINITY);
             let mut named = Vec::new();
+            let mut start = String::new();
             for _ in 0..repeat.max(1) {
                 let (t, c) = (Instant::now(), cpu_s());
                 let a = workflow::analyse(&model, &log, &opts).expect("analysed");
                 best = best.min(t.elapsed().as_secs_f64());
                 best_cpu = best_cpu.min(cpu_s() - c);
                 named = a.report.accepted.clone();
+                start = a
+                    .report
+                    .path_shift
+                    .as_ref()
+                    .map_or(String::new(), |p| p.text());
                 if let Some(o) = &out {
                     let stem = format!("{name}-{ch:?}").to_lowercase();
                     std::fs::write(o.join(format!("{stem}.md")), a.report.to_markdown())
@@ -90,7 +111,7 @@ fn main() {
                 }
             }
             println!(
-                "{name} {ch:?}: {best_cpu:.2} s CPU, {best:.2} s wall (best of {repeat}); named {named:?}"
+                "{name} {ch:?}: {best_cpu:.2} s CPU, {best:.2} s wall (best of {repeat}); named {named:?}\n  {start}"
             );
         }
     }

@@ -348,6 +348,57 @@ impl SpindleCalibration {
     }
 }
 
+/// Where the replay's tool started against the start the log was given (`acc discrepancy
+/// --workpiece` without `--x0-mm`; `acc_ident::workflow`'s path-start estimate, report
+/// line "Path start").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PathShift {
+    /// The replay's start as given: the workpiece coordinate of the tool centre when the
+    /// log's first period began, mm.
+    pub given_start_mm: f64,
+    /// The estimate's distance from it along the path, mm (positive: the tool was farther
+    /// along than given).
+    pub shift_mm: f64,
+    /// Sum of squares of the high-passed residual (first differences between valid rows)
+    /// at the given start, unit².
+    pub sse_given: f64,
+    /// The same at the estimate, unit².
+    pub sse_estimated: f64,
+    /// Rows (from the log's beginning) the estimate was made on.
+    pub rows: usize,
+    /// The analysis used the estimate (it cut the sum of squares enough and is not at the
+    /// search's bound).
+    pub adopted: bool,
+    /// The best start lies at the search's bound: the given start may be farther off than
+    /// the search reaches.
+    pub at_bound: bool,
+}
+
+impl PathShift {
+    /// The report line.
+    pub fn text(&self) -> String {
+        let ratio = if self.sse_given > 0.0 {
+            self.sse_estimated / self.sse_given
+        } else {
+            1.0
+        };
+        let verdict = if self.adopted {
+            "used"
+        } else if self.at_bound {
+            "not used: it lies at the search's bound, so the given start (`--x0-mm`) may be farther off than the search reaches; check it"
+        } else {
+            "not used: the given start fits as well"
+        };
+        format!(
+            "Path start: the tool's start along the workpiece, estimated from the log's first {} rows, is {:+.3} mm from the given one ({:.3} mm), which leaves {:.3}× the high-passed residual's sum of squares; {verdict}.",
+            self.rows,
+            self.shift_mm,
+            self.given_start_mm,
+            ratio
+        )
+    }
+}
+
 /// The whole report.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -359,6 +410,10 @@ pub struct Report {
     /// model without a motor curve); the effects are judged against it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spindle_calibration: Option<SpindleCalibration>,
+    /// The replay's start along the workpiece estimated from the log (a production log
+    /// analysed on a workpiece without `--x0-mm`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub path_shift: Option<PathShift>,
     /// Noise of the channel (differenced air and steady-cut stretches, AR(1)).
     pub noise: Noise,
     /// Locate step.
@@ -432,6 +487,9 @@ impl Report {
             "Noise (differenced air and steady-cut stretches, AR(1)): σ = {:.4} {u}, AR(1) ρ = {:.3}, {} samples.\n",
             self.noise.sigma, self.noise.rho, self.noise.samples
         );
+        if let Some(p) = &self.path_shift {
+            let _ = writeln!(s, "{}\n", p.text());
+        }
         if let Some(c) = &self.spindle_calibration {
             c.write_markdown(&mut s);
         }

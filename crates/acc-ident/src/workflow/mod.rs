@@ -8,6 +8,7 @@
 mod checks;
 mod explain;
 mod extra;
+pub mod path_shift;
 mod report;
 mod rows;
 mod selection;
@@ -16,6 +17,7 @@ mod spindle;
 use checks::*;
 use explain::*;
 use extra::*;
+pub use path_shift::estimate_path_shift;
 use report::*;
 use rows::*;
 pub use selection::WEAR_SIZE;
@@ -80,6 +82,13 @@ pub struct Options {
     /// production log read with `--x0-mm`, a period of feed before it; for a simulator's
     /// log its true start) instead of at the given position. Default off.
     pub anchor_to_log: bool,
+    /// With `workpiece`: estimate where the replayed tool started from the log's entries
+    /// and depth changes (the [`estimate_path_shift`] search around the start given above)
+    /// and analyse the log moved there when the estimate fits clearly better
+    /// ([`crate::report::Report::path_shift`] says what was found and whether it was
+    /// used). For a production log whose `--x0-mm` is not known to a tenth of a
+    /// millimetre. Default off.
+    pub estimate_path_start: bool,
     /// Withhold a name when structure remains in the residual after its fit (a biased
     /// segment, variance above [`STRUCTURE_VARIANCE_RATIO`] × the noise's, a residual still
     /// following a signal), when the updated model leaves a biased stretch in the sealed
@@ -113,6 +122,7 @@ impl Default for Options {
             candidates: EffectKind::DEFAULT.to_vec(),
             workpiece: None,
             anchor_to_log: false,
+            estimate_path_start: false,
             withhold_on_structure: None,
             calibrate_spindle: true,
         }
@@ -121,8 +131,8 @@ impl Default for Options {
 
 impl Options {
     /// The configuration the twin's evaluation measures (docs/twin.md: its false
-    /// discoveries, recovery and coverage) and `acc discrepancy` runs by default: the whole
-    /// library ([`EffectKind::ALL`]), a name below the effect-to-noise floor 1 only as the
+    /// discoveries, recovery and coverage; `acc discrepancy --effects all --min-enr 1
+    /// --strict`): the whole library ([`EffectKind::ALL`]), a name below the effect-to-noise floor 1 only as the
     /// only fit and the first, and the strict rules where the replay is exact.
     pub fn evaluated() -> Self {
         Options {
@@ -324,6 +334,19 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         );
         return Ok(an);
     }
+    // Where the tool started, when the log's start is not known to a tenth of a mm.
+    let start_shift = match (&opts.workpiece, opts.estimate_path_start) {
+        (Some(_), true) => estimate_path_shift(model, log, opts)?,
+        _ => None,
+    };
+    let moved;
+    let log = match (&start_shift, &opts.workpiece) {
+        (Some(s), Some((wp, _))) if s.adopted => {
+            moved = path_shift::shifted(log, s.shift_mm, wp, 0.5 * model.tool.diameter_mm);
+            &moved
+        }
+        _ => log,
+    };
     let mut p = Prepared::new(model, log, opts)?;
     // The spindle calibrated from the selection part before effects are judged.
     let calibrated = opts
@@ -372,6 +395,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let mut a = assemble(model, p, s, upd_replay, unexplained, sealed, opts);
     a.report.warnings.append(&mut warnings);
     a.report.spindle_calibration = spindle_calibration;
+    a.report.path_shift = start_shift;
     Ok(a)
 }
 

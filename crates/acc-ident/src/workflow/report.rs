@@ -289,6 +289,7 @@ pub(super) fn assemble(
             excluded_rows: p.excluded.report(),
         },
         spindle_calibration: None,
+        path_shift: None,
         noise: p.noise0,
         locate: p.locate,
         rounds: s.rounds,
