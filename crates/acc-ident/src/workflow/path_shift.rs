@@ -10,9 +10,10 @@
 //!
 //! When the start is not given ([`super::Options::estimate_path_start`]), the replay's
 //! start is searched along the path: on the log's first part ([`SHARE`] of it, at least
-//! [`MIN_ROWS`] rows), for each trial start the nominal model's nuisance parameters are
-//! refitted and the residual is high-passed (first differences between consecutive valid
-//! rows). A slow discrepancy (tool wear, a drift) hardly moves the differences; a
+//! [`MIN_ROWS`] rows), for each trial start the model as given is replayed once and the
+//! residual is high-passed — first differences between consecutive valid rows, the
+//! replay's scaled by the factor that fits the measured ones best (`Ks`; a constant level
+//! drops out). A slow discrepancy (tool wear, a drift) hardly moves the differences; a
 //! misplaced edge does. The sum of their squares is minimised over a grid of
 //! [`GRID_STEP_MM`] across ±[`SEARCH_MM`], then by golden-section search inside the best
 //! grid cell to [`TOLERANCE_MM`]. The estimate is adopted only when it cuts that sum to at
@@ -75,16 +76,25 @@ pub fn estimate_path_shift(
         return Ok(None);
     }
     let mut inp = Inputs::from_log(&head, model)?;
-    let nuis = nuisance(&inp, opts.fit_speed_exponent);
+    // One replay per trial start, its differences scaled by the factor that fits the
+    // measured ones best (`Ks`; a constant level such as the no-load power drops out of a
+    // difference): Σ(Δm − k·Δp)² at its least, Σ Δm² − (Σ Δm·Δp)² / Σ Δp².
     let mut sse = |shift: f64| -> f64 {
         inp.use_workpiece(wp.clone(), start + shift);
-        let f = fit::fit(model, &nuis, &[], &inp, &rows);
-        let p = replay(&f.model, &inp).predicted;
-        let r = |i: usize| inp.measured[i] - p[i];
-        (1..n)
-            .filter(|&i| valid[i] && valid[i - 1])
-            .map(|i| (r(i) - r(i - 1)).powi(2))
-            .sum()
+        let p = replay(model, &inp).predicted;
+        let (mut mm, mut mp, mut pp) = (0.0, 0.0, 0.0);
+        for i in (1..n).filter(|&i| valid[i] && valid[i - 1]) {
+            let dm = inp.measured[i] - inp.measured[i - 1];
+            let dp = p[i] - p[i - 1];
+            mm += dm * dm;
+            mp += dm * dp;
+            pp += dp * dp;
+        }
+        if pp > 0.0 {
+            mm - mp * mp / pp
+        } else {
+            mm
+        }
     };
     let sse_given = sse(0.0);
     let k = (SEARCH_MM / GRID_STEP_MM).round() as i32;
