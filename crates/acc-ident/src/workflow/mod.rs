@@ -151,12 +151,7 @@ pub const EVALUATED_MIN_ENR: f64 = 1.0;
 /// (anchored to the log's first path position under `opts.anchor_to_log`).
 fn inputs(model: &Model, log: &RunLog, opts: &Options) -> Result<Inputs, WorkflowError> {
     let mut inp = Inputs::from_log(log, model)?;
-    if let Some((wp, x0)) = &opts.workpiece {
-        let start = if opts.anchor_to_log {
-            log.path_start_mm().unwrap_or(*x0)
-        } else {
-            *x0
-        };
+    if let (Some((wp, _)), Some(start)) = (&opts.workpiece, path_shift::given_start_mm(log, opts)) {
         inp.use_workpiece(wp.clone(), start);
     }
     Ok(inp)
