@@ -13,6 +13,8 @@
 //! | [`pi`] | PI law (eq. 4) with anti-windup against the clamped output and bumpless start |
 //! | [`override_spec`] | [`FeedOverride`], board step (10 % or 1 %) and range 0 … 150 % |
 //! | [`stability`] | companion-matrix poles (nalgebra), Jury test, stable Kc ranges and margins |
+//! | [`delay`] | delay margin: Schur–Cohn test of the PI loop with extra dead time, its poles |
+//! | [`roots`] | roots of a real polynomial (Aberth–Ehrlich; always ends) |
 //! | [`source`] | the [`ForceSource`] measurement-channel trait |
 //! | [`spindle_force`] | the force from spindle power (or current) per period: block power, no-load model, estimators, [`spindle_force::SpindleSource`] |
 //! | [`filter`] | [`filter::FirstOrderLag`]: the one first-order lag (exact ZOH discretisation) |
@@ -57,6 +59,7 @@ pub mod filter;
 pub mod override_spec;
 pub mod pi;
 pub mod poles;
+pub mod roots;
 pub mod source;
 pub mod spindle_force;
 pub mod stability;
