@@ -105,6 +105,9 @@ fn prepare(
         .collect()
 }
 
+/// Most QR sweeps the least-squares SVD may take; a handful of columns converge in tens.
+const SVD_MAX_ITERATIONS: usize = 10_000;
+
 /// Least squares `A·x ≈ b` for the columns given per row; needs more rows than columns
 /// and a well-conditioned `A`.
 pub(crate) fn least_squares<const K: usize>(
@@ -117,9 +120,26 @@ pub(crate) fn least_squares<const K: usize>(
             reason: format!("{} points, need at least {K}", rows.len()),
         });
     }
+    if let Some(i) = rows
+        .iter()
+        .position(|(x, y)| !y.is_finite() || x.iter().any(|v| !v.is_finite()))
+    {
+        return Err(SpindleError::Fit {
+            method,
+            reason: format!("point {} is not a finite number", i + 1),
+        });
+    }
     let a = DMatrix::from_fn(rows.len(), K, |i, j| rows[i].0[j]);
     let b = DVector::from_fn(rows.len(), |i, _| rows[i].1);
-    let svd = a.svd(true, true);
+    // A bounded iteration: nalgebra's `svd()` sets no limit and can loop for ever on
+    // pathological matrices (the delay module's companion-matrix QR did, acc-core roots.rs).
+    let svd = nalgebra::SVD::try_new(a, true, true, 5.0 * f64::EPSILON, SVD_MAX_ITERATIONS)
+        .ok_or_else(|| SpindleError::Fit {
+            method,
+            reason: format!(
+                "the least-squares SVD did not converge in {SVD_MAX_ITERATIONS} iterations"
+            ),
+        })?;
     let (smax, smin) = svd
         .singular_values
         .iter()
@@ -413,6 +433,15 @@ mod tests {
             })
             .collect();
         (pts, nl)
+    }
+
+    #[test]
+    fn a_non_finite_point_is_refused_by_number_not_iterated_on() {
+        let rows = [([1.0, 0.0], 1.0), ([0.0, 1.0], 2.0), ([1.0, f64::NAN], 3.0)];
+        let e = least_squares(&rows, "test").unwrap_err().to_string();
+        assert!(e.contains("point 3 is not a finite number"), "{e}");
+        let x = least_squares(&rows[..2], "test").unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-12 && (x[1] - 2.0).abs() < 1e-12);
     }
 
     #[test]
