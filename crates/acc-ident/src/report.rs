@@ -515,9 +515,17 @@ impl Report {
         let _ = writeln!(s, "## Where the nominal model disagrees\n");
         let _ = writeln!(
             s,
-            "| regime | from (s) | to (s) | rows | bias ({u}) | z | flagged |"
+            "A stretch is flagged when its bias is significant (Bonferroni over the stretches) and larger than its practical floor: the channel's rounding, or {:.1} % of the stretch's level.\n",
+            100.0 * crate::workflow::PRACTICAL_BIAS_SHARE
         );
-        let _ = writeln!(s, "| --- | ---: | ---: | ---: | ---: | ---: | :---: |");
+        let _ = writeln!(
+            s,
+            "| regime | from (s) | to (s) | rows | bias ({u}) | z | floor ({u}) | flagged |"
+        );
+        let _ = writeln!(
+            s,
+            "| --- | ---: | ---: | ---: | ---: | ---: | ---: | :---: |"
+        );
         for b in self
             .locate
             .segments
@@ -527,13 +535,14 @@ impl Report {
         {
             let _ = writeln!(
                 s,
-                "| {} | {:.1} | {:.1} | {} | {:.3} | {:.1} | yes |",
+                "| {} | {:.1} | {:.1} | {} | {:.3} | {:.1} | {:.3} | yes |",
                 b.regime.name(),
                 b.t_start_s,
                 b.t_end_s,
                 b.samples,
                 b.bias,
-                b.z
+                b.z,
+                b.floor
             );
         }
         let _ = writeln!(s, "\n| signal | r | p | significant |");
@@ -646,12 +655,13 @@ impl Report {
             for b in &un.segments {
                 let _ = writeln!(
                     s,
-                    "- {} {:.1}–{:.1} s: bias {:.3} {u} (z = {:.1})",
+                    "- {} {:.1}–{:.1} s: bias {:.3} {u} (z = {:.1}, floor {:.3} {u})",
                     b.regime.name(),
                     b.t_start_s,
                     b.t_end_s,
                     b.bias,
-                    b.z
+                    b.z,
+                    b.floor
                 );
             }
             for c in un.correlations.iter().filter(|c| c.significant) {

@@ -40,6 +40,18 @@ pub(super) fn noise_raw(residual: &[f64], segs: &[Segment], rows: &[usize]) -> N
     stats::pooled_noise_diff(&chunks)
 }
 
+/// The practical floor of the segment-bias tests ([`PracticalSize`]): the rounding's bias
+/// for a channel quantised to `q_floor·√12` whose noise before rounding is what the raw
+/// noise `raw_sigma` leaves after the rounding's own `q_floor`, and
+/// [`PRACTICAL_BIAS_SHARE`] of each segment's level.
+pub(super) fn practical_size(q_floor: f64, raw_sigma: f64) -> PracticalSize {
+    let before_rounding = (raw_sigma.powi(2) - q_floor.powi(2)).max(0.0).sqrt();
+    PracticalSize {
+        rounding: rounding_bias(q_floor * 12f64.sqrt(), before_rounding),
+        share: PRACTICAL_BIAS_SHARE,
+    }
+}
+
 pub(super) fn signals(inp: &Inputs, nominal: &crate::replay::Replay) -> Vec<(String, Vec<f64>)> {
     let n = inp.len();
     let cmd = inp.feed_cmd_mm_min.as_ref().unwrap_or(&inp.feed_mm_min);
@@ -102,6 +114,7 @@ pub(super) fn metrics(
     segs: &[Segment],
     noise: Noise,
     min_len: usize,
+    practical: PracticalSize,
 ) -> Metrics {
     let y = pick(&inp.measured, rows);
     let e: Vec<f64> = rows.iter().map(|&i| inp.measured[i] - pred[i]).collect();
@@ -126,7 +139,15 @@ pub(super) fn metrics(
             0.0
         },
         bias: mean(&e),
-        segments: segment_biases(&full, &clipped, &inp.t_s, noise, min_len),
+        segments: segment_biases(
+            &full,
+            &inp.measured,
+            &clipped,
+            &inp.t_s,
+            noise,
+            min_len,
+            practical,
+        ),
     }
 }
 
@@ -196,11 +217,20 @@ impl Prepared {
         let q_floor = crate::stats::quantization_sigma(&inp.measured);
         let raw_sigma = noise_raw(&r0_full, &sel_segs, &sel).sigma;
         let noise0 = noise_of(&r0_full, &sel_segs, &sel, q_floor);
+        let practical = practical_size(q_floor, raw_sigma);
         let sigs = signals(&inp, &nominal_replay);
         inp.prior = Some(crate::fit::Prior::around(model, noise0.sigma.max(1e-9)));
         let locate = Locate {
             residual_rms: stats::rms(&pick(&r0_full, &sel)),
-            segments: segment_biases(&r0_full, &sel_segs, &inp.t_s, noise0, min_len),
+            segments: segment_biases(
+                &r0_full,
+                &inp.measured,
+                &sel_segs,
+                &inp.t_s,
+                noise0,
+                min_len,
+                practical,
+            ),
             correlations: correlate(&pick(&r0_full, &sel), &sigs, &sel, opts.alpha),
         };
         let force_vs_power = inp.force_from_power.as_ref().and_then(|(est, floor)| {
@@ -227,6 +257,7 @@ impl Prepared {
             nominal_replay,
             q_floor,
             raw_sigma,
+            practical,
             noise0,
             sigs,
             locate,
@@ -268,17 +299,20 @@ pub(super) fn sealed_check(
     noise_f: Noise,
 ) -> Sealed {
     let (inp, sealed_rows) = (&p.inp, &p.sealed_rows);
-    let m_nom = metrics(
-        inp,
-        &p.nominal_replay.predicted,
-        sealed_rows,
-        &p.segs,
-        noise_f,
-        p.min_len,
-    );
-    let refit_pred = replay(nominal_refit, inp).predicted;
-    let m_ref = metrics(inp, &refit_pred, sealed_rows, &p.segs, noise_f, p.min_len);
-    let m_upd = metrics(inp, updated, sealed_rows, &p.segs, noise_f, p.min_len);
+    let on_sealed = |pred: &[f64]| {
+        metrics(
+            inp,
+            pred,
+            sealed_rows,
+            &p.segs,
+            noise_f,
+            p.min_len,
+            p.practical,
+        )
+    };
+    let m_nom = on_sealed(&p.nominal_replay.predicted);
+    let m_ref = on_sealed(&replay(nominal_refit, inp).predicted);
+    let m_upd = on_sealed(updated);
     let red = |a: f64, b: f64| if a > 0.0 { 100.0 * (a - b) / a } else { 0.0 };
     Sealed {
         from_s: inp.t_s[sealed_rows[0]],
@@ -399,10 +433,18 @@ impl ResidualCheck<'_> {
             .collect();
         let noise = noise_of(&rf, self.segs, self.sel, self.q_floor);
         let on_sel = pick(&rf, self.sel);
-        let flagged: Vec<_> = segment_biases(&rf, self.segs, &self.inp.t_s, noise, self.min_len)
-            .into_iter()
-            .filter(|b| b.significant)
-            .collect();
+        let flagged: Vec<_> = segment_biases(
+            &rf,
+            &self.inp.measured,
+            self.segs,
+            &self.inp.t_s,
+            noise,
+            self.min_len,
+            self.practical,
+        )
+        .into_iter()
+        .filter(|b| b.significant)
+        .collect();
         let var_ratio = if noise.sigma > 0.0 {
             (stats::rms(&on_sel) / noise.sigma).powi(2)
         } else {

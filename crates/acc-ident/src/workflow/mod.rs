@@ -32,7 +32,7 @@ use crate::report::{
     SignalCorrelation, Unexplained, Withheld, SCHEMA_VERSION,
 };
 use crate::runlog::RunLog;
-use crate::segment::{label_rows, segment_biases, segments, Segment};
+use crate::segment::{label_rows, rounding_bias, segment_biases, segments, PracticalSize, Segment};
 use crate::stats::{self, correlation, lag1, mean, n_eff, normal_quantile, Noise};
 
 use acc_core::RangeError;
@@ -373,6 +373,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         inp: &p.inp,
         segs: &p.sel_segs,
         q_floor: p.q_floor,
+        practical: p.practical,
         min_len: p.min_len,
         alpha: opts.alpha,
         sigs: &p.sigs,
@@ -450,6 +451,8 @@ struct Prepared {
     /// The noise σ measured from the data before the quantization floor; below
     /// `q_floor` the log's rounding, not its noise, sets the residual.
     raw_sigma: f64,
+    /// The practical floor of every segment-bias test on this log.
+    practical: PracticalSize,
     /// Noise of the nominal residual over the selection part.
     noise0: Noise,
     /// Candidate signals the residual is correlated with.
@@ -574,11 +577,18 @@ struct ResidualCheck<'a> {
     inp: &'a Inputs,
     segs: &'a [Segment],
     q_floor: f64,
+    practical: PracticalSize,
     min_len: usize,
     alpha: f64,
     sigs: &'a [(String, Vec<f64>)],
     sel: &'a [usize],
 }
+
+/// Share of a segment's level below which its bias is not of practical size, −: a fifth of
+/// what the finest override step (1 %) moves the force by. A model that is off by less
+/// changes no decision of the loop or of a plan, however significant the bias is on a long
+/// log ([`PracticalSize`]).
+pub const PRACTICAL_BIAS_SHARE: f64 = 0.002;
 
 /// Residual variance over the noise's above which structure remains, −.
 pub const STRUCTURE_VARIANCE_RATIO: f64 = 2.0;
