@@ -152,6 +152,12 @@ pub(super) fn metrics(
 }
 
 impl Prepared {
+    /// The practical floor of every segment-bias test on this log ([`practical_size`] of
+    /// its rounding and raw noise).
+    pub(super) fn practical(&self) -> PracticalSize {
+        practical_size(self.q_floor, self.raw_sigma)
+    }
+
     /// Split the log (selection / sealed, folds) and locate the nominal discrepancy.
     pub(super) fn new(model: &Model, log: &RunLog, opts: &Options) -> Result<Self, WorkflowError> {
         let mut inp = inputs(model, log, opts)?;
@@ -257,7 +263,6 @@ impl Prepared {
             nominal_replay,
             q_floor,
             raw_sigma,
-            practical,
             noise0,
             sigs,
             locate,
@@ -307,7 +312,7 @@ pub(super) fn sealed_check(
             &p.segs,
             noise_f,
             p.min_len,
-            p.practical,
+            p.practical(),
         )
     };
     let m_nom = on_sealed(&p.nominal_replay.predicted);

@@ -373,7 +373,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         inp: &p.inp,
         segs: &p.sel_segs,
         q_floor: p.q_floor,
-        practical: p.practical,
+        practical: p.practical(),
         min_len: p.min_len,
         alpha: opts.alpha,
         sigs: &p.sigs,
@@ -451,8 +451,6 @@ struct Prepared {
     /// The noise σ measured from the data before the quantization floor; below
     /// `q_floor` the log's rounding, not its noise, sets the residual.
     raw_sigma: f64,
-    /// The practical floor of every segment-bias test on this log.
-    practical: PracticalSize,
     /// Noise of the nominal residual over the selection part.
     noise0: Noise,
     /// Candidate signals the residual is correlated with.
