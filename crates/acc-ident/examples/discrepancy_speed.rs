@@ -9,9 +9,10 @@
 //! `/proc/self/stat`: the figure that holds on a shared machine) and wall time, the best of
 //! `--repeat` runs (default 1). With `--out DIR` it writes each channel's report
 //! (`DIR/default-force.md`, `DIR/default-force.json`, … `DIR/evaluated-power.json`) so that two builds'
-//! figures can be compared.
+//! figures can be compared. `--only evaluated-power` (or `default-force`, …) runs one of the
+//! four analyses.
 //!
-//! cargo run --release -p acc-ident --example discrepancy_speed -- [--repeat N] [--out DIR]
+//! cargo run --release -p acc-ident --example discrepancy_speed -- [--repeat N] [--out DIR] [--only NAME]
 use std::path::Path;
 use std::time::Instant;
 
@@ -33,6 +34,11 @@ fn main() {
         .position(|a| a == "--out")
         .and_then(|i| args.get(i + 1))
         .map(Into::into);
+    let only: Option<String> = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|i| args.get(i + 1))
+        .cloned();
     if let Some(o) = &out {
         std::fs::create_dir_all(o).expect("--out directory");
     }
@@ -74,6 +80,10 @@ fn main() {
             ..base
         };
         for ch in [Channel::Force, Channel::Power] {
+            let stem = format!("{name}-{ch:?}").to_lowercase();
+            if only.as_ref().is_some_and(|o| *o != stem) {
+                continue;
+            }
             let mut model = model0.clone();
             model.measurement.channel = ch;
             // The log's `force_n` is the scenario's dynamometer (`acc sim` measures
@@ -100,7 +110,6 @@ fn main() {
                     .as_ref()
                     .map_or(String::new(), |p| p.text());
                 if let Some(o) = &out {
-                    let stem = format!("{name}-{ch:?}").to_lowercase();
                     std::fs::write(o.join(format!("{stem}.md")), a.report.to_markdown())
                         .expect("write the report");
                     std::fs::write(

@@ -393,6 +393,13 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 }
 
+/// Relative change of the sum of squares and of the parameters at which a fit stops
+/// (Levenberg–Marquardt's `ftol` and `xtol`; MINPACK's default is 1.49e−8). The naming
+/// compares sums of squares whose differences matter at about 1/n of them (2e−4 on a
+/// 10-minute log), so the fit is converged well below that; the crate's own default
+/// (30 ε) keeps a slow fit iterating to its patience.
+const LM_TOLERANCE: f64 = 1e-8;
+
 fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) -> Vec<f64> {
     if free.is_empty() {
         return Vec::new();
@@ -402,6 +409,8 @@ fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) 
     problem.clamp(&mut theta);
     let problem = Problem::new(base, free, inp, rows, theta);
     let (solved, _report) = LevenbergMarquardt::new()
+        .with_ftol(LM_TOLERANCE)
+        .with_xtol(LM_TOLERANCE)
         .with_patience(30)
         .minimize(problem);
     let theta: Vec<f64> = solved.theta.iter().copied().collect();
@@ -420,6 +429,8 @@ fn lm(base: &Model, free: &[Free], start: &[f64], inp: &Inputs, rows: &[usize]) 
         .collect();
     let problem = Problem::new(solved.base, free, inp, rows, restart);
     let (again, _) = LevenbergMarquardt::new()
+        .with_ftol(LM_TOLERANCE)
+        .with_xtol(LM_TOLERANCE)
         .with_patience(30)
         .minimize(problem);
     let theta2: Vec<f64> = again.theta.iter().copied().collect();

@@ -119,6 +119,49 @@ impl EngagementSource for Workpiece {
     }
 }
 
+/// A workpiece as the plant's engagement source: [`Workpiece::engagement`], with the span
+/// of positions over which the last one holds unchanged (inside one constant-depth
+/// segment, or in the air before or after the workpiece), so that a tool moving through
+/// that span gets it back without the geometry. The result is the workpiece's own.
+#[derive(Debug, Clone)]
+pub struct WorkpieceSource {
+    workpiece: Workpiece,
+    /// `[lo, hi)` of tool-centre positions, mm, the radius it holds for, mm, and the
+    /// engagement there.
+    span: Option<(f64, f64, f64, Engagement)>,
+}
+
+impl WorkpieceSource {
+    /// The source of `workpiece`.
+    pub fn new(workpiece: Workpiece) -> Self {
+        Self {
+            workpiece,
+            span: None,
+        }
+    }
+}
+
+impl EngagementSource for WorkpieceSource {
+    fn engagement_at(&mut self, tool: &ToolGeometry, x_mm: f64) -> Engagement {
+        let r = tool.radius_mm();
+        if let Some((lo, hi, held_r, e)) = self.span {
+            if held_r == r && x_mm >= lo && x_mm < hi {
+                return e;
+            }
+        }
+        let e = self.workpiece.engagement(x_mm, r);
+        self.span = self
+            .workpiece
+            .uniform_span(x_mm, r)
+            .map(|(lo, hi, _, _)| (lo, hi, r, e));
+        e
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(self.clone()))
+    }
+}
+
 /// One engagement wherever the tool is (a replayed log row's depths, `Ks` factor as given).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Held(pub Engagement);

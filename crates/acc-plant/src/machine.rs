@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use acc_core::filter::FirstOrderLag;
 
 use crate::config::{MachineSpec, Runout, SensorLowpass, SpindleSpec, ToolSpec};
-use crate::engagement::{EngagementSource, ToolGeometry};
+use crate::engagement::{EngagementSource, ToolGeometry, WorkpieceSource};
 use crate::process::{ForceLaw, ForceMemo, ToothModel, Wear, WearSpec};
 use crate::workpiece::Workpiece;
 
@@ -235,7 +235,8 @@ impl Machine {
             )
         });
         let delay_steps = (machine.override_path.delay_s * rate_hz).round() as usize;
-        let engagement: Box<dyn EngagementSource> = Box::new(workpiece.clone());
+        let engagement: Box<dyn EngagementSource> =
+            Box::new(WorkpieceSource::new(workpiece.clone()));
         Machine {
             law: ForceLaw::new(tool.process),
             wear: Wear::new(wear),
@@ -361,7 +362,8 @@ impl Machine {
     /// workpiece. A logged profile for the what-if ([`crate::whatif`]), a log row's held
     /// depths for the replay ([`crate::replay`]).
     pub fn set_engagement_source(&mut self, source: Option<Box<dyn EngagementSource>>) {
-        self.engagement = source.unwrap_or_else(|| Box::new(self.workpiece.clone()));
+        self.engagement =
+            source.unwrap_or_else(|| Box::new(WorkpieceSource::new(self.workpiece.clone())));
     }
 
     /// Move the tool centre to path position `x_mm` (a replay starting part-way along the

@@ -5,16 +5,19 @@
 //! scales its unit-force trace by the model's `Ks`, wear, runout and candidate effects;
 //! the override path, feed drive, engagement and force law are the simulator's.
 //!
-//! Files: [`inputs`] (the logged columns the plant runs on), [`consistency`] (force
+//! Files: [`inputs`] (the logged columns the plant runs on), [`path`] (the plant's trace
+//! under a model, shared between models), [`consistency`] (force
 //! against power), [`ks_step`] (the material-step candidate).
 
 mod consistency;
 mod inputs;
 mod ks_step;
+mod path;
 
 pub use consistency::ForcePowerConsistency;
 pub use inputs::{FeedSource, Inputs, PlantInputs, ReplayError};
 use ks_step::*;
+use path::{path, PathCache};
 
 use crate::effects::EffectKind;
 use crate::model::{Channel, FeedInput, Model};
@@ -44,155 +47,12 @@ pub struct Replay {
     pub ks_step_boundary_mm: Option<f64>,
 }
 
-/// What does not change while only loads, losses and the sensor are fitted: the plant's
-/// feed path and its force per unit calibration force (`Ks·a_p·d^α·f^β·s^γ /
-/// calib_force_n`).
-#[derive(Debug, Clone, PartialEq)]
-struct PathKey {
-    delay_s: f64,
-    tau_s: f64,
-    /// Second lag of the feed drive, s (0: first-order drive).
-    tau2_s: f64,
-    window_s: f64,
-    process: [f64; 8],
-}
-
-/// The simulator's plant trace of one [`PathKey`].
-#[derive(Debug, Clone)]
-struct PathCache {
-    key: PathKey,
-    plant: Vec<acc_sim::replay::PeriodTrace>,
-}
-
 /// The window the compared channel averages at the end of each period, s.
 fn channel_window_s(model: &Model, inp: &Inputs) -> f64 {
     match inp.channel {
         Channel::Force => model.measurement.force_window_s,
         Channel::Power => model.measurement.power_window_s,
     }
-}
-
-/// Replay the simulator's plant for the path key (see [`acc_sim::replay::trace`]).
-fn plant_trace(
-    model: &Model,
-    inp: &Inputs,
-    plant: &PlantInputs,
-    key: &PathKey,
-) -> Vec<acc_sim::replay::PeriodTrace> {
-    let mut machine = model.machine.clone();
-    // The recorded feed is the feed: no override path, no drive lag.
-    let instant = plant.source == FeedSource::Recorded;
-    machine.override_path.delay_s = if instant { 0.0 } else { key.delay_s };
-    machine.feed_drive.tau_s = if instant { 0.0 } else { key.tau_s };
-    machine.feed_drive.tau2_s = if instant { 0.0 } else { key.tau2_s };
-    // The process constants of the key (the depth-exponent candidate changes α).
-    let mut tool = model.tool.clone();
-    tool.process.alpha = key.process[4];
-    // The motor channel: the power, or the power a spindle-power force estimator reads.
-    let power_read = inp.channel == Channel::Power || inp.estimator_no_load.is_some();
-    let motor = match (power_read, model.measurement.spindle_motor) {
-        (true, Some(m)) => m.config().ok(),
-        _ => None,
-    };
-    let channel = acc_sim::replay::ReplayChannel {
-        window_s: key.window_s,
-        torque_lag_s: motor.as_ref().map_or(0.0, |c| c.drive.torque_lag_s),
-        daq_rate_hz: motor.as_ref().map_or(0.0, |c| c.sensors.sample_rate_hz),
-    };
-    let run = |engagement: &acc_sim::replay::ReplayEngagement,
-               drive: &acc_sim::replay::ReplayDrive<'_>| {
-        acc_sim::replay::trace(
-            &machine,
-            &tool,
-            model.measurement.force_model.sim(),
-            engagement,
-            drive,
-            &channel,
-        )
-    };
-    let settled = plant.source == FeedSource::Command;
-    let Some(sample) = inp.board_sample.as_ref().filter(|s| s.len() == inp.len()) else {
-        return run(
-            &plant.engagement,
-            &acc_sim::replay::ReplayDrive {
-                period_s: &inp.dt_s,
-                override_applied_pct: &plant.override_applied_pct,
-                programmed_feed_mm_min: &plant.programmed_feed_mm_min,
-                feed_hold: None,
-                spindle_rpm: plant.spindle_rpm.as_deref(),
-                settled,
-            },
-        );
-    };
-    // On the board's periods. The override register a row reads is the one that drove the
-    // sample it reads (the board takes a period at its tick, with the register as it is
-    // then; the write of the row before landed well before that tick). A period no row
-    // read lies between row k−1 and row k: if row k−1 read the same sample as the row
-    // before it, the board's tick was late and fired just after row k−1's read — most
-    // likely before that row's write landed, so the period ran on what row k−1 read; if
-    // not, row k read late, and the period ran on what row k reads.
-    let periods = sample.last().map_or(0, |&s| s + 1);
-    let mut ov = Vec::with_capacity(periods);
-    let mut prog = Vec::with_capacity(periods);
-    let mut rpm = Vec::with_capacity(periods);
-    // A logged engagement is per row: on the board's periods, a period no row read takes
-    // the engagement of the row that read the next sample.
-    let logged = match &plant.engagement {
-        acc_sim::replay::ReplayEngagement::Logged(e) => Some(e),
-        acc_sim::replay::ReplayEngagement::Workpiece { .. } => None,
-    };
-    let mut eng = Vec::with_capacity(if logged.is_some() { periods } else { 0 });
-    let mut row = 0;
-    for s in 0..periods {
-        while sample[row] < s {
-            row += 1;
-        }
-        let late_tick = row >= 2 && sample[row] > s && sample[row - 1] == sample[row - 2];
-        let from = if late_tick { row - 1 } else { row };
-        ov.push(plant.override_applied_pct[from]);
-        prog.push(plant.programmed_feed_mm_min[from]);
-        if let Some(r) = &plant.spindle_rpm {
-            rpm.push(r[from]);
-        }
-        if let Some(e) = logged {
-            eng.push(e[row]);
-        }
-    }
-    let engagement = match logged {
-        Some(_) => acc_sim::replay::ReplayEngagement::Logged(eng),
-        None => plant.engagement.clone(),
-    };
-    let grid = run(
-        &engagement,
-        &acc_sim::replay::ReplayDrive {
-            period_s: &vec![inp.period_s; periods],
-            override_applied_pct: &ov,
-            programmed_feed_mm_min: &prog,
-            feed_hold: None,
-            spindle_rpm: plant.spindle_rpm.as_ref().map(|_| rpm.as_slice()),
-            settled,
-        },
-    );
-    sample.iter().map(|&s| grid[s]).collect()
-}
-
-/// Paths kept per [`Inputs`], at least: a fit's grid over the delays and time constants
-/// of the drive candidates alone tries more than twenty.
-const PATH_CACHE: usize = 24;
-
-/// Rows of plant trace kept per [`Inputs`] (about 100 bytes a row): more paths than
-/// [`PATH_CACHE`] on a log shorter than this over [`PATH_CACHE`] rows, so that a log of
-/// 10 minutes keeps every path its analysis tries (about 45 on one channel).
-const PATH_CACHE_ROWS: usize = 400_000;
-
-/// Keep `c`, dropping the path used longest ago when the cache is full.
-fn remember(inp: &Inputs, c: std::rc::Rc<PathCache>) {
-    let keep = PATH_CACHE.max(PATH_CACHE_ROWS / inp.len().max(1));
-    let mut v = inp.cache.borrow_mut();
-    if v.len() >= keep {
-        v.remove(0);
-    }
-    v.push(c);
 }
 
 /// Replays kept per [`Inputs`] by [`replay_shared`].
@@ -221,45 +81,6 @@ pub fn replay_shared(model: &Model, inp: &Inputs) -> std::rc::Rc<Replay> {
     r
 }
 
-fn path(model: &Model, inp: &Inputs) -> std::rc::Rc<PathCache> {
-    let fx = &model.effects;
-    let mut proc = model.tool.process;
-    proc.alpha += fx.get(EffectKind::DepthExponent, 0);
-    let p = &proc;
-    let key = PathKey {
-        delay_s: model.machine.override_path.delay_s
-            + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0),
-        tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0).max(0.0),
-        tau2_s: model.machine.feed_drive.tau2_s + fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
-        window_s: channel_window_s(model, inp),
-        process: [
-            p.calib_radial_mm,
-            p.calib_feed_mm_min,
-            p.calib_rpm,
-            p.calib_axial_mm,
-            p.alpha,
-            p.beta,
-            p.gamma,
-            p.radial_ratio,
-        ],
-    };
-    // The last few paths: a fit's numerical derivatives and cross-validation folds
-    // alternate between nearby delays and time constants, each a full plant replay.
-    {
-        let mut v = inp.cache.borrow_mut();
-        if let Some(k) = v.iter().position(|c| c.key == key) {
-            // Most recently used last.
-            let c = v.remove(k);
-            v.push(c.clone());
-            return c;
-        }
-    }
-    let plant = plant_trace(model, inp, &inp.plant, &key);
-    let c = std::rc::Rc::new(PathCache { key, plant });
-    remember(inp, c.clone());
-    c
-}
-
 /// Replay `model` on `inp` (open loop) through the simulator's plant
 /// ([`acc_sim::replay::trace`]: override path, feed drive, engagement, force law), then
 /// the scales, spindle power, sensor and measurement chain of [`replay_plant`].
@@ -275,8 +96,8 @@ pub fn replay(model: &Model, inp: &Inputs) -> Replay {
         spindle_angle_rad: vec![0.0; n],
         ks_step_boundary_mm: None,
     };
-    let cached = path(model, inp);
-    replay_plant(model, inp, &cached.plant, &mut out);
+    let plant = path(model, inp);
+    replay_plant(model, inp, &plant, &mut out);
     measurement_chain(model, inp, &mut out.predicted);
     out
 }
