@@ -223,14 +223,15 @@ fn production_log_power_channel_names_the_hidden_wear() {
     assert_wear_found(&report, "W");
 }
 
-/// The evaluated naming rules (`--strict --effects all --min-enr 1`: withheld when
-/// structure remains, when the sealed part is not predicted, or when wear cannot be told
-/// from a drift in cutting time) hold on a production log too: it replays to the
-/// register rounding, so the wear is named, and the explanation says why it is not a
-/// drift in time.
+/// The default naming rules (the whole library, the effect-to-noise floor, and on this
+/// exact replay the strict rules: withheld when structure remains, when the sealed part
+/// is not predicted, or when wear cannot be told from a drift in cutting time) hold on a
+/// production log: it replays to the register rounding, so the wear is named on the
+/// power channel with nothing withheld, and the explanation says why it is not a drift in
+/// time. A flag that would loosen them is refused.
 #[test]
-fn production_log_under_the_strict_rules_names_the_hidden_wear() {
-    let report = discrepancy_with("power", &["--strict", "--effects", "all", "--min-enr", "1"]);
+fn production_log_under_the_default_rules_names_the_hidden_wear_not_a_drift() {
+    let report = discrepancy("power");
     assert_wear_found(&report, "W");
     assert!(
         report["withheld"].as_array().is_some_and(|w| w.is_empty()),
@@ -244,6 +245,17 @@ fn production_log_under_the_strict_rules_names_the_hidden_wear() {
             .is_some_and(|e| e.contains("so the growth is not a drift linear in cutting time"))),
         "{explanation:?}"
     );
+    let (code, _, stderr) = acc(&[
+        "discrepancy",
+        "--measured",
+        "x.csv",
+        "--out",
+        "o",
+        "--min-enr",
+        "0",
+    ]);
+    assert_ne!(code, Some(0));
+    assert!(stderr.contains("--min-enr 0: allowed 1 ..= 10"), "{stderr}");
 }
 
 #[test]

@@ -183,8 +183,7 @@ fn a_ks_drift_in_cutting_time_is_ambiguous_with_tool_wear_not_named() {
         twin::case_log(&sc, Hidden::KsTimeDrift(0.05), Channel::Power, 7001).expect("log");
     let opts = workflow::Options {
         workpiece: Some((wp, 0.0)),
-        candidates: acc_ident::EffectKind::ALL.to_vec(),
-        min_effect_to_noise: 1.0,
+        withhold_on_structure: None,
         ..workflow::Options::default()
     };
     let a = workflow::analyse(&model, &log, &opts).expect("analysis");

@@ -158,14 +158,17 @@ fn a_second_order_drive_is_named_with_its_interval() {
 }
 
 #[test]
-fn the_new_candidates_are_library_effects_but_not_defaults() {
+fn the_new_candidates_are_library_effects() {
     for (k, n) in [
         (EffectKind::DepthExponent, "depth_exponent"),
         (EffectKind::KsStep, "ks_step"),
         (EffectKind::SecondOrderDrive, "second_order_drive"),
     ] {
         assert_eq!(EffectKind::from_name(n), Some(k));
-        assert!(EffectKind::ALL.contains(&k) && !EffectKind::DEFAULT.contains(&k));
+        assert!(EffectKind::ALL.contains(&k));
+        assert!(acc_ident::workflow::Options::default()
+            .candidates
+            .contains(&k));
     }
     // TOML round trip of the `[effects.<name>]` sections.
     let text = "[ks_step]\ndelta = 0.3\nboundary_frac = 0.4\n[depth_exponent]\ndelta_alpha = -0.1\n[second_order_drive]\ntau2_s = 0.12\n";

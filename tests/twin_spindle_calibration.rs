@@ -25,12 +25,28 @@ fn shipped() -> Model {
 }
 
 /// The report of `hidden`'s log (seed) against the shipped model, the spindle calibrated
-/// or not.
+/// or not, under the selection rules with the strict rules off (`None`: the subject is
+/// the calibration; [`default_report`] is the same under the default).
 fn report(hidden: Hidden, seed: u64, calibrate: bool) -> acc_ident::report::Report {
+    report_with(hidden, seed, calibrate, None)
+}
+
+/// [`report`] under the default rules (strict on this exact replay).
+fn default_report(hidden: Hidden, seed: u64) -> acc_ident::report::Report {
+    report_with(hidden, seed, true, Options::default().withhold_on_structure)
+}
+
+fn report_with(
+    hidden: Hidden,
+    seed: u64,
+    calibrate: bool,
+    withhold: Option<bool>,
+) -> acc_ident::report::Report {
     let (log, _, wp) = case_log(&base(), hidden, Channel::Power, seed).expect("log");
     let opts = Options {
         workpiece: Some((wp, 0.0)),
         calibrate_spindle: calibrate,
+        withhold_on_structure: withhold,
         ..Options::default()
     };
     analyse(&shipped(), &log, &opts).expect("analyse").report
@@ -71,6 +87,18 @@ fn wear_is_named_against_a_mismatched_spindle_once_it_is_calibrated() {
         );
         assert!(c.residual_rms_w.1 < 0.05 * c.residual_rms_w.0, "{c:?}");
         assert!(r.to_markdown().contains("## Spindle calibration"));
+    }
+    // Under the default the wear/time check applies too: wear named, or withheld as
+    // "ambiguous" with a `Ks` rising in cutting time (with the separating cut), never
+    // another name.
+    for seed in [1000, 1001] {
+        let r = default_report(Hidden::ToolWear(0.01), seed);
+        let wear = r.accepted == vec!["tool_wear".to_string()];
+        let tied = r.accepted.is_empty()
+            && r.ambiguous
+                .iter()
+                .any(|a| a.effects.iter().any(|e| e == "tool_wear"));
+        assert!(wear || tied, "seed {seed}: {}", r.conclusion);
     }
     // As given, the mismatch hides the wear.
     let r = report(Hidden::ToolWear(0.01), 1000, false);

@@ -16,7 +16,7 @@
 #   compare.txt      `acc compare --no-plot` of every shipped scenario.
 #   fault-matrix.txt `acc fault-matrix` (5x time, the shipped defaults): per row the fault,
 #                    board, what, and the columns that are stable run to run (see below).
-#   twin.txt         the twin evaluation (crates/acc-ident/examples/twin_eval.rs) on a fixed
+#   twin.txt         the twin evaluation (crates/acc-ident/examples/twin_eval/main.rs) on a fixed
 #                    small subset: its confusion tables and the per-case rows, sorted.
 #
 # Determinism. Everything except the fault matrix runs on the simulator's stepped clock with

@@ -44,12 +44,11 @@ pub struct DiscrepancyArgs {
     /// At most this many effects are added (0..=8).
     #[arg(long, default_value_t = 3)]
     pub max_effects: usize,
-    /// Comma-separated candidate effects, or `all` (the 13 the twin's evaluation uses).
-    /// Default: tool_wear, motor_efficiency, feed_drive_lag, sensor_lowpass,
-    /// override_dead_time, feed_exponent, runout, noload_drift. Asked for by name:
-    /// sensor_gain_drift, measurement_delay (confusable with tool wear and the drive
-    /// effects on a log without air cuts early and late), depth_exponent, ks_step,
-    /// second_order_drive.
+    /// Comma-separated candidate effects, to narrow the library (default: all 13, the set
+    /// the twin's evaluation measures — docs/twin.md): tool_wear, motor_efficiency,
+    /// feed_drive_lag, sensor_lowpass, override_dead_time, feed_exponent, runout,
+    /// noload_drift, sensor_gain_drift, measurement_delay, depth_exponent, ks_step,
+    /// second_order_drive. A candidate the log cannot separate is skipped with the reason.
     #[arg(long)]
     pub effects: Option<String>,
     /// Also fit the speed exponent γ with every candidate when the speed varies.
@@ -57,20 +56,10 @@ pub struct DiscrepancyArgs {
     pub fit_speed_exponent: bool,
     /// Below this effect-to-noise ratio (the change an effect makes to the prediction
     /// against the noise, the log's rounding and the model error it leaves) an effect is
-    /// named only if no other candidate passes in its round and it is the first name
-    /// (0..=10; default 0 = off; the twin's evaluation uses 1 with
-    /// `--effects all` — see docs/twin.md).
-    #[arg(long, default_value_t = 0.0)]
+    /// named only if no other candidate passes in its round and it is the first name.
+    /// 1 (the default, measured in docs/twin.md) ..= 10: raise it to name fewer.
+    #[arg(long, default_value_t = workflow::MIN_EFFECT_TO_NOISE)]
     pub min_enr: f64,
-    /// The naming rules the twin's evaluation measures (docs/twin.md): with `--workpiece`
-    /// on a log that carries the applied override (the replay is the simulator's plant), a
-    /// name is withheld when structure remains in the residual after its fit, when the
-    /// updated model does not predict the sealed part, or when tool wear cannot be told
-    /// from a `Ks` rising with cutting time (then "ambiguous", with the cut that separates
-    /// them). Without it those findings are reported next to the name. For the evaluated
-    /// configuration add `--effects all --min-enr 1`.
-    #[arg(long)]
-    pub strict: bool,
     /// Workpiece the measured run cut (`configs/workpieces/*.toml`, or the scenario file
     /// that names it): the engagement of a production log (`acc run`, no depth columns) is
     /// rebuilt from it at the logged path position `x_mm`, for the model's tool diameter.
@@ -180,8 +169,13 @@ fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
 }
 
 fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
-    if !(0.0..=10.0).contains(&args.min_enr) {
-        bail!("--min-enr {}: allowed 0 ..= 10", args.min_enr);
+    if !(workflow::MIN_EFFECT_TO_NOISE..=10.0).contains(&args.min_enr) {
+        bail!(
+            "--min-enr {}: allowed {} ..= 10 (the default {} is the configuration docs/twin.md measures; the flags only narrow it)",
+            args.min_enr,
+            workflow::MIN_EFFECT_TO_NOISE,
+            workflow::MIN_EFFECT_TO_NOISE
+        );
     }
     let mut o = workflow::Options {
         folds: args.folds,
@@ -189,13 +183,10 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
         max_effects: args.max_effects.min(EffectKind::ALL.len()),
         fit_speed_exponent: args.fit_speed_exponent,
         min_effect_to_noise: args.min_enr,
-        withhold_on_structure: args.strict.then_some(true),
         calibrate_spindle: !args.no_spindle_calibration,
         ..workflow::Options::default()
     };
-    if args.effects.as_deref().map(str::trim) == Some("all") {
-        o.candidates = EffectKind::ALL.to_vec();
-    } else if let Some(list) = &args.effects {
+    if let Some(list) = args.effects.as_deref().filter(|l| l.trim() != "all") {
         o.candidates = list
             .split(',')
             .map(|s| {
@@ -332,12 +323,13 @@ fn plots(a: &workflow::Analysis, out: &Path, unit: &str) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
+    #[derive(clap::Parser)]
+    struct P {
+        #[command(flatten)]
+        a: DiscrepancyArgs,
+    }
+
     fn args(extra: &[&str]) -> DiscrepancyArgs {
-        #[derive(clap::Parser)]
-        struct P {
-            #[command(flatten)]
-            a: DiscrepancyArgs,
-        }
         let mut v = vec!["acc", "--measured", "m.csv", "--out", "o"];
         v.extend_from_slice(extra);
         <P as clap::Parser>::try_parse_from(v).expect("parse").a
@@ -345,23 +337,42 @@ mod tests {
 
     #[test]
     fn flags_map_to_options_and_bad_ones_name_the_flag() {
+        // The default is the evaluated configuration (docs/twin.md).
         let o = options(&args(&[])).expect("defaults");
-        assert_eq!(o.candidates, EffectKind::DEFAULT.to_vec());
-        assert_eq!(o.min_effect_to_noise, 0.0);
-        assert_eq!(o.withhold_on_structure, None);
-        let o = options(&args(&["--effects", "all", "--min-enr", "1", "--strict"])).expect("all");
+        let d = workflow::Options::default();
         assert_eq!(o.candidates, EffectKind::ALL.to_vec());
+        assert_eq!(o.candidates, d.candidates);
         assert_eq!(o.min_effect_to_noise, 1.0);
         assert_eq!(o.withhold_on_structure, Some(true));
+        assert_eq!(o.withhold_on_structure, d.withhold_on_structure);
+        // `all` is the default; a higher floor narrows.
+        let o = options(&args(&["--effects", "all", "--min-enr", "2"])).expect("all");
+        assert_eq!(o.candidates, EffectKind::ALL.to_vec());
+        assert_eq!(o.min_effect_to_noise, 2.0);
         let o = options(&args(&["--effects", "ks_step, depth_exponent"])).expect("two");
         assert_eq!(
             o.candidates,
             [EffectKind::KsStep, EffectKind::DepthExponent]
         );
-        let e = options(&args(&["--min-enr", "20"]))
-            .expect_err("a bad flag")
-            .to_string();
-        assert!(e.contains("--min-enr 20: allowed 0 ..= 10"), "{e}");
+        for bad in ["20", "0.5"] {
+            let e = options(&args(&["--min-enr", bad]))
+                .expect_err("a bad flag")
+                .to_string();
+            assert!(
+                e.contains(&format!("--min-enr {bad}: allowed 1 ..= 10")),
+                "{e}"
+            );
+        }
+        // The rules that were a flag are the default: the flag is gone.
+        let p = <P as clap::Parser>::try_parse_from([
+            "acc",
+            "--measured",
+            "m",
+            "--out",
+            "o",
+            "--strict",
+        ]);
+        assert!(p.is_err());
         let e = format!(
             "{:#}",
             options(&args(&["--effects", "wear"])).expect_err("a bad flag")

@@ -2,15 +2,14 @@
 //! sim`'s closed loop (the hidden-wear machine, `configs/scenarios/hidden_wear.toml`, at
 //! +0.5 % `Ks` per cm³) on `configs/workpieces/twelve_cuts.toml`, the first 600 s, written
 //! as `acc run` writes it (production columns, no plant truth), then analysed with the
-//! CLI's default options and with the configuration the twin's evaluation measures
-//! (`Options::evaluated`) against `configs/models/paper_vmc_production.toml` on both
-//! channels, the tool's start searched from the log as `acc discrepancy` does without
+//! CLI's default options (the configuration the twin's evaluation measures) against
+//! `configs/models/paper_vmc_production.toml` on both channels, the tool's start searched from the log as `acc discrepancy` does without
 //! `--x0-mm`. Prints each analysis's CPU time (user + system of the process, from
 //! `/proc/self/stat`: the figure that holds on a shared machine) and wall time, the best of
 //! `--repeat` runs (default 1). With `--out DIR` it writes each channel's report
-//! (`DIR/default-force.md`, `DIR/default-force.json`, … `DIR/evaluated-power.json`) so that two builds'
-//! figures can be compared. `--only evaluated-power` (or `default-force`, …) runs one of the
-//! four analyses.
+//! (`DIR/default-force.md`, `DIR/default-force.json`, `DIR/default-power.md`, `DIR/default-power.json`) so that two builds'
+//! figures can be compared. `--only default-power` (or `default-force`) runs one of the two
+//! analyses.
 //!
 //! cargo run --release -p acc-ident --example discrepancy_speed -- [--repeat N] [--out DIR] [--only NAME]
 use std::path::Path;
@@ -63,12 +62,8 @@ fn main() {
         log.len(),
         log.t_s.last().copied().unwrap_or(0.0)
     );
-    // The CLI's default, and the configuration the twin's evaluation measures
-    // (`--effects all --min-enr 1 --strict`).
-    let configs = [
-        ("default", workflow::Options::default()),
-        ("evaluated", workflow::Options::evaluated()),
-    ];
+    // The CLI's default: the configuration the twin's evaluation measures.
+    let configs = [("default", workflow::Options::default())];
     for (name, base) in configs {
         let opts = workflow::Options {
             workpiece: Some((eng.workpiece.clone(), eng.x0_mm)),

@@ -125,7 +125,15 @@ fn main() {
     );
     let results: Mutex<Vec<(usize, Outcome, f64)>> = Mutex::new(Vec::new());
     let next = Mutex::new(0usize);
-    let opts = workflow::Options::default();
+    // The selection rules alone on the process, machine and spindle effects (no
+    // effect-to-noise floor): what each rule recovers on synthetic logs. The CLI's default
+    // (the whole library, the floor, the strict rules) is measured by `twin_eval`
+    // (docs/twin.md).
+    let opts = workflow::Options {
+        candidates: acc_ident::EffectKind::PROCESS_AND_MACHINE.to_vec(),
+        min_effect_to_noise: 0.0,
+        ..workflow::Options::default()
+    };
     std::thread::scope(|s| {
         for _ in 0..threads.max(1) {
             s.spawn(|| loop {

@@ -215,13 +215,12 @@ const P_DRIFT: [ParamInfo; 2] = [
 ];
 
 impl EffectKind {
-    /// The workflow's default candidates: every effect but the measurement-chain
-    /// effects ([`EffectKind::SensorGainDrift`],
-    /// [`EffectKind::MeasurementDelay`]), which are asked for explicitly (`--effects`,
-    /// `Options::candidates`): a gain drift cannot be told from tool wear in a log without
-    /// air stretches early and late, and the real turning logs have none.
-    pub const DEFAULT: [EffectKind; 8] = {
-        // The first eight of [`EffectKind::ALL`].
+    /// The process, machine and spindle effects: the first eight of [`EffectKind::ALL`],
+    /// without the measurement chain (`sensor_gain_drift`, `measurement_delay`) and the
+    /// three shapes `depth_exponent`, `ks_step`, `second_order_drive`. A narrowed
+    /// candidate set (`acc discrepancy --effects`) for a log whose sensor is known sound;
+    /// the synthetic sweep measures the selection rules on it.
+    pub const PROCESS_AND_MACHINE: [EffectKind; 8] = {
         let mut d = [EffectKind::ToolWear; 8];
         let mut i = 0;
         while i < d.len() {
@@ -231,7 +230,7 @@ impl EffectKind {
         d
     };
 
-    /// All effects, in report order.
+    /// All effects, in report order: the workflow's candidates (`Options::candidates`).
     pub const ALL: [EffectKind; 13] = [
         EffectKind::ToolWear,
         EffectKind::MotorEfficiency,

@@ -219,6 +219,23 @@ impl Hidden {
         })
     }
 
+    /// Whether the effect is applied to a logged column after the run
+    /// ([`super::apply_logging_path`]) rather than set in the simulated machine.
+    pub fn on_logging_path(self) -> bool {
+        matches!(
+            self,
+            Hidden::LogGainDrift(_)
+                | Hidden::LogDelay(_)
+                | Hidden::LogSpikes(_)
+                | Hidden::LogZeroShift(_)
+                | Hidden::LogInterference(_)
+                | Hidden::LogClip(_)
+                | Hidden::LogQuantize(_)
+                | Hidden::LogStale(_)
+                | Hidden::LogZeroDrift(_)
+        )
+    }
+
     /// Whether the effect acts on `channel` at all; `estimated_force`: the force channel is
     /// a spindle-power estimate (it then sees every power effect).
     pub fn acts_on(self, channel: Channel, estimated_force: bool) -> bool {

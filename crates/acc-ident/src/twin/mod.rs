@@ -301,15 +301,9 @@ pub fn hidden_case(
             sc.workpiece.segments = out;
         }
         Hidden::SecondOrderDrive(t) => sc.machine.feed_drive.tau2_s = t,
-        Hidden::LogGainDrift(_)
-        | Hidden::LogDelay(_)
-        | Hidden::LogSpikes(_)
-        | Hidden::LogZeroShift(_)
-        | Hidden::LogInterference(_)
-        | Hidden::LogClip(_)
-        | Hidden::LogQuantize(_)
-        | Hidden::LogStale(_)
-        | Hidden::LogZeroDrift(_) => {}
+        // The logging-path effects act on the logged column after the run
+        // (`apply_logging_path`).
+        h => debug_assert!(h.on_logging_path(), "{h:?} is not set in the machine"),
     }
     (sc, model, wp_model)
 }
@@ -540,29 +534,10 @@ fn enrs_for_log(
     ))
 }
 
-/// Run one case end to end: simulate through the production loop, analyse; the verdict
-/// carries the case's effect-to-noise ratio ([`effect_to_noise`]).
-pub fn run_case(
-    base: &Scenario,
-    hidden: Hidden,
-    channel: Channel,
-    seed: u64,
-) -> Result<Verdict, String> {
-    let (log, model, wp) = case_log(base, hidden, channel, seed)?;
-    let (enr, enr_calibrated) = enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, true)?;
-    // The configuration `acc discrepancy` runs by default.
-    let opts = crate::workflow::Options {
-        workpiece: Some((wp, 0.0)),
-        ..crate::workflow::Options::evaluated()
-    };
-    let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;
-    let named: Vec<crate::EffectKind> = a
-        .report
-        .accepted
-        .iter()
-        .filter_map(|n| crate::EffectKind::from_name(n))
-        .collect();
-    let truth = match hidden {
+/// The amplitude of `hidden` in its library effect's first parameter (what the named
+/// effect's interval should cover), if it is a library effect with one.
+pub fn truth_of(base: &Scenario, hidden: Hidden) -> Option<f64> {
+    match hidden {
         Hidden::ToolWear(v)
         | Hidden::FeedDriveLag(v)
         | Hidden::OverrideDeadTime(v)
@@ -576,7 +551,32 @@ pub fn run_case(
         Hidden::DepthExponent(a) => Some(a - base.tool.process.alpha),
         Hidden::KsStep(k) => Some(k - 1.0),
         _ => None,
+    }
+}
+
+/// Run one case end to end: simulate through the production loop, analyse; the verdict
+/// carries the case's effect-to-noise ratio ([`effect_to_noise`]).
+pub fn run_case(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+) -> Result<Verdict, String> {
+    let (log, model, wp) = case_log(base, hidden, channel, seed)?;
+    let (enr, enr_calibrated) = enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, true)?;
+    // The configuration `acc discrepancy` runs by default.
+    let opts = crate::workflow::Options {
+        workpiece: Some((wp, 0.0)),
+        ..crate::workflow::Options::default()
     };
+    let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;
+    let named: Vec<crate::EffectKind> = a
+        .report
+        .accepted
+        .iter()
+        .filter_map(|n| crate::EffectKind::from_name(n))
+        .collect();
+    let truth = truth_of(base, hidden);
     let covered = match (hidden.library(), truth) {
         (Some(k), Some(v)) if named.contains(&k) => a
             .report

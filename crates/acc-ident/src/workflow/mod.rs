@@ -37,7 +37,9 @@ use crate::stats::{self, correlation, lag1, mean, n_eff, normal_quantile, Noise}
 
 use acc_core::RangeError;
 
-/// Workflow settings.
+/// Workflow settings. The default is the configuration the twin's evaluation measures
+/// (docs/twin.md: its false discoveries, recovery and coverage): the whole library, the
+/// effect-to-noise floor, the strict rules where the replay is exact.
 #[derive(Debug, Clone)]
 pub struct Options {
     /// Contiguous cross-validation folds over the selection part. Default 5.
@@ -58,19 +60,18 @@ pub struct Options {
     /// the change the candidate makes to the prediction against the noise, the log's
     /// rounding and the model error it leaves) a candidate is named only if no other
     /// candidate passes in its round and no effect is in the model yet (a second name
-    /// must exceed it). Default 0 (off); the twin's evaluation (`twin::run_case`, the
-    /// whole library) uses 1. There a structure smaller than the noise is matched about
-    /// equally by several effects' shapes (the tooth-level force replayed by the mean
-    /// model — ENR 1–2 — passed as `tool_wear`, `sensor_gain_drift`, `depth_exponent` and
-    /// `ks_step` at once, and the encompassing test picked one), so a name there is not a
-    /// measurement. With the default eight candidates the encompassing test does separate
-    /// the confusable dynamics at ENR 0.5 (`feed_drive_lag` 100 % exactly right, the
-    /// sweep's 20 runs), which the rule would drop (5 %).
+    /// must exceed it). Default [`MIN_EFFECT_TO_NOISE`] (1). Below the noise a structure is
+    /// matched about equally by several effects' shapes (the tooth-level force replayed by
+    /// the mean model — ENR 1–2 — passed as `tool_wear`, `sensor_gain_drift`,
+    /// `depth_exponent` and `ks_step` at once, and the encompassing test picked one), so a
+    /// name there is not a measurement.
     pub min_effect_to_noise: f64,
     /// Fit the speed exponent γ with every candidate when the cutting speed varies.
     /// Default false.
     pub fit_speed_exponent: bool,
-    /// Candidate effects. Default: [`EffectKind::DEFAULT`].
+    /// Candidate effects. Default: the whole library, [`EffectKind::ALL`] (a candidate the
+    /// log cannot separate is skipped with the reason, e.g. a gain drift on a log without
+    /// air early and late).
     pub candidates: Vec<EffectKind>,
     /// The workpiece the log was cut on and the tool-centre position when it began, mm:
     /// a plant replay ([`crate::replay::Inputs::plant`]) then takes the engagement from
@@ -94,12 +95,12 @@ pub struct Options {
     /// following a signal), when the updated model leaves a biased stretch in the sealed
     /// part, or — for tool wear — when a `Ks` rising with cutting time fits within
     /// [`WEAR_TIME_SEPARATION`] residual variances of it (reported "ambiguous" with the
-    /// test cut). `Some(true)`: on when the replay is exact — the simulator's plant on the
-    /// workpiece (`workpiece` given, a log with the applied override) — where a correct
-    /// model leaves only noise (the twin's evaluation, `twin::run_case`; `acc discrepancy
-    /// --strict`). Default `None` = off: logged depths and real machines leave a model
-    /// error, reported as "unexplained" next to the name, and the wear/time finding is a
-    /// note in the conclusion.
+    /// test cut). `Some(true)` (the default): on where the replay is exact — the
+    /// simulator's plant on the workpiece (`workpiece` given, a log with the applied
+    /// override) — where a correct model leaves only noise; elsewhere (logged depths, real
+    /// machines: a model error remains) those findings are reported as "unexplained" next
+    /// to the name, and the wear/time finding is a note in the conclusion. `None`: that on
+    /// every log (the library's tests of the rules themselves).
     pub withhold_on_structure: Option<bool>,
     /// Calibrate the spindle's power law (no-load power, efficiency, copper loss, power
     /// window) from the selection part before effects are judged, on the power channel of
@@ -117,35 +118,20 @@ impl Default for Options {
             transient_s: 1.0,
             min_segment_s: 1.0,
             min_gain_pct: 5.0,
-            min_effect_to_noise: 0.0,
+            min_effect_to_noise: MIN_EFFECT_TO_NOISE,
             fit_speed_exponent: false,
-            candidates: EffectKind::DEFAULT.to_vec(),
+            candidates: EffectKind::ALL.to_vec(),
             workpiece: None,
             anchor_to_log: false,
             estimate_path_start: false,
-            withhold_on_structure: None,
+            withhold_on_structure: Some(true),
             calibrate_spindle: true,
         }
     }
 }
 
-impl Options {
-    /// The configuration the twin's evaluation measures (docs/twin.md: its false
-    /// discoveries, recovery and coverage; `acc discrepancy --effects all --min-enr 1
-    /// --strict`): the whole library ([`EffectKind::ALL`]), a name below the effect-to-noise floor 1 only as the
-    /// only fit and the first, and the strict rules where the replay is exact.
-    pub fn evaluated() -> Self {
-        Options {
-            candidates: EffectKind::ALL.to_vec(),
-            min_effect_to_noise: EVALUATED_MIN_ENR,
-            withhold_on_structure: Some(true),
-            ..Options::default()
-        }
-    }
-}
-
-/// The effect-to-noise floor of [`Options::evaluated`], −.
-pub const EVALUATED_MIN_ENR: f64 = 1.0;
+/// The effect-to-noise floor of [`Options::default`], −.
+pub const MIN_EFFECT_TO_NOISE: f64 = 1.0;
 
 /// The replay's inputs from `log` for `model`, with the engagement of `opts.workpiece`
 /// (anchored to the log's first path position under `opts.anchor_to_log`).

@@ -13,6 +13,18 @@
 //!
 //! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`,
 //! `--only LABEL-PREFIX[,…]`, `--wp-limit N`, `--max-time S`.
+//!
+//! `--path board` ([`board`]): the logs are `acc run`'s, controlling `acc board-sim` over
+//! a pty (one closed loop at a time, kept under `<out>/board/`), and the verdicts `acc
+//! discrepancy`'s; `--acc PATH` names the binary (default `target/release/acc`: build it
+//! with `cargo build --release -p acc-cli`). With `--update-doc` the block between
+//! `<!-- twin-eval-board:begin -->` and `<!-- twin-eval-board:end -->` is replaced.
+//!
+//! cargo run --release -p acc-ident --example twin_eval -- --path board --null-seeds 20 \
+//!     --wp-limit 2 --oob-seeds 1 --out out/twin-board --update-doc docs/twin.md
+
+mod board;
+
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -461,7 +473,14 @@ fn main() {
     let null_seeds = num("--null-seeds", 10);
     let lib_seeds = num("--lib-seeds", 1);
     let oob_seeds = num("--oob-seeds", 1);
-    let threads = num("--threads", 2).max(1) as usize;
+    // --path board: `acc run` logs from `acc board-sim`, one closed loop at a time.
+    let board_path = get("--path").as_deref() == Some("board");
+    let threads = if board_path {
+        1
+    } else {
+        num("--threads", 2).max(1) as usize
+    };
+    let acc = std::path::PathBuf::from(get("--acc").unwrap_or_else(|| "target/release/acc".into()));
     let max_time = num("--max-time", 60) as f64;
     // --wp-limit N: the first N shipped workpieces only (a quick look).
     let nwp = num("--wp-limit", 5).clamp(1, 5) as usize;
@@ -485,6 +504,16 @@ fn main() {
     let mut base =
         acc_sim::Scenario::load(dir.join("scenarios/paper_case3.toml")).expect("scenario");
     base.max_time_s = max_time;
+    if board_path {
+        // The production model the board's logs are analysed against has no wear: the
+        // paper tool's own slow wear would be an effect hidden in every case.
+        base.wear = acc_sim::process::WearSpec {
+            initial_factor: 1.0,
+            growth_per_cm3: 0.0,
+            growth_per_min: 0.0,
+            ..base.wear
+        };
+    }
     let wps: Vec<acc_sim::Workpiece> = WORKPIECES
         .iter()
         .map(|w| acc_sim::Workpiece::load(dir.join("workpieces").join(w)).expect("wp"))
@@ -505,6 +534,7 @@ fn main() {
             for h in set {
                 let l = h.label();
                 if !h.acts_on(ch, estimated)
+                    || (board_path && h.on_logging_path())
                     || skip.iter().any(|p| l.starts_with(p))
                     || (!only.is_empty() && !only.iter().any(|p| l.starts_with(p)))
                 {
@@ -571,10 +601,21 @@ fn main() {
         s.workpiece = wps[wi].clone();
         s
     };
+    let board = board::BoardPath {
+        acc: acc.clone(),
+        out: out.clone(),
+        machine_s: max_time,
+    };
     let fresh: Mutex<Vec<(usize, Row)>> = Mutex::new(Vec::new());
     parallel(&todo, threads, |i| {
         let (ch, h, wi, seed) = cases[i];
-        match run_case(&scenario_of(wi), h, ch, seed) {
+        let verdict = if board_path {
+            let wp = WORKPIECES[wi].trim_end_matches(".toml");
+            board.run_case(&scenario_of(wi), h, ch, seed, wp)
+        } else {
+            run_case(&scenario_of(wi), h, ch, seed)
+        };
+        match verdict {
             Ok(v) => {
                 let row = Row::of(&v);
                 let line = csv_row(&key_of(&cases[i]), &row);
@@ -660,14 +701,26 @@ fn main() {
     let finished = results.iter().filter(|r| r.is_some()).count();
     let _ = writeln!(
         md,
-        "{null_seeds} null seeds per channel (spread over {nwp} shipped workpieces), {lib_seeds} seed(s) × {nwp} workpieces per in-library cell and pair, {oob_seeds} seed(s) × {nwp} workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.",
-        cases.len()
+        "{null_seeds} null seeds per channel (spread over {nwp} shipped workpieces), {lib_seeds} seed(s) × {nwp} workpieces per in-library cell and pair, {oob_seeds} seed(s) × {nwp} workpieces per out-of-library cell; {finished} of {} cases finished ({resumed} resumed from an earlier run); {elapsed:.0} s on {threads} threads (release build) for the rest.{}",
+        cases.len(),
+        if board_path {
+            " Logs: `acc run` controlling `acc board-sim` over a pty (4× time), one closed loop per case for both channels; verdicts: `acc discrepancy --workpiece` against `paper_vmc_production.toml`; the logging-path effects are not run on this path (they act on the logged column after the run, the same on either path); ENR: the same case's on `acc sim`'s log."
+        } else {
+            ""
+        }
     );
     std::fs::write(out.join("twin.md"), &md).expect("write");
     println!("{md}");
     if let Some(doc) = doc {
         let text = std::fs::read_to_string(&doc).unwrap_or_default();
-        let (a, b) = ("<!-- twin-eval:begin -->", "<!-- twin-eval:end -->");
+        let (a, b) = if board_path {
+            (
+                "<!-- twin-eval-board:begin -->",
+                "<!-- twin-eval-board:end -->",
+            )
+        } else {
+            ("<!-- twin-eval:begin -->", "<!-- twin-eval:end -->")
+        };
         let new = match (text.find(a), text.find(b)) {
             (Some(i), Some(j)) if j > i => format!("{}{a}\n{md}{}", &text[..i], &text[j..]),
             _ => format!("{text}\n{a}\n{md}{b}\n"),
