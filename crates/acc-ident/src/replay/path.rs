@@ -207,18 +207,29 @@ fn traced(model: &Model, inp: &Inputs, key: PathKey) -> Rc<Vec<PeriodTrace>> {
     plant
 }
 
-/// The traced values around `value` on the nodes `node(j)` (`node(0)` the model's own
-/// value, `node` increasing), with their linear interpolation weights: one node with
-/// weight 1 when `value` lies on one, else its two neighbours. `index` is the inverse of
-/// `node` (the continuous node index of a value).
-fn between(value: f64, node: impl Fn(f64) -> f64, index: impl Fn(f64) -> f64) -> Vec<(f64, f64)> {
+/// The traced values around `base + offset` on the nodes `node(j)`, `j` ≠ 0 (`node(0)` is
+/// `base` itself, the model's own value, traced exactly; `node` increasing), with their
+/// linear interpolation weights: one node with weight 1 when the value lies on one (`base`
+/// when `offset` is 0), else its two neighbours. `index` is the inverse of `node` (the
+/// continuous node index of a value).
+fn between(
+    base: f64,
+    offset: f64,
+    node: impl Fn(f64) -> f64,
+    index: impl Fn(f64) -> f64,
+) -> Vec<(f64, f64)> {
+    if offset == 0.0 {
+        return vec![(base, 1.0)];
+    }
+    let value = base + offset;
+    let at = |j: f64| if j == 0.0 { base } else { node(j) };
     let t = index(value);
     let j = t.round();
     if (t - j).abs() < 1e-9 {
-        return vec![(node(j), 1.0)];
+        return vec![(at(j), 1.0)];
     }
     let j = t.floor();
-    let (a, b) = (node(j), node(j + 1.0));
+    let (a, b) = (at(j), at(j + 1.0));
     let w = ((value - a) / (b - a)).clamp(0.0, 1.0);
     vec![(a, 1.0 - w), (b, w)]
 }
@@ -229,21 +240,13 @@ fn between(value: f64, node: impl Fn(f64) -> f64, index: impl Fn(f64) -> f64) ->
 /// that the spacing is `r·(τ + c)`. The interpolation error is second order in the
 /// spacing relative to the lag, so it stays alike over the range.
 fn lag_nodes(base: f64, offset: f64) -> Vec<(f64, f64)> {
-    if offset == 0.0 {
-        return vec![(base, 1.0)];
-    }
     let r = LAG_NODE_SHARE;
     let c = LAG_NODE_S / r;
     let growth = (1.0 + r).ln();
     between(
-        base + offset,
-        |j| {
-            if j == 0.0 {
-                base
-            } else {
-                (base + c) * (j * growth).exp() - c
-            }
-        },
+        base,
+        offset,
+        |j| (base + c) * (j * growth).exp() - c,
         |v| ((v + c) / (base + c)).ln() / growth,
     )
 }
@@ -251,18 +254,10 @@ fn lag_nodes(base: f64, offset: f64) -> Vec<(f64, f64)> {
 /// The nodes of the depth exponent around `base + offset`, [`ALPHA_NODE`] apart from
 /// `base`.
 fn exponent_nodes(base: f64, offset: f64) -> Vec<(f64, f64)> {
-    if offset == 0.0 {
-        return vec![(base, 1.0)];
-    }
     between(
-        base + offset,
-        |j| {
-            if j == 0.0 {
-                base
-            } else {
-                base + j * ALPHA_NODE
-            }
-        },
+        base,
+        offset,
+        |j| base + j * ALPHA_NODE,
         |v| (v - base) / ALPHA_NODE,
     )
 }
