@@ -153,7 +153,7 @@ impl EngagementSource for WorkpieceSource {
         self.span = self
             .workpiece
             .uniform_span(x_mm, r)
-            .map(|(lo, hi, _, _)| (lo, hi, r, e));
+            .map(|(lo, hi)| (lo, hi, r, e));
         e
     }
 

@@ -324,19 +324,19 @@ impl Workpiece {
 
     /// The interval `[lo, hi)` of tool-centre positions around `x` over which
     /// [`Workpiece::uniform_over`] with reach `reach` gives the same depth and `Ks` factor
-    /// as at `x`, with them; `None` where it gives none at `x`.
-    pub fn uniform_span(&self, x: f64, reach: f64) -> Option<(f64, f64, f64, f64)> {
-        let (depth, ks) = self.uniform_over(x, reach)?;
+    /// as at `x`; `None` where it gives none at `x`.
+    pub fn uniform_span(&self, x: f64, reach: f64) -> Option<(f64, f64)> {
+        self.uniform_over(x, reach)?;
         let len = self.length_mm();
         if x >= len {
-            return Some((len, f64::INFINITY, depth, ks));
+            return Some((len, f64::INFINITY));
         }
         if x + reach < 0.0 {
-            return Some((f64::NEG_INFINITY, -reach, depth, ks));
+            return Some((f64::NEG_INFINITY, -reach));
         }
         // Inside one constant segment: from its start until the reach meets its end.
         let s = &self.segments[self.segment_index_at(x.max(0.0))?];
-        Some((s.start_mm, s.end_mm - reach, depth, ks))
+        Some((s.start_mm, s.end_mm - reach))
     }
 
     /// Engaged arc of a cutter of radius `radius_mm` whose centre is at path position `x`
