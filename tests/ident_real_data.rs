@@ -158,6 +158,27 @@ fn the_default_names_wear_and_no_gain_drift_on_the_turning_tools() {
                 r.withheld
             );
         }
+        // Judged against the model error (a real log: the replay is not exact). Where a
+        // sealed block stands out of it, the names must have moved it toward the
+        // measurement (tool 7: the wear accelerating at the end of its life) — else they
+        // are withheld.
+        let me = r
+            .model_error
+            .as_ref()
+            .expect("judged against the model error");
+        if !r.accepted.is_empty() {
+            assert!(!me.withholds(), "tool {id}: {me:?}");
+        }
+        if id == 7 {
+            assert!(
+                me.judged
+                    && me.sealed_beyond.len() >= 4
+                    && me.sealed_beyond.iter().all(|b| b.under_corrected
+                        && b.block.bias > 0.0
+                        && b.block.bias < b.bias_without),
+                "tool 7: {me:?}"
+            );
+        }
         if r.accepted.iter().any(|n| n == wear) {
             named += 1;
             let s = &r.sealed;

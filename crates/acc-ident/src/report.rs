@@ -218,6 +218,49 @@ pub struct Withheld {
     pub reason: String,
 }
 
+/// The model error's own structure (`acc_ident::workflow`'s `model_error`): on a log whose
+/// replay is not exact (logged depths, a real machine) names are judged against the model
+/// error measured on the selection part, not against the noise.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelError {
+    /// Selection-part blocks it was estimated from (the selection part's segments cut to
+    /// the length of the sealed part's blocks).
+    pub selection_segments: usize,
+    /// Rows per block, −.
+    pub block_rows: usize,
+    /// Spread of the selection part's segment biases beyond their noise with the updated
+    /// model, `τ = √max(0, mean(bᵢ² − seᵢ²))`, channel unit.
+    pub segment_bias_sd: f64,
+    /// Whether there were enough segments to judge
+    /// (`acc_ident::workflow::MODEL_ERROR_MIN_SEGMENTS`).
+    pub judged: bool,
+    /// Sealed blocks whose bias with the updated model stands out of `√(τ² + se²)` at the
+    /// Bonferroni level: the names are withheld when one of them is not
+    /// [`SealedBlock::under_corrected`].
+    pub sealed_beyond: Vec<SealedBlock>,
+}
+
+impl ModelError {
+    /// Whether the names are withheld: a sealed block beyond the model error that they
+    /// made worse or overshot.
+    pub fn withholds(&self) -> bool {
+        self.sealed_beyond.iter().any(|b| !b.under_corrected)
+    }
+}
+
+/// A sealed block beyond the model error ([`ModelError`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct SealedBlock {
+    /// The block and its bias with the updated model.
+    pub block: SegmentBias,
+    /// Its bias with the model without the names (the nominal model refitted), channel
+    /// unit.
+    pub bias_without: f64,
+    /// The names moved it toward the measurement and left it on the same side: the effect
+    /// is right but larger there than its law.
+    pub under_corrected: bool,
+}
+
 /// The residual that no candidate explains.
 #[derive(Debug, Clone, Serialize)]
 pub struct Unexplained {
@@ -434,6 +477,10 @@ pub struct Report {
     /// Residual left unexplained, and where.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<Unexplained>,
+    /// The model error names were judged against (a log whose replay is not exact, under
+    /// the default rules).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model_error: Option<ModelError>,
     /// Parameters of the updated model (nominal refits and effects) with intervals.
     pub updated_params: Vec<FittedParam>,
     /// Sealed-part comparison.
@@ -666,6 +713,40 @@ impl Report {
             }
             for c in un.correlations.iter().filter(|c| c.significant) {
                 let _ = writeln!(s, "- still correlates with `{}` (r = {:.2})", c.signal, c.r);
+            }
+        }
+        if let Some(me) = &self.model_error {
+            let _ = writeln!(s, "\n## Model error\n");
+            if me.judged {
+                let _ = writeln!(
+                    s,
+                    "The replay is not exact here: names are judged against the model error of the selection part, a spread of {:.3} {u} beyond their noise in the biases of its {} blocks of {} rows; the sealed part is judged in blocks of the same length.",
+                    me.segment_bias_sd, me.selection_segments, me.block_rows
+                );
+            } else {
+                let _ = writeln!(
+                    s,
+                    "The replay is not exact here, and the selection part has {} blocks of {} rows: too few to measure the model error, so no name was judged against it.",
+                    me.selection_segments, me.block_rows
+                );
+            }
+            for b in &me.sealed_beyond {
+                let _ = writeln!(
+                    s,
+                    "- sealed {} {:.1}–{:.1} s: bias {:.3} {u} ({:.3} {u} without the names), beyond the model error — {}",
+                    b.block.regime.name(),
+                    b.block.t_start_s,
+                    b.block.t_end_s,
+                    b.block.bias,
+                    b.bias_without,
+                    if self.accepted.is_empty() && self.withheld.is_empty() {
+                        "nothing is named: the model is further off there than where it was fitted"
+                    } else if b.under_corrected {
+                        "the names moved it toward the measurement: the effect is larger there than its law"
+                    } else {
+                        "the names made it worse or overshot it"
+                    }
+                );
             }
         }
         let _ = writeln!(s, "\n## Updated parameters (95 % intervals)\n");

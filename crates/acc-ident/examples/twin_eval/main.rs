@@ -12,7 +12,9 @@
 //!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin.md
 //!
 //! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`,
-//! `--only LABEL-PREFIX[,…]`, `--wp-limit N`, `--max-time S`.
+//! `--only LABEL-PREFIX[,…]`, `--wp-limit N`, `--max-time S`; `--replay logged` analyses
+//! each log on its own depths (no workpiece: not an exact replay, as on a real machine),
+//! `--rules off` without the withholding rules (what they change).
 //!
 //! `--path board` ([`board`]): the logs are `acc run`'s, controlling `acc board-sim` over
 //! a pty (one closed loop at a time, kept under `<out>/board/`), and the verdicts `acc
@@ -32,7 +34,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use acc_ident::model::Channel;
-use acc_ident::twin::{self, run_case, Hidden, Verdict};
+use acc_ident::twin::{self, run_case_with, CaseAnalysis, Hidden, Verdict};
 use acc_ident::EffectKind;
 
 const WORKPIECES: [&str; 5] = [
@@ -480,6 +482,15 @@ fn main() {
     } else {
         num("--threads", 2).max(1) as usize
     };
+    // --replay logged: analyse on the logs' own depths (no workpiece: not an exact replay,
+    // as on a real machine); --rules off: no withholding rule (the rules' own effect).
+    let how = CaseAnalysis {
+        on_workpiece: get("--replay").as_deref() != Some("logged"),
+        withhold_on_structure: match get("--rules").as_deref() {
+            Some("off") => None,
+            _ => CaseAnalysis::default().withhold_on_structure,
+        },
+    };
     let acc = std::path::PathBuf::from(get("--acc").unwrap_or_else(|| "target/release/acc".into()));
     let max_time = num("--max-time", 60) as f64;
     // --wp-limit N: the first N shipped workpieces only (a quick look).
@@ -613,7 +624,7 @@ fn main() {
             let wp = WORKPIECES[wi].trim_end_matches(".toml");
             board.run_case(&scenario_of(wi), h, ch, seed, wp)
         } else {
-            run_case(&scenario_of(wi), h, ch, seed)
+            run_case_with(&scenario_of(wi), h, ch, seed, how)
         };
         match verdict {
             Ok(v) => {

@@ -562,11 +562,42 @@ pub fn run_case(
     channel: Channel,
     seed: u64,
 ) -> Result<Verdict, String> {
+    run_case_with(base, hidden, channel, seed, CaseAnalysis::default())
+}
+
+/// How [`run_case_with`] analyses a case's log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CaseAnalysis {
+    /// Replay on the workpiece (exact: the default) or on the log's own depths, held over
+    /// each row (not exact: a model error remains, as on a real machine's log).
+    pub on_workpiece: bool,
+    /// [`crate::workflow::Options::withhold_on_structure`] (`Some(true)`: the default).
+    pub withhold_on_structure: Option<bool>,
+}
+
+impl Default for CaseAnalysis {
+    fn default() -> Self {
+        CaseAnalysis {
+            on_workpiece: true,
+            withhold_on_structure: crate::workflow::Options::default().withhold_on_structure,
+        }
+    }
+}
+
+/// [`run_case`] with the log analysed as `how` says.
+pub fn run_case_with(
+    base: &Scenario,
+    hidden: Hidden,
+    channel: Channel,
+    seed: u64,
+    how: CaseAnalysis,
+) -> Result<Verdict, String> {
     let (log, model, wp) = case_log(base, hidden, channel, seed)?;
     let (enr, enr_calibrated) = enrs_for_log(base, hidden, channel, seed, &log, &model, &wp, true)?;
-    // The configuration `acc discrepancy` runs by default.
+    // The configuration `acc discrepancy` runs by default (on the workpiece when asked).
     let opts = crate::workflow::Options {
-        workpiece: Some((wp, 0.0)),
+        workpiece: how.on_workpiece.then_some((wp, 0.0)),
+        withhold_on_structure: how.withhold_on_structure,
         ..crate::workflow::Options::default()
     };
     let a = crate::workflow::analyse(&model, &log, &opts).map_err(|e| e.to_string())?;

@@ -152,6 +152,16 @@ pub(super) fn metrics(
 }
 
 impl Prepared {
+    /// Whether the replay is exact: the simulator's plant on the workpiece (`workpiece`
+    /// given), where a correct model leaves only noise. On logged depths and real machines
+    /// a model error remains.
+    pub(super) fn replay_is_exact(&self) -> bool {
+        matches!(
+            self.inp.plant.engagement,
+            acc_sim::replay::ReplayEngagement::Workpiece { .. }
+        )
+    }
+
     /// The practical floor of every segment-bias test on this log ([`practical_size`] of
     /// its rounding and raw noise).
     pub(super) fn practical(&self) -> PracticalSize {

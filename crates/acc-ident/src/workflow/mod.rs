@@ -8,6 +8,7 @@
 mod checks;
 mod explain;
 mod extra;
+mod model_error;
 pub mod path_shift;
 mod report;
 mod rows;
@@ -17,6 +18,7 @@ mod spindle;
 use checks::*;
 use explain::*;
 use extra::*;
+pub use model_error::MODEL_ERROR_MIN_SEGMENTS;
 pub use path_shift::estimate_path_shift;
 use report::*;
 use rows::*;
@@ -28,8 +30,8 @@ use crate::fit::{self, Free};
 use crate::model::{Channel, Model};
 use crate::replay::{replay, ForcePowerConsistency, Inputs, ReplayError};
 use crate::report::{
-    Ambiguity, CandidateResult, Encompassing, InputInfo, Locate, Metrics, Report, Round, Sealed,
-    SignalCorrelation, Unexplained, Withheld, SCHEMA_VERSION,
+    Ambiguity, CandidateResult, Encompassing, InputInfo, Locate, Metrics, ModelError, Report,
+    Round, Sealed, SignalCorrelation, Unexplained, Withheld, SCHEMA_VERSION,
 };
 use crate::runlog::RunLog;
 use crate::segment::{label_rows, rounding_bias, segment_biases, segments, PracticalSize, Segment};
@@ -97,10 +99,14 @@ pub struct Options {
     /// [`WEAR_TIME_SEPARATION`] residual variances of it (reported "ambiguous" with the
     /// test cut). `Some(true)` (the default): on where the replay is exact — the
     /// simulator's plant on the workpiece (`workpiece` given, a log with the applied
-    /// override) — where a correct model leaves only noise; elsewhere (logged depths, real
-    /// machines: a model error remains) those findings are reported as "unexplained" next
-    /// to the name, and the wear/time finding is a note in the conclusion. `None`: that on
-    /// every log (the library's tests of the rules themselves).
+    /// override) — where a correct model leaves only noise. Elsewhere (logged depths, real
+    /// machines: a model error remains) the yardstick is that model error: a name is
+    /// withheld when the updated model leaves a sealed segment biased beyond the spread of
+    /// the selection part's segment biases (`model_error`, [`crate::report::ModelError`]);
+    /// structure in the selection part is reported as "unexplained" next to the name, and
+    /// the wear/time finding is a note in the conclusion (on real turning logs, whose
+    /// removal rate is constant, it would withhold the wear that the measured flank wear
+    /// confirms). `None`: none of these rules (the library's tests of other rules).
     pub withhold_on_structure: Option<bool>,
     /// Calibrate the spindle's power law (no-load power, efficiency, copper loss, power
     /// window) from the selection part before effects are judged, on the power channel of
@@ -374,7 +380,23 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
     let (noise_f, unexplained) = check.run(&s.base_model);
 
     let sealed = sealed_check(&p, &s.nominal_refit, &upd_replay.predicted, noise_f);
-    let mut a = assemble(model, p, s, upd_replay, unexplained, sealed, opts);
+    // Where the replay is not exact, the yardstick of a name is the model error.
+    let model_error =
+        (opts.withhold_on_structure == Some(true) && !p.replay_is_exact()).then(|| {
+            model_error::judge(
+                &p,
+                &upd_replay.predicted,
+                &replay(&s.nominal_refit, &p.inp).predicted,
+                noise_f,
+                opts.alpha,
+            )
+        });
+    let found = ResidualFindings {
+        unexplained,
+        sealed,
+        model_error,
+    };
+    let mut a = assemble(model, p, s, upd_replay, found, opts);
     a.report.warnings.append(&mut warnings);
     a.report.spindle_calibration = spindle_calibration;
     a.report.path_shift = start_shift;
