@@ -195,8 +195,21 @@ impl Prepared {
             });
         }
         // The sealed part is the last `sealed_fraction` of the valid rows; the selection
-        // part (rows `0..n_sel`) ends where it begins.
-        let k_sel = ((1.0 - opts.sealed_fraction) * valid.len() as f64).round() as usize;
+        // part (rows `0..n_sel`) ends where it begins. A log that ends in a long stretch of
+        // air (a run logged on after its part was finished) would leave a sealed part
+        // with no cutting row, which judges nothing (a force channel reads zero there):
+        // then it starts where the last `sealed_fraction` of the valid cutting rows does.
+        let mut k_sel = ((1.0 - opts.sealed_fraction) * valid.len() as f64).round() as usize;
+        let cutting: Vec<usize> = (0..valid.len()).filter(|&k| inp.is_cut(valid[k])).collect();
+        let mut sealed_moved = None;
+        if !cutting.is_empty() && cutting.iter().all(|&k| k < k_sel) {
+            let k_cut = ((1.0 - opts.sealed_fraction) * cutting.len() as f64).round() as usize;
+            let k = cutting[k_cut.min(cutting.len() - 1)];
+            if k >= needed.min(k_sel) {
+                sealed_moved = Some((inp.t_s[valid[k_sel]], inp.t_s[valid[k]]));
+                k_sel = k;
+            }
+        }
         let sel: Vec<usize> = valid[..k_sel].to_vec();
         let sealed_rows: Vec<usize> = valid[k_sel..].to_vec();
         let n_sel = sealed_rows[0];
@@ -266,6 +279,7 @@ impl Prepared {
             sel,
             sealed_rows,
             excluded,
+            sealed_moved,
             folds,
             min_len,
             segs,

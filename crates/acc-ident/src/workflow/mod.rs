@@ -444,6 +444,9 @@ struct Prepared {
     sealed_rows: Vec<usize>,
     /// Rows without a valid measurement (in neither part), per reason.
     excluded: Excluded,
+    /// (where the last `sealed_fraction` of the rows began, where the sealed part begins),
+    /// s: moved back when those rows held no cutting row.
+    sealed_moved: Option<(f64, f64)>,
     /// Contiguous folds over the selection rows (ranges of positions in `sel`).
     folds: Vec<std::ops::Range<usize>>,
     /// Shortest segment tested for a bias, rows.

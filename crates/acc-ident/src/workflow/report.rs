@@ -203,6 +203,16 @@ pub(super) fn assemble(
             p.excluded.text()
         )
     });
+    let sealed_moved_note = p.sealed_moved.map(|(rows_from, from)| {
+        format!(
+            "the last {:.0} % of the rows (from {rows_from:.1} s) hold no cutting row, so the sealed part starts at {from:.1} s, where the last {:.0} % of the cutting rows begin",
+            100.0 * opts.sealed_fraction,
+            100.0 * opts.sealed_fraction
+        )
+    });
+    if let Some(t) = &sealed_moved_note {
+        conclusion.push_str(&format!(" Note: {t}."));
+    }
     if let Some(t) = &excluded_note {
         conclusion.push_str(&format!(" {t}."));
     }
@@ -353,7 +363,7 @@ pub(super) fn assemble(
         updated_params: absolute(s.base_params, &s.params_start, model),
         sealed,
         conclusion,
-        warnings: excluded_note.into_iter().collect(),
+        warnings: excluded_note.into_iter().chain(sealed_moved_note).collect(),
     };
     Analysis {
         report,
