@@ -107,6 +107,17 @@ pub(super) fn correlate(
         .collect()
 }
 
+/// `segs` from row `first` on (the ones ending before it dropped, the one across it cut).
+pub(super) fn segments_from(segs: &[Segment], first: usize) -> Vec<Segment> {
+    segs.iter()
+        .filter(|s| s.end > first)
+        .map(|s| Segment {
+            start: s.start.max(first),
+            ..*s
+        })
+        .collect()
+}
+
 pub(super) fn metrics(
     inp: &Inputs,
     pred: &[f64],
@@ -123,14 +134,7 @@ pub(super) fn metrics(
     let dev = y.iter().map(|v| (v - ym).powi(2)).sum::<f64>().sqrt();
     let en = e.iter().map(|v| v * v).sum::<f64>().sqrt();
     let full: Vec<f64> = (0..inp.len()).map(|i| inp.measured[i] - pred[i]).collect();
-    let clipped: Vec<Segment> = segs
-        .iter()
-        .filter(|s| s.end > first)
-        .map(|s| Segment {
-            start: s.start.max(first),
-            ..*s
-        })
-        .collect();
+    let clipped = segments_from(segs, first);
     Metrics {
         rms: stats::rms(&e),
         fit_pct: if dev > 0.0 {

@@ -81,15 +81,7 @@ pub(super) fn judge(
     alpha: f64,
 ) -> ModelError {
     let first = p.sealed_rows.first().copied().unwrap_or(p.n);
-    let sealed_segs: Vec<Segment> = p
-        .segs
-        .iter()
-        .filter(|s| s.end > first)
-        .map(|s| Segment {
-            start: s.start.max(first),
-            ..*s
-        })
-        .collect();
+    let sealed_segs = segments_from(&p.segs, first);
     let len = (p.sealed_rows.len() / SEALED_BLOCKS).max(p.min_len);
     let biases = |pred: &[f64], segs: &[Segment]| {
         let residual: Vec<f64> = (0..p.n).map(|i| p.inp.measured[i] - pred[i]).collect();
