@@ -572,18 +572,18 @@ fn a_structure_smaller_than_the_noise_gets_no_name() {
 /// and without the rule the same log names it.
 #[test]
 fn a_wrong_name_on_logged_depths_is_withheld_against_the_model_error() {
-    // A 0.05 s override dead time on the power channel (seed 1000): on the logged depths
-    // the entry rows carry the replay's own error, and `measurement_delay` passes
-    // selection; its updated model overshoots sealed blocks beyond the model error.
+    // Tool wear of 0.08/cm³ on the power channel (seed 1000): on the logged depths a
+    // sensor gain drift passes selection; its updated model overshoots sealed blocks
+    // beyond the model error.
     let sc = scenario("steps_1_2_3.toml");
-    let h = Hidden::OverrideDeadTime(0.05);
+    let h = Hidden::ToolWear(0.08);
     let logged = |withhold_on_structure| CaseAnalysis {
         on_workpiece: false,
         withhold_on_structure,
     };
     let judged = run_case_with(&sc, h, Channel::Power, 1000, logged(Some(true))).expect("case");
     assert!(judged.named.is_empty(), "named {:?}", judged.named);
-    assert_eq!(judged.withheld, vec!["measurement_delay".to_string()]);
+    assert_eq!(judged.withheld, vec!["sensor_gain_drift".to_string()]);
     assert!(
         judged.conclusion.contains("beyond the model error"),
         "{}",
@@ -592,15 +592,15 @@ fn a_wrong_name_on_logged_depths_is_withheld_against_the_model_error() {
     let unjudged = run_case_with(&sc, h, Channel::Power, 1000, logged(None)).expect("case");
     assert_eq!(
         unjudged.named,
-        vec![acc_ident::EffectKind::MeasurementDelay],
+        vec![acc_ident::EffectKind::SensorGainDrift],
         "{}",
         unjudged.conclusion
     );
-    // On the workpiece (an exact replay) the same log names the dead time.
+    // On the workpiece (an exact replay) the same log names the wear.
     let exact = run_case_with(&sc, h, Channel::Power, 1000, CaseAnalysis::default()).expect("case");
     assert_eq!(
         exact.named,
-        vec![acc_ident::EffectKind::OverrideDeadTime],
+        vec![acc_ident::EffectKind::ToolWear],
         "{}",
         exact.conclusion
     );

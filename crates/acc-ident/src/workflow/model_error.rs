@@ -14,12 +14,14 @@
 //! but grows faster there than its law: the turning tools' wear accelerating at the end
 //! of their life) the names stand and the blocks are reported; when a name made one of
 //! them worse or overshot it, it explains the rows it saw but not the ones it did not, and
-//! is withheld. Both parts are judged in blocks of one length ([`SEALED_BLOCKS`]).
+//! is withheld. Both parts are judged in blocks of one length ([`SEALED_BLOCKS`]), outside
+//! the rows where the engagement changes inside a period ([`ENGAGEMENT_CHANGES`]), where
+//! the logged-depth replay has an error of its own.
 
 #[allow(unused_imports)]
 use super::*;
 use crate::report::{ModelError, SealedBlock};
-use crate::segment::{Segment, SegmentBias};
+use crate::segment::{Regime, Segment, SegmentBias};
 
 /// Fewest selection segments the model error is estimated from: with fewer the spread of
 /// the biases is not a variance (no judgement is made, and the report says so).
@@ -46,6 +48,14 @@ pub(super) fn bias_spread(biases: &[SegmentBias]) -> f64 {
         / biases.len() as f64;
     excess.max(0.0).sqrt()
 }
+
+/// The regimes in which the engagement changes inside a period: on logged depths the
+/// replay holds the row's end-of-period depth over the whole period there (up to 38 W at an
+/// entry row, docs/twin.md), the known structure of that model error, larger than
+/// elsewhere and the same wherever the part has an edge. They are not judged (a name that
+/// moves them is neither borrowing a signature nor carrying one): the yardstick and the
+/// judged blocks are the steady cut, override steps and air.
+pub const ENGAGEMENT_CHANGES: [Regime; 2] = [Regime::Entry, Regime::DepthChange];
 
 /// Blocks the sealed part is cut into for the judgement, −: the selection part, four
 /// times as long, then gives about four times as many blocks of the same length to
@@ -95,7 +105,14 @@ pub(super) fn judge(
             p.practical(),
         )
     };
-    let on_selection = biases(updated, &p.sel_segs);
+    let judged_regimes = |segs: &[Segment]| -> Vec<Segment> {
+        segs.iter()
+            .filter(|s| !ENGAGEMENT_CHANGES.contains(&s.regime))
+            .copied()
+            .collect()
+    };
+    let (sel_segs, sealed_segs) = (judged_regimes(&p.sel_segs), judged_regimes(&sealed_segs));
+    let on_selection = biases(updated, &sel_segs);
     let sealed = biases(updated, &sealed_segs);
     let sealed_without = biases(without, &sealed_segs);
     let tau = bias_spread(&on_selection);
@@ -130,7 +147,6 @@ pub(super) fn judge(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::segment::Regime;
 
     fn seg(bias: f64, se: f64) -> SegmentBias {
         SegmentBias {
