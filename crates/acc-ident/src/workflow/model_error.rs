@@ -6,9 +6,9 @@
 //! depths and real machines a model error remains whatever is named: every segment keeps
 //! a bias of its own, so that rule would withhold every name. There the yardstick is the
 //! model error measured where the fit was made: the spread of the selection part's
-//! segment biases beyond their noise, after the updated model's fit (a random-effects
+//! block biases beyond their noise, after the updated model's fit (a random-effects
 //! variance by the method of moments, `τ² = max(0, mean(bᵢ² − seᵢ²))`, DerSimonian and
-//! Laird 1986). A sealed segment whose bias stands out of `√(τ² + se²)` at the Bonferroni
+//! Laird 1986). A sealed block whose bias stands out of `√(τ² + se²)` at the Bonferroni
 //! level is error the model did not have where it was fitted. When the names moved every
 //! such block toward the measurement and left it on the same side (the effect is right
 //! but grows faster there than its law: the turning tools' wear accelerating at the end
@@ -23,7 +23,7 @@ use super::*;
 use crate::report::{ModelError, SealedBlock};
 use crate::segment::{Regime, Segment, SegmentBias};
 
-/// Fewest selection segments the model error is estimated from: with fewer the spread of
+/// Fewest selection blocks the model error is estimated from: with fewer the spread of
 /// the biases is not a variance (no judgement is made, and the report says so).
 pub const MODEL_ERROR_MIN_SEGMENTS: usize = 4;
 
