@@ -256,8 +256,9 @@ fn report_json_has_the_stable_schema() {
 /// A slower feed drive and a longer override delay in the simulated machine than in the
 /// model (closed loop, case III poles on the 2-3-4 mm workpiece): each is named first,
 /// with the fitted extra time close to the difference. (A small second effect may follow:
-/// the replay takes the engagement at the end of each period while the simulator
-/// integrates it at 1 kHz, and this dynamometer's noise is low enough to see that.)
+/// the replay runs the chord between two rows' logged depths while the simulator
+/// integrates the engagement at 1 kHz, and this dynamometer's noise is low enough to see
+/// that.)
 #[test]
 fn simulated_feed_path_effects_are_named() {
     for (kind, extra) in [("feed_drive_lag", 0.3), ("override_dead_time", 0.3)] {
@@ -281,7 +282,10 @@ fn simulated_feed_path_effects_are_named() {
         let log = import::from_sim_rows(&res.rows).expect("simulator log");
         // Under the default the whole library offers a second-order drive beside them: the
         // hidden effect is named first, or tied with it and reported "ambiguous" with the
-        // experiment that separates them.
+        // experiment that separates them. The slower drive may be named as the
+        // second-order drive itself: with the model's own lag of 8 ms, a second lag of
+        // 0.3 s in series is the same drive (a first-order lag of 0.308 s to within the
+        // 8 ms), so then its fitted second lag must be the hidden extra.
         let d =
             workflow::analyse(&nominal_model, &log, &workflow::Options::default()).expect("runs");
         let tied = d
@@ -289,8 +293,13 @@ fn simulated_feed_path_effects_are_named() {
             .ambiguous
             .iter()
             .any(|x| x.effects.iter().any(|e| e == kind));
+        let same_drive = kind == "feed_drive_lag"
+            && d.report.accepted.first().map(String::as_str) == Some("second_order_drive")
+            && d.report.updated_params.iter().any(|p| {
+                p.name == "second_order_drive.tau2_s" && (p.value - extra).abs() < 0.1 * extra
+            });
         assert!(
-            d.report.accepted.first() == Some(&kind.to_string()) || tied,
+            d.report.accepted.first() == Some(&kind.to_string()) || tied || same_drive,
             "{kind}: {}",
             d.report.conclusion
         );

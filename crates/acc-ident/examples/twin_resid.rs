@@ -1,4 +1,5 @@
-//! Residual of the nominal replay of one null log, row by row (development aid).
+//! Residual of the nominal replay of one null log, row by row (development aid); with
+//! `LOGGED=1` replayed on its logged depths instead of the workpiece.
 //!
 //! cargo run --release -p acc-ident --example twin_resid -- interrupted.toml force 1007
 use acc_ident::model::Channel;
@@ -23,7 +24,8 @@ fn main() {
     sc.seed = seed;
     let log = twin::simulate(&sc).expect("log");
     let m = twin::model_for_scenario(&sc, ch);
-    let r = twin::replay_residual(&m, &log, Some((&sc.workpiece, 0.0))).expect("replay");
+    let on = (std::env::var_os("LOGGED").is_none()).then_some((&sc.workpiece, 0.0));
+    let r = twin::replay_residual(&m, &log, on).expect("replay");
     let meas = match ch {
         Channel::Force => log.force_n.clone().unwrap_or_default(),
         Channel::Power => log.power_w.clone().unwrap_or_default(),

@@ -238,14 +238,36 @@ pub struct ModelError {
     /// Bonferroni level: the names are withheld when one of them is not
     /// [`SealedBlock::under_corrected`].
     pub sealed_beyond: Vec<SealedBlock>,
+    /// The sealed part's squared error with the names against without them.
+    pub sealed_error: SealedError,
 }
 
 impl ModelError {
     /// Whether the names are withheld: a sealed block beyond the model error that they
-    /// made worse or overshot.
+    /// made worse or overshot, or the sealed part predicted worse with them.
     pub fn withholds(&self) -> bool {
-        self.sealed_beyond.iter().any(|b| !b.under_corrected)
+        self.sealed_beyond.iter().any(|b| !b.under_corrected) || self.sealed_error.worse
     }
+}
+
+/// The sealed part's mean squared error with the names and without them (the better
+/// there of the nominal model refitted and the model as given), compared block by block: `dᵢ = eᵢ²(with) − eᵢ²(without)` over the
+/// sealed rows, its means over [`SealedError::blocks`] contiguous blocks (each long
+/// against the noise's correlation), a one-sided Student-t test of their mean against 0.
+#[derive(Debug, Clone, Serialize)]
+pub struct SealedError {
+    /// Blocks the sealed rows were cut into, −.
+    pub blocks: usize,
+    /// Mean squared error without the names, channel unit².
+    pub mse_without: f64,
+    /// Mean squared error with them, channel unit².
+    pub mse_with: f64,
+    /// Student-t statistic of the blocks' mean difference, −.
+    pub t: f64,
+    /// The names predict the sealed part worse: the difference is significant at the
+    /// analysis's α (one-sided) and larger than the noise variance (what a correct name
+    /// could add by its own estimation error is far below it).
+    pub worse: bool,
 }
 
 /// A sealed block beyond the model error ([`ModelError`]).
@@ -730,6 +752,20 @@ impl Report {
                     me.selection_segments, me.block_rows
                 );
             }
+            let e = &me.sealed_error;
+            let _ = writeln!(
+                s,
+                "\nSealed part with the names against without them: RMS {:.3} → {:.3} {u} (t = {:.1} over {} blocks){}",
+                e.mse_without.sqrt(),
+                e.mse_with.sqrt(),
+                e.t,
+                e.blocks,
+                if e.worse {
+                    " — worse beyond the noise: the names are withheld"
+                } else {
+                    ""
+                }
+            );
             for b in &me.sealed_beyond {
                 let _ = writeln!(
                     s,

@@ -9,8 +9,8 @@
 //!   path, down milling, the material ahead of the tool centre);
 //! - [`EngagementProfile`]: the engagement a run log recorded along the path (the what-if
 //!   on a recorded cut);
-//! - [`Held`]: one engagement wherever the tool is (the replay of a log row that records
-//!   its depths but not where they are).
+//! - [`Held`]: one engagement wherever the tool is, and [`Ramp`]: the chord between two
+//!   logged rows (the replay of a log that records its depths but not where they are).
 //!
 //! A source that holds stock (an NC program over a Z-map) is another implementation: the
 //! plant calls [`EngagementSource::engagement_at`] once per internal step in path order,
@@ -40,6 +40,27 @@ impl Engagement {
             radial_mm: 0.0,
             axial_mm,
             ks_factor: 1.0,
+        }
+    }
+
+    /// The engagement the fraction `s` (0 ..= 1) of the way from `a` to `b`: depths
+    /// linear; where one end is in air, the other end's axial depth and `Ks` factor (an
+    /// air row's are conventions, not material).
+    pub fn lerp(a: Engagement, b: Engagement, s: f64) -> Engagement {
+        let (a_cut, b_cut) = (a.radial_mm > 0.0, b.radial_mm > 0.0);
+        let mix = |u: f64, v: f64| u + s * (v - u);
+        Engagement {
+            radial_mm: mix(a.radial_mm, b.radial_mm),
+            axial_mm: match (a_cut, b_cut) {
+                (false, true) => b.axial_mm,
+                (true, false) => a.axial_mm,
+                _ => mix(a.axial_mm, b.axial_mm),
+            },
+            ks_factor: match (a_cut, b_cut) {
+                (true, true) => mix(a.ks_factor, b.ks_factor),
+                (false, true) => b.ks_factor,
+                _ => a.ks_factor,
+            },
         }
     }
 }
@@ -176,6 +197,35 @@ impl EngagementSource for Held {
     }
 }
 
+/// A replayed log row whose depths were sampled at the end of its period, the row
+/// before's at its start: the engagement along the chord between the two samples, from
+/// `from` at `x_start_mm` to `to` at `x_start_mm + length_mm`, `to` beyond. Where the
+/// engagement changes inside a period (an entry, an exit, a depth step) this is the
+/// unbiased guess of where; holding `to` over the whole period ([`Held`]) would put every
+/// change one period early.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ramp {
+    /// Engagement at the period's start (the row before's sample).
+    pub from: Engagement,
+    /// Engagement at the period's end (the row's sample).
+    pub to: Engagement,
+    /// Tool-centre position at the period's start, mm.
+    pub x_start_mm: f64,
+    /// Path over which the engagement changes, mm (> 0).
+    pub length_mm: f64,
+}
+
+impl EngagementSource for Ramp {
+    fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
+        let s = ((x_mm - self.x_start_mm) / self.length_mm).clamp(0.0, 1.0);
+        Engagement::lerp(self.from, self.to, s)
+    }
+
+    fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
+        Some(Box::new(*self))
+    }
+}
+
 /// The engagement a run log recorded, as a function of the path position: per row the
 /// true tool position, the engaged radial and axial depth and the effective `Ks` factor;
 /// linear in between, air before the first and after the last row. Built by
@@ -211,20 +261,7 @@ impl EngagementProfile {
         if x1 - x0 <= 1e-12 {
             return b;
         }
-        let s = (x_mm - x0) / (x1 - x0);
-        let lerp = |u: f64, v: f64| u + s * (v - u);
-        Engagement {
-            radial_mm: lerp(a.radial_mm, b.radial_mm),
-            axial_mm: lerp(a.axial_mm, b.axial_mm),
-            // The factor of the engaged end (a row in air has factor 1 by convention).
-            ks_factor: if a.radial_mm > 0.0 && b.radial_mm > 0.0 {
-                lerp(a.ks_factor, b.ks_factor)
-            } else if b.radial_mm > 0.0 {
-                b.ks_factor
-            } else {
-                a.ks_factor
-            },
-        }
+        Engagement::lerp(a, b, (x_mm - x0) / (x1 - x0))
     }
 
     /// The recorded engagements, in path order.
@@ -297,5 +334,48 @@ mod tests {
         assert_eq!((mid.radial_mm, mid.ks_factor), (1.0, 1.5));
         assert_eq!(sources[2].engagement_at(&tool, 11.0), Engagement::air(16.0));
         assert!(EngagementProfile::new(vec![1.0, 0.0], vec![e, e]).is_none());
+    }
+
+    #[test]
+    fn a_ramp_runs_the_chord_between_two_rows() {
+        let tool = ToolGeometry {
+            diameter_mm: 16.0,
+            flutes: 4,
+        };
+        let e = Engagement {
+            radial_mm: 3.0,
+            axial_mm: 16.0,
+            ks_factor: 1.4,
+        };
+        // From air logged with axial depth 0 (a convention) into the cut over 10..14 mm.
+        let mut r = Ramp {
+            from: Engagement::air(0.0),
+            to: e,
+            x_start_mm: 10.0,
+            length_mm: 4.0,
+        };
+        let at = |r: &mut Ramp, x: f64| r.engagement_at(&tool, x);
+        let start = at(&mut r, 10.0);
+        assert_eq!(start.radial_mm, 0.0);
+        // The air end takes the engaged end's axial depth and factor.
+        let mid = at(&mut r, 11.0);
+        assert_eq!(
+            (mid.radial_mm, mid.axial_mm, mid.ks_factor),
+            (0.75, 16.0, 1.4)
+        );
+        assert_eq!(at(&mut r, 14.0), e);
+        assert_eq!(at(&mut r, 30.0), e);
+        assert_eq!(at(&mut r, 5.0).radial_mm, 0.0);
+        // Between two cuts both ends count.
+        let mut step = Ramp {
+            from: Engagement {
+                radial_mm: 1.0,
+                axial_mm: 16.0,
+                ks_factor: 1.0,
+            },
+            ..r
+        };
+        let mid = at(&mut step, 12.0);
+        assert_eq!((mid.radial_mm, mid.ks_factor), (2.0, 1.2));
     }
 }

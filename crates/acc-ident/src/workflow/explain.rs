@@ -189,9 +189,9 @@ pub(super) fn explain(
     }
     if named.is_empty() && withheld.is_empty() && s.ambiguous.is_empty() {
         out.push(match unexplained {
-            Some(_) if s.rounds.iter().any(|r| r.candidates.iter().any(|c| c.ruled_out.is_some())) => "Nothing named: the candidate that fitted best was ruled out by the logged power (see the round's verdict), and structure remains in the residual (see Unexplained): something outside the library.".into(),
+            Some(_) if s.rounds.iter().any(|r| r.candidates.iter().any(|c| c.ruled_out.is_some())) => "Nothing named: the candidate that fitted best was ruled out (see its round), and structure remains in the residual (see Unexplained): something outside the library.".into(),
             Some(_) => "Nothing named: no candidate passed every criterion, and structure remains in the residual (see Unexplained): something outside the library, or an effect the log does not excite enough.".into(),
-            None if s.rounds.iter().any(|r| r.candidates.iter().any(|c| c.ruled_out.is_some())) => "Nothing named: the candidate that fitted best was ruled out by the logged power (see the round's verdict), and what remains is at the noise's level.".into(),
+            None if s.rounds.iter().any(|r| r.candidates.iter().any(|c| c.ruled_out.is_some())) => "Nothing named: the candidate that fitted best was ruled out (see its round), and what remains is at the noise's level.".into(),
             None if s.rounds.iter().any(|r| r.candidates.iter().any(|c| !c.contested_by.is_empty())) => "Nothing named: the candidates that passed every other criterion were each below the noise and not the only fit; what remains is at the noise's level.".into(),
             None => "Nothing named: no candidate passed every criterion and the nominal model explains the log down to the noise.".into(),
         });

@@ -62,7 +62,8 @@ pub struct Options {
     /// the change the candidate makes to the prediction against the noise, the log's
     /// rounding and the model error it leaves) a candidate is named only if no other
     /// candidate passes in its round and no effect is in the model yet (a second name
-    /// must exceed it). Default [`MIN_EFFECT_TO_NOISE`] (1). Below the noise a structure is
+    /// must exceed it); where the replay is not exact and `withhold_on_structure` is
+    /// `Some(true)`, not at all. Default [`MIN_EFFECT_TO_NOISE`] (1). Below the noise a structure is
     /// matched about equally by several effects' shapes (the tooth-level force replayed by
     /// the mean model — ENR 1–2 — passed as `tool_wear`, `sensor_gain_drift`,
     /// `depth_exponent` and `ks_step` at once, and the encompassing test picked one), so a

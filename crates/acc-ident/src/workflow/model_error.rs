@@ -16,11 +16,15 @@
 //! them worse or overshot it, it explains the rows it saw but not the ones it did not, and
 //! is withheld. Both parts are judged in blocks of one length ([`SEALED_BLOCKS`]), outside
 //! the rows where the engagement changes inside a period ([`ENGAGEMENT_CHANGES`]), where
-//! the logged-depth replay has an error of its own.
+//! the logged-depth replay has an error of its own. A model error that is large where
+//! the names were fitted (a hard band of the part the logged depths do not carry) hides
+//! every single block, so the sealed part is also judged as a whole ([`sealed_error`]):
+//! names that predict it worse than the model without them, beyond the noise, are
+//! withheld.
 
 #[allow(unused_imports)]
 use super::*;
-use crate::report::{ModelError, SealedBlock};
+use crate::report::{ModelError, SealedBlock, SealedError};
 use crate::segment::{Regime, Segment, SegmentBias};
 
 /// Fewest selection blocks the model error is estimated from: with fewer the spread of
@@ -50,9 +54,9 @@ pub(super) fn bias_spread(biases: &[SegmentBias]) -> f64 {
 }
 
 /// The regimes in which the engagement changes inside a period: on logged depths the
-/// replay holds the row's end-of-period depth over the whole period there (up to 38 W at an
-/// entry row, docs/twin.md), the known structure of that model error, larger than
-/// elsewhere and the same wherever the part has an edge. They are not judged (a name that
+/// replay runs the chord between two rows' depths there while the true engagement bends
+/// (up to 25 W / 54 N off at an entry row, docs/twin.md), the known structure of that model
+/// error, larger than elsewhere and the same wherever the part has an edge. They are not judged (a name that
 /// moves them is neither borrowing a signature nor carrying one): the yardstick and the
 /// judged blocks are the steady cut, override steps and air.
 pub const ENGAGEMENT_CHANGES: [Regime; 2] = [Regime::Entry, Regime::DepthChange];
@@ -136,11 +140,68 @@ pub(super) fn judge(
         Vec::new()
     };
     ModelError {
+        sealed_error: sealed_error(p, updated, without, noise, alpha),
         selection_segments: on_selection.len(),
         block_rows: len,
         segment_bias_sd: tau,
         judged,
         sealed_beyond: beyond,
+    }
+}
+
+/// The sealed part predicted with the names (`updated`) against without them: the better
+/// on the sealed part of the nominal model refitted (`refit`) and the model as given (a
+/// refit that took a structure of the selection part into `Ks` can be the worse of the
+/// two). [`SealedError`] over [`SEALED_BLOCKS`] contiguous blocks of the sealed rows, at
+/// the one-sided level `alpha`, worse only beyond the noise variance `noise.sigma²`.
+pub(super) fn sealed_error(
+    p: &Prepared,
+    updated: &[f64],
+    refit: &[f64],
+    noise: Noise,
+    alpha: f64,
+) -> SealedError {
+    let rows = &p.sealed_rows;
+    let sq = |pred: &[f64], i: usize| (p.inp.measured[i] - pred[i]).powi(2);
+    let mse = |pred: &[f64]| mean(&rows.iter().map(|&i| sq(pred, i)).collect::<Vec<_>>());
+    let as_given = &p.nominal_replay.predicted;
+    let without = if mse(as_given) < mse(refit) {
+        as_given
+    } else {
+        refit
+    };
+    let b = SEALED_BLOCKS.min(rows.len());
+    let diffs: Vec<f64> = (0..b)
+        .map(|k| {
+            let block = &rows[k * rows.len() / b..(k + 1) * rows.len() / b];
+            mean(
+                &block
+                    .iter()
+                    .map(|&i| sq(updated, i) - sq(without, i))
+                    .collect::<Vec<_>>(),
+            )
+        })
+        .collect();
+    let m = mean(&diffs);
+    let sd = if b > 1 {
+        (diffs.iter().map(|d| (d - m).powi(2)).sum::<f64>() / (b - 1) as f64).sqrt()
+    } else {
+        0.0
+    };
+    let t = if sd > 0.0 {
+        m / (sd / (b as f64).sqrt())
+    } else if m > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    let t_crit = stats::t_critical(1.0 - 2.0 * alpha, b.saturating_sub(1) as f64);
+    SealedError {
+        blocks: b,
+        mse_without: mse(without),
+        mse_with: mse(updated),
+        t,
+        worse: b > 1 && t > t_crit && m > noise.sigma * noise.sigma,
     }
 }
 

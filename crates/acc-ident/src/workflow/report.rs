@@ -112,13 +112,29 @@ pub(super) fn assemble(
                     )
                 })
                 .collect();
+            let mut why = Vec::new();
+            if let Some(e) = model_error.as_ref().map(|m| &m.sealed_error).filter(|e| e.worse) {
+                why.push(format!(
+                    "the updated model predicts the sealed part worse than the model without it (RMS {:.3} → {:.3} {unit}, t = {:.1} over {} blocks, beyond the noise)",
+                    e.mse_without.sqrt(),
+                    e.mse_with.sqrt(),
+                    e.t,
+                    e.blocks
+                ));
+            }
+            if !list.is_empty() {
+                why.push(format!(
+                    "the updated model makes the sealed part worse beyond the model error it has where it was fitted (a spread of {me:.3} {unit} in the selection part's block biases): {}",
+                    list.join("; ")
+                ));
+            }
             passed
                 .iter()
                 .map(|e| Withheld {
                     effect: e.clone(),
                     reason: format!(
-                        "the updated model makes the sealed part worse beyond the model error it has where it was fitted (a spread of {me:.3} {unit} in the selection part's block biases): {}; the fit explains the rows it saw but not the ones it did not",
-                        list.join("; ")
+                        "{}; the fit explains the rows it saw but not the ones it did not",
+                        why.join("; and ")
                     ),
                 })
                 .collect()
@@ -228,7 +244,8 @@ pub(super) fn assemble(
             )
         );
     }
-    // Nothing named because the best fit was ruled out by the logged power.
+    // Nothing named because the best fit was ruled out (by the logged power, or below the
+    // noise on a replay that is not exact).
     if named.is_empty() && withheld.is_empty() {
         if let Some(why) = s
             .rounds

@@ -288,7 +288,8 @@ impl Selection {
         }
         // An effect below the noise is named only if it alone fits and is the first name
         // (see `Options::min_effect_to_noise`): the others passing in its round, and the
-        // effects already in the model, are its rivals.
+        // effects already in the model, are its rivals. Where the replay is not exact it
+        // is not named at all.
         let passing: Vec<String> = results
             .iter()
             .filter(|r| r.passed)
@@ -305,10 +306,19 @@ impl Selection {
                 .chain(self.accepted.iter().map(|k| k.name().to_string()))
                 .collect();
             if rivals.is_empty() {
-                continue;
+                // On a replay that is not exact the model error itself leaves structures
+                // of this size: being the only fit is not enough there.
+                if opts.withhold_on_structure != Some(true) || p.replay_is_exact() {
+                    continue;
+                }
+                r.ruled_out = Some(format!(
+                    "its effect is {:.1}× the noise, and the replay is not exact (logged depths): the model error leaves structures below {:.1}× the noise that several effects fit, so being the only fit does not name it",
+                    r.effect_to_noise, opts.min_effect_to_noise
+                ));
+            } else {
+                r.contested_by = rivals;
             }
             r.passed = false;
-            r.contested_by = rivals;
             scored.retain(|sc| sc.0.name() != r.effect);
         }
         scored.sort_by(|a, b| a.3.total_cmp(&b.3));
