@@ -251,8 +251,8 @@ impl ModelError {
 }
 
 /// The sealed part's mean squared error with the names and without them (the better
-/// there of the nominal model refitted and the model as given), compared block by block: `dᵢ = eᵢ²(with) − eᵢ²(without)` over the
-/// sealed rows, its means over [`SealedError::blocks`] contiguous blocks (each long
+/// there of the nominal model refitted and the model as given), compared block by block:
+/// `dᵢ = eᵢ²(with) − eᵢ²(without)` over the sealed rows, its means over [`SealedError::blocks`] contiguous blocks (each long
 /// against the noise's correlation), a one-sided Student-t test of their mean against 0.
 #[derive(Debug, Clone, Serialize)]
 pub struct SealedError {
@@ -748,7 +748,7 @@ impl Report {
             } else {
                 let _ = writeln!(
                     s,
-                    "The replay is not exact here, and the selection part has {} blocks of {} rows: too few to measure the model error, so no name was judged against it.",
+                    "The replay is not exact here, and the selection part has {} blocks of {} rows: too few to measure the model error, so no block was judged against it.",
                     me.selection_segments, me.block_rows
                 );
             }
@@ -760,7 +760,7 @@ impl Report {
                 e.mse_with.sqrt(),
                 e.t,
                 e.blocks,
-                if e.worse {
+                if e.worse && !(self.accepted.is_empty() && self.withheld.is_empty()) {
                     " — worse beyond the noise: the names are withheld"
                 } else {
                     ""

@@ -42,27 +42,6 @@ impl Engagement {
             ks_factor: 1.0,
         }
     }
-
-    /// The engagement the fraction `s` (0 ..= 1) of the way from `a` to `b`: depths
-    /// linear; where one end is in air, the other end's axial depth and `Ks` factor (an
-    /// air row's are conventions, not material).
-    pub fn lerp(a: Engagement, b: Engagement, s: f64) -> Engagement {
-        let (a_cut, b_cut) = (a.radial_mm > 0.0, b.radial_mm > 0.0);
-        let mix = |u: f64, v: f64| u + s * (v - u);
-        Engagement {
-            radial_mm: mix(a.radial_mm, b.radial_mm),
-            axial_mm: match (a_cut, b_cut) {
-                (false, true) => b.axial_mm,
-                (true, false) => a.axial_mm,
-                _ => mix(a.axial_mm, b.axial_mm),
-            },
-            ks_factor: match (a_cut, b_cut) {
-                (true, true) => mix(a.ks_factor, b.ks_factor),
-                (false, true) => b.ks_factor,
-                _ => a.ks_factor,
-            },
-        }
-    }
 }
 
 /// The cutter as an engagement source sees it.
@@ -211,14 +190,35 @@ pub struct Ramp {
     pub to: Engagement,
     /// Tool-centre position at the period's start, mm.
     pub x_start_mm: f64,
-    /// Path over which the engagement changes, mm (> 0).
+    /// Path over which the engagement changes, mm (≤ 0: the row's engagement at once).
     pub length_mm: f64,
 }
 
 impl EngagementSource for Ramp {
+    /// The radial depth along the chord; the axial depth is the row's own (`to`, or
+    /// `from`'s where the row is in air) throughout, since the plant reads it once at the
+    /// period's start; the `Ks` factor of the engaged end, both ends' mixed in a cut.
     fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
-        let s = ((x_mm - self.x_start_mm) / self.length_mm).clamp(0.0, 1.0);
-        Engagement::lerp(self.from, self.to, s)
+        let s = if self.length_mm > 0.0 {
+            ((x_mm - self.x_start_mm) / self.length_mm).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let (a, b) = (self.from, self.to);
+        let (a_cut, b_cut) = (a.radial_mm > 0.0, b.radial_mm > 0.0);
+        Engagement {
+            radial_mm: a.radial_mm + s * (b.radial_mm - a.radial_mm),
+            axial_mm: if b_cut || !a_cut {
+                b.axial_mm
+            } else {
+                a.axial_mm
+            },
+            ks_factor: match (a_cut, b_cut) {
+                (true, true) => a.ks_factor + s * (b.ks_factor - a.ks_factor),
+                (false, true) => b.ks_factor,
+                _ => a.ks_factor,
+            },
+        }
     }
 
     fn boxed_clone(&self) -> Option<Box<dyn EngagementSource>> {
@@ -261,7 +261,20 @@ impl EngagementProfile {
         if x1 - x0 <= 1e-12 {
             return b;
         }
-        Engagement::lerp(a, b, (x_mm - x0) / (x1 - x0))
+        let s = (x_mm - x0) / (x1 - x0);
+        let lerp = |u: f64, v: f64| u + s * (v - u);
+        Engagement {
+            radial_mm: lerp(a.radial_mm, b.radial_mm),
+            axial_mm: lerp(a.axial_mm, b.axial_mm),
+            // The factor of the engaged end (a row in air has factor 1 by convention).
+            ks_factor: if a.radial_mm > 0.0 && b.radial_mm > 0.0 {
+                lerp(a.ks_factor, b.ks_factor)
+            } else if b.radial_mm > 0.0 {
+                b.ks_factor
+            } else {
+                a.ks_factor
+            },
+        }
     }
 
     /// The recorded engagements, in path order.
@@ -366,16 +379,25 @@ mod tests {
         assert_eq!(at(&mut r, 14.0), e);
         assert_eq!(at(&mut r, 30.0), e);
         assert_eq!(at(&mut r, 5.0).radial_mm, 0.0);
-        // Between two cuts both ends count.
+        // Between two cuts both ends' radial depth and factor count; the axial depth is
+        // the row's own from the start (the plant reads it once per period).
         let mut step = Ramp {
             from: Engagement {
                 radial_mm: 1.0,
-                axial_mm: 16.0,
+                axial_mm: 8.0,
                 ks_factor: 1.0,
             },
             ..r
         };
         let mid = at(&mut step, 12.0);
         assert_eq!((mid.radial_mm, mid.ks_factor), (2.0, 1.2));
+        assert_eq!(at(&mut step, 10.0).axial_mm, 16.0);
+        // Leaving the cut: the engaged end's axial depth.
+        let mut exit = Ramp {
+            from: e,
+            to: Engagement::air(0.0),
+            ..r
+        };
+        assert_eq!(at(&mut exit, 11.0).axial_mm, 16.0);
     }
 }
