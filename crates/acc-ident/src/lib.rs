@@ -30,6 +30,7 @@ pub mod model;
 pub mod physics;
 pub mod replay;
 pub mod report;
+mod report_model_error;
 pub mod runlog;
 pub mod segment;
 pub mod stats;
