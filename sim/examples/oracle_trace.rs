@@ -3,7 +3,7 @@
 //! `run.csv` can be set against it block by block (docs/plan.md, "The plan's lead").
 //!
 //!     cargo run -p acc-sim --example oracle_trace -- tests/nc/pocket_rect.ngc \
-//!         -20,-20,-10,60,50,0 out/oracle-pocket [CEILING × Fr, default 1.05]
+//!         -20,-20,-10,60,50,0 out/oracle-pocket [CEILING × Fr, default 1.05] [--axial-per-step]
 //!
 //! The scenario is `configs/scenarios/paper_case3.toml` with the program's stock on
 //! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it. Columns of
@@ -18,8 +18,13 @@ use acc_sim::Scenario;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    let per_step = args.iter().any(|a| a == "--axial-per-step");
+    let args: Vec<&String> = args.iter().filter(|a| *a != "--axial-per-step").collect();
     let [program, stock, out, rest @ ..] = &args[..] else {
-        return Err("usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING]".into());
+        return Err(
+            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING] [--axial-per-step]"
+                .into(),
+        );
     };
     let ceiling: f64 = match rest.first() {
         Some(c) => c.parse().map_err(|e| format!("ceiling `{c}`: {e}"))?,
@@ -30,19 +35,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let base = Scenario::load(acc_sim::run::configs_dir().join("scenarios/paper_case3.toml"))?;
     let spec = ProgramSpec {
-        program: program.into(),
+        program: (*program).into(),
         stock: StockSource::Box(stock.parse()?, 0.25),
         tools: None,
     };
-    let path = ProgramPath::build(
-        &spec,
-        &acc_sim::engagement::ToolGeometry::of(&base.tool),
-        base.machine.spindle.rpm,
-        base.machine.feed_drive.rapid_mm_min,
-    )?;
+    let path = ProgramPath::for_scenario(&spec, &base)?;
     let sc = path.scenario_for(&base);
     let fr = sc.controller.force_ref_n;
-    let runs = program_rms_within_runs(&ProgramPlant::new(&sc, &path), ceiling, 3)?;
+    let plant = ProgramPlant::new(&sc, &path).with_axial_per_step(per_step);
+    let runs = program_rms_within_runs(&plant, ceiling, 3)?;
     std::fs::create_dir_all(out)?;
     for (k, r) in runs.iter().enumerate() {
         let s = summarize_program(&r.rows, fr, sc.controller.period_s);

@@ -37,6 +37,7 @@ pub mod optimize;
 pub mod oracle;
 pub mod oracle_program;
 pub mod plan;
+pub mod plan_follower;
 pub mod program;
 pub mod program_summary;
 pub mod run;

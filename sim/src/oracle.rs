@@ -157,6 +157,33 @@ const BISECTIONS: usize = 8;
 /// Most Dinkelbach steps of the RMS figure (it stops when a step gains less than 0.1 %).
 const DINKELBACH_STEPS: usize = 3;
 
+/// The row of a noise-free period `rec` run at override `pct` (percent), with force
+/// reference `fr` (N) and state `state`: the true force is the measured one.
+pub(crate) fn noise_free_row(
+    rec: &crate::PeriodRecord<'_>,
+    fr: f64,
+    pct: u16,
+    state: &str,
+) -> RunRecord {
+    RunRecord {
+        t_s: rec.t_end_s,
+        x_true_mm: Some(rec.x_mm),
+        radial_depth_mm: Some(rec.radial_depth_mm),
+        axial_depth_mm: Some(rec.axial_depth_mm),
+        force_n: Some(rec.force_mean_n),
+        force_true_n: Some(rec.force_mean_n),
+        feed_true_mm_min: Some(rec.feed_mean_mm_min),
+        force_ref_n: Some(fr),
+        override_cmd_pct: Some(pct),
+        override_applied_pct: Some(pct),
+        state: state.into(),
+        // A program's block and tool at the period's end, 16 bits as the board reports.
+        block: rec.path_point.map(|p| (p.block & 0xFFFF) as u16),
+        tool: rec.path_point.map(|p| (p.tool & 0xFFFF) as u16),
+        ..RunRecord::default()
+    }
+}
+
 /// One period of the plant with a held override: the copy after it and what the row sees.
 struct Trial {
     machine: Machine,
@@ -201,23 +228,7 @@ impl<'a, P: OraclePlant> Search<'a, P> {
         let x0 = machine.x_mm();
         machine.set_override_input_pct(pct);
         let rec = machine.advance(self.period_s);
-        let row = RunRecord {
-            t_s: rec.t_end_s,
-            x_true_mm: Some(rec.x_mm),
-            radial_depth_mm: Some(rec.radial_depth_mm),
-            axial_depth_mm: Some(rec.axial_depth_mm),
-            force_n: Some(rec.force_mean_n),
-            force_true_n: Some(rec.force_mean_n),
-            feed_true_mm_min: Some(rec.feed_mean_mm_min),
-            force_ref_n: Some(self.fr),
-            override_cmd_pct: Some(pct),
-            override_applied_pct: Some(pct),
-            state: "oracle".into(),
-            // A program's block and tool at the period's end, 16 bits as the board reports.
-            block: rec.path_point.map(|p| (p.block & 0xFFFF) as u16),
-            tool: rec.path_point.map(|p| (p.tool & 0xFFFF) as u16),
-            ..RunRecord::default()
-        };
+        let row = noise_free_row(&rec, self.fr, pct, "oracle");
         let dx_mm = rec.x_mm - x0;
         Ok(Trial {
             machine,

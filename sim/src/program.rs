@@ -127,6 +127,17 @@ impl ProgramPath {
         Self::build_within(spec, tool, rpm, rapid_mm_min, None)
     }
 
+    /// [`ProgramPath::build`] of `spec` with `scenario`'s cutter, spindle speed and rapid
+    /// rate, as `acc sim SCENARIO --program … --stock…` builds it.
+    pub fn for_scenario(spec: &ProgramSpec, scenario: &crate::Scenario) -> Result<Self, SimError> {
+        Self::build(
+            spec,
+            &ToolGeometry::of(&scenario.tool),
+            scenario.machine.spindle.rpm,
+            scenario.machine.feed_drive.rapid_mm_min,
+        )
+    }
+
     /// [`ProgramPath::build`], refusing a program that leaves the machine's `travel` (the
     /// machine file's `[travel]`): the error names the program's file, line and the axis.
     pub fn build_within(

@@ -458,13 +458,7 @@ pub fn program_path(
         stock: StockSource::Box(stock_box.parse().expect("box"), cell_mm),
         tools: None,
     };
-    ProgramPath::build(
-        &spec,
-        &acc_sim::engagement::ToolGeometry::of(&sc.tool),
-        sc.machine.spindle.rpm,
-        sc.machine.feed_drive.rapid_mm_min,
-    )
-    .expect("program")
+    ProgramPath::for_scenario(&spec, sc).expect("program")
 }
 
 /// Run `acc <args>` from the repository root to its end: (exit 0, stdout, stderr).
