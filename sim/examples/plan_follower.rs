@@ -4,13 +4,18 @@
 //! plan cannot see").
 //!
 //!     cargo run --release -p acc-sim --example plan_follower -- tests/nc/pocket_rect.ngc \
-//!         -20,-20,-10,60,50,0 [--scale K] [--ceiling C] [--axial-per-step]
+//!         -20,-20,-10,60,50,0 [--scale K] [--ceiling C] [--axial-per-step] [--csv FILE]
 //!
 //! The scenario is `configs/scenarios/paper_case3.toml` with the program's stock on
 //! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it; the plan is
 //! the one `acc plan` writes for it (`ProgramPath::plan`). `--scale` (default 1) is the
 //! plan's scale `k`, `--ceiling` (default 1.03) the ceiling in Fr, `--axial-per-step` has
-//! the plant read the axial depth at every step instead of holding it per period.
+//! the plant read the axial depth at every step instead of holding it per period, `--csv`
+//! writes the rows (`t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
+//! axial_depth_mm`, the force the period's true mean) to set against a run's `run.csv` or
+//! the oracle's (`oracle_trace`) block by block.
+use std::io::Write;
+
 use acc_sim::plan::PlanParams;
 use acc_sim::plan_follower::{follow_plan, FollowerConfig};
 use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
@@ -19,10 +24,11 @@ use acc_sim::Scenario;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [program, stock, rest @ ..] = &args[..] else {
-        return Err("usage: plan_follower PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 [--scale K] [--ceiling C] [--axial-per-step]".into());
+        return Err("usage: plan_follower PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 [--scale K] [--ceiling C] [--axial-per-step] [--csv FILE]".into());
     };
     let base = Scenario::load(acc_sim::run::configs_dir().join("scenarios/paper_case3.toml"))?;
     let mut cfg = FollowerConfig::of(&base, 1.0);
+    let mut csv = None;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str, lo: f64, hi: f64| -> Result<f64, String> {
@@ -38,6 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--scale" => cfg.scale = value("--scale", 0.5, 2.0)?,
             "--ceiling" => cfg.ceiling = value("--ceiling", 0.5, 2.0)?,
             "--axial-per-step" => cfg.axial_per_step = true,
+            "--csv" => csv = Some(it.next().ok_or("--csv: a file is needed")?.clone()),
             other => return Err(format!("unknown option `{other}`").into()),
         }
     }
@@ -66,6 +73,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         run.summary.cycle_s,
         if run.finished { "" } else { " (did not finish)" }
     );
+    if let Some(out) = &csv {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
+        writeln!(
+            f,
+            "t_s,block,x_true_mm,override_pct,force_n,radial_depth_mm,axial_depth_mm"
+        )?;
+        for r in &run.rows {
+            writeln!(
+                f,
+                "{:.3},{},{:.4},{},{:.2},{:.4},{:.4}",
+                r.t_s,
+                r.block.unwrap_or(0),
+                r.x_true_mm.unwrap_or(0.0),
+                r.override_cmd_pct.unwrap_or(0),
+                r.force_n.unwrap_or(0.0),
+                r.radial_depth_mm.unwrap_or(0.0),
+                r.axial_depth_mm.unwrap_or(0.0)
+            )?;
+        }
+        f.flush()?;
+    }
     for r in run
         .rows
         .iter()
