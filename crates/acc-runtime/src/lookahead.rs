@@ -5,7 +5,10 @@
 //!
 //! **Where the tool is.** The board has no path-position register
 //! (`../shared/docs/pmc-board.md`): the position is the path the NC's `ACTUAL_FEED`
-//! (protocol v2) covered since the start, set on the plan by the block the board reports
+//! (protocol v2) covered since the start — in a period whose override applied is the one
+//! of the read before and whose path stays in one plan row's feed, that row's programmed
+//! feed × the override, exact where the register agrees with it to its rounding
+//! (`LookAhead::period_path_mm`) — set on the plan by the block the board reports
 //! (`BLOCK_NUMBER`). A new block number is looked up in the plan from the block the tool
 //! was in (a program that loops meets a block again): the first visit of it that ends at or
 //! after the position. When the position is outside that visit, the block began somewhere
@@ -55,7 +58,11 @@ use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
 
 use crate::plan::{Plan, PlanRow};
-use crate::plan_lead::{PlanLead, PlanScale, CUTTING, HIGH, WINDOW_SAMPLES};
+use crate::plan_lead::{highest_within, PlanLead, PlanScale, CUTTING, HIGH, WINDOW_SAMPLES};
+
+/// Half the unit of `ACTUAL_FEED` (a whole number of mm/min): how far the register may be
+/// from the period's path feed, mm/min.
+const FEED_RESOLUTION_MM_MIN: f64 = 0.5;
 
 /// Tuning of the look-ahead.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -185,6 +192,13 @@ pub struct LookAhead {
     lead: PlanLead,
     /// The line runs as designed ([`LookAhead::set_line_nominal`]).
     line_nominal: bool,
+    /// `OVERRIDE_APPLIED` at the read before, percent.
+    applied_prev: Option<u16>,
+    /// Largest drift of the integrated position since it was last set on a block's start,
+    /// mm: the register's rounding over the periods whose path is taken from it.
+    drift_mm: f64,
+    /// The plan's scale last confirmed for the tool in force (an earlier cut's), −.
+    tool_scale: Option<f64>,
 }
 
 impl LookAhead {
@@ -216,6 +230,9 @@ impl LookAhead {
             scale: PlanScale::default(),
             lead: PlanLead::default(),
             line_nominal: true,
+            applied_prev: None,
+            drift_mm: 0.0,
+            tool_scale: None,
         }
     }
 
@@ -223,6 +240,7 @@ impl LookAhead {
     /// skipped): the tool went on at about the last period's path, so the position moves
     /// by it and its uncertainty grows by it; the plan's scale starts again.
     pub fn missed(&mut self) {
+        self.applied_prev = None;
         self.x_mm += self.dx_prev_mm;
         self.unc_mm += self.dx_prev_mm;
         self.scale.clear();
@@ -295,6 +313,7 @@ impl LookAhead {
         if self.last_tool != Some(s.tool_number) {
             self.last_tool = Some(s.tool_number);
             self.scale.clear();
+            self.tool_scale = None;
         }
         if !s.is_v2() || s.block_number == 0 {
             self.scale.clear();
@@ -307,10 +326,13 @@ impl LookAhead {
             return self.last;
         }
         let v = f64::from(s.actual_feed_mm_min);
-        let dx = v * period_s / 60.0;
         // The path the NC reports, whatever the block (a block report may lag a period
         // behind the feed: the line guard holds a changed status until it is confirmed).
+        let (dx, exact) = self.period_path_mm(s, v, period_s);
         self.x_mm += dx;
+        if !exact {
+            self.drift_mm += FEED_RESOLUTION_MM_MIN * period_s / 60.0;
+        }
         if self.last_block != Some(s.block_number) || self.visit.is_none() {
             self.last_block = Some(s.block_number);
             self.visit = self.find_visit(s.block_number, self.visit, self.x_mm);
@@ -331,6 +353,7 @@ impl LookAhead {
                     let d = dx.min(top * period_s / 60.0);
                     self.x_mm = start + 0.5 * d;
                     self.unc_mm = 0.5 * d;
+                    self.drift_mm = 0.0;
                 }
             }
         }
@@ -365,6 +388,32 @@ impl LookAhead {
         };
         let measured = (force.valid && force.force_n.is_finite()).then_some(force.force_n);
         let agree = shape && disagreement.is_none() && self.below == 0;
+        // A cut's entry, before its scale is confirmed: the plan's period forces at the
+        // tool's scale from its earlier cuts may lift the cap, never above the law.
+        if self.scale.confirmed() {
+            self.tool_scale = self.scale.scale();
+        }
+        let cap_pct = match (cap_pct, self.tool_scale) {
+            (Some(c), Some(k))
+                if self.cfg.lead
+                    && self.line_nominal
+                    && agree
+                    && !s.feed_hold_active
+                    && !self.scale.confirmed() =>
+            {
+                let e = self.entry_cap(
+                    k.max(1.0),
+                    x,
+                    dx,
+                    self.unc_mm + margin,
+                    in_force,
+                    s,
+                    period_s,
+                );
+                Some(e.map_or(c, |e| e.max(c)))
+            }
+            (c, _) => c,
+        };
         let fr = self.cfg.force_ref_n;
         // The scale belongs to the cut it was measured in: out of the cut (a force below
         // the cutting share, or none), and whenever plan and measurement disagree, it
@@ -404,14 +453,37 @@ impl LookAhead {
         self.last
     }
 
-    /// The plan's lead ([`crate::plan_lead`]) with scale `k`, the tool at `x` (mm) having
-    /// moved `dx` (mm) this period, the position's uncertainty and feed-change margin
-    /// `unc_mm` (mm), the highest override it may move at `in_force_pct` (%) and the
-    /// board's grid from `s`: the command acts within `command_delay_s`, at the override in
-    /// force until then, and governs one period from there, so every such period's mean
-    /// force counts. The position may be off by `unc_mm` and by up to one period's path
-    /// more: the path integrated from `ACTUAL_FEED` (a whole number of mm/min) drifts from
-    /// the tool's within a block, so the periods from one period's path behind on count.
+    /// The window of period starts the command written now can govern, and where the
+    /// next period starts, `(y0, y1, here)` in mm: the tool at `x` (mm) having moved `dx`
+    /// (mm) this period, the position's uncertainty and feed-change margin `unc_mm` (mm),
+    /// the highest override it may move at `in_force_pct` (%). The command acts within
+    /// `command_delay_s`, at the override in force until then, and governs one period from
+    /// there, so every such period's mean force counts. The position may be off by
+    /// `unc_mm` and by the drift of the path integrated from `ACTUAL_FEED` (at most one
+    /// period's path; [`LookAhead::period_path_mm`]) either way.
+    fn window(&self, x: f64, dx: f64, unc_mm: f64, in_force_pct: u16) -> (f64, f64, f64) {
+        let drift = self.drift_mm.min(dx);
+        let here = x - drift;
+        let ahead = self.plan.advance(x, in_force_pct, self.cfg.command_delay_s);
+        (here - unc_mm, ahead + unc_mm + drift, here)
+    }
+
+    /// The largest of the plan's period-mean forces at override `o` (%) of the periods
+    /// starting in `y0 ..= y1` (mm), N: starts evenly over the window and at every row
+    /// boundary in it (where a heavy stretch begins).
+    fn worst_period_n(&self, y0: f64, y1: f64, o: u16, period_s: f64) -> f64 {
+        let plan = &self.plan;
+        let rows = &plan.rows[plan.row_at(y0)..=plan.row_at(y1)];
+        (0..=WINDOW_SAMPLES)
+            .map(|j| y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES))
+            .chain(rows.iter().map(|r| r.start_mm))
+            .filter(|y| (y0..=y1).contains(y))
+            .map(|y| plan.period_force_n(y, o, period_s))
+            .fold(0.0f64, f64::max)
+    }
+
+    /// The plan's lead ([`crate::plan_lead`]) with scale `k` over the [`LookAhead::window`]
+    /// of the tool at `x` (mm), on the board's grid from `s`.
     #[allow(clippy::too_many_arguments)]
     fn lead_command(
         &mut self,
@@ -423,30 +495,66 @@ impl LookAhead {
         s: &BoardStatus,
         period_s: f64,
     ) -> Option<u16> {
-        let plan = &self.plan;
-        let xl = x - dx;
-        let (y0, y1) = (
-            xl - unc_mm,
-            plan.advance(x, in_force_pct, self.cfg.command_delay_s) + unc_mm,
-        );
-        // Period starts: evenly over the window and at every row boundary in it (where a
-        // heavy stretch begins).
-        let rows = &plan.rows[plan.row_at(y0)..=plan.row_at(y1)];
-        let starts = || {
-            (0..=WINDOW_SAMPLES)
-                .map(move |j| y0 + (y1 - y0) * f64::from(j) / f64::from(WINDOW_SAMPLES))
-                .chain(rows.iter().map(|r| r.start_mm))
-                .filter(move |y| (y0..=y1).contains(y))
-        };
-        let worst = |o: u16| {
-            k * starts()
-                .map(|y| plan.period_force_n(y, o, period_s))
-                .fold(0.0f64, f64::max)
-        };
-        let here = |o: u16| k * plan.period_force_n(xl, o, period_s);
+        let (y0, y1, here) = self.window(x, dx, unc_mm, in_force_pct);
+        let worst = |o: u16| k * self.worst_period_n(y0, y1, o, period_s);
+        let here = |o: u16| k * self.plan.period_force_n(here, o, period_s);
         let fr = self.cfg.force_ref_n;
-        self.lead
-            .choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here)
+        let mut lead = self.lead;
+        let pick = lead.choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here);
+        self.lead = lead;
+        pick
+    }
+
+    /// The path of the period that ended, mm, and whether it is exact: where the override
+    /// applied is the one of the read before, and the tool stayed in the feed of one plan
+    /// row of the block, the path is that row's programmed feed × the override, as long
+    /// as the register agrees with it to its rounding (`v`, mm/min); otherwise the
+    /// register's `v` (a whole number of mm/min: off by up to half a unit).
+    fn period_path_mm(&mut self, s: &BoardStatus, v: f64, period_s: f64) -> (f64, bool) {
+        let applied = s.override_applied_pct;
+        let steady = self.applied_prev == Some(applied) && !s.feed_hold_active;
+        self.applied_prev = Some(applied);
+        let reported = v * period_s / 60.0;
+        if !steady || self.plan.rows.is_empty() {
+            return (reported, false);
+        }
+        let (a, b) = (
+            &self.plan.rows[self.plan.row_at(self.x_mm)],
+            &self.plan.rows[self.plan.row_at(self.x_mm + reported)],
+        );
+        let exact = a.feed_mm_min * f64::from(applied) / 100.0;
+        if a.rapid
+            || b.rapid
+            || a.block != b.block
+            || a.feed_mm_min != b.feed_mm_min
+            || (exact - v).abs() > FEED_RESOLUTION_MM_MIN + 1e-9
+        {
+            return (reported, false);
+        }
+        (exact * period_s / 60.0, true)
+    }
+
+    /// The entry's cap ([`crate::plan_lead`], "Entries"): the highest grid position at
+    /// which every period the command can govern over the [`LookAhead::window`] of the
+    /// tool at `x` (mm) is predicted at most the ceiling with scale `k`.
+    #[allow(clippy::too_many_arguments)]
+    fn entry_cap(
+        &self,
+        k: f64,
+        x: f64,
+        dx: f64,
+        unc_mm: f64,
+        in_force_pct: u16,
+        s: &BoardStatus,
+        period_s: f64,
+    ) -> Option<u16> {
+        let (y0, y1, _) = self.window(x, dx, unc_mm, in_force_pct);
+        highest_within(
+            self.cfg.max_pct,
+            s.override_step_pct,
+            self.cfg.force_ref_n,
+            |o| k * self.worst_period_n(y0, y1, o, period_s),
+        )
     }
 
     /// The disagreement check of the period that ended at `x` (mm), at feed `v` (mm/min),
@@ -579,298 +687,5 @@ impl LookAhead {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
-        crate::plan::test_row(block, a, b, 600.0, f100, ov)
-    }
-
-    fn status(block: u16, feed: u16) -> BoardStatus {
-        BoardStatus {
-            protocol_version: 2,
-            block_number: block,
-            actual_feed_mm_min: feed,
-            ..BoardStatus::default()
-        }
-    }
-
-    fn force(f: f64) -> ForceSample {
-        ForceSample {
-            force_n: f,
-            power_w: None,
-            valid: true,
-        }
-    }
-
-    /// Air in block 10 for 20 mm, then a cut planned at 30 % in block 20.
-    fn lookahead() -> LookAhead {
-        let plan = Plan {
-            rows: vec![
-                row(10, 0.0, 20.0, 0.0, 150),
-                row(20, 20.0, 60.0, 2400.0, 30),
-            ],
-        };
-        LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150))
-    }
-
-    #[test]
-    fn caps_before_the_entry_not_long_before() {
-        let mut la = lookahead();
-        // 900 mm/min = 1.5 mm per period; at 150 % of 600 the horizon (0.2 s) is 3 mm.
-        let mut caps = Vec::new();
-        for _ in 0..13 {
-            caps.push(la.step(Some(&status(10, 900)), &force(0.0), 0.1));
-        }
-        let first = caps
-            .iter()
-            .position(|s| s.cap_pct == Some(30))
-            .expect("capped");
-        let x = caps[first].position_mm.expect("located");
-        assert!((15.0..20.0).contains(&x), "capped at {x} mm");
-        assert!(caps[..first].iter().all(|s| s.cap_pct.is_none()));
-        // In the cut, the block change locates the tool at the block's start.
-        let s = la.step(Some(&status(20, 180)), &force(720.0), 0.1);
-        assert_eq!(s.cap_pct, Some(30));
-        assert!((s.position_mm.expect("x") - 20.15).abs() < 1e-9);
-        assert_eq!(s.disagreement, None);
-    }
-
-    #[test]
-    fn a_tool_fr_below_the_plans_lowers_the_cap_a_higher_one_never_raises_it() {
-        // The cut (2400 N at 100 %, β = 1) is planned at 30 % for Fr 800 N.
-        let in_cut = |plan_fr: Option<f64>, loop_fr: f64| {
-            let mut la = lookahead();
-            for r in &mut la.plan.rows {
-                r.force_ref_n = plan_fr;
-            }
-            la.set_force_ref_n(loop_fr);
-            la.step(Some(&status(20, 180)), &force(0.5 * loop_fr), 0.1)
-                .cap_pct
-        };
-        // A tool whose Fr is 500 N: 100 · 500 / 2400 = 20.8 → 20 %.
-        assert_eq!(in_cut(Some(800.0), 500.0), Some(20));
-        // A higher Fr keeps the plan's 30 %, and so does a plan that did not record its Fr.
-        assert_eq!(in_cut(Some(800.0), 1000.0), Some(30));
-        assert_eq!(in_cut(None, 500.0), Some(30));
-        assert_eq!(in_cut(Some(800.0), 800.0), Some(30));
-    }
-
-    /// A cut planned at 40 % for 10 mm, then a corner planned at 20 % from 10 mm.
-    fn cut_then_corner() -> LookAhead {
-        let plan = Plan {
-            rows: vec![
-                row(30, 0.0, 10.0, 2000.0, 40),
-                row(31, 10.0, 20.0, 4000.0, 20),
-            ],
-        };
-        LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150))
-    }
-
-    fn in_force(block: u16, feed: u16, pct: u16) -> BoardStatus {
-        BoardStatus {
-            override_applied_pct: pct,
-            ..status(block, feed)
-        }
-    }
-
-    #[test]
-    fn the_walk_ahead_goes_as_far_as_the_override_in_force_lets_the_tool() {
-        // Held at 40 % of 600 mm/min (4 mm/s), 0.2 s ahead is 0.8 mm, and on the first
-        // period the change of its path from standstill (0.4 mm) behind and ahead of the
-        // position: at 8.6 mm the corner at 10 mm is out of reach, at 9.4 mm it is in reach.
-        let mut la = cut_then_corner();
-        let mut at = |x_mm: f64, pct: u16| {
-            la.x_mm = x_mm - 0.4;
-            la.step(Some(&in_force(30, 240, pct)), &force(790.0), 0.1)
-        };
-        assert_eq!(at(8.6, 40).cap_pct, Some(40));
-        assert_eq!(at(9.4, 40).cap_pct, Some(20));
-        // At 150 % in force (9 mm/s until the new command acts) 0.2 s reaches 1.8 mm: the
-        // corner is capped from 8.6 mm on, as from air.
-        assert_eq!(at(8.6, 150).cap_pct, Some(20));
-        // Likewise with 40 % applied and 150 % written but not yet applied.
-        la.note_written(150);
-        la.x_mm = 8.2;
-        let s = la.step(Some(&in_force(30, 240, 40)), &force(790.0), 0.1);
-        assert_eq!(s.cap_pct, Some(20));
-    }
-
-    #[test]
-    fn inside_a_rising_row_the_cap_follows_the_force_the_tool_can_reach() {
-        // A corner: the force at 100 % rises from 1000 N to 4000 N over 2 mm (planned 20 %
-        // for its end); Fr 800 N, held at 20 % of 600 mm/min = 2 mm/s: 0.4 mm in 0.2 s.
-        let mut corner = row(31, 10.0, 12.0, 4000.0, 20);
-        corner.force_min_100_n = 1000.0;
-        corner.profile = crate::plan::ForceProfile::Rising;
-        let plan = Plan {
-            rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner.clone()],
-        };
-        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-        // 200 N measured at 20 %: what the plan predicts at the corner's start.
-        let mut at = |x_mm: f64, pct: u16, f: f64| {
-            la.x_mm = x_mm - 0.2;
-            la.step(Some(&in_force(31, 120, pct)), &force(f), 0.1)
-                .cap_pct
-                .expect("capped")
-        };
-        // At the corner's start, with the first period's path (0.2 mm) behind and ahead: reaching
-        // 10.6 mm at 20 %, 1900 N at 100 %; at 42 % (the first cap) 11.04 mm, 2560 N: 31 %.
-        let start = at(10.0, 20, 200.0);
-        assert_eq!(start, 31);
-        // Deeper in, lower; at the end, the plan's own override.
-        let mid = at(11.0, 20, 500.0);
-        assert!(mid < start && mid > 20, "{mid}");
-        assert_eq!(at(12.0, 20, 800.0), 20);
-        // A measured force above the plan's band: its shape is not trusted, the row is read
-        // at its largest force.
-        assert_eq!(at(10.0, 20, 1500.0), 20);
-        // The same row flat (shape unknown): the plan's override throughout.
-        corner.profile = crate::plan::ForceProfile::Flat;
-        let plan = Plan {
-            rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner],
-        };
-        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-        la.x_mm = 9.8;
-        let s = la.step(Some(&in_force(31, 120, 20)), &force(200.0), 0.1);
-        assert_eq!(s.cap_pct, Some(20));
-    }
-
-    #[test]
-    fn disagreement_needs_persistence_and_below_lifts_the_cap() {
-        let mut la = lookahead();
-        // Entering from air: a drop here would be the plan's (the band reaches air).
-        assert!(
-            la.step(Some(&status(20, 180)), &force(720.0), 0.1)
-                .exit_planned
-        );
-        // In the cut at the planned force: the plan explains the force.
-        assert!(
-            la.step(Some(&status(20, 180)), &force(720.0), 0.1)
-                .exit_planned
-        );
-        // A collapse to nothing where the plan says metal is not explained (a broken tool).
-        assert!(
-            !la.step(Some(&status(20, 180)), &force(0.0), 0.1)
-                .exit_planned
-        );
-        la.step(Some(&status(20, 180)), &force(720.0), 0.1);
-        // The plan predicts 720 N at 180 mm/min; 1500 N is above for three periods.
-        let d: Vec<_> = (0..3)
-            .map(|_| la.step(Some(&status(20, 180)), &force(1500.0), 0.1))
-            .collect();
-        assert_eq!(d[1].disagreement, None);
-        assert_eq!(d[2].disagreement, Some(Disagreement::Above));
-        assert!(d.iter().all(|s| !s.exit_planned));
-        assert_eq!(d[2].cap_pct, Some(30));
-        // Air where the plan says metal: below, and the cap is lifted.
-        let d: Vec<_> = (0..3)
-            .map(|_| la.step(Some(&status(20, 180)), &force(0.0), 0.1))
-            .collect();
-        assert_eq!(d[2].disagreement, Some(Disagreement::Below));
-        assert_eq!(d[2].cap_pct, None);
-    }
-
-    /// A look-ahead with the plan's lead on one cut: 2000 N at 100 % of 600 mm/min, β = 1
-    /// (600 N at 30 %, 800 N = Fr at 40 %).
-    fn leading() -> LookAhead {
-        let plan = Plan {
-            rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
-        };
-        let cfg = LookAheadConfig {
-            lead: true,
-            ..LookAheadConfig::new(0.1, 800.0, 150)
-        };
-        LookAhead::new(plan, cfg)
-    }
-
-    /// In that cut at 30 % of 600 mm/min on a 10 % board, with tool `tool`.
-    fn cutting(tool: u16) -> BoardStatus {
-        BoardStatus {
-            override_step_pct: 10,
-            tool_number: tool,
-            ..in_force(30, 180, 30)
-        }
-    }
-
-    #[test]
-    fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
-        let mut la = leading();
-        let mut at = |f: f64| la.step(Some(&cutting(0)), &force(f), 0.1);
-        // Three periods where the measurement agrees with the plan (k = 1) before it leads:
-        // then 40 %, the position whose predicted force is Fr.
-        assert_eq!(at(600.0).lead_pct, None);
-        assert_eq!(at(600.0).lead_pct, None);
-        assert_eq!(at(600.0).lead_pct, Some(40));
-        // The measurement jumps 25 % off the scale: no lead that period, the cap and the
-        // law act; once the scale has followed (k = 1.25), the lead predicts 40 % at 1000 N
-        // (above 1.05 Fr) and holds 30 % (750 N).
-        let leads: Vec<_> = (0..6).map(|_| at(750.0).lead_pct).collect();
-        assert_eq!(leads[0], None);
-        assert_eq!(leads[5], Some(30));
-        // A force above the plan's band: no lead, and the scale starts again.
-        assert_eq!(at(1500.0).lead_pct, None);
-        assert_eq!(at(750.0).lead_pct, None);
-        // In air (no force): no lead; entries keep the cap.
-        assert_eq!(at(0.0).lead_pct, None);
-        // Back in a cut: the scale of the last cut is not used; three agreeing periods of
-        // this one before it leads.
-        let back: Vec<_> = (0..3).map(|_| at(750.0).lead_pct).collect();
-        assert_eq!(back[..2], [None, None]);
-        assert!(back[2].is_some());
-        // ...and a new tool starts it again (three agreeing periods before it leads).
-        let st = cutting(2);
-        let leads: Vec<_> = (0..3)
-            .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
-            .collect();
-        assert_eq!(leads, [None, None, Some(40)]);
-    }
-
-    #[test]
-    fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
-        let mut la = leading();
-        let st = cutting(0);
-        let led = |la: &mut LookAhead| {
-            (0..3)
-                .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(led(&mut la), [None, None, Some(40)]);
-        // A failed read: no lead reported, the position moves on by the last path (0.3 mm)
-        // and is that much less certain, and the scale starts again.
-        let x = la.last().position_mm.expect("x");
-        assert_eq!(la.step(None, &force(600.0), 0.1).lead_pct, None);
-        assert!((la.x_mm - x - 0.3).abs() < 1e-9 && la.unc_mm >= 0.3 - 1e-9);
-        assert_eq!(led(&mut la), [None, None, Some(40)]);
-        // A period the driver skipped: the same.
-        la.missed();
-        assert_eq!(led(&mut la), [None, None, Some(40)]);
-        // A slow line (a longer echo delay measured): no lead while it lasts.
-        la.set_line_nominal(false);
-        assert_eq!(led(&mut la), [None, None, None]);
-        la.set_line_nominal(true);
-        assert_eq!(led(&mut la)[2], Some(40));
-    }
-
-    #[test]
-    fn unknown_block_or_v1_board_is_lost() {
-        let mut la = lookahead();
-        let s = la.step(Some(&status(99, 100)), &force(0.0), 0.1);
-        assert!(s.lost && s.cap_pct.is_none());
-        let s = la.step(Some(&BoardStatus::default()), &force(0.0), 0.1);
-        assert!(s.lost);
-        // A block met again later in the program is found forward from the last one.
-        let plan = Plan {
-            rows: vec![
-                row(5, 0.0, 10.0, 0.0, 150),
-                row(6, 10.0, 20.0, 1000.0, 80),
-                row(5, 20.0, 30.0, 0.0, 150),
-            ],
-        };
-        let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-        la.step(Some(&status(5, 60)), &force(0.0), 0.1);
-        la.step(Some(&status(6, 60)), &force(0.0), 0.1);
-        let s = la.step(Some(&status(5, 60)), &force(0.0), 0.1);
-        assert!((s.position_mm.expect("x") - 20.05).abs() < 1e-9);
-    }
-}
+#[path = "lookahead_tests.rs"]
+mod tests;

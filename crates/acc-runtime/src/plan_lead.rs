@@ -18,10 +18,11 @@
 //! - **Ceiling.** The highest grid position `o` at which every period the command can
 //!   govern has a predicted mean force `k · F(o)` at most [`CEILING`] × Fr: the periods that
 //!   start anywhere from the position's error behind the tool (its uncertainty after a
-//!   block change, the change of the period's path where the feed changed, and one period's
-//!   path for the drift of the path integrated from `ACTUAL_FEED`, a whole number of
-//!   mm/min) to where the override in force carries it within the command delay and the
-//!   uncertainty ahead ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts and every
+//!   block change, the change of the period's path where the feed changed, and the drift
+//!   of the path integrated from `ACTUAL_FEED`: the half units of its whole mm/min over
+//!   the periods whose path is taken from it, at most one period's path) to where the
+//!   override in force carries it within the command delay and the error ahead
+//!   ([`crate::LookAheadConfig::command_delay_s`]; [`WINDOW_SAMPLES`] + 1 starts and every
 //!   row boundary in between), each
 //!   path-weighted over the rows it crosses at `force_100 · (o/100)^β` (seed 002 eq. 1).
 //!   The ceiling is the peak target at entries and corners (1.05 Fr) less a margin for
@@ -31,6 +32,10 @@
 //!   modulator in force, Candy & Temes 1992): on a coarse grid the period forces average to
 //!   Fr instead of sitting a step below it; the step below is taken only where it too is
 //!   within the ceiling.
+//! - **Entries.** Before a cut's scale is confirmed the look-ahead's cap acts; once the
+//!   tool has a scale confirmed in an earlier cut (a new tool forgets it), the cap may be
+//!   lifted to the same ceiling at that scale (at least 1): [`highest_within`] over the
+//!   same window. It stays a cap, bounded by the law's own command.
 //! - **When.** Only while the scale is confirmed in the cut the tool is in: a force below
 //!   [`CUTTING`] × Fr (air: entries keep the look-ahead's cap), a failed or skipped read, a
 //!   new tool, or any pending or declared disagreement starts the scale again; it needs
@@ -146,6 +151,23 @@ impl PlanScale {
     }
 }
 
+/// The highest position of the grid of `step_pct` up to `max_pct` (%) at which `worst`
+/// (the largest predicted period force, N) is at most [`CEILING`] × `force_ref_n`
+/// (`None`: not even the lowest step).
+pub fn highest_within(
+    max_pct: u16,
+    step_pct: u16,
+    force_ref_n: f64,
+    worst: impl Fn(u16) -> f64,
+) -> Option<u16> {
+    let step = step_pct.max(1);
+    let mut top = max_pct - max_pct % step;
+    while top >= step && worst(top) > CEILING * force_ref_n {
+        top -= step;
+    }
+    (top >= step).then_some(top)
+}
+
 /// The lead's choice between two grid positions: the running sum of predicted errors.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PlanLead {
@@ -173,14 +195,10 @@ impl PlanLead {
         here: impl Fn(u16) -> f64,
     ) -> Option<u16> {
         let step = step_pct.max(1);
-        let mut top = max_pct - max_pct % step;
-        while top >= step && worst(top) > CEILING * force_ref_n {
-            top -= step;
-        }
-        if top < step {
+        let Some(top) = highest_within(max_pct, step, force_ref_n, &worst) else {
             self.reset();
             return None;
-        }
+        };
         let below = (top - step).max(step);
         let e_top = self.error_sum_n + here(top) - force_ref_n;
         let e_below = self.error_sum_n + here(below) - force_ref_n;

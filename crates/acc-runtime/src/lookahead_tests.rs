@@ -1,0 +1,386 @@
+//! Tests of [`crate::lookahead`].
+use super::*;
+
+fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
+    crate::plan::test_row(block, a, b, 600.0, f100, ov)
+}
+
+fn status(block: u16, feed: u16) -> BoardStatus {
+    BoardStatus {
+        protocol_version: 2,
+        block_number: block,
+        actual_feed_mm_min: feed,
+        ..BoardStatus::default()
+    }
+}
+
+fn force(f: f64) -> ForceSample {
+    ForceSample {
+        force_n: f,
+        power_w: None,
+        valid: true,
+    }
+}
+
+/// Air in block 10 for 20 mm, then a cut planned at 30 % in block 20.
+fn lookahead() -> LookAhead {
+    let plan = Plan {
+        rows: vec![
+            row(10, 0.0, 20.0, 0.0, 150),
+            row(20, 20.0, 60.0, 2400.0, 30),
+        ],
+    };
+    LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150))
+}
+
+#[test]
+fn caps_before_the_entry_not_long_before() {
+    let mut la = lookahead();
+    // 900 mm/min = 1.5 mm per period; at 150 % of 600 the horizon (0.2 s) is 3 mm.
+    let mut caps = Vec::new();
+    for _ in 0..13 {
+        caps.push(la.step(Some(&status(10, 900)), &force(0.0), 0.1));
+    }
+    let first = caps
+        .iter()
+        .position(|s| s.cap_pct == Some(30))
+        .expect("capped");
+    let x = caps[first].position_mm.expect("located");
+    assert!((15.0..20.0).contains(&x), "capped at {x} mm");
+    assert!(caps[..first].iter().all(|s| s.cap_pct.is_none()));
+    // In the cut, the block change locates the tool at the block's start.
+    let s = la.step(Some(&status(20, 180)), &force(720.0), 0.1);
+    assert_eq!(s.cap_pct, Some(30));
+    assert!((s.position_mm.expect("x") - 20.15).abs() < 1e-9);
+    assert_eq!(s.disagreement, None);
+}
+
+#[test]
+fn a_tool_fr_below_the_plans_lowers_the_cap_a_higher_one_never_raises_it() {
+    // The cut (2400 N at 100 %, β = 1) is planned at 30 % for Fr 800 N.
+    let in_cut = |plan_fr: Option<f64>, loop_fr: f64| {
+        let mut la = lookahead();
+        for r in &mut la.plan.rows {
+            r.force_ref_n = plan_fr;
+        }
+        la.set_force_ref_n(loop_fr);
+        la.step(Some(&status(20, 180)), &force(0.5 * loop_fr), 0.1)
+            .cap_pct
+    };
+    // A tool whose Fr is 500 N: 100 · 500 / 2400 = 20.8 → 20 %.
+    assert_eq!(in_cut(Some(800.0), 500.0), Some(20));
+    // A higher Fr keeps the plan's 30 %, and so does a plan that did not record its Fr.
+    assert_eq!(in_cut(Some(800.0), 1000.0), Some(30));
+    assert_eq!(in_cut(None, 500.0), Some(30));
+    assert_eq!(in_cut(Some(800.0), 800.0), Some(30));
+}
+
+/// A cut planned at 40 % for 10 mm, then a corner planned at 20 % from 10 mm.
+fn cut_then_corner() -> LookAhead {
+    let plan = Plan {
+        rows: vec![
+            row(30, 0.0, 10.0, 2000.0, 40),
+            row(31, 10.0, 20.0, 4000.0, 20),
+        ],
+    };
+    LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150))
+}
+
+fn in_force(block: u16, feed: u16, pct: u16) -> BoardStatus {
+    BoardStatus {
+        override_applied_pct: pct,
+        ..status(block, feed)
+    }
+}
+
+#[test]
+fn the_walk_ahead_goes_as_far_as_the_override_in_force_lets_the_tool() {
+    // Held at 40 % of 600 mm/min (4 mm/s), 0.2 s ahead is 0.8 mm, and on the first
+    // period the change of its path from standstill (0.4 mm) behind and ahead of the
+    // position: at 8.6 mm the corner at 10 mm is out of reach, at 9.4 mm it is in reach.
+    let mut la = cut_then_corner();
+    let mut at = |x_mm: f64, pct: u16| {
+        la.x_mm = x_mm - 0.4;
+        la.step(Some(&in_force(30, 240, pct)), &force(790.0), 0.1)
+    };
+    assert_eq!(at(8.6, 40).cap_pct, Some(40));
+    assert_eq!(at(9.4, 40).cap_pct, Some(20));
+    // At 150 % in force (9 mm/s until the new command acts) 0.2 s reaches 1.8 mm: the
+    // corner is capped from 8.6 mm on, as from air.
+    assert_eq!(at(8.6, 150).cap_pct, Some(20));
+    // Likewise with 40 % applied and 150 % written but not yet applied.
+    la.note_written(150);
+    la.x_mm = 8.2;
+    let s = la.step(Some(&in_force(30, 240, 40)), &force(790.0), 0.1);
+    assert_eq!(s.cap_pct, Some(20));
+}
+
+#[test]
+fn inside_a_rising_row_the_cap_follows_the_force_the_tool_can_reach() {
+    // A corner: the force at 100 % rises from 1000 N to 4000 N over 2 mm (planned 20 %
+    // for its end); Fr 800 N, held at 20 % of 600 mm/min = 2 mm/s: 0.4 mm in 0.2 s.
+    let mut corner = row(31, 10.0, 12.0, 4000.0, 20);
+    corner.force_min_100_n = 1000.0;
+    corner.profile = crate::plan::ForceProfile::Rising;
+    let plan = Plan {
+        rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner.clone()],
+    };
+    let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+    // 200 N measured at 20 %: what the plan predicts at the corner's start.
+    let mut at = |x_mm: f64, pct: u16, f: f64| {
+        la.x_mm = x_mm - 0.2;
+        la.step(Some(&in_force(31, 120, pct)), &force(f), 0.1)
+            .cap_pct
+            .expect("capped")
+    };
+    // At the corner's start, with the first period's path (0.2 mm) behind and ahead: reaching
+    // 10.6 mm at 20 %, 1900 N at 100 %; at 42 % (the first cap) 11.04 mm, 2560 N: 31 %.
+    let start = at(10.0, 20, 200.0);
+    assert_eq!(start, 31);
+    // Deeper in, lower; at the end, the plan's own override.
+    let mid = at(11.0, 20, 500.0);
+    assert!(mid < start && mid > 20, "{mid}");
+    assert_eq!(at(12.0, 20, 800.0), 20);
+    // A measured force above the plan's band: its shape is not trusted, the row is read
+    // at its largest force.
+    assert_eq!(at(10.0, 20, 1500.0), 20);
+    // The same row flat (shape unknown): the plan's override throughout.
+    corner.profile = crate::plan::ForceProfile::Flat;
+    let plan = Plan {
+        rows: vec![row(30, 0.0, 10.0, 1000.0, 80), corner],
+    };
+    let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+    la.x_mm = 9.8;
+    let s = la.step(Some(&in_force(31, 120, 20)), &force(200.0), 0.1);
+    assert_eq!(s.cap_pct, Some(20));
+}
+
+#[test]
+fn disagreement_needs_persistence_and_below_lifts_the_cap() {
+    let mut la = lookahead();
+    // Entering from air: a drop here would be the plan's (the band reaches air).
+    assert!(
+        la.step(Some(&status(20, 180)), &force(720.0), 0.1)
+            .exit_planned
+    );
+    // In the cut at the planned force: the plan explains the force.
+    assert!(
+        la.step(Some(&status(20, 180)), &force(720.0), 0.1)
+            .exit_planned
+    );
+    // A collapse to nothing where the plan says metal is not explained (a broken tool).
+    assert!(
+        !la.step(Some(&status(20, 180)), &force(0.0), 0.1)
+            .exit_planned
+    );
+    la.step(Some(&status(20, 180)), &force(720.0), 0.1);
+    // The plan predicts 720 N at 180 mm/min; 1500 N is above for three periods.
+    let d: Vec<_> = (0..3)
+        .map(|_| la.step(Some(&status(20, 180)), &force(1500.0), 0.1))
+        .collect();
+    assert_eq!(d[1].disagreement, None);
+    assert_eq!(d[2].disagreement, Some(Disagreement::Above));
+    assert!(d.iter().all(|s| !s.exit_planned));
+    assert_eq!(d[2].cap_pct, Some(30));
+    // Air where the plan says metal: below, and the cap is lifted.
+    let d: Vec<_> = (0..3)
+        .map(|_| la.step(Some(&status(20, 180)), &force(0.0), 0.1))
+        .collect();
+    assert_eq!(d[2].disagreement, Some(Disagreement::Below));
+    assert_eq!(d[2].cap_pct, None);
+}
+
+/// A look-ahead with the plan's lead on one cut: 2000 N at 100 % of 600 mm/min, β = 1
+/// (600 N at 30 %, 800 N = Fr at 40 %).
+fn leading() -> LookAhead {
+    let plan = Plan {
+        rows: vec![row(30, 0.0, 100.0, 2000.0, 30)],
+    };
+    let cfg = LookAheadConfig {
+        lead: true,
+        ..LookAheadConfig::new(0.1, 800.0, 150)
+    };
+    LookAhead::new(plan, cfg)
+}
+
+/// In that cut at 30 % of 600 mm/min on a 10 % board, with tool `tool`.
+fn cutting(tool: u16) -> BoardStatus {
+    BoardStatus {
+        override_step_pct: 10,
+        tool_number: tool,
+        ..in_force(30, 180, 30)
+    }
+}
+
+#[test]
+fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
+    let mut la = leading();
+    let mut at = |f: f64| la.step(Some(&cutting(0)), &force(f), 0.1);
+    // Three periods where the measurement agrees with the plan (k = 1) before it leads:
+    // then 40 %, the position whose predicted force is Fr.
+    assert_eq!(at(600.0).lead_pct, None);
+    assert_eq!(at(600.0).lead_pct, None);
+    assert_eq!(at(600.0).lead_pct, Some(40));
+    // The measurement jumps 25 % off the scale: no lead that period, the cap and the
+    // law act; once the scale has followed (k = 1.25), the lead predicts 40 % at 1000 N
+    // (above 1.05 Fr) and holds 30 % (750 N).
+    let leads: Vec<_> = (0..6).map(|_| at(750.0).lead_pct).collect();
+    assert_eq!(leads[0], None);
+    assert_eq!(leads[5], Some(30));
+    // A force above the plan's band: no lead, and the scale starts again.
+    assert_eq!(at(1500.0).lead_pct, None);
+    assert_eq!(at(750.0).lead_pct, None);
+    // In air (no force): no lead; entries keep the cap.
+    assert_eq!(at(0.0).lead_pct, None);
+    // Back in a cut: the scale of the last cut is not used; three agreeing periods of
+    // this one before it leads.
+    let back: Vec<_> = (0..3).map(|_| at(750.0).lead_pct).collect();
+    assert_eq!(back[..2], [None, None]);
+    assert!(back[2].is_some());
+    // ...and a new tool starts it again (three agreeing periods before it leads).
+    let st = cutting(2);
+    let leads: Vec<_> = (0..3)
+        .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+        .collect();
+    assert_eq!(leads, [None, None, Some(40)]);
+}
+
+#[test]
+fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
+    let mut la = leading();
+    let st = cutting(0);
+    let led = |la: &mut LookAhead| {
+        (0..3)
+            .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(led(&mut la), [None, None, Some(40)]);
+    // A failed read: no lead reported, the position moves on by the last path (0.3 mm)
+    // and is that much less certain, and the scale starts again.
+    let x = la.last().position_mm.expect("x");
+    assert_eq!(la.step(None, &force(600.0), 0.1).lead_pct, None);
+    assert!((la.x_mm - x - 0.3).abs() < 1e-9 && la.unc_mm >= 0.3 - 1e-9);
+    assert_eq!(led(&mut la), [None, None, Some(40)]);
+    // A period the driver skipped: the same.
+    la.missed();
+    assert_eq!(led(&mut la), [None, None, Some(40)]);
+    // A slow line (a longer echo delay measured): no lead while it lasts.
+    la.set_line_nominal(false);
+    assert_eq!(led(&mut la), [None, None, None]);
+    la.set_line_nominal(true);
+    assert_eq!(led(&mut la)[2], Some(40));
+}
+
+#[test]
+fn unknown_block_or_v1_board_is_lost() {
+    let mut la = lookahead();
+    let s = la.step(Some(&status(99, 100)), &force(0.0), 0.1);
+    assert!(s.lost && s.cap_pct.is_none());
+    let s = la.step(Some(&BoardStatus::default()), &force(0.0), 0.1);
+    assert!(s.lost);
+    // A block met again later in the program is found forward from the last one.
+    let plan = Plan {
+        rows: vec![
+            row(5, 0.0, 10.0, 0.0, 150),
+            row(6, 10.0, 20.0, 1000.0, 80),
+            row(5, 20.0, 30.0, 0.0, 150),
+        ],
+    };
+    let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+    la.step(Some(&status(5, 60)), &force(0.0), 0.1);
+    la.step(Some(&status(6, 60)), &force(0.0), 0.1);
+    let s = la.step(Some(&status(5, 60)), &force(0.0), 0.1);
+    assert!((s.position_mm.expect("x") - 20.05).abs() < 1e-9);
+}
+
+#[test]
+fn a_steady_periods_path_is_the_rows_feed_and_the_drift_grows_only_without_it() {
+    // A programmed feed the register cannot show (283.4 mm/min, reported 283).
+    let plan = Plan {
+        rows: vec![crate::plan::test_row(30, 0.0, 100.0, 283.4, 2000.0, 30)],
+    };
+    let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
+    let unit = FEED_RESOLUTION_MM_MIN * 0.1 / 60.0;
+    // The first period has no override of the read before: the register's path.
+    la.step(Some(&in_force(30, 283, 100)), &force(0.0), 0.1);
+    assert!((la.x_mm - 283.0 * 0.1 / 60.0).abs() < 1e-12);
+    assert!((la.drift_mm - unit).abs() < 1e-12);
+    // Ten steady periods at 100 %: the row's feed, no drift added.
+    for _ in 0..10 {
+        la.step(Some(&in_force(30, 283, 100)), &force(0.0), 0.1);
+    }
+    let x = (283.0 + 10.0 * 283.4) * 0.1 / 60.0;
+    assert!((la.x_mm - x).abs() < 1e-12, "{} vs {x}", la.x_mm);
+    assert!((la.drift_mm - unit).abs() < 1e-12);
+    // The override changed: the register's value (the period's mean), half a unit more.
+    la.step(Some(&in_force(30, 200, 50)), &force(0.0), 0.1);
+    assert!((la.x_mm - (x + 200.0 * 0.1 / 60.0)).abs() < 1e-12);
+    assert!((la.drift_mm - 2.0 * unit).abs() < 1e-12);
+    // Steady, but the register disagrees with the row's feed by more than its rounding (an
+    // NC that slows the path on its own): the register's value again.
+    la.step(Some(&in_force(30, 120, 50)), &force(0.0), 0.1);
+    assert!((la.x_mm - (x + 320.0 * 0.1 / 60.0)).abs() < 1e-12);
+    assert!((la.drift_mm - 3.0 * unit).abs() < 1e-12);
+}
+
+/// A cut planned at 30 % in block 30 (2000 N at 100 % over 10 mm), air in block 40, then
+/// block 50: 0.05 mm at 4000 N (planned 20 %) and the same cut again.
+fn cut_air_short_peak(lead: bool) -> LookAhead {
+    let plan = Plan {
+        rows: vec![
+            row(30, 0.0, 10.0, 2000.0, 30),
+            row(40, 10.0, 20.0, 0.0, 150),
+            row(50, 20.0, 20.05, 4000.0, 20),
+            row(50, 20.05, 60.0, 2000.0, 30),
+        ],
+    };
+    let cfg = LookAheadConfig {
+        lead,
+        ..LookAheadConfig::new(0.1, 800.0, 150)
+    };
+    LookAhead::new(plan, cfg)
+}
+
+/// The caps of the periods approaching block 50 through the air of block 40 at 150 %,
+/// after six periods of the cut of block 30 at 30 % whose force agrees with the plan (the
+/// tool `air_tool` in the air, tool 1 in the cut).
+fn caps_towards_the_entry(lead: bool, air_tool: u16) -> Vec<Option<u16>> {
+    let mut la = cut_air_short_peak(lead);
+    let step = |b: u16, v: u16, pct: u16, tool: u16| BoardStatus {
+        override_step_pct: 10,
+        tool_number: tool,
+        ..in_force(b, v, pct)
+    };
+    for _ in 0..6 {
+        la.step(Some(&step(30, 180, 30, 1)), &force(600.0), 0.1);
+    }
+    (0..6)
+        .map(|_| {
+            la.step(Some(&step(40, 900, 150, air_tool)), &force(0.0), 0.1)
+                .cap_pct
+        })
+        .collect()
+}
+
+#[test]
+fn an_entry_is_capped_at_the_period_means_once_the_tool_has_a_scale() {
+    let cap_only = caps_towards_the_entry(false, 1);
+    let led = caps_towards_the_entry(true, 1);
+    let new_tool = caps_towards_the_entry(true, 2);
+    // The row cap reads the 0.05 mm stretch at its largest force: 20 %. A period at 30 %
+    // (0.3 mm) averages it with the cut after it, 700 N; one at 40 % 900 N, above the
+    // ceiling: with the tool's scale from the cut before (1.0), the entry is capped at
+    // 30 %.
+    assert!(cap_only.contains(&Some(20)), "{cap_only:?}");
+    assert!(
+        led.contains(&Some(30)) && !led.contains(&Some(20)),
+        "{led:?}"
+    );
+    // Never below the row cap, and no cap where the row cap has none.
+    for (a, b) in cap_only.iter().zip(&led) {
+        assert_eq!(a.is_none(), b.is_none(), "{cap_only:?} / {led:?}");
+        assert!(b >= a, "{cap_only:?} / {led:?}");
+    }
+    // A new tool has no scale yet: the row cap.
+    assert_eq!(new_tool, cap_only);
+}
