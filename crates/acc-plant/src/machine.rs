@@ -113,7 +113,9 @@ pub struct PeriodRecord<'a> {
     pub x_mm: f64,
     /// Engaged radial depth at the end, mm.
     pub radial_depth_mm: f64,
-    /// Axial depth, mm.
+    /// Axial depth, mm: the period's start's where the machine holds it over the period
+    /// (the default), the last step's where it reads it per step
+    /// ([`Machine::set_axial_per_step`]).
     pub axial_depth_mm: f64,
     /// Mean spindle speed over the period, rpm.
     pub spindle_rpm: f64,
@@ -463,7 +465,8 @@ impl Machine {
     /// `f += (target − f)(1 − e^(−dt/τ))`, seed 002 eq. 5); the tool moves `f·dt`; the
     /// engaged depth and `Ks` factor come from the engagement source (the workpiece unless
     /// [`Machine::set_engagement_source`] set another; the axial depth is the source's at
-    /// the period's start); the mean force follows eq. (1)
+    /// the period's start, or at every step with [`Machine::set_axial_per_step`]); the
+    /// mean force follows eq. (1)
     /// with the tool's wear factor, times the tool's runout factor (its mean over the step);
     /// the tooth model multiplies in the ripple.
     pub fn advance(&mut self, period_s: f64) -> PeriodRecord<'_> {

@@ -192,11 +192,17 @@ pub struct LookAhead {
     lead: PlanLead,
     /// The line runs as designed ([`LookAhead::set_line_nominal`]).
     line_nominal: bool,
-    /// `OVERRIDE_APPLIED` at the read before, percent.
+    /// `OVERRIDE_APPLIED` at the read before, percent (`None` after a missed read, a feed
+    /// hold or a lost tool: the next period is not steady).
     applied_prev: Option<u16>,
-    /// Largest drift of the integrated position since it was last set on a block's start,
-    /// mm: the register's rounding over the periods whose path is taken from it.
+    /// Bound on the drift of the integrated position since it was last set on a block's
+    /// start, mm: half a unit of the register per period whose path is taken from it, a
+    /// whole period's path per period the line was not as designed.
     drift_mm: f64,
+    /// `ACTUAL_FEED` has shown the new feed in the period an override change took effect
+    /// in: the register is not the period's mean, and the window allows a whole period's
+    /// path for the drift.
+    instantaneous_feed: bool,
     /// The plan's scale last confirmed for the tool in force (an earlier cut's), −.
     tool_scale: Option<f64>,
 }
@@ -232,6 +238,7 @@ impl LookAhead {
             line_nominal: true,
             applied_prev: None,
             drift_mm: 0.0,
+            instantaneous_feed: false,
             tool_scale: None,
         }
     }
@@ -317,6 +324,7 @@ impl LookAhead {
         }
         if !s.is_v2() || s.block_number == 0 {
             self.scale.clear();
+            self.applied_prev = None;
             self.visit = None;
             self.last_block = None;
             self.last = LookAheadStep {
@@ -330,7 +338,10 @@ impl LookAhead {
         // behind the feed: the line guard holds a changed status until it is confirmed).
         let (dx, exact) = self.period_path_mm(s, v, period_s);
         self.x_mm += dx;
-        if !exact {
+        if !self.line_nominal {
+            // A late period or a lagging sample: the period's length is not the nominal one.
+            self.drift_mm += dx;
+        } else if !exact {
             self.drift_mm += FEED_RESOLUTION_MM_MIN * period_s / 60.0;
         }
         if self.last_block != Some(s.block_number) || self.visit.is_none() {
@@ -389,32 +400,31 @@ impl LookAhead {
         let measured = (force.valid && force.force_n.is_finite()).then_some(force.force_n);
         let agree = shape && disagreement.is_none() && self.below == 0;
         // A cut's entry, before its scale is confirmed: the plan's period forces at the
-        // tool's scale from its earlier cuts may lift the cap, never above the law.
-        if self.scale.confirmed() {
+        // tool's scale from its earlier cuts (confirmed where the lead could act) may lift
+        // the cap, never above the law. Entering (the measured force below the cutting
+        // share) or in a cut whose scale has not yet disagreed, the force at most the
+        // lead's, at the highest of that scale, 1 and every ratio this cut has shown.
+        let fr = self.cfg.force_ref_n;
+        if self.scale.confirmed() && measured.is_some_and(|f| f <= HIGH * fr) {
             self.tool_scale = self.scale.scale();
         }
+        let entering = measured.is_some_and(|f| f < CUTTING * fr) || self.scale.agrees();
         let cap_pct = match (cap_pct, self.tool_scale) {
             (Some(c), Some(k))
                 if self.cfg.lead
                     && self.line_nominal
                     && agree
+                    && measured.is_some_and(|f| f <= HIGH * fr)
+                    && entering
                     && !s.feed_hold_active
                     && !self.scale.confirmed() =>
             {
-                let e = self.entry_cap(
-                    k.max(1.0),
-                    x,
-                    dx,
-                    self.unc_mm + margin,
-                    in_force,
-                    s,
-                    period_s,
-                );
+                let k = k.max(1.0).max(self.scale.max_ratio().unwrap_or(0.0));
+                let e = self.entry_cap(k, x, dx, self.unc_mm + margin, in_force, s, period_s);
                 Some(e.map_or(c, |e| e.max(c)))
             }
             (c, _) => c,
         };
-        let fr = self.cfg.force_ref_n;
         // The scale belongs to the cut it was measured in: out of the cut (a force below
         // the cutting share, or none), and whenever plan and measurement disagree, it
         // starts again.
@@ -462,7 +472,11 @@ impl LookAhead {
     /// `unc_mm` and by the drift of the path integrated from `ACTUAL_FEED` (at most one
     /// period's path; [`LookAhead::period_path_mm`]) either way.
     fn window(&self, x: f64, dx: f64, unc_mm: f64, in_force_pct: u16) -> (f64, f64, f64) {
-        let drift = self.drift_mm.min(dx);
+        let drift = if self.instantaneous_feed {
+            self.drift_mm.max(dx)
+        } else {
+            self.drift_mm
+        };
         let here = x - drift;
         let ahead = self.plan.advance(x, in_force_pct, self.cfg.command_delay_s);
         (here - unc_mm, ahead + unc_mm + drift, here)
@@ -506,32 +520,42 @@ impl LookAhead {
     }
 
     /// The path of the period that ended, mm, and whether it is exact: where the override
-    /// applied is the one of the read before, and the tool stayed in the feed of one plan
-    /// row of the block, the path is that row's programmed feed × the override, as long
-    /// as the register agrees with it to its rounding (`v`, mm/min); otherwise the
-    /// register's `v` (a whole number of mm/min: off by up to half a unit).
+    /// applied is the one of the read before, no feed hold, and the tool stayed in the feed
+    /// of one plan row of the block, the path is that row's programmed feed × the override,
+    /// as long as the register agrees with it to its rounding (`v`, mm/min); otherwise the
+    /// register's `v` (a whole number of mm/min: off by up to half a unit). A period in
+    /// which an override change took effect and the register already shows the new feed
+    /// marks the register as instantaneous (`instantaneous_feed`).
     fn period_path_mm(&mut self, s: &BoardStatus, v: f64, period_s: f64) -> (f64, bool) {
         let applied = s.override_applied_pct;
-        let steady = self.applied_prev == Some(applied) && !s.feed_hold_active;
-        self.applied_prev = Some(applied);
+        let prev = self.applied_prev;
+        self.applied_prev = (!s.feed_hold_active).then_some(applied);
         let reported = v * period_s / 60.0;
-        if !steady || self.plan.rows.is_empty() {
+        let Some(prev) = prev.filter(|_| !s.feed_hold_active) else {
             return (reported, false);
-        }
+        };
         let (a, b) = (
             &self.plan.rows[self.plan.row_at(self.x_mm)],
             &self.plan.rows[self.plan.row_at(self.x_mm + reported)],
         );
-        let exact = a.feed_mm_min * f64::from(applied) / 100.0;
-        if a.rapid
-            || b.rapid
-            || a.block != b.block
-            || a.feed_mm_min != b.feed_mm_min
-            || (exact - v).abs() > FEED_RESOLUTION_MM_MIN + 1e-9
-        {
+        if a.rapid || b.rapid || a.block != b.block || a.feed_mm_min != b.feed_mm_min {
             return (reported, false);
         }
-        (exact * period_s / 60.0, true)
+        let at = |pct: u16| a.feed_mm_min * f64::from(pct) / 100.0;
+        let close = |f: f64| (f - v).abs() <= FEED_RESOLUTION_MM_MIN + 1e-9;
+        if prev != applied {
+            // A period mean lies between the old feed and the new one; the new feed itself,
+            // with the two far enough apart, is an instantaneous value.
+            if (at(applied) - at(prev)).abs() > 4.0 * FEED_RESOLUTION_MM_MIN && close(at(applied)) {
+                self.instantaneous_feed = true;
+            }
+            return (reported, false);
+        }
+        if close(at(applied)) {
+            (at(applied) * period_s / 60.0, true)
+        } else {
+            (reported, false)
+        }
     }
 
     /// The entry's cap ([`crate::plan_lead`], "Entries"): the highest grid position at

@@ -34,8 +34,10 @@
 //!   within the ceiling.
 //! - **Entries.** Before a cut's scale is confirmed the look-ahead's cap acts; once the
 //!   tool has a scale confirmed in an earlier cut (a new tool forgets it), the cap may be
-//!   lifted to the same ceiling at that scale (at least 1): [`highest_within`] over the
-//!   same window. It stays a cap, bounded by the law's own command.
+//!   lifted to the same ceiling at the highest of that scale, 1 and this cut's ratios:
+//!   [`highest_within`] over the same window, while the tool enters or its cut's scale
+//!   has not disagreed (docs/plan.md, "Entries"). It stays a cap, bounded by the law's own
+//!   command.
 //! - **When.** Only while the scale is confirmed in the cut the tool is in: a force below
 //!   [`CUTTING`] × Fr (air: entries keep the look-ahead's cap), a failed or skipped read, a
 //!   new tool, or any pending or declared disagreement starts the scale again; it needs
@@ -135,6 +137,11 @@ impl PlanScale {
         let v = &mut v[..self.len];
         v.sort_by(f64::total_cmp);
         Some(v[v.len() / 2])
+    }
+
+    /// The largest ratio sampled in this cut, − (`None`: no sample yet).
+    pub fn max_ratio(&self) -> Option<f64> {
+        self.ratios[..self.len].iter().copied().reduce(f64::max)
     }
 
     /// Whether the last period's ratio agreed with the scale.
