@@ -364,7 +364,8 @@ impl LookAhead {
                     let d = dx.min(top * period_s / 60.0);
                     self.x_mm = start + 0.5 * d;
                     self.unc_mm = 0.5 * d;
-                    self.drift_mm = 0.0;
+                    // A period longer than designed may have carried the tool farther.
+                    self.drift_mm = if self.line_nominal { 0.0 } else { dx };
                 }
             }
         }
@@ -388,6 +389,11 @@ impl LookAhead {
             .max(self.written[0])
             .max(self.written[1]);
         let margin = (dx - self.dx_prev_mm).abs();
+        if self.instantaneous_feed {
+            // An instantaneous register misses the part of the period at the old feed: the
+            // change of the period's path stays in the integrated position.
+            self.drift_mm += margin;
+        }
         self.dx_prev_mm = dx;
         // While the measurement shows more force than planned, the plan's shape inside a
         // row is not trusted: each row is read at its largest force.
@@ -405,9 +411,6 @@ impl LookAhead {
         // share) or in a cut whose scale has not yet disagreed, the force at most the
         // lead's, at the highest of that scale, 1 and every ratio this cut has shown.
         let fr = self.cfg.force_ref_n;
-        if self.scale.confirmed() && measured.is_some_and(|f| f <= HIGH * fr) {
-            self.tool_scale = self.scale.scale();
-        }
         let entering = measured.is_some_and(|f| f < CUTTING * fr) || self.scale.agrees();
         let cap_pct = match (cap_pct, self.tool_scale) {
             (Some(c), Some(k))
@@ -432,6 +435,10 @@ impl LookAhead {
             self.scale.update(measured, band, fr);
         } else {
             self.scale.clear();
+        }
+        // The tool's scale for its next entries: confirmed in a period the lead could lead.
+        if self.scale.confirmed() && measured.is_some_and(|f| f <= HIGH * fr) {
+            self.tool_scale = self.scale.scale();
         }
         // The plan's lead, while the tool cuts and the plan and the measurement agree: the
         // command from the plan's force ahead, scaled by the measurement; it replaces the
