@@ -9,8 +9,7 @@
 //! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it. Columns of
 //! `oracle-K.csv`: `t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
 //! axial_depth_mm` (the force is the period's true mean).
-use std::io::Write;
-
+use acc_sim::oracle::write_trace_csv;
 use acc_sim::oracle_program::{program_rms_within_runs, ProgramPlant};
 use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
 use acc_sim::program_summary::summarize_program;
@@ -59,27 +58,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.cycle_s,
             if r.finished { "" } else { " (did not finish)" }
         );
-        let mut f = std::io::BufWriter::new(std::fs::File::create(
-            std::path::Path::new(out).join(format!("oracle-{k}.csv")),
-        )?);
-        writeln!(
-            f,
-            "t_s,block,x_true_mm,override_pct,force_n,radial_depth_mm,axial_depth_mm"
+        write_trace_csv(
+            &r.rows,
+            &std::path::Path::new(out).join(format!("oracle-{k}.csv")),
         )?;
-        for x in &r.rows {
-            writeln!(
-                f,
-                "{:.3},{},{:.4},{},{:.2},{:.4},{:.4}",
-                x.t_s,
-                x.block.unwrap_or(0),
-                x.x_true_mm.unwrap_or(0.0),
-                x.override_cmd_pct.unwrap_or(0),
-                x.force_true_n.unwrap_or(0.0),
-                x.radial_depth_mm.unwrap_or(0.0),
-                x.axial_depth_mm.unwrap_or(0.0)
-            )?;
-        }
-        f.flush()?;
     }
     Ok(())
 }

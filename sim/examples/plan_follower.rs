@@ -14,8 +14,7 @@
 //! writes the rows (`t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
 //! axial_depth_mm`, the force the period's true mean) to set against a run's `run.csv` or
 //! the oracle's (`oracle_trace`) block by block.
-use std::io::Write;
-
+use acc_sim::oracle::write_trace_csv;
 use acc_sim::plan::PlanParams;
 use acc_sim::plan_follower::{follow_plan, FollowerConfig};
 use acc_sim::program::{ProgramPath, ProgramSpec, StockSource};
@@ -74,25 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if run.finished { "" } else { " (did not finish)" }
     );
     if let Some(out) = &csv {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
-        writeln!(
-            f,
-            "t_s,block,x_true_mm,override_pct,force_n,radial_depth_mm,axial_depth_mm"
-        )?;
-        for r in &run.rows {
-            writeln!(
-                f,
-                "{:.3},{},{:.4},{},{:.2},{:.4},{:.4}",
-                r.t_s,
-                r.block.unwrap_or(0),
-                r.x_true_mm.unwrap_or(0.0),
-                r.override_cmd_pct.unwrap_or(0),
-                r.force_n.unwrap_or(0.0),
-                r.radial_depth_mm.unwrap_or(0.0),
-                r.axial_depth_mm.unwrap_or(0.0)
-            )?;
-        }
-        f.flush()?;
+        write_trace_csv(&run.rows, std::path::Path::new(out))?;
     }
     for r in run
         .rows

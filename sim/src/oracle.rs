@@ -184,6 +184,33 @@ pub(crate) fn noise_free_row(
     }
 }
 
+/// Write noise-free rows (the oracle's, the plan follower's) to `path` as CSV, one line
+/// per period: `t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
+/// axial_depth_mm` (the force the period's true mean), to be set against a run's `run.csv`
+/// block by block.
+pub fn write_trace_csv(rows: &[RunRecord], path: &std::path::Path) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(
+        f,
+        "t_s,block,x_true_mm,override_pct,force_n,radial_depth_mm,axial_depth_mm"
+    )?;
+    for r in rows {
+        writeln!(
+            f,
+            "{:.3},{},{:.4},{},{:.2},{:.4},{:.4}",
+            r.t_s,
+            r.block.unwrap_or(0),
+            r.x_true_mm.unwrap_or(0.0),
+            r.override_cmd_pct.unwrap_or(0),
+            r.force_true_n.unwrap_or(0.0),
+            r.radial_depth_mm.unwrap_or(0.0),
+            r.axial_depth_mm.unwrap_or(0.0)
+        )?;
+    }
+    f.flush()
+}
+
 /// One period of the plant with a held override: the copy after it and what the row sees.
 struct Trial {
     machine: Machine,

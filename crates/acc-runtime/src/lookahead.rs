@@ -423,7 +423,8 @@ impl LookAhead {
                     && !self.scale.confirmed() =>
             {
                 let k = k.max(1.0).max(self.scale.max_ratio().unwrap_or(0.0));
-                let e = self.entry_cap(k, x, dx, self.unc_mm + margin, in_force, s, period_s);
+                let (y0, y1, _) = self.window(x, dx, self.unc_mm + margin, in_force);
+                let e = self.entry_cap(k, (y0, y1), s.override_step_pct, period_s);
                 Some(e.map_or(c, |e| e.max(c)))
             }
             (c, _) => c,
@@ -476,8 +477,9 @@ impl LookAhead {
     /// the highest override it may move at `in_force_pct` (%). The command acts within
     /// `command_delay_s`, at the override in force until then, and governs one period from
     /// there, so every such period's mean force counts. The position may be off by
-    /// `unc_mm` and by the drift of the path integrated from `ACTUAL_FEED` (at most one
-    /// period's path; [`LookAhead::period_path_mm`]) either way.
+    /// `unc_mm` and by the drift allowance of the path integrated from `ACTUAL_FEED`
+    /// (`drift_mm`, [`LookAhead::period_path_mm`]; at least one period's path once the
+    /// register has shown itself an instantaneous value) either way.
     fn window(&self, x: f64, dx: f64, unc_mm: f64, in_force_pct: u16) -> (f64, f64, f64) {
         let drift = if self.instantaneous_feed {
             self.drift_mm.max(dx)
@@ -565,27 +567,13 @@ impl LookAhead {
         }
     }
 
-    /// The entry's cap ([`crate::plan_lead`], "Entries"): the highest grid position at
-    /// which every period the command can govern over the [`LookAhead::window`] of the
-    /// tool at `x` (mm) is predicted at most the ceiling with scale `k`.
-    #[allow(clippy::too_many_arguments)]
-    fn entry_cap(
-        &self,
-        k: f64,
-        x: f64,
-        dx: f64,
-        unc_mm: f64,
-        in_force_pct: u16,
-        s: &BoardStatus,
-        period_s: f64,
-    ) -> Option<u16> {
-        let (y0, y1, _) = self.window(x, dx, unc_mm, in_force_pct);
-        highest_within(
-            self.cfg.max_pct,
-            s.override_step_pct,
-            self.cfg.force_ref_n,
-            |o| k * self.worst_period_n(y0, y1, o, period_s),
-        )
+    /// The entry's cap ([`crate::plan_lead`], "Entries"): the highest position of the
+    /// board's grid of `step_pct` at which every period starting in `y0 ..= y1` (mm, the
+    /// [`LookAhead::window`]) is predicted at most the ceiling with scale `k`.
+    fn entry_cap(&self, k: f64, (y0, y1): (f64, f64), step_pct: u16, period_s: f64) -> Option<u16> {
+        highest_within(self.cfg.max_pct, step_pct, self.cfg.force_ref_n, |o| {
+            k * self.worst_period_n(y0, y1, o, period_s)
+        })
     }
 
     /// The disagreement check of the period that ended at `x` (mm), at feed `v` (mm/min),
