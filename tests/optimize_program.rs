@@ -338,6 +338,69 @@ fn optimized_programs_predict_at_most_fr_and_run_air_at_the_air_feed() {
     }
 }
 
+/// Block numbers (`BLOCK_NUMBER`: the N word, else the line number) that name motions of
+/// more than one line of `file`.
+fn shared_block_numbers(file: &Path) -> usize {
+    let tbl = root().join("tests/nc/tools.tbl");
+    let text = std::fs::read_to_string(&tbl).expect("tool table");
+    let tools = acc_nc::ToolTable::parse_tbl("tools.tbl", &text, acc_nc::Units::Mm).expect("table");
+    let setup = acc_nc::Setup {
+        tools,
+        ..acc_nc::Setup::default()
+    };
+    let prog = acc_nc::interpret_file(file, &setup).expect("interprets");
+    let mut lines: std::collections::HashMap<u32, std::collections::BTreeSet<u32>> =
+        Default::default();
+    for c in prog.calls.iter().filter(|c| c.call.end().is_some()) {
+        lines.entry(c.block_number()).or_default().insert(c.line);
+    }
+    lines.values().filter(|l| l.len() > 1).count()
+}
+
+/// The program optimized: its added lines' numbers checked against every other block's.
+fn numbers_checked(sc: &Scenario, file: &Path, stock: (&str, f64), dir: &Path) -> Optimized {
+    let path = build(sc, file, stock);
+    let (out, opt) = optimized(sc, file, &path, dir);
+    let name = file.display();
+    let (before, after) = (shared_block_numbers(file), shared_block_numbers(&out));
+    println!(
+        "{name}: {} lines added, numbered {:?}; block numbers naming more than one line: \
+         {before} before, {after} after",
+        opt.lines_added, opt.added_numbers
+    );
+    assert!(
+        after <= before,
+        "{name}: {after} block numbers shared, {before} before"
+    );
+    if let Some((a, b)) = opt.added_numbers {
+        assert_eq!(
+            (b - a + 1) as usize,
+            opt.lines_added,
+            "{name}: numbers used"
+        );
+    }
+    opt
+}
+
+#[test]
+fn the_added_lines_take_block_numbers_no_other_block_has() {
+    let sc = scenario();
+    let tmp = tempfile::tempdir().expect("temp dir");
+    // N on every block (N0010 .. N0170): the added lines are numbered from N0171 on.
+    let fanuc = root().join("tests/nc/fanuc_style.ngc");
+    let opt = numbers_checked(&sc, &fanuc, ("20,-15,-10,70,60,0", 0.25), tmp.path());
+    assert!(opt.lines_added > 0, "no block of fanuc_style.ngc was split");
+    assert_eq!(opt.added_numbers.map(|r| r.0), Some(171));
+    for (file, stock) in present() {
+        let opt = numbers_checked(&sc, &file, stock, tmp.path());
+        let numbered = std::fs::read_to_string(&file)
+            .expect("program")
+            .lines()
+            .any(|l| l.trim_start().starts_with('N'));
+        assert_eq!(opt.added_numbers.is_some(), numbered && opt.lines_added > 0);
+    }
+}
+
 #[test]
 fn a_bad_minimum_segment_is_refused_with_its_range() {
     for bad in ["0", "-1", "nan"] {

@@ -18,7 +18,9 @@
 //! units and G90/G91 mode. The first piece is the original line with its axis, arc and F
 //! words replaced (every other word, its N number and its comments kept, so every
 //! non-motion word still acts before the motion); the others are new lines
-//! `G1|G2|G3 X Y Z [I J] F`. A block is not split, only its F word set to the lowest feed
+//! `[N…] G1|G2|G3 X Y Z [I J] F`, numbered above every N word and line number of the
+//! program when its blocks carry N words ([`piece_numbers`]), so that the look-ahead never
+//! takes one block for another. A block is not split, only its F word set to the lowest feed
 //! of its path, when splitting could change what it does: it runs more than once (a
 //! subroutine, a loop) or makes more than one motion (a canned cycle), sets parameters,
 //! has a G or M word that reads a parameter, a dwell, a stop (M0 M1 M2 M30 M60), a
@@ -67,6 +69,20 @@ pub struct Optimized {
     /// Feed lines kept whole although their feed level changes along them (see the module
     /// doc for why), with the lowest feed of their path.
     pub kept_whole: usize,
+    /// The N numbers given to the added lines (first, last), when the program numbers its
+    /// blocks ([`piece_numbers`]).
+    pub added_numbers: Option<(u32, u32)>,
+}
+
+/// The first N number of the added lines of a program whose blocks carry N words: above
+/// its largest N word and above the optimized program's line count, so that no block
+/// number the board reports (`BLOCK_NUMBER`: the N word, else the line number) names two
+/// blocks. `None` when no block carries an N word: every block is then known by its line
+/// number, which the added lines keep unique by themselves.
+pub fn piece_numbers(calls: &[CanonCall], output_lines: usize) -> Option<u32> {
+    let largest = calls.iter().filter_map(|c| c.block).max()?;
+    let lines = u32::try_from(output_lines).unwrap_or(u32::MAX);
+    Some(largest.max(lines).saturating_add(1))
 }
 
 /// Why a program could not be optimized.
@@ -469,6 +485,7 @@ pub fn optimize(
         lines_split: 0,
         lines_added: 0,
         kept_whole: 0,
+        added_numbers: None,
     };
     for mut fc in feed_calls {
         let line_no = fc.call.line;
@@ -507,11 +524,17 @@ pub fn optimize(
     }
     out.kept_whole = lowest.values().filter(|(_, v)| *v).count();
     out.lines_rewritten = edits.len();
+    let mut next_n = piece_numbers(calls, lines.len() + out.lines_added);
     for (k, raw) in lines.iter().enumerate() {
         let n = u32::try_from(k + 1).unwrap_or(u32::MAX);
         match edits.get(&n) {
             Some(new) => {
-                for l in new {
+                for (i, l) in new.iter().enumerate() {
+                    if let (true, Some(num)) = (i > 0, next_n.as_mut()) {
+                        let _ = write!(out.text, "N{num} ");
+                        out.added_numbers = Some((out.added_numbers.map_or(*num, |r| r.0), *num));
+                        *num = num.saturating_add(1);
+                    }
                     out.text.push_str(l);
                     out.text.push('\n');
                 }

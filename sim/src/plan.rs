@@ -183,7 +183,8 @@ pub fn intervals(
         });
         let ea = source.engagement_at(&p.tool, a);
         let eb = source.engagement_at(&p.tool, b);
-        let (fa, ra, aa) = force(&ea, feed, p.wear.factor(volume_cm3, cut_min));
+        let wear_a = p.wear.factor(volume_cm3, cut_min);
+        let (fa, ra, aa) = force(&ea, feed, wear_a);
         // The cross-section is linear between knots: the trapezoid is the swept volume
         // when one of radial and axial depth is constant along the interval.
         let vol_cm3 =
@@ -197,17 +198,26 @@ pub fn intervals(
         let wear_b = p.wear.factor(volume_cm3, cut_min);
         let (fb, rb, ab) = force(&eb, feed, wear_b);
         let (f100, radial, axial) = if fb > fa { (fb, rb, ab) } else { (fa, ra, aa) };
-        // Linear along it? Just inside both ends and the middle (the end's wear: it only
-        // grows, so the check is on the safe side).
-        let linear = !rapid && f100 > 0.0 && {
-            let mut inside = |x: f64| force(&source.engagement_at(&p.tool, x), feed, wear_b).0;
+        // Linear along it?
+        // Just inside both ends and the middle (the end's wear: it only grows, so the
+        // check is on the safe side): an engagement step at a knot belongs to the side
+        // the interval lies on.
+        let (linear, fmin) = if !rapid && f100 > 0.0 {
+            let mut inside_at =
+                |x: f64, wear: f64| force(&source.engagement_at(&p.tool, x), feed, wear).0;
             let d = (b - a) * 1e-6;
+            let (fa_in, fb_in) = (inside_at(a + d, wear_b), inside_at(b - d, wear_b));
+            let fmin = inside_at(a + d, wear_a).min(fb_in);
+            let mut inside = |x: f64| inside_at(x, wear_b);
             // Relative to the smaller end's force: near the low end of a steep row 1 % of
             // the largest force would be several percent of the force there.
             let tol = LINEAR_TOLERANCE * fa.min(fb) + 1e-9 * f100;
-            (inside(a + d) - fa).abs() <= tol
-                && (inside(b - d) - fb).abs() <= tol
-                && inside(mid) <= 0.5 * (fa + fb) + tol
+            let linear = (fa_in - fa).abs() <= tol
+                && (fb_in - fb).abs() <= tol
+                && inside(mid) <= 0.5 * (fa + fb) + tol;
+            (linear, fmin.min(f100))
+        } else {
+            (false, fa.min(fb))
         };
         out.push(Interval {
             a,
@@ -217,7 +227,7 @@ pub fn intervals(
             rapid,
             feed,
             f100,
-            fmin: fa.min(fb),
+            fmin,
             radial,
             axial,
             f_end: fb,
@@ -225,6 +235,13 @@ pub fn intervals(
         });
     }
     out
+}
+
+/// Whether a row whose force at 100 % lies in `lo ..= hi` (N) predicts it well enough for
+/// the look-ahead to judge the plan's scale by it: within ± [`acc_runtime::plan_lead::NARROW`]
+/// of its middle (air, both 0, counts as narrow).
+fn narrow_band(lo: f64, hi: f64) -> bool {
+    hi - lo <= acc_runtime::plan_lead::NARROW * (hi + lo)
 }
 
 /// The plan of the path of `source` between the increasing path positions `knots` (mm;
@@ -256,6 +273,12 @@ pub fn plan_along(
                 // interval is a row of its own.
                 && r.profile == ForceProfile::Flat
                 && iv.profile() == ForceProfile::Flat
+                // A row's band stays narrow enough for the look-ahead to judge the plan's
+                // scale by it (an entry's rising force is not merged into the cut after it).
+                && narrow_band(
+                    r.force_min_100_n.min(iv.fmin),
+                    r.force_100_n.max(iv.f100),
+                )
         });
         if same {
             if let Some(r) = rows.last_mut() {
@@ -539,6 +562,36 @@ mod tests {
             vec![e(4.0, 2.0), e(4.0, 2.0), e(4.0, 4.0), e(4.0, 4.0)],
         );
         assert!(step.rows.iter().all(|r| r.profile == ForceProfile::Flat));
+    }
+
+    #[test]
+    fn rows_of_one_override_merge_only_while_their_band_stays_narrow() {
+        let e = |r: f64| Engagement {
+            radial_mm: r,
+            axial_mm: 16.0,
+            ks_factor: 1.0,
+        };
+        let plan_of = |r1: f64| {
+            let xs = vec![0.0, 5.0, 5.0, 10.0];
+            let mut prog = Prog(
+                EngagementProfile::new(xs, vec![e(1.0), e(1.0), e(r1), e(r1)]).expect("profile"),
+            );
+            plan_along(&mut prog, &[0.0, 5.0, 10.0], |x| [x, 0.0, 0.0], &params())
+        };
+        // 400 N then 380 N at 100 %: both planned at 150 %, within ±10 % of their middle:
+        // one row.
+        let near = plan_of(0.95);
+        assert_eq!(near.rows.len(), 1, "{:?}", near.rows);
+        assert!((near.rows[0].force_min_100_n - 380.0).abs() < 1e-6);
+        // 400 N then 200 N: the same override, but one row would not tell the look-ahead
+        // the force within ±10 %: two rows, each narrow.
+        let far = plan_of(0.5);
+        assert_eq!(far.rows.len(), 2, "{:?}", far.rows);
+        assert!(far.rows.iter().all(|r| r.override_pct == 150));
+        // The first row is 400 N throughout; the second is 200 N (its start, on the step,
+        // read at the step's high side).
+        assert_eq!(far.rows[0].force_min_100_n, far.rows[0].force_100_n);
+        assert!((far.rows[1].force_min_100_n - 200.0).abs() < 1e-6);
     }
 
     #[test]

@@ -451,6 +451,14 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             Ok(_) => guard.status.ok_or(BoardErrorKind::Protocol),
         };
         let held = read.is_ok() && guard.hold;
+        // A block, tool or program number the guard holds until the next read confirms it.
+        let context_pending = match (read, guard.status.as_ref()) {
+            (Ok(raw), Some(st)) => {
+                (raw.block_number, raw.tool_number, raw.program_number)
+                    != (st.block_number, st.tool_number, st.program_number)
+            }
+            _ => false,
+        };
         // The line or the board lost its cadence: whether the board took the commands
         // booked so far is unknown.
         let line_broke = read.is_err() || self.write_error.is_some();
@@ -549,6 +557,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             self.policy.set_exit_planned(st.exit_planned);
             lookahead = Some(st);
         }
+        self.policy.set_context_pending(context_pending);
         let out = self.policy.step(&input, &mut self.law);
         if let (Some(la), Some(cmd)) = (self.lookahead.as_mut(), out.write_override) {
             la.note_written(cmd.0);

@@ -58,7 +58,9 @@ use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
 
 use crate::plan::{Plan, PlanRow};
-use crate::plan_lead::{highest_within, PlanLead, PlanScale, CUTTING, HIGH, WINDOW_SAMPLES};
+use crate::plan_lead::{
+    highest_within, PlanLead, PlanScale, CUTTING, HIGH, IN_MATERIAL, WINDOW_SAMPLES,
+};
 
 /// Half the unit of `ACTUAL_FEED` (a whole number of mm/min): how far the register may be
 /// from the period's path feed, mm/min.
@@ -412,6 +414,7 @@ impl LookAhead {
         // lead's, at the highest of that scale, 1 and every ratio this cut has shown.
         let fr = self.cfg.force_ref_n;
         let entering = measured.is_some_and(|f| f < CUTTING * fr) || self.scale.agrees();
+        let mut entry_lead = None;
         let cap_pct = match (cap_pct, self.tool_scale) {
             (Some(c), Some(k))
                 if self.cfg.lead
@@ -425,6 +428,11 @@ impl LookAhead {
                 let k = k.max(1.0).max(self.scale.max_ratio().unwrap_or(0.0));
                 let (y0, y1, _) = self.window(x, dx, self.unc_mm + margin, in_force);
                 let e = self.entry_cap(k, (y0, y1), s.override_step_pct, period_s);
+                // In the material, the entry's position is the command (the law's may be
+                // low from the stretch before, a corner); in air the law's command stands.
+                if measured.is_some_and(|f| f >= IN_MATERIAL * fr) {
+                    entry_lead = e;
+                }
                 Some(e.map_or(c, |e| e.max(c)))
             }
             (c, _) => c,
@@ -457,7 +465,7 @@ impl LookAhead {
             }
             _ => {
                 self.lead.reset();
-                None
+                entry_lead
             }
         };
         self.last = LookAheadStep {

@@ -232,11 +232,11 @@ fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
     assert_eq!(at(750.0).lead_pct, None);
     // In air (no force): no lead; entries keep the cap.
     assert_eq!(at(0.0).lead_pct, None);
-    // Back in a cut: the scale of the last cut is not used; three agreeing periods of
-    // this one before it leads.
+    // Back in a cut: the cut's own scale starts again. Its first period has no sample of
+    // this cut; from the second, the entry is led at the tool's scale from the last cut
+    // (1.25, confirmed at 750 N: 40 % would predict 1000 N, so 30 %).
     let back: Vec<_> = (0..3).map(|_| at(750.0).lead_pct).collect();
-    assert_eq!(back[..2], [None, None]);
-    assert!(back[2].is_some());
+    assert_eq!(back, [None, Some(30), Some(30)]);
     // ...and a new tool starts it again (three agreeing periods before it leads).
     let st = cutting(2);
     let leads: Vec<_> = (0..3)
@@ -256,14 +256,15 @@ fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
     };
     assert_eq!(led(&mut la), [None, None, Some(40)]);
     // A failed read: no lead reported, the position moves on by the last path (0.3 mm)
-    // and is that much less certain, and the scale starts again.
+    // and is that much less certain, and the cut's scale starts again: its first period
+    // after the read has no sample of it, the next leads as an entry at the tool's scale.
     let x = la.last().position_mm.expect("x");
     assert_eq!(la.step(None, &force(600.0), 0.1).lead_pct, None);
     assert!((la.x_mm - x - 0.3).abs() < 1e-9 && la.unc_mm >= 0.3 - 1e-9);
-    assert_eq!(led(&mut la), [None, None, Some(40)]);
+    assert_eq!(led(&mut la), [None, Some(40), Some(40)]);
     // A period the driver skipped: the same.
     la.missed();
-    assert_eq!(led(&mut la), [None, None, Some(40)]);
+    assert_eq!(led(&mut la), [None, Some(40), Some(40)]);
     // A slow line (a longer echo delay measured): no lead while it lasts.
     la.set_line_nominal(false);
     assert_eq!(led(&mut la), [None, None, None]);
@@ -397,7 +398,7 @@ fn the_entry_cap_is_not_lifted_in_a_cut_whose_scale_failed() {
     }
     // After a failed read the cut starts its scale again: the first period after it has
     // no sample of this cut and keeps the row cap; with a sample of this cut agreeing with
-    // the tool's scale (600 N at 30 %, 1.0) the entry's cap may lift it (800 N at 40 %).
+    // the tool's scale (600 N at 30 %, 1.0) the entry is led at it (800 N at 40 %).
     let mut la = leading();
     for _ in 0..4 {
         la.step(Some(&cutting(0)), &force(600.0), 0.1);
@@ -406,7 +407,7 @@ fn the_entry_cap_is_not_lifted_in_a_cut_whose_scale_failed() {
     let st = la.step(Some(&cutting(0)), &force(600.0), 0.1);
     assert_eq!((st.lead_pct, st.cap_pct), (None, Some(30)));
     let st = la.step(Some(&cutting(0)), &force(600.0), 0.1);
-    assert_eq!((st.lead_pct, st.cap_pct), (None, Some(40)));
+    assert_eq!((st.lead_pct, st.cap_pct), (Some(40), Some(40)));
 }
 
 #[test]

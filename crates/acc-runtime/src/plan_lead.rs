@@ -62,6 +62,9 @@ pub const SCALE_MIN_SAMPLES: usize = 3;
 pub const NARROW: f64 = 0.1;
 /// The tool cuts: the plan and the measurement above this × Fr, −.
 pub const CUTTING: f64 = 0.2;
+/// The tool is in the material: the measurement above this × Fr, − (an entry is led only
+/// then; in air the law's command stands under the entry's cap).
+pub const IN_MATERIAL: f64 = 0.05;
 /// No lead while the measured force is above this × Fr, −.
 pub const HIGH: f64 = 1.1;
 /// The lead needs a period judged (and agreeing) within this many periods, −.

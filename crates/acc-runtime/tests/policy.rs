@@ -1315,3 +1315,45 @@ fn debounce_costs_one_period_on_a_real_knob_move_and_ignores_a_flipped_frame() {
         .all(|r| !released(r, Release::OperatorHandback)));
     assert_eq!(rig.state(), AccState::Active);
 }
+
+/// A cut that ends with its block: the read that shows the force drop already shows the
+/// next block's number, which the line guard holds until the next read confirms it. The
+/// breakage watch does not take that drop for a broken tool; the same drop in a block that
+/// goes on is one.
+#[test]
+fn a_drop_while_the_next_block_waits_for_confirmation_is_no_breakage() {
+    let run = |next_block: u16| {
+        let cfg = PolicyConfig::default();
+        let law = ScriptedLaw {
+            force_ref_n: Some(800.0),
+            ..ScriptedLaw::new([100])
+        };
+        let mut rig = Rig {
+            lp: ControlLoop::new(
+                FaultPolicy::new(cfg),
+                law,
+                LinearPowerForce { n_per_w: N_PER_W },
+                cfg.period_s,
+            ),
+            b: ScriptedBoard::new(),
+            t_s: 0.0,
+            power_w: 1600, // 800 N
+            freeze_seq: false,
+        };
+        rig.b.board.set_tool_number(1);
+        rig.b.board.set_block_number(10);
+        let steady = rig.run(30);
+        assert_eq!(rig.state(), AccState::Active);
+        assert!(steady
+            .iter()
+            .all(|r| !r.record(None).flags.contains("breakage")));
+        rig.b.board.set_block_number(next_block);
+        rig.power_w = 200; // 100 N
+        rig.step().record(None).flags
+    };
+    let ended = run(11);
+    assert!(ended.contains("unconfirmed:block_number"), "{ended}");
+    assert!(!ended.contains("breakage"), "{ended}");
+    let broken = run(10);
+    assert!(broken.contains("breakage:drop"), "{broken}");
+}

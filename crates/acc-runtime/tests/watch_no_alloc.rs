@@ -33,6 +33,7 @@ fn breakage_detector_does_not_allocate() {
             feed_hold_active: false,
             tool: 1 + (i / 2500) as u16,
             block: 10 * (1 + (i / 250) as u16),
+            block_settled: true,
             override_pct: 60,
         };
         verdicts += u32::from(d.observe(&s).is_some());

@@ -27,12 +27,14 @@ impl BreakageJudge {
     }
 
     /// Judge the valid force sample `force_n`, N, of status `s` (`feed_hold`: the policy
-    /// requests feed hold). `None` before the law's first step (no Fr yet).
+    /// requests feed hold; `block_settled`: no block or tool change waits for the line
+    /// guard's confirmation). `None` before the law's first step (no Fr yet).
     pub(crate) fn judge(
         &mut self,
         force_n: f64,
         s: &BoardStatus,
         feed_hold: bool,
+        block_settled: bool,
     ) -> Option<Breakage> {
         let force_ref_n = self.force_ref_n?;
         let v2 = s.is_v2();
@@ -43,6 +45,7 @@ impl BreakageJudge {
             feed_hold_active: s.feed_hold_active || feed_hold,
             tool: if v2 { s.tool_number } else { 0 },
             block: if v2 { s.block_number } else { 0 },
+            block_settled,
             override_pct: s.override_applied_pct,
         })
     }

@@ -23,7 +23,9 @@
 //! 6. `operator.rs` — the switch and the knob as seen (a latch needs the switch off, then on);
 //! 7. `overload.rs` — has the force been above the overload limit for too long?
 //! 8. `breakage.rs` — did the tool break? (Not judged in a period where the plan's
-//!    look-ahead explains a force drop: [`FaultPolicy::set_exit_planned`].)
+//!    look-ahead explains a force drop: [`FaultPolicy::set_exit_planned`]; no drop judged
+//!    while a block or tool change waits for its confirmation:
+//!    [`FaultPolicy::set_context_pending`].)
 //!
 //! Then by state. **Active**, first answer that acts wins:
 //! 9. `operator.rs` — switch off (release) or knob down (hand back, or cap on a v1 board);
@@ -145,6 +147,9 @@ pub struct FaultPolicy {
     /// The plan says the tool may leave the material this period
     /// ([`FaultPolicy::set_exit_planned`]).
     exit_planned: bool,
+    /// The read shows a block, tool or program number the line guard has not yet confirmed
+    /// ([`FaultPolicy::set_context_pending`]).
+    context_pending: bool,
     link: LinkJudge,
     staleness: Staleness,
     power: PowerJudge,
@@ -173,6 +178,7 @@ impl FaultPolicy {
             cycle_active: true,
             shop_limits: CommandLimits::default(),
             exit_planned: false,
+            context_pending: false,
             link: LinkJudge::default(),
             staleness: Staleness::default(),
             power: PowerJudge::default(),
@@ -199,6 +205,15 @@ impl FaultPolicy {
     /// `false`).
     pub fn set_exit_planned(&mut self, planned: bool) {
         self.exit_planned = planned;
+    }
+
+    /// The next [`FaultPolicy::step`]'s read shows a block, tool or program number other
+    /// than the one in force, which the line guard holds until the next read confirms it
+    /// ([`crate::guard`], debounced registers): the NC may already run the next block, so a
+    /// force drop is not judged as a breakage in that period (the cut may have ended with
+    /// its block; a spike still is).
+    pub fn set_context_pending(&mut self, pending: bool) {
+        self.context_pending = pending;
     }
 
     /// The command limits in force for the next [`FaultPolicy::step`].
@@ -464,7 +479,10 @@ impl FaultPolicy {
             // 8. Breakage watch (tool gone / spike), judged on valid samples only, and not
             //    where the plan says the tool may be leaving the material this period.
             let broken = (force_valid && !self.exit_planned)
-                .then(|| self.breakage.judge(f.force_n, &s, self.feed_hold))
+                .then(|| {
+                    self.breakage
+                        .judge(f.force_n, &s, self.feed_hold, !self.context_pending)
+                })
                 .flatten();
             if let Some(b) = broken {
                 out.events.push(Event::Breakage(b));

@@ -50,6 +50,10 @@ pub struct BreakageSample {
     /// `BLOCK_NUMBER` (0: unknown). A drop is judged only while the board reports the block
     /// (the NC says the cut continues in the same block); a spike always.
     pub block: u16,
+    /// No block or tool change waits for the line guard's confirmation: `block` is the
+    /// block the NC runs. A drop is judged only then (a cut that ends with its block shows
+    /// its drop while the next block's number is being confirmed).
+    pub block_settled: bool,
     /// Override in force (`OVERRIDE_APPLIED`), percent. A drop is judged only when it is at
     /// least 0.8 × its value two periods back (the feed was not cut: an operator turning the
     /// knob down is no breakage), a spike only when it is at most 1.25 × that + 10 %.
@@ -181,6 +185,7 @@ impl BreakageDetector {
             // Judge only against a history of steady cutting.
             if min >= cut_n && med > 0.0 {
                 if s.block != 0
+                    && s.block_settled
                     && feed_kept
                     && s.force_n < med * (1.0 - self.limits.breakage_drop_pct / 100.0)
                     && two_back >= 0.8 * med
@@ -220,6 +225,7 @@ mod tests {
             feed_hold_active: false,
             tool: 1,
             block,
+            block_settled: true,
             override_pct: 60,
         }
     }
@@ -293,6 +299,25 @@ mod tests {
             d.observe(&s(800.0, 0));
         }
         assert_eq!(d.observe(&s(10.0, 0)), None);
+        // A block change not yet confirmed: the drop is not judged (the cut ended with its
+        // block); the same drop once the block is settled is a breakage.
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..12 {
+            d.observe(&s(800.0, 10));
+        }
+        let pending = BreakageSample {
+            block_settled: false,
+            ..s(10.0, 10)
+        };
+        assert_eq!(d.observe(&pending), None);
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..12 {
+            d.observe(&s(800.0, 10));
+        }
+        assert!(matches!(
+            d.observe(&s(10.0, 10)),
+            Some(Breakage::Drop { .. })
+        ));
         // A block change resets the history.
         let mut d = BreakageDetector::new(WatchLimits::default());
         for _ in 0..12 {

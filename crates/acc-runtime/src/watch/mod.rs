@@ -16,7 +16,7 @@
 //! use acc_runtime::watch::{BreakageDetector, BreakageSample, WatchLimits, Breakage};
 //! let mut d = BreakageDetector::new(WatchLimits::default());
 //! let s = |f: f64| BreakageSample { force_n: f, force_ref_n: 800.0, cycle_active: true,
-//!     feed_hold_active: false, tool: 1, block: 20, override_pct: 60 };
+//!     feed_hold_active: false, tool: 1, block: 20, block_settled: true, override_pct: 60 };
 //! for _ in 0..12 { assert_eq!(d.observe(&s(800.0)), None); }
 //! // The tool broke: the force falls to a tenth within one period.
 //! assert!(matches!(d.observe(&s(80.0)), Some(Breakage::Drop { .. })));
