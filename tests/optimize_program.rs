@@ -391,6 +391,30 @@ fn the_added_lines_take_block_numbers_no_other_block_has() {
     let opt = numbers_checked(&sc, &fanuc, ("20,-15,-10,70,60,0", 0.25), tmp.path());
     assert!(opt.lines_added > 0, "no block of fanuc_style.ngc was split");
     assert_eq!(opt.added_numbers.map(|r| r.0), Some(171));
+    // Numbers past the board's 16-bit BLOCK_NUMBER are refused, naming the file and range.
+    let high = tmp.path().join("fanuc_high.ngc");
+    let text = std::fs::read_to_string(&fanuc).expect("program");
+    std::fs::write(&high, text.replace("N0170 M30", "N65530 M30")).expect("write");
+    let path = build(&sc, &high, ("20,-15,-10,70,60,0", 0.25));
+    let params = OptimizeParams {
+        plan: PlanParams::of(&sc),
+        min_segment_mm: 1.0,
+        max_feed_mm_min: sc.machine.feed_drive.rapid_mm_min,
+    };
+    let name = high.display().to_string();
+    let err = optimize(
+        &name,
+        &text.replace("N0170 M30", "N65530 M30"),
+        &path,
+        &params,
+        &|_| AIR_FEED,
+    )
+    .expect_err("numbers above 65535");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("fanuc_high.ngc") && msg.contains("N65531") && msg.contains("65535"),
+        "{msg}"
+    );
     for (file, stock) in present() {
         let opt = numbers_checked(&sc, &file, stock, tmp.path());
         let numbered = std::fs::read_to_string(&file)

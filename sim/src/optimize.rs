@@ -74,16 +74,25 @@ pub struct Optimized {
     pub added_numbers: Option<(u32, u32)>,
 }
 
-/// The first N number of the added lines of a program whose blocks carry N words: above
-/// its largest N word and above the optimized program's line count, so that no block
-/// number the board reports (`BLOCK_NUMBER`: the N word, else the line number) names two
-/// blocks. `None` when no block carries an N word: every block is then known by its line
-/// number, which the added lines keep unique by themselves.
-pub fn piece_numbers(calls: &[CanonCall], output_lines: usize) -> Option<u32> {
-    let largest = calls.iter().filter_map(|c| c.block).max()?;
+/// The first N number of the added lines of `file` (its text `text`) whose lines carry N
+/// words: above every N word of its text (whether the line runs or not) and above the
+/// optimized program's line count `output_lines`, so that no block number the board
+/// reports (`BLOCK_NUMBER`: the N word, else the line number) names two blocks. `None`
+/// when no line carries an N word: every block is then known by its line number, which
+/// the added lines keep unique by themselves.
+pub fn piece_numbers(file: &str, text: &str, output_lines: usize) -> Option<u32> {
+    let largest = text
+        .lines()
+        .enumerate()
+        .filter_map(|(k, l)| acc_nc::line_words(file, u32::try_from(k + 1).ok()?, l).ok())
+        .filter_map(|w| w.n)
+        .max()?;
     let lines = u32::try_from(output_lines).unwrap_or(u32::MAX);
     Some(largest.max(lines).saturating_add(1))
 }
+
+/// The largest block number the board's `BLOCK_NUMBER` register holds (16 bits).
+pub const MAX_BLOCK_NUMBER: u32 = 65_535;
 
 /// Why a program could not be optimized.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -101,6 +110,23 @@ pub enum OptimizeError {
     /// The text does not parse (file:line:column).
     #[error("{0}")]
     Nc(#[from] acc_nc::NcError),
+    /// The added lines would be numbered above [`MAX_BLOCK_NUMBER`]: the board would report
+    /// them modulo 65 536, and the look-ahead could take one block for another.
+    #[error(
+        "{file}: the {count} added lines would be numbered N{first} .. N{last}, above the \
+         board's BLOCK_NUMBER range 0 ..= 65535; renumber the program's blocks lower \
+         (its largest N word or line count sets the first) and optimize it again"
+    )]
+    Numbering {
+        /// The program.
+        file: String,
+        /// Lines added.
+        count: usize,
+        /// First number.
+        first: u32,
+        /// Last number.
+        last: u32,
+    },
     /// The program's path and its canonical calls do not match (a bug).
     #[error("{file}: {detail}")]
     Mismatch {
@@ -524,7 +550,18 @@ pub fn optimize(
     }
     out.kept_whole = lowest.values().filter(|(_, v)| *v).count();
     out.lines_rewritten = edits.len();
-    let mut next_n = piece_numbers(calls, lines.len() + out.lines_added);
+    let mut next_n = piece_numbers(file, text, lines.len() + out.lines_added);
+    if let Some(first) = next_n {
+        let last = first.saturating_add(u32::try_from(out.lines_added).unwrap_or(u32::MAX));
+        if out.lines_added > 0 && last - 1 > MAX_BLOCK_NUMBER {
+            return Err(OptimizeError::Numbering {
+                file: file.into(),
+                count: out.lines_added,
+                first,
+                last: last - 1,
+            });
+        }
+    }
     for (k, raw) in lines.iter().enumerate() {
         let n = u32::try_from(k + 1).unwrap_or(u32::MAX);
         match edits.get(&n) {
@@ -579,6 +616,15 @@ mod tests {
         // A block shorter than the minimum stays one piece at its lowest feed.
         let p = pieces(&[q(0.0, 0.3, 300.0), q(0.3, 0.6, 100.0)], 1.0);
         assert_eq!(p, vec![q(0.0, 0.6, 100.0)]);
+    }
+
+    #[test]
+    fn added_lines_are_numbered_above_every_n_word_of_the_text() {
+        // N9000 runs nothing (a comment line) and still counts; so does the line count.
+        let text = "N10 G1 X1 F100\nN9000 (no motion)\nG1 X2\n";
+        assert_eq!(piece_numbers("t.ngc", text, 5), Some(9001));
+        assert_eq!(piece_numbers("t.ngc", "N10 G1 X1\n", 20_000), Some(20_001));
+        assert_eq!(piece_numbers("t.ngc", "G1 X1\nG1 X2\n", 5), None);
     }
 
     #[test]

@@ -198,10 +198,10 @@ pub fn intervals(
         let wear_b = p.wear.factor(volume_cm3, cut_min);
         let (fb, rb, ab) = force(&eb, feed, wear_b);
         let (f100, radial, axial) = if fb > fa { (fb, rb, ab) } else { (fa, ra, aa) };
-        // Linear along it?
-        // Just inside both ends and the middle (the end's wear: it only grows, so the
-        // check is on the safe side): an engagement step at a knot belongs to the side
-        // the interval lies on.
+        // Linear along it? Just inside both ends and the middle (the end's wear: it only
+        // grows, so the check is on the safe side). The smallest force is read just inside
+        // the ends too (an engagement step at a knot belongs to the side the interval lies
+        // on); the largest stays the ends' (the step's high side: the safe reading).
         let (linear, fmin) = if !rapid && f100 > 0.0 {
             let mut inside_at =
                 |x: f64, wear: f64| force(&source.engagement_at(&p.tool, x), feed, wear).0;
@@ -584,7 +584,8 @@ mod tests {
         assert_eq!(near.rows.len(), 1, "{:?}", near.rows);
         assert!((near.rows[0].force_min_100_n - 380.0).abs() < 1e-6);
         // 400 N then 200 N: the same override, but one row would not tell the look-ahead
-        // the force within ±10 %: two rows, each narrow.
+        // the force within ±10 %: two rows; the second reads its start, on the step, at
+        // the step's high side (the largest force stays the ends').
         let far = plan_of(0.5);
         assert_eq!(far.rows.len(), 2, "{:?}", far.rows);
         assert!(far.rows.iter().all(|r| r.override_pct == 150));

@@ -110,11 +110,6 @@ pub fn run_cmd(args: &OptimizeArgs) -> anyhow::Result<()> {
     if let Some((a, b)) = opt.added_numbers {
         md +=
             &format!("added lines numbered N{a}..N{b} (above every block number of the program)\n");
-        if b > u32::from(u16::MAX) {
-            md += "warning: N numbers above 65535 reach the board's BLOCK_NUMBER modulo 65536, \
-                   so the look-ahead may take one block for another; renumber the program's \
-                   blocks lower before optimizing it\n";
-        }
     }
     print!("{md}");
     let summary = args.out.with_extension("summary.md");

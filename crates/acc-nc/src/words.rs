@@ -24,6 +24,8 @@ pub struct WordAt {
 pub struct LineWords {
     /// The words in order (the N number is not one).
     pub words: Vec<WordAt>,
+    /// The line's N number, if it has one.
+    pub n: Option<u32>,
     /// The line sets parameters (`#1=…`, applied after the line).
     pub assigns: bool,
     /// The line is an O word (`o100 sub`, `o100 call`, …).
@@ -47,6 +49,7 @@ impl LineWords {
 /// let w = acc_nc::line_words("a.ngc", 3, "N30 G1 X[2*5] Y#1 F300 (cut)").unwrap();
 /// let letters: Vec<char> = w.words.iter().map(|w| w.letter).collect();
 /// assert_eq!(letters, vec!['G', 'X', 'Y', 'F']);
+/// assert_eq!(w.n, Some(30));
 /// assert_eq!(w.words[1].constant, Some(10.0));
 /// assert_eq!(w.words[2].constant, None);
 /// let f = &w.words[3];
@@ -66,6 +69,7 @@ pub fn line_words(file: &str, number: u32, text: &str) -> Result<LineWords, NcEr
         .collect();
     Ok(LineWords {
         words,
+        n: line.n,
         assigns: !line.assigns.is_empty(),
         oword: line.oword.is_some(),
     })

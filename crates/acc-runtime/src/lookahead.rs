@@ -58,9 +58,7 @@ use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
 
 use crate::plan::{Plan, PlanRow};
-use crate::plan_lead::{
-    highest_within, PlanLead, PlanScale, CUTTING, HIGH, IN_MATERIAL, WINDOW_SAMPLES,
-};
+use crate::plan_lead::{highest_within, PlanLead, PlanScale, CUTTING, HIGH, WINDOW_SAMPLES};
 
 /// Half the unit of `ACTUAL_FEED` (a whole number of mm/min): how far the register may be
 /// from the period's path feed, mm/min.
@@ -176,8 +174,9 @@ pub struct LookAhead {
     /// First row of the visit the tool is in.
     visit: Option<usize>,
     last_block: Option<u16>,
-    /// The tool of the last period (`TOOL_NUMBER`): the plan's scale is per tool.
-    last_tool: Option<u16>,
+    /// The tool and program of the last period (`TOOL_NUMBER`, `PROGRAM_NUMBER`): the plan's
+    /// scale is per tool and program.
+    last_tool: Option<(u16, u16)>,
     x_mm: f64,
     unc_mm: f64,
     above: u32,
@@ -318,9 +317,10 @@ impl LookAhead {
             self.last.lead_pct = None;
             return self.last;
         };
-        // The plan's scale belongs to the tool that was measured: a new tool starts again.
-        if self.last_tool != Some(s.tool_number) {
-            self.last_tool = Some(s.tool_number);
+        // The plan's scale belongs to the tool that was measured in the program that ran: a
+        // new tool or program starts again.
+        if self.last_tool != Some((s.tool_number, s.program_number)) {
+            self.last_tool = Some((s.tool_number, s.program_number));
             self.scale.clear();
             self.tool_scale = None;
         }
@@ -409,12 +409,12 @@ impl LookAhead {
         let agree = shape && disagreement.is_none() && self.below == 0;
         // A cut's entry, before its scale is confirmed: the plan's period forces at the
         // tool's scale from its earlier cuts (confirmed where the lead could act) may lift
-        // the cap, never above the law. Entering (the measured force below the cutting
-        // share) or in a cut whose scale has not yet disagreed, the force at most the
-        // lead's, at the highest of that scale, 1 and every ratio this cut has shown.
+        // the cap. Entering (the measured force below the cutting share) or in a cut whose
+        // scale has not yet disagreed, the force at most the lead's, at the highest of
+        // that scale, 1 and every ratio this cut has shown.
         let fr = self.cfg.force_ref_n;
         let entering = measured.is_some_and(|f| f < CUTTING * fr) || self.scale.agrees();
-        let mut entry_lead = None;
+        let mut entry = None;
         let cap_pct = match (cap_pct, self.tool_scale) {
             (Some(c), Some(k))
                 if self.cfg.lead
@@ -428,11 +428,7 @@ impl LookAhead {
                 let k = k.max(1.0).max(self.scale.max_ratio().unwrap_or(0.0));
                 let (y0, y1, _) = self.window(x, dx, self.unc_mm + margin, in_force);
                 let e = self.entry_cap(k, (y0, y1), s.override_step_pct, period_s);
-                // In the material, the entry's position is the command (the law's may be
-                // low from the stretch before, a corner); in air the law's command stands.
-                if measured.is_some_and(|f| f >= IN_MATERIAL * fr) {
-                    entry_lead = e;
-                }
+                entry = e;
                 Some(e.map_or(c, |e| e.max(c)))
             }
             (c, _) => c,
@@ -445,8 +441,19 @@ impl LookAhead {
         } else {
             self.scale.clear();
         }
-        // The tool's scale for its next entries: confirmed in a period the lead could lead.
-        if self.scale.confirmed() && measured.is_some_and(|f| f <= HIGH * fr) {
+        // The entry's position is the command (the law's may be low from the stretch
+        // before: a corner, an engagement that fell below the cutting share) only once this
+        // cut has shown a ratio, judged within the last periods, that agrees with the
+        // tool's scale; in air and until then the law's command stands under the cap.
+        let entry_lead = entry.filter(|_| {
+            self.tool_scale
+                .is_some_and(|k| self.scale.recent_ratio_agrees_with(k))
+        });
+        // The tool's scale for its next entries: confirmed in a period the lead could lead,
+        // of a tool the board names (`TOOL_NUMBER` 0 is unknown: a tool change would not
+        // show).
+        if self.scale.confirmed() && measured.is_some_and(|f| f <= HIGH * fr) && s.tool_number != 0
+        {
             self.tool_scale = self.scale.scale();
         }
         // The plan's lead, while the tool cuts and the plan and the measurement agree: the

@@ -215,7 +215,7 @@ fn cutting(tool: u16) -> BoardStatus {
 #[test]
 fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
     let mut la = leading();
-    let mut at = |f: f64| la.step(Some(&cutting(0)), &force(f), 0.1);
+    let mut at = |f: f64| la.step(Some(&cutting(1)), &force(f), 0.1);
     // Three periods where the measurement agrees with the plan (k = 1) before it leads:
     // then 40 %, the position whose predicted force is Fr.
     assert_eq!(at(600.0).lead_pct, None);
@@ -248,7 +248,7 @@ fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
 #[test]
 fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
     let mut la = leading();
-    let st = cutting(0);
+    let st = cutting(1);
     let led = |la: &mut LookAhead| {
         (0..3)
             .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
@@ -389,11 +389,11 @@ fn the_entry_cap_is_not_lifted_in_a_cut_whose_scale_failed() {
     // the cap to 40 % (800 N predicted, 1000 N at the measured 1.25): it is not used.
     let mut la = leading();
     for _ in 0..4 {
-        la.step(Some(&cutting(0)), &force(600.0), 0.1);
+        la.step(Some(&cutting(1)), &force(600.0), 0.1);
     }
     assert!(la.scale.confirmed() && la.tool_scale.is_some());
     for _ in 0..2 {
-        let st = la.step(Some(&cutting(0)), &force(750.0), 0.1);
+        let st = la.step(Some(&cutting(1)), &force(750.0), 0.1);
         assert_eq!((st.lead_pct, st.cap_pct), (None, Some(30)));
     }
     // After a failed read the cut starts its scale again: the first period after it has
@@ -401,12 +401,12 @@ fn the_entry_cap_is_not_lifted_in_a_cut_whose_scale_failed() {
     // the tool's scale (600 N at 30 %, 1.0) the entry is led at it (800 N at 40 %).
     let mut la = leading();
     for _ in 0..4 {
-        la.step(Some(&cutting(0)), &force(600.0), 0.1);
+        la.step(Some(&cutting(1)), &force(600.0), 0.1);
     }
     la.step(None, &force(600.0), 0.1);
-    let st = la.step(Some(&cutting(0)), &force(600.0), 0.1);
+    let st = la.step(Some(&cutting(1)), &force(600.0), 0.1);
     assert_eq!((st.lead_pct, st.cap_pct), (None, Some(30)));
-    let st = la.step(Some(&cutting(0)), &force(600.0), 0.1);
+    let st = la.step(Some(&cutting(1)), &force(600.0), 0.1);
     assert_eq!((st.lead_pct, st.cap_pct), (Some(40), Some(40)));
 }
 
@@ -457,4 +457,55 @@ fn a_feed_hold_a_late_period_and_an_instantaneous_register_widen_the_drift() {
     assert!(la.instantaneous_feed);
     let (y0, _, _) = la.window(la.x_mm, 0.3, 0.0, 30);
     assert!((la.x_mm - y0 - 0.3).abs() < 1e-12);
+}
+
+#[test]
+fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale() {
+    // The tool's scale (1.0) confirmed in a first cut, then air.
+    let confirmed = |st: &BoardStatus| {
+        let mut la = leading();
+        for _ in 0..4 {
+            la.step(Some(st), &force(600.0), 0.1);
+        }
+        la.step(Some(st), &force(0.0), 0.1);
+        la
+    };
+    let st = cutting(1);
+    // Back in at 600 N (ratio 1.0): the first period has no ratio of this cut, the next
+    // leads at the tool's scale.
+    let mut la = confirmed(&st);
+    let led: Vec<_> = (0..2)
+        .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+        .collect();
+    assert_eq!(led, [None, Some(40)]);
+    // Between 0.05 and 0.2 Fr (100 N: in the material, no ratio to judge by): no lead.
+    let mut la = confirmed(&st);
+    for _ in 0..3 {
+        assert_eq!(la.step(Some(&st), &force(100.0), 0.1).lead_pct, None);
+    }
+    // This cut's ratio 25 % off the tool's scale (750 N at 30 %): the cap may rise to the
+    // highest ratio's position, the command stays the law's.
+    let mut la = confirmed(&st);
+    for _ in 0..2 {
+        let s = la.step(Some(&st), &force(750.0), 0.1);
+        assert_eq!((s.lead_pct, s.cap_pct), (None, Some(30)));
+    }
+    // A board that names no tool (`TOOL_NUMBER` 0): no scale is kept from cut to cut;
+    // three agreeing periods of this cut before the lead.
+    let st0 = cutting(0);
+    let mut la = confirmed(&st0);
+    let led: Vec<_> = (0..3)
+        .map(|_| la.step(Some(&st0), &force(600.0), 0.1).lead_pct)
+        .collect();
+    assert_eq!(led, [None, None, Some(40)]);
+    // Another program with the same tool number: the same.
+    let mut la = confirmed(&st);
+    let other = BoardStatus {
+        program_number: 77,
+        ..st
+    };
+    let led: Vec<_> = (0..3)
+        .map(|_| la.step(Some(&other), &force(600.0), 0.1).lead_pct)
+        .collect();
+    assert_eq!(led, [None, None, Some(40)]);
 }

@@ -33,11 +33,13 @@
 //!   Fr instead of sitting a step below it; the step below is taken only where it too is
 //!   within the ceiling.
 //! - **Entries.** Before a cut's scale is confirmed the look-ahead's cap acts; once the
-//!   tool has a scale confirmed in an earlier cut (a new tool forgets it), the cap may be
-//!   lifted to the same ceiling at the highest of that scale, 1 and this cut's ratios:
-//!   [`highest_within`] over the same window, while the tool enters or its cut's scale
-//!   has not disagreed (docs/plan.md, "Entries"). It stays a cap, bounded by the law's own
-//!   command.
+//!   tool has a scale confirmed in an earlier cut (a new tool or program, or a board that
+//!   names no tool, forgets it), the cap may be lifted to the same ceiling at the highest
+//!   of that scale, 1 and this cut's ratios: [`highest_within`] over the same window,
+//!   while the tool enters or its cut's scale has not disagreed (docs/plan.md, "Entries").
+//!   It is a cap, bounded by the law's own command, until this cut has shown a ratio,
+//!   judged within the last [`CONFIRM_PERIODS`], within ±[`AGREE`] of the tool's scale
+//!   ([`PlanScale::recent_ratio_agrees_with`]); from then it is the command, as the lead.
 //! - **When.** Only while the scale is confirmed in the cut the tool is in: a force below
 //!   [`CUTTING`] × Fr (air: entries keep the look-ahead's cap), a failed or skipped read, a
 //!   new tool, or any pending or declared disagreement starts the scale again; it needs
@@ -62,9 +64,6 @@ pub const SCALE_MIN_SAMPLES: usize = 3;
 pub const NARROW: f64 = 0.1;
 /// The tool cuts: the plan and the measurement above this × Fr, −.
 pub const CUTTING: f64 = 0.2;
-/// The tool is in the material: the measurement above this × Fr, − (an entry is led only
-/// then; in air the law's command stands under the entry's cap).
-pub const IN_MATERIAL: f64 = 0.05;
 /// No lead while the measured force is above this × Fr, −.
 pub const HIGH: f64 = 1.1;
 /// The lead needs a period judged (and agreeing) within this many periods, −.
@@ -145,6 +144,14 @@ impl PlanScale {
     /// The largest ratio sampled in this cut, − (`None`: no sample yet).
     pub fn max_ratio(&self) -> Option<f64> {
         self.ratios[..self.len].iter().copied().reduce(f64::max)
+    }
+
+    /// Whether this cut has a ratio judged within the last [`CONFIRM_PERIODS`] periods and
+    /// the newest one is within ±[`AGREE`] of `k` (the tool's scale from an earlier cut).
+    pub fn recent_ratio_agrees_with(&self, k: f64) -> bool {
+        self.len > 0
+            && self.since_judged <= CONFIRM_PERIODS
+            && (self.ratios[(self.next + SCALE_SAMPLES - 1) % SCALE_SAMPLES] - k).abs() <= AGREE * k
     }
 
     /// Whether the last period's ratio agreed with the scale.

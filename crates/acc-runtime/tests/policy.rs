@@ -1318,11 +1318,14 @@ fn debounce_costs_one_period_on_a_real_knob_move_and_ignores_a_flipped_frame() {
 
 /// A cut that ends with its block: the read that shows the force drop already shows the
 /// next block's number, which the line guard holds until the next read confirms it. The
-/// breakage watch does not take that drop for a broken tool; the same drop in a block that
-/// goes on is one.
+/// breakage watch judges that drop one period later: the next block confirmed, no
+/// breakage; the block number back (a bad frame), a breakage; the same drop in a block that
+/// goes on is one at once.
 #[test]
-fn a_drop_while_the_next_block_waits_for_confirmation_is_no_breakage() {
-    let run = |next_block: u16| {
+fn a_drop_while_the_next_block_waits_for_confirmation_is_judged_a_period_later() {
+    // The flags of the period of the drop (the board showing `first`) and the next
+    // (showing `then`).
+    let run = |first: u16, then: u16| {
         let cfg = PolicyConfig::default();
         let law = ScriptedLaw {
             force_ref_n: Some(800.0),
@@ -1347,13 +1350,21 @@ fn a_drop_while_the_next_block_waits_for_confirmation_is_no_breakage() {
         assert!(steady
             .iter()
             .all(|r| !r.record(None).flags.contains("breakage")));
-        rig.b.board.set_block_number(next_block);
+        rig.b.board.set_block_number(first);
         rig.power_w = 200; // 100 N
-        rig.step().record(None).flags
+        let drop = rig.step().record(None).flags;
+        rig.b.board.set_block_number(then);
+        (drop, rig.step().record(None).flags)
     };
-    let ended = run(11);
-    assert!(ended.contains("unconfirmed:block_number"), "{ended}");
-    assert!(!ended.contains("breakage"), "{ended}");
-    let broken = run(10);
-    assert!(broken.contains("breakage:drop"), "{broken}");
+    let (drop, next) = run(11, 11);
+    assert!(drop.contains("unconfirmed:block_number"), "{drop}");
+    assert!(
+        !drop.contains("breakage") && !next.contains("breakage"),
+        "{drop} / {next}"
+    );
+    let (drop, next) = run(11, 10);
+    assert!(!drop.contains("breakage"), "{drop}");
+    assert!(next.contains("breakage:drop"), "{next}");
+    let (drop, _) = run(10, 10);
+    assert!(drop.contains("breakage:drop"), "{drop}");
 }

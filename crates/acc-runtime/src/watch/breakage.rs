@@ -51,8 +51,11 @@ pub struct BreakageSample {
     /// (the NC says the cut continues in the same block); a spike always.
     pub block: u16,
     /// No block or tool change waits for the line guard's confirmation: `block` is the
-    /// block the NC runs. A drop is judged only then (a cut that ends with its block shows
-    /// its drop while the next block's number is being confirmed).
+    /// block the NC runs. A drop seen while a change waits is reported once the block is
+    /// settled again on the same block (the change was a bad frame) or after
+    /// [`BreakageDetector::MAX_PENDING_PERIODS`], not if the change is confirmed first (a
+    /// cut that ended with its block) or the cycle stops or holds
+    /// ([`BreakageDetector::observe`]).
     pub block_settled: bool,
     /// Override in force (`OVERRIDE_APPLIED`), percent. A drop is judged only when it is at
     /// least 0.8 × its value two periods back (the feed was not cut: an operator turning the
@@ -70,6 +73,9 @@ pub struct BreakageDetector {
     len: usize,
     head: usize,
     context: Option<(u16, u16)>,
+    /// A drop seen while a block or tool change waited for confirmation, and the periods
+    /// it has waited.
+    pending_drop: Option<(Breakage, usize)>,
     /// Applied override of the last [`BreakageDetector::LAG_PERIODS`] periods (newest last),
     /// percent.
     overrides: [u16; BreakageDetector::LAG_PERIODS],
@@ -87,6 +93,12 @@ impl BreakageDetector {
     /// is not a broken tool.
     pub const LAG_PERIODS: usize = 6;
 
+    /// Longest wait of a drop seen while a block or tool change waits for the line guard's
+    /// confirmation, periods: blocks shorter than a period (air pieces at the air feed)
+    /// keep the board's block number changing for a few reads after a cut's exit; a drop
+    /// still unexplained after this is reported.
+    pub const MAX_PENDING_PERIODS: usize = 3;
+
     /// A detector with an empty history.
     pub fn new(limits: WatchLimits) -> Self {
         BreakageDetector {
@@ -95,6 +107,7 @@ impl BreakageDetector {
             len: 0,
             head: 0,
             context: None,
+            pending_drop: None,
             overrides: [0; Self::LAG_PERIODS],
         }
     }
@@ -164,6 +177,20 @@ impl BreakageDetector {
             return None;
         }
         let ctx = (s.tool, s.block);
+        // A drop held back while a block or tool change waited: confirmed now (another
+        // block or tool), or the cycle stopped or held, the cut ended with its block; the
+        // same block settled again (the change was a bad frame), or waiting too long, the
+        // drop was a breakage; a change still waiting, it waits on.
+        if let Some((p, waited)) = self.pending_drop.take() {
+            if self.context == Some(ctx) && s.cycle_active && !s.feed_hold_active {
+                if s.block_settled || waited >= Self::MAX_PENDING_PERIODS {
+                    self.reset();
+                    return Some(p);
+                }
+                self.pending_drop = Some((p, waited + 1));
+                return None;
+            }
+        }
         if self.context != Some(ctx) {
             self.context = Some(ctx);
             self.reset();
@@ -185,15 +212,20 @@ impl BreakageDetector {
             // Judge only against a history of steady cutting.
             if min >= cut_n && med > 0.0 {
                 if s.block != 0
-                    && s.block_settled
                     && feed_kept
                     && s.force_n < med * (1.0 - self.limits.breakage_drop_pct / 100.0)
                     && two_back >= 0.8 * med
                 {
-                    verdict = Some(Breakage::Drop {
+                    let drop = Breakage::Drop {
                         force_n: s.force_n,
                         reference_n: med,
-                    });
+                    };
+                    if !s.block_settled {
+                        // Judged next period; the history is kept until then.
+                        self.pending_drop = Some((drop, 1));
+                        return None;
+                    }
+                    verdict = Some(drop);
                 } else if feed_not_raised && s.force_n > med * self.limits.breakage_spike_factor {
                     verdict = Some(Breakage::Spike {
                         force_n: s.force_n,
@@ -299,25 +331,43 @@ mod tests {
             d.observe(&s(800.0, 0));
         }
         assert_eq!(d.observe(&s(10.0, 0)), None);
-        // A block change not yet confirmed: the drop is not judged (the cut ended with its
-        // block); the same drop once the block is settled is a breakage.
-        let mut d = BreakageDetector::new(WatchLimits::default());
-        for _ in 0..12 {
-            d.observe(&s(800.0, 10));
-        }
-        let pending = BreakageSample {
-            block_settled: false,
-            ..s(10.0, 10)
+        // A drop while a block change waits for confirmation is judged next period: the
+        // change confirmed (block 20), the cut ended with its block; still block 10 (the
+        // change was a bad frame, or is held longer), a breakage; the same drop with the
+        // block settled is one at once.
+        let steady = || {
+            let mut d = BreakageDetector::new(WatchLimits::default());
+            for _ in 0..12 {
+                d.observe(&s(800.0, 10));
+            }
+            d
         };
-        assert_eq!(d.observe(&pending), None);
-        let mut d = BreakageDetector::new(WatchLimits::default());
-        for _ in 0..12 {
-            d.observe(&s(800.0, 10));
+        let pending = |f: f64| BreakageSample {
+            block_settled: false,
+            ..s(f, 10)
+        };
+        let is_drop = |b: Option<Breakage>| matches!(b, Some(Breakage::Drop { .. }));
+        let mut d = steady();
+        assert_eq!(d.observe(&pending(10.0)), None);
+        assert_eq!(d.observe(&s(10.0, 20)), None);
+        let mut d = steady();
+        assert_eq!(d.observe(&pending(10.0)), None);
+        assert!(is_drop(d.observe(&s(10.0, 10))));
+        // The board's block number still changing (short blocks after the exit): the drop
+        // waits, at most three periods, then it is reported; the change confirmed within
+        // them, it is not.
+        let mut d = steady();
+        for _ in 0..BreakageDetector::MAX_PENDING_PERIODS {
+            assert_eq!(d.observe(&pending(10.0)), None);
         }
-        assert!(matches!(
-            d.observe(&s(10.0, 10)),
-            Some(Breakage::Drop { .. })
-        ));
+        assert!(is_drop(d.observe(&pending(10.0))));
+        let mut d = steady();
+        for _ in 0..BreakageDetector::MAX_PENDING_PERIODS {
+            assert_eq!(d.observe(&pending(0.0)), None);
+        }
+        assert_eq!(d.observe(&s(0.0, 30)), None);
+        let mut d = steady();
+        assert!(is_drop(d.observe(&s(10.0, 10))));
         // A block change resets the history.
         let mut d = BreakageDetector::new(WatchLimits::default());
         for _ in 0..12 {
