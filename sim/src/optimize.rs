@@ -550,17 +550,26 @@ pub fn optimize(
     }
     out.kept_whole = lowest.values().filter(|(_, v)| *v).count();
     out.lines_rewritten = edits.len();
-    let mut next_n = piece_numbers(file, text, lines.len() + out.lines_added);
-    if let Some(first) = next_n {
-        let last = first.saturating_add(u32::try_from(out.lines_added).unwrap_or(u32::MAX));
-        if out.lines_added > 0 && last - 1 > MAX_BLOCK_NUMBER {
-            return Err(OptimizeError::Numbering {
-                file: file.into(),
-                count: out.lines_added,
-                first,
-                last: last - 1,
-            });
+    let total = lines.len() + out.lines_added;
+    let mut next_n = piece_numbers(file, text, total);
+    // The added lines' numbers: their N words, or (without N words) the line numbers they
+    // push the program's end to.
+    let count = u32::try_from(out.lines_added).unwrap_or(u32::MAX);
+    let (first, last) = match next_n {
+        Some(first) => (first, first.saturating_add(count).saturating_sub(1)),
+        None => {
+            let last = u32::try_from(total).unwrap_or(u32::MAX);
+            (last.saturating_sub(count).saturating_add(1), last)
         }
+    };
+    let fitted = u32::try_from(lines.len()).is_ok_and(|n| n <= MAX_BLOCK_NUMBER);
+    if out.lines_added > 0 && last > MAX_BLOCK_NUMBER && (next_n.is_some() || fitted) {
+        return Err(OptimizeError::Numbering {
+            file: file.into(),
+            count: out.lines_added,
+            first,
+            last,
+        });
     }
     for (k, raw) in lines.iter().enumerate() {
         let n = u32::try_from(k + 1).unwrap_or(u32::MAX);

@@ -414,6 +414,7 @@ impl LookAhead {
         // that scale, 1 and every ratio this cut has shown.
         let fr = self.cfg.force_ref_n;
         let entering = measured.is_some_and(|f| f < CUTTING * fr) || self.scale.agrees();
+        // (k, window) of the entry's cap, for its command below.
         let mut entry = None;
         let cap_pct = match (cap_pct, self.tool_scale) {
             (Some(c), Some(k))
@@ -428,7 +429,7 @@ impl LookAhead {
                 let k = k.max(1.0).max(self.scale.max_ratio().unwrap_or(0.0));
                 let (y0, y1, _) = self.window(x, dx, self.unc_mm + margin, in_force);
                 let e = self.entry_cap(k, (y0, y1), s.override_step_pct, period_s);
-                entry = e;
+                entry = Some((k, (y0, y1)));
                 Some(e.map_or(c, |e| e.max(c)))
             }
             (c, _) => c,
@@ -445,10 +446,17 @@ impl LookAhead {
         // before: a corner, an engagement that fell below the cutting share) only once this
         // cut has shown a ratio, judged within the last periods, that agrees with the
         // tool's scale; in air and until then the law's command stands under the cap.
-        let entry_lead = entry.filter(|_| {
-            self.tool_scale
-                .is_some_and(|k| self.scale.recent_ratio_agrees_with(k))
-        });
+        // Its position is taken again at the highest of the cap's scale and this period's
+        // ratio, which may be up to 15 % above the tool's.
+        let entry_lead = entry
+            .filter(|_| {
+                self.tool_scale
+                    .is_some_and(|k| self.scale.recent_ratio_agrees_with(k))
+            })
+            .and_then(|(k, window)| {
+                let k = k.max(self.scale.max_ratio().unwrap_or(0.0));
+                self.entry_cap(k, window, s.override_step_pct, period_s)
+            });
         // The tool's scale for its next entries: confirmed in a period the lead could lead,
         // of a tool the board names (`TOOL_NUMBER` 0 is unknown: a tool change would not
         // show).

@@ -478,10 +478,22 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
         .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
         .collect();
     assert_eq!(led, [None, Some(40)]);
-    // Between 0.05 and 0.2 Fr (100 N: in the material, no ratio to judge by): no lead.
+    // In the material below 0.2 Fr (5 % on a 1 % board: 100 N, as the plan predicts): the
+    // entry's cap may rise, but there is no ratio of this cut to judge by, so no lead.
     let mut la = confirmed(&st);
+    let slow = BoardStatus {
+        override_step_pct: 1,
+        ..in_force(30, 30, 5)
+    };
+    let slow = BoardStatus {
+        tool_number: 1,
+        ..slow
+    };
     for _ in 0..3 {
-        assert_eq!(la.step(Some(&st), &force(100.0), 0.1).lead_pct, None);
+        let s = la.step(Some(&slow), &force(100.0), 0.1);
+        assert_eq!(s.disagreement, None);
+        assert!(s.cap_pct.is_some_and(|c| c > 5), "{s:?}");
+        assert_eq!(s.lead_pct, None);
     }
     // This cut's ratio 25 % off the tool's scale (750 N at 30 %): the cap may rise to the
     // highest ratio's position, the command stays the law's.

@@ -165,6 +165,10 @@ pub struct FaultPolicy {
 impl FaultPolicy {
     /// A policy in the idle state. Validate `cfg` first ([`PolicyConfig::validate`]).
     pub fn new(cfg: PolicyConfig) -> Self {
+        let mut breakage = BreakageJudge::new(WatchLimits::default());
+        breakage
+            .detector
+            .set_pending_limit(cfg.debounce_reads as usize);
         Self {
             cfg,
             state: AccState::Idle,
@@ -185,7 +189,7 @@ impl FaultPolicy {
             drain: DrainJudge::default(),
             operator: OperatorJudge::default(),
             overload: OverloadJudge::default(),
-            breakage: BreakageJudge::new(WatchLimits::default()),
+            breakage,
             reset: ResetJudge::default(),
             lock: LockJudge::default(),
             settle: SettleJudge::default(),

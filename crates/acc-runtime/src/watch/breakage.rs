@@ -76,6 +76,8 @@ pub struct BreakageDetector {
     /// A drop seen while a block or tool change waited for confirmation, and the periods
     /// it has waited.
     pending_drop: Option<(Breakage, usize)>,
+    /// [`BreakageDetector::set_pending_limit`].
+    pending_limit: usize,
     /// Applied override of the last [`BreakageDetector::LAG_PERIODS`] periods (newest last),
     /// percent.
     overrides: [u16; BreakageDetector::LAG_PERIODS],
@@ -94,10 +96,18 @@ impl BreakageDetector {
     pub const LAG_PERIODS: usize = 6;
 
     /// Longest wait of a drop seen while a block or tool change waits for the line guard's
-    /// confirmation, periods: blocks shorter than a period (air pieces at the air feed)
-    /// keep the board's block number changing for a few reads after a cut's exit; a drop
-    /// still unexplained after this is reported.
+    /// confirmation, judged samples, by default (at least the guard's `debounce_reads`:
+    /// [`BreakageDetector::set_pending_limit`]): blocks shorter than a period (air pieces
+    /// at the air feed) keep the board's block number changing for a few reads after a
+    /// cut's exit; a drop still unexplained after this is reported.
     pub const MAX_PENDING_PERIODS: usize = 3;
+
+    /// The longest wait of a held drop, judged samples: at least
+    /// [`BreakageDetector::MAX_PENDING_PERIODS`] and the line guard's `debounce_reads` (a
+    /// change is confirmed after that many agreeing reads).
+    pub fn set_pending_limit(&mut self, debounce_reads: usize) {
+        self.pending_limit = debounce_reads.max(Self::MAX_PENDING_PERIODS);
+    }
 
     /// A detector with an empty history.
     pub fn new(limits: WatchLimits) -> Self {
@@ -108,6 +118,7 @@ impl BreakageDetector {
             head: 0,
             context: None,
             pending_drop: None,
+            pending_limit: Self::MAX_PENDING_PERIODS,
             overrides: [0; Self::LAG_PERIODS],
         }
     }
@@ -122,10 +133,11 @@ impl BreakageDetector {
         self.limits = limits;
     }
 
-    /// Forget the history (air, a new block or tool, a feed hold).
+    /// Forget the history (air, a new block or tool, a feed hold) and any held drop.
     pub fn reset(&mut self) {
         self.len = 0;
         self.head = 0;
+        self.pending_drop = None;
     }
 
     fn history_len(&self) -> usize {
@@ -174,6 +186,7 @@ impl BreakageDetector {
     /// Judge one valid sample against the history, then add it. `None`: nothing unusual.
     pub fn observe(&mut self, s: &BreakageSample) -> Option<Breakage> {
         if !self.limits.breakage_enabled {
+            self.pending_drop = None;
             return None;
         }
         let ctx = (s.tool, s.block);
@@ -183,7 +196,7 @@ impl BreakageDetector {
         // drop was a breakage; a change still waiting, it waits on.
         if let Some((p, waited)) = self.pending_drop.take() {
             if self.context == Some(ctx) && s.cycle_active && !s.feed_hold_active {
-                if s.block_settled || waited >= Self::MAX_PENDING_PERIODS {
+                if s.block_settled || waited >= self.pending_limit {
                     self.reset();
                     return Some(p);
                 }
@@ -366,6 +379,31 @@ mod tests {
             assert_eq!(d.observe(&pending(0.0)), None);
         }
         assert_eq!(d.observe(&s(0.0, 30)), None);
+        // A guard that confirms after 5 reads: the drop waits as long.
+        let mut d = steady();
+        d.set_pending_limit(5);
+        for _ in 0..5 {
+            assert_eq!(d.observe(&pending(10.0)), None);
+        }
+        assert!(is_drop(d.observe(&pending(10.0))));
+        // A new tool or the cycle's end lets a held drop go.
+        let mut d = steady();
+        assert_eq!(d.observe(&pending(10.0)), None);
+        assert_eq!(
+            d.observe(&BreakageSample {
+                tool: 2,
+                ..s(10.0, 10)
+            }),
+            None
+        );
+        let mut d = steady();
+        assert_eq!(d.observe(&pending(10.0)), None);
+        let end = BreakageSample {
+            cycle_active: false,
+            ..s(0.0, 10)
+        };
+        assert_eq!(d.observe(&end), None);
+        assert_eq!(d.observe(&s(10.0, 10)), None);
         let mut d = steady();
         assert!(is_drop(d.observe(&s(10.0, 10))));
         // A block change resets the history.
