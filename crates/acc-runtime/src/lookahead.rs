@@ -176,7 +176,7 @@ pub struct LookAhead {
     last_block: Option<u16>,
     /// The tool and program of the last period (`TOOL_NUMBER`, `PROGRAM_NUMBER`): the plan's
     /// scale is per tool and program.
-    last_tool: Option<(u16, u16)>,
+    last_tool_program: Option<(u16, u16)>,
     x_mm: f64,
     unc_mm: f64,
     above: u32,
@@ -226,7 +226,7 @@ impl LookAhead {
             visit_end,
             visit: None,
             last_block: None,
-            last_tool: None,
+            last_tool_program: None,
             x_mm: 0.0,
             unc_mm: 0.0,
             above: 0,
@@ -319,8 +319,8 @@ impl LookAhead {
         };
         // The plan's scale belongs to the tool that was measured in the program that ran: a
         // new tool or program starts again.
-        if self.last_tool != Some((s.tool_number, s.program_number)) {
-            self.last_tool = Some((s.tool_number, s.program_number));
+        if self.last_tool_program != Some((s.tool_number, s.program_number)) {
+            self.last_tool_program = Some((s.tool_number, s.program_number));
             self.scale.clear();
             self.tool_scale = None;
         }
@@ -414,7 +414,7 @@ impl LookAhead {
         // that scale, 1 and every ratio this cut has shown.
         let fr = self.cfg.force_ref_n;
         let entering = measured.is_some_and(|f| f < CUTTING * fr) || self.scale.agrees();
-        // (k, window) of the entry's cap, for its command below.
+        // (k, window, position) of the entry's cap, for its command below.
         let mut entry = None;
         let cap_pct = match (cap_pct, self.tool_scale) {
             (Some(c), Some(k))
@@ -429,7 +429,7 @@ impl LookAhead {
                 let k = k.max(1.0).max(self.scale.max_ratio().unwrap_or(0.0));
                 let (y0, y1, _) = self.window(x, dx, self.unc_mm + margin, in_force);
                 let e = self.entry_cap(k, (y0, y1), s.override_step_pct, period_s);
-                entry = Some((k, (y0, y1)));
+                entry = Some((k, (y0, y1), e));
                 Some(e.map_or(c, |e| e.max(c)))
             }
             (c, _) => c,
@@ -453,9 +453,9 @@ impl LookAhead {
                 self.tool_scale
                     .is_some_and(|k| self.scale.recent_ratio_agrees_with(k))
             })
-            .and_then(|(k, window)| {
-                let k = k.max(self.scale.max_ratio().unwrap_or(0.0));
-                self.entry_cap(k, window, s.override_step_pct, period_s)
+            .and_then(|(k, window, e)| match self.scale.max_ratio() {
+                Some(r) if r > k => self.entry_cap(r, window, s.override_step_pct, period_s),
+                _ => e,
             });
         // The tool's scale for its next entries: confirmed in a period the lead could lead,
         // of a tool the board names (`TOOL_NUMBER` 0 is unknown: a tool change would not

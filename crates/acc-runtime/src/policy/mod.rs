@@ -23,9 +23,9 @@
 //! 6. `operator.rs` — the switch and the knob as seen (a latch needs the switch off, then on);
 //! 7. `overload.rs` — has the force been above the overload limit for too long?
 //! 8. `breakage.rs` — did the tool break? (Not judged in a period where the plan's
-//!    look-ahead explains a force drop: [`FaultPolicy::set_exit_planned`]; no drop judged
-//!    while a block or tool change waits for its confirmation:
-//!    [`FaultPolicy::set_context_pending`].)
+//!    look-ahead explains a force drop: [`FaultPolicy::set_exit_planned`]; a drop while a
+//!    block or tool change waits for its confirmation is held until the change is
+//!    confirmed or not: [`FaultPolicy::set_context_pending`].)
 //!
 //! Then by state. **Active**, first answer that acts wins:
 //! 9. `operator.rs` — switch off (release) or knob down (hand back, or cap on a v1 board);
@@ -214,8 +214,8 @@ impl FaultPolicy {
     /// The next [`FaultPolicy::step`]'s read shows a block, tool or program number other
     /// than the one in force, which the line guard holds until the next read confirms it
     /// ([`crate::guard`], debounced registers): the NC may already run the next block, so a
-    /// force drop is not judged as a breakage in that period (the cut may have ended with
-    /// its block; a spike still is).
+    /// force drop in that period is held (the cut may have ended with its block) and judged
+    /// once the change is confirmed or not ([`crate::watch::BreakageDetector::observe`]).
     pub fn set_context_pending(&mut self, pending: bool) {
         self.context_pending = pending;
     }
