@@ -2,7 +2,7 @@
 //! for the path test and `../shared/data/nc/` for the third-party programs: without them
 //! that part prints `SKIP: …` and passes, unless `CI` is set, then it fails.
 //!
-//! `acc optimize` (`acc_sim::optimize`): on our three programs and the third-party ones,
+//! `acc optimize` (`acc_sim::optimize`): on our programs and the third-party ones,
 //! - the optimized program has the same path as the original in `rs274`: the sequence of
 //!   canonical calls without SET_FEED_RATE, with consecutive collinear STRAIGHT_FEEDs and
 //!   consecutive ARC_FEEDs about the same centre in the same direction merged (on both
@@ -42,6 +42,13 @@ const PROGRAMS: &[(&str, &str, f64)] = &[
     ),
     ("nc3:linuxcnc_arcspiral.ngc", "-60,-60,-10,60,60,0", 1.0),
     ("nc3:linuxcnc_3D_Chips.ngc", "-50,-50,-50,50,50,0", 1.0),
+    // Cutter radius compensation: its blocks keep their F words' places, never split.
+    ("tests/nc/comp_pocket.ngc", "-30,-25,-10,140,60,0", 0.5),
+    (
+        "nc3:linuxcnc_inside_corners.ngc",
+        "-10,-10,-10,110,110,0",
+        1.0,
+    ),
 ];
 
 fn skip_or_fail(reason: &str) {

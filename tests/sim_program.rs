@@ -191,7 +191,7 @@ fn acc_sim_program_writes_the_log_the_blocks_and_the_stock_picture() {
 fn bad_programs_and_stocks_are_refused_before_anything_runs() {
     let dir = tempfile::tempdir().expect("dir");
     let bad = dir.path().join("bad.ngc");
-    std::fs::write(&bad, "G21 G90\nG1 X10 F100\nG18\nM30\n").expect("write");
+    std::fs::write(&bad, "G21 G90\nG1 X10 F100\nG93\nM30\n").expect("write");
     let out = dir.path().join("run");
     let out_s = out.to_string_lossy().into_owned();
     let bad_s = bad.to_string_lossy().into_owned();
@@ -206,7 +206,7 @@ fn bad_programs_and_stocks_are_refused_before_anything_runs() {
         &out_s,
     ]);
     assert!(!ok);
-    assert!(err.contains("bad.ngc:3:1") && err.contains("G18"), "{err}");
+    assert!(err.contains("bad.ngc:3:1") && err.contains("G93"), "{err}");
     assert!(!out.join("run.csv").exists(), "nothing ran");
     // A tool the table does not list.
     let tbl = dir.path().join("tools.tbl");

@@ -14,8 +14,9 @@
 //! A feed block (G1, G2, G3) is split into pieces of at least `min_segment_mm` where its
 //! feed level changes; a piece's feed is the lowest of its intervals', so the predicted
 //! force stays ≤ Fr over the whole piece. Lines split into lines, arcs into arcs about the
-//! same centre (written with I and J, in the block's G90.1/G91.1 mode), in the block's
-//! units and G90/G91 mode. The first piece is the original line with its axis, arc and F
+//! same centre, in the block's plane (written with the plane's centre words: I J in G17,
+//! K I in G18, J K in G19; in the block's G90.1/G91.1 mode), in the block's units and
+//! G90/G91 mode. The first piece is the original line with its axis, arc and F
 //! words replaced (every other word, its N number and its comments kept, so every
 //! non-motion word still acts before the motion); the others are new lines
 //! `[N…] G1|G2|G3 X Y Z [I J] F`, numbered above every N word and line number of the
@@ -24,12 +25,14 @@
 //! of its path, when splitting could change what it does: it runs more than once (a
 //! subroutine, a loop) or makes more than one motion (a canned cycle), sets parameters,
 //! has a G or M word that reads a parameter, a dwell, a stop (M0 M1 M2 M30 M60), a
-//! multi-turn arc, G64 on an arc, or a block delete. Rapids and every other line are
-//! copied as they are.
+//! multi-turn arc, G64 on an arc, or a block delete; or cutter radius compensation shapes
+//! its motion (G41/G42 in force, or the move after G40: [`acc_nc::Modes::cutter_comp`]),
+//! where the compensated path depends on the neighbouring blocks' words and a split would
+//! add corners to it. Rapids and every other line are copied as they are.
 
 use std::fmt::Write as _;
 
-use acc_nc::{Canon, CanonCall, LineWords, Units};
+use acc_nc::{Canon, CanonCall, LineWords, Plane, Units};
 
 use crate::plan::{Interval, PlanParams};
 use crate::program::{ProgramPath, CHORD_TOL_MM};
@@ -264,8 +267,14 @@ fn piece_words(fc: &FeedCall<'_>) -> (String, Vec<String>) {
     let dec = if m.units == Units::Inch { 7 } else { 6 };
     let (code, center) = match &fc.call.call {
         Canon::Arc {
-            clockwise, center, ..
-        } => (if *clockwise { "G2" } else { "G3" }, Some(*center)),
+            clockwise,
+            center,
+            plane,
+            ..
+        } => (
+            if *clockwise { "G2" } else { "G3" },
+            Some((*center, *plane)),
+        ),
         _ => ("G1", None),
     };
     let from = match &fc.call.call {
@@ -300,13 +309,22 @@ fn piece_words(fc: &FeedCall<'_>) -> (String, Vec<String>) {
             };
             let _ = write!(w, "{l}{s} ");
         }
-        if let Some(c) = center {
-            let (i_v, j_v) = if m.arc_absolute {
-                (c[0] / u, c[1] / u)
-            } else {
-                ((c[0] - cur[0]) / u, (c[1] - cur[1]) / u)
+        if let Some((c, plane)) = center {
+            // The centre words of the plane, on its first and second axis.
+            let letters = match plane {
+                Plane::Xy => ['I', 'J'],
+                Plane::Xz => ['K', 'I'],
+                Plane::Yz => ['J', 'K'],
             };
-            let _ = write!(w, "I{} J{} ", num(i_v, dec), num(j_v, dec));
+            let start = plane.project(cur);
+            for ((l, ck), sk) in letters.into_iter().zip(c).zip(start) {
+                let v = if m.arc_absolute {
+                    ck / u
+                } else {
+                    (ck - sk) / u
+                };
+                let _ = write!(w, "{l}{} ", num(v, dec));
+            }
         }
         w.push_str(&f_word(q.feed, m.units));
         words.push(w);
@@ -320,8 +338,8 @@ fn piece_words(fc: &FeedCall<'_>) -> (String, Vec<String>) {
 /// Whether a line may be split (see the module doc).
 fn splittable(text: &str, w: &LineWords, arc: bool) -> bool {
     const G_OK: &[f64] = &[
-        1.0, 2.0, 3.0, 17.0, 20.0, 21.0, 40.0, 43.0, 49.0, 54.0, 55.0, 56.0, 57.0, 58.0, 59.0,
-        61.0, 61.1, 90.0, 91.0, 90.1, 91.1, 94.0, 98.0, 99.0,
+        1.0, 2.0, 3.0, 17.0, 18.0, 19.0, 20.0, 21.0, 40.0, 43.0, 49.0, 54.0, 55.0, 56.0, 57.0,
+        58.0, 59.0, 61.0, 61.1, 90.0, 91.0, 90.1, 91.1, 94.0, 98.0, 99.0,
     ];
     const M_STOP: &[f64] = &[0.0, 1.0, 2.0, 30.0, 60.0];
     let g_ok = w.values('G').all(|g| {
@@ -330,7 +348,8 @@ fn splittable(text: &str, w: &LineWords, arc: bool) -> bool {
     let m_ok = w
         .values('M')
         .all(|m| m.is_some_and(|m| !M_STOP.iter().any(|c| (c - m).abs() < 1e-6)));
-    // G40 is cutter compensation off (harmless); G4 (dwell) is not in the list.
+    // G40 (compensation off) makes the block's motion the exit move, which the caller keeps
+    // whole; G41/G42 and G4 (dwell) are not in the list.
     let turns_ok = !arc || w.values('P').all(|p| p == Some(1.0));
     g_ok && m_ok && turns_ok && !w.assigns && !w.oword && !text.trim_start().starts_with('/')
 }
@@ -522,7 +541,8 @@ pub fn optimize(
         let arc = matches!(fc.call.call, Canon::Arc { .. });
         fc.pieces = pieces(&fc.pieces, p.min_segment_mm);
         let single = motions_per_line.get(&line_no) == Some(&1);
-        if single && fc.pieces.len() > 1 && splittable(raw, &words, arc) {
+        let comp = fc.call.modes.cutter_comp;
+        if single && !comp && fc.pieces.len() > 1 && splittable(raw, &words, arc) {
             let (first, rest) = piece_words(&fc);
             let mut drop = vec!['X', 'Y', 'Z', 'I', 'J', 'K', 'R', 'F'];
             if arc {
@@ -634,6 +654,45 @@ mod tests {
         assert_eq!(piece_numbers("t.ngc", text, 5), Some(9001));
         assert_eq!(piece_numbers("t.ngc", "N10 G1 X1\n", 20_000), Some(20_001));
         assert_eq!(piece_numbers("t.ngc", "G1 X1\nG1 X2\n", 5), None);
+    }
+
+    #[test]
+    fn arcs_in_xz_and_yz_split_with_their_planes_centre_words() {
+        let setup = acc_nc::Setup::default();
+        for (plane, text) in [
+            ("G18", "G21 G18 G0 X10 Y3 Z0\nG2 X0 Y5 Z10 I-10 K0 F100\n"),
+            ("G19", "G21 G19 G0 X3 Y10 Z0\nG3 X5 Y0 Z10 J-10 K0 F100\n"),
+        ] {
+            let p = acc_nc::interpret("a.ngc", text, &setup).expect("ok");
+            let call = p.calls.last().expect("the arc");
+            let len = call.call.length_mm();
+            let fc = FeedCall {
+                call,
+                a: 0.0,
+                b: len,
+                pieces: vec![q(0.0, len / 3.0, 100.0), q(len / 3.0, len, 200.0)],
+            };
+            let (first, rest) = piece_words(&fc);
+            let code = if plane == "G18" { "G2" } else { "G3" };
+            let split = format!(
+                "{}\n{code} {first}\n{}\n",
+                text.lines().next().unwrap_or(""),
+                rest.join("\n")
+            );
+            let q = acc_nc::interpret("b.ngc", &split, &setup).expect("split parses");
+            let arcs: Vec<_> = q.calls.iter().filter(|c| c.call.end().is_some()).collect();
+            assert_eq!(arcs.len(), 3, "{split}");
+            let end = arcs[2].call.end().expect("end");
+            let want = call.call.end().expect("end");
+            assert!((0..3).all(|k| (end[k] - want[k]).abs() < 1e-5), "{split}");
+            let mid = arcs[1].call.end().expect("end");
+            let on = call.call.point_at(1.0 / 3.0).expect("point");
+            assert!((0..3).all(|k| (mid[k] - on[k]).abs() < 1e-5), "{split}");
+            assert!(
+                (arcs[1].call.length_mm() + arcs[2].call.length_mm() - len).abs() < 1e-4,
+                "{split}"
+            );
+        }
     }
 
     #[test]

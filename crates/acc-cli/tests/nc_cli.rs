@@ -41,7 +41,7 @@ fn acc_nc_prints_a_table_and_a_summary() {
 fn acc_nc_names_the_place_of_an_error() {
     let dir = tempfile::tempdir().expect("tmp");
     let file = dir.path().join("bad.ngc");
-    std::fs::write(&file, "G21\nG0 X0\nG18 G2 X1 I1 F100\nM2\n").expect("write");
+    std::fs::write(&file, "G21\nG0 X0\nG93 G1 X1 F100\nM2\n").expect("write");
     let out = Command::new(env!("CARGO_BIN_EXE_acc"))
         .arg("nc")
         .arg(&file)
@@ -49,7 +49,7 @@ fn acc_nc_names_the_place_of_an_error() {
         .expect("run acc");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("bad.ngc:3:1: `G18`"), "{stderr}");
-    assert!(stderr.contains("only G17"), "{stderr}");
+    assert!(stderr.contains("bad.ngc:3:1: `G93`"), "{stderr}");
+    assert!(stderr.contains("only G94"), "{stderr}");
     assert!(out.stdout.is_empty());
 }

@@ -27,6 +27,59 @@ impl Units {
     }
 }
 
+/// The plane of arcs and cutter radius compensation (G17, G18, G19; as rs274's
+/// SELECT_PLANE). Arcs are given in the plane's axis order, as rs274's ARC_FEED: XY is (X, Y)
+/// about Z, XZ is (Z, X) about Y, YZ is (Y, Z) about X, so that in every plane a positive
+/// turn is counter-clockwise seen from the positive end of the plane's normal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Plane {
+    /// G17: arcs in X and Y, helix along Z (the default).
+    #[default]
+    Xy,
+    /// G18: arcs in Z and X (first axis Z), helix along Y.
+    Xz,
+    /// G19: arcs in Y and Z, helix along X.
+    Yz,
+}
+
+impl Plane {
+    /// Indices into `[x, y, z]` of the plane's first axis, second axis and normal (the
+    /// helix axis): XY `[0, 1, 2]`, XZ `[2, 0, 1]`, YZ `[1, 2, 0]`.
+    pub fn axes(self) -> [usize; 3] {
+        match self {
+            Plane::Xy => [0, 1, 2],
+            Plane::Xz => [2, 0, 1],
+            Plane::Yz => [1, 2, 0],
+        }
+    }
+
+    /// A point's coordinates on the plane's first and second axis.
+    pub fn project(self, p: [f64; 3]) -> [f64; 2] {
+        let [a, b, _] = self.axes();
+        [p[a], p[b]]
+    }
+
+    /// The point `[x, y, z]` with `uv` on the plane's first and second axis and `w` along its
+    /// normal.
+    pub fn point(self, uv: [f64; 2], w: f64) -> [f64; 3] {
+        let [a, b, n] = self.axes();
+        let mut p = [0.0; 3];
+        p[a] = uv[0];
+        p[b] = uv[1];
+        p[n] = w;
+        p
+    }
+
+    /// The G code that selects the plane (`G17`, `G18`, `G19`).
+    pub fn code(self) -> &'static str {
+        match self {
+            Plane::Xy => "G17",
+            Plane::Xz => "G18",
+            Plane::Yz => "G19",
+        }
+    }
+}
+
 /// One canonical call.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Canon {
@@ -102,15 +155,19 @@ pub enum Canon {
         /// Programmed feed, mm/min.
         feed_mm_min: f64,
     },
-    /// Circular or helical feed move in the XY plane (G2/G3; as ARC_FEED).
+    /// Circular or helical feed move in `plane` (G2/G3; as ARC_FEED).
     Arc {
         /// Start, work coordinates, mm.
         from: [f64; 3],
-        /// End, work coordinates, mm; `to[2]` is the end on the helix axis (Z).
+        /// End, work coordinates, mm (x, y, z; the coordinate along the plane's normal is
+        /// the helix end).
         to: [f64; 3],
-        /// Centre (x, y), work coordinates, mm.
+        /// Centre on the plane's first and second axis ([`Plane::axes`]: (x, y) in G17,
+        /// (z, x) in G18, (y, z) in G19), work coordinates, mm.
         center: [f64; 2],
-        /// G2: true (clockwise seen from +Z); G3: false.
+        /// The plane of the arc.
+        plane: Plane,
+        /// G2: true (clockwise seen from the positive end of the plane's normal); G3: false.
         clockwise: bool,
         /// Number of turns (1 = up to the end point the short way in the given direction,
         /// or one full circle when the end equals the start; `P` adds turns).
@@ -151,9 +208,16 @@ pub struct Modes {
     pub units: Units,
     /// G90 (absolute axis words): true; G91 (incremental): false.
     pub absolute: bool,
-    /// G90.1 (absolute arc centre I J): true; G91.1 (centre relative to the start, the
+    /// G90.1 (absolute arc centre I J K): true; G91.1 (centre relative to the start, the
     /// default): false.
     pub arc_absolute: bool,
+    /// The plane (G17 / G18 / G19): which words give an arc's centre.
+    pub plane: Plane,
+    /// Cutter radius compensation shaped the motion: it was made while G41/G42 was in force
+    /// (its end, or its start, moved by the compensation, or an arc added at a corner), or
+    /// it is the move after G40 that starts from the compensated end. Its path is not the
+    /// programmed one, and changing its block's words can change the neighbours' paths.
+    pub cutter_comp: bool,
 }
 
 impl CanonCall {

@@ -23,7 +23,7 @@ pub enum ErrorKind {
     UnknownWord,
     /// A G or M code that no interpreter knows.
     UnknownCode,
-    /// A G or M code of RS274/NGC that this interpreter refuses (G18, G41, G81, ...).
+    /// A G or M code of RS274/NGC that this interpreter refuses (G84, G93, G28, ...).
     Unsupported {
         /// What the code does, and what is supported instead.
         reason: String,
@@ -61,6 +61,14 @@ pub enum ErrorKind {
         /// The allowed range.
         allowed: String,
     },
+    /// Cutter radius compensation (G41/G42) cannot make this move or allow this word: an
+    /// entry move not longer than the tool radius, a tool radius not less than the radius of
+    /// an arc it is inside, a concave corner the tool cannot reach without gouging, a change
+    /// of plane, units, offsets or tool while it is on, ...
+    Compensation {
+        /// What is wrong, with the numbers (mm).
+        detail: String,
+    },
 }
 
 impl fmt::Display for ErrorKind {
@@ -69,14 +77,14 @@ impl fmt::Display for ErrorKind {
             ErrorKind::Syntax { expected } => write!(f, "syntax error: expected {expected}"),
             ErrorKind::UnknownWord => write!(
                 f,
-                "unknown word; supported words: F G H I J K M N O P Q R S T X Y Z, \
+                "unknown word; supported words: D F G H I J K M N O P Q R S T X Y Z, \
                  #parameters and comments"
             ),
             ErrorKind::UnknownCode => write!(
                 f,
-                "unknown code; supported: G0 G1 G2 G3 G4 G17 G20 G21 G40 G43 G49 G54-G59 \
-                 G61 G61.1 G64 G80 G81 G82 G83 G90 G91 G90.1 G91.1 G94 G98 G99, M0 M1 M2 M3 M4 M5 M6 M7 M8 M9 \
-                 M30 M48 M49"
+                "unknown code; supported: G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G40 G41 G42 \
+                 G41.1 G42.1 G43 G49 G54-G59 G61 G61.1 G64 G80 G81 G82 G83 G90 G91 G90.1 \
+                 G91.1 G94 G98 G99, M0 M1 M2 M3 M4 M5 M6 M7 M8 M9 M30 M48 M49"
             ),
             ErrorKind::Unsupported { reason } => write!(f, "not supported: {reason}"),
             ErrorKind::Conflict { what } => write!(f, "conflict: {what}"),
@@ -93,6 +101,9 @@ impl fmt::Display for ErrorKind {
             ),
             ErrorKind::Expression { detail } => write!(f, "expression: {detail}"),
             ErrorKind::Range { allowed } => write!(f, "out of range: allowed {allowed}"),
+            ErrorKind::Compensation { detail } => {
+                write!(f, "cutter radius compensation: {detail}")
+            }
         }
     }
 }

@@ -3,21 +3,22 @@
 //! Each block runs in RS274/NGC order (LinuxCNC's `execute_block`): feed mode, F, S, T, M6,
 //! spindle, coolant, dwell, plane, units, cutter compensation, tool length offset, work
 //! offset, path control, distance modes, motion, then stops (M0/M1/M2/M30). Parameter
-//! settings on a line take effect after the line.
+//! settings on a line take effect after the line. Arcs (`arcs.rs`) are in the plane of
+//! G17/G18/G19; cutter radius compensation (`comp.rs`) holds each compensated move back
+//! until the next one decides its end.
 
-use crate::canon::{Canon, CanonCall, Units};
+use crate::canon::{Canon, CanonCall, Plane, Units};
 use crate::error::{At, ErrorKind, NcError, Span};
 use crate::expr::Params;
 use crate::lexer::{parse_line, Line, Word};
 use crate::tools::Setup;
 use crate::Program;
 
+mod arcs;
+mod comp;
 mod cycles;
 mod flow;
 use flow::{Flow, MAX_BLOCKS};
-
-/// LinuxCNC's `TINY` for the R-arc geometry.
-const TINY: f64 = 1e-12;
 
 /// Interprets the program `text` (named `file` in errors) with `setup`: the canonical
 /// calls, or the first error (file:line:column, the word, what is allowed).
@@ -28,8 +29,8 @@ const TINY: f64 = 1e-12;
 ///     .unwrap();
 /// let ends: Vec<_> = p.calls.iter().filter_map(|c| c.call.end()).collect();
 /// assert_eq!(ends, vec![[10.0, 5.0, 0.0], [10.0, 5.0, -1.0]]);
-/// let err = interpret("bad.ngc", "G21\nG18 G0 X1\n", &Setup::default()).unwrap_err();
-/// assert!(err.to_string().starts_with("bad.ngc:2:1: `G18`"));
+/// let err = interpret("bad.ngc", "G21\nG93 G1 X1\n", &Setup::default()).unwrap_err();
+/// assert!(err.to_string().starts_with("bad.ngc:2:1: `G93`"));
 /// ```
 pub fn interpret(file: &str, text: &str, setup: &Setup) -> Result<Program, NcError> {
     let mut st = State::new(setup);
@@ -98,9 +99,9 @@ fn g_group(code: u16, val: &Val) -> Result<u8, At> {
         50 | 51 | 52 | 53 | 330 | 331 | 380..=389 | 730 | 760 | 761 => {
             return refuse("splines, threading, probing and lathe cycles; use G0 G1 G2 G3")
         }
-        170 => 2,
-        180 | 190 | 171 | 181 | 191 => {
-            return refuse("planes other than XY; only G17 (arcs in the XY plane) is supported")
+        170 | 180 | 190 => 2,
+        171 | 181 | 191 => {
+            return refuse("the planes of the U V W axes (G17.1 G18.1 G19.1); use G17 G18 G19")
         }
         900 | 910 => 3,
         901 | 911 => 4,
@@ -109,13 +110,7 @@ fn g_group(code: u16, val: &Val) -> Result<u8, At> {
             return refuse("inverse-time and per-revolution feed; only G94 (mm/min or in/min)")
         }
         200 | 210 => 6,
-        400 => 7,
-        410 | 420 | 411 | 421 => {
-            return refuse(
-                "cutter radius compensation (G41/G42/G41.1/G42.1); program the tool centre \
-                 path (CAM output) and cancel with G40",
-            )
-        }
+        400 | 410 | 420 | 411 | 421 => 7,
         430 | 490 => 8,
         431 | 432 => return refuse("dynamic tool length offsets; use G43 [H] and G49"),
         540 | 550 | 560 | 570 | 580 | 590 => 12,
@@ -168,6 +163,14 @@ struct State<'a> {
     /// to R.
     retract_old_z: bool,
     cycle: cycles::CycleMemory,
+    /// The plane of arcs and cutter compensation (G17 / G18 / G19).
+    plane: Plane,
+    /// Cutter radius compensation (G40 / G41 / G42) and its held-back moves.
+    comp: comp::Comp,
+    /// Where the tool is, work coordinates, mm: the end of the last motion given out, the
+    /// start of the next. `pos` is the programmed position the next block's words are read
+    /// from; the two differ only around cutter compensation.
+    at: [f64; 3],
 }
 
 impl<'a> State<'a> {
@@ -191,11 +194,15 @@ impl<'a> State<'a> {
             n: None,
             retract_old_z: false,
             cycle: cycles::CycleMemory::default(),
+            plane: Plane::Xy,
+            comp: comp::Comp::default(),
+            at: [0.0; 3],
         }
     }
 
-    fn emit(&mut self, call: Canon) {
-        self.out.push(CanonCall {
+    /// The call, made by the current block, with its modes.
+    fn canon_call(&self, call: Canon) -> CanonCall {
+        CanonCall {
             call,
             line: self.line,
             block: self.n,
@@ -203,8 +210,57 @@ impl<'a> State<'a> {
                 units: self.units,
                 absolute: self.absolute,
                 arc_absolute: self.arc_absolute,
+                plane: self.plane,
+                cutter_comp: self.comp.shapes_motion(),
             },
-        });
+        }
+    }
+
+    /// Gives out `call`, or queues it behind a compensated move that is held back (as
+    /// LinuxCNC's interpreter queue), so that the calls keep their order.
+    fn emit(&mut self, call: Canon) {
+        let c = self.canon_call(call);
+        if self.comp.holds_back() {
+            self.comp.queue_other(c);
+        } else {
+            self.push_out(c);
+        }
+    }
+
+    /// Appends `c` to the output; a motion starts where the tool is (`at`).
+    fn push_out(&mut self, mut c: CanonCall) {
+        if let Some(to) = c.call.end() {
+            if let Canon::Traverse { from, .. }
+            | Canon::Feed { from, .. }
+            | Canon::Arc { from, .. } = &mut c.call
+            {
+                *from = self.at;
+            }
+            self.at = to;
+        }
+        self.out.push(c);
+    }
+
+    /// A traverse (`rapid`) or a feed at the feed in force from `pos` to `to`.
+    fn line_to(&self, rapid: bool, to: [f64; 3]) -> Canon {
+        let from = self.pos;
+        if rapid {
+            Canon::Traverse { from, to }
+        } else {
+            Canon::Feed {
+                from,
+                to,
+                feed_mm_min: self.feed_mm_min,
+            }
+        }
+    }
+
+    /// Shifts the programmed and the tool position by `d` (an offset changed).
+    fn shift(&mut self, d: [f64; 3]) {
+        for (a, d) in d.into_iter().enumerate() {
+            self.pos[a] += d;
+            self.at[a] += d;
+        }
     }
 
     fn run(&mut self, text: &str) -> Result<(), At> {
@@ -258,6 +314,8 @@ impl<'a> State<'a> {
             }
             pc += 1;
         }
+        // A move still held back (no M2) is given out as it is.
+        self.comp_dequeue();
         Ok(())
     }
 
@@ -340,19 +398,14 @@ impl<'a> State<'a> {
                         b.m.push((code / 10, val));
                     }
                 }
-                'F' | 'H' | 'I' | 'J' | 'K' | 'P' | 'Q' | 'R' | 'S' | 'T' | 'X' | 'Y' | 'Z' => {
+                'D' | 'F' | 'H' | 'I' | 'J' | 'K' | 'P' | 'Q' | 'R' | 'S' | 'T' | 'X' | 'Y'
+                | 'Z' => {
                     if b.word(w.letter).is_some() {
                         return Err(val.err(ErrorKind::Conflict {
                             what: format!("{} given twice in one block", w.letter),
                         }));
                     }
                     b.words.push((w.letter, val));
-                }
-                'D' => {
-                    return Err(val.err(ErrorKind::Unsupported {
-                        reason: "D (cutter compensation diameter); G41/G42 are not supported"
-                            .into(),
-                    }))
                 }
                 'L' => {
                     return Err(val.err(ErrorKind::Unsupported {
@@ -462,7 +515,8 @@ impl<'a> State<'a> {
             let tool = self.tool_number(t)?;
             self.selected = Some(tool);
         }
-        if b.m_in(&[6]).is_some() {
+        if let Some((_, m6)) = b.m_in(&[6]) {
+            self.comp_refuses(m6, "a tool change (M6)")?;
             let tool = self.selected.unwrap_or(self.tool);
             self.tool = tool;
             // A tool change stops the spindle (rs274: STOP_SPINDLE_TURNING, CHANGE_TOOL).
@@ -491,11 +545,24 @@ impl<'a> State<'a> {
             }
             self.emit(Canon::Dwell { seconds: p.v });
         }
-        if let Some((code, _)) = b.g_in(&[200, 210]) {
-            self.units = if code == 200 { Units::Inch } else { Units::Mm };
+        if let Some((code, g)) = b.g_in(&[170, 180, 190]) {
+            let plane = [Plane::Xy, Plane::Xz, Plane::Yz][usize::from(code - 170) / 10];
+            if plane != self.plane {
+                self.comp_refuses(g, "a change of plane")?;
+            }
+            self.plane = plane;
+        }
+        if let Some((code, g)) = b.g_in(&[200, 210]) {
+            let units = if code == 200 { Units::Inch } else { Units::Mm };
+            if units != self.units {
+                self.comp_refuses(g, "a change of units")?;
+            }
+            self.units = units;
             self.emit(Canon::Units { units: self.units });
         }
+        self.cutter_comp(b)?;
         if let Some((code, g)) = b.g_in(&[430, 490]) {
+            self.comp_refuses(g, "a change of the tool length offset")?;
             let new = if code == 490 {
                 0.0
             } else {
@@ -505,20 +572,19 @@ impl<'a> State<'a> {
                 };
                 self.tool_length(tool, g)?
             };
-            self.pos[2] += self.tlo_mm - new;
+            self.shift([0.0, 0.0, self.tlo_mm - new]);
             self.tlo_mm = new;
             self.emit(Canon::ToolLengthOffset { z_mm: new });
         }
-        if let Some((code, _)) = b.g_in(&[540, 550, 560, 570, 580, 590]) {
+        if let Some((code, g)) = b.g_in(&[540, 550, 560, 570, 580, 590]) {
+            self.comp_refuses(g, "a change of work coordinate system")?;
             let idx = usize::from((code - 540) / 10);
             if idx != self.coord {
                 let (old, new) = (
                     self.setup.work_offsets_mm[self.coord],
                     self.setup.work_offsets_mm[idx],
                 );
-                for a in 0..3 {
-                    self.pos[a] += old[a] - new[a];
-                }
+                self.shift([0, 1, 2].map(|a| old[a] - new[a]));
                 self.coord = idx;
                 self.emit(Canon::WorkOffset {
                     index: idx as u8 + 1,
@@ -544,13 +610,19 @@ impl<'a> State<'a> {
         if let Some(m) = motion {
             self.motion_block(m, b, explicit.map(|e| e.1), previous)?;
         }
-        Ok(match b.m_in(&[0, 1, 2, 30, 60]) {
+        let stop = b.m_in(&[0, 1, 2, 30, 60]);
+        if let Some((_, m)) = stop {
+            // A stop gives out the move held back by compensation as it is.
+            self.comp_flush_here(m)?;
+        }
+        Ok(match stop {
             Some((m @ (0 | 1 | 60), _)) => {
                 self.emit(Canon::Pause { optional: m == 1 });
                 false
             }
             Some((m, _)) => {
                 self.emit(Canon::End { rewind: m == 30 });
+                self.comp = comp::Comp::default();
                 true
             }
             None => false,
@@ -613,19 +685,22 @@ impl<'a> State<'a> {
         previous: Option<u16>,
     ) -> Result<(), At> {
         let f = self.units.mm_per_unit();
-        let mut to = self.pos;
+        // Words left out and G91 increments are read from the programmed point (which
+        // cutter compensation keeps apart from the tool's).
+        let base = self.comp.programmed().unwrap_or(self.pos);
+        let mut to = base;
         for (a, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
             if let Some(w) = b.word(l) {
                 to[a] = if self.absolute {
                     w.v * f
                 } else {
-                    self.pos[a] + w.v * f
+                    base[a] + w.v * f
                 };
             }
         }
         let at = explicit
             .or_else(|| {
-                ['X', 'Y', 'Z', 'I', 'J', 'R']
+                ['X', 'Y', 'Z', 'I', 'J', 'K', 'R']
                     .iter()
                     .find_map(|&l| b.word(l))
             })
@@ -643,126 +718,33 @@ impl<'a> State<'a> {
             return Err(at.err(ErrorKind::NoFeed));
         }
         if m >= 810 {
-            return self.cycle(m, b, to, &at, previous);
+            if self.plane != Plane::Xy {
+                return Err(at.err(ErrorKind::Unsupported {
+                    reason: format!(
+                        "canned cycles in {} ({}); only in G17",
+                        arcs::plane_name(self.plane),
+                        self.plane.code()
+                    ),
+                }));
+            }
+            self.comp_refuses(&at, "canned cycles")?;
+            self.cycle(m, b, to, &at, previous)?;
+            self.comp.exit_done();
+            return Ok(());
         }
-        let call = match m {
-            0 => Canon::Traverse { from, to },
-            10 => Canon::Feed {
-                from,
-                to,
-                feed_mm_min: self.feed_mm_min,
-            },
-            _ => self.arc(m == 20, from, to, b, &at)?,
+        let arc = m == 20 || m == 30;
+        self.comp_allows_motion(arc, &at)?;
+        if self.comp.active() {
+            return self.comp_motion(m, b, to, &at);
+        }
+        let call = if arc {
+            self.arc(m == 20, from, to, b, &at)?
+        } else {
+            self.line_to(m == 0, to)
         };
         self.emit(call);
+        self.comp.exit_done();
         self.pos = to;
         Ok(())
     }
-
-    fn arc(
-        &self,
-        cw: bool,
-        from: [f64; 3],
-        to: [f64; 3],
-        b: &Block,
-        at: &Val,
-    ) -> Result<Canon, At> {
-        let f = self.units.mm_per_unit();
-        if let Some(k) = b.word('K') {
-            return Err(k.err(ErrorKind::Unsupported {
-                reason: "K in an XY-plane arc (G17 takes I and J)".into(),
-            }));
-        }
-        let bad = |w: &Val, detail: String| w.err(ErrorKind::BadArc { detail });
-        let turns = match b.word('P') {
-            None => 1,
-            Some(p) if p.v >= 1.0 && p.v.fract() == 0.0 && p.v < 1e6 => p.v as u32,
-            Some(p) => {
-                return Err(p.err(ErrorKind::Range {
-                    allowed: "P (turns) a whole number >= 1".into(),
-                }))
-            }
-        };
-        let (i, j) = (b.word('I'), b.word('J'));
-        let center = if let Some(r) = b.word('R') {
-            if let Some(w) = i.or(j) {
-                return Err(w.err(ErrorKind::Conflict {
-                    what: "R and I/J in one arc: give the centre or the radius".into(),
-                }));
-            }
-            r_center(cw, r.v * f, from, to).map_err(|d| bad(r, d))?
-        } else {
-            if i.is_none() && j.is_none() {
-                return Err(Self::missing(
-                    at,
-                    "I and/or J (centre) or R (radius) for the arc",
-                ));
-            }
-            let (iv, jv) = (i.map_or(0.0, |w| w.v) * f, j.map_or(0.0, |w| w.v) * f);
-            let c = if self.arc_absolute {
-                [iv, jv]
-            } else {
-                [from[0] + iv, from[1] + jv]
-            };
-            let r1 = (from[0] - c[0]).hypot(from[1] - c[1]);
-            let r2 = (to[0] - c[0]).hypot(to[1] - c[1]);
-            let w = i.or(j).unwrap_or(at);
-            if r1 < 1e-9 || r2 < 1e-9 {
-                return Err(bad(
-                    w,
-                    format!("zero radius (start {r1:.4} mm, end {r2:.4} mm)"),
-                ));
-            }
-            let tol = self.setup.arc_radius_tolerance_mm;
-            if (r1 - r2).abs() > tol {
-                return Err(bad(
-                    w,
-                    format!(
-                        "radius to the start {r1:.4} mm and to the end {r2:.4} mm differ by \
-                         {:.4} mm (allowed {tol} mm)",
-                        (r1 - r2).abs()
-                    ),
-                ));
-            }
-            c
-        };
-        Ok(Canon::Arc {
-            from,
-            to,
-            center,
-            clockwise: cw,
-            turns,
-            feed_mm_min: self.feed_mm_min,
-        })
-    }
-}
-
-/// Centre of an R arc (LinuxCNC `arc_data_r`): positive R takes the short way, negative R
-/// the long way; the end point must not equal the start point.
-fn r_center(cw: bool, radius: f64, from: [f64; 3], to: [f64; 3]) -> Result<[f64; 2], String> {
-    if (to[0] - from[0]).abs() < 1e-12 && (to[1] - from[1]).abs() < 1e-12 {
-        return Err(
-            "an R arc needs an end point other than its start (full circles take I/J)".into(),
-        );
-    }
-    let abs_r = radius.abs();
-    let mid = [(to[0] + from[0]) / 2.0, (to[1] + from[1]) / 2.0];
-    let mut half = (mid[0] - to[0]).hypot(mid[1] - to[1]);
-    if abs_r == 0.0 || half / abs_r > 1.0 + TINY {
-        return Err(format!(
-            "radius {abs_r:.4} mm is too small to reach the end point ({:.4} mm away)",
-            2.0 * half
-        ));
-    }
-    if half / abs_r > 1.0 - TINY {
-        half = abs_r;
-    }
-    let dir = (to[1] - from[1]).atan2(to[0] - from[0]);
-    let theta = if cw == (radius > 0.0) {
-        dir - std::f64::consts::FRAC_PI_2
-    } else {
-        dir + std::f64::consts::FRAC_PI_2
-    };
-    let offset = abs_r * (half / abs_r).asin().cos();
-    Ok([mid[0] + offset * theta.cos(), mid[1] + offset * theta.sin()])
 }

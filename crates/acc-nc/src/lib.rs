@@ -7,10 +7,12 @@
 //! its source line and N number ([`CanonCall`]).
 //!
 //! Layers, as gcode-rs: the lexer (one line into words, each with its line and column) is
-//! apart from the modal state machine ([`interpret`]); canned cycles G81–G83 and O-word
-//! subroutines expand inside the state machine, so consumers see only traverses, feeds,
-//! arcs and dwells. [`Program::path`] linearizes the path into straight pieces
-//! ([`PathSegment`]) within a chord tolerance; [`Program::summary`] totals it.
+//! apart from the modal state machine ([`interpret`]); canned cycles G81–G83, O-word
+//! subroutines and cutter radius compensation (G41/G42, as LinuxCNC computes it) happen
+//! inside the state machine, so consumers see only traverses, feeds, arcs (in the plane of
+//! G17/G18/G19, [`Plane`]) and dwells. [`Program::path`] linearizes the path into
+//! straight pieces ([`PathSegment`]) within a chord tolerance; [`Program::summary`] totals
+//! it.
 //!
 //! ```
 //! use acc_nc::{interpret, Canon, Setup};
@@ -39,7 +41,7 @@ mod path;
 mod tools;
 mod words;
 
-pub use canon::{Canon, CanonCall, Modes, Units};
+pub use canon::{Canon, CanonCall, Modes, Plane, Units};
 pub use error::{ErrorKind, NcError, Span};
 pub use interp::interpret;
 pub use path::{arc_angles, PathSegment, Summary};

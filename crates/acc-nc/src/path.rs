@@ -4,7 +4,7 @@
 
 use std::f64::consts::TAU;
 
-use crate::canon::Canon;
+use crate::canon::{Canon, Plane};
 use crate::Program;
 
 /// One straight piece of the tool path.
@@ -58,15 +58,18 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
 }
 
-/// Angles of an arc: start angle (rad, from +X about the centre) and signed sweep (rad,
-/// negative clockwise), and the radii at start and end (mm).
+/// Angles of an arc in `plane` (`center` on the plane's first and second axis,
+/// [`Plane::axes`]): start angle (rad, from the plane's first axis about the centre) and
+/// signed sweep (rad, negative clockwise), and the radii at start and end (mm).
 pub fn arc_angles(
+    plane: Plane,
     from: [f64; 3],
     to: [f64; 3],
     center: [f64; 2],
     clockwise: bool,
     turns: u32,
 ) -> (f64, f64, f64, f64) {
+    let (from, to) = (plane.project(from), plane.project(to));
     let a0 = (from[1] - center[1]).atan2(from[0] - center[0]);
     let a1 = (to[1] - center[1]).atan2(to[0] - center[0]);
     let mut d = if clockwise { a0 - a1 } else { a1 - a0 }.rem_euclid(TAU);
@@ -81,8 +84,9 @@ pub fn arc_angles(
 
 impl Canon {
     /// The point of a motion at fraction `t` (0 ..= 1) of it, work coordinates, mm: along
-    /// the line, or along the arc at the angle `t` of its sweep (radius and Z linear in
-    /// `t`); exactly the end at `t = 1`. `None` for other calls.
+    /// the line, or along the arc at the angle `t` of its sweep (radius and the coordinate
+    /// along the plane's normal linear in `t`); exactly the end at `t = 1`. `None` for other
+    /// calls.
     pub fn point_at(&self, t: f64) -> Option<[f64; 3]> {
         match self {
             Canon::Traverse { from, to } | Canon::Feed { from, to, .. } => {
@@ -92,6 +96,7 @@ impl Canon {
                 from,
                 to,
                 center,
+                plane,
                 clockwise,
                 turns,
                 ..
@@ -99,14 +104,15 @@ impl Canon {
                 if t >= 1.0 {
                     return Some(*to);
                 }
-                let (a0, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
+                let (a0, sweep, r0, r1) =
+                    arc_angles(*plane, *from, *to, *center, *clockwise, *turns);
                 let a = a0 + sweep * t;
                 let r = r0 + (r1 - r0) * t;
-                Some([
-                    center[0] + r * a.cos(),
-                    center[1] + r * a.sin(),
-                    from[2] + (to[2] - from[2]) * t,
-                ])
+                let n = plane.axes()[2];
+                Some(plane.point(
+                    [center[0] + r * a.cos(), center[1] + r * a.sin()],
+                    from[n] + (to[n] - from[n]) * t,
+                ))
             }
             _ => None,
         }
@@ -120,13 +126,16 @@ impl Canon {
                 from,
                 to,
                 center,
+                plane,
                 clockwise,
                 turns,
                 ..
             } => {
-                let (_, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
+                let (_, sweep, r0, r1) =
+                    arc_angles(*plane, *from, *to, *center, *clockwise, *turns);
                 let planar = 0.5 * (r0 + r1) * sweep.abs();
-                planar.hypot(to[2] - from[2])
+                let n = plane.axes()[2];
+                planar.hypot(to[n] - from[n])
             }
             _ => 0.0,
         }
@@ -177,11 +186,13 @@ impl Program {
                     from,
                     to,
                     center,
+                    plane,
                     clockwise,
                     turns,
                     feed_mm_min,
                 } => {
-                    let (_, sweep, r0, r1) = arc_angles(*from, *to, *center, *clockwise, *turns);
+                    let (_, sweep, r0, r1) =
+                        arc_angles(*plane, *from, *to, *center, *clockwise, *turns);
                     let r = r0.max(r1).max(1e-9);
                     let step = (2.0 * (1.0 - (tol / r).min(1.0)).acos()).clamp(1e-9, TAU / 4.0);
                     let n = (sweep.abs() / step).ceil().clamp(1.0, MAX_CHORDS) as usize;
@@ -234,11 +245,53 @@ mod tests {
 
     #[test]
     fn arc_angles_cover_quarter_full_and_turns() {
-        let (_, s, _, _) = arc_angles([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0], false, 1);
+        let xy = Plane::Xy;
+        let (_, s, _, _) = arc_angles(xy, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0], false, 1);
         assert!((s - TAU / 4.0).abs() < 1e-12);
-        let (_, s, _, _) = arc_angles([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0], true, 1);
+        let (_, s, _, _) = arc_angles(xy, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0], true, 1);
         assert!((s + 3.0 * TAU / 4.0).abs() < 1e-12);
-        let (_, s, _, _) = arc_angles([1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0], true, 2);
+        let (_, s, _, _) = arc_angles(xy, [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0], true, 2);
         assert!((s + 2.0 * TAU).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arcs_in_xz_and_yz_turn_about_their_normal() {
+        // G18 G3 from X10 to Z10 about the origin: (z, x) from (0, 10) to (10, 0) is a
+        // clockwise quarter in the plane's axes, so counter-clockwise it is three quarters.
+        let arc = |plane, from, to, center, clockwise| Canon::Arc {
+            from,
+            to,
+            center,
+            plane,
+            clockwise,
+            turns: 1,
+            feed_mm_min: 100.0,
+        };
+        let a = arc(
+            Plane::Xz,
+            [10.0, 5.0, 0.0],
+            [0.0, 7.0, 10.0],
+            [0.0, 0.0],
+            true,
+        );
+        let quarter = TAU / 4.0 * 10.0;
+        assert!((a.length_mm() - quarter.hypot(2.0)).abs() < 1e-9);
+        let mid = a.point_at(0.5).expect("a motion");
+        let h = 10.0 * std::f64::consts::FRAC_1_SQRT_2;
+        assert!((mid[0] - h).abs() < 1e-9 && (mid[2] - h).abs() < 1e-9);
+        assert!((mid[1] - 6.0).abs() < 1e-9);
+        // G19 G3 from Y10 to Z10: (y, z) from (10, 0) to (0, 10), a counter-clockwise quarter
+        // with the helix along X.
+        let a = arc(
+            Plane::Yz,
+            [3.0, 10.0, 0.0],
+            [1.0, 0.0, 10.0],
+            [0.0, 0.0],
+            false,
+        );
+        let mid = a.point_at(0.5).expect("a motion");
+        assert!((mid[1] - h).abs() < 1e-9 && (mid[2] - h).abs() < 1e-9);
+        assert!((mid[0] - 2.0).abs() < 1e-9);
+        assert!((a.length_mm() - quarter.hypot(2.0)).abs() < 1e-9);
     }
 }

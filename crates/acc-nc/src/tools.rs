@@ -188,7 +188,8 @@ pub struct Setup {
     /// Work offsets of G54 … G59 (index 0 … 5) in the machine frame, mm. Default: all zero.
     pub work_offsets_mm: [[f64; 3]; 6],
     /// Largest difference between the radius at an arc's start and at its end (I/J/K
-    /// arcs), mm. Default 0.002 mm.
+    /// arcs), mm. Default 0.005 mm (LinuxCNC's former `TOLERANCE_MM`; enough for centres and
+    /// ends written to 4 decimals of an inch).
     pub arc_radius_tolerance_mm: f64,
 }
 
@@ -197,7 +198,7 @@ impl Default for Setup {
         Setup {
             tools: ToolTable::default(),
             work_offsets_mm: [[0.0; 3]; 6],
-            arc_radius_tolerance_mm: 0.002,
+            arc_radius_tolerance_mm: 0.005,
         }
     }
 }

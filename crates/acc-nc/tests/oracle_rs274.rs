@@ -12,10 +12,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use acc_nc::{interpret, Canon, Setup, ToolTable, Units};
+use acc_nc::{interpret, Canon, Plane, Setup, ToolTable, Units};
 
-/// Third-party programs we refuse, and the word our error must name.
-const REFUSED: &[(&str, &str)] = &[("linuxcnc_inside_corners.ngc", "G41.1")];
+/// Third-party programs we refuse, and the word our error must name (none at present).
+const REFUSED: &[(&str, &str)] = &[];
 
 /// Work offsets of G54…G59 for the test, mm (written to rs274's parameter file in inches).
 const OFFSETS_MM: [[f64; 3]; 6] = [
@@ -48,8 +48,11 @@ fn rs274() -> Option<PathBuf> {
 /// One motion as rs274 prints it (in the program units of the moment).
 #[derive(Debug, Clone, PartialEq)]
 struct Motion {
+    /// `traverse`, `feed`, or `arc-xy` / `arc-xz` / `arc-yz` (the plane of SELECT_PLANE).
     kind: &'static str,
-    /// x, y, z end; for arcs also cx, cy and the rotation (signed turns).
+    /// x, y, z end; for arcs, as ARC_FEED, the ends on the plane's first and second axis
+    /// and on its normal, the centre on the first and second axis, and the rotation
+    /// (signed turns).
     values: Vec<f64>,
     /// Feed rate in force (program units/min as programmed); 0 for traverses.
     feed: f64,
@@ -62,6 +65,7 @@ fn parse_rs274(out: &str) -> (Vec<Motion>, Vec<f64>) {
     let mut motions = Vec::new();
     let mut tlo = Vec::new();
     let mut feed = 0.0;
+    let mut arc = "arc-xy";
     for line in out.lines() {
         let Some(open) = line.find('(') else { continue };
         let name = line[..open].split_whitespace().last().unwrap_or("");
@@ -76,6 +80,13 @@ fn parse_rs274(out: &str) -> (Vec<Motion>, Vec<f64>) {
             .collect();
         match name {
             "SET_FEED_RATE" => feed = args[0],
+            "SELECT_PLANE" => {
+                arc = match &line[open..] {
+                    p if p.contains("XZ") => "arc-xz",
+                    p if p.contains("YZ") => "arc-yz",
+                    _ => "arc-xy",
+                }
+            }
             "USE_TOOL_LENGTH_OFFSET" => tlo.push(args[2]),
             "STRAIGHT_TRAVERSE" => motions.push(Motion {
                 kind: "traverse",
@@ -90,7 +101,7 @@ fn parse_rs274(out: &str) -> (Vec<Motion>, Vec<f64>) {
                 block,
             }),
             "ARC_FEED" => motions.push(Motion {
-                kind: "arc",
+                kind: arc,
                 values: vec![args[0], args[1], args[5], args[2], args[3], args[4]],
                 feed,
                 block,
@@ -128,15 +139,20 @@ fn ours(calls: &[acc_nc::CanonCall]) -> (Vec<Motion>, Vec<f64>) {
             Canon::Arc {
                 to,
                 center,
+                plane,
                 clockwise,
                 turns,
                 ..
             } => {
                 let rot = f64::from(*turns) * if *clockwise { -1.0 } else { 1.0 };
-                let mut values: Vec<f64> = to.iter().map(|v| v / unit).collect();
+                let mut values: Vec<f64> = plane.axes().iter().map(|&a| to[a] / unit).collect();
                 values.extend([center[0] / unit, center[1] / unit, rot]);
                 motions.push(Motion {
-                    kind: "arc",
+                    kind: match plane {
+                        Plane::Xy => "arc-xy",
+                        Plane::Xz => "arc-xz",
+                        Plane::Yz => "arc-yz",
+                    },
                     values,
                     feed,
                     block: c.block,

@@ -78,25 +78,28 @@ fn pieces_join_and_add_up() {
 fn chords_stay_within_the_tolerance_of_their_arc() {
     for (name, p) in programs() {
         for c in &p.calls {
-            let Canon::Arc { center, .. } = c.call else {
+            let Canon::Arc {
+                center,
+                from,
+                plane,
+                ..
+            } = c.call
+            else {
                 continue;
             };
             let one = acc_nc::Program {
                 file: name.clone(),
                 calls: vec![c.clone()],
             };
-            let r = {
-                let Canon::Arc { from, .. } = c.call else {
-                    unreachable!()
-                };
-                (from[0] - center[0]).hypot(from[1] - center[1])
+            // Distance from the centre in the arc's plane (the work offsets are zero here).
+            let radius = |p: [f64; 3]| {
+                let q = plane.project(p);
+                (q[0] - center[0]).hypot(q[1] - center[1])
             };
+            let r = radius(from);
             for seg in one.path(TOL_MM) {
-                let mid = [
-                    (seg.from[0] + seg.to[0]) / 2.0,
-                    (seg.from[1] + seg.to[1]) / 2.0,
-                ];
-                let sagitta = r - (mid[0] - center[0]).hypot(mid[1] - center[1]);
+                let mid = [0, 1, 2].map(|k| (seg.from[k] + seg.to[k]) / 2.0);
+                let sagitta = r - radius(mid);
                 assert!(
                     sagitta <= TOL_MM + 1e-6,
                     "{name}:{}: sagitta {sagitta}",
@@ -104,7 +107,7 @@ fn chords_stay_within_the_tolerance_of_their_arc() {
                 );
                 let ends_on_circle = [seg.from, seg.to]
                     .iter()
-                    .all(|p| ((p[0] - center[0]).hypot(p[1] - center[1]) - r).abs() < 0.003);
+                    .all(|&p| (radius(p) - r).abs() < 0.003);
                 assert!(ends_on_circle, "{name}:{}", c.line);
             }
         }
