@@ -115,7 +115,8 @@ fn the_oracle_within_a_ceiling_stays_under_it_and_is_no_better_than_the_free_one
     );
     // The runs behind the figure, period by period (`oracle_trace`): the figure is the
     // best of them, and every row of every run is under the ceiling.
-    let runs = acc_sim::oracle_program::program_rms_within_runs(&plant, 1.05, 1).expect("the runs");
+    let runs =
+        acc_sim::oracle_program::program_rms_within_runs(&plant, 1.05, 1, false).expect("the runs");
     assert_eq!(runs.len(), 2);
     let rms: Vec<f64> = runs
         .iter()

@@ -228,6 +228,10 @@ struct Search<'a, P: OraclePlant> {
     /// The RMS figure's force ceiling, N: no position above the highest whose row stays at
     /// or below it with the next row at the lowest position too (infinite: no ceiling).
     ceiling_n: f64,
+    /// Under the ceiling, also the position held for the period after stays at or below it
+    /// (no override whose full-period force is above the ceiling: the period mean of a
+    /// change, which carries the old override for the command's delay, is not enough).
+    ceiling_held: bool,
     max_periods: usize,
 }
 
@@ -245,6 +249,7 @@ impl<'a, P: OraclePlant> Search<'a, P> {
             period_s,
             fr: force_ref_n,
             ceiling_n: f64::INFINITY,
+            ceiling_held: false,
             max_periods: (scenario.max_time_s / period_s).ceil() as usize,
         }
     }
@@ -381,6 +386,12 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                     let t = self.trial(m, self.grid[i])?;
                     if t.row.force_n.unwrap_or(0.0) > self.ceiling_n {
                         return Ok(false);
+                    }
+                    if self.ceiling_held {
+                        let held = self.trial(&t.machine, self.grid[i])?;
+                        if held.row.force_n.unwrap_or(0.0) > self.ceiling_n {
+                            return Ok(false);
+                        }
                     }
                     let next = self.trial(&t.machine, self.grid[0])?;
                     Ok(next.row.force_n.unwrap_or(0.0) <= self.ceiling_n)
@@ -532,6 +543,23 @@ pub fn rms_within_on<P: OraclePlant>(
     rms_figure(&s)
 }
 
+/// [`rms_within_on`] with every override held to the ceiling over a full period: a
+/// position is allowed only where the period after it, at the same position, stays at or
+/// below `ceiling_n` too — the rule of a law that never commands an override whose force
+/// is above the ceiling (the plan's lead, docs/plan.md). Without it the search may
+/// alternate two positions whose upper one is above the ceiling once its period is whole,
+/// each period's mean kept under it by the command's delay.
+pub fn rms_within_held_on<P: OraclePlant>(
+    plant: &P,
+    force_ref_n: f64,
+    ceiling_n: f64,
+) -> Result<P::Summary, OracleError> {
+    let mut s = Search::new(plant, force_ref_n);
+    s.ceiling_n = ceiling_n;
+    s.ceiling_held = true;
+    rms_figure(&s)
+}
+
 /// The RMS figure: the per-row optimum, then Dinkelbach steps on the ratio `Σe²/N`.
 fn rms_figure<P: OraclePlant>(s: &Search<'_, P>) -> Result<P::Summary, OracleError> {
     let mut rms = s.plant.summarize(&s.rms_run(None)?);
@@ -613,15 +641,17 @@ fn safe_and_peak<P: OraclePlant>(
 /// override, force and engagement in every row): first the run that minimises each
 /// period's squared error under the ceiling `ceiling_n` (N), then the run of each of
 /// `steps` Dinkelbach steps, each from the RMS of the run before it, whether or not it
-/// lowered the RMS.
+/// lowered the RMS; `held` as [`rms_within_held_on`].
 pub fn rms_within_runs_on<P: OraclePlant>(
     plant: &P,
     force_ref_n: f64,
     ceiling_n: f64,
     steps: usize,
+    held: bool,
 ) -> Result<Vec<RunResult>, OracleError> {
     let mut s = Search::new(plant, force_ref_n);
     s.ceiling_n = ceiling_n;
+    s.ceiling_held = held;
     let mut runs = vec![s.rms_run(None)?];
     for _ in 0..steps {
         let last = runs.last().map(|r| plant.summarize(r));

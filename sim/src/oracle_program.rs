@@ -132,15 +132,27 @@ pub fn program_rms_within(plant: &ProgramPlant, ceiling: f64) -> Result<ProgramR
     crate::oracle::rms_within_on(plant, fr, ceiling * fr)
 }
 
-/// The runs of [`program_rms_within`] on `plant`, period by period: the per-period run,
-/// then `steps` Dinkelbach steps ([`crate::oracle::rms_within_runs_on`]).
+/// [`program_rms_within`] with every override held to the ceiling over a full period
+/// ([`crate::oracle::rms_within_held_on`]).
+pub fn program_rms_within_held(
+    plant: &ProgramPlant,
+    ceiling: f64,
+) -> Result<ProgramRun, OracleError> {
+    let fr = plant.scenario.controller.force_ref_n;
+    crate::oracle::rms_within_held_on(plant, fr, ceiling * fr)
+}
+
+/// The runs of [`program_rms_within`] (or, `held`, [`program_rms_within_held`]) on
+/// `plant`, period by period: the per-period run, then `steps` Dinkelbach steps
+/// ([`crate::oracle::rms_within_runs_on`]).
 pub fn program_rms_within_runs(
     plant: &ProgramPlant,
     ceiling: f64,
     steps: usize,
+    held: bool,
 ) -> Result<Vec<RunResult>, OracleError> {
     let fr = plant.scenario.controller.force_ref_n;
-    crate::oracle::rms_within_runs_on(plant, fr, ceiling * fr, steps)
+    crate::oracle::rms_within_runs_on(plant, fr, ceiling * fr, steps, held)
 }
 
 /// A figure's ratio to the oracle's, two decimals, or `-` where either side has none.
@@ -152,13 +164,15 @@ pub fn ratio(v: Option<f64>, o: Option<f64>) -> String {
 }
 
 /// The oracle's figures and a run's ratio to each, as `acc sim --program … --oracle`
-/// prints them (`run`: the run's summary, `finished`: whether it reached the end).
+/// prints them (`run`: the run's summary, `finished`: whether it reached the end;
+/// `within`: the ceiling, × Fr, with [`program_rms_within`]'s run and
+/// [`program_rms_within_held`]'s).
 pub fn report(
     o: &Oracle<ProgramRun>,
     safe_pct: u16,
     run: &ProgramSummary,
     finished: bool,
-    within: Option<(f64, &ProgramRun)>,
+    within: Option<(f64, &ProgramRun, &ProgramRun)>,
 ) -> String {
     let o_cycle = ProgramPlant::cycle_s(&o.safe);
     let mut s = format!(
@@ -170,12 +184,25 @@ pub fn report(
             "; its run does not reach the end of the program within the time limit"
         }
     );
-    if let Some((ceiling, w)) = within {
+    if let Some((ceiling, w, h)) = within {
+        let unfinished = |r: &ProgramRun| {
+            if r.finished {
+                ""
+            } else {
+                "; its run does not reach the end of the program"
+            }
+        };
         s += &format!(
             "oracle force RMS error within {ceiling:.2} Fr {:.1} N (the same search, each period at or below {ceiling:.2} Fr where the lowest override allows it){}; RMS/oracle within {ceiling:.2} Fr {}\n",
             w.summary.rms_error_n,
-            if w.finished { "" } else { "; its run does not reach the end of the program" },
+            unfinished(w),
             ratio(Some(run.rms_error_n), Some(w.summary.rms_error_n)),
+        );
+        s += &format!(
+            "oracle force RMS error held within {ceiling:.2} Fr {:.1} N (the same, and every override's force over a whole period at or below {ceiling:.2} Fr){}; RMS/oracle held within {ceiling:.2} Fr {}\n",
+            h.summary.rms_error_n,
+            unfinished(h),
+            ratio(Some(run.rms_error_n), Some(h.summary.rms_error_n)),
         );
     }
     s += &match o.peak_n {

@@ -7,7 +7,8 @@
 # run at a constant 100 % override (`--law constant`, no ACC), with ACC, and with ACC and
 # the look-ahead of the optimized program's own plan. The feedback-alone run also computes
 # the program's oracle (`--oracle`: the lowest force RMS error a law on the board's grid
-# that knows the engagement ahead reaches, free and with every period at or below 1.05 Fr),
+# that knows the engagement ahead reaches, free, with every period at or below 1.05 Fr, and
+# held: with every override's force over a whole period at or below 1.05 Fr),
 # and the ACC runs get their ratio to it; the look-ahead is run with its cap only and with
 # the plan's lead (`--plan-lead`).
 # Prints four markdown tables (feedback alone; with the plan; with the plan's lead; cycle
@@ -26,12 +27,14 @@ tests/nc/contour_inside_corners.ngc -10,-10,-10,70,65,0
 tests/nc/stepped_face.ngc -10,-5,-10,70,45,0
 nc3:linuxcnc_hk_ba20_testmill.ngc -150,-20,-20,80,220,0
 nc3:linuxcnc_arcspiral.ngc -60,-60,-10,60,60,0
-nc3:linuxcnc_3D_Chips.ngc -50,-50,-50,50,50,0'
+nc3:linuxcnc_3D_Chips.ngc -50,-50,-50,50,50,0
+nc3:linuxcnc_inside_corners.ngc -13,-13,-5,102,107,0'
 ev() { sed -n "s/^$1: \([0-9]*\); highest true peak \([0-9.]*\) Fr.*mean peak \([0-9.]*\) Fr/\1: \2 \/ \3/p" <<<"$2"; }
 cyc() { local c; c=$(sed -n 's/^cycle time \([0-9.]*\) s;.*/\1/p' <<<"$1"); grep -q "ended before the end" <<<"$1" && c="${c} (did not finish)"; echo "${c}"; }
 rms() { sed -n 's/.*force RMS error while cutting \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 orms() { sed -n 's/^oracle force RMS error \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 wrms() { sed -n 's/^oracle force RMS error within 1.05 Fr \([0-9.]*\) N.*/\1/p' <<<"$1"; }
+hrms() { sed -n 's/^oracle force RMS error held within 1.05 Fr \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 oratio() { awk -v a="$1" -v b="$2" 'BEGIN{if (b > 0) printf "%.2f", a/b; else printf "-"}'; }
 declare -A FB LA LEAD SAFE PLAN OPT OPT100 OPTACC OPTLA
 while read -r prog stock; do
@@ -85,17 +88,17 @@ done <<<"${LIST}"
 echo
 echo "ACC with the plan's lead (\`acc sim --plan … --plan-lead\`):"
 echo
-echo "| program | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | RMS / oracle within 1.05 Fr | cycle, s | cutting periods led by the plan | disagreement periods |"
-echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+echo "| program | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | RMS / oracle within 1.05 Fr | oracle held within 1.05 Fr, N | RMS / oracle held within 1.05 Fr | cycle, s | cutting periods led by the plan | disagreement periods |"
+echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}
     name=$(basename "${file}")
-    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | |"; continue; }
-    o=${LEAD[${name}]}; w=$(wrms "${FB[${name}]}")
+    [[ -f ${file} ]] || { echo "| ${name} | absent | | | | | | | | | |"; continue; }
+    o=${LEAD[${name}]}; w=$(wrms "${FB[${name}]}"); h=$(hrms "${FB[${name}]}")
     dis=$(grep -c plan_disagree "${OUT}/${name}/lead/run.csv" || true)
     # Cutting periods (force above 5 % of Fr, the summary's rule) whose command the lead set.
     led=$(python3 -c 'import csv,sys; r=[x for x in csv.DictReader(open(sys.argv[1])) if x["force_n"] and float(x["force_n"])>0.05*float(x["force_ref_n"] or 0)]; n=sum("plan_lead:" in x["flags"] for x in r); print(f"{n} of {len(r)}")' "${OUT}/${name}/lead/run.csv")
-    echo "| ${name} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(oratio "$(rms "${o}")" "$(orms "${FB[${name}]}")") | $(oratio "$(rms "${o}")" "${w}") | $(cyc "${o}") | ${led} | ${dis} |" | sed 's/|  |/| none |/g'
+    echo "| ${name} | $(ev entries "${o}") | $(ev corners "${o}") | $(rms "${o}") | $(oratio "$(rms "${o}")" "$(orms "${FB[${name}]}")") | $(oratio "$(rms "${o}")" "${w}") | ${h} | $(oratio "$(rms "${o}")" "${h}") | $(cyc "${o}") | ${led} | ${dis} |" | sed 's/|  |/| none |/g'
 done <<<"${LIST}"
 echo
 echo "Cycle time, s, and the run's highest force / Fr (\`acc sim\`; the optimized program by \`acc optimize\`):"

@@ -135,8 +135,8 @@ pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramP
     Ok(Some(path))
 }
 
-/// The force ceiling of the second oracle figure of `--oracle`, × Fr: the peak target at
-/// entries and corners of a law that knows the cut ahead (docs/programs.md).
+/// The force ceiling of the second and third oracle figures of `--oracle`, × Fr: the peak
+/// target at entries and corners of a law that knows the cut ahead (docs/programs.md).
 const ORACLE_CEILING: f64 = 1.05;
 
 /// Print the per-tool and per-block summary (with `--oracle` the oracle's figures and the
@@ -203,6 +203,7 @@ pub fn report(
         let plant = acc_sim::oracle_program::ProgramPlant::new(sc, path);
         let o = acc_sim::oracle_program::program_oracle(&plant)?;
         let within = acc_sim::oracle_program::program_rms_within(&plant, ORACLE_CEILING)?;
+        let held = acc_sim::oracle_program::program_rms_within_held(&plant, ORACLE_CEILING)?;
         print!(
             "{}",
             acc_sim::oracle_program::report(
@@ -210,7 +211,7 @@ pub fn report(
                 plant.safe_pct(),
                 &s,
                 result.finished,
-                Some((ORACLE_CEILING, &within))
+                Some((ORACLE_CEILING, &within, &held))
             )
         );
     }

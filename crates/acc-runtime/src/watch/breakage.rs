@@ -14,7 +14,9 @@ pub enum Breakage {
         /// Median of the recent history, N.
         reference_n: f64,
     },
-    /// The force rose above `breakage_spike_factor` × the recent median.
+    /// The force rose above `breakage_spike_factor` × the recent median within two periods
+    /// (the sample two periods back still within 1.25 × the median: a force that climbs
+    /// over many periods, the engagement growing along the path, is no spike).
     Spike {
         /// The sample, N.
         force_n: f64,
@@ -239,7 +241,10 @@ impl BreakageDetector {
                         return None;
                     }
                     verdict = Some(drop);
-                } else if feed_not_raised && s.force_n > med * self.limits.breakage_spike_factor {
+                } else if feed_not_raised
+                    && s.force_n > med * self.limits.breakage_spike_factor
+                    && two_back <= med / 0.8
+                {
                     verdict = Some(Breakage::Spike {
                         force_n: s.force_n,
                         reference_n: med,
@@ -288,6 +293,30 @@ mod tests {
         ));
         // After a verdict the history starts again.
         assert_eq!(d.observe(&s(50.0, 10)), None);
+    }
+
+    #[test]
+    fn a_climb_over_many_periods_is_no_spike_but_a_two_period_jump_is() {
+        // The engagement grows along an arc at 150 %: 50 N to 930 N over 17 periods (the
+        // last sample above 3 × the median of the history).
+        let climb = [
+            49.0, 100.0, 168.0, 199.0, 264.0, 260.0, 277.0, 293.0, 287.0, 316.0, 325.0, 366.0,
+            459.0, 523.0, 690.0, 854.0, 928.0,
+        ];
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for f in climb {
+            assert_eq!(d.observe(&s(f, 17)), None, "{f}");
+        }
+        // From a steady 300 N, the force jumps to 930 N within two periods: a spike.
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..14 {
+            assert_eq!(d.observe(&s(300.0, 17)), None);
+        }
+        assert_eq!(d.observe(&s(600.0, 17)), None, "the jump inside the period");
+        assert!(matches!(
+            d.observe(&s(930.0, 17)),
+            Some(Breakage::Spike { .. })
+        ));
     }
 
     #[test]
