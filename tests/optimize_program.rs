@@ -356,12 +356,7 @@ fn shared_block_numbers(file: &Path) -> usize {
         ..acc_nc::Setup::default()
     };
     let prog = acc_nc::interpret_file(file, &setup).expect("interprets");
-    let mut lines: std::collections::HashMap<u32, std::collections::BTreeSet<u32>> =
-        Default::default();
-    for c in prog.calls.iter().filter(|c| c.call.end().is_some()) {
-        lines.entry(c.block_number()).or_default().insert(c.line);
-    }
-    lines.values().filter(|l| l.len() > 1).count()
+    acc_nc::shared_block_numbers(&prog.calls).len()
 }
 
 /// The program optimized: its added lines' numbers checked against every other block's.

@@ -204,6 +204,20 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
             f.rapid_cut_rows
         );
     }
+    let shared = acc_nc::shared_block_numbers(path.calls());
+    if let Some((n, lines)) = shared.first() {
+        println!(
+            "warning: {} block numbers name motions of more than one line (first: block number {n} at lines {}): \
+             the look-ahead tells their visits apart by the path position only; give every \
+             line its own N word (docs/plan.md)",
+            shared.len(),
+            lines
+                .iter()
+                .map(u32::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     println!(
         "constant safe feed of the program: {} % (every cutting row's force ≤ Fr)",
         f.safe_override_pct

@@ -227,6 +227,36 @@ impl CanonCall {
     }
 }
 
+/// Block numbers that name motions of more than one program line, as a board reports them
+/// (`BLOCK_NUMBER`, a 16-bit register: [`CanonCall::block_number`]'s low 16 bits), each with
+/// its lines in order; sorted by number. A program whose N words repeat (numbered in tens
+/// up to N9990 and again from N1, or copied blocks) gives the board's block number more than
+/// one meaning, and whatever places the tool by it (the plan's look-ahead) can only tell the
+/// visits apart by the path position. A line run more than once (a subroutine) is one line.
+///
+/// ```
+/// use acc_nc::{interpret, shared_block_numbers, Setup};
+/// // N10 twice; line 4 has no N word, so the board reports its line number, 4.
+/// let text = "G21 G90\nN10 G0 X0 Y0\nN4 G1 X5 F100\nG1 X6\nN10 G1 X10\nM2\n";
+/// let p = interpret("twice.ngc", text, &Setup::default()).unwrap();
+/// assert_eq!(shared_block_numbers(&p.calls), vec![(4, vec![3, 4]), (10, vec![2, 5])]);
+/// ```
+pub fn shared_block_numbers(calls: &[CanonCall]) -> Vec<(u16, Vec<u32>)> {
+    let mut lines: std::collections::BTreeMap<u16, std::collections::BTreeSet<u32>> =
+        std::collections::BTreeMap::new();
+    for c in calls.iter().filter(|c| c.call.end().is_some()) {
+        lines
+            .entry((c.block_number() & 0xFFFF) as u16)
+            .or_default()
+            .insert(c.line);
+    }
+    lines
+        .into_iter()
+        .filter(|(_, l)| l.len() > 1)
+        .map(|(n, l)| (n, l.into_iter().collect()))
+        .collect()
+}
+
 impl Canon {
     /// End point of a motion (work coordinates, mm); `None` for other calls.
     pub fn end(&self) -> Option<[f64; 3]> {

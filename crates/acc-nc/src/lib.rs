@@ -41,7 +41,7 @@ mod path;
 mod tools;
 mod words;
 
-pub use canon::{Canon, CanonCall, Modes, Plane, Units};
+pub use canon::{shared_block_numbers, Canon, CanonCall, Modes, Plane, Units};
 pub use error::{ErrorKind, NcError, Span};
 pub use interp::interpret;
 pub use path::{arc_angles, PathSegment, Summary};
