@@ -95,8 +95,8 @@ fn the_oracle_within_a_ceiling_stays_under_it_and_is_no_better_than_the_free_one
     let fr = sc.controller.force_ref_n;
     let plant = ProgramPlant::new(&sc, &path);
     let free = program_oracle(&plant).expect("oracle");
-    let within = program_rms_within(&plant, 1.05).expect("oracle within 1.05 Fr");
-    let tight = program_rms_within(&plant, 1.0).expect("oracle within Fr");
+    let within = program_rms_within(&plant, 1.05, false).expect("oracle within 1.05 Fr");
+    let tight = program_rms_within(&plant, 1.0, false).expect("oracle within Fr");
     eprintln!(
         "pocket oracle RMS: free {:.1} N, within 1.05 Fr {:.1} N, within Fr {:.1} N",
         free.rms.summary.rms_error_n, within.summary.rms_error_n, tight.summary.rms_error_n

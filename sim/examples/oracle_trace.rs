@@ -4,10 +4,10 @@
 //!
 //!     cargo run -p acc-sim --example oracle_trace -- tests/nc/pocket_rect.ngc \
 //!         -20,-20,-10,60,50,0 out/oracle-pocket [CEILING × Fr, default 1.05] [--axial-per-step] \
-//!         [--held]
+//!         [--per-override]
 //!
-//! `--held`: every override held to the ceiling over a full period
-//! (`acc_sim::oracle_program::program_rms_within_held`), the plan's lead's rule.
+//! `--per-override`: no override whose force over a whole period is above the ceiling
+//! either (`acc_sim::oracle_program::program_rms_within`), the plan's lead's rule.
 //!
 //! The scenario is `configs/scenarios/paper_case3.toml` with the program's stock on
 //! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it. Columns of
@@ -22,14 +22,14 @@ use acc_sim::Scenario;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let per_step = args.iter().any(|a| a == "--axial-per-step");
-    let held = args.iter().any(|a| a == "--held");
+    let per_override = args.iter().any(|a| a == "--per-override");
     let args: Vec<&String> = args
         .iter()
-        .filter(|a| *a != "--axial-per-step" && *a != "--held")
+        .filter(|a| *a != "--axial-per-step" && *a != "--per-override")
         .collect();
     let [program, stock, out, rest @ ..] = &args[..] else {
         return Err(
-            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING] [--axial-per-step] [--held]"
+            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING] [--axial-per-step] [--per-override]"
                 .into(),
         );
     };
@@ -50,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sc = path.scenario_for(&base);
     let fr = sc.controller.force_ref_n;
     let plant = ProgramPlant::new(&sc, &path).with_axial_per_step(per_step);
-    let runs = program_rms_within_runs(&plant, ceiling, 3, held)?;
+    let runs = program_rms_within_runs(&plant, ceiling, 3, per_override)?;
     std::fs::create_dir_all(out)?;
     for (k, r) in runs.iter().enumerate() {
         let s = summarize_program(&r.rows, fr, sc.controller.period_s);

@@ -19,7 +19,7 @@
 //! G90/G91 mode. The first piece is the original line with its axis, arc and F
 //! words replaced (every other word, its N number and its comments kept, so every
 //! non-motion word still acts before the motion); the others are new lines
-//! `[N…] G1|G2|G3 X Y Z [I J] F`, numbered above every N word and line number of the
+//! `[N…] G1|G2|G3 X Y Z [I J | K I | J K] F`, numbered above every N word and line number of the
 //! program when its blocks carry N words ([`piece_numbers`]), so that the look-ahead never
 //! takes one block for another. A block is not split, only its F word set to the lowest feed
 //! of its path, when splitting could change what it does: it runs more than once (a
@@ -32,7 +32,7 @@
 
 use std::fmt::Write as _;
 
-use acc_nc::{Canon, CanonCall, LineWords, Plane, Units};
+use acc_nc::{Canon, CanonCall, LineWords, Units};
 
 use crate::plan::{Interval, PlanParams};
 use crate::program::{ProgramPath, CHORD_TOL_MM};
@@ -311,11 +311,8 @@ fn piece_words(fc: &FeedCall<'_>) -> (String, Vec<String>) {
         }
         if let Some((c, plane)) = center {
             // The centre words of the plane, on its first and second axis.
-            let letters = match plane {
-                Plane::Xy => ['I', 'J'],
-                Plane::Xz => ['K', 'I'],
-                Plane::Yz => ['J', 'K'],
-            };
+            let [first, second, _] = plane.centre_letters();
+            let letters = [first, second];
             let start = plane.project(cur);
             for ((l, ck), sk) in letters.into_iter().zip(c).zip(start) {
                 let v = if m.arc_absolute {

@@ -229,9 +229,9 @@ struct Search<'a, P: OraclePlant> {
     /// or below it with the next row at the lowest position too (infinite: no ceiling).
     ceiling_n: f64,
     /// Under the ceiling, also the position held for the period after stays at or below it
-    /// (no override whose full-period force is above the ceiling: the period mean of a
-    /// change, which carries the old override for the command's delay, is not enough).
-    ceiling_held: bool,
+    /// (no override whose force over a whole period is above the ceiling: the period mean
+    /// of a change, which carries the old override for the command's delay, is not enough).
+    per_override: bool,
     max_periods: usize,
 }
 
@@ -249,7 +249,7 @@ impl<'a, P: OraclePlant> Search<'a, P> {
             period_s,
             fr: force_ref_n,
             ceiling_n: f64::INFINITY,
-            ceiling_held: false,
+            per_override: false,
             max_periods: (scenario.max_time_s / period_s).ceil() as usize,
         }
     }
@@ -387,7 +387,7 @@ impl<'a, P: OraclePlant> Search<'a, P> {
                     if t.row.force_n.unwrap_or(0.0) > self.ceiling_n {
                         return Ok(false);
                     }
-                    if self.ceiling_held {
+                    if self.per_override {
                         let held = self.trial(&t.machine, self.grid[i])?;
                         if held.row.force_n.unwrap_or(0.0) > self.ceiling_n {
                             return Ok(false);
@@ -533,30 +533,23 @@ pub fn oracle_on<P: OraclePlant>(
 /// even the lowest position exceeds it, the lowest. The free oracle may run the grid step
 /// above Fr wherever it is nearer to Fr than the step below; a law held to a peak target
 /// (≤ 1.05 Fr at entries and corners) is compared with this figure.
+///
+/// `per_override`: also every override within the ceiling over a whole period — a
+/// position is allowed only where the period after it, at the same position, stays at or
+/// below `ceiling_n` too, the rule of a law that never commands an override whose force is
+/// above the ceiling (the plan's lead, docs/plan.md). Without it the search may alternate
+/// two positions whose upper one is above the ceiling once its period is whole, each
+/// period's mean kept under it by the command's delay. Like every figure of the search it
+/// is optimal period by period, not a bound over all sequences.
 pub fn rms_within_on<P: OraclePlant>(
     plant: &P,
     force_ref_n: f64,
     ceiling_n: f64,
+    per_override: bool,
 ) -> Result<P::Summary, OracleError> {
     let mut s = Search::new(plant, force_ref_n);
     s.ceiling_n = ceiling_n;
-    rms_figure(&s)
-}
-
-/// [`rms_within_on`] with every override held to the ceiling over a full period: a
-/// position is allowed only where the period after it, at the same position, stays at or
-/// below `ceiling_n` too — the rule of a law that never commands an override whose force
-/// is above the ceiling (the plan's lead, docs/plan.md). Without it the search may
-/// alternate two positions whose upper one is above the ceiling once its period is whole,
-/// each period's mean kept under it by the command's delay.
-pub fn rms_within_held_on<P: OraclePlant>(
-    plant: &P,
-    force_ref_n: f64,
-    ceiling_n: f64,
-) -> Result<P::Summary, OracleError> {
-    let mut s = Search::new(plant, force_ref_n);
-    s.ceiling_n = ceiling_n;
-    s.ceiling_held = true;
+    s.per_override = per_override;
     rms_figure(&s)
 }
 
@@ -641,17 +634,17 @@ fn safe_and_peak<P: OraclePlant>(
 /// override, force and engagement in every row): first the run that minimises each
 /// period's squared error under the ceiling `ceiling_n` (N), then the run of each of
 /// `steps` Dinkelbach steps, each from the RMS of the run before it, whether or not it
-/// lowered the RMS; `held` as [`rms_within_held_on`].
+/// lowered the RMS; `per_override` as in [`rms_within_on`].
 pub fn rms_within_runs_on<P: OraclePlant>(
     plant: &P,
     force_ref_n: f64,
     ceiling_n: f64,
     steps: usize,
-    held: bool,
+    per_override: bool,
 ) -> Result<Vec<RunResult>, OracleError> {
     let mut s = Search::new(plant, force_ref_n);
     s.ceiling_n = ceiling_n;
-    s.ceiling_held = held;
+    s.per_override = per_override;
     let mut runs = vec![s.rms_run(None)?];
     for _ in 0..steps {
         let last = runs.last().map(|r| plant.summarize(r));

@@ -126,33 +126,27 @@ pub fn peak_n(summary: &ProgramSummary) -> f64 {
 }
 
 /// The oracle's RMS run on `plant` for a grid law whose period force never exceeds
-/// `ceiling` × Fr ([`crate::oracle::rms_within_on`]).
-pub fn program_rms_within(plant: &ProgramPlant, ceiling: f64) -> Result<ProgramRun, OracleError> {
-    let fr = plant.scenario.controller.force_ref_n;
-    crate::oracle::rms_within_on(plant, fr, ceiling * fr)
-}
-
-/// [`program_rms_within`] with every override held to the ceiling over a full period
-/// ([`crate::oracle::rms_within_held_on`]).
-pub fn program_rms_within_held(
+/// `ceiling` × Fr, and with `per_override` no override's force over a whole period either
+/// ([`crate::oracle::rms_within_on`]).
+pub fn program_rms_within(
     plant: &ProgramPlant,
     ceiling: f64,
+    per_override: bool,
 ) -> Result<ProgramRun, OracleError> {
     let fr = plant.scenario.controller.force_ref_n;
-    crate::oracle::rms_within_held_on(plant, fr, ceiling * fr)
+    crate::oracle::rms_within_on(plant, fr, ceiling * fr, per_override)
 }
 
-/// The runs of [`program_rms_within`] (or, `held`, [`program_rms_within_held`]) on
-/// `plant`, period by period: the per-period run, then `steps` Dinkelbach steps
-/// ([`crate::oracle::rms_within_runs_on`]).
+/// The runs of [`program_rms_within`] on `plant`, period by period: the per-period run,
+/// then `steps` Dinkelbach steps ([`crate::oracle::rms_within_runs_on`]).
 pub fn program_rms_within_runs(
     plant: &ProgramPlant,
     ceiling: f64,
     steps: usize,
-    held: bool,
+    per_override: bool,
 ) -> Result<Vec<RunResult>, OracleError> {
     let fr = plant.scenario.controller.force_ref_n;
-    crate::oracle::rms_within_runs_on(plant, fr, ceiling * fr, steps, held)
+    crate::oracle::rms_within_runs_on(plant, fr, ceiling * fr, steps, per_override)
 }
 
 /// A figure's ratio to the oracle's, two decimals, or `-` where either side has none.
@@ -165,8 +159,8 @@ pub fn ratio(v: Option<f64>, o: Option<f64>) -> String {
 
 /// The oracle's figures and a run's ratio to each, as `acc sim --program … --oracle`
 /// prints them (`run`: the run's summary, `finished`: whether it reached the end;
-/// `within`: the ceiling, × Fr, with [`program_rms_within`]'s run and
-/// [`program_rms_within_held`]'s).
+/// `within`: the ceiling, × Fr, with [`program_rms_within`]'s run without and with
+/// `per_override`).
 pub fn report(
     o: &Oracle<ProgramRun>,
     safe_pct: u16,
@@ -199,7 +193,7 @@ pub fn report(
             ratio(Some(run.rms_error_n), Some(w.summary.rms_error_n)),
         );
         s += &format!(
-            "oracle force RMS error held within {ceiling:.2} Fr {:.1} N (the same, and every override's force over a whole period at or below {ceiling:.2} Fr){}; RMS/oracle held within {ceiling:.2} Fr {}\n",
+            "oracle force RMS error within {ceiling:.2} Fr per override {:.1} N (the same, and no override whose force over a whole period is above {ceiling:.2} Fr){}; RMS/oracle within {ceiling:.2} Fr per override {}\n",
             h.summary.rms_error_n,
             unfinished(h),
             ratio(Some(run.rms_error_n), Some(h.summary.rms_error_n)),

@@ -8,7 +8,7 @@
 # the look-ahead of the optimized program's own plan. The feedback-alone run also computes
 # the program's oracle (`--oracle`: the lowest force RMS error a law on the board's grid
 # that knows the engagement ahead reaches, free, with every period at or below 1.05 Fr, and
-# held: with every override's force over a whole period at or below 1.05 Fr),
+# per override: with no override whose force over a whole period is above 1.05 Fr),
 # and the ACC runs get their ratio to it; the look-ahead is run with its cap only and with
 # the plan's lead (`--plan-lead`).
 # Prints four markdown tables (feedback alone; with the plan; with the plan's lead; cycle
@@ -34,7 +34,7 @@ cyc() { local c; c=$(sed -n 's/^cycle time \([0-9.]*\) s;.*/\1/p' <<<"$1"); grep
 rms() { sed -n 's/.*force RMS error while cutting \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 orms() { sed -n 's/^oracle force RMS error \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 wrms() { sed -n 's/^oracle force RMS error within 1.05 Fr \([0-9.]*\) N.*/\1/p' <<<"$1"; }
-hrms() { sed -n 's/^oracle force RMS error held within 1.05 Fr \([0-9.]*\) N.*/\1/p' <<<"$1"; }
+hrms() { sed -n 's/^oracle force RMS error within 1.05 Fr per override \([0-9.]*\) N.*/\1/p' <<<"$1"; }
 oratio() { awk -v a="$1" -v b="$2" 'BEGIN{if (b > 0) printf "%.2f", a/b; else printf "-"}'; }
 declare -A FB LA LEAD SAFE PLAN OPT OPT100 OPTACC OPTLA
 while read -r prog stock; do
@@ -88,7 +88,7 @@ done <<<"${LIST}"
 echo
 echo "ACC with the plan's lead (\`acc sim --plan … --plan-lead\`):"
 echo
-echo "| program | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | RMS / oracle within 1.05 Fr | oracle held within 1.05 Fr, N | RMS / oracle held within 1.05 Fr | cycle, s | cutting periods led by the plan | disagreement periods |"
+echo "| program | entries: highest / mean peak, Fr | corners: highest / mean peak, Fr | force RMS error, N | RMS / oracle | RMS / oracle within 1.05 Fr | oracle within 1.05 Fr per override, N | RMS / oracle within 1.05 Fr per override | cycle, s | cutting periods led by the plan | disagreement periods |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 while read -r prog stock; do
     file=${prog/#nc3:/${NC3}/}

@@ -202,8 +202,9 @@ pub fn report(
     if oracle {
         let plant = acc_sim::oracle_program::ProgramPlant::new(sc, path);
         let o = acc_sim::oracle_program::program_oracle(&plant)?;
-        let within = acc_sim::oracle_program::program_rms_within(&plant, ORACLE_CEILING)?;
-        let held = acc_sim::oracle_program::program_rms_within_held(&plant, ORACLE_CEILING)?;
+        let within = acc_sim::oracle_program::program_rms_within(&plant, ORACLE_CEILING, false)?;
+        let per_override =
+            acc_sim::oracle_program::program_rms_within(&plant, ORACLE_CEILING, true)?;
         print!(
             "{}",
             acc_sim::oracle_program::report(
@@ -211,7 +212,7 @@ pub fn report(
                 plant.safe_pct(),
                 &s,
                 result.finished,
-                Some((ORACLE_CEILING, &within, &held))
+                Some((ORACLE_CEILING, &within, &per_override))
             )
         );
     }

@@ -53,6 +53,12 @@ impl Plane {
         }
     }
 
+    /// The arc centre words on the plane's first axis, second axis and normal (the letters
+    /// of the axes `I J K` stand for): XY `I J K`, XZ `K I J`, YZ `J K I`.
+    pub fn centre_letters(self) -> [char; 3] {
+        self.axes().map(|k| ['I', 'J', 'K'][k])
+    }
+
     /// A point's coordinates on the plane's first and second axis.
     pub fn project(self, p: [f64; 3]) -> [f64; 2] {
         let [a, b, _] = self.axes();

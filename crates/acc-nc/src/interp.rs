@@ -728,8 +728,9 @@ impl<'a> State<'a> {
                 }));
             }
             self.comp_refuses(&at, "canned cycles")?;
+            // A canned cycle is not the move after G40 (as rs274): that one is still to come
+            // and must be straight.
             self.cycle(m, b, to, &at, previous)?;
-            self.comp.exit_done();
             return Ok(());
         }
         let arc = m == 20 || m == 30;

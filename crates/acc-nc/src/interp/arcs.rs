@@ -10,16 +10,6 @@ use crate::error::{At, ErrorKind};
 /// LinuxCNC's `TINY` for the R-arc geometry.
 const TINY: f64 = 1e-12;
 
-/// The centre words of `plane`: for its first axis, for its second axis, and the one word
-/// that belongs to neither (`K` in G17, `J` in G18, `I` in G19).
-fn centre_letters(plane: Plane) -> [char; 3] {
-    match plane {
-        Plane::Xy => ['I', 'J', 'K'],
-        Plane::Xz => ['K', 'I', 'J'],
-        Plane::Yz => ['J', 'K', 'I'],
-    }
-}
-
 impl State<'_> {
     /// The arc of block `b` from `from` to `to` (work coordinates, mm) in the active plane;
     /// `cw` for G2; `at` names the block's motion for errors.
@@ -56,7 +46,7 @@ impl State<'_> {
     ) -> Result<([f64; 2], u32), At> {
         let f = self.units.mm_per_unit();
         let plane = self.plane;
-        let [first, second, other] = centre_letters(plane);
+        let [first, second, other] = plane.centre_letters();
         if let Some(w) = b.word(other) {
             return Err(w.err(ErrorKind::Conflict {
                 what: format!(

@@ -32,7 +32,7 @@
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use super::{Block, State, Val};
-use crate::canon::{Canon, CanonCall, Plane};
+use crate::canon::{Canon, CanonCall, Plane, Units};
 use crate::error::{At, ErrorKind};
 
 /// The angle (rad) within which two directions count as tangent at a corner (LinuxCNC's
@@ -294,6 +294,12 @@ impl State<'_> {
         let [a, b, _] = plane.axes();
         let start = self.comp.endpoint;
         let tol = 0.01 * self.units.mm_per_unit();
+        // How much further (rad) the held arc may sweep to the corner: LinuxCNC's slack,
+        // which depends on the program's units (0.0254 in G21, 0.001 in G20).
+        let sweep_slack = match self.units {
+            Units::Mm => 0.0254,
+            Units::Inch => 0.001,
+        };
         for h in &mut self.comp.held {
             let sweep_before = h.sweep;
             let dir_before = h.dir;
@@ -319,7 +325,7 @@ impl State<'_> {
                     let turn = i64::from(*turns) * if *clockwise { -1 } else { 1 };
                     if let Some(s) = start {
                         let after = sweep(s, *center, turn, p);
-                        if sweep_before != 0.0 && after.abs() > sweep_before.abs() + 0.001 {
+                        if sweep_before != 0.0 && after.abs() > sweep_before.abs() + sweep_slack {
                             return Err(Self::comp_err(
                                 w,
                                 "the arc before this concave corner cannot be reached by \

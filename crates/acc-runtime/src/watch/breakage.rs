@@ -14,9 +14,9 @@ pub enum Breakage {
         /// Median of the recent history, N.
         reference_n: f64,
     },
-    /// The force rose above `breakage_spike_factor` × the recent median within two periods
-    /// (the sample two periods back still within 1.25 × the median: a force that climbs
-    /// over many periods, the engagement growing along the path, is no spike).
+    /// The force rose above `breakage_spike_factor` × the recent median and at least
+    /// doubled within two periods (a force that climbs over many periods, the engagement
+    /// growing along the path, is no spike; a jam after a small rise is one).
     Spike {
         /// The sample, N.
         force_n: f64,
@@ -243,7 +243,7 @@ impl BreakageDetector {
                     verdict = Some(drop);
                 } else if feed_not_raised
                     && s.force_n > med * self.limits.breakage_spike_factor
-                    && two_back <= med / 0.8
+                    && s.force_n >= 2.0 * two_back
                 {
                     verdict = Some(Breakage::Spike {
                         force_n: s.force_n,
@@ -315,6 +315,30 @@ mod tests {
         assert_eq!(d.observe(&s(600.0, 17)), None, "the jump inside the period");
         assert!(matches!(
             d.observe(&s(930.0, 17)),
+            Some(Breakage::Spike { .. })
+        ));
+        // A small rise, then a jam: 300 → 400 → 400 → 1200 N within a period.
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..14 {
+            assert_eq!(d.observe(&s(300.0, 17)), None);
+        }
+        for f in [400.0, 400.0] {
+            assert_eq!(d.observe(&s(f, 17)), None, "{f}");
+        }
+        assert!(matches!(
+            d.observe(&s(1200.0, 17)),
+            Some(Breakage::Spike { .. })
+        ));
+        // Three periods of rise to more than 3 × the median, doubled within two: a spike.
+        let mut d = BreakageDetector::new(WatchLimits::default());
+        for _ in 0..14 {
+            assert_eq!(d.observe(&s(300.0, 17)), None);
+        }
+        for f in [450.0, 600.0] {
+            assert_eq!(d.observe(&s(f, 17)), None, "{f}");
+        }
+        assert!(matches!(
+            d.observe(&s(960.0, 17)),
             Some(Breakage::Spike { .. })
         ));
     }
