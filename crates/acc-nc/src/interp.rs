@@ -18,6 +18,7 @@ mod arcs;
 mod comp;
 mod cycles;
 mod flow;
+mod plane_geometry;
 use flow::{Flow, MAX_BLOCKS};
 
 /// Interprets the program `text` (named `file` in errors) with `setup`: the canonical

@@ -31,6 +31,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+use super::plane_geometry::{add, angle, dir, dist, signed_turn, sweep};
 use super::{Block, State, Val};
 use crate::canon::{Canon, CanonCall, Plane, Units};
 use crate::error::{At, ErrorKind};
@@ -116,43 +117,6 @@ impl Comp {
     /// The move after G40 was made.
     pub(super) fn exit_done(&mut self) {
         self.after_exit = false;
-    }
-}
-
-fn dir(a: f64) -> [f64; 2] {
-    [a.cos(), a.sin()]
-}
-
-fn add(p: [f64; 2], r: f64, d: [f64; 2]) -> [f64; 2] {
-    [p[0] + r * d[0], p[1] + r * d[1]]
-}
-
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
-}
-
-fn angle(from: [f64; 2], to: [f64; 2]) -> f64 {
-    (to[1] - from[1]).atan2(to[0] - from[0])
-}
-
-/// Signed sweep (rad, positive counter-clockwise) of an arc about `c` from `a` to `b` with
-/// `turn` (+n counter-clockwise, -n clockwise) turns (LinuxCNC's `find_turn`).
-fn sweep(a: [f64; 2], c: [f64; 2], turn: i64, b: [f64; 2]) -> f64 {
-    if turn == 0 {
-        return 0.0;
-    }
-    let (mut alpha, mut beta) = (angle(c, a), angle(c, b));
-    let extra = (turn.unsigned_abs() - 1) as f64 * TAU;
-    if turn > 0 {
-        if beta <= alpha {
-            beta += TAU;
-        }
-        beta - alpha + extra
-    } else {
-        if alpha <= beta {
-            alpha += TAU;
-        }
-        beta - alpha - extra
     }
 }
 
@@ -322,7 +286,7 @@ impl State<'_> {
                             ),
                         ));
                     }
-                    let turn = i64::from(*turns) * if *clockwise { -1 } else { 1 };
+                    let turn = signed_turn(*turns, *clockwise);
                     if let Some(s) = start {
                         let after = sweep(s, *center, turn, p);
                         if sweep_before != 0.0 && after.abs() > sweep_before.abs() + sweep_slack {
@@ -416,7 +380,7 @@ impl State<'_> {
             } => Some(HeldArc {
                 center: *center,
                 end: plane.project(*to),
-                turn: i64::from(*turns) * if *clockwise { -1 } else { 1 },
+                turn: signed_turn(*turns, *clockwise),
             }),
             _ => None,
         }
@@ -638,7 +602,7 @@ impl State<'_> {
         at: &Val,
     ) -> Result<([f64; 2], i64), At> {
         let (center, turns) = self.arc_centre(cw, start, p, b, at)?;
-        Ok((center, i64::from(turns) * if cw { -1 } else { 1 }))
+        Ok((center, signed_turn(turns, cw)))
     }
 
     /// Refuses a tool radius not below the arc's radius with the tool inside the arc.

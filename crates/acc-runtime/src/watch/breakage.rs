@@ -307,40 +307,20 @@ mod tests {
         for f in climb {
             assert_eq!(d.observe(&s(f, 17)), None, "{f}");
         }
-        // From a steady 300 N, the force jumps to 930 N within two periods: a spike.
-        let mut d = BreakageDetector::new(WatchLimits::default());
-        for _ in 0..14 {
-            assert_eq!(d.observe(&s(300.0, 17)), None);
-        }
-        assert_eq!(d.observe(&s(600.0, 17)), None, "the jump inside the period");
-        assert!(matches!(
-            d.observe(&s(930.0, 17)),
-            Some(Breakage::Spike { .. })
-        ));
+        // From a steady 300 N (14 periods): none of `before`, then a spike at `last`.
+        let spike_after = |before: &[f64], last: f64| {
+            let mut d = BreakageDetector::new(WatchLimits::default());
+            for f in std::iter::repeat_n(300.0, 14).chain(before.iter().copied()) {
+                assert_eq!(d.observe(&s(f, 17)), None, "{f}");
+            }
+            matches!(d.observe(&s(last, 17)), Some(Breakage::Spike { .. }))
+        };
+        // The force jumps to 930 N within two periods.
+        assert!(spike_after(&[600.0], 930.0), "the jump inside the period");
         // A small rise, then a jam: 300 → 400 → 400 → 1200 N within a period.
-        let mut d = BreakageDetector::new(WatchLimits::default());
-        for _ in 0..14 {
-            assert_eq!(d.observe(&s(300.0, 17)), None);
-        }
-        for f in [400.0, 400.0] {
-            assert_eq!(d.observe(&s(f, 17)), None, "{f}");
-        }
-        assert!(matches!(
-            d.observe(&s(1200.0, 17)),
-            Some(Breakage::Spike { .. })
-        ));
-        // Three periods of rise to more than 3 × the median, doubled within two: a spike.
-        let mut d = BreakageDetector::new(WatchLimits::default());
-        for _ in 0..14 {
-            assert_eq!(d.observe(&s(300.0, 17)), None);
-        }
-        for f in [450.0, 600.0] {
-            assert_eq!(d.observe(&s(f, 17)), None, "{f}");
-        }
-        assert!(matches!(
-            d.observe(&s(960.0, 17)),
-            Some(Breakage::Spike { .. })
-        ));
+        assert!(spike_after(&[400.0, 400.0], 1200.0));
+        // Three periods of rise to more than 3 × the median, doubled within two.
+        assert!(spike_after(&[450.0, 600.0], 960.0));
     }
 
     #[test]
