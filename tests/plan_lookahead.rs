@@ -54,9 +54,10 @@ fn the_plan_brings_every_entry_and_corner_of_the_pocket_to_fr() {
         .all(|(_, p)| p.is_some()));
     let (e0, c0) = peaks(&path, &alone);
     let (e1, c1) = peaks(&path, &ahead);
-    // Feedback alone: the loop sees the entry a period after the tool.
+    // Feedback alone: the loop sees the entry and the corner a period after the tool
+    // (4.61 and 1.26 Fr, docs/programs.md).
     assert!(
-        e0 > 3.0 * fr && c0 > 1.5 * fr,
+        e0 > 3.0 * fr && c0 > 1.2 * fr,
         "feedback alone {e0} / {c0} N"
     );
     assert!(e1 <= 1.05 * fr, "entries with the plan {:.3} Fr", e1 / fr);

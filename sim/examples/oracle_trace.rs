@@ -3,8 +3,7 @@
 //! `run.csv` can be set against it block by block (docs/plan.md, "The plan's lead").
 //!
 //!     cargo run -p acc-sim --example oracle_trace -- tests/nc/pocket_rect.ngc \
-//!         -20,-20,-10,60,50,0 out/oracle-pocket [CEILING × Fr, default 1.05] [--axial-per-step] \
-//!         [--per-override]
+//!         -20,-20,-10,60,50,0 out/oracle-pocket [CEILING × Fr, default 1.05] [--per-override]
 //!
 //! `--per-override`: no override whose force over a whole period is above the ceiling
 //! either (`acc_sim::oracle_program::program_rms_within`), the plan's lead's rule.
@@ -21,15 +20,11 @@ use acc_sim::Scenario;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let per_step = args.iter().any(|a| a == "--axial-per-step");
     let per_override = args.iter().any(|a| a == "--per-override");
-    let args: Vec<&String> = args
-        .iter()
-        .filter(|a| *a != "--axial-per-step" && *a != "--per-override")
-        .collect();
+    let args: Vec<&String> = args.iter().filter(|a| *a != "--per-override").collect();
     let [program, stock, out, rest @ ..] = &args[..] else {
         return Err(
-            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING] [--axial-per-step] [--per-override]"
+            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING]  [--per-override]"
                 .into(),
         );
     };
@@ -49,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = ProgramPath::for_scenario(&spec, &base)?;
     let sc = path.scenario_for(&base);
     let fr = sc.controller.force_ref_n;
-    let plant = ProgramPlant::new(&sc, &path).with_axial_per_step(per_step);
+    let plant = ProgramPlant::new(&sc, &path);
     let runs = program_rms_within_runs(&plant, ceiling, 3, per_override)?;
     std::fs::create_dir_all(out)?;
     for (k, r) in runs.iter().enumerate() {

@@ -4,14 +4,12 @@
 //! plan cannot see").
 //!
 //!     cargo run --release -p acc-sim --example plan_follower -- tests/nc/pocket_rect.ngc \
-//!         -20,-20,-10,60,50,0 [--scale K] [--ceiling C] [--axial-per-step] [--csv FILE]
+//!         -20,-20,-10,60,50,0 [--scale K] [--ceiling C] [--csv FILE]
 //!
 //! The scenario is `configs/scenarios/paper_case3.toml` with the program's stock on
 //! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it; the plan is
 //! the one `acc plan` writes for it (`ProgramPath::plan`). `--scale` (default 1) is the
-//! plan's scale `k`, `--ceiling` (default 1.03) the ceiling in Fr, `--axial-per-step` has
-//! the plant read the axial depth at every step instead of holding it per period, `--csv`
-//! writes the rows (`t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
+//! plan's scale `k`, `--ceiling` (default 1.03) the ceiling in Fr, `--csv` writes the rows (`t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
 //! axial_depth_mm`, the force the period's true mean) to set against a run's `run.csv` or
 //! the oracle's (`oracle_trace`) block by block.
 use acc_sim::oracle::write_trace_csv;
@@ -23,7 +21,7 @@ use acc_sim::Scenario;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [program, stock, rest @ ..] = &args[..] else {
-        return Err("usage: plan_follower PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 [--scale K] [--ceiling C] [--axial-per-step] [--csv FILE]".into());
+        return Err("usage: plan_follower PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 [--scale K] [--ceiling C] [--csv FILE]".into());
     };
     let base = Scenario::load(acc_sim::run::configs_dir().join("scenarios/paper_case3.toml"))?;
     let mut cfg = FollowerConfig::of(&base, 1.0);
@@ -42,7 +40,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         match a.as_str() {
             "--scale" => cfg.scale = value("--scale", 0.5, 2.0)?,
             "--ceiling" => cfg.ceiling = value("--ceiling", 0.5, 2.0)?,
-            "--axial-per-step" => cfg.axial_per_step = true,
             "--csv" => csv = Some(it.next().ok_or("--csv: a file is needed")?.clone()),
             other => return Err(format!("unknown option `{other}`").into()),
         }
@@ -62,10 +59,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .filter(|r| r.force_n.unwrap_or(0.0) > 0.05 * fr);
     println!(
-        "plan follower (exact position, scale {}, ceiling {} Fr, axial depth {}): force RMS error {:.1} N over {} rows, highest force {:.3} Fr, cycle {:.1} s{}",
+        "plan follower (exact position, scale {}, ceiling {} Fr): force RMS error {:.1} N over {} rows, highest force {:.3} Fr, cycle {:.1} s{}",
         cfg.scale,
         cfg.ceiling,
-        if cfg.axial_per_step { "per step" } else { "held per period" },
         run.summary.rms_error_n,
         cutting.count(),
         run.peak_n() / fr,

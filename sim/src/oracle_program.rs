@@ -40,7 +40,6 @@ pub struct ProgramPlant {
     scenario: Scenario,
     path: ProgramPath,
     safe_pct: u16,
-    axial_per_step: bool,
 }
 
 impl ProgramPlant {
@@ -53,14 +52,7 @@ impl ProgramPlant {
             scenario,
             path: path.clone(),
             safe_pct,
-            axial_per_step: false,
         }
-    }
-
-    /// The plant reading the axial depth at every step ([`Machine::set_axial_per_step`]).
-    pub fn with_axial_per_step(mut self, on: bool) -> Self {
-        self.axial_per_step = on;
-        self
     }
 
     /// The program's constant safe feed, percent (the peak figure's time budget).
@@ -79,7 +71,6 @@ impl OraclePlant for ProgramPlant {
     fn build_machine(&self) -> Machine {
         let mut m = self.scenario.build_machine();
         m.set_engagement_source(Some(Box::new(self.path.clone())));
-        m.set_axial_per_step(self.axial_per_step);
         m
     }
 

@@ -40,21 +40,18 @@ pub struct FollowerConfig {
     /// The override in force acts this long into a period before the new one, s (the
     /// override path's delay plus the feed drive's lag).
     pub delay_s: f64,
-    /// The plant reads the axial depth at every step ([`crate::Machine::set_axial_per_step`]).
-    pub axial_per_step: bool,
 }
 
 impl FollowerConfig {
     /// The lead's ceiling (1.03 Fr, [`acc_runtime::plan_lead::CEILING`]), scale `scale`,
     /// the delay of `scenario`'s machine (its override path's delay plus its feed drive's
-    /// lag), the axial depth held per period.
+    /// lag).
     pub fn of(scenario: &Scenario, scale: f64) -> Self {
         let m = &scenario.machine;
         FollowerConfig {
             ceiling: acc_runtime::plan_lead::CEILING,
             scale,
             delay_s: m.override_path.delay_s + m.feed_drive.tau_s + m.feed_drive.tau2_s,
-            axial_per_step: false,
         }
     }
 }
@@ -98,7 +95,6 @@ pub fn follow_plan(
     let delay = cfg.delay_s.clamp(0.0, t);
     let mut m = sc.build_machine();
     m.set_engagement_source(Some(Box::new(path.clone())));
-    m.set_axial_per_step(cfg.axial_per_step);
     let max_periods = (sc.max_time_s / t).ceil() as usize;
     let (mut rows, mut in_force, mut error_sum) = (Vec::new(), top_pct, 0.0);
     while !m.finished() && rows.len() < max_periods {

@@ -81,6 +81,25 @@ impl RowFlags {
     }
 }
 
+/// Per row of a log written by `acc`, why it cannot be compared on `channel`: no valid
+/// measurement ([`RowFlags::dead_on`]), or an axial depth `axial_depth_mm` that differs from
+/// the row before ([`DeadReason::AxialDepthChange`]: the plant cut the geometry, and the
+/// depth changed somewhere inside the period, which one depth per period does not place).
+/// `None` for a row to compare.
+pub fn dead_rows(
+    flags: &[RowFlags],
+    axial_depth_mm: &[f64],
+    channel: Channel,
+) -> Vec<Option<DeadReason>> {
+    let mut dead: Vec<Option<DeadReason>> = flags.iter().map(|f| f.dead_on(channel)).collect();
+    for (i, w) in axial_depth_mm.windows(2).enumerate() {
+        if w[1] != w[0] && dead.get(i + 1).is_some_and(Option::is_none) {
+            dead[i + 1] = Some(DeadReason::AxialDepthChange);
+        }
+    }
+    dead
+}
+
 /// Why a row has no valid measurement on the compared channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum DeadReason {
@@ -94,16 +113,23 @@ pub enum DeadReason {
     NoSample,
     /// Feed hold with the tool in the air.
     FeedHoldInAir,
+    /// The logged axial depth differs from the row before: it changed inside the period
+    /// (an NC program's entry, exit or step to another depth level), and a log of one depth
+    /// per period does not say where. The replay runs the chord between the two rows'
+    /// depths, which can be thousands of newtons off the force of a cutter that meets the
+    /// new depth at one point of the period ([`dead_rows`]).
+    AxialDepthChange,
 }
 
 impl DeadReason {
     /// Every reason, in the order [`RowFlags::dead_on`] tries them.
-    pub const ALL: [DeadReason; 5] = [
+    pub const ALL: [DeadReason; 6] = [
         DeadReason::LinkLost,
         DeadReason::Skipped,
         DeadReason::Implausible,
         DeadReason::NoSample,
         DeadReason::FeedHoldInAir,
+        DeadReason::AxialDepthChange,
     ];
 
     /// The reason in words, with the run-log evidence.
@@ -118,11 +144,14 @@ impl DeadReason {
             }
             DeadReason::NoSample => "no sample on the compared channel (empty cell)",
             DeadReason::FeedHoldInAir => "feed hold with the tool in the air (`feed_hold`)",
+            DeadReason::AxialDepthChange => {
+                "axial depth changed inside the period (`axial_depth_mm` differs from the row before: an entry, an exit or a new depth level, placed nowhere by one depth per period)"
+            }
         }
     }
 
     /// Short name for reports (`link_lost`, `skipped`, `implausible`, `no_sample`,
-    /// `feed_hold_in_air`).
+    /// `feed_hold_in_air`, `axial_depth_change`).
     pub fn name(self) -> &'static str {
         match self {
             DeadReason::LinkLost => "link_lost",
@@ -130,6 +159,7 @@ impl DeadReason {
             DeadReason::Implausible => "implausible",
             DeadReason::NoSample => "no_sample",
             DeadReason::FeedHoldInAir => "feed_hold_in_air",
+            DeadReason::AxialDepthChange => "axial_depth_change",
         }
     }
 }
@@ -174,5 +204,37 @@ mod tests {
         );
         let hold_cut = RowFlags::of_record(&rec("", Some(900.0), Some(300.0), true), true);
         assert_eq!(hold_cut.dead_on(Channel::Power), None);
+    }
+
+    #[test]
+    fn a_logged_axial_depth_change_is_not_compared_in_a_log_written_by_acc() {
+        let axial = vec![0.0, 0.0, 5.0, 5.0, 5.0, 10.0, 10.0, 0.0];
+        let n = axial.len();
+        let mut log = crate::RunLog {
+            t_s: (1..=n).map(|i| 0.1 * i as f64).collect(),
+            axial_depth_mm: axial,
+            ..crate::RunLog::default()
+        };
+        // Built in code (no flags): each row's depth is its own over its period.
+        assert!(log.dead_rows(Channel::Force).iter().all(Option::is_none));
+        // Written by `acc`: the rows where the depth changed inside the period are left out,
+        // a row without a sample keeps its own reason.
+        let mut flags = vec![RowFlags::default(); n];
+        flags[5] = RowFlags(RowFlags::NO_FORCE);
+        log.row_flags = Some(flags);
+        let change = Some(DeadReason::AxialDepthChange);
+        assert_eq!(
+            log.dead_rows(Channel::Force),
+            vec![
+                None,
+                None,
+                change,
+                None,
+                None,
+                Some(DeadReason::NoSample),
+                None,
+                change
+            ]
+        );
     }
 }

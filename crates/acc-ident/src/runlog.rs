@@ -163,11 +163,12 @@ impl RunLog {
         start.is_finite().then_some(start)
     }
 
-    /// Per row, why it has no valid measurement on `channel` ([`RowFlags::dead_on`]);
-    /// `None` for a valid row.
+    /// Per row, why it cannot be compared on `channel` ([`crate::dead::dead_rows`]: in a
+    /// log written by `acc`); `None` for a row to compare. Logs built in code or by the
+    /// importers (no flags) compare every row.
     pub fn dead_rows(&self, channel: Channel) -> Vec<Option<DeadReason>> {
         match &self.row_flags {
-            Some(f) => f.iter().map(|f| f.dead_on(channel)).collect(),
+            Some(f) => crate::dead::dead_rows(f, &self.axial_depth_mm, channel),
             None => vec![None; self.len()],
         }
     }

@@ -113,9 +113,7 @@ pub struct PeriodRecord<'a> {
     pub x_mm: f64,
     /// Engaged radial depth at the end, mm.
     pub radial_depth_mm: f64,
-    /// Axial depth, mm: the period's start's where the machine holds it over the period
-    /// (the default), the last step's where it reads it per step
-    /// ([`Machine::set_axial_per_step`]).
+    /// Engaged axial depth at the end, mm.
     pub axial_depth_mm: f64,
     /// Mean spindle speed over the period, rpm.
     pub spindle_rpm: f64,
@@ -193,9 +191,6 @@ pub struct Machine {
     engagement: Box<dyn EngagementSource>,
     /// The tool as the engagement source sees it.
     tool: ToolGeometry,
-    /// Read the axial depth at every internal step instead of once at a period's start
-    /// ([`Machine::set_axial_per_step`]).
-    axial_per_step: bool,
     t_s: f64,
     x_mm: f64,
     feed_mm_min: f64,
@@ -275,7 +270,6 @@ impl Machine {
             depth_mm: 0.0,
             samples: Vec::new(),
             force_memo: ForceMemo::default(),
-            axial_per_step: false,
         }
     }
 
@@ -317,21 +311,7 @@ impl Machine {
             depth_mm: self.depth_mm,
             samples: Vec::with_capacity(self.samples.capacity()),
             force_memo: self.force_memo,
-            axial_per_step: self.axial_per_step,
         })
-    }
-
-    /// Read the axial depth of cut at every internal step (`true`) instead of once at the
-    /// start of each control period and holding it over the period (`false`, the default).
-    /// The two agree wherever the axial depth is constant along the period's path (every
-    /// 1-D workpiece; a replay on logged depths, whose chord keeps each row's own). Along
-    /// an NC program's path the axial depth changes: an inside corner of a second depth
-    /// level doubles it over half a millimetre. Held, a period that starts just before such
-    /// a stretch cuts it at the depth before, and one that starts inside it keeps the
-    /// doubled depth to its end; read per step, the force follows the engagement as the
-    /// plan predicts it (`acc_sim::plan`; docs/plan.md, "What the plan cannot see").
-    pub fn set_axial_per_step(&mut self, on: bool) {
-        self.axial_per_step = on;
     }
 
     /// Replace the spindle model (e.g. an induction motor).
@@ -463,10 +443,10 @@ impl Machine {
     /// Per internal step `dt`: the override input enters the delay line; the feed target
     /// `f_prog · ov/100` drives the feed drive's first-order lag (exact discretisation,
     /// `f += (target − f)(1 − e^(−dt/τ))`, seed 002 eq. 5); the tool moves `f·dt`; the
-    /// engaged depth and `Ks` factor come from the engagement source (the workpiece unless
-    /// [`Machine::set_engagement_source`] set another; the axial depth is the source's at
-    /// the period's start, or at every step with [`Machine::set_axial_per_step`]); the
-    /// mean force follows eq. (1)
+    /// engaged radial and axial depth and `Ks` factor come from the engagement source at
+    /// the step's position (the workpiece unless [`Machine::set_engagement_source`] set
+    /// another: along an NC program's path the axial depth changes inside a period where
+    /// the tool enters, leaves or meets another depth level); the mean force follows eq. (1)
     /// with the tool's wear factor, times the tool's runout factor (its mean over the step);
     /// the tooth model multiplies in the ripple.
     pub fn advance(&mut self, period_s: f64) -> PeriodRecord<'_> {
@@ -474,10 +454,8 @@ impl Machine {
         let dt = period_s / n as f64;
         let alpha = FirstOrderLag::new(self.tau_s).alpha(dt);
         let alpha2 = FirstOrderLag::new(self.tau2_s).alpha(dt);
-        let mut ap = self
-            .engagement
-            .engagement_at(&self.tool, self.x_mm)
-            .axial_mm;
+        // The axial depth at the period's end, for the record (the radial one likewise).
+        let mut ap = 0.0;
         let t0 = self.t_s;
         self.samples.clear();
         let mut sums = [0.0f64; 5];
@@ -511,9 +489,7 @@ impl Machine {
             let rpm = self.spindle.speed_rpm();
             let eng = self.engagement.engagement_at(&self.tool, self.x_mm);
             self.depth_mm = eng.radial_mm;
-            if self.axial_per_step {
-                ap = eng.axial_mm;
-            }
+            ap = eng.axial_mm;
             let mean = self.law.mean_force_n_memo(
                 &mut self.force_memo,
                 eng.radial_mm,

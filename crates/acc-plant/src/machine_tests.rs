@@ -237,35 +237,33 @@ impl EngagementSource for AxialStep {
 }
 
 /// The period-mean forces of the paper machine at 100 % over 200 mm/min (1/3 mm per
-/// 0.1 s period) through [`AxialStep`] at 1.0 mm, the axial depth held or read per step.
-fn axial_step_forces(per_step: bool) -> Vec<f64> {
+/// 0.1 s period) through [`AxialStep`] at 1.0 mm, and each period's recorded axial depth.
+fn axial_step_forces() -> Vec<(f64, f64)> {
     let dir = configs_dir();
     let spec = MachineSpec::load(dir.join("machines/paper_vmc.toml")).expect("machine");
     let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
     let wp = Workpiece::load(dir.join("workpieces/steps_1_2_3.toml")).expect("workpiece");
     let mut m = Machine::new(&spec, &tool, tool.wear, wp, ForceModel::Mean, 200.0);
     m.set_engagement_source(Some(Box::new(AxialStep { at_mm: 1.0 })));
-    m.set_axial_per_step(per_step);
-    (0..8).map(|_| m.advance(0.1).force_mean_n).collect()
+    (0..8)
+        .map(|_| {
+            let r = m.advance(0.1);
+            (r.force_mean_n, r.axial_depth_mm)
+        })
+        .collect()
 }
 
 #[test]
-fn the_axial_depth_is_held_per_period_or_read_per_step() {
-    let held = axial_step_forces(false);
-    let step = axial_step_forces(true);
-    let (lo, hi) = (step[1], step[7]);
-    // Away from the step both agree (to the spindle's slow drift, which follows the
-    // removed volume), and the doubled depth doubles the force (eq. 1, α = 1).
-    let near = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-3;
-    assert!(near(held[1], lo) && near(held[7], hi));
+fn the_axial_depth_is_read_at_every_step() {
+    let f = axial_step_forces();
+    let (lo, hi) = (f[1].0, f[7].0);
+    // The doubled depth doubles the force (eq. 1, α = 1).
     assert!((hi / lo - 2.0).abs() < 0.01, "{lo} → {hi}");
-    // The period the step falls in: per step the force is between the two depths'; held,
-    // it is the depth at the period's start throughout (2 mm) until the next period
-    // starts beyond the step.
+    // The period the step falls in cuts part of its path at each depth: its force is
+    // between the two, and it records the depth at its end.
     let k = (0..8)
-        .find(|&k| step[k] > lo * 1.01)
+        .find(|&k| f[k].0 > lo * 1.01)
         .expect("a period crosses the step");
-    assert!(step[k] < hi * 0.99, "per step {:?}", step);
-    assert!(near(held[k], lo), "held {held:?}");
-    assert!(near(held[k + 1], hi), "held {held:?}");
+    assert!(f[k].0 < hi * 0.99, "{f:?}");
+    assert!(f[k - 1].1 < f[k].1 && f[k].1 == f[7].1, "{f:?}");
 }

@@ -213,7 +213,7 @@ pub(super) fn assemble(
     conclusion.push_str(&wear_time_note);
     let excluded_note = (p.excluded.total() > 0).then(|| {
         format!(
-            "{} of {n} rows have no valid measurement on the {} channel and were left out of selection, noise and the sealed part (the replay runs through them): {}",
+            "{} of {n} rows have no valid measurement on the {} channel or no engagement the replay can place and were left out of selection, noise and the sealed part (the replay runs through them): {}",
             p.excluded.total(),
             unit_channel(inp.channel),
             p.excluded.text()
