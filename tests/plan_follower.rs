@@ -1,4 +1,4 @@
-//! The plan follower (`acc_sim::plan_follower`, docs/plan.md "What the plan cannot see"):
+//! The plan follower (`acc_sim::plan_follower`, docs/plan.md "What the loop does not know"):
 //! on the pocket program, a law that reads the plan with the tool's exact position and the
 //! plan's scale known keeps 1.05 Fr at a force RMS error within 1.1 × the oracle's on the
 //! same plant — the plant's force follows the engagement the plan predicts along the path,

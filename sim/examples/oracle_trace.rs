@@ -24,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<&String> = args.iter().filter(|a| *a != "--per-override").collect();
     let [program, stock, out, rest @ ..] = &args[..] else {
         return Err(
-            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING]  [--per-override]"
+            "usage: oracle_trace PROGRAM.ngc X0,Y0,Z0,X1,Y1,Z1 OUT_DIR [CEILING] [--per-override]"
                 .into(),
         );
     };

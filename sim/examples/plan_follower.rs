@@ -9,9 +9,10 @@
 //! The scenario is `configs/scenarios/paper_case3.toml` with the program's stock on
 //! 0.25 mm cells, as `acc sim paper_case3 --program … --stock-box …` runs it; the plan is
 //! the one `acc plan` writes for it (`ProgramPath::plan`). `--scale` (default 1) is the
-//! plan's scale `k`, `--ceiling` (default 1.03) the ceiling in Fr, `--csv` writes the rows (`t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm,
-//! axial_depth_mm`, the force the period's true mean) to set against a run's `run.csv` or
-//! the oracle's (`oracle_trace`) block by block.
+//! plan's scale `k`, `--ceiling` (default 1.03) the ceiling in Fr, `--csv` writes the
+//! rows (`t_s, block, x_true_mm, override_pct, force_n, radial_depth_mm, axial_depth_mm`,
+//! the force the period's true mean) to set against a run's `run.csv` or the oracle's
+//! (`oracle_trace`) block by block.
 use acc_sim::oracle::write_trace_csv;
 use acc_sim::plan::PlanParams;
 use acc_sim::plan_follower::{follow_plan, FollowerConfig};

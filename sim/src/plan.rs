@@ -8,7 +8,7 @@
 //! `Ks` calibration, the spindle's commanded speed, the tool's initial wear factor. So on
 //! a noise-free run at a constant override the plan's force and the plant's agree up to
 //! what the plant adds over time (wear growth, a sagging spindle speed, the feed drive's
-//! transient) and the plant's axial depth, which it holds per control period.
+//! transient).
 //!
 //! With a wear law ([`PlanParams::wearing`], `acc plan --model`: the wear a model file
 //! learned from a run log) the tool's `Ks` factor grows along the path as the plant's does

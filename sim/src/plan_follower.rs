@@ -2,7 +2,7 @@
 //! with the information the board does not give — the tool's exact path position and the
 //! plan's scale known in advance. It separates, in the look-ahead's gap to the oracle
 //! ([`crate::oracle`]), what the plan cannot predict from what the loop does not know
-//! (docs/plan.md, "What the plan cannot see").
+//! (docs/plan.md, "What the loop does not know").
 //!
 //! It runs the program's plant (the scenario's machine with the program's [`ProgramPath`],
 //! noise-free, as the oracle does) and chooses every period's override as the plan's lead

@@ -8,7 +8,10 @@
 //! value into such a row's empty cells, so the row still holds a number — one the machine
 //! did not measure in that period. The discrepancy workflow replays every row (the plant
 //! integrates through them) but leaves these rows out of selection, noise and the sealed
-//! part, and its report counts them per reason.
+//! part, and its report counts them per reason. So it does with the rows of such a log
+//! whose axial depth changed inside the period ([`dead_rows`]): the plant cut an NC
+//! program's geometry, and one logged depth per period does not say where the tool met
+//! the new one.
 
 use crate::model::Channel;
 
@@ -81,26 +84,41 @@ impl RowFlags {
     }
 }
 
+/// A change of the logged axial depth from one row to the next that the replay's one
+/// depth per period absorbs, relative to the larger of the two depths, −: the row's force
+/// is off by at most this share (eq. 1: the force is proportional to the axial depth).
+pub const AXIAL_CHANGE_TOLERANCE: f64 = 0.02;
+
 /// Per row of a log written by `acc`, why it cannot be compared on `channel`: no valid
-/// measurement ([`RowFlags::dead_on`]), or an axial depth `axial_depth_mm` that differs from
-/// the row before ([`DeadReason::AxialDepthChange`]: the plant cut the geometry, and the
-/// depth changed somewhere inside the period, which one depth per period does not place).
-/// `None` for a row to compare.
+/// measurement ([`RowFlags::dead_on`]), or, where the tool cut in the row or the row before
+/// (`radial_depth_mm` above 0), an axial depth `axial_depth_mm` that changed from the row
+/// before by more than [`AXIAL_CHANGE_TOLERANCE`] ([`DeadReason::AxialDepthChange`]: the
+/// plant cut the geometry, and the depth changed somewhere inside the period, which one
+/// depth per period does not place). `None` for a row to compare.
 pub fn dead_rows(
     flags: &[RowFlags],
+    radial_depth_mm: &[f64],
     axial_depth_mm: &[f64],
     channel: Channel,
 ) -> Vec<Option<DeadReason>> {
     let mut dead: Vec<Option<DeadReason>> = flags.iter().map(|f| f.dead_on(channel)).collect();
-    for (i, w) in axial_depth_mm.windows(2).enumerate() {
-        if w[1] != w[0] && dead.get(i + 1).is_some_and(Option::is_none) {
-            dead[i + 1] = Some(DeadReason::AxialDepthChange);
+    for i in 1..dead
+        .len()
+        .min(axial_depth_mm.len())
+        .min(radial_depth_mm.len())
+    {
+        let (a0, a1) = (axial_depth_mm[i - 1], axial_depth_mm[i]);
+        let cutting = radial_depth_mm[i - 1] > 0.0 || radial_depth_mm[i] > 0.0;
+        let changed = (a1 - a0).abs() > AXIAL_CHANGE_TOLERANCE * a0.abs().max(a1.abs());
+        if cutting && changed && dead[i].is_none() {
+            dead[i] = Some(DeadReason::AxialDepthChange);
         }
     }
     dead
 }
 
-/// Why a row has no valid measurement on the compared channel.
+/// Why a row cannot be compared on the compared channel: no valid measurement, or an
+/// engagement the replay cannot place.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum DeadReason {
     /// The status read failed: the link lost or the board gone (`link:<kind>`).
@@ -122,7 +140,8 @@ pub enum DeadReason {
 }
 
 impl DeadReason {
-    /// Every reason, in the order [`RowFlags::dead_on`] tries them.
+    /// Every reason: those of [`RowFlags::dead_on`] in the order it tries them, then the
+    /// one [`dead_rows`] adds.
     pub const ALL: [DeadReason; 6] = [
         DeadReason::LinkLost,
         DeadReason::Skipped,
@@ -145,7 +164,7 @@ impl DeadReason {
             DeadReason::NoSample => "no sample on the compared channel (empty cell)",
             DeadReason::FeedHoldInAir => "feed hold with the tool in the air (`feed_hold`)",
             DeadReason::AxialDepthChange => {
-                "axial depth changed inside the period (`axial_depth_mm` differs from the row before: an entry, an exit or a new depth level, placed nowhere by one depth per period)"
+                "axial depth changed inside the period (`axial_depth_mm` more than 2 % off the row before's while cutting: an entry, an exit or a new depth level, placed nowhere by one depth per period)"
             }
         }
     }
@@ -208,19 +227,24 @@ mod tests {
 
     #[test]
     fn a_logged_axial_depth_change_is_not_compared_in_a_log_written_by_acc() {
-        let axial = vec![0.0, 0.0, 5.0, 5.0, 5.0, 10.0, 10.0, 0.0];
+        // Air (a plunge's depth changes without a cut), an entry, a change within the
+        // tolerance, a step to another level, an exit.
+        let axial = vec![0.0, 3.0, 5.0, 5.0, 5.05, 10.0, 10.0, 0.0];
+        let radial = vec![0.0, 0.0, 4.0, 4.0, 4.0, 4.0, 4.0, 0.0];
         let n = axial.len();
         let mut log = crate::RunLog {
             t_s: (1..=n).map(|i| 0.1 * i as f64).collect(),
+            radial_depth_mm: radial,
             axial_depth_mm: axial,
             ..crate::RunLog::default()
         };
         // Built in code (no flags): each row's depth is its own over its period.
         assert!(log.dead_rows(Channel::Force).iter().all(Option::is_none));
-        // Written by `acc`: the rows where the depth changed inside the period are left out,
-        // a row without a sample keeps its own reason.
+        // Written by `acc`: the rows where the tool cut and the depth changed by more than
+        // the tolerance are left out (the entry, the step, the exit; not the plunge in air
+        // nor the 1 % change); a row without a sample keeps its own reason.
         let mut flags = vec![RowFlags::default(); n];
-        flags[5] = RowFlags(RowFlags::NO_FORCE);
+        flags[3] = RowFlags(RowFlags::NO_FORCE);
         log.row_flags = Some(flags);
         let change = Some(DeadReason::AxialDepthChange);
         assert_eq!(
@@ -229,9 +253,9 @@ mod tests {
                 None,
                 None,
                 change,
-                None,
-                None,
                 Some(DeadReason::NoSample),
+                None,
+                change,
                 None,
                 change
             ]

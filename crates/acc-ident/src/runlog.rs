@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::dead::{DeadReason, RowFlags};
+use crate::dead::{dead_rows, DeadReason, RowFlags};
 use crate::engagement::PathEngagement;
 use crate::model::Channel;
 
@@ -163,12 +163,11 @@ impl RunLog {
         start.is_finite().then_some(start)
     }
 
-    /// Per row, why it cannot be compared on `channel` ([`crate::dead::dead_rows`]: in a
-    /// log written by `acc`); `None` for a row to compare. Logs built in code or by the
-    /// importers (no flags) compare every row.
+    /// Per row, why it cannot be compared on `channel` ([`dead_rows`]); `None`
+    /// for a row to compare. Logs without flags (built in code, importers) compare every row.
     pub fn dead_rows(&self, channel: Channel) -> Vec<Option<DeadReason>> {
         match &self.row_flags {
-            Some(f) => crate::dead::dead_rows(f, &self.axial_depth_mm, channel),
+            Some(f) => dead_rows(f, &self.radial_depth_mm, &self.axial_depth_mm, channel),
             None => vec![None; self.len()],
         }
     }

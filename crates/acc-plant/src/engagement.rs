@@ -196,8 +196,11 @@ pub struct Ramp {
 
 impl EngagementSource for Ramp {
     /// The radial depth along the chord; the axial depth is the row's own (`to`, or
-    /// `from`'s where the row is in air) throughout, since the plant reads it once at the
-    /// period's start; the `Ks` factor of the engaged end, both ends' mixed in a cut.
+    /// `from`'s where the row is in air) throughout: one depth per period, as a log of 1-D
+    /// cuts and the synthetic logs record it (where an NC program's axial depth changes
+    /// inside a period, `acc discrepancy` leaves the row out of the comparison,
+    /// `acc_ident::dead::dead_rows`); the `Ks` factor of the engaged end, both ends' mixed
+    /// in a cut.
     fn engagement_at(&mut self, _tool: &ToolGeometry, x_mm: f64) -> Engagement {
         let s = if self.length_mm > 0.0 {
             ((x_mm - self.x_start_mm) / self.length_mm).clamp(0.0, 1.0)
@@ -380,7 +383,7 @@ mod tests {
         assert_eq!(at(&mut r, 30.0), e);
         assert_eq!(at(&mut r, 5.0).radial_mm, 0.0);
         // Between two cuts both ends' radial depth and factor count; the axial depth is
-        // the row's own from the start (the plant reads it once per period).
+        // the row's own from the start (one depth per period).
         let mut step = Ramp {
             from: Engagement {
                 radial_mm: 1.0,

@@ -127,9 +127,9 @@ pub struct RunRecord {
     pub delay_margin_periods: Option<u32>,
     /// Simulator only: true tool-centre position along the path, mm.
     pub x_true_mm: Option<f64>,
-    /// Simulator only: engaged radial depth of cut, mm (0 in air).
+    /// Simulator only: engaged radial depth of cut at the period's end, mm (0 in air).
     pub radial_depth_mm: Option<f64>,
-    /// Simulator only: axial depth of cut, mm.
+    /// Simulator only: axial depth of cut at the period's end, mm.
     pub axial_depth_mm: Option<f64>,
     /// Simulator only: true mean cutting force over what the sensor looked at, N.
     pub force_true_n: Option<f64>,
