@@ -131,11 +131,11 @@ pub enum DeadReason {
     NoSample,
     /// Feed hold with the tool in the air.
     FeedHoldInAir,
-    /// The logged axial depth differs from the row before: it changed inside the period
-    /// (an NC program's entry, exit or step to another depth level), and a log of one depth
-    /// per period does not say where. The replay runs the chord between the two rows'
-    /// depths, which can be thousands of newtons off the force of a cutter that meets the
-    /// new depth at one point of the period ([`dead_rows`]).
+    /// The logged axial depth is more than [`AXIAL_CHANGE_TOLERANCE`] off the row before's
+    /// while the tool cuts: it changed inside the period (an NC program's entry, exit or
+    /// step to another depth level), and a log of one depth per period does not say where.
+    /// The replay holds one depth over the period, which can be thousands of newtons off
+    /// the force of a cutter that meets the new depth at one point of it ([`dead_rows`]).
     AxialDepthChange,
 }
 

@@ -40,7 +40,8 @@ pub struct InputInfo {
 /// Rows left out of an analysis for one reason ([`crate::dead::DeadReason`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct ExcludedRows {
-    /// The reason (`link_lost`, `skipped`, `implausible`, `no_sample`, `feed_hold_in_air`, `axial_depth_change`).
+    /// The reason (`link_lost`, `skipped`, `implausible`, `no_sample`, `feed_hold_in_air`,
+    /// `axial_depth_change`).
     pub reason: String,
     /// Rows left out for it.
     pub rows: usize,
