@@ -187,6 +187,8 @@ pub struct LookAhead {
     written: [u16; 2],
     /// Path of the period before, mm.
     dx_prev_mm: f64,
+    /// Path of the period before that, mm.
+    dx_before_mm: f64,
     /// The plan's scale for the lead.
     scale: PlanScale,
     /// The lead's choice between two grid positions.
@@ -234,6 +236,7 @@ impl LookAhead {
             last: LookAheadStep::default(),
             written: [0; 2],
             dx_prev_mm: 0.0,
+            dx_before_mm: 0.0,
             scale: PlanScale::default(),
             lead: PlanLead::default(),
             line_nominal: true,
@@ -338,6 +341,8 @@ impl LookAhead {
         let v = f64::from(s.actual_feed_mm_min);
         // The path the NC reports, whatever the block (a block report may lag a period
         // behind the feed: the line guard holds a changed status until it is confirmed).
+        // The period before was read, at the override read before it, without a feed hold.
+        let read_before = self.applied_prev.is_some();
         let (dx, exact) = self.period_path_mm(s, v, period_s);
         self.x_mm += dx;
         if !self.line_nominal {
@@ -368,6 +373,17 @@ impl LookAhead {
                     self.unc_mm = 0.5 * d;
                     // A period longer than designed may have carried the tool farther.
                     self.drift_mm = if self.line_nominal { 0.0 } else { dx };
+                } else if self.line_nominal && read_before {
+                    // The block began within the last two periods (its report may lag one).
+                    // Each period's feed lies between the feeds read at its ends, so each
+                    // path is at most the longest of the last three read, to half a unit
+                    // of the register: the true position lies in `start ..= reach`, which
+                    // bounds the drift too.
+                    let path = dx.max(self.dx_prev_mm).max(self.dx_before_mm)
+                        + FEED_RESOLUTION_MM_MIN * period_s / 60.0;
+                    let reach = start + 2.0 * path;
+                    let bound = (self.x_mm - start).max(reach - self.x_mm);
+                    self.drift_mm = self.drift_mm.min(bound);
                 }
             }
         }
@@ -396,6 +412,7 @@ impl LookAhead {
             // change of the period's path stays in the integrated position.
             self.drift_mm += margin;
         }
+        self.dx_before_mm = self.dx_prev_mm;
         self.dx_prev_mm = dx;
         // While the measurement shows more force than planned, the plan's shape inside a
         // row is not trusted: each row is read at its largest force.

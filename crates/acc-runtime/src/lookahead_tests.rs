@@ -521,3 +521,43 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
         .collect();
     assert_eq!(led, [None, None, Some(40)]);
 }
+
+#[test]
+fn a_block_change_bounds_the_drift_by_the_last_two_periods_paths() {
+    let plan = Plan {
+        rows: vec![
+            crate::plan::test_row(30, 0.0, 12.0, 600.0, 2000.0, 30),
+            crate::plan::test_row(31, 12.0, 100.0, 600.0, 2000.0, 30),
+        ],
+    };
+    // An instantaneous register (as above), then an override that moves between 30 and
+    // 40 % every period: each period adds the change of its path (0.1 mm) to the drift.
+    let dithered = |miss_before_change: bool| {
+        let mut la = LookAhead::new(plan.clone(), LookAheadConfig::new(0.1, 800.0, 150));
+        for (feed, pct) in [(180, 30), (210, 40), (240, 40), (180, 30)] {
+            la.step(Some(&in_force(30, feed, pct)), &force(0.0), 0.1);
+        }
+        assert!(la.instantaneous_feed);
+        let mut k = 0;
+        while la.x_mm < 11.5 {
+            let (feed, pct) = if k % 2 == 0 { (240, 40) } else { (180, 30) };
+            la.step(Some(&in_force(30, feed, pct)), &force(0.0), 0.1);
+            k += 1;
+        }
+        if miss_before_change {
+            la.step(None, &force(0.0), 0.1);
+        }
+        let before = la.drift_mm;
+        la.step(Some(&in_force(31, 240, 40)), &force(0.0), 0.1);
+        (before, la.drift_mm, la.x_mm)
+    };
+    let unit = FEED_RESOLUTION_MM_MIN * 0.1 / 60.0;
+    let (before, after, x) = dithered(false);
+    assert!(before > 2.0, "the dither's drift {before} mm");
+    assert!((12.0..=12.0 + 2.0 * (0.4 + unit)).contains(&x), "x {x} mm");
+    assert!(after <= 2.0 * (0.4 + unit) + 1e-12, "bounded to {after} mm");
+    // After a missed read the block may have begun any time since the last read: the
+    // drift is kept (and grows by the change of the path).
+    let (before, after, _) = dithered(true);
+    assert!(after >= before, "{after} < {before}");
+}
