@@ -452,9 +452,13 @@ impl LookAhead {
             (c, _) => c,
         };
         // The scale belongs to the cut it was measured in: out of the cut (a force below
-        // the cutting share, or none), and whenever plan and measurement disagree, it
-        // starts again.
-        if agree && measured.is_some_and(|f| f >= CUTTING * fr) {
+        // the cutting share where the plan has air within the position's error, or no
+        // valid force), and whenever plan and measurement disagree, it starts again. A
+        // force below the cutting share that the plan predicts in the material (a slow
+        // override through light engagement, inside the band) is the same cut: the period
+        // is not judged, so the scale stays confirmed for at most `CONFIRM_PERIODS`.
+        let in_material = band.0 > 0.0;
+        if agree && measured.is_some_and(|f| f >= CUTTING * fr || in_material) {
             self.scale.update(measured, band, fr);
         } else {
             self.scale.clear();

@@ -561,3 +561,45 @@ fn a_block_change_bounds_the_drift_by_the_last_two_periods_paths() {
     let (before, after, _) = dithered(true);
     assert!(after >= before, "{after} < {before}");
 }
+
+#[test]
+fn a_slow_period_in_the_material_keeps_the_cuts_scale_air_clears_it() {
+    let plan = Plan {
+        rows: vec![
+            row(30, 0.0, 50.0, 2000.0, 30),
+            row(31, 50.0, 100.0, 0.0, 150),
+        ],
+    };
+    let cfg = LookAheadConfig {
+        lead: true,
+        ..LookAheadConfig::new(0.1, 800.0, 150)
+    };
+    let mut la = LookAhead::new(plan, cfg);
+    // 5 % through the cut: 100 N, below the cutting share (160 N) and inside the band.
+    let slow = BoardStatus {
+        override_step_pct: 10,
+        tool_number: 1,
+        ..in_force(30, 30, 5)
+    };
+    for _ in 0..3 {
+        la.step(Some(&cutting(1)), &force(600.0), 0.1);
+    }
+    assert!(la.scale.confirmed());
+    la.step(Some(&slow), &force(100.0), 0.1);
+    assert!(la.scale.scale().is_some(), "the same cut");
+    // Back at 30 %: led at once, not after three new samples.
+    assert_eq!(
+        la.step(Some(&cutting(1)), &force(600.0), 0.1).lead_pct,
+        Some(40)
+    );
+    // Unjudged periods keep the confirmation for at most `CONFIRM_PERIODS`.
+    for _ in 0..=crate::plan_lead::CONFIRM_PERIODS {
+        la.step(Some(&slow), &force(100.0), 0.1);
+    }
+    assert!(!la.scale.confirmed());
+    assert!(la.scale.scale().is_some());
+    // The same low force where the plan has air within the position's error (the block
+    // of the air row): out of the cut, the scale starts again.
+    la.step(Some(&in_force(31, 180, 30)), &force(0.0), 0.1);
+    assert!(la.scale.scale().is_none());
+}

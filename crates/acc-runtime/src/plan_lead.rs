@@ -41,7 +41,8 @@
 //!   judged within the last [`CONFIRM_PERIODS`], within ±[`AGREE`] of the tool's scale
 //!   ([`PlanScale::recent_ratio_agrees_with`]); from then it is the command, as the lead.
 //! - **When.** Only while the scale is confirmed in the cut the tool is in: a force below
-//!   [`CUTTING`] × Fr (air: entries keep the look-ahead's cap), a failed or skipped read, a
+//!   [`CUTTING`] × Fr where the plan has air (entries keep the look-ahead's cap; below it
+//!   inside the plan's band in the material the period is not judged), a failed or skipped read, a
 //!   new tool, or any pending or declared disagreement starts the scale again; it needs
 //!   [`SCALE_MIN_SAMPLES`] samples, this period's ratio (where the plan knows the force
 //!   well) within ±[`AGREE`] of `k`, and a period judged and agreeing within the last
@@ -66,8 +67,9 @@ pub const NARROW: f64 = 0.1;
 pub const CUTTING: f64 = 0.2;
 /// No lead while the measured force is above this × Fr, −.
 pub const HIGH: f64 = 1.1;
-/// The lead needs a period judged (and agreeing) within this many periods, −.
-pub const CONFIRM_PERIODS: u32 = 2;
+/// The lead needs a period judged (and agreeing) within this many periods, − (a corner's
+/// wide band and the slow periods of its exit are not judged: four on the pocket's).
+pub const CONFIRM_PERIODS: u32 = 5;
 /// No lead while the period's ratio is off the scale by more than this (relative), −.
 pub const AGREE: f64 = 0.15;
 /// No period the lead governs is predicted above this × Fr, − (the peak target at entries
