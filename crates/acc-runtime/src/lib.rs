@@ -30,6 +30,7 @@
 /// Injected time: the one [`Clock`] of the workspace lives in acc-core (the links'
 /// deadlines, the emulators and the simulator use it too); re-exported here.
 pub use acc_pmc::clock;
+pub mod block_start;
 pub mod config;
 pub mod control_loop;
 pub mod cuts;

@@ -11,12 +11,15 @@
 //! (`LookAhead::period_path_mm`) — set on the plan by the block the board reports
 //! (`BLOCK_NUMBER`). A new block number is looked up in the plan from the block the tool
 //! was in (a program that loops meets a block again): the first visit of it that ends at or
-//! after the position. When the position is outside that visit, the block began somewhere
-//! in the last period, at most at the block's top speed (its feed × the grid's maximum, a
-//! rapid's rapid rate): the position becomes the block's start plus half that path, ± that
-//! much (the uncertainty, kept until the next such correction). A position inside the
-//! visit is kept (a block report may lag the feed by a period: the line guard holds a
-//! changed status until the next read confirms it).
+//! after the position. The block began within the periods the line guard took to confirm
+//! it (`debounce_reads`, one more for every held, failed or late read among them), each at
+//! most at the block's feed × the highest override in force in it: the tool is at most
+//! that reach past the block's start ([`crate::block_start`]). A position within the reach
+//! is kept and bounds the drift allowance; any other becomes the middle of the reach, ±
+//! half of it (the uncertainty, kept until the next such correction). Where the block may
+//! have begun before the periods remembered, a position outside the visit becomes the
+//! block's start plus half this period's path at most at the block's top speed (its feed ×
+//! the grid's maximum, a rapid's rapid rate), ± that much.
 //!
 //! **The cap.** The override written now acts after the board's override delay and the
 //! feed drive's lag, and holds until the next period's command acts: about one period plus
@@ -57,6 +60,7 @@
 use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
 
+use crate::block_start::RecentPeriods;
 use crate::plan::{Plan, PlanRow};
 use crate::plan_lead::{highest_within, PlanLead, PlanScale, CUTTING, HIGH, WINDOW_SAMPLES};
 
@@ -187,8 +191,6 @@ pub struct LookAhead {
     written: [u16; 2],
     /// Path of the period before, mm.
     dx_prev_mm: f64,
-    /// Path of the period before that, mm.
-    dx_before_mm: f64,
     /// The plan's scale for the lead.
     scale: PlanScale,
     /// The lead's choice between two grid positions.
@@ -200,7 +202,8 @@ pub struct LookAhead {
     applied_prev: Option<u16>,
     /// Bound on the drift of the integrated position since it was last set on a block's
     /// start, mm: half a unit of the register per period whose path is taken from it, a
-    /// whole period's path per period the line was not as designed.
+    /// whole period's path per period the line was not as designed; at a block change at
+    /// most the distance to the far end of the block start's reach.
     drift_mm: f64,
     /// `ACTUAL_FEED` has shown the new feed in the period an override change took effect
     /// in: the register is not the period's mean, and the window allows a whole period's
@@ -208,6 +211,12 @@ pub struct LookAhead {
     instantaneous_feed: bool,
     /// The plan's scale last confirmed for the tool in force (an earlier cut's), −.
     tool_scale: Option<f64>,
+    /// The last periods, for how far the tool can be past a block's start.
+    recent: RecentPeriods,
+    /// Consecutive reads the line guard needs to confirm a changed block number.
+    debounce_reads: u32,
+    /// The line guard held this period's read (the status is the last accepted one).
+    held: bool,
 }
 
 impl LookAhead {
@@ -236,7 +245,6 @@ impl LookAhead {
             last: LookAheadStep::default(),
             written: [0; 2],
             dx_prev_mm: 0.0,
-            dx_before_mm: 0.0,
             scale: PlanScale::default(),
             lead: PlanLead::default(),
             line_nominal: true,
@@ -244,6 +252,9 @@ impl LookAhead {
             drift_mm: 0.0,
             instantaneous_feed: false,
             tool_scale: None,
+            recent: RecentPeriods::default(),
+            debounce_reads: 2,
+            held: false,
         }
     }
 
@@ -251,6 +262,7 @@ impl LookAhead {
     /// skipped): the tool went on at about the last period's path, so the position moves
     /// by it and its uncertainty grows by it; the plan's scale starts again.
     pub fn missed(&mut self) {
+        self.recent.push(None, 0.0, false);
         self.applied_prev = None;
         self.x_mm += self.dx_prev_mm;
         self.unc_mm += self.dx_prev_mm;
@@ -264,6 +276,19 @@ impl LookAhead {
     /// its window assumes the command acts within `command_delay_s`.
     pub fn set_line_nominal(&mut self, nominal: bool) {
         self.line_nominal = nominal;
+    }
+
+    /// Whether the line guard held this period's read ([`crate::guard`]: the status given
+    /// to [`LookAhead::step`] is then the last accepted one, and a block change it was
+    /// confirming waits a period longer).
+    pub fn set_read_held(&mut self, held: bool) {
+        self.held = held;
+    }
+
+    /// The line guard's `debounce_reads` (1 ..= 10): a changed block number is reported
+    /// that many reads after the board first showed it.
+    pub fn set_debounce_reads(&mut self, reads: u32) {
+        self.debounce_reads = reads.clamp(1, 10);
     }
 
     /// The loop wrote `cmd_pct` (percent) this period: until the board applies it, the tool
@@ -291,19 +316,6 @@ impl LookAhead {
         self.last
     }
 
-    /// The first row of the visit of `block` (low 16 bits) the tool at `x` (mm) can be in:
-    /// the first visit from the one before `from` (or the start) that ends at or after
-    /// `x`, wrapping once.
-    fn find_visit(&self, block: u16, from: Option<usize>, x: f64) -> Option<usize> {
-        let n = self.plan.rows.len();
-        let start = from.unwrap_or(0);
-        let is_start = |i: usize| i == 0 || self.plan.rows[i - 1].block != self.plan.rows[i].block;
-        let ok = |i: usize| is_start(i) && (self.plan.rows[i].block & 0xFFFF) as u16 == block;
-        (start..n)
-            .find(|&i| ok(i) && self.plan.rows[self.visit_end[i]].end_mm >= x - 1e-9)
-            .or_else(|| (start..n).chain(0..start.min(n)).find(|&i| ok(i)))
-    }
-
     /// One period: the status read (`None`: the read failed), the force sample, the
     /// control period `period_s` (s).
     pub fn step(
@@ -328,6 +340,7 @@ impl LookAhead {
             self.tool_scale = None;
         }
         if !s.is_v2() || s.block_number == 0 {
+            self.recent.push(None, 0.0, false);
             self.scale.clear();
             self.applied_prev = None;
             self.visit = None;
@@ -339,10 +352,18 @@ impl LookAhead {
             return self.last;
         }
         let v = f64::from(s.actual_feed_mm_min);
-        // The path the NC reports, whatever the block (a block report may lag a period
-        // behind the feed: the line guard holds a changed status until it is confirmed).
-        // The period before was read, at the override read before it, without a feed hold.
-        let read_before = self.applied_prev.is_some();
+        // The highest override that may have been in force this period: the one applied at
+        // both reads around it and the commands written that may have acted in it (not
+        // known after a failed read or a feed hold, nor from a status the guard held).
+        let top_pct = self.applied_prev.filter(|_| !self.held).map(|p| {
+            p.max(s.override_applied_pct)
+                .max(self.written[0])
+                .max(self.written[1])
+        });
+        let fresh = !self.held && self.line_nominal && !s.feed_hold_active;
+        self.recent.push(top_pct, v, fresh);
+        // The path the NC reports, whatever the block (the block report lags the feed by
+        // the line guard's confirmation).
         let (dx, exact) = self.period_path_mm(s, v, period_s);
         self.x_mm += dx;
         if !self.line_nominal {
@@ -355,36 +376,7 @@ impl LookAhead {
             self.last_block = Some(s.block_number);
             self.visit = self.find_visit(s.block_number, self.visit, self.x_mm);
             if let Some(i) = self.visit {
-                let (start, end) = (
-                    self.plan.rows[i].start_mm,
-                    self.plan.rows[self.visit_end[i]].end_mm,
-                );
-                if !(start..=end).contains(&self.x_mm) {
-                    // The block began somewhere in the last period, at most at the block's
-                    // own top speed (its feed × the grid's maximum, a rapid's rapid rate).
-                    let r = &self.plan.rows[i];
-                    let top = if r.rapid {
-                        r.feed_mm_min
-                    } else {
-                        r.feed_mm_min * f64::from(self.cfg.max_pct) / 100.0
-                    };
-                    let d = dx.min(top * period_s / 60.0);
-                    self.x_mm = start + 0.5 * d;
-                    self.unc_mm = 0.5 * d;
-                    // A period longer than designed may have carried the tool farther.
-                    self.drift_mm = if self.line_nominal { 0.0 } else { dx };
-                } else if self.line_nominal && read_before {
-                    // The block began within the last two periods (its report may lag one).
-                    // Each period's feed lies between the feeds read at its ends, so each
-                    // path is at most the longest of the last three read, to half a unit
-                    // of the register: the true position lies in `start ..= reach`, which
-                    // bounds the drift too.
-                    let path = dx.max(self.dx_prev_mm).max(self.dx_before_mm)
-                        + FEED_RESOLUTION_MM_MIN * period_s / 60.0;
-                    let reach = start + 2.0 * path;
-                    let bound = (self.x_mm - start).max(reach - self.x_mm);
-                    self.drift_mm = self.drift_mm.min(bound);
-                }
+                self.place_at_block_start(i, dx, period_s);
             }
         }
         if self.visit.is_none() {
@@ -412,7 +404,6 @@ impl LookAhead {
             // change of the period's path stays in the integrated position.
             self.drift_mm += margin;
         }
-        self.dx_before_mm = self.dx_prev_mm;
         self.dx_prev_mm = dx;
         // While the measurement shows more force than planned, the plan's shape inside a
         // row is not trusted: each row is read at its largest force.
@@ -452,13 +443,18 @@ impl LookAhead {
             (c, _) => c,
         };
         // The scale belongs to the cut it was measured in: out of the cut (a force below
-        // the cutting share where the plan has air within the position's error, or no
-        // valid force), and whenever plan and measurement disagree, it starts again. A
-        // force below the cutting share that the plan predicts in the material (a slow
-        // override through light engagement, inside the band) is the same cut: the period
+        // the cutting share, unless the plan has the tool in the material wherever it can
+        // be and the force is at least the band's lowest (> 0) less its relative tolerance; or no
+        // valid force), and whenever plan and measurement disagree, it starts again. Such
+        // a force (a slow override through light engagement) is the same cut: the period
         // is not judged, so the scale stays confirmed for at most `CONFIRM_PERIODS`.
-        let in_material = band.0 > 0.0;
-        if agree && measured.is_some_and(|f| f >= CUTTING * fr || in_material) {
+        let same_cut = |f: f64| {
+            f >= CUTTING * fr
+                || (band.0 > 0.0
+                    && f >= band.0 * (1.0 - self.cfg.tolerance)
+                    && self.in_material(x, dx))
+        };
+        if agree && measured.is_some_and(same_cut) {
             self.scale.update(measured, band, fr);
         } else {
             self.scale.clear();
@@ -525,11 +521,7 @@ impl LookAhead {
     /// (`drift_mm`, [`LookAhead::period_path_mm`]; at least one period's path once the
     /// register has shown itself an instantaneous value) either way.
     fn window(&self, x: f64, dx: f64, unc_mm: f64, in_force_pct: u16) -> (f64, f64, f64) {
-        let drift = if self.instantaneous_feed {
-            self.drift_mm.max(dx)
-        } else {
-            self.drift_mm
-        };
+        let drift = self.drift_allowance(dx);
         let here = x - drift;
         let ahead = self.plan.advance(x, in_force_pct, self.cfg.command_delay_s);
         (here - unc_mm, ahead + unc_mm + drift, here)
@@ -570,45 +562,6 @@ impl LookAhead {
         let pick = lead.choose(self.cfg.max_pct, s.override_step_pct, fr, worst, here);
         self.lead = lead;
         pick
-    }
-
-    /// The path of the period that ended, mm, and whether it is exact: where the override
-    /// applied is the one of the read before, no feed hold, and the tool stayed in the feed
-    /// of one plan row of the block, the path is that row's programmed feed × the override,
-    /// as long as the register agrees with it to its rounding (`v`, mm/min); otherwise the
-    /// register's `v` (a whole number of mm/min: off by up to half a unit). A period in
-    /// which an override change took effect and the register already shows the new feed
-    /// marks the register as instantaneous (`instantaneous_feed`).
-    fn period_path_mm(&mut self, s: &BoardStatus, v: f64, period_s: f64) -> (f64, bool) {
-        let applied = s.override_applied_pct;
-        let prev = self.applied_prev;
-        self.applied_prev = (!s.feed_hold_active).then_some(applied);
-        let reported = v * period_s / 60.0;
-        let Some(prev) = prev.filter(|_| !s.feed_hold_active) else {
-            return (reported, false);
-        };
-        let (a, b) = (
-            &self.plan.rows[self.plan.row_at(self.x_mm)],
-            &self.plan.rows[self.plan.row_at(self.x_mm + reported)],
-        );
-        if a.rapid || b.rapid || a.block != b.block || a.feed_mm_min != b.feed_mm_min {
-            return (reported, false);
-        }
-        let at = |pct: u16| a.feed_mm_min * f64::from(pct) / 100.0;
-        let close = |f: f64| (f - v).abs() <= FEED_RESOLUTION_MM_MIN + 1e-9;
-        if prev != applied {
-            // A period mean lies between the old feed and the new one; the new feed itself,
-            // with the two far enough apart, is an instantaneous value.
-            if (at(applied) - at(prev)).abs() > 4.0 * FEED_RESOLUTION_MM_MIN && close(at(applied)) {
-                self.instantaneous_feed = true;
-            }
-            return (reported, false);
-        }
-        if close(at(applied)) {
-            (at(applied) * period_s / 60.0, true)
-        } else {
-            (reported, false)
-        }
     }
 
     /// The entry's cap ([`crate::plan_lead`], "Entries"): the highest position of the
@@ -748,6 +701,9 @@ impl LookAhead {
         (o.floor() as u16).max(planned)
     }
 }
+
+#[path = "lookahead_position.rs"]
+mod position;
 
 #[cfg(test)]
 #[path = "lookahead_tests.rs"]

@@ -44,8 +44,9 @@
 //!   [`CUTTING`] × Fr where the plan has air (entries keep the look-ahead's cap; below it
 //!   inside the plan's band in the material the period is not judged), a failed or skipped read, a
 //!   new tool, or any pending or declared disagreement starts the scale again; it needs
-//!   [`SCALE_MIN_SAMPLES`] samples, this period's ratio (where the plan knows the force
-//!   well) within ±[`AGREE`] of `k`, and a period judged and agreeing within the last
+//!   [`SCALE_MIN_SAMPLES`] samples, this period agreeing with `k` (its ratio within
+//!   ±[`AGREE`] where the plan knows the force well, elsewhere its force within the band ×
+//!   `k`, ±[`AGREE`]), and a period judged and agreeing within the last
 //!   [`CONFIRM_PERIODS`]. Also: the measured force at most [`HIGH`] × Fr, the tool located
 //!   on the plan, no feed hold, and the line as designed (no longer echo delay, late
 //!   periods or lagging samples: the window assumes the command acts within the command
@@ -118,8 +119,11 @@ impl PlanScale {
             && hi - lo <= 2.0 * NARROW * mid
             && f > CUTTING * force_ref_n;
         if !known {
-            // Nothing to judge by: the period neither adds a sample nor breaks agreement.
-            self.agrees = true;
+            // Nothing to judge the ratio by: the period adds no sample, and agrees unless
+            // the force is outside the band at the scale, ± `AGREE`.
+            self.agrees = self.scale().is_none_or(|k| {
+                lo.is_finite() && f >= k * lo * (1.0 - AGREE) && f <= k * hi * (1.0 + AGREE)
+            });
             return;
         }
         let r = f / mid;
@@ -254,6 +258,18 @@ mod tests {
         s.update(Some(600.0), (480.0, 520.0), 800.0);
         assert!(s.agrees());
         s.update(None, (480.0, 520.0), 800.0);
+        assert!(!s.agrees());
+        // With a scale (1.2), a period that cannot be judged still agrees only inside the
+        // band at the scale, ± 15 %: 200…800 N → 204…1 104 N.
+        s.update(Some(600.0), (480.0, 520.0), 800.0);
+        s.update(Some(1000.0), (200.0, 800.0), 800.0);
+        assert!(s.agrees());
+        s.update(Some(1150.0), (200.0, 800.0), 800.0);
+        assert!(!s.agrees());
+        // A force below the cutting share, where the band is narrow: 100 N planned.
+        s.update(Some(115.0), (95.0, 105.0), 800.0);
+        assert!(s.agrees());
+        s.update(Some(60.0), (95.0, 105.0), 800.0);
         assert!(!s.agrees());
         s.clear();
         assert!(s.scale().is_none());
