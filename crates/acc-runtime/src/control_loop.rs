@@ -326,8 +326,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// Run with a plan's look-ahead ([`crate::lookahead`]): every period, after the shop
     /// layer, its cap joins the command limits (the lower cap wins), so the plan can only
     /// lower the law's command.
-    pub fn with_lookahead(mut self, mut lookahead: crate::lookahead::LookAhead) -> Self {
-        lookahead.set_debounce_reads(self.policy.config().guard().debounce_reads);
+    pub fn with_lookahead(mut self, lookahead: crate::lookahead::LookAhead) -> Self {
         self.lookahead = Some(lookahead);
         self
     }
@@ -537,6 +536,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             // The lead's window assumes the designed loop delay.
             la.set_line_nominal(delay.as_designed());
             la.set_read_held(held);
+            if let Ok(raw) = read {
+                la.set_raw_block(raw.block_number);
+            }
             let st = la.step(link.as_ref().ok(), &force, self.period_s);
             let mut limits = if self.shop.is_some() {
                 self.policy.command_limits()

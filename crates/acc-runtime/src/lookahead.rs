@@ -11,15 +11,16 @@
 //! (`LookAhead::period_path_mm`) — set on the plan by the block the board reports
 //! (`BLOCK_NUMBER`). A new block number is looked up in the plan from the block the tool
 //! was in (a program that loops meets a block again): the first visit of it that ends at or
-//! after the position. The block began within the periods the line guard took to confirm
-//! it (`debounce_reads`, one more for every held, failed or late read among them), each at
-//! most at the block's feed × the highest override in force in it: the tool is at most
-//! that reach past the block's start ([`crate::block_start`]). A position within the reach
-//! is kept and bounds the drift allowance; any other becomes the middle of the reach, ±
-//! half of it (the uncertainty, kept until the next such correction). Where the block may
-//! have begun before the periods remembered, a position outside the visit becomes the
-//! block's start plus half this period's path at most at the block's top speed (its feed ×
-//! the grid's maximum, a rapid's rapid rate), ± that much.
+//! after the position. The block began after the last read whose raw block number (before
+//! the line guard's confirmation) was still the old one, each period since at most at the
+//! top speed of the rows it can have crossed × the highest override in force in it: the
+//! tool is at most that reach past the block's start ([`crate::block_start`]). A position
+//! within the reach is kept and bounds the drift allowance; any other becomes the middle
+//! of the reach, ± half of it (the uncertainty, kept until the next such correction).
+//! Without that bound (the run's first block, a late period, more periods than
+//! remembered) a position inside the visit is kept, and one outside becomes the block's
+//! start plus half the path the register read since the old block was last read, ± that
+//! much.
 //!
 //! **The cap.** The override written now acts after the board's override delay and the
 //! feed drive's lag, and holds until the next period's command acts: about one period plus
@@ -213,8 +214,10 @@ pub struct LookAhead {
     tool_scale: Option<f64>,
     /// The last periods, for how far the tool can be past a block's start.
     recent: RecentPeriods,
-    /// Consecutive reads the line guard needs to confirm a changed block number.
-    debounce_reads: u32,
+    /// Periods since the last read whose raw block number was the block reported then.
+    since_old: u32,
+    /// This period's raw block number, before the line guard ([`LookAhead::set_raw_block`]).
+    raw_block: Option<u16>,
     /// The line guard held this period's read (the status is the last accepted one).
     held: bool,
 }
@@ -253,7 +256,8 @@ impl LookAhead {
             instantaneous_feed: false,
             tool_scale: None,
             recent: RecentPeriods::default(),
-            debounce_reads: 2,
+            since_old: 0,
+            raw_block: None,
             held: false,
         }
     }
@@ -262,7 +266,9 @@ impl LookAhead {
     /// skipped): the tool went on at about the last period's path, so the position moves
     /// by it and its uncertainty grows by it; the plan's scale starts again.
     pub fn missed(&mut self) {
-        self.recent.push(None, 0.0, false);
+        self.recent.push(None, 0.0, self.line_nominal);
+        self.since_old = self.since_old.saturating_add(1);
+        self.raw_block = None;
         self.applied_prev = None;
         self.x_mm += self.dx_prev_mm;
         self.unc_mm += self.dx_prev_mm;
@@ -285,10 +291,11 @@ impl LookAhead {
         self.held = held;
     }
 
-    /// The line guard's `debounce_reads` (1 ..= 10): a changed block number is reported
-    /// that many reads after the board first showed it.
-    pub fn set_debounce_reads(&mut self, reads: u32) {
-        self.debounce_reads = reads.clamp(1, 10);
+    /// The block number of this period's raw read, before the line guard confirms a change
+    /// ([`crate::guard`]): a new block began after the last read whose raw number was still
+    /// the block reported then. Without it, the reported number is taken as the raw one.
+    pub fn set_raw_block(&mut self, raw: u16) {
+        self.raw_block = Some(raw);
     }
 
     /// The loop wrote `cmd_pct` (percent) this period: until the board applies it, the tool
@@ -332,6 +339,14 @@ impl LookAhead {
             self.last.lead_pct = None;
             return self.last;
         };
+        // The periods since the old block was last read raw (the reported number lags the
+        // raw one while the line guard confirms a change).
+        let raw = self.raw_block.take().unwrap_or(s.block_number);
+        self.since_old = if Some(raw) == self.last_block {
+            0
+        } else {
+            self.since_old.saturating_add(1)
+        };
         // The plan's scale belongs to the tool that was measured in the program that ran: a
         // new tool or program starts again.
         if self.last_tool_program != Some((s.tool_number, s.program_number)) {
@@ -340,7 +355,7 @@ impl LookAhead {
             self.tool_scale = None;
         }
         if !s.is_v2() || s.block_number == 0 {
-            self.recent.push(None, 0.0, false);
+            self.recent.push(None, 0.0, self.line_nominal);
             self.scale.clear();
             self.applied_prev = None;
             self.visit = None;
@@ -360,8 +375,7 @@ impl LookAhead {
                 .max(self.written[0])
                 .max(self.written[1])
         });
-        let fresh = !self.held && self.line_nominal && !s.feed_hold_active;
-        self.recent.push(top_pct, v, fresh);
+        self.recent.push(top_pct, v, self.line_nominal);
         // The path the NC reports, whatever the block (the block report lags the feed by
         // the line guard's confirmation).
         let (dx, exact) = self.period_path_mm(s, v, period_s);
@@ -372,12 +386,18 @@ impl LookAhead {
         } else if !exact {
             self.drift_mm += FEED_RESOLUTION_MM_MIN * period_s / 60.0;
         }
-        if self.last_block != Some(s.block_number) || self.visit.is_none() {
+        let prior = self.last_block;
+        if prior != Some(s.block_number) || self.visit.is_none() {
             self.last_block = Some(s.block_number);
             self.visit = self.find_visit(s.block_number, self.visit, self.x_mm);
             if let Some(i) = self.visit {
-                self.place_at_block_start(i, dx, period_s);
+                let changed = prior.is_some_and(|b| b != s.block_number);
+                self.place_at_block_start(i, changed, dx, period_s);
             }
+        }
+        if raw == s.block_number {
+            // The block reported now is the one read: the next change counts from here.
+            self.since_old = 0;
         }
         if self.visit.is_none() {
             self.scale.clear();

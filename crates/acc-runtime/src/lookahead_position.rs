@@ -21,23 +21,23 @@ impl LookAhead {
             .or_else(|| (start..n).chain(0..start.min(n)).find(|&i| ok(i)))
     }
 
-    /// A new block was reported, its visit starting at row `i`: the tool is at most
-    /// [`RecentPeriods::reach_mm`] past the block's start. A position within that keeps,
-    /// and bounds the drift allowance to it; any other is set to the middle of it, ± half
-    /// of it (the uncertainty, kept until the next block change). Where the block may have
-    /// begun before the periods remembered, a position outside the visit is set to the
-    /// start plus half this period's path at most at the block's top speed (its feed × the
-    /// grid's maximum, a rapid's rapid rate), ± that much.
-    pub(super) fn place_at_block_start(&mut self, i: usize, dx: f64, period_s: f64) {
-        let r = &self.plan.rows[i];
-        let (start, end) = (r.start_mm, self.plan.rows[self.visit_end[i]].end_mm);
-        let reach = self.recent.reach_mm(
-            r.feed_mm_min,
-            r.rapid,
-            self.debounce_reads,
-            self.cfg.max_pct,
-            period_s,
-        );
+    /// A new block was reported, its visit starting at row `i`; `changed`: the block
+    /// reported before was another known one (not the run's first, nor one after the tool
+    /// was lost). The tool is then at most [`LookAhead::block_reach_mm`] past the block's
+    /// start: a position within that reach is kept and bounds the drift allowance; any
+    /// other becomes the middle of the reach, ± half of it (the uncertainty, kept until the
+    /// next block change). Without that bound (the run's first block, a period the line ran
+    /// late, more periods than remembered) a position inside the visit is kept; one outside
+    /// becomes the start plus half the path the register read since the old block was last
+    /// read (at least this period's), ± that much.
+    pub(super) fn place_at_block_start(&mut self, i: usize, changed: bool, dx: f64, period_s: f64) {
+        let start = self.plan.rows[i].start_mm;
+        let end = self.plan.rows[self.visit_end[i]].end_mm;
+        let reach = if changed {
+            self.block_reach_mm(i, period_s)
+        } else {
+            None
+        };
         match reach {
             Some(h) if (start..=start + h).contains(&self.x_mm) => {
                 let bound = (self.x_mm - start).max(start + h - self.x_mm);
@@ -49,12 +49,10 @@ impl LookAhead {
                 self.drift_mm = 0.0;
             }
             None if !(start..=end).contains(&self.x_mm) => {
-                let top = if r.rapid {
-                    r.feed_mm_min
-                } else {
-                    r.feed_mm_min * f64::from(self.cfg.max_pct) / 100.0
-                };
-                let d = dx.min(top * period_s / 60.0);
+                let d = self
+                    .recent
+                    .read_path_mm(self.since_old as usize, period_s)
+                    .max(dx);
                 self.x_mm = start + 0.5 * d;
                 self.unc_mm = 0.5 * d;
                 // A period longer than designed may have carried the tool farther.
@@ -62,6 +60,43 @@ impl LookAhead {
             }
             None => {}
         }
+    }
+
+    /// How far the tool can be past the start of the block whose visit starts at row `i`,
+    /// mm ([`crate::block_start::RecentPeriods::reach_mm`]): over the periods since the old block was last
+    /// read raw (`since_old`), each at the highest top speed of the rows from the block's
+    /// start to the reach (a rapid at its rapid rate, a feed row at its feed × the period's
+    /// highest override, the grid's maximum where that is not known), the rows widened
+    /// until the reach no longer leaves them. `None` without a bound.
+    fn block_reach_mm(&self, i: usize, period_s: f64) -> Option<f64> {
+        let rows = &self.plan.rows;
+        let start = rows[i].start_mm;
+        let max_pct = self.cfg.max_pct;
+        let mut last = self.visit_end[i];
+        for _ in 0..8 {
+            let span = &rows[i..=last];
+            let speed = |pct: Option<u16>| {
+                let pct = f64::from(pct.unwrap_or(max_pct));
+                span.iter()
+                    .map(|r| {
+                        if r.rapid {
+                            r.feed_mm_min
+                        } else {
+                            r.feed_mm_min * pct / 100.0
+                        }
+                    })
+                    .fold(0.0, f64::max)
+            };
+            let h = self
+                .recent
+                .reach_mm(self.since_old as usize, speed, period_s)?;
+            let to = self.plan.row_at(start + h).max(last);
+            if to == last {
+                return Some(h);
+            }
+            last = to;
+        }
+        None
     }
 
     /// Whether the plan has the tool in the material wherever it can be in the period that
@@ -93,7 +128,9 @@ impl LookAhead {
     pub(super) fn period_path_mm(&mut self, s: &BoardStatus, v: f64, period_s: f64) -> (f64, bool) {
         let applied = s.override_applied_pct;
         let prev = self.applied_prev;
-        self.applied_prev = (!s.feed_hold_active).then_some(applied);
+        // A status the line guard held is the last accepted one: the override applied now
+        // is not known.
+        self.applied_prev = (!s.feed_hold_active && !self.held).then_some(applied);
         let reported = v * period_s / 60.0;
         let Some(prev) = prev.filter(|_| !s.feed_hold_active) else {
             return (reported, false);
