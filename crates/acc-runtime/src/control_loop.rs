@@ -297,6 +297,8 @@ pub struct ControlLoop<L, F> {
     log_stalled: bool,
     /// The plan's look-ahead, if any ([`ControlLoop::with_lookahead`]).
     lookahead: Option<crate::lookahead::LookAhead>,
+    /// The ticker woke this period past its deadline ([`ControlLoop::set_period_late`]).
+    period_late: bool,
 }
 
 impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
@@ -320,6 +322,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             shop: None,
             log_stalled: false,
             lookahead: None,
+            period_late: false,
         }
     }
 
@@ -334,6 +337,13 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// The look-ahead, if any.
     pub fn lookahead(&self) -> Option<&crate::lookahead::LookAhead> {
         self.lookahead.as_ref()
+    }
+
+    /// Whether the ticker woke for the period about to be decided past its deadline (an
+    /// overrun): the period may have lasted longer than the control period, so the plan's
+    /// lead does not act and the look-ahead sets no bound over it.
+    pub fn set_period_late(&mut self, late: bool) {
+        self.period_late = late;
     }
 
     /// Run with the shop layer (tool table by `TOOL_NUMBER`, entry control): see
@@ -534,7 +544,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
                 la.set_force_ref_n(fr);
             }
             // The lead's window assumes the designed loop delay.
-            la.set_line_nominal(delay.as_designed());
+            la.set_line_nominal(delay.as_designed() && !self.period_late);
             la.set_read_held(held);
             if let Ok(raw) = read {
                 la.set_raw_block(raw.block_number);

@@ -341,8 +341,10 @@ impl LookAhead {
         };
         // The periods since the old block was last read raw (the reported number lags the
         // raw one while the line guard confirms a change).
-        let raw = self.raw_block.take().unwrap_or(s.block_number);
-        self.since_old = if Some(raw) == self.last_block {
+        // A read the guard held is suspect (a stale frame may show the old block): it never
+        // restarts the count.
+        let raw = Some(self.raw_block.take().unwrap_or(s.block_number)).filter(|_| !self.held);
+        self.since_old = if raw.is_some() && raw == self.last_block {
             0
         } else {
             self.since_old.saturating_add(1)
@@ -395,7 +397,7 @@ impl LookAhead {
                 self.place_at_block_start(i, changed, dx, period_s);
             }
         }
-        if raw == s.block_number {
+        if raw == Some(s.block_number) {
             // The block reported now is the one read: the next change counts from here.
             self.since_old = 0;
         }

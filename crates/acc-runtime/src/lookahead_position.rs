@@ -22,8 +22,8 @@ impl LookAhead {
     }
 
     /// A new block was reported, its visit starting at row `i`; `changed`: the block
-    /// reported before was another known one (not the run's first, nor one after the tool
-    /// was lost). The tool is then at most [`LookAhead::block_reach_mm`] past the block's
+    /// reported before had another number (not the run's first, nor after a v1 board's or
+    /// a zero block number). The tool is then at most [`LookAhead::block_reach_mm`] past the block's
     /// start: a position within that reach is kept and bounds the drift allowance; any
     /// other becomes the middle of the reach, ± half of it (the uncertainty, kept until the
     /// next block change). Without that bound (the run's first block, a period the line ran

@@ -603,6 +603,18 @@ fn a_block_change_bounds_the_position_by_the_periods_it_may_have_begun_in() {
         }),
         0.4 + 1.5 + 1.5,
     );
+    // A held read that shows the old block (a stale frame) does not restart the count.
+    bounded(
+        change(10.4, &|la| {
+            raw_31(la);
+            la.set_read_held(true);
+            la.set_raw_block(30);
+            la.step(Some(&in_force(30, 240, 40)), &force(0.0), 0.1);
+            la.set_read_held(false);
+            raw_31(la);
+        }),
+        0.4 + 1.5 + 1.5 + 0.4,
+    );
     // A failed read: its period and the next, whose override at the start is not known.
     bounded(
         change(11.2, &|la| {

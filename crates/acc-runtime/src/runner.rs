@@ -445,6 +445,7 @@ where
                         control.link_reopened();
                     }
                     control.writes_done(&msg.writes);
+                    control.set_period_late(msg.overrun);
                     let rec = control.decide(msg.t_s * time_scale, msg.link);
                     out_of_cut.store(
                         control.policy().state() != AccState::Active
