@@ -340,9 +340,8 @@ impl LookAhead {
             return self.last;
         };
         // The periods since the old block was last read raw (the reported number lags the
-        // raw one while the line guard confirms a change).
-        // A read the guard held is suspect (a stale frame may show the old block): it never
-        // restarts the count.
+        // raw one while the line guard confirms a change). A read the guard held is suspect
+        // (a stale frame may show the old block): it never restarts the count.
         let raw = Some(self.raw_block.take().unwrap_or(s.block_number)).filter(|_| !self.held);
         self.since_old = if raw.is_some() && raw == self.last_block {
             0
@@ -466,10 +465,10 @@ impl LookAhead {
         };
         // The scale belongs to the cut it was measured in: out of the cut (a force below
         // the cutting share, unless the plan has the tool in the material wherever it can
-        // be and the force is at least the band's lowest (> 0) less its relative tolerance; or no
-        // valid force), and whenever plan and measurement disagree, it starts again. Such
-        // a force (a slow override through light engagement) is the same cut: the period
-        // is not judged, so the scale stays confirmed for at most `CONFIRM_PERIODS`.
+        // be and the force is at least the band's lowest (> 0) less its relative tolerance;
+        // or no valid force), and whenever plan and measurement disagree, it starts again.
+        // Such a force (a slow override through light engagement) is the same cut: the
+        // period is not judged, so the scale stays confirmed for at most `CONFIRM_PERIODS`.
         let same_cut = |f: f64| {
             f >= CUTTING * fr
                 || (band.0 > 0.0
@@ -660,11 +659,7 @@ impl LookAhead {
             // the time it spends in the row.
             let reach = |c: u16| {
                 let pct = in_force_pct.max(cap.min(c).min(self.cfg.max_pct)).max(1);
-                let speed = if r.rapid {
-                    r.feed_mm_min
-                } else {
-                    r.feed_mm_min * f64::from(pct) / 100.0
-                } / 60.0;
+                let speed = r.speed_mm_min(pct) / 60.0;
                 let t = if speed > 0.0 {
                     (len - free) / speed
                 } else {

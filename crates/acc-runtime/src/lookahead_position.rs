@@ -22,14 +22,14 @@ impl LookAhead {
     }
 
     /// A new block was reported, its visit starting at row `i`; `changed`: the block
-    /// reported before had another number (not the run's first, nor after a v1 board's or
-    /// a zero block number). The tool is then at most [`LookAhead::block_reach_mm`] past the block's
-    /// start: a position within that reach is kept and bounds the drift allowance; any
-    /// other becomes the middle of the reach, ± half of it (the uncertainty, kept until the
-    /// next block change). Without that bound (the run's first block, a period the line ran
-    /// late, more periods than remembered) a position inside the visit is kept; one outside
-    /// becomes the start plus half the path the register read since the old block was last
-    /// read (at least this period's), ± that much.
+    /// reported before had another number (not the run's first, nor after a v1 board's or a
+    /// zero block number). The tool is then at most [`LookAhead::block_reach_mm`] past the
+    /// block's start: a position within that reach is kept and bounds the drift allowance;
+    /// any other becomes the middle of the reach, ± half of it (the uncertainty, kept until
+    /// the next block change). Without that bound (the run's first block, a period the line
+    /// ran late, more periods than remembered) a position inside the visit is kept; one
+    /// outside becomes the start plus half the path the register read since the old block
+    /// was last read (at least this period's), ± that much.
     pub(super) fn place_at_block_start(&mut self, i: usize, changed: bool, dx: f64, period_s: f64) {
         let start = self.plan.rows[i].start_mm;
         let end = self.plan.rows[self.visit_end[i]].end_mm;
@@ -63,9 +63,9 @@ impl LookAhead {
     }
 
     /// How far the tool can be past the start of the block whose visit starts at row `i`,
-    /// mm ([`crate::block_start::RecentPeriods::reach_mm`]): over the periods since the old block was last
-    /// read raw (`since_old`), each at the highest top speed of the rows from the block's
-    /// start to the reach (a rapid at its rapid rate, a feed row at its feed × the period's
+    /// mm ([`crate::block_start::RecentPeriods::reach_mm`]): over the periods since the
+    /// old block was last read raw (`since_old`), each at the highest speed of the rows
+    /// from the block's start to the reach ([`PlanRow::speed_mm_min`] at the period's
     /// highest override, the grid's maximum where that is not known), the rows widened
     /// until the reach no longer leaves them. `None` without a bound.
     fn block_reach_mm(&self, i: usize, period_s: f64) -> Option<f64> {
@@ -76,16 +76,8 @@ impl LookAhead {
         for _ in 0..8 {
             let span = &rows[i..=last];
             let speed = |pct: Option<u16>| {
-                let pct = f64::from(pct.unwrap_or(max_pct));
-                span.iter()
-                    .map(|r| {
-                        if r.rapid {
-                            r.feed_mm_min
-                        } else {
-                            r.feed_mm_min * pct / 100.0
-                        }
-                    })
-                    .fold(0.0, f64::max)
+                let pct = pct.unwrap_or(max_pct);
+                span.iter().map(|r| r.speed_mm_min(pct)).fold(0.0, f64::max)
             };
             let h = self
                 .recent

@@ -115,6 +115,17 @@ impl PlanRow {
         f100_n * (feed_mm_min / self.feed_mm_min).powf(self.feed_exponent)
     }
 
+    /// The tool's speed along this stretch at override `pct` (%), mm/min: the programmed
+    /// feed × the override; a rapid at its rapid rate, which the feed override does not
+    /// scale.
+    pub fn speed_mm_min(&self, pct: u16) -> f64 {
+        if self.rapid {
+            self.feed_mm_min
+        } else {
+            self.feed_mm_min * f64::from(pct) / 100.0
+        }
+    }
+
     /// Whether the tool cuts along this stretch (a predicted force).
     pub fn cuts(&self) -> bool {
         self.force_100_n > 0.0
@@ -488,14 +499,9 @@ impl Plan {
         let mut i = self.row_at(x);
         let mut at = x.max(rows[i].start_mm);
         let mut left_s = time_s;
-        let scale = f64::from(pct.max(1)) / 100.0;
         loop {
             let r: &PlanRow = &rows[i];
-            let speed = if r.rapid {
-                r.feed_mm_min
-            } else {
-                r.feed_mm_min * scale
-            } / 60.0;
+            let speed = r.speed_mm_min(pct.max(1)) / 60.0;
             let len = (r.end_mm - at).max(0.0);
             let t = if speed > 0.0 {
                 len / speed
