@@ -4,8 +4,6 @@
 //! the unit circle, and the integral-only pole.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
 use acc_core::poles::{assign, assign_integral, DesiredPoles, PoleError};
 use acc_core::stability::{
     fixed_gain_stable_range, integral_pole, jury, kc_ratio_margin, pi_coefficients, pi_poles,
@@ -200,7 +198,7 @@ fn controller_closed_loop_error_follows_the_assigned_poles() {
         DesiredPoles::Complex { re: 0.5, im: 0.3 },
     ] {
         let mut ctl = Controller::new(exact_config(ModeConfig::AdaptivePi { poles }, kc)).unwrap();
-        let out = common::run(&mut ctl, FeedOverride(100), 40, |_| kc, true);
+        let out = crate::common::run(&mut ctl, FeedOverride(100), 40, |_| kc, true);
         let e: Vec<f64> = out.iter().map(|(o, _)| o.trace.error_n).collect();
         assert!(e[0].abs() > 100.0, "needs a non-trivial transient");
         for i in 3..e.len() {
@@ -220,7 +218,7 @@ fn integral_only_controller_error_decays_by_its_pole() {
     for pole in [0.5, 0.1, -0.3] {
         let mut ctl =
             Controller::new(exact_config(ModeConfig::AdaptiveIntegral { pole }, kc)).unwrap();
-        let out = common::run(&mut ctl, FeedOverride(100), 20, |_| kc, true);
+        let out = crate::common::run(&mut ctl, FeedOverride(100), 20, |_| kc, true);
         assert_eq!(out[5].0.trace.kp, 0.0);
         let e: Vec<f64> = out.iter().map(|(o, _)| o.trace.error_n).collect();
         for i in 2..e.len() {

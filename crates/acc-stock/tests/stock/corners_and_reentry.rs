@@ -2,12 +2,10 @@
 //! cut-through slot (air → partial → full), a second pass, a second level, plunges, ramps
 //! and rapids.
 
-mod common;
-
 use std::f64::consts::PI;
 
+use crate::common::*;
 use acc_stock::{Cutter, Move, Spindle, StepKind, Sweep, SweepOptions};
-use common::*;
 
 #[test]
 fn inside_corner_of_a_pocket_peaks_the_engagement() {

@@ -1,12 +1,10 @@
 //! Removed volume against the analytic volume, and conservation (what the steps report is
 //! what the stock lost).
 
-mod common;
-
 use std::f64::consts::PI;
 
+use crate::common::*;
 use acc_stock::{zigzag_pocket, Move, ZigZag};
-use common::*;
 
 #[test]
 fn zigzag_pocket_removes_the_analytic_volume() {

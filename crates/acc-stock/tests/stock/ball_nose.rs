@@ -1,12 +1,10 @@
 //! The ball-nose end mill against its analytic geometry: slot width and cross-section,
 //! spherical-cap plunge, a second pass, a side cut.
 
-mod common;
-
 use std::f64::consts::PI;
 
+use crate::common::*;
 use acc_stock::{Cutter, Move, Spindle, StepKind, Sweep, SweepOptions};
-use common::*;
 
 fn ball_sweep() -> Sweep {
     let ball = Cutter::ball(10.0, 2, 20.0).expect("cutter");

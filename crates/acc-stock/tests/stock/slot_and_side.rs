@@ -1,12 +1,10 @@
 //! Straight cuts against their analytic engagement: a slot (a_e = D, 180°), up and down
 //! side milling at a_e = D/4 (the arc `acos(1 − 2a_e/D)`), the mirrored spindle, chip load.
 
-mod common;
-
 use std::f64::consts::PI;
 
+use crate::common::*;
 use acc_stock::{Move, Rotation, Spindle, StepKind, Sweep, SweepOptions};
-use common::*;
 
 /// One angular bin (default 180 over the leading half), rad.
 const BIN: f64 = PI / 180.0;

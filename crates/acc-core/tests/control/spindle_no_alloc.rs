@@ -10,11 +10,7 @@ use acc_core::spindle_force::{
 };
 use acc_core::{ForceSource, PeriodInput};
 
-// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
-#[allow(unsafe_code)]
-#[path = "support/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocations;
+use crate::counting_alloc::allocations;
 
 #[test]
 fn per_block_path_does_not_allocate() {

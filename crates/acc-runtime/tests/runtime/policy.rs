@@ -9,8 +9,7 @@ use acc_pmc::{BoardErrorKind, BoardStatus};
 use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Rearm, Release};
 use acc_runtime::testing::{LinkFault, ScriptedLaw};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn arms_bumpless_only_while_the_switch_is_on() {

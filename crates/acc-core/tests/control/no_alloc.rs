@@ -5,11 +5,7 @@
 
 use acc_core::{Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, PaperCase};
 
-// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
-#[allow(unsafe_code)]
-#[path = "support/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocations;
+use crate::counting_alloc::allocations;
 
 #[test]
 fn step_does_not_allocate() {

@@ -3,13 +3,11 @@
 //! air cut at 150 % (with and without), bumpless start, invalid samples, frozen integrator.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
+use crate::common::{run, PROGRAMMED};
 use acc_core::{
     Controller, ControllerConfig, EstimatorConfig, EstimatorGain, FeedOverride, KcEstimator,
     Measurement, ModeConfig, OverrideLaw, PaperCase, Saturation,
 };
-use common::{run, PROGRAMMED};
 use proptest::prelude::*;
 
 const KC: f64 = 4.0; // N/(mm/min): 800 N at 200 mm/min

@@ -6,13 +6,11 @@
 //! feed, and the integrator (anti-windup included) is the same as without hysteresis.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
+use crate::common::{run, PROGRAMMED};
 use acc_core::{
     Controller, ControllerConfig, FeedOverride, Measurement, OverrideLaw, OverrideSpec, PaperCase,
     Quantizer, Saturation,
 };
-use common::{run, PROGRAMMED};
 use proptest::prelude::*;
 
 /// A valid spec: step from the boards in scope, limits on its grid, `h` in 0 ..= step/2

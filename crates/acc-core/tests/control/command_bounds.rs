@@ -5,13 +5,11 @@
 //! stepping the law and then bounding its command gives, for every quantizer.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
+use crate::common::PROGRAMMED;
 use acc_core::{
     CommandBounds, CommandLimits, Controller, ControllerConfig, Demand, FeedOverride, Measurement,
     OverrideLaw, OverrideSpec, PaperCase, Quantizer, SigmaDelta,
 };
-use common::PROGRAMMED;
 use proptest::prelude::*;
 
 /// The paper's range on a 10 % board, no guards, `limits`.

@@ -5,11 +5,7 @@
 
 use acc_runtime::watch::{BreakageDetector, BreakageSample, WatchLimits};
 
-// A GlobalAlloc impl is `unsafe` by definition; it only forwards to the system allocator.
-#[allow(unsafe_code)]
-#[path = "../../acc-core/tests/support/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocations;
+use crate::counting_alloc::allocations;
 
 #[test]
 fn breakage_detector_does_not_allocate() {

@@ -1,6 +1,6 @@
 //! A counting global allocator for the no-allocation tests: the test binary that includes
-//! this module (acc-core's `no_alloc.rs` and `spindle_no_alloc.rs`, acc-runtime's
-//! `watch_no_alloc.rs`) counts every allocation made on each thread; [`allocations`] reads
+//! this module (acc-core's `control`: `no_alloc` and `spindle_no_alloc`; acc-runtime's
+//! `runtime`: `watch_no_alloc`) counts every allocation made on each thread; [`allocations`] reads
 //! the current thread's count.
 
 use std::alloc::{GlobalAlloc, Layout, System};

@@ -9,8 +9,7 @@ use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
 use acc_runtime::ControlLoop;
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn overload_requests_feed_hold_and_alarm() {
