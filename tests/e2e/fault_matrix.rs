@@ -1,0 +1,182 @@
+//! The reliability fault matrix, end to end: `acc fault-matrix` drives every
+//! fault — signals, kill -9, a hung controller, a dead line, a vanished device, a board
+//! restart, CRC errors, late replies, stale and implausible power, the operator's knob, the
+//! NC's override lock, a hard spot — at the deepest cut of `acc run` against `acc board-sim`
+//! over a pty, on a v2 and on a v1 board, and judges each row from both run logs. The
+//! command fails on any row that raises the override above ACC's last command or the true
+//! force above 1.05× its pre-fault value, or loses log rows, unless the row is a v1 row no
+//! controller can make safe (marked with why). The hostile-line rows put a man in
+//! the middle on the serial line (`tests/peers/mitm_proxy.py`): replies corrupted with a
+//! valid CRC (1 %, 10 %) or every status read answered with the reply of 2, 3 or 5 reads
+//! earlier; there the force must not rise while the feed moves, no release may be labelled
+//! the operator's, and every corrupted status read must be flagged in acc run's log. The
+//! wrong-plan rows run `acc run --plan` against `acc board-sim --program` (the pocket
+//! program): a plan made for a lower stock must keep the force at most that of feedback
+//! alone and be flagged, a missing plan file must be refused before the board sees a
+//! request. Then a
+//! short soak on the same hostile line (1 % garbage throughout, two delay episodes) with a
+//! random board fault every few seconds for 200 s of machine time: no lost rows, no dead
+//! thread, the invariant holds.
+
+use crate::e2e_support::{acc_bin, one_at_a_time, root};
+
+#[test]
+fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("fm");
+    let output = std::process::Command::new(acc_bin())
+        .current_dir(root())
+        .args(["fault-matrix", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run acc fault-matrix");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("{stdout}\n{stderr}");
+    assert!(
+        output.status.success(),
+        "acc fault-matrix failed:\n{stdout}\n{stderr}"
+    );
+    let json = std::fs::read_to_string(out.join("fault-matrix.json")).expect("json");
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&json).expect("rows");
+    assert_eq!(rows.len(), 50, "25 faults x 2 boards");
+    // Rows run twice on an overloaded host name their first attempt and the load.
+    for r in rows.iter().filter(|r| !r["first_attempt"].is_null()) {
+        let first = r["first_attempt"].as_str().unwrap_or_default();
+        println!(
+            "re-run v{} {}: first attempt {first}",
+            r["protocol"], r["fault"]
+        );
+        assert!(first.contains("host overloaded: "), "{r}");
+    }
+    for r in &rows {
+        let verdict = r["verdict"].as_str().unwrap_or_default();
+        let protocol = r["protocol"].as_u64().unwrap_or_default();
+        let fault = r["fault"].as_str().unwrap_or_default();
+        if protocol == 2 {
+            assert!(
+                verdict == "pass" || verdict.starts_with("not judged"),
+                "v2 {fault}: {verdict}"
+            );
+        } else {
+            assert!(
+                verdict == "pass"
+                    || verdict.starts_with("not judged")
+                    || verdict.starts_with("unsafe on v1"),
+                "v1 {fault}: {verdict}"
+            );
+        }
+        assert_eq!(
+            r["log_complete"].as_bool(),
+            Some(true),
+            "v{protocol} {fault}: acc run's log misses periods"
+        );
+    }
+    // The hostile-line rows: the proxy was in the line and acted from the fault moment on.
+    let line_rows = [
+        "garbage-1pct",
+        "garbage-10pct",
+        "delay-2",
+        "delay-3",
+        "delay-5",
+    ];
+    for name in line_rows {
+        for p in [1, 2] {
+            let row = rows
+                .iter()
+                .find(|r| r["fault"] == name && r["protocol"] == p)
+                .expect("line row");
+            let line = &row["line"];
+            assert!(line.is_object(), "v{p} {name}: no line report: {row}");
+            assert_eq!(line["proxy"]["episodes"], 1, "v{p} {name}: {line}");
+            assert!(
+                line["altered_replies"].as_u64().unwrap_or(0) > 0,
+                "v{p} {name}: the proxy altered nothing: {line}"
+            );
+            assert_eq!(line["operator_releases"], 0, "v{p} {name}: {line}");
+            assert!(
+                line["flagged"].as_u64() >= line["must_flag"].as_u64(),
+                "v{p} {name}: {line}"
+            );
+            if name.starts_with("delay") {
+                assert!(line["delayed_reads"].as_u64().unwrap_or(0) > 0, "{line}");
+            }
+        }
+    }
+    // The v2 board's clamp makes the controller-gone rows safe: kill -9 stops with the
+    // feed held, not at the knob.
+    let kill2 = rows
+        .iter()
+        .find(|r| r["fault"] == "sigkill" && r["protocol"] == 2)
+        .expect("v2 sigkill row");
+    assert_eq!(kill2["feed_hold_after"].as_bool(), Some(true), "{kill2}");
+    // The overload protection answers a force the controller cannot bring down with a feed
+    // hold.
+    for p in [1, 2] {
+        let row = rows
+            .iter()
+            .find(|r| r["fault"] == "overload" && r["protocol"] == p)
+            .expect("overload row");
+        assert_eq!(row["feed_hold_after"].as_bool(), Some(true), "{row}");
+    }
+    // A wrong plan: the plan made for a lower stock ran its 30 s (judged on the force and
+    // the flags); a missing plan file was refused at start (exit 2, no log).
+    for p in [1, 2] {
+        let row = |name: &str| {
+            rows.iter()
+                .find(|r| r["fault"] == name && r["protocol"] == p)
+                .unwrap_or_else(|| panic!("v{p} {name} row"))
+        };
+        for name in ["plan-low-stock", "plan-lead-low-stock"] {
+            let low = row(name);
+            assert!(low["log_rows"].as_u64().unwrap_or(0) >= 290, "{low}");
+        }
+        let missing = row("plan-missing");
+        assert_eq!(missing["exit"].as_str(), Some("2"), "{missing}");
+        assert_eq!(missing["log_rows"].as_u64(), Some(0), "{missing}");
+    }
+    // Signals end the run with a feed hold mid-cut (exit 3), never at the knob.
+    for sig in ["sigint", "sigterm", "sigint-twice"] {
+        for p in [1, 2] {
+            let row = rows
+                .iter()
+                .find(|r| r["fault"] == sig && r["protocol"] == p)
+                .expect("row");
+            assert_eq!(row["exit"].as_str(), Some("3"), "v{p} {sig}: {row}");
+        }
+    }
+}
+
+#[test]
+fn a_short_soak_with_random_faults_loses_no_rows_and_keeps_every_thread() {
+    let _serial = one_at_a_time();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("soak");
+    let child = std::process::Command::new(acc_bin())
+        .current_dir(root())
+        .args(["soak", "--machine-s", "200", "--seed", "3"])
+        // The hostile line (the default) with a delay episode every 60 s: two in 200 s.
+        .args(["--delay-every-s", "60", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run acc soak");
+    let stdout = String::from_utf8_lossy(&child.stdout);
+    let stderr = String::from_utf8_lossy(&child.stderr);
+    println!("{stdout}\n{stderr}");
+    assert!(
+        child.status.success(),
+        "acc soak failed:\n{stdout}\n{stderr}"
+    );
+    let json = std::fs::read_to_string(out.join("soak.json")).expect("json");
+    let r: serde_json::Value = serde_json::from_str(&json).expect("report");
+    assert!(r["faults_fired"].as_u64().unwrap_or(0) >= 40, "{r}");
+    assert_eq!(r["run_missing"].as_u64(), Some(0), "{r}");
+    assert_eq!(r["raised_in_fault"].as_u64(), Some(0), "{r}");
+    assert!(r["machine_s"].as_f64().unwrap_or(0.0) > 190.0, "{r}");
+    let line = &r["line"];
+    assert!(line["corrupted"].as_u64().unwrap_or(0) > 0, "{r}");
+    assert_eq!(line["episodes"], 2, "{r}");
+    assert_eq!(line["episodes_planned"], 2, "{r}");
+    assert!(line["delayed_reads"].as_u64().unwrap_or(0) > 0, "{r}");
+}
