@@ -43,7 +43,7 @@ estimate-eval:
 
 # Golden runs: determinism and paper reproductions only.
 golden:
-    cargo test -p acc-tests --test sim_determinism --test paper_cases --test paper_fixed_gain
+    cargo test -p acc-tests --test paper -- determinism:: cases:: fixed_gain::
 
 # Every text figure of the product against tests/golden/baseline (about 15 min).
 golden-figures out="/tmp/acc-golden":
@@ -85,8 +85,8 @@ live-jitter:
 
 # The NC interpreter against LinuxCNC's rs274 on tests/nc and ../shared/data/nc (docs/nc.md).
 nc-oracle:
-    cargo test -p acc-nc --test oracle_rs274 -- --nocapture
+    cargo test -p acc-nc --test interpreter oracle_rs274 -- --nocapture
 
 # The OPC UA server against asyncua and node-opcua (docs/opcua.md "Peers we did not write").
 opcua-peers:
-    cargo test -p acc-tests --test telemetry_opcua
+    cargo test -p acc-tests --test telemetry opcua::
