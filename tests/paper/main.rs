@@ -1,4 +1,5 @@
-//! The paper's cases reproduced, the runs deterministic, every shipped config loads.
+//! The paper's cases reproduced, the runs deterministic, every shipped config and controller
+//! preset loads.
 //!
 //! One module per test file; shared helpers in `tests/support/`.
 
@@ -6,3 +7,4 @@ mod cases;
 mod configs_load;
 mod determinism;
 mod fixed_gain;
+mod presets;

@@ -8,7 +8,7 @@ use acc_config::{load_preset, parse_preset, resolve_preset, ConfigError, RangeEr
 use acc_core::{ControllerConfig, PaperCase};
 
 fn presets_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/presets")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/presets")
 }
 
 #[test]
