@@ -58,6 +58,8 @@ pub fn acc_bin() -> PathBuf {
                 Some("debug") | None => "dev",
                 Some(p) => p,
             };
+            // `full`: the fleet store and the OPC UA server, as `cargo test --workspace`
+            // builds the binary (the crates' dev-dependencies ask for both).
             let args = [
                 "build",
                 "--quiet",
@@ -65,6 +67,8 @@ pub fn acc_bin() -> PathBuf {
                 "acc-cli",
                 "--bin",
                 "acc",
+                "--features",
+                "full",
                 "--profile",
                 profile,
             ];

@@ -29,13 +29,7 @@ pub enum HistoryCommand {
 pub fn run(args: &HistoryArgs) -> anyhow::Result<()> {
     match &args.command {
         HistoryCommand::Query { dir, sql, csv } => {
-            let batches = acc_fleet::query::query(dir, sql)?;
-            let text = if *csv {
-                acc_fleet::query::format_csv(&batches)?
-            } else {
-                acc_fleet::query::format_table(&batches)?
-            };
-            print!("{text}");
+            print!("{}", acc_fleet::query::query_text(dir, sql, *csv)?);
             Ok(())
         }
     }

@@ -94,7 +94,8 @@ pub fn check_store(root: &Path) -> Result<StoreInfo, FleetError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::schema::{period_batch, PeriodRow, TABLE_KEY};
+    use crate::columns::period_batch;
+    use crate::schema::{PeriodRow, TABLE_KEY};
     use parquet::arrow::ArrowWriter;
     use parquet::file::metadata::KeyValue;
     use parquet::file::properties::WriterProperties;

@@ -3,15 +3,26 @@
 //! Spark, DuckDB, pyarrow and the embedded DataFusion (`acc history query`) read as they
 //! are. Layout, schema and recipes: `docs/fleet.md`.
 //!
-//! - [`schema`]: the tables `period` and `cut`, their columns and version.
-//! - [`store`]: the partitioned writer ([`StoreWriter`]).
+//! - [`schema`]: the tables `period` and `cut`, their rows and schema version.
+//! - `columns`: their Arrow columns, and rows as record batches.
+//! - [`store`]: the partitioned writer ([`StoreWriter`]); `parquet_file` writes one file.
 //! - [`sink`]: the writer on the run's logging side ([`FleetSink`]).
-//! - [`check`]: the version and integrity check of every file before a query.
+//! - `check`: the version and integrity check of every file before a query.
 //! - [`query`]: SQL with DataFusion, and the text / CSV output.
 //! - [`collect`]: `acc collect`, the store written from the machines' MQTT messages.
+//!
+//! Arrow, Parquet and DataFusion are in the build only with the `store` feature (`acc-cli`'s
+//! `fleet`, in `full`; the tests build it). Without it the types are there, and opening a
+//! store or running a query fails with [`FleetError::NotBuilt`], which says how to build it in.
 
+#[cfg(feature = "store")]
 pub mod check;
 pub mod collect;
+#[cfg(feature = "store")]
+pub mod columns;
+#[cfg(feature = "store")]
+mod parquet_file;
+#[cfg_attr(not(feature = "store"), path = "query_absent.rs")]
 pub mod query;
 pub mod schema;
 pub mod sink;
@@ -77,6 +88,9 @@ pub enum FleetError {
     /// The query failed while running.
     #[error("query: {0}")]
     Query(String),
+    /// This `acc` was built without the fleet store.
+    #[error("this acc was built without the fleet store (Parquet, SQL): build it with `cargo build --release -p acc-cli --features fleet` (or `--features full`)")]
+    NotBuilt,
 }
 
 impl FleetError {

@@ -10,8 +10,20 @@ use arrow::util::display::{ArrayFormatter, FormatOptions};
 use datafusion::prelude::{ParquetReadOptions, SessionContext};
 
 use crate::check::check_store;
-use crate::schema::{schema_of, PARTITIONS, TABLES};
+use crate::columns::schema_of;
+use crate::schema::{PARTITIONS, TABLES};
 use crate::FleetError;
+
+/// `acc history query`: run `sql` over store `root` and format the result as an aligned
+/// table ([`format_table`]) or, with `csv`, as CSV ([`format_csv`]).
+pub fn query_text(root: &Path, sql: &str, csv: bool) -> Result<String, FleetError> {
+    let batches = query(root, sql)?;
+    if csv {
+        format_csv(&batches)
+    } else {
+        format_table(&batches)
+    }
+}
 
 /// Run `sql` over store `root` (every file checked first: [`check_store`]).
 pub fn query(root: &Path, sql: &str) -> Result<Vec<RecordBatch>, FleetError> {

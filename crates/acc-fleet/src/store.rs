@@ -8,18 +8,11 @@
 //! rows in the buffer (the next commit retries them) and returns the error naming the file.
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::path::{Path, PathBuf};
 
-use arrow::array::RecordBatch;
-use parquet::arrow::ArrowWriter;
-use parquet::basic::Compression;
-use parquet::file::metadata::KeyValue;
-use parquet::file::properties::WriterProperties;
-
-use crate::schema::{
-    cut_batch, period_batch, CutRow, PeriodRow, SCHEMA_VERSION, TABLE_KEY, VERSION_KEY,
-};
+#[cfg(feature = "store")]
+use crate::parquet_file::{write_cuts, write_periods};
+use crate::schema::{CutRow, PeriodRow};
 use crate::FleetError;
 
 /// Periods per file by default: ten minutes at T = 0.1 s.
@@ -74,7 +67,12 @@ pub struct StoreWriter {
 impl StoreWriter {
     /// A writer into store `root` (created if missing). `tag` makes its file names unique
     /// among writers (the run's start and the process id).
+    /// In a build without the `store` feature: [`FleetError::NotBuilt`], before anything is
+    /// created.
     pub fn new(root: impl AsRef<Path>, tag: &str) -> Result<Self, FleetError> {
+        if cfg!(not(feature = "store")) {
+            return Err(FleetError::NotBuilt);
+        }
         let root = root.as_ref().to_path_buf();
         std::fs::create_dir_all(&root).map_err(|e| FleetError::io(&root, e))?;
         Ok(Self {
@@ -152,9 +150,7 @@ impl StoreWriter {
             return Ok(());
         };
         let path = self.next_path("period", key);
-        let written = period_batch(&rows)
-            .map_err(|e| FleetError::write(&path, e))
-            .and_then(|batch| write_file(&path, "period", &batch));
+        let written = write_periods(&path, &rows);
         if let Err(e) = written {
             // Keep the rows for the next commit.
             self.periods.insert(key.clone(), rows);
@@ -170,9 +166,7 @@ impl StoreWriter {
             return Ok(());
         };
         let path = self.next_path("cut", key);
-        let written = cut_batch(&rows)
-            .map_err(|e| FleetError::write(&path, e))
-            .and_then(|batch| write_file(&path, "cut", &batch));
+        let written = write_cuts(&path, &rows);
         if let Err(e) = written {
             // Keep the rows for the next commit.
             self.cuts.insert(key.clone(), rows);
@@ -193,34 +187,16 @@ impl StoreWriter {
     }
 }
 
-/// Write `batch` to `path` through a hidden temporary file and a rename.
-fn write_file(path: &Path, table: &str, batch: &RecordBatch) -> Result<(), FleetError> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| FleetError::io(dir, e))?;
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let tmp = dir.join(format!(".{name}.tmp"));
-    let props = WriterProperties::builder()
-        .set_compression(Compression::SNAPPY)
-        .set_key_value_metadata(Some(vec![
-            KeyValue::new(VERSION_KEY.to_string(), SCHEMA_VERSION.to_string()),
-            KeyValue::new(TABLE_KEY.to_string(), table.to_string()),
-        ]))
-        .build();
-    let result = (|| {
-        let file = File::create(&tmp).map_err(|e| FleetError::io(&tmp, e))?;
-        let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))
-            .map_err(|e| FleetError::write(&tmp, e))?;
-        w.write(batch).map_err(|e| FleetError::write(&tmp, e))?;
-        let file = w.into_inner().map_err(|e| FleetError::write(&tmp, e))?;
-        file.sync_all().map_err(|e| FleetError::io(&tmp, e))?;
-        std::fs::rename(&tmp, path).map_err(|e| FleetError::io(path, e))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+/// Without the `store` feature no file is written ([`StoreWriter::new`] refuses first).
+#[cfg(not(feature = "store"))]
+fn write_periods(_path: &Path, _rows: &[PeriodRow]) -> Result<(), FleetError> {
+    Err(FleetError::NotBuilt)
+}
+
+/// Without the `store` feature no file is written ([`StoreWriter::new`] refuses first).
+#[cfg(not(feature = "store"))]
+fn write_cuts(_path: &Path, _rows: &[CutRow]) -> Result<(), FleetError> {
+    Err(FleetError::NotBuilt)
 }
 
 #[cfg(test)]

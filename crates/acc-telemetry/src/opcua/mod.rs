@@ -18,7 +18,7 @@ pub mod security;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -41,54 +41,7 @@ pub const MAX_ITEM_QUEUE: usize = 1000;
 /// How long [`OpcUaServer::stop`] leaves the sessions open after the last record.
 pub const LAST_PUBLISH: Duration = Duration::from_millis(300);
 
-/// Why the server did not start.
-#[derive(Debug, thiserror::Error)]
-pub enum OpcUaError {
-    /// The listen address is taken or not ours.
-    #[error("OPC UA: cannot listen on {addr}")]
-    Listen {
-        /// Address asked for.
-        addr: SocketAddr,
-        /// What the OS said.
-        source: std::io::Error,
-    },
-    /// The password file cannot be read.
-    #[error("{0}")]
-    Password(String),
-    /// The server could not be built (configuration, certificates).
-    #[error("OPC UA server: {0}")]
-    Server(String),
-    /// No tokio runtime or thread.
-    #[error("OPC UA server: {0}")]
-    Runtime(std::io::Error),
-}
-
-/// Counters of a running server.
-#[derive(Debug, Default)]
-pub struct OpcUaStats {
-    /// Records written into the address space.
-    pub records: AtomicU64,
-    /// Events sent (alarm raised / cleared, state change).
-    pub events: AtomicU64,
-    /// Records the feeder lost because its tap queue was full.
-    pub records_dropped: AtomicU64,
-}
-
-/// What the server's diagnostics say about its clients (read at [`OpcUaServer::clients`]).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct ClientCounts {
-    /// Sessions open now.
-    pub current: u64,
-    /// Sessions opened since the start.
-    pub cumulated: u64,
-    /// Sessions closed by the server because the client went silent (dead clients).
-    pub timed_out: u64,
-    /// Sessions or requests refused for security (bad certificate, wrong password, …).
-    pub security_rejected: u64,
-    /// Identities refused (wrong password, unknown user, anonymous on the secure endpoint),
-    /// each also logged.
-    pub auth_refused: u64,
-}
+pub use crate::opcua_status::{ClientCounts, OpcUaError, OpcUaStats};
 
 /// A running OPC UA server; [`OpcUaServer::stop`] ends it.
 pub struct OpcUaServer {
