@@ -1,5 +1,6 @@
 //! The model-discrepancy workflow and the twin: hidden-effect recovery, null logs and
-//! pairs, real data, the `acc discrepancy` round trip, the twin's library, replay and evaluation.
+//! pairs, real data, the `acc discrepancy` round trip, where a log's tool started, the
+//! twin's library, replay and evaluation.
 //!
 //! One module per test file; shared helpers in `tests/support/`.
 
@@ -21,5 +22,6 @@ mod ident_recovery_process;
 mod ident_sim_and_files;
 mod ident_unexplained;
 mod library;
+mod path_start;
 mod replay;
 mod spindle_calibration;
