@@ -1,0 +1,200 @@
+//! [`HalBoard`] against a fake pin backend: the status it derives from LinuxCNC's pins, the
+//! adaptive feed it writes (150 % mapping, rapids, the operator's priority), the v2
+//! fallback clamp, the heartbeat and the state pins.
+
+use acc_linuxcnc::{AccOutputs, HalBoard, HalBoardError, MachineInputs, PinBackend};
+use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
+
+/// A machine whose pins the test sets; it keeps the last outputs written.
+#[derive(Debug, Default)]
+struct FakePins {
+    machine: MachineInputs,
+    written: AccOutputs,
+}
+
+impl PinBackend for FakePins {
+    fn read(&mut self) -> MachineInputs {
+        self.machine
+    }
+    fn write(&mut self, outputs: &AccOutputs) {
+        self.written = *outputs;
+    }
+}
+
+/// A machine cutting under `M52 P1` at a 150 % feed override, ACC switched on, watchdog ok.
+fn cutting() -> MachineInputs {
+    MachineInputs {
+        spindle_power_w: 3_456.4,
+        spindle_speed_rpm: 12_000.0,
+        program_line: 42,
+        motion_type: 2,
+        tool_number: 3,
+        requested_vel_mm_s: 10.0,
+        current_vel_mm_s: 12.0,
+        feed_override: 1.5,
+        machine_on: true,
+        estop: false,
+        program_running: true,
+        program_paused: false,
+        adaptive_enabled: true,
+        acc_switch: true,
+        watchdog_ok: true,
+    }
+}
+
+/// `CONTROL` with only `ACC_REQUEST` = `request`.
+fn request(request: bool) -> ControlBits {
+    ControlBits {
+        acc_request: request,
+        ..ControlBits::default()
+    }
+}
+
+/// A board over a cutting machine with ACC requested and the law at `law_pct`.
+fn driving(law_pct: u16) -> HalBoard<FakePins> {
+    let mut board = HalBoard::new(FakePins {
+        machine: cutting(),
+        ..FakePins::default()
+    });
+    board.write_control(request(true)).expect("control");
+    board.read_status().expect("status");
+    board.write_override(law_pct, 1).expect("override");
+    board
+}
+
+/// Changes the fake machine's inputs with `change`, then reads the status.
+fn read_after(
+    board: &mut HalBoard<FakePins>,
+    change: impl FnOnce(&mut MachineInputs),
+) -> BoardStatus {
+    change(&mut board.pins_mut().machine);
+    board.read_status().expect("status")
+}
+
+#[test]
+fn the_status_block_comes_from_linuxcncs_pins() {
+    let mut board = driving(120);
+    let s = board.read_status().expect("status");
+    assert!(s.acc_switch && s.acc_active && s.cycle_active);
+    assert!(!s.feed_hold_active && !s.watchdog_tripped && !s.override_locked && !s.cnc_alarm);
+    assert_eq!(s.spindle_power_w, 3_456);
+    assert_eq!(s.spindle_rpm, 12_000);
+    assert_eq!(s.block_number, 42);
+    assert_eq!(s.tool_number, 3);
+    assert_eq!(s.programmed_feed_mm_min, 600);
+    assert_eq!(s.actual_feed_mm_min, 720);
+    assert_eq!(s.operator_override_pct, 150);
+    assert_eq!(s.override_applied_pct, 120);
+    assert_eq!(s.override_step_pct, 1);
+    assert_eq!((s.protocol_version, s.fallback_override_pct), (2, 150));
+    assert_eq!(board.protocol(), Some(BoardProtocol::V2));
+    let seq = s.sample_seq;
+    assert_eq!(
+        board.read_status().expect("status").sample_seq,
+        seq.wrapping_add(1)
+    );
+}
+
+#[test]
+fn machine_states_map_onto_the_boards_bits() {
+    let mut board = driving(100);
+    let s = read_after(&mut board, |m| m.adaptive_enabled = false);
+    assert!(
+        s.override_locked && !s.acc_active,
+        "M52 P0 locks the override"
+    );
+    let s = read_after(&mut board, |m| {
+        m.adaptive_enabled = true;
+        m.watchdog_ok = false;
+    });
+    assert!(s.watchdog_tripped && !s.acc_active);
+    assert!(board.pins().written.alarm);
+    let s = read_after(&mut board, |m| {
+        m.watchdog_ok = true;
+        m.estop = true;
+    });
+    assert!(s.cnc_alarm);
+    let s = read_after(&mut board, |m| {
+        m.estop = false;
+        m.program_paused = true;
+    });
+    assert!(s.feed_hold_active);
+}
+
+#[test]
+fn the_adaptive_feed_is_the_laws_override_over_150_percent_and_rapids_are_not_slowed() {
+    let mut board = driving(120);
+    assert_eq!(board.pins().written.adaptive_feed, 0.8);
+    board.write_override(150, 2).expect("override");
+    assert_eq!(board.pins().written.adaptive_feed, 1.0);
+    board.write_override(30, 3).expect("override");
+    assert_eq!(board.pins().written.adaptive_feed, 0.2);
+    read_after(&mut board, |m| m.motion_type = 1);
+    board.write_override(30, 4).expect("override");
+    assert_eq!(
+        board.pins().written.adaptive_feed,
+        1.0,
+        "a traverse runs at 1.0"
+    );
+    let err = board.write_override(151, 5).expect_err("above 150 %");
+    assert_eq!(err, HalBoardError::OverrideOutOfRange { pct: 151 });
+    assert_eq!(err.kind(), BoardErrorKind::Exception(3));
+}
+
+#[test]
+fn the_operators_knob_lowers_the_feed_at_once() {
+    let mut board = driving(120);
+    let s = read_after(&mut board, |m| m.feed_override = 0.3);
+    assert_eq!(s.operator_override_pct, 30);
+    // 0.3 × 0.8: the knob and the adaptive feed multiply.
+    assert_eq!(s.override_applied_pct, 24);
+}
+
+#[test]
+fn a_release_mid_cut_clamps_the_feed_until_the_knob_turns() {
+    let mut board = driving(90);
+    board.write_control(request(false)).expect("release");
+    let s = board.read_status().expect("status");
+    assert!(!s.acc_active && s.fallback_active);
+    assert_eq!(s.fallback_override_pct, 90);
+    assert_eq!(
+        s.override_applied_pct, 90,
+        "the release does not raise the feed"
+    );
+    let out = board.pins().written;
+    assert!(out.handed_back && !out.active);
+    // The operator turns the knob: the clamp ends, the knob rules.
+    let s = read_after(&mut board, |m| m.feed_override = 1.0);
+    assert!(!s.fallback_active);
+    assert_eq!(board.pins().written.adaptive_feed, 1.0);
+}
+
+#[test]
+fn the_operators_switch_releases_without_a_clamp() {
+    let mut board = driving(90);
+    let s = read_after(&mut board, |m| m.acc_switch = false);
+    assert!(!s.acc_active && !s.fallback_active);
+    assert_eq!(board.pins().written.adaptive_feed, 1.0);
+}
+
+#[test]
+fn the_heartbeat_toggles_its_bit_and_the_feed_hold_reaches_its_pin() {
+    let mut board = driving(100);
+    let mut bits = Vec::new();
+    for beat in 2..6u16 {
+        board.write_override(100, beat).expect("override");
+        let out = board.pins().written;
+        assert_eq!(out.heartbeat, i32::from(beat));
+        bits.push(out.heartbeat_bit);
+    }
+    assert_eq!(bits, [false, true, false, true]);
+    board
+        .write_control(ControlBits {
+            acc_request: true,
+            feed_hold_request: true,
+            alarm_reset: false,
+        })
+        .expect("control");
+    assert!(board.pins().written.feed_hold);
+    assert!(board.read_status().expect("status").feed_hold_active);
+}
