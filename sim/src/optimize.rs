@@ -169,7 +169,7 @@ fn interval_feed(iv: &Interval, p: &OptimizeParams, air: f64, cap: f64) -> f64 {
         return air;
     }
     let beta = p.plan.law.spec.beta;
-    let exact = iv.feed * (p.plan.force_ref_n / iv.f100).powf(1.0 / beta);
+    let exact = acc_core::force_law::feed_for_force(iv.feed, iv.f100, p.plan.force_ref_n, beta);
     level(exact.min(cap))
 }
 

@@ -92,7 +92,7 @@ impl PlanParams {
             return top;
         }
         let beta = self.law.spec.beta;
-        let exact = 100.0 * (self.force_ref_n / f100_n).powf(1.0 / beta);
+        let exact = acc_core::force_law::feed_for_force(100.0, f100_n, self.force_ref_n, beta);
         let pct = exact.floor().clamp(0.0, f64::from(top)) as u16;
         self.grid.floor(pct).0.max(step.max(self.grid.min_pct))
     }
@@ -238,10 +238,11 @@ pub fn intervals(
 }
 
 /// Whether a row whose force at 100 % lies in `lo ..= hi` (N) predicts it well enough for
-/// the look-ahead to judge the plan's scale by it: within ± [`acc_runtime::plan_lead::NARROW`]
-/// of its middle (air, both 0, counts as narrow).
+/// the look-ahead to judge the plan's scale by it: within ±
+/// [`acc_runtime::LookAheadConfig::DEFAULT_SCALE_BAND_HALF_WIDTH`] of its middle (air, both
+/// 0, counts as narrow).
 fn narrow_band(lo: f64, hi: f64) -> bool {
-    hi - lo <= acc_runtime::plan_lead::NARROW * (hi + lo)
+    hi - lo <= acc_runtime::LookAheadConfig::DEFAULT_SCALE_BAND_HALF_WIDTH * (hi + lo)
 }
 
 /// The plan of the path of `source` between the increasing path positions `knots` (mm;

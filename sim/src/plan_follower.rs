@@ -6,7 +6,7 @@
 //!
 //! It runs the program's plant (the scenario's machine with the program's [`ProgramPath`],
 //! noise-free, as the oracle does) and chooses every period's override as the plan's lead
-//! does ([`acc_runtime::plan_lead`]), but from the true position:
+//! does ([`acc_runtime::lookahead::lead`]), but from the true position:
 //!
 //! - **The period's force** is the plan's, scaled by `k`: the override in force for the
 //!   override path's delay and the feed drive's lag (`delay_s`), then the candidate for the
@@ -43,13 +43,14 @@ pub struct FollowerConfig {
 }
 
 impl FollowerConfig {
-    /// The lead's ceiling (1.03 Fr, [`acc_runtime::plan_lead::CEILING`]), scale `scale`,
+    /// The lead's ceiling (1.03 Fr,
+    /// [`acc_runtime::LookAheadConfig::DEFAULT_LEAD_CEILING_SHARE_OF_FR`]), scale `scale`,
     /// the delay of `scenario`'s machine (its override path's delay plus its feed drive's
     /// lag).
     pub fn of(scenario: &Scenario, scale: f64) -> Self {
         let m = &scenario.machine;
         FollowerConfig {
-            ceiling: acc_runtime::plan_lead::CEILING,
+            ceiling: acc_runtime::LookAheadConfig::DEFAULT_LEAD_CEILING_SHARE_OF_FR,
             scale,
             delay_s: m.override_path.delay_s + m.feed_drive.tau_s + m.feed_drive.tau2_s,
         }

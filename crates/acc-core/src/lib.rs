@@ -17,6 +17,7 @@
 //! | [`roots`] | roots of a real polynomial (Aberth–Ehrlich; always ends) |
 //! | [`source`] | the [`ForceSource`] measurement-channel trait |
 //! | [`spindle_force`] | the force from spindle power (or current) per period: block power, no-load model, estimators, [`spindle_force::SpindleSource`] |
+//! | [`force_law`] | [`force_law::feed_for_force`]: the force law (seed 002 eq. 1) solved for the feed that gives Fr |
 //! | [`filter`] | [`filter::FirstOrderLag`]: the one first-order lag (exact ZOH discretisation) |
 //! | [`stats`] | [`stats::rms`]: the one root mean square |
 //!
@@ -56,6 +57,7 @@ pub mod controller;
 pub mod delay;
 pub mod estimator;
 pub mod filter;
+pub mod force_law;
 pub mod override_spec;
 pub mod pi;
 pub mod poles;

@@ -12,6 +12,7 @@ use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
 use crate::echo::{Booked, DelayReading, LoopDelay, MAX_ECHO_PERIODS};
 use crate::guard::{Expected, Guarded, LineGuard};
+use crate::lookahead::{LookAhead, LookAheadInput, LookAheadStep};
 use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
 use crate::record::RunRecord;
 use crate::runner::execute_writes;
@@ -89,7 +90,7 @@ pub struct CycleRecord {
     /// The run log's writer was stalled past the logger's buffer this period.
     pub log_stalled: bool,
     /// What the look-ahead decided, if the loop runs with a plan ([`crate::lookahead`]).
-    pub lookahead: Option<crate::lookahead::LookAheadStep>,
+    pub lookahead: Option<LookAheadStep>,
 }
 
 /// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
@@ -217,6 +218,21 @@ impl CycleRecord {
     }
 }
 
+/// Whether the guard holds a block, tool or program number of the raw `read` until the
+/// next read confirms it (the guarded status `accepted` differs).
+fn context_pending(
+    read: Result<BoardStatus, BoardErrorKind>,
+    accepted: Option<&BoardStatus>,
+) -> bool {
+    match (read, accepted) {
+        (Ok(raw), Some(st)) => {
+            (raw.block_number, raw.tool_number, raw.program_number)
+                != (st.block_number, st.tool_number, st.program_number)
+        }
+        _ => false,
+    }
+}
+
 /// Run-log name of a law mode.
 pub fn mode_name(mode: Mode) -> &'static str {
     match mode {
@@ -296,7 +312,7 @@ pub struct ControlLoop<L, F> {
     /// The run log's writer is stalled past the logger's buffer ([`Self::set_log_stalled`]).
     log_stalled: bool,
     /// The plan's look-ahead, if any ([`ControlLoop::with_lookahead`]).
-    lookahead: Option<crate::lookahead::LookAhead>,
+    lookahead: Option<LookAhead>,
     /// The ticker woke this period past its deadline ([`ControlLoop::set_period_late`]).
     period_late: bool,
 }
@@ -329,13 +345,13 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// Run with a plan's look-ahead ([`crate::lookahead`]): every period, after the shop
     /// layer, its cap joins the command limits (the lower cap wins), so the plan can only
     /// lower the law's command.
-    pub fn with_lookahead(mut self, lookahead: crate::lookahead::LookAhead) -> Self {
+    pub fn with_lookahead(mut self, lookahead: LookAhead) -> Self {
         self.lookahead = Some(lookahead);
         self
     }
 
     /// The look-ahead, if any.
-    pub fn lookahead(&self) -> Option<&crate::lookahead::LookAhead> {
+    pub fn lookahead(&self) -> Option<&LookAhead> {
         self.lookahead.as_ref()
     }
 
@@ -442,75 +458,16 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     /// With the shop layer, its [`ToolChange`] event is applied to the law here, before the
     /// policy steps it (the one place the law's Fr and Kc_hat change from outside the law).
     pub fn decide(&mut self, t_s: f64, read: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
-        // Plausibility and confirmation before meaning: the rules see the guarded status.
-        let mut expect = Expected {
-            acc_requested: self.control_on_board.is_some_and(|c| c.acc_request),
-            ..Expected::default()
-        };
-        for (slot, c) in expect
-            .commands
-            .iter_mut()
-            .zip(self.in_force.cmds.iter().flatten().copied())
-        {
-            *slot = c;
-            expect.count += 1;
-        }
-        let guard = self.guard.check(read, &expect);
+        let guard = self.guard_read(read);
         let link = match read {
             Err(k) => Err(k),
             Ok(_) => guard.status.ok_or(BoardErrorKind::Protocol),
         };
         let held = read.is_ok() && guard.hold;
-        // A block, tool or program number the guard holds until the next read confirms it.
-        let context_pending = match (read, guard.status.as_ref()) {
-            (Ok(raw), Some(st)) => {
-                (raw.block_number, raw.tool_number, raw.program_number)
-                    != (st.block_number, st.tool_number, st.program_number)
-            }
-            _ => false,
-        };
-        // The line or the board lost its cadence: whether the board took the commands
-        // booked so far is unknown.
-        let line_broke = read.is_err() || self.write_error.is_some();
-        if line_broke {
-            self.in_force.cmds = [None; MAX_ECHO_PERIODS];
-        }
-        let accepted = link.ok().filter(|_| !held);
-        let booked = self.in_force.take(line_broke);
-        let mut delay = self.delay.period(self.index, &booked, accepted.as_ref());
-        delay.replay_lag_periods = guard.replay_lag_periods;
-        let feeds = link.ok().map(|s| {
-            let programmed = if s.programmed_feed_mm_min > 0 {
-                f64::from(s.programmed_feed_mm_min)
-            } else {
-                self.policy.config().nominal_feed_mm_min
-            };
-            // A feed hold stops the axes whatever the override.
-            let feed = if s.feed_hold_active {
-                0.0
-            } else {
-                programmed * f64::from(s.override_applied_pct) / 100.0
-            };
-            (programmed, feed)
-        });
-        if let Some((_, feed)) = feeds {
-            self.last_feed_mm_min = feed;
-        }
-        self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
-        let force = match (link, feeds) {
-            (Ok(s), Some((_, feed))) if !held => {
-                let input = PeriodInput {
-                    period_s: self.period_s,
-                    spindle_rpm: f64::from(s.spindle_rpm),
-                    feed_mm_min: feed,
-                    true_force_n: None,
-                    power_w: Some(f64::from(s.spindle_power_w)),
-                    phases: None,
-                };
-                self.source.estimate(&input)
-            }
-            _ => ForceSample::INVALID,
-        };
+        let delay = self.measure_delay(read, link, held, &guard);
+        let feeds = self.feeds(link);
+        self.advance_path(feeds);
+        let force = self.estimate_force(link, feeds, held);
         let write_error = self.write_error.take();
         let input = CycleInput {
             t_s,
@@ -523,72 +480,13 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             delay,
             log_stalled: self.log_stalled,
         };
-        let mut shop = None;
-        if let Some(sh) = self.shop.as_mut() {
-            let decision = sh.before(
-                link.as_ref().ok(),
-                &force,
-                self.policy.last_command(),
-                self.law.kc_estimate(),
-            );
-            self.policy.set_command_limits(decision.limits);
-            if let Some(change) = decision.tool_change {
-                self.apply_tool_change(change);
-            }
-            shop = decision.step;
-        }
-        // The plan's look-ahead: its cap joins the shop layer's limits (the lower wins).
-        let mut lookahead = None;
-        if let Some(la) = self.lookahead.as_mut() {
-            if let Some(fr) = self.shop.as_ref().and_then(ShopControl::force_ref_n) {
-                la.set_force_ref_n(fr);
-            }
-            // The lead's window assumes the designed loop delay.
-            la.set_line_nominal(delay.as_designed() && !self.period_late);
-            la.set_read_held(held);
-            if let Ok(raw) = read {
-                la.set_raw_block(raw.block_number);
-            }
-            let st = la.step(link.as_ref().ok(), &force, self.period_s);
-            let mut limits = if self.shop.is_some() {
-                self.policy.command_limits()
-            } else {
-                crate::policy::CommandLimits::default()
-            };
-            // The plan's lead, where there is one, is the period's command: the plan's cap
-            // and floor at once (the shop layer's cap, applied last, still wins).
-            let plan_cap = match st.lead_pct {
-                Some(l) => {
-                    limits.floor_pct = Some(limits.floor_pct.map_or(l, |f| f.max(l)));
-                    Some(l)
-                }
-                None => st.cap_pct,
-            };
-            if let Some(c) = plan_cap {
-                limits.cap_pct = Some(limits.cap_pct.map_or(c, |s| s.min(c)));
-            }
-            self.policy.set_command_limits(limits);
-            self.policy.set_exit_planned(st.exit_planned);
-            lookahead = Some(st);
-        }
-        self.policy.set_context_pending(context_pending);
+        let shop = self.shop_limits(link, &force);
+        let lookahead = self.lookahead_limits(read, link, held, &force, &delay);
+        self.policy
+            .set_context_pending(context_pending(read, guard.status.as_ref()));
         let out = self.policy.step(&input, &mut self.law);
-        if let (Some(la), Some(cmd)) = (self.lookahead.as_mut(), out.write_override) {
-            la.note_written(cmd.0);
-        }
-        let mut plan = WritePlan::default();
-        if let Some(cmd) = out.write_override {
-            self.heartbeat = self.heartbeat.wrapping_add(1);
-            plan.override_and_heartbeat = Some((cmd.0, self.heartbeat));
-        }
-        if self.control_on_board != Some(out.control) {
-            plan.control = Some(out.control);
-        }
-        self.in_force.book(
-            out.state == crate::policy::AccState::Active,
-            out.write_override.map(|o| o.0),
-        );
-        let delay_margin_periods = self.law.delay_margin_periods();
+        let plan = self.board_writes(&out);
+        self.book_command(&out);
         let rec = CycleRecord {
             index: self.index,
             t_s,
@@ -604,12 +502,203 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             tool_force_ref_n: self.shop.as_ref().and_then(ShopControl::force_ref_n),
             guard,
             delay,
-            delay_margin_periods,
+            delay_margin_periods: self.law.delay_margin_periods(),
             log_stalled: self.log_stalled,
             lookahead,
         };
         self.index += 1;
         rec
+    }
+
+    /// The line guard's reading of `read` (plausibility and confirmation before meaning:
+    /// the rules see the guarded status), against the echoes to expect: the commands in
+    /// force after the last periods and whether ACC was requested.
+    fn guard_read(&mut self, read: Result<BoardStatus, BoardErrorKind>) -> Guarded {
+        let mut expect = Expected {
+            acc_requested: self.control_on_board.is_some_and(|c| c.acc_request),
+            ..Expected::default()
+        };
+        for (slot, c) in expect
+            .commands
+            .iter_mut()
+            .zip(self.in_force.cmds.iter().flatten().copied())
+        {
+            *slot = c;
+            expect.count += 1;
+        }
+        self.guard.check(read, &expect)
+    }
+
+    /// The loop delay measured this period from the commands booked so far and the status
+    /// accepted (`link` unless the guard `held` it). Where the line or the board lost its
+    /// cadence (a failed read or write), whether the board took the commands booked so far
+    /// is unknown: they are forgotten.
+    fn measure_delay(
+        &mut self,
+        read: Result<BoardStatus, BoardErrorKind>,
+        link: Result<BoardStatus, BoardErrorKind>,
+        held: bool,
+        guard: &Guarded,
+    ) -> DelayReading {
+        let line_broke = read.is_err() || self.write_error.is_some();
+        if line_broke {
+            self.in_force.cmds = [None; MAX_ECHO_PERIODS];
+        }
+        let accepted = link.ok().filter(|_| !held);
+        let booked = self.in_force.take(line_broke);
+        let mut delay = self.delay.period(self.index, &booked, accepted.as_ref());
+        delay.replay_lag_periods = guard.replay_lag_periods;
+        delay
+    }
+
+    /// The period's `(programmed, actual)` feed from the status, mm/min (`None` without
+    /// one): `PROGRAMMED_FEED`, or the policy's nominal feed when the board reports 0;
+    /// × `OVERRIDE_APPLIED`, 0 in a feed hold (it stops the axes whatever the override).
+    fn feeds(&self, link: Result<BoardStatus, BoardErrorKind>) -> Option<(f64, f64)> {
+        link.ok().map(|s| {
+            let programmed = if s.programmed_feed_mm_min > 0 {
+                f64::from(s.programmed_feed_mm_min)
+            } else {
+                self.policy.config().nominal_feed_mm_min
+            };
+            let feed = if s.feed_hold_active {
+                0.0
+            } else {
+                programmed * f64::from(s.override_applied_pct) / 100.0
+            };
+            (programmed, feed)
+        })
+    }
+
+    /// The path integral over the period: the actual feed of `feeds`, or the last known one
+    /// without a status.
+    fn advance_path(&mut self, feeds: Option<(f64, f64)>) {
+        if let Some((_, feed)) = feeds {
+            self.last_feed_mm_min = feed;
+        }
+        self.path_mm += self.last_feed_mm_min * self.period_s / 60.0;
+    }
+
+    /// The force source's sample of the status at the period's actual feed; invalid
+    /// without a status or for a read the guard `held`.
+    fn estimate_force(
+        &mut self,
+        link: Result<BoardStatus, BoardErrorKind>,
+        feeds: Option<(f64, f64)>,
+        held: bool,
+    ) -> ForceSample {
+        match (link, feeds) {
+            (Ok(s), Some((_, feed))) if !held => {
+                let input = PeriodInput {
+                    period_s: self.period_s,
+                    spindle_rpm: f64::from(s.spindle_rpm),
+                    feed_mm_min: feed,
+                    true_force_n: None,
+                    power_w: Some(f64::from(s.spindle_power_w)),
+                    phases: None,
+                };
+                self.source.estimate(&input)
+            }
+            _ => ForceSample::INVALID,
+        }
+    }
+
+    /// The shop layer's command limits for the period, and its tool change applied to the
+    /// law, from the status, the force, the last command and the law's Kc estimate.
+    fn shop_limits(
+        &mut self,
+        link: Result<BoardStatus, BoardErrorKind>,
+        force: &ForceSample,
+    ) -> Option<ShopStep> {
+        let sh = self.shop.as_mut()?;
+        let decision = sh.before(
+            link.as_ref().ok(),
+            force,
+            self.policy.last_command(),
+            self.law.kc_estimate(),
+        );
+        self.policy.set_command_limits(decision.limits);
+        if let Some(change) = decision.tool_change {
+            self.apply_tool_change(change);
+        }
+        decision.step
+    }
+
+    /// The plan's look-ahead for the period, from its one input: the status accepted, the
+    /// raw block read, whether the guard held the read, whether the line runs as designed
+    /// (the designed loop delay, no late period: the lead's window assumes it), the force
+    /// and the tool's Fr. Its cap (or lead) joins the command limits
+    /// ([`ControlLoop::join_plan_limits`]).
+    fn lookahead_limits(
+        &mut self,
+        read: Result<BoardStatus, BoardErrorKind>,
+        link: Result<BoardStatus, BoardErrorKind>,
+        held: bool,
+        force: &ForceSample,
+        delay: &DelayReading,
+    ) -> Option<LookAheadStep> {
+        let input = LookAheadInput {
+            status: link.ok(),
+            raw_block: read.ok().map(|raw| raw.block_number),
+            read_held: held,
+            line_nominal: delay.as_designed() && !self.period_late,
+            force: *force,
+            force_ref_n: self.shop.as_ref().and_then(ShopControl::force_ref_n),
+            period_s: self.period_s,
+        };
+        let st = self.lookahead.as_mut()?.step(&input);
+        self.join_plan_limits(&st);
+        Some(st)
+    }
+
+    /// The look-ahead's decision `st` joins the command limits (the shop layer's, if any):
+    /// its cap, the lower cap wins; the plan's lead, where there is one, is the period's
+    /// command, the plan's cap and floor at once (the shop layer's cap, applied last, still
+    /// wins). Also whether the plan explains a force drop (the breakage watch's exit).
+    fn join_plan_limits(&mut self, st: &LookAheadStep) {
+        let mut limits = if self.shop.is_some() {
+            self.policy.command_limits()
+        } else {
+            crate::policy::CommandLimits::default()
+        };
+        let plan_cap = match st.lead_pct {
+            Some(l) => {
+                limits.floor_pct = Some(limits.floor_pct.map_or(l, |f| f.max(l)));
+                Some(l)
+            }
+            None => st.cap_pct,
+        };
+        if let Some(c) = plan_cap {
+            limits.cap_pct = Some(limits.cap_pct.map_or(c, |s| s.min(c)));
+        }
+        self.policy.set_command_limits(limits);
+        self.policy.set_exit_planned(st.exit_planned);
+    }
+
+    /// The writes the policy's decision `out` asks of the link: the override with the next
+    /// heartbeat, and the `CONTROL` bits where they differ from what the board was given.
+    fn board_writes(&mut self, out: &CycleOutput) -> WritePlan {
+        let mut writes = WritePlan::default();
+        if let Some(cmd) = out.write_override {
+            self.heartbeat = self.heartbeat.wrapping_add(1);
+            writes.override_and_heartbeat = Some((cmd.0, self.heartbeat));
+        }
+        if self.control_on_board != Some(out.control) {
+            writes.control = Some(out.control);
+        }
+        writes
+    }
+
+    /// Book the command `out` writes: the look-ahead walks at it until the board applies it,
+    /// and the guard and the loop delay expect its echo.
+    fn book_command(&mut self, out: &CycleOutput) {
+        if let (Some(la), Some(cmd)) = (self.lookahead.as_mut(), out.write_override) {
+            la.note_written(cmd.0);
+        }
+        self.in_force.book(
+            out.state == crate::policy::AccState::Active,
+            out.write_override.map(|o| o.0),
+        );
     }
 
     /// The run log's writer is stalled past the logger's buffer (`true`) or has caught up

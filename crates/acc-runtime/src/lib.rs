@@ -10,9 +10,10 @@
 //! - [`policy`]: the fault policy and operator priority as a pure state machine;
 //! - [`shop`]: the tool table per `TOOL_NUMBER` and entry/exit control (limits on the law's
 //!   command);
-//! - [`plan`], [`lookahead`], [`plan_lead`]: the cutting plan (`plan.csv`), the look-ahead
-//!   step that caps the command ahead of an engagement change, and the plan's lead that
-//!   raises it to the engagement ahead while the plan and the measurement agree;
+//! - [`lookahead`]: the cutting plan ([`plan`], `plan.csv`) read by the loop: the cap on the
+//!   command ahead of an engagement change, and the plan's lead that raises it to the
+//!   engagement ahead while the plan and the measurement agree ([`plan_error`]: the plan's
+//!   force error of a run log);
 //! - [`control_loop`]: the control loop: one period against any `Board` (read, decide, write);
 //! - [`record`]: the run log — one [`RunRecord`] per period, schema v3, older versions
 //!   migrated;
@@ -30,7 +31,6 @@
 /// Injected time: the one [`Clock`] of the workspace lives in acc-core (the links'
 /// deadlines, the emulators and the simulator use it too); re-exported here.
 pub use acc_pmc::clock;
-pub mod block_start;
 pub mod config;
 pub mod control_loop;
 pub mod cuts;
@@ -40,9 +40,6 @@ pub mod history;
 mod log_backlog;
 pub mod lookahead;
 pub mod opcua_config;
-pub mod plan;
-pub mod plan_error;
-pub mod plan_lead;
 pub mod policy;
 pub mod record;
 pub mod runner;
@@ -57,7 +54,8 @@ pub mod watch;
 
 pub use clock::{Clock, ManualClock, SystemClock};
 pub use control_loop::{ControlLoop, CycleRecord, WritePlan, WriteResult};
-pub use lookahead::{LookAhead, LookAheadConfig, LookAheadStep};
+pub use lookahead::{plan, plan_error};
+pub use lookahead::{LookAhead, LookAheadConfig, LookAheadInput, LookAheadStep};
 pub use plan::{ForceProfile, Plan, PlanError, PlanRow};
 pub use policy::{
     AccState, Alarms, CommandLimits, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig,

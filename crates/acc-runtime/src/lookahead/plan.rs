@@ -143,7 +143,9 @@ impl PlanRow {
         } else {
             1.0
         };
-        Some(100.0 * (fr_n / f100_n).powf(1.0 / beta))
+        Some(acc_core::force_law::feed_for_force(
+            100.0, f100_n, fr_n, beta,
+        ))
     }
 
     /// The stretch's planned override for a run whose force reference is `fr_n` (N),

@@ -1,5 +1,9 @@
 //! Tests of [`crate::lookahead`].
-use super::*;
+use acc_core::ForceSample;
+use acc_pmc::BoardStatus;
+
+use super::plan::{Plan, PlanRow};
+use super::{Disagreement, LookAhead, LookAheadConfig, LookAheadInput};
 
 fn row(block: u32, a: f64, b: f64, f100: f64, ov: u16) -> PlanRow {
     crate::plan::test_row(block, a, b, 600.0, f100, ov)
@@ -22,6 +26,12 @@ fn force(f: f64) -> ForceSample {
     }
 }
 
+/// The input of a period that read `st` (`None`: the read failed) with a valid force `f`
+/// (N), T = 0.1 s: no line guard, a nominal line, the Fr in force.
+fn read(st: Option<&BoardStatus>, f: f64) -> LookAheadInput {
+    LookAheadInput::new(st.copied(), force(f), 0.1)
+}
+
 /// Air in block 10 for 20 mm, then a cut planned at 30 % in block 20.
 fn lookahead() -> LookAhead {
     let plan = Plan {
@@ -39,7 +49,7 @@ fn caps_before_the_entry_not_long_before() {
     // 900 mm/min = 1.5 mm per period; at 150 % of 600 the horizon (0.2 s) is 3 mm.
     let mut caps = Vec::new();
     for _ in 0..13 {
-        caps.push(la.step(Some(&status(10, 900)), &force(0.0), 0.1));
+        caps.push(la.step(&read(Some(&status(10, 900)), 0.0)));
     }
     let first = caps
         .iter()
@@ -51,7 +61,7 @@ fn caps_before_the_entry_not_long_before() {
     // In the cut, the block change locates the tool past the block's start: without a
     // line guard the block began within the last period, 0.3 mm at the feed read; the
     // middle of that, ± half.
-    let s = la.step(Some(&status(20, 180)), &force(720.0), 0.1);
+    let s = la.step(&read(Some(&status(20, 180)), 720.0));
     assert_eq!(s.cap_pct, Some(30));
     assert!((s.position_mm.expect("x") - 20.15).abs() < 1e-9);
     assert!((la.unc_mm - 0.15).abs() < 1e-9);
@@ -66,9 +76,11 @@ fn a_tool_fr_below_the_plans_lowers_the_cap_a_higher_one_never_raises_it() {
         for r in &mut la.plan.rows {
             r.force_ref_n = plan_fr;
         }
-        la.set_force_ref_n(loop_fr);
-        la.step(Some(&status(20, 180)), &force(0.5 * loop_fr), 0.1)
-            .cap_pct
+        let input = LookAheadInput {
+            force_ref_n: Some(loop_fr),
+            ..read(Some(&status(20, 180)), 0.5 * loop_fr)
+        };
+        la.step(&input).cap_pct
     };
     // A tool whose Fr is 500 N: 100 · 500 / 2400 = 20.8 → 20 %.
     assert_eq!(in_cut(Some(800.0), 500.0), Some(20));
@@ -104,7 +116,7 @@ fn the_walk_ahead_goes_as_far_as_the_override_in_force_lets_the_tool() {
     let mut la = cut_then_corner();
     let mut at = |x_mm: f64, pct: u16| {
         la.x_mm = x_mm - 0.4;
-        la.step(Some(&in_force(30, 240, pct)), &force(790.0), 0.1)
+        la.step(&read(Some(&in_force(30, 240, pct)), 790.0))
     };
     assert_eq!(at(8.6, 40).cap_pct, Some(40));
     assert_eq!(at(9.4, 40).cap_pct, Some(20));
@@ -114,7 +126,7 @@ fn the_walk_ahead_goes_as_far_as_the_override_in_force_lets_the_tool() {
     // Likewise with 40 % applied and 150 % written but not yet applied.
     la.note_written(150);
     la.x_mm = 8.2;
-    let s = la.step(Some(&in_force(30, 240, 40)), &force(790.0), 0.1);
+    let s = la.step(&read(Some(&in_force(30, 240, 40)), 790.0));
     assert_eq!(s.cap_pct, Some(20));
 }
 
@@ -132,7 +144,7 @@ fn inside_a_rising_row_the_cap_follows_the_force_the_tool_can_reach() {
     // 200 N measured at 20 %: what the plan predicts at the corner's start.
     let mut at = |x_mm: f64, pct: u16, f: f64| {
         la.x_mm = x_mm - 0.2;
-        la.step(Some(&in_force(31, 120, pct)), &force(f), 0.1)
+        la.step(&read(Some(&in_force(31, 120, pct)), f))
             .cap_pct
             .expect("capped")
     };
@@ -154,7 +166,7 @@ fn inside_a_rising_row_the_cap_follows_the_force_the_tool_can_reach() {
     };
     let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
     la.x_mm = 9.8;
-    let s = la.step(Some(&in_force(31, 120, 20)), &force(200.0), 0.1);
+    let s = la.step(&read(Some(&in_force(31, 120, 20)), 200.0));
     assert_eq!(s.cap_pct, Some(20));
 }
 
@@ -162,24 +174,15 @@ fn inside_a_rising_row_the_cap_follows_the_force_the_tool_can_reach() {
 fn disagreement_needs_persistence_and_below_lifts_the_cap() {
     let mut la = lookahead();
     // Entering from air: a drop here would be the plan's (the band reaches air).
-    assert!(
-        la.step(Some(&status(20, 180)), &force(720.0), 0.1)
-            .exit_planned
-    );
+    assert!(la.step(&read(Some(&status(20, 180)), 720.0)).exit_planned);
     // In the cut at the planned force: the plan explains the force.
-    assert!(
-        la.step(Some(&status(20, 180)), &force(720.0), 0.1)
-            .exit_planned
-    );
+    assert!(la.step(&read(Some(&status(20, 180)), 720.0)).exit_planned);
     // A collapse to nothing where the plan says metal is not explained (a broken tool).
-    assert!(
-        !la.step(Some(&status(20, 180)), &force(0.0), 0.1)
-            .exit_planned
-    );
-    la.step(Some(&status(20, 180)), &force(720.0), 0.1);
+    assert!(!la.step(&read(Some(&status(20, 180)), 0.0)).exit_planned);
+    la.step(&read(Some(&status(20, 180)), 720.0));
     // The plan predicts 720 N at 180 mm/min; 1500 N is above for three periods.
     let d: Vec<_> = (0..3)
-        .map(|_| la.step(Some(&status(20, 180)), &force(1500.0), 0.1))
+        .map(|_| la.step(&read(Some(&status(20, 180)), 1500.0)))
         .collect();
     assert_eq!(d[1].disagreement, None);
     assert_eq!(d[2].disagreement, Some(Disagreement::Above));
@@ -187,7 +190,7 @@ fn disagreement_needs_persistence_and_below_lifts_the_cap() {
     assert_eq!(d[2].cap_pct, Some(30));
     // Air where the plan says metal: below, and the cap is lifted.
     let d: Vec<_> = (0..3)
-        .map(|_| la.step(Some(&status(20, 180)), &force(0.0), 0.1))
+        .map(|_| la.step(&read(Some(&status(20, 180)), 0.0)))
         .collect();
     assert_eq!(d[2].disagreement, Some(Disagreement::Below));
     assert_eq!(d[2].cap_pct, None);
@@ -218,7 +221,7 @@ fn cutting(tool: u16) -> BoardStatus {
 #[test]
 fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
     let mut la = leading();
-    let mut at = |f: f64| la.step(Some(&cutting(1)), &force(f), 0.1);
+    let mut at = |f: f64| la.step(&read(Some(&cutting(1)), f));
     // Three periods where the measurement agrees with the plan (k = 1) before it leads:
     // then 40 %, the position whose predicted force is Fr.
     assert_eq!(at(600.0).lead_pct, None);
@@ -243,7 +246,7 @@ fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
     // ...and a new tool starts it again (three agreeing periods before it leads).
     let st = cutting(2);
     let leads: Vec<_> = (0..3)
-        .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+        .map(|_| la.step(&read(Some(&st), 600.0)).lead_pct)
         .collect();
     assert_eq!(leads, [None, None, Some(40)]);
 }
@@ -252,35 +255,35 @@ fn the_lead_acts_only_while_the_tool_cuts_and_the_plan_agrees() {
 fn no_lead_after_a_failed_read_a_skipped_period_or_on_a_slow_line() {
     let mut la = leading();
     let st = cutting(1);
-    let led = |la: &mut LookAhead| {
-        (0..3)
-            .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
-            .collect::<Vec<_>>()
+    let led = |la: &mut LookAhead, line_nominal: bool| {
+        let input = LookAheadInput {
+            line_nominal,
+            ..read(Some(&st), 600.0)
+        };
+        (0..3).map(|_| la.step(&input).lead_pct).collect::<Vec<_>>()
     };
-    assert_eq!(led(&mut la), [None, None, Some(40)]);
+    assert_eq!(led(&mut la, true), [None, None, Some(40)]);
     // A failed read: no lead reported, the position moves on by the last path (0.3 mm)
     // and is that much less certain, and the cut's scale starts again: its first period
     // after the read has no sample of it, the next leads as an entry at the tool's scale.
     let x = la.last().position_mm.expect("x");
-    assert_eq!(la.step(None, &force(600.0), 0.1).lead_pct, None);
+    assert_eq!(la.step(&read(None, 600.0)).lead_pct, None);
     assert!((la.x_mm - x - 0.3).abs() < 1e-9 && la.unc_mm >= 0.3 - 1e-9);
-    assert_eq!(led(&mut la), [None, Some(40), Some(40)]);
+    assert_eq!(led(&mut la, true), [None, Some(40), Some(40)]);
     // A period the driver skipped: the same.
     la.missed();
-    assert_eq!(led(&mut la), [None, Some(40), Some(40)]);
+    assert_eq!(led(&mut la, true), [None, Some(40), Some(40)]);
     // A slow line (a longer echo delay measured): no lead while it lasts.
-    la.set_line_nominal(false);
-    assert_eq!(led(&mut la), [None, None, None]);
-    la.set_line_nominal(true);
-    assert_eq!(led(&mut la)[2], Some(40));
+    assert_eq!(led(&mut la, false), [None, None, None]);
+    assert_eq!(led(&mut la, true)[2], Some(40));
 }
 
 #[test]
 fn unknown_block_or_v1_board_is_lost() {
     let mut la = lookahead();
-    let s = la.step(Some(&status(99, 100)), &force(0.0), 0.1);
+    let s = la.step(&read(Some(&status(99, 100)), 0.0));
     assert!(s.lost && s.cap_pct.is_none());
-    let s = la.step(Some(&BoardStatus::default()), &force(0.0), 0.1);
+    let s = la.step(&read(Some(&BoardStatus::default()), 0.0));
     assert!(s.lost);
     // A block met again later in the program is found forward from the last one.
     let plan = Plan {
@@ -291,9 +294,9 @@ fn unknown_block_or_v1_board_is_lost() {
         ],
     };
     let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-    la.step(Some(&status(5, 60)), &force(0.0), 0.1);
-    la.step(Some(&status(6, 60)), &force(0.0), 0.1);
-    let s = la.step(Some(&status(5, 60)), &force(0.0), 0.1);
+    la.step(&read(Some(&status(5, 60)), 0.0));
+    la.step(&read(Some(&status(6, 60)), 0.0));
+    let s = la.step(&read(Some(&status(5, 60)), 0.0));
     let x = s.position_mm.expect("x");
     assert!((x - 20.05).abs() < 1e-9, "{x}");
 }
@@ -305,25 +308,25 @@ fn a_steady_periods_path_is_the_rows_feed_and_the_drift_grows_only_without_it() 
         rows: vec![crate::plan::test_row(30, 0.0, 100.0, 283.4, 2000.0, 30)],
     };
     let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-    let unit = FEED_RESOLUTION_MM_MIN * 0.1 / 60.0;
+    let unit = la.cfg.feed_rounding_mm_min * 0.1 / 60.0;
     // The first period has no override of the read before: the register's path.
-    la.step(Some(&in_force(30, 283, 100)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(30, 283, 100)), 0.0));
     assert!((la.x_mm - 283.0 * 0.1 / 60.0).abs() < 1e-12);
     assert!((la.drift_mm - unit).abs() < 1e-12);
     // Ten steady periods at 100 %: the row's feed, no drift added.
     for _ in 0..10 {
-        la.step(Some(&in_force(30, 283, 100)), &force(0.0), 0.1);
+        la.step(&read(Some(&in_force(30, 283, 100)), 0.0));
     }
     let x = (283.0 + 10.0 * 283.4) * 0.1 / 60.0;
     assert!((la.x_mm - x).abs() < 1e-12, "{} vs {x}", la.x_mm);
     assert!((la.drift_mm - unit).abs() < 1e-12);
     // The override changed: the register's value (the period's mean), half a unit more.
-    la.step(Some(&in_force(30, 200, 50)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(30, 200, 50)), 0.0));
     assert!((la.x_mm - (x + 200.0 * 0.1 / 60.0)).abs() < 1e-12);
     assert!((la.drift_mm - 2.0 * unit).abs() < 1e-12);
     // Steady, but the register disagrees with the row's feed by more than its rounding (an
     // NC that slows the path on its own): the register's value again.
-    la.step(Some(&in_force(30, 120, 50)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(30, 120, 50)), 0.0));
     assert!((la.x_mm - (x + 320.0 * 0.1 / 60.0)).abs() < 1e-12);
     assert!((la.drift_mm - 3.0 * unit).abs() < 1e-12);
 }
@@ -357,11 +360,11 @@ fn caps_towards_the_entry(lead: bool, air_tool: u16) -> Vec<Option<u16>> {
         ..in_force(b, v, pct)
     };
     for _ in 0..6 {
-        la.step(Some(&step(30, 180, 30, 1)), &force(600.0), 0.1);
+        la.step(&read(Some(&step(30, 180, 30, 1)), 600.0));
     }
     (0..6)
         .map(|_| {
-            la.step(Some(&step(40, 900, 150, air_tool)), &force(0.0), 0.1)
+            la.step(&read(Some(&step(40, 900, 150, air_tool)), 0.0))
                 .cap_pct
         })
         .collect()
@@ -393,11 +396,11 @@ fn the_entry_cap_is_not_lifted_in_a_cut_whose_scale_failed() {
     // the cap to 40 % (800 N predicted, 1000 N at the measured 1.25): it is not used.
     let mut la = leading();
     for _ in 0..4 {
-        la.step(Some(&cutting(1)), &force(600.0), 0.1);
+        la.step(&read(Some(&cutting(1)), 600.0));
     }
     assert!(la.scale.confirmed() && la.tool_scale.is_some());
     for _ in 0..2 {
-        let st = la.step(Some(&cutting(1)), &force(750.0), 0.1);
+        let st = la.step(&read(Some(&cutting(1)), 750.0));
         assert_eq!((st.lead_pct, st.cap_pct), (None, Some(30)));
     }
     // After a failed read the cut starts its scale again: the first period after it has
@@ -405,12 +408,12 @@ fn the_entry_cap_is_not_lifted_in_a_cut_whose_scale_failed() {
     // the tool's scale (600 N at 30 %, 1.0) the entry is led at it (800 N at 40 %).
     let mut la = leading();
     for _ in 0..4 {
-        la.step(Some(&cutting(1)), &force(600.0), 0.1);
+        la.step(&read(Some(&cutting(1)), 600.0));
     }
-    la.step(None, &force(600.0), 0.1);
-    let st = la.step(Some(&cutting(1)), &force(600.0), 0.1);
+    la.step(&read(None, 600.0));
+    let st = la.step(&read(Some(&cutting(1)), 600.0));
     assert_eq!((st.lead_pct, st.cap_pct), (None, Some(30)));
-    let st = la.step(Some(&cutting(1)), &force(600.0), 0.1);
+    let st = la.step(&read(Some(&cutting(1)), 600.0));
     assert_eq!((st.lead_pct, st.cap_pct), (Some(40), Some(40)));
 }
 
@@ -420,9 +423,9 @@ fn a_feed_hold_a_late_period_and_an_instantaneous_register_widen_the_drift() {
         rows: vec![crate::plan::test_row(30, 0.0, 100.0, 600.0, 2000.0, 30)],
     };
     let mut la = LookAhead::new(plan, LookAheadConfig::new(0.1, 800.0, 150));
-    let unit = FEED_RESOLUTION_MM_MIN * 0.1 / 60.0;
+    let unit = la.cfg.feed_rounding_mm_min * 0.1 / 60.0;
     for _ in 0..3 {
-        la.step(Some(&in_force(30, 180, 30)), &force(0.0), 0.1);
+        la.step(&read(Some(&in_force(30, 180, 30)), 0.0));
     }
     assert!(
         (la.drift_mm - unit).abs() < 1e-12,
@@ -433,15 +436,16 @@ fn a_feed_hold_a_late_period_and_an_instantaneous_register_widen_the_drift() {
         feed_hold_active: true,
         ..in_force(30, 0, 30)
     };
-    la.step(Some(&hold), &force(0.0), 0.1);
-    la.step(Some(&in_force(30, 180, 30)), &force(0.0), 0.1);
+    la.step(&read(Some(&hold), 0.0));
+    la.step(&read(Some(&in_force(30, 180, 30)), 0.0));
     assert!((la.drift_mm - 3.0 * unit).abs() < 1e-12);
-    la.step(Some(&in_force(30, 180, 30)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(30, 180, 30)), 0.0));
     assert!((la.drift_mm - 3.0 * unit).abs() < 1e-12);
     // A period of a line not as designed (late, lagging): a whole period's path.
-    la.set_line_nominal(false);
-    la.step(Some(&in_force(30, 180, 30)), &force(0.0), 0.1);
-    la.set_line_nominal(true);
+    la.step(&LookAheadInput {
+        line_nominal: false,
+        ..read(Some(&in_force(30, 180, 30)), 0.0)
+    });
     assert!((la.drift_mm - (3.0 * unit + 0.3)).abs() < 1e-9);
     // The window reaches the drift behind the position and ahead of the reach.
     let (x, dx) = (la.x_mm, 0.3);
@@ -453,11 +457,11 @@ fn a_feed_hold_a_late_period_and_an_instantaneous_register_widen_the_drift() {
     // between 180 and 240): the register is instantaneous, the window at least a period's
     // path from then on.
     let mut la = LookAhead::new(la.plan().clone(), LookAheadConfig::new(0.1, 800.0, 150));
-    la.step(Some(&in_force(30, 180, 30)), &force(0.0), 0.1);
-    la.step(Some(&in_force(30, 210, 40)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(30, 180, 30)), 0.0));
+    la.step(&read(Some(&in_force(30, 210, 40)), 0.0));
     assert!(!la.instantaneous_feed, "a period's mean");
-    la.step(Some(&in_force(30, 240, 40)), &force(0.0), 0.1);
-    la.step(Some(&in_force(30, 180, 30)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(30, 240, 40)), 0.0));
+    la.step(&read(Some(&in_force(30, 180, 30)), 0.0));
     assert!(la.instantaneous_feed);
     let (y0, _, _) = la.window(la.x_mm, 0.3, 0.0, 30);
     assert!((la.x_mm - y0 - 0.3).abs() < 1e-12);
@@ -469,9 +473,9 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
     let confirmed = |st: &BoardStatus| {
         let mut la = leading();
         for _ in 0..4 {
-            la.step(Some(st), &force(600.0), 0.1);
+            la.step(&read(Some(st), 600.0));
         }
-        la.step(Some(st), &force(0.0), 0.1);
+        la.step(&read(Some(st), 0.0));
         la
     };
     let st = cutting(1);
@@ -479,7 +483,7 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
     // leads at the tool's scale.
     let mut la = confirmed(&st);
     let led: Vec<_> = (0..2)
-        .map(|_| la.step(Some(&st), &force(600.0), 0.1).lead_pct)
+        .map(|_| la.step(&read(Some(&st), 600.0)).lead_pct)
         .collect();
     assert_eq!(led, [None, Some(40)]);
     // In the material below 0.2 Fr (5 % on a 1 % board: 100 N, as the plan predicts): the
@@ -494,7 +498,7 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
         ..slow
     };
     for _ in 0..3 {
-        let s = la.step(Some(&slow), &force(100.0), 0.1);
+        let s = la.step(&read(Some(&slow), 100.0));
         assert_eq!(s.disagreement, None);
         assert!(s.cap_pct.is_some_and(|c| c > 5), "{s:?}");
         assert_eq!(s.lead_pct, None);
@@ -503,7 +507,7 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
     // highest ratio's position, the command stays the law's.
     let mut la = confirmed(&st);
     for _ in 0..2 {
-        let s = la.step(Some(&st), &force(750.0), 0.1);
+        let s = la.step(&read(Some(&st), 750.0));
         assert_eq!((s.lead_pct, s.cap_pct), (None, Some(30)));
     }
     // A board that names no tool (`TOOL_NUMBER` 0): no scale is kept from cut to cut;
@@ -511,7 +515,7 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
     let st0 = cutting(0);
     let mut la = confirmed(&st0);
     let led: Vec<_> = (0..3)
-        .map(|_| la.step(Some(&st0), &force(600.0), 0.1).lead_pct)
+        .map(|_| la.step(&read(Some(&st0), 600.0)).lead_pct)
         .collect();
     assert_eq!(led, [None, None, Some(40)]);
     // Another program with the same tool number: the same.
@@ -521,7 +525,7 @@ fn an_entry_is_led_only_on_a_ratio_of_this_cut_that_agrees_with_the_tools_scale(
         ..st
     };
     let led: Vec<_> = (0..3)
-        .map(|_| la.step(Some(&other), &force(600.0), 0.1).lead_pct)
+        .map(|_| la.step(&read(Some(&other), 600.0)).lead_pct)
         .collect();
     assert_eq!(led, [None, None, Some(40)]);
 }
@@ -541,25 +545,30 @@ fn a_block_change_bounds_the_position_by_the_periods_it_may_have_begun_in() {
     let change = |until: f64, pending: &dyn Fn(&mut LookAhead)| {
         let mut la = LookAhead::new(plan.clone(), LookAheadConfig::new(0.1, 800.0, 150));
         for (feed, pct) in [(180, 30), (210, 40), (240, 40), (180, 30)] {
-            la.step(Some(&in_force(30, feed, pct)), &force(0.0), 0.1);
+            la.step(&read(Some(&in_force(30, feed, pct)), 0.0));
         }
         assert!(la.instantaneous_feed);
         let mut k = 0;
         while la.x_mm < until {
             let (feed, pct) = if k % 2 == 0 { (240, 40) } else { (180, 30) };
-            la.step(Some(&in_force(30, feed, pct)), &force(0.0), 0.1);
+            la.step(&read(Some(&in_force(30, feed, pct)), 0.0));
             k += 1;
         }
         pending(&mut la);
         let drift_before = la.drift_mm;
-        la.set_read_held(false);
-        la.step(Some(&in_force(31, 240, 40)), &force(0.0), 0.1);
+        la.step(&read(Some(&in_force(31, 240, 40)), 0.0));
         (la, drift_before)
     };
-    let raw_31 = |la: &mut LookAhead| {
-        la.set_raw_block(31);
-        la.step(Some(&in_force(30, 240, 40)), &force(0.0), 0.1);
+    // A period whose raw read shows `block` while the guard reports 30 (`held`: the guard
+    // held the read).
+    let raw = |la: &mut LookAhead, block: u16, read_held: bool| {
+        la.step(&LookAheadInput {
+            raw_block: Some(block),
+            read_held,
+            ..read(Some(&in_force(30, 240, 40)), 0.0)
+        });
     };
+    let raw_31 = |la: &mut LookAhead| raw(la, 31, false);
     // Where the position is inside the reach, the drift allowance is bounded by it,
     // `max(x − start, start + reach − x)`, then grows by the change of the period's path
     // (0.1 mm at most).
@@ -586,8 +595,7 @@ fn a_block_change_bounds_the_position_by_the_periods_it_may_have_begun_in() {
     bounded(
         change(10.4, &|la| {
             raw_31(la);
-            la.set_raw_block(77);
-            la.step(Some(&in_force(30, 240, 40)), &force(0.0), 0.1);
+            raw(la, 77, false);
             raw_31(la);
         }),
         1.6,
@@ -596,9 +604,7 @@ fn a_block_change_bounds_the_position_by_the_periods_it_may_have_begun_in() {
     // nor the next period's start is known (the grid's maximum, 1.5 mm each).
     bounded(
         change(10.8, &|la| {
-            la.set_read_held(true);
-            raw_31(la);
-            la.set_read_held(false);
+            raw(la, 31, true);
             raw_31(la);
         }),
         0.4 + 1.5 + 1.5,
@@ -607,10 +613,7 @@ fn a_block_change_bounds_the_position_by_the_periods_it_may_have_begun_in() {
     bounded(
         change(10.4, &|la| {
             raw_31(la);
-            la.set_read_held(true);
-            la.set_raw_block(30);
-            la.step(Some(&in_force(30, 240, 40)), &force(0.0), 0.1);
-            la.set_read_held(false);
+            raw(la, 30, true);
             raw_31(la);
         }),
         0.4 + 1.5 + 1.5 + 0.4,
@@ -619,7 +622,7 @@ fn a_block_change_bounds_the_position_by_the_periods_it_may_have_begun_in() {
     bounded(
         change(11.2, &|la| {
             raw_31(la);
-            la.step(None, &force(0.0), 0.1);
+            la.step(&read(None, 0.0));
         }),
         1.5 + 1.5 + 0.4,
     );
@@ -649,36 +652,33 @@ fn a_slow_period_in_the_material_keeps_the_cuts_scale_air_clears_it() {
         ..in_force(30, 30, 5)
     };
     for _ in 0..3 {
-        la.step(Some(&cutting(1)), &force(600.0), 0.1);
+        la.step(&read(Some(&cutting(1)), 600.0));
     }
     assert!(la.scale.confirmed());
-    la.step(Some(&slow), &force(100.0), 0.1);
+    la.step(&read(Some(&slow), 100.0));
     assert!(la.scale.scale().is_some(), "the same cut");
     // Back at 30 %: led at once, not after three new samples.
-    assert_eq!(
-        la.step(Some(&cutting(1)), &force(600.0), 0.1).lead_pct,
-        Some(40)
-    );
-    // Unjudged periods keep the confirmation for at most `CONFIRM_PERIODS`.
-    for _ in 0..crate::plan_lead::CONFIRM_PERIODS {
-        la.step(Some(&slow), &force(100.0), 0.1);
+    assert_eq!(la.step(&read(Some(&cutting(1)), 600.0)).lead_pct, Some(40));
+    // Unjudged periods keep the confirmation for at most `scale_confirm_periods`.
+    for _ in 0..la.cfg.scale_confirm_periods {
+        la.step(&read(Some(&slow), 100.0));
     }
     assert!(la.scale.confirmed());
-    la.step(Some(&slow), &force(100.0), 0.1);
+    la.step(&read(Some(&slow), 100.0));
     assert!(!la.scale.confirmed());
     assert!(la.scale.scale().is_some());
     // A force below the band's lowest less its tolerance (a tool gone, air the plan does
     // not know) is not the same cut.
-    la.step(Some(&cutting(1)), &force(600.0), 0.1);
+    la.step(&read(Some(&cutting(1)), 600.0));
     assert!(la.scale.confirmed());
-    la.step(Some(&slow), &force(20.0), 0.1);
+    la.step(&read(Some(&slow), 20.0));
     assert!(la.scale.scale().is_none());
     for _ in 0..3 {
-        la.step(Some(&cutting(1)), &force(600.0), 0.1);
+        la.step(&read(Some(&cutting(1)), 600.0));
     }
     assert!(la.scale.confirmed());
     // The same low force where the plan has air within the position's error (the block
     // of the air row): out of the cut, the scale starts again.
-    la.step(Some(&in_force(31, 180, 30)), &force(0.0), 0.1);
+    la.step(&read(Some(&in_force(31, 180, 30)), 0.0));
     assert!(la.scale.scale().is_none());
 }

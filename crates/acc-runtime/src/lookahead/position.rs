@@ -1,13 +1,128 @@
-//! Where the tool is on the plan ([`crate::lookahead`], "Where the tool is"): the block
-//! reported looked up in the plan, the position set at a block's start within the reach of
-//! the periods it may have begun in ([`crate::block_start`]), the path of each period from
-//! the plan's feed or `ACTUAL_FEED`, and the drift allowance of that integrated path.
+//! Where the tool is on the plan (docs/plan.md, "Where the tool is"): the block reported
+//! looked up in the plan, the position set at a block's start within the reach of the
+//! periods it may have begun in ([`super::block_start`]), the path of each period from the
+//! plan's feed or `ACTUAL_FEED`, and the drift allowance of that integrated path.
 use acc_pmc::BoardStatus;
 
-use super::{LookAhead, FEED_RESOLUTION_MM_MIN};
-use crate::plan::PlanRow;
+use super::plan::PlanRow;
+use super::LookAhead;
+
+/// Where the tool is this period, as the band, the cap and the lead read it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Located {
+    /// Path position on the plan, mm (clamped to the plan).
+    pub(super) x: f64,
+    /// Path of the period, mm.
+    pub(super) dx: f64,
+    /// The position's uncertainty plus the change of the period's path, mm.
+    pub(super) unc_mm: f64,
+    /// The highest override the tool may move at now (in force or written), %.
+    pub(super) in_force_pct: u16,
+}
 
 impl LookAhead {
+    /// The periods since the old block was last read raw, from this read's raw block
+    /// number `raw_block` (`None`: the reported one). The reported number lags the raw one
+    /// while the line guard confirms a change. A read the guard held is suspect (a stale
+    /// frame may show the old block): it never restarts the count. Returns the raw number
+    /// that counts (`None` for a held read).
+    pub(super) fn count_since_old_block(
+        &mut self,
+        s: &BoardStatus,
+        raw_block: Option<u16>,
+    ) -> Option<u16> {
+        let raw = Some(raw_block.unwrap_or(s.block_number)).filter(|_| !self.held);
+        self.since_old = if raw.is_some() && raw == self.last_block {
+            0
+        } else {
+            self.since_old.saturating_add(1)
+        };
+        raw
+    }
+
+    /// Remember the period for the block start's reach: the highest override that may have
+    /// been in force (the one applied at both reads around it and the commands written that
+    /// may have acted; not known after a failed read or a feed hold, nor from a status the
+    /// guard held) and the feed read.
+    pub(super) fn remember_period(&mut self, s: &BoardStatus) {
+        let top_pct = self.applied_prev.filter(|_| !self.held).map(|p| {
+            p.max(s.override_applied_pct)
+                .max(self.written[0])
+                .max(self.written[1])
+        });
+        let v = f64::from(s.actual_feed_mm_min);
+        self.recent.push(top_pct, v, self.line_nominal);
+    }
+
+    /// Move the position by the path the NC reports, whatever the block (the block report
+    /// lags the feed by the line guard's confirmation); the drift allowance grows by a
+    /// whole period's path on a line not as designed, else by the register's rounding
+    /// where the path is not exact. Returns the period's path, mm.
+    pub(super) fn advance_position(&mut self, s: &BoardStatus, period_s: f64) -> f64 {
+        let v = f64::from(s.actual_feed_mm_min);
+        let (dx, exact) = self.period_path_mm(s, v, period_s);
+        self.x_mm += dx;
+        if !self.line_nominal {
+            // A late period or a lagging sample: the period's length is not the nominal one.
+            self.drift_mm += dx;
+        } else if !exact {
+            self.drift_mm += self.cfg.feed_rounding_mm_min * period_s / 60.0;
+        }
+        dx
+    }
+
+    /// A block reported for the first time (or while the tool is not located): look it up
+    /// in the plan from the visit the tool was in and set the position at its start
+    /// ([`LookAhead::place_at_block_start`]). A reported block equal to the raw one `raw`
+    /// restarts the count of periods since the old block.
+    pub(super) fn locate_block(
+        &mut self,
+        s: &BoardStatus,
+        raw: Option<u16>,
+        dx: f64,
+        period_s: f64,
+    ) {
+        let prior = self.last_block;
+        if prior != Some(s.block_number) || self.visit.is_none() {
+            self.last_block = Some(s.block_number);
+            self.visit = self.find_visit(s.block_number, self.visit, self.x_mm);
+            if let Some(i) = self.visit {
+                let changed = prior.is_some_and(|b| b != s.block_number);
+                self.place_at_block_start(i, changed, dx, period_s);
+            }
+        }
+        if raw == Some(s.block_number) {
+            // The block reported now is the one read: the next change counts from here.
+            self.since_old = 0;
+        }
+    }
+
+    /// Where the tool is for the rest of the period after moving `dx` (mm). The tool may
+    /// move at the override in force or a command written and not yet applied. The
+    /// position integrates a feed register that may be an instantaneous value: where the
+    /// feed changed, it may be off by up to the change of the period's path, so the walk
+    /// starts that much behind the position and reaches that much farther.
+    pub(super) fn located(&mut self, s: &BoardStatus, dx: f64) -> Located {
+        let x = self.x_mm.clamp(0.0, self.plan.length_mm());
+        let in_force_pct = s
+            .override_applied_pct
+            .max(self.written[0])
+            .max(self.written[1]);
+        let margin = (dx - self.dx_prev_mm).abs();
+        if self.instantaneous_feed {
+            // An instantaneous register misses the part of the period at the old feed: the
+            // change of the period's path stays in the integrated position.
+            self.drift_mm += margin;
+        }
+        self.dx_prev_mm = dx;
+        Located {
+            x,
+            dx,
+            unc_mm: self.unc_mm + margin,
+            in_force_pct,
+        }
+    }
+
     /// The first row of the visit of `block` (low 16 bits) the tool at `x` (mm) can be in:
     /// the first visit from the one before `from` (or the start) that ends at or after
     /// `x`, wrapping once.
@@ -63,7 +178,7 @@ impl LookAhead {
     }
 
     /// How far the tool can be past the start of the block whose visit starts at row `i`,
-    /// mm ([`crate::block_start::RecentPeriods::reach_mm`]): over the periods since the
+    /// mm ([`super::block_start::RecentPeriods::reach_mm`]): over the periods since the
     /// old block was last read raw (`since_old`), each at the highest speed of the rows
     /// from the block's start to the reach ([`PlanRow::speed_mm_min`] at the period's
     /// highest override, the grid's maximum where that is not known), the rows widened
@@ -135,11 +250,12 @@ impl LookAhead {
             return (reported, false);
         }
         let at = |pct: u16| a.feed_mm_min * f64::from(pct) / 100.0;
-        let close = |f: f64| (f - v).abs() <= FEED_RESOLUTION_MM_MIN + 1e-9;
+        let rounding = self.cfg.feed_rounding_mm_min;
+        let close = |f: f64| (f - v).abs() <= rounding + 1e-9;
         if prev != applied {
             // A period mean lies between the old feed and the new one; the new feed itself,
             // with the two far enough apart, is an instantaneous value.
-            if (at(applied) - at(prev)).abs() > 4.0 * FEED_RESOLUTION_MM_MIN && close(at(applied)) {
+            if (at(applied) - at(prev)).abs() > 4.0 * rounding && close(at(applied)) {
                 self.instantaneous_feed = true;
             }
             return (reported, false);
