@@ -1,6 +1,6 @@
 //! Simulated time per wall-clock second of `acc sim` as it runs: the production
-//! `ControlLoop` + `FaultPolicy` on the simulated board (`acc_sim::run::run_with_channel`
-//! against `SimBoard`, stepped clock), with the scenario's own measurement channel, on
+//! `ControlLoop` + `FaultPolicy` on the simulated board (`acc_sim::run` against `SimBoard`,
+//! stepped clock), with the scenario's own measurement channel in its `RunSetup`, on
 //! paper case III (steps 2-3-4 mm, 60.7 s simulated):
 //!
 //! * `paper_case3/spindle-power` — `configs/scenarios/paper_case3.toml` as shipped: force
@@ -23,7 +23,7 @@
 
 use std::hint::black_box;
 
-use acc_sim::run::{configs_dir, run_with_channel};
+use acc_sim::run::{configs_dir, run, RunSetup};
 use acc_sim::{LawKind, Scenario};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 
@@ -57,11 +57,13 @@ fn bench_sim(c: &mut Criterion) {
                         return;
                     };
                     black_box(
-                        run_with_channel::<std::io::Sink>(
+                        run(
                             black_box(&sc),
                             law.as_mut(),
-                            channel.as_mut(),
-                            None,
+                            RunSetup {
+                                channel: Some(channel.as_mut()),
+                                ..RunSetup::default()
+                            },
                         )
                         .ok(),
                     );

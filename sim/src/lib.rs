@@ -1,12 +1,23 @@
-//! `acc-sim`: the simulated machine.
+//! `acc-sim`: the production loop on the simulated machine.
 //!
-//! The embedded default machine of `acc`: workpieces along the tool path
-//! ([`workpiece`]) behind the plant's engagement source ([`engagement`]), the mean-force and tooth-level cutting process with tool wear
-//! ([`process`]), the feed drive and override path ([`machine`]), the PMC interface board
-//! ([`board`], the PMC crate's `BoardLogic` behind the `Board` trait), measurement channels
-//! ([`channel`], `ForceSource`s), comparison baselines ([`baselines`]), scenario files
-//! ([`scenario`]), the closed loop ([`mod@run`]: the production `ControlLoop` on a stepped clock, logging acc-runtime's
-//! `RunRecord`) and summaries ([`summary`]).
+//! This crate runs `acc`'s own control loop ([`acc_runtime::ControlLoop`] on the runtime's
+//! period driver) against the simulated plant of `acc-plant`: scenario files
+//! ([`scenario`]), the closed loop ([`mod@run`]: one [`run`] with a [`RunSetup`], logging
+//! acc-runtime's `RunRecord` with the plant's truth, [`truth`]), comparison baselines
+//! ([`baselines`]), summaries ([`summary`], [`program_summary`]), what-if runs on a
+//! recorded cut ([`whatif`]), NC programs on the simulated machine ([`program`]), the
+//! planner of `acc plan` and the feed optimizer of `acc optimize` ([`plan`], [`optimize`]),
+//! the plan follower ([`plan_follower`]) and the oracle rows ([`oracle`],
+//! [`oracle_program`]).
+//!
+//! It re-exports the simulated machine itself from `acc-plant`, so that a user of the
+//! simulator needs one crate: workpieces along the tool path ([`workpiece`]) behind the
+//! plant's engagement source ([`engagement`]), the mean-force and tooth-level cutting
+//! process with tool wear ([`process`]), the feed drive and override path ([`machine`]),
+//! the spindle motor ([`motor`]), the PMC interface board ([`board`], the PMC crate's
+//! `BoardLogic` behind the `Board` trait), measurement channels ([`channel`],
+//! `ForceSource`s), the plant's configuration ([`config`]) and the open-loop replay
+//! ([`replay`]).
 //!
 //! Everything runs on the machine's own manual clock and a seeded RNG: the same scenario
 //! and seed give a byte-identical run log, many times faster than real time.
@@ -48,7 +59,7 @@ pub mod whatif;
 
 pub use board::SimBoard;
 pub use machine::{ForceModel, Machine, PeriodRecord};
-pub use run::{run, RunResult};
+pub use run::{run, Pace, RunLog, RunResult, RunSetup, ShopLayer};
 pub use scenario::{LawKind, Scenario};
 pub use summary::{summarize, Summary};
 pub use workpiece::Workpiece;

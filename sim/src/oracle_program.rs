@@ -242,14 +242,11 @@ pub fn run_program_ahead(
     law: &mut dyn acc_core::OverrideLaw,
     lookahead: Option<acc_runtime::LookAhead>,
 ) -> Result<RunResult, crate::SimError> {
-    let mut channel = scenario.build_channel()?;
-    let setup = crate::run::RunSetup::<std::io::Sink> {
-        log: None,
-        shop: None,
-        prepare: &mut |b| b.set_engagement_source(Some(Box::new(path.clone()))),
-        observe: &mut |_| {},
-        pace: crate::run::Pace::Stepped,
+    let setup = crate::run::RunSetup {
+        shop: crate::run::ShopLayer::Off,
+        prepare: Some(&mut |b| b.set_engagement_source(Some(Box::new(path.clone())))),
         lookahead,
+        ..crate::run::RunSetup::default()
     };
-    Ok(crate::run::run_setup(scenario, law, channel.as_mut(), setup)?.0)
+    crate::run::run(scenario, law, setup)
 }

@@ -34,7 +34,7 @@ use std::time::Duration;
 use acc_core::clock::{Clock, GatedClock, ManualClock, ScaledClock, SystemClock};
 use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
 use acc_pmc::{Board, BoardStatus, ControlBits};
-use acc_runtime::record::{RunLogWriter, RunRecord};
+use acc_runtime::record::{RunLogError, RunLogWriter, RunRecord};
 use acc_runtime::{
     drive, ControlLoop, FaultPolicy, Hooks, LogSink, PeriodObserver, RunOptions, Verdict,
 };
@@ -218,19 +218,21 @@ impl PeriodObserver for SimObserver {
 /// The run's records: kept in memory for the summary, handed to the caller's `observe` (the
 /// telemetry tap), and, with a writer, in the run log. Every row the driver writes passes
 /// here, a skipped period's too, so the telemetry sees the rows the run log holds.
-struct SimSink<'a, W: Write> {
+struct SimSink<'a> {
     rows: Vec<RunRecord>,
-    log: Option<&'a mut RunLogWriter<W>>,
-    observe: &'a mut (dyn FnMut(&RunRecord) + Send),
+    log: Option<&'a mut dyn RunLog>,
+    observe: Option<&'a mut (dyn FnMut(&RunRecord) + Send)>,
 }
 
-impl<W: Write> LogSink for SimSink<'_, W> {
-    type Error = acc_runtime::record::RunLogError;
+impl LogSink for SimSink<'_> {
+    type Error = RunLogError;
 
     fn write(&mut self, rec: &RunRecord) -> Result<(), Self::Error> {
-        (self.observe)(rec);
+        if let Some(observe) = self.observe.as_deref_mut() {
+            observe(rec);
+        }
         if let Some(w) = self.log.as_deref_mut() {
-            w.write(rec)?;
+            w.write_record(rec)?;
         }
         self.rows.push(rec.clone());
         Ok(())
@@ -255,114 +257,82 @@ pub enum Pace {
     Gated(GatedClock),
 }
 
-/// Everything but the scenario, the law and the channel of a simulated run.
-pub struct RunSetup<'a, W: Write> {
+/// Where a run's shop layer (tool table, entry control) comes from.
+#[derive(Default)]
+pub enum ShopLayer<'a> {
+    /// The scenario's tool table (`[tools]`), if it has one.
+    #[default]
+    FromScenario,
+    /// No shop layer.
+    Off,
+    /// This shop layer (e.g. one that starts from what an earlier run learned,
+    /// [`acc_runtime::ShopControl::with_learned_from`]); after the run it holds the shop
+    /// layer as the run left it (what the run learned).
+    Given(&'a mut acc_runtime::ShopControl),
+}
+
+/// The run log a simulated run writes: a [`RunLogWriter`] over any writer (a file, a
+/// buffer).
+pub trait RunLog: Send {
+    /// Write one record (and flush it).
+    fn write_record(&mut self, rec: &RunRecord) -> Result<(), RunLogError>;
+}
+
+impl<W: Write + Send> RunLog for RunLogWriter<W> {
+    fn write_record(&mut self, rec: &RunRecord) -> Result<(), RunLogError> {
+        self.write(rec)
+    }
+}
+
+/// Everything but the scenario and the law of a simulated run. The default: the scenario's
+/// measurement channel and shop layer, no run log, the stepped clock, no look-ahead.
+#[derive(Default)]
+pub struct RunSetup<'a> {
+    /// The measurement channel (e.g. one configured in code); `None`: the scenario's own
+    /// ([`Scenario::build_channel`]).
+    pub channel: Option<&'a mut dyn MeasurementChannel>,
     /// The run log to write, if any.
-    pub log: Option<&'a mut RunLogWriter<W>>,
-    /// The shop layer (tool table, entry control), if any.
-    pub shop: Option<acc_runtime::ShopControl>,
+    pub log: Option<&'a mut dyn RunLog>,
+    /// The shop layer.
+    pub shop: ShopLayer<'a>,
     /// Applied to the fresh simulated board before the first period (the what-if sets the
-    /// recorded engagement or the start position).
-    pub prepare: &'a mut dyn FnMut(&mut crate::SimBoard),
+    /// recorded engagement or the start position), if given.
+    pub prepare: Option<&'a mut dyn FnMut(&mut crate::SimBoard)>,
     /// Called with every record the run log gets, a skipped period's too, on the driver's
-    /// logger thread (`acc sim` publishes it on the telemetry tap).
-    pub observe: &'a mut (dyn FnMut(&RunRecord) + Send),
+    /// logger thread (`acc sim` publishes it on the telemetry tap), if given.
+    pub observe: Option<&'a mut (dyn FnMut(&RunRecord) + Send)>,
     /// How the run keeps time.
     pub pace: Pace,
     /// The plan's look-ahead, if the run follows one ([`acc_runtime::lookahead`]).
     pub lookahead: Option<acc_runtime::LookAhead>,
 }
 
-/// Run `law` on a fresh machine built from `scenario`, measuring with the scenario's
-/// channel; write every record to `log` if given.
-pub fn run<W: Write + Send>(
+/// The simulated run: `law` in the production loop on the one period driver against a
+/// fresh simulated board built from `scenario` (see the module docs), set up by `setup`.
+pub fn run(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
-    log: Option<&mut RunLogWriter<W>>,
+    setup: RunSetup<'_>,
 ) -> Result<RunResult, SimError> {
-    let mut channel = scenario.build_channel()?;
-    run_with_channel(scenario, law, channel.as_mut(), log)
-}
-
-/// [`run`] with a caller-supplied measurement channel (e.g. one configured in code).
-pub fn run_with_channel<W: Write + Send>(
-    scenario: &Scenario,
-    law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    log: Option<&mut RunLogWriter<W>>,
-) -> Result<RunResult, SimError> {
-    run_with_shop(scenario, law, channel, log, scenario.tools.is_some())
-}
-
-/// [`run_with_channel`], with the scenario's tool table (`[tools]`, the shop layer of the
-/// production loop: per-tool limits and entry control) only if `shop` (and the scenario
-/// has one).
-pub fn run_with_shop<W: Write + Send>(
-    scenario: &Scenario,
-    law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    log: Option<&mut RunLogWriter<W>>,
-    shop: bool,
-) -> Result<RunResult, SimError> {
-    let setup = RunSetup {
-        log,
-        shop: scenario.shop_control(shop),
-        prepare: &mut |_| {},
-        observe: &mut |_| {},
-        pace: Pace::Stepped,
-        lookahead: None,
-    };
-    run_setup(scenario, law, channel, setup).map(|(r, _)| r)
-}
-
-/// [`run_with_shop`] with a given shop layer (e.g. one that starts from what an earlier
-/// run learned, [`acc_runtime::ShopControl::with_learned_from`]); returns the run and the
-/// shop layer as the run left it (what it learned).
-pub fn run_with_shop_control(
-    scenario: &Scenario,
-    law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    shop: acc_runtime::ShopControl,
-) -> Result<(RunResult, acc_runtime::ShopControl), SimError> {
-    let setup = RunSetup::<std::io::Sink> {
-        log: None,
-        shop: Some(shop.clone()),
-        prepare: &mut |_| {},
-        observe: &mut |_| {},
-        pace: Pace::Stepped,
-        lookahead: None,
-    };
-    let (r, sh) = run_setup(scenario, law, channel, setup)?;
-    Ok((r, sh.unwrap_or(shop)))
-}
-
-/// The simulated run: the production loop on the one period driver against the simulated
-/// board (see the module docs). Returns the run and the shop layer as the run left it.
-pub fn run_setup<W: Write + Send>(
-    scenario: &Scenario,
-    law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    setup: RunSetup<'_, W>,
-) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
     match setup.pace.clone() {
-        Pace::Stepped => run_on(scenario, law, channel, setup, ManualClock::new()),
-        Pace::Gated(clock) => run_on(scenario, law, channel, setup, clock),
+        Pace::Stepped => run_on(scenario, law, setup, ManualClock::new()),
+        Pace::Gated(clock) => run_on(scenario, law, setup, clock),
         Pace::Wall(scale) => {
             let clock =
                 ScaledClock::new(SystemClock::new(), scale).ok_or(SimError::TimeScale(scale))?;
-            run_on(scenario, law, channel, setup, clock)
+            run_on(scenario, law, setup, clock)
         }
     }
 }
 
-fn run_on<W: Write + Send, C: Clock + Clone>(
+fn run_on<C: Clock + Clone>(
     scenario: &Scenario,
     law: &mut dyn OverrideLaw,
-    channel: &mut dyn MeasurementChannel,
-    setup: RunSetup<'_, W>,
+    setup: RunSetup<'_>,
     clock: C,
-) -> Result<(RunResult, Option<acc_runtime::ShopControl>), SimError> {
+) -> Result<RunResult, SimError> {
     let RunSetup {
+        channel,
         log,
         shop,
         prepare,
@@ -370,6 +340,16 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
         lookahead,
         ..
     } = setup;
+    let mut own_channel = None;
+    let channel: &mut dyn MeasurementChannel = match channel {
+        Some(c) => c,
+        None => own_channel.insert(scenario.build_channel()?).as_mut(),
+    };
+    let (shop, learned) = match shop {
+        ShopLayer::FromScenario => (scenario.shop_control(true), None),
+        ShopLayer::Off => (None, None),
+        ShopLayer::Given(given) => (Some(given.clone()), Some(given)),
+    };
     let period_s = scenario.controller.period_s;
     let name = law.name().to_string();
     let shared = SharedPeriod::default();
@@ -389,7 +369,9 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
         control = control.with_lookahead(la);
     }
     let mut board = scenario.build_board();
-    prepare(&mut board);
+    if let Some(prepare) = prepare {
+        prepare(&mut board);
+    }
     let period = Duration::from_secs_f64(period_s);
     let max_periods = (scenario.max_time_s / period_s).ceil() as u64;
     let mut plant = SteppedPlant {
@@ -436,17 +418,16 @@ fn run_on<W: Write + Send, C: Clock + Clone>(
     if let Some(e) = summary.log_error {
         return Err(SimError::LogWrite(e));
     }
-    let shop = control.shop().cloned();
-    Ok((
-        RunResult {
-            law: name,
-            rows: sink.rows,
-            finished: board.machine().finished(),
-            volume_mm3: board.machine().volume_mm3(),
-            ended_in_feed_hold: observer.ended_in_feed_hold,
-        },
-        shop,
-    ))
+    if let (Some(given), Some(left)) = (learned, control.shop()) {
+        *given = left.clone();
+    }
+    Ok(RunResult {
+        law: name,
+        rows: sink.rows,
+        finished: board.machine().finished(),
+        volume_mm3: board.machine().volume_mm3(),
+        ended_in_feed_hold: observer.ended_in_feed_hold,
+    })
 }
 
 impl Scenario {
@@ -461,10 +442,16 @@ impl Scenario {
     /// Build law `kind`, run it without a log file, and summarise the run.
     pub fn run_law(&self, kind: LawKind) -> Result<(RunResult, Summary), SimError> {
         let mut law = self.build_law(kind)?;
-        let mut channel = self.build_channel()?;
-        let shop = self.tools.is_some() && (kind == LawKind::Ours || self.tools_for_baselines);
-        let result =
-            run_with_shop::<std::io::Sink>(self, law.as_mut(), channel.as_mut(), None, shop)?;
+        let shop = if kind == LawKind::Ours || self.tools_for_baselines {
+            ShopLayer::FromScenario
+        } else {
+            ShopLayer::Off
+        };
+        let setup = RunSetup {
+            shop,
+            ..RunSetup::default()
+        };
+        let result = run(self, law.as_mut(), setup)?;
         let summary = summarize(&result, self);
         Ok((result, summary))
     }

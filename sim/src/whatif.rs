@@ -30,7 +30,7 @@ use acc_runtime::record::RunRecord;
 use crate::engagement::Engagement;
 pub use crate::engagement::EngagementProfile;
 use crate::process::{ForceLaw, WearSpec};
-use crate::run::{run_setup, Pace, RunResult, RunSetup};
+use crate::run::{run, RunResult, RunSetup};
 use crate::workpiece::{Segment, SegmentKind, Workpiece};
 use crate::{Scenario, SimError};
 
@@ -217,22 +217,17 @@ pub fn run_what_if(
 ) -> Result<RunResult, SimError> {
     let sc = twin_scenario(base, geometry, controller);
     let mut law = acc_core::Controller::new(controller)?;
-    let mut channel = sc.build_channel()?;
     let mut prepare = |board: &mut crate::SimBoard| match geometry {
         CutGeometry::Logged(p) => board
             .machine_mut()
             .set_engagement_source(Some(Box::new(EngagementProfile::clone(p)))),
         CutGeometry::Workpiece { x0_mm, .. } => board.machine_mut().set_position_mm(*x0_mm),
     };
-    let setup = RunSetup::<std::io::Sink> {
-        log: None,
-        shop: sc.shop_control(true),
-        prepare: &mut prepare,
-        observe: &mut |_| {},
-        pace: Pace::Stepped,
-        lookahead: None,
+    let setup = RunSetup {
+        prepare: Some(&mut prepare),
+        ..RunSetup::default()
     };
-    run_setup(&sc, &mut law, channel.as_mut(), setup).map(|(r, _)| r)
+    run(&sc, &mut law, setup)
 }
 
 /// The side-by-side figures of one run (recorded or what-if).

@@ -3,14 +3,18 @@
 
 use acc_runtime::record::{read_run_log, RunLogWriter};
 use acc_sim::run::configs_dir;
-use acc_sim::{run, LawKind, Scenario};
+use acc_sim::{run, LawKind, RunSetup, Scenario};
 
 fn log_bytes(sc: &Scenario) -> Vec<u8> {
     let mut buf = Vec::new();
     {
         let mut w = RunLogWriter::new(&mut buf).expect("header");
         let mut law = sc.build_law(LawKind::Ours).expect("law");
-        run(sc, law.as_mut(), Some(&mut w)).expect("run");
+        let setup = RunSetup {
+            log: Some(&mut w),
+            ..RunSetup::default()
+        };
+        run(sc, law.as_mut(), setup).expect("run");
     }
     buf
 }

@@ -13,11 +13,15 @@ fn scenario(name: &str) -> Scenario {
 }
 
 /// One pass of `sc` with `shop` through the production loop.
-fn pass(sc: &Scenario, shop: ShopControl) -> (acc_sim::RunResult, ShopControl) {
+fn pass(sc: &Scenario, mut shop: ShopControl) -> (acc_sim::RunResult, ShopControl) {
     let mut law = sc.build_law(LawKind::Ours).expect("law");
     let mut channel = sc.build_channel().expect("channel");
-    let (res, shop) = acc_sim::run::run_with_shop_control(sc, law.as_mut(), channel.as_mut(), shop)
-        .expect("runs");
+    let setup = acc_sim::RunSetup {
+        channel: Some(channel.as_mut()),
+        shop: acc_sim::ShopLayer::Given(&mut shop),
+        ..acc_sim::RunSetup::default()
+    };
+    let res = acc_sim::run(sc, law.as_mut(), setup).expect("runs");
     assert!(res.finished, "the pass reaches the end of the path");
     (res, shop)
 }

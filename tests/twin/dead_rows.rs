@@ -33,7 +33,7 @@ fn production_rows_on(
     sc.workpiece = workpiece;
     sc.max_time_s = 120.0;
     let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
-    let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+    let res = acc_sim::run(&sc, law.as_mut(), acc_sim::RunSetup::default()).expect("run");
     let mut rows: Vec<RunRecord> = res
         .rows
         .into_iter()

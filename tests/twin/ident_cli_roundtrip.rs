@@ -64,7 +64,15 @@ fn discrepancy_model_runs_in_acc_sim_with_its_wear() {
     let mut writer = RunLogWriter::new(BufWriter::new(File::create(&measured).expect("create")))
         .expect("log header");
     let mut law = sc.build_law(LawKind::Ours).expect("law");
-    let truth = acc_sim::run(&sc, law.as_mut(), Some(&mut writer)).expect("simulates");
+    let truth = acc_sim::run(
+        &sc,
+        law.as_mut(),
+        acc_sim::RunSetup {
+            log: Some(&mut writer),
+            ..acc_sim::RunSetup::default()
+        },
+    )
+    .expect("simulates");
     drop(writer);
     let truth_growth = kc_growth(&truth.rows);
     assert!(

@@ -22,7 +22,7 @@ fn production_rows() -> (acc_sim::Scenario, Vec<RunRecord>) {
     let dir = acc_sim::run::configs_dir();
     let sc = acc_sim::Scenario::load(dir.join("scenarios/hidden_wear.toml")).expect("scenario");
     let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
-    let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+    let res = acc_sim::run(&sc, law.as_mut(), acc_sim::RunSetup::default()).expect("run");
     let first = &res.rows[0];
     assert!(
         first.x_true_mm.is_some_and(|x| x > 0.2),

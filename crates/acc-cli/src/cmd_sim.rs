@@ -171,24 +171,23 @@ pub fn run_cmd(args: &SimArgs) -> anyhow::Result<()> {
         .time_scale
         .or((tel.has_live() && !args.step_stdin).then_some(1.0));
     let mut observe = |r: &RunRecord| tel.tap.publish(r);
-    let mut channel = sc.build_channel()?;
-    let setup = acc_sim::run::RunSetup {
+    let setup = acc_sim::RunSetup {
         log: Some(&mut writer),
-        shop: sc.shop_control(true),
-        prepare: &mut |board| {
+        prepare: Some(&mut |board| {
             if let Some(p) = &program {
                 board.set_engagement_source(Some(Box::new(p.clone())));
             }
-        },
-        observe: &mut observe,
+        }),
+        observe: Some(&mut observe),
         pace: if args.step_stdin {
             acc_sim::run::Pace::Gated(paced_from_stdin(sc.controller.period_s))
         } else {
             time_scale.map_or(acc_sim::run::Pace::Stepped, acc_sim::run::Pace::Wall)
         },
         lookahead,
+        ..acc_sim::RunSetup::default()
     };
-    let (result, _) = acc_sim::run::run_setup(&sc, law.as_mut(), channel.as_mut(), setup)?;
+    let result = acc_sim::run(&sc, law.as_mut(), setup)?;
     tel.finish_lingering(args.live_keep);
     println!("scenario: {} ({})", sc.name, sc.path.display());
     if let Some(model) = &args.model {

@@ -48,7 +48,7 @@ fn main() {
     sc.max_time_s = 600.0;
     sc.wear.growth_per_cm3 = 0.005;
     let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
-    let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+    let res = acc_sim::run(&sc, law.as_mut(), acc_sim::RunSetup::default()).expect("run");
     let rows: Vec<acc_runtime::RunRecord> = res
         .rows
         .into_iter()

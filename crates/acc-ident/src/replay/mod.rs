@@ -324,7 +324,7 @@ mod tests {
         let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
             .expect("scenario");
         let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
-        let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        let res = acc_sim::run(&sc, law.as_mut(), acc_sim::RunSetup::default()).expect("run");
         (cfg, sc, res)
     }
 

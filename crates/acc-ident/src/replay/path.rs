@@ -369,7 +369,7 @@ mod tests {
         let sc = acc_sim::Scenario::load(cfg.join("scenarios/paper_case3_dynamometer.toml"))
             .expect("scenario");
         let mut law = sc.build_law(acc_sim::LawKind::Ours).expect("law");
-        let res = acc_sim::run::<std::io::Sink>(&sc, law.as_mut(), None).expect("run");
+        let res = acc_sim::run(&sc, law.as_mut(), acc_sim::RunSetup::default()).expect("run");
         let log =
             crate::runlog::from_records(&res.rows, std::path::Path::new("p.csv")).expect("log");
         let model = Model::load(&cfg.join("models/paper_vmc.toml")).expect("model");

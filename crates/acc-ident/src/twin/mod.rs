@@ -93,8 +93,8 @@ pub fn simulate(scenario: &Scenario) -> Result<RunLog, String> {
     let mut law = scenario
         .build_law(acc_sim::LawKind::Ours)
         .map_err(|e| e.to_string())?;
-    let res =
-        acc_sim::run::<std::io::Sink>(scenario, law.as_mut(), None).map_err(|e| e.to_string())?;
+    let res = acc_sim::run(scenario, law.as_mut(), acc_sim::RunSetup::default())
+        .map_err(|e| e.to_string())?;
     crate::runlog::from_records(&res.rows, Path::new(&scenario.name)).map_err(|e| e.to_string())
 }
 
