@@ -1,5 +1,6 @@
 //! `acc run --config <run.toml> --port <device>`: the production loop against the PMC
-//! interface board (Modbus RTU), with the run log written continuously.
+//! interface board (Modbus RTU, or CAN with `--can`; the links in [`link`]), with the run
+//! log written continuously.
 //!
 //! Order of events: the whole config and the options are loaded and validated and the run
 //! log is created (no port touched); the port is opened and its framing verified (nothing sent); the first transaction writes
@@ -15,8 +16,6 @@ use std::io::BufWriter;
 use std::path::PathBuf;
 
 use acc_core::{Controller, OverrideSpec};
-use acc_pmc::regs::FallbackMode;
-use acc_pmc::rtu::RtuBoard;
 use acc_pmc::{Board, BoardProtocol, BoardStatus};
 use acc_runtime::config::{DeviceLostAction, LinkSettings, RunConfig};
 use acc_runtime::policy::FaultPolicy;
@@ -29,6 +28,9 @@ use acc_runtime::{
 use anyhow::Context;
 
 use crate::exit::{ExitAs, RunExit};
+use link::OpenLink;
+
+mod link;
 
 /// Arguments of `acc run`.
 #[derive(Debug, clap::Args)]
@@ -115,69 +117,6 @@ pub fn announce_v1(protocol: Option<BoardProtocol>, device: &str) -> bool {
     eprintln!("warning: the board on {device} speaks protocol v1 — {what}");
     tracing::warn!(device, limitations = what, "board protocol v1");
     true
-}
-
-fn fallback_mode_name(m: FallbackMode) -> &'static str {
-    match m {
-        FallbackMode::ClampOnly => "clamp",
-        FallbackMode::ClampAndFeedHold => "clamp_and_feed_hold",
-    }
-}
-
-/// Attempts of each start-up transaction (`WATCHDOG_MS`, the first status, `FALLBACK_MODE`),
-/// each within the link's own timeout, retries and budget: nothing is driven yet, so a reply
-/// lost or late at start (a board powering up, a loaded host) costs another attempt, not
-/// the run.
-const START_ATTEMPTS: u32 = 3;
-
-/// `transaction`, tried up to [`START_ATTEMPTS`] times until it succeeds; the last error.
-fn at_start<T, E>(mut transaction: impl FnMut() -> Result<T, E>) -> Result<T, E> {
-    let mut result = transaction();
-    for _ in 1..START_ATTEMPTS {
-        if result.is_ok() {
-            break;
-        }
-        result = transaction();
-    }
-    result
-}
-
-/// Open the serial board: port (framing verified), `WATCHDOG_MS`, the first status (which
-/// settles the protocol), and on a v2 board `FALLBACK_MODE`. Used at start and to reopen.
-fn open_rtu(
-    cfg: &RunConfig,
-    rtu_cfg: &acc_pmc::serial::RtuSettings,
-) -> anyhow::Result<(RtuBoard<acc_pmc::serialport::TTYPort>, BoardStatus)> {
-    let port = acc_pmc::serial::open_port(rtu_cfg).exit_as(RunExit::Usage)?;
-    let mut rtu = RtuBoard::new(port, rtu_cfg.link);
-    at_start(|| rtu.write_watchdog_ms(rtu_cfg.watchdog_ms))
-        .with_context(|| {
-            format!(
-                "{}: writing WATCHDOG_MS = {} ms to slave {} on {}",
-                cfg.path.display(),
-                rtu_cfg.watchdog_ms,
-                rtu_cfg.link.slave,
-                rtu_cfg.port
-            )
-        })
-        .exit_as(RunExit::BoardNotAnswering)?;
-    let status = at_start(|| rtu.read_status())
-        .with_context(|| format!("reading the board status on {}", rtu_cfg.port))
-        .exit_as(RunExit::BoardNotAnswering)?;
-    if rtu.protocol() == Some(BoardProtocol::V2) {
-        at_start(|| rtu.write_fallback_mode(cfg.fallback_mode))
-            .with_context(|| {
-                format!(
-                    "{}: writing `board.fallback_mode` = \"{}\" (FALLBACK_MODE) to slave {} on {}",
-                    cfg.path.display(),
-                    fallback_mode_name(cfg.fallback_mode),
-                    rtu_cfg.link.slave,
-                    rtu_cfg.port
-                )
-            })
-            .exit_as(RunExit::BoardNotAnswering)?;
-    }
-    Ok((rtu, status))
 }
 
 /// Writes the runtime's [`RunRecord`]s to the run-log CSV (schema v2, the same writer and
@@ -286,69 +225,37 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         fleet,
     };
     match &cfg.link {
-        LinkSettings::Rtu(rtu_cfg) => {
-            // 2. Open the port (framing verified, nothing sent); 3. first transaction: the
-            // watchdog time; then the status, and FALLBACK_MODE on a v2 board.
-            let (mut pmc, status) = open_rtu(&cfg, rtu_cfg)?;
-            println!(
-                "board: Modbus RTU slave {} on {} at {} baud; watchdog {} ms; protocol {}{}",
-                rtu_cfg.link.slave,
-                rtu_cfg.port,
-                rtu_cfg.serial.baud,
-                rtu_cfg.watchdog_ms,
-                protocol_name(pmc.protocol()),
-                if pmc.protocol() == Some(BoardProtocol::V2) {
-                    format!(
-                        "; FALLBACK_MODE = {}",
-                        fallback_mode_name(cfg.fallback_mode)
-                    )
-                } else {
-                    String::new()
-                }
-            );
-            let mut reopen = || {
-                open_rtu(&cfg, rtu_cfg)
-                    .map(|(b, _)| b)
-                    .map_err(|e| format!("{e:#}"))
-            };
-            let reopen: Reopen<'_, _> = &mut reopen;
-            let stats = drive(args, &cfg, &mut pmc, status, sinks, &rtu_cfg.port, reopen);
-            let st = pmc.stats();
-            println!(
-                "link: {} transactions, {} retries, {} timeouts, {} CRC errors, {} protocol errors, {} exceptions",
-                st.transactions, st.retries, st.timeouts, st.crc_errors, st.protocol_errors, st.exceptions
-            );
-            stats
-        }
-        LinkSettings::Can { iface, link } => {
-            let open = || {
-                acc_pmc::can::open_socketcan(iface, *link).map_err(|e| {
-                    anyhow::anyhow!(
-                        "{}: key `can.iface` (--can {iface}): cannot open the CAN interface: {e}",
-                        cfg.path.display()
-                    )
-                })
-            };
-            let mut pmc = open().exit_as(RunExit::Usage)?;
-            let status = pmc
-                .read_status()
-                .map_err(|e| anyhow::anyhow!("reading the board status on {iface}: {e}"))
-                .exit_as(RunExit::BoardNotAnswering)?;
-            println!(
-                "board: CAN node {} on {iface} (board watchdog at its own setting); protocol {}{}",
-                link.node,
-                protocol_name(pmc.protocol()),
-                if pmc.protocol() == Some(BoardProtocol::V2) {
-                    " (FALLBACK_MODE cannot be written over CAN: the board keeps its own)"
-                } else {
-                    ""
-                }
-            );
-            let mut reopen = || open().map_err(|e| format!("{e:#}"));
-            let reopen: Reopen<'_, _> = &mut reopen;
-            drive(args, &cfg, &mut pmc, status, sinks, iface, reopen)
+        LinkSettings::Rtu(rtu) => run_on_link(args, &cfg, link::open_rtu(&cfg, rtu)?, sinks),
+        LinkSettings::Can { iface, link: can } => {
+            run_on_link(args, &cfg, link::open_can(&cfg, iface, *can)?, sinks)
         }
     }
+}
+
+/// Print the opened link's banner, drive the run with the link's reopen, then print the
+/// link's counters.
+fn run_on_link<B: Board + Send>(
+    args: &RunArgs,
+    cfg: &RunConfig,
+    link: OpenLink<'_, B>,
+    sinks: RunSinks,
+) -> anyhow::Result<()> {
+    let OpenLink {
+        mut board,
+        status,
+        device,
+        banner,
+        reopen: mut open_again,
+        counters,
+    } = link;
+    println!("{banner}");
+    let mut reopen = || open_again().map_err(|e| format!("{e:#}"));
+    let reopen: Reopen<'_, _> = &mut reopen;
+    let result = drive(args, cfg, &mut board, status, sinks, device, reopen);
+    if let Some(line) = counters(&board) {
+        println!("{line}");
+    }
+    result
 }
 
 /// Where a run's records go: the run log, and the watch with its tool-history writer.
