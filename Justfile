@@ -67,15 +67,17 @@ ident-sweep:
 jitter:
     cargo run --release -p acc-runtime --example ticker_jitter -- 1000 36000
 
-# The reliability fault matrix (every fault at the deepest cut, v2 and v1 boards) into
+# The reliability fault matrix (every fault at the deepest cut, v2 and v1 boards): the xtask
+# runs `acc fault-matrix --out out/fault-matrix` and splices its table into
 # docs/reliability.md (~5.5 min).
 fault-matrix:
-    cargo run --release -p acc-cli -- fault-matrix --update-doc docs/reliability.md
+    cargo run -p xtask -- fault-matrix-doc
 
 # One hour of machine time at 10x against board-sim with a random fault every few seconds
-# (~6 min): memory growth, lost rows, dead threads, into docs/reliability.md.
+# (~6 min): memory growth, lost rows, dead threads; the xtask runs `acc soak --out out/soak`
+# and splices its table into docs/reliability.md.
 soak:
-    cargo run --release -p acc-cli -- soak --update-doc docs/reliability.md
+    cargo run -p xtask -- soak-doc
 
 # Period jitter of the threaded loop, telemetry off vs live view + SHDR + MQTT with clients vs
 # the OPC UA server with 3 asyncua clients (docs/telemetry.md "Live view", docs/opcua.md

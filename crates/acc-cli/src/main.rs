@@ -8,7 +8,6 @@ mod cmd_compare;
 mod cmd_compare_program;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
-mod cmd_fault_matrix;
 mod cmd_history;
 mod cmd_nc;
 mod cmd_optimize;
@@ -17,13 +16,11 @@ mod cmd_report;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_sim_program;
-mod cmd_soak;
 mod cmd_stability;
 mod cmd_what_if;
 mod configs;
 mod exit;
 mod fleet_cli;
-mod harness;
 mod telemetry;
 mod watch_cli;
 
@@ -81,10 +78,10 @@ enum Command {
     /// board restart, CRC, late replies, stale or bad power, knob, lock, overload) driven at
     /// the deepest cut of a real `acc run` against `acc board-sim`, on a v2 and a v1 board;
     /// the table of override and force before/after, log completeness and exit codes.
-    FaultMatrix(cmd_fault_matrix::FaultMatrixArgs),
+    FaultMatrix(acc_harness::fault_matrix::FaultMatrixArgs),
     /// An hour of machine time (by default) of `acc run` against `acc board-sim` with a
     /// random board fault every few seconds: memory growth, lost rows, dead threads.
-    Soak(cmd_soak::SoakArgs),
+    Soak(acc_harness::soak::SoakArgs),
     /// One self-contained HTML page of a run log: force along the path with Fr and limit
     /// lines, override (commanded/applied), Kc_hat trend, the per-cut table (tool, program,
     /// blocks, time in cut, force statistics, override histogram, alarms, time saved) and
@@ -172,8 +169,8 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Run(args) => cmd_run::run_cmd(&args),
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),
-        Command::FaultMatrix(args) => cmd_fault_matrix::run_cmd(&args),
-        Command::Soak(args) => cmd_soak::run_cmd(&args),
+        Command::FaultMatrix(args) => acc_harness::fault_matrix::run(&args),
+        Command::Soak(args) => acc_harness::soak::run(&args),
         Command::Report(args) => cmd_report::run(&args),
         Command::Nc(args) => cmd_nc::run(&args),
         Command::History(args) => cmd_history::run(&args),

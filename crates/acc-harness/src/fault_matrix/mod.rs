@@ -1,8 +1,8 @@
 //! `acc fault-matrix`: every fault of the reliability table, driven at the worst moment of
 //! a real closed loop, on a v2 and on a v1 board, measured on the machine side.
 //!
-//! Each row is one production run: `acc board-sim` (this same binary) serves the simulated
-//! machine of paper case III on a new pty, `acc run` drives it, and the fault hits at
+//! Each row is one production run: `acc board-sim` (the running `acc` binary) serves the
+//! simulated machine of paper case III on a new pty, `acc run` drives it, and the fault hits at
 //! `--at-s` of machine time, deep in the 4 mm step where the override and the force are at
 //! their highest. Board faults are `acc board-sim --fault` schedules; process faults are real
 //! signals sent to the `acc run` process when the board reports the moment. The row is then
@@ -39,9 +39,9 @@
 //!   proxy never touches the knob or the switch, so such a release is a bad frame taken for
 //!   the operator;
 //! - every status read (FC04) the proxy altered in a way the controller can tell from the
-//!   frame ([`must_be_flagged`](crate::harness::must_be_flagged)) has its period flagged in `acc run`'s log ([`suspicious`](crate::harness::suspicious):
+//!   frame ([`must_be_flagged`](crate::read_match::must_be_flagged)) has its period flagged in `acc run`'s log ([`suspicious`](crate::read_match::suspicious):
 //!   `link:`, `implausible:`, `unconfirmed:`, `force_invalid`, `echo`, `delay`). The reads
-//!   are matched to the log's rows in order ([`align_reads`](crate::harness::align_reads), checked on the power the
+//!   are matched to the log's rows in order ([`align_reads`](crate::read_match::align_reads), checked on the power the
 //!   proxy handed over); if that match is not reliable, the row falls back to counting:
 //!   flagged rows after the fault ≥ altered reads that must be flagged, and says so.
 //!   Delayed replies are not required to be flagged (nothing in one frame shows them).
@@ -49,7 +49,7 @@
 //! **Wrong-plan rows** (`plan-low-stock`, `plan-lead-low-stock`, `plan-missing`): `acc run
 //! --plan` against `acc board-sim --program` cutting the pocket program, with a plan made for
 //! a lower stock (followed with the cap alone, or with the plan's lead) or a plan file that
-//! does not exist; their criteria are in [`plan`].
+//! does not exist; their criteria are in [`wrong_plan`].
 //!
 //! The other faults are timing faults, so their rows run on the wall clock. A row that fails, or
 //! never reaches the fault moment, while the host was too loaded for `acc run` to keep its
@@ -58,11 +58,11 @@
 //! (and the JSON has it as `first_attempt`), its logs kept in `<row>-first`.
 
 mod faults;
-mod plan;
 mod report;
 mod rerun;
 mod row;
 mod verdict;
+mod wrong_plan;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -70,10 +70,10 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 
-use crate::harness;
+use crate::child;
 
 use faults::{Fault, FAULTS};
-use report::{markdown, update_doc};
+use report::markdown;
 use rerun::{first_attempt, HostLoad};
 use row::run_row;
 use verdict::Row;
@@ -85,10 +85,6 @@ pub struct FaultMatrixArgs {
     /// of logs per row.
     #[arg(long, default_value = "out/fault-matrix")]
     pub out: PathBuf,
-    /// Replace the table between `<!-- fault-matrix:begin -->` and `<!-- fault-matrix:end -->`
-    /// in this markdown file (e.g. `docs/reliability.md`).
-    #[arg(long)]
-    pub update_doc: Option<PathBuf>,
     /// Board protocols to test: `2`, `1` or `both`.
     #[arg(long, default_value = "both")]
     pub protocol: String,
@@ -141,7 +137,7 @@ fn run_row_rerun_if_overloaded(
     dir: &Path,
 ) -> anyhow::Result<Row> {
     let first = run_row(args, f, protocol, dir);
-    let run_log = harness::read(&dir.join("run.csv")).unwrap_or_default();
+    let run_log = child::read(&dir.join("run.csv")).unwrap_or_default();
     let run_err = std::fs::read_to_string(dir.join("run.stderr")).unwrap_or_default();
     let (outcome, load) = match &first {
         Ok(row) if row.ok => return first,
@@ -174,8 +170,9 @@ fn run_row_rerun_if_overloaded(
     Ok(row)
 }
 
-/// `acc fault-matrix`.
-pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
+/// `acc fault-matrix`: every row, the table written to `--out` (`fault-matrix.md`,
+/// `fault-matrix.json`) and printed; an error naming the rows that failed.
+pub fn run(args: &FaultMatrixArgs) -> anyhow::Result<()> {
     if !(args.time_scale.is_finite() && (1.0..=20.0).contains(&args.time_scale)) {
         bail!("--time-scale {}: allowed 1 ..= 20", args.time_scale);
     }
@@ -249,10 +246,6 @@ pub fn run_cmd(args: &FaultMatrixArgs) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&rows)?,
     )?;
     println!("{table}");
-    if let Some(doc) = &args.update_doc {
-        update_doc(doc, &table)?;
-        eprintln!("fault-matrix: table written into {}", doc.display());
-    }
     let failed: Vec<_> = rows.iter().filter(|r| !r.ok).collect();
     if !failed.is_empty() {
         bail!(

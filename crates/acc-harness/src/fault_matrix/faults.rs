@@ -25,7 +25,7 @@ pub enum Action {
         delay_reads: u32,
     },
     /// `acc run --plan` with a wrong plan, against `acc board-sim --program` (the plan rows,
-    /// [`super::plan`]).
+    /// [`super::wrong_plan`]).
     Plan(PlanFault),
 }
 

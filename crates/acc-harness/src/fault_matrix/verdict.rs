@@ -6,10 +6,9 @@ use acc_runtime::record::RunRecord;
 
 use super::faults::{window_s, Action, Fault};
 use super::FaultMatrixArgs;
-use crate::harness::{
-    align_reads, fault_periods_raising, must_be_flagged, suspicious, ProxyEvent, ProxyLog,
-    ProxyStats,
-};
+use crate::invariant::fault_periods_raising;
+use crate::proxy::{ProxyEvent, ProxyLog, ProxyStats};
+use crate::read_match::{align_reads, must_be_flagged, suspicious};
 
 /// Largest plausible spindle power, W: `policy.max_power_w` of
 /// `configs/runtime/fault_matrix.toml` (a flipped power bit above it must be flagged).
@@ -350,7 +349,7 @@ mod tests {
 
     use super::super::faults::FAULTS;
     use super::*;
-    use crate::harness::ProxyRead;
+    use crate::proxy::ProxyRead;
 
     fn row(t: f64, state: &str, applied: u16, force: f64, hold: bool, period: u64) -> RunRecord {
         RunRecord {
@@ -367,7 +366,6 @@ mod tests {
     fn args() -> FaultMatrixArgs {
         FaultMatrixArgs {
             out: PathBuf::from("x"),
-            update_doc: None,
             protocol: "both".into(),
             only: vec![],
             scenario: PathBuf::from("s"),

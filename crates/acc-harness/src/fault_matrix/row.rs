@@ -9,7 +9,8 @@ use anyhow::{bail, Context};
 use super::faults::{window_s, Action, Fault};
 use super::verdict::{judge, Logs, Row};
 use super::FaultMatrixArgs;
-use crate::harness::{describe, read, spawn_proxy, stop_proxy, Proc, ProxyFiles};
+use crate::child::{describe, read, Proc};
+use crate::proxy::{spawn_proxy, stop_proxy, ProxyFiles};
 
 fn s(v: impl ToString) -> String {
     v.to_string()
@@ -19,7 +20,7 @@ fn s(v: impl ToString) -> String {
 /// hostile line, `acc run`; the fault brought about at the moment; then both logs judged.
 pub fn run_row(args: &FaultMatrixArgs, f: &Fault, protocol: u8, dir: &Path) -> anyhow::Result<Row> {
     if let Action::Plan(kind) = f.action {
-        return super::plan::run_plan_row(args, f, protocol, dir, kind);
+        return super::wrong_plan::run_plan_row(args, f, protocol, dir, kind);
     }
     let machine_log = dir.join("machine.csv");
     let run_log = dir.join("run.csv");

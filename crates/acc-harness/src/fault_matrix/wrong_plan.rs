@@ -43,9 +43,9 @@ use super::faults::{Fault, PlanFault};
 use super::row::parse_fault_time;
 use super::verdict::Row;
 use super::FaultMatrixArgs;
-use crate::harness::{
-    describe, fault_periods_raising, read, spawn_proxy, stop_proxy, Proc, ProxyFiles,
-};
+use crate::child::{describe, read, Proc};
+use crate::invariant::fault_periods_raising;
+use crate::proxy::{spawn_proxy, stop_proxy, ProxyFiles};
 
 /// The NC program of the plan rows (relative to the working directory: the repository).
 pub const PLAN_PROGRAM: &str = "tests/nc/pocket_rect.ngc";

@@ -91,7 +91,7 @@ pub fn first_attempt(outcome: &str, load: &HostLoad) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd_fault_matrix::faults::FAULTS;
+    use crate::fault_matrix::faults::FAULTS;
 
     fn rows(n: usize, flagged: &[usize]) -> Vec<RunRecord> {
         (0..n)

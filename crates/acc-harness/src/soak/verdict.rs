@@ -3,9 +3,9 @@
 
 use acc_runtime::record::RunRecord;
 
-use crate::harness::{
-    align_reads, fault_periods_raising, suspicious, trustworthy, Alignment, ProxyLog, ProxyStats,
-};
+use crate::invariant::fault_periods_raising;
+use crate::proxy::{ProxyLog, ProxyStats};
+use crate::read_match::{align_reads, suspicious, trustworthy, Alignment};
 
 /// What the man in the middle did over the soak.
 #[derive(Debug, Clone, Default, serde::Serialize)]
@@ -358,7 +358,7 @@ pub fn analyse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::harness::{ProxyEvent, ProxyRead};
+    use crate::proxy::{ProxyEvent, ProxyRead};
 
     #[test]
     fn a_release_after_the_last_re_arm_needs_a_fresh_bad_frame() {

@@ -41,9 +41,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 
-use crate::harness::{
-    describe, read, rss_kib_and_threads, spawn_proxy, stop_proxy, Proc, ProxyFiles,
-};
+use crate::child::{describe, read, rss_kib_and_threads, Proc};
+use crate::proxy::{spawn_proxy, stop_proxy, ProxyFiles};
 use report::{markdown, plot};
 use schedule::{delay_episodes, fault_schedule, final_rearm, write_soak_scenario};
 use verdict::{analyse, LineInput, Sample};
@@ -75,9 +74,6 @@ pub struct SoakArgs {
     /// Output directory: soak.md, soak.json, memory plot, both run logs.
     #[arg(long, default_value = "out/soak")]
     pub out: PathBuf,
-    /// Replace the text between `<!-- soak:begin -->` and `<!-- soak:end -->` in this file.
-    #[arg(long)]
-    pub update_doc: Option<PathBuf>,
     /// Put the man in the middle on the line (the default).
     #[arg(long, overrides_with = "no_hostile_line")]
     pub hostile_line: bool,
@@ -108,8 +104,9 @@ impl SoakArgs {
     }
 }
 
-/// `acc soak`.
-pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
+/// `acc soak`: the soak, its report written to `--out` (`soak.md`, `soak.json`, the plots)
+/// and printed; an error naming its problems.
+pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
     if !(args.machine_s.is_finite() && (60.0..=86_400.0).contains(&args.machine_s)) {
         bail!("--machine-s {}: allowed 60 ..= 86400", args.machine_s);
     }
@@ -358,10 +355,6 @@ pub fn run_cmd(args: &SoakArgs) -> anyhow::Result<()> {
     )?;
     plot(&samples, &m, &args.out)?;
     println!("{text}");
-    if let Some(doc) = &args.update_doc {
-        crate::harness::update_between(doc, "soak", &text)?;
-        eprintln!("soak: figures written into {}", doc.display());
-    }
     if !report.problems.is_empty() {
         bail!("soak failed: {}", report.problems.join("; "));
     }
