@@ -24,14 +24,14 @@ pub const SEQ_SKIP_MAX: u16 = 100;
 
 /// The writes one period asks of the link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct WritePlan {
+pub struct BoardWrites {
     /// `OVERRIDE_CMD` and `HEARTBEAT` to write (function 16), if any.
     pub override_and_heartbeat: Option<(u16, u16)>,
     /// `CONTROL` bits to write, if they differ from what the board was last given.
     pub control: Option<ControlBits>,
 }
 
-/// Outcome of a [`WritePlan`].
+/// Outcome of a [`BoardWrites`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct WriteResult {
     /// Error of the override/heartbeat write.
@@ -74,7 +74,7 @@ pub struct CycleRecord {
     /// The policy's decision.
     pub out: CycleOutput,
     /// The writes asked for.
-    pub plan: WritePlan,
+    pub plan: BoardWrites,
     /// What the shop layer (tool table, entry control) did, if the loop has one.
     pub shop: Option<ShopStep>,
     /// Force reference Fr of the tool in use, N (the shop layer's tool table; `None`
@@ -677,8 +677,8 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
 
     /// The writes the policy's decision `out` asks of the link: the override with the next
     /// heartbeat, and the `CONTROL` bits where they differ from what the board was given.
-    fn board_writes(&mut self, out: &CycleOutput) -> WritePlan {
-        let mut writes = WritePlan::default();
+    fn board_writes(&mut self, out: &CycleOutput) -> BoardWrites {
+        let mut writes = BoardWrites::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
             writes.override_and_heartbeat = Some((cmd.0, self.heartbeat));

@@ -53,7 +53,7 @@ pub mod ticker;
 pub mod watch;
 
 pub use clock::{Clock, ManualClock, SystemClock};
-pub use control_loop::{ControlLoop, CycleRecord, WritePlan, WriteResult};
+pub use control_loop::{BoardWrites, ControlLoop, CycleRecord, WriteResult};
 pub use lookahead::{plan, plan_error};
 pub use lookahead::{LookAhead, LookAheadConfig, LookAheadInput, LookAheadStep};
 pub use plan::{ForceProfile, Plan, PlanError, PlanRow};

@@ -11,7 +11,9 @@
 //!
 //! Each rule is a small judge in its own file (`policy/<judge>.rs`) that answers one question
 //! about the period; [`FaultPolicy::step`] is the one place that asks them, in this order,
-//! and acts on the answers (arm, hold, release, latch, re-arm, feed hold):
+//! and acts on the answers (arm, hold, release, latch, re-arm, feed hold). `period.rs` holds
+//! `step` and the rules of every period, `by_state.rs` the rules by state, `actions.rs` what
+//! an answer does to the board (arm, re-arm, release, latch, feed hold):
 //!
 //! Every period, in every state:
 //! 1. `link.rs` — has the link failed for longer than ACC may hold the override?
@@ -83,12 +85,15 @@
 //! Invariant (property-tested): a period with a fault input never writes a command higher
 //! than the last one written.
 
-use acc_core::{FeedOverride, Measurement, OverrideLaw, OverrideSpec};
-use acc_pmc::{BoardProtocol, BoardStatus, ControlBits};
+#[cfg(doc)]
+use acc_core::{OverrideLaw, OverrideSpec};
+use acc_pmc::BoardProtocol;
 
 use crate::watch::WatchLimits;
 
+mod actions;
 mod breakage;
+mod by_state;
 mod config;
 mod delay;
 mod io;
@@ -97,6 +102,7 @@ mod lock;
 mod log;
 mod operator;
 mod overload;
+mod period;
 mod plausibility;
 mod reset;
 mod settle;
@@ -116,14 +122,13 @@ pub use tool_limits::CommandLimits;
 use breakage::BreakageJudge;
 use link::LinkJudge;
 use lock::LockJudge;
-use operator::{OperatorJudge, OperatorVerdict};
-use overload::{OverloadJudge, OverloadVerdict};
+use operator::OperatorJudge;
+use overload::OverloadJudge;
 use plausibility::PowerJudge;
-use reset::{Ack, ResetJudge};
+use reset::ResetJudge;
 use settle::SettleJudge;
 use shutdown::DrainJudge;
 use staleness::Staleness;
-use watchdog::WatchdogVerdict;
 
 /// The fault-policy state machine: what ACC does with the board (state, alarms, requests,
 /// the last command) and the judges it asks every period.
@@ -291,480 +296,5 @@ impl FaultPolicy {
     /// Last override written while active, percent.
     pub fn last_command(&self) -> Option<u16> {
         self.last_cmd
-    }
-
-    fn control(&self) -> ControlBits {
-        ControlBits {
-            acc_request: self.acc_request,
-            feed_hold_request: self.feed_hold,
-            alarm_reset: self.alarm_reset_pulse,
-        }
-    }
-
-    /// The configured command range on a board grid of `step` percent (0 = unknown: 10 %):
-    /// every command of the policy is floored onto it by the override spec.
-    fn grid(&self, step: u16) -> OverrideSpec {
-        let step = if step == 0 { 10 } else { step };
-        OverrideSpec::range(self.cfg.min_override_pct, self.cfg.max_override_pct).on_grid(step)
-    }
-
-    /// The last command, floored to the board's step as last reported (never above it).
-    fn held(&mut self) -> Option<FeedOverride> {
-        let grid = self.grid(self.board_step);
-        self.last_cmd = self.last_cmd.map(|c| grid.floor(c).0.min(c));
-        self.last_cmd.map(FeedOverride)
-    }
-
-    /// Request feed hold (once).
-    fn hold_feed(&mut self, out: &mut CycleOutput) -> bool {
-        if self.feed_hold {
-            return false;
-        }
-        self.feed_hold = true;
-        out.events.push(Event::FeedHold(true));
-        true
-    }
-
-    /// Let go of the override for `why`: release an active policy, or latch an idle or
-    /// latched one with the alarm (its switch must go off, then on again).
-    fn let_go<L: OverrideLaw + ?Sized>(
-        &mut self,
-        why: Release,
-        s: &BoardStatus,
-        out: &mut CycleOutput,
-        law: &mut L,
-    ) {
-        if self.state == AccState::Active {
-            self.release(why, out, law);
-        } else {
-            self.alarms.raise(why);
-            self.state = AccState::Latched(why);
-            self.operator.switch_seen_off = !s.acc_switch;
-        }
-    }
-
-    fn release(
-        &mut self,
-        why: Release,
-        out: &mut CycleOutput,
-        law: &mut (impl OverrideLaw + ?Sized),
-    ) {
-        out.events.push(Event::Released(why));
-        tracing::info!(reason = why.as_str(), "ACC released to the operator");
-        self.acc_request = false;
-        self.reset.released();
-        if self.lock.thaw() {
-            law.set_frozen(false);
-        }
-        self.state = if why.latches() {
-            self.operator.switch_seen_off = false;
-            AccState::Latched(why)
-        } else {
-            AccState::Idle
-        };
-        let operator = matches!(why, Release::SwitchOff | Release::OperatorHandback);
-        // A v2 board clamps the applied override to min(knob, last applied) on a release.
-        let raising = !self.board_clamps()
-            && match (self.operator.last_knob_pct, self.last_cmd) {
-                (Some(op), Some(cmd)) => op > cmd,
-                _ => true,
-            };
-        // A release that is not the operator's while the NC cuts is a feed hold, on every
-        // board: nobody else is there to take the cut (the clamp holds the override, not
-        // the force). Out of the cut, only a release that would raise the feed holds.
-        let hold =
-            !operator && (self.cycle_active || (raising && self.cfg.hold_on_raising_release));
-        if hold && self.hold_feed(out) {
-            tracing::warn!(
-                reason = why.as_str(),
-                "feed hold: ACC let go of the cut for a reason that is not the operator's"
-            );
-        }
-        self.alarms.raise(why);
-    }
-
-    /// Advance one period: ask the judges in the order of the module docs and act on their
-    /// answers. `law` is the controller (stepped only while active and unlocked).
-    pub fn step<L: OverrideLaw + ?Sized>(
-        &mut self,
-        input: &CycleInput,
-        law: &mut L,
-    ) -> CycleOutput {
-        self.alarm_reset_pulse = false;
-        let mut out = CycleOutput {
-            state: self.state,
-            write_override: None,
-            control: self.control(),
-            alarms: self.alarms,
-            events: Events::default(),
-            step: None,
-            measurement: None,
-            force_valid: false,
-            fault: false,
-            sample_advance: None,
-            settle_cap: None,
-        };
-
-        // 1. Link: read errors and last period's write errors.
-        let link_fault = input.link.err().or(input.write_error);
-        if let Some(e) = self.link.observe(link_fault, self.state != AccState::Idle) {
-            out.events.push(e);
-            out.fault = true;
-        }
-        // 2. The line guard's verdict: a held read is no status this period.
-        let status = plausibility::accepted(input);
-        if let Some(s) = status {
-            if s.override_step_pct > 0 {
-                self.board_step = s.override_step_pct;
-            }
-            self.protocol = Some(if s.is_v2() {
-                BoardProtocol::V2
-            } else {
-                BoardProtocol::V1
-            });
-            self.cycle_active = s.cycle_active;
-        }
-        // 3. Staleness of the power sensor.
-        let stale = status.is_some_and(|s| {
-            let (advance, stale) = self
-                .staleness
-                .observe(s.sample_seq, self.cfg.stale_seq_periods);
-            out.sample_advance = advance;
-            stale
-        });
-        // 4. The force sample's validity (a held read counts as invalid).
-        let f = input.force;
-        let force_valid =
-            plausibility::force_valid(status.as_ref(), stale, &f, self.cfg.max_power_w);
-        out.force_valid = force_valid;
-        if status.is_some() || input.held {
-            if let Some(e) = self.power.count(force_valid, stale) {
-                out.events.push(e);
-                out.fault = true;
-            }
-        }
-        // 5. The drain of a stop: out of the cut?
-        self.drain.observe(input);
-
-        if let Some(s) = status {
-            // 6. The operator's switch and knob as seen; the board's own faults.
-            self.operator.observe(&s);
-            if s.watchdog_tripped || s.override_locked {
-                out.fault = true;
-            }
-            // 7. Overload (tool-breakage protection), in any state.
-            match self
-                .overload
-                .judge(force_valid, f.force_n, input.held, &self.cfg)
-            {
-                OverloadVerdict::Quiet => {}
-                OverloadVerdict::ClearWarning => {
-                    if self.state != AccState::Latched(Release::Overload) {
-                        self.alarms.overload = false;
-                    }
-                }
-                OverloadVerdict::Warn => {
-                    if !self.alarms.overload {
-                        tracing::warn!(force_n = f.force_n, "overload: warning (tool table)");
-                    }
-                    self.alarms.overload = true;
-                }
-                OverloadVerdict::Hold { spindle_stop } if !self.feed_hold => {
-                    if spindle_stop {
-                        out.events.push(Event::SpindleStopRequest);
-                    }
-                    self.hold_feed(&mut out);
-                    tracing::warn!(force_n = f.force_n, "overload: feed hold requested");
-                    out.fault = true;
-                    self.let_go(Release::Overload, &s, &mut out, law);
-                }
-                OverloadVerdict::Hold { .. } => {}
-            }
-            // 8. Breakage watch (tool gone / spike), judged on valid samples only, and not
-            //    where the plan says the tool may be leaving the material this period.
-            let broken = (force_valid && !self.exit_planned)
-                .then(|| {
-                    self.breakage
-                        .judge(f.force_n, &s, self.feed_hold, !self.context_pending)
-                })
-                .flatten();
-            if let Some(b) = broken {
-                out.events.push(Event::Breakage(b));
-                tracing::warn!(
-                    kind = b.kind(),
-                    force_n = f.force_n,
-                    "tool breakage suspected: feed hold requested"
-                );
-                out.fault = true;
-                self.hold_feed(&mut out);
-                self.let_go(Release::Breakage, &s, &mut out, law);
-            }
-        }
-
-        // The periods after a fault of the line or the board settle under what ACC allowed
-        // before it.
-        self.settle.observe(
-            link_fault.is_some()
-                || input.held
-                || status.is_some_and(|s| s.watchdog_tripped || s.override_locked),
-        );
-
-        // 9.–17. By state. Arming needs a clean period: link answered, force valid,
-        //    override not locked, the run log's writer not stalled.
-        let clean = link_fault.is_none()
-            && force_valid
-            && log::recordable(input)
-            && status.is_some_and(|s| !s.override_locked);
-        match (self.state, status) {
-            (AccState::Active, None) => {
-                // No status this period: hold, or release after the budget.
-                if self.link.over_budget(self.cfg.link_hold_periods) {
-                    self.release(Release::LinkLost, &mut out, law);
-                } else if self.power.over_budget(self.cfg.invalid_power_periods) {
-                    self.release(Release::PowerInvalid, &mut out, law);
-                } else {
-                    out.write_override = self.held();
-                }
-            }
-            (AccState::Active, Some(s)) => self.active_step(s, force_valid, input, &mut out, law),
-            (AccState::Idle, Some(s)) => {
-                if s.watchdog_tripped {
-                    out.events.push(Event::WatchdogTripped);
-                    self.let_go(Release::Watchdog, &s, &mut out, law);
-                } else if s.acc_switch && clean {
-                    self.arm(s, &mut out, law);
-                }
-            }
-            (AccState::Latched(why), Some(s)) => {
-                if why == Release::LinkLost
-                    && !self.operator.switch_seen_off
-                    && s.acc_switch
-                    && s.cycle_active
-                    && !s.override_locked
-                    && link_fault.is_none()
-                    && self.operator.knob_kept(&s, self.cfg.operator_handback_pct)
-                    && self.last_cmd.is_some()
-                {
-                    self.rearm(Rearm::LinkRestored, s, &mut out, law);
-                } else if self.operator.switch_cycled(&s) && clean {
-                    self.arm(s, &mut out, law);
-                }
-            }
-            (AccState::Idle | AccState::Latched(_), None) => {}
-        }
-
-        out.state = self.state;
-        out.control = self.control();
-        out.alarms = self.alarms;
-        out
-    }
-
-    fn arm<L: OverrideLaw + ?Sized>(&mut self, s: BoardStatus, out: &mut CycleOutput, law: &mut L) {
-        let at = self
-            .grid(s.override_step_pct)
-            .floor(s.override_applied_pct)
-            .0;
-        if self.feed_hold {
-            self.feed_hold = false;
-            out.events.push(Event::FeedHold(false));
-        }
-        law.engage(FeedOverride(at));
-        self.settle.clear();
-        let alarm_reset = s.watchdog_tripped || s.board_restarted;
-        self.alarm_reset_pulse = alarm_reset;
-        self.alarms = Alarms::default();
-        self.link.close_outage();
-        self.reset.armed_fresh();
-        self.operator.armed(&s);
-        self.acc_request = true;
-        self.last_cmd = Some(at);
-        self.state = AccState::Active;
-        out.write_override = Some(FeedOverride(at));
-        out.events.push(Event::Armed {
-            at_pct: at,
-            alarm_reset,
-        });
-        tracing::info!(at_pct = at, "ACC armed");
-    }
-
-    /// Re-arm mid-cut without a period above the last command: `OVERRIDE_CMD` first (the
-    /// last command; on a v1 board at most the override applied now), then `ACC_REQUEST |
-    /// ALARM_RESET` (the loop writes the override before `CONTROL`).
-    fn rearm<L: OverrideLaw + ?Sized>(
-        &mut self,
-        why: Rearm,
-        s: BoardStatus,
-        out: &mut CycleOutput,
-        law: &mut L,
-    ) {
-        out.fault = true;
-        if self.reset.too_many_rearms(self.cfg.ack_periods) {
-            return self.release(Release::BoardReset, out, law);
-        }
-        let applied = self
-            .grid(s.override_step_pct)
-            .floor(s.override_applied_pct)
-            .0;
-        let last = self.held().map_or(applied, |c| c.0);
-        // v2: the board holds the feed (power-up feed hold, or the clamp ≤ last); v1: the
-        // knob is already applied, so never go above it either.
-        let at = if self.board_clamps() {
-            last
-        } else {
-            last.min(applied)
-        };
-        if at != last {
-            law.engage(FeedOverride(at));
-        }
-        if self.lock.thaw() {
-            law.set_frozen(false);
-        }
-        if self.feed_hold && !self.alarms.overload {
-            self.feed_hold = false;
-            out.events.push(Event::FeedHold(false));
-        }
-        self.alarm_reset_pulse = true;
-        self.alarms = Alarms::default();
-        self.acc_request = true;
-        self.reset.armed();
-        self.last_cmd = Some(at);
-        self.state = AccState::Active;
-        out.write_override = Some(FeedOverride(at));
-        out.events.push(Event::Rearmed {
-            reason: why,
-            at_pct: at,
-        });
-        tracing::warn!(
-            reason = why.as_str(),
-            at_pct = at,
-            "ACC re-armed mid-cut at the last command (OVERRIDE_CMD first, then ACC_REQUEST | ALARM_RESET)"
-        );
-    }
-
-    /// Steps 9–16 of the module docs: an active policy with a status.
-    fn active_step<L: OverrideLaw + ?Sized>(
-        &mut self,
-        s: BoardStatus,
-        force_valid: bool,
-        input: &CycleInput,
-        out: &mut CycleOutput,
-        law: &mut L,
-    ) {
-        // 9. Operator priority first.
-        let board_clamps = self.board_clamps();
-        match self.operator.judge(
-            &s,
-            self.cfg.operator_handback_pct,
-            board_clamps,
-            self.last_cmd,
-        ) {
-            OperatorVerdict::SwitchOff => return self.release(Release::SwitchOff, out, law),
-            OperatorVerdict::Handback => return self.release(Release::OperatorHandback, out, law),
-            OperatorVerdict::Keep => {}
-        }
-        // 10. The board's watchdog.
-        if let Some(v) = watchdog::judge(&s, self.link.outage(), self.last_cmd.is_some()) {
-            out.events.push(Event::WatchdogTripped);
-            return match v {
-                WatchdogVerdict::Rearm => self.rearm(Rearm::LinkRestored, s, out, law),
-                WatchdogVerdict::Release => self.release(Release::Watchdog, out, law),
-            };
-        }
-        // 11. The board restarted under us.
-        if self.reset.restarted(&s) {
-            if s.cycle_active {
-                return self.rearm(Rearm::BoardRestart, s, out, law);
-            }
-            out.fault = true;
-            return self.release(Release::BoardReset, out, law);
-        }
-        // 12. The NC locked the override: freeze the law and hold.
-        if let Some(frozen) = self.lock.judge(s.override_locked) {
-            law.set_frozen(frozen);
-            out.events.push(Event::Frozen(frozen));
-        }
-        if s.override_locked {
-            out.write_override = self.held();
-            return;
-        }
-        // 13. The board's confirmation of ACC.
-        let write_ok = input.write_error.is_none();
-        match self.reset.ack(&s, write_ok, self.cfg.ack_periods) {
-            Ack::Confirmed { clean: true } => self.link.close_outage(),
-            Ack::Confirmed { clean: false } | Ack::Waiting => {}
-            Ack::Missing => {
-                out.fault = true;
-                return self.release(Release::NoBoardAck, out, law);
-            }
-        }
-        // 14. Link failures (e.g. a write error with a good read) and the power budget.
-        if self.link.over_budget(self.cfg.link_hold_periods) {
-            return self.release(Release::LinkLost, out, law);
-        }
-        if self.power.over_budget(self.cfg.invalid_power_periods) {
-            return self.release(Release::PowerInvalid, out, law);
-        }
-        let grid = self.grid(s.override_step_pct);
-        let last = self
-            .held()
-            .map_or_else(|| grid.floor(s.override_applied_pct).0, |c| c.0);
-        if self.link.failing() {
-            out.write_override = Some(FeedOverride(last));
-            return;
-        }
-        // 15. No record, no cut.
-        if !log::recordable(input) {
-            out.events.push(Event::LogStalled);
-            tracing::error!("the run log's writer has stalled past its buffer: feed hold");
-            out.fault = true;
-            return self.release(Release::LogStalled, out, law);
-        }
-        // 16. The line's delay against what the gains in use tolerate: never drive on into
-        //     an oscillation.
-        if let Some((extra, margin)) = delay_exceeded(&input.delay, || law.delay_margin_periods()) {
-            out.events.push(Event::DelayExceeded {
-                extra_periods: extra,
-                margin_periods: margin,
-            });
-            tracing::warn!(
-                extra_periods = extra,
-                margin_periods = margin,
-                "loop delay beyond the gains' margin: feed hold"
-            );
-            out.fault = true;
-            return self.release(Release::Delay, out, law);
-        }
-        // 17. The control step, on the feed the loop computed once for this period, its
-        //     command placed on the grid within the bounds judged here (one quantization).
-        let m = Measurement {
-            force_n: if force_valid {
-                input.force.force_n
-            } else {
-                0.0
-            },
-            feed_mm_min: input.feed_mm_min,
-            programmed_feed_mm_min: input.programmed_feed_mm_min,
-            valid: force_valid,
-        };
-        let mut limits = self.shop_limits;
-        out.settle_cap = self.settle.cap(SettleJudge::cutting(
-            force_valid,
-            input.force.force_n,
-            self.breakage.force_ref_n,
-        ));
-        if let Some(c) = out.settle_cap {
-            limits.cap_pct = Some(limits.cap_pct.map_or(c, |l| l.min(c)));
-        }
-        let bounds =
-            tool_limits::bounds(grid, force_valid, last, self.operator.knob_ceiling, limits);
-        let step = law.step_within(&m, &bounds);
-        self.breakage.force_ref_n = Some(step.trace.force_ref_n);
-        self.last_cmd = Some(step.command.0);
-        if !out.fault {
-            self.settle.written(step.command.0);
-        }
-        out.write_override = Some(step.command);
-        out.step = Some(step);
-        out.measurement = Some(m);
     }
 }

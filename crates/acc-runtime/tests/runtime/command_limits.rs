@@ -9,7 +9,7 @@ use acc_pmc::{Board, BoardStatus};
 use acc_runtime::policy::{AccState, CommandLimits, CycleInput, FaultPolicy, PolicyConfig};
 use acc_runtime::runner::execute_writes;
 use acc_runtime::testing::{ScriptedBoard, ScriptedLaw};
-use acc_runtime::WritePlan;
+use acc_runtime::BoardWrites;
 
 struct Rig {
     p: FaultPolicy,
@@ -69,9 +69,9 @@ impl Rig {
         };
         self.k += 1;
         let out = self.p.step(&input, &mut self.law);
-        let mut plan = WritePlan {
+        let mut plan = BoardWrites {
             control: Some(out.control),
-            ..WritePlan::default()
+            ..BoardWrites::default()
         };
         if let Some(c) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
