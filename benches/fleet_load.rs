@@ -5,7 +5,7 @@
 //! `sent_us`), and the collector's peak memory and CPU time.
 //!
 //! ```text
-//! cargo build --release -p acc-cli
+//! cargo build --release -p acc-cli --features fleet
 //! cargo bench -p acc-tests --bench fleet_load -- [--machines 50] [--time-scale 1] [--commit-s 1]
 //! ```
 //!
@@ -66,7 +66,7 @@ fn acc_bin() -> Option<PathBuf> {
         .map_or_else(|| root().join("target/release/acc"), PathBuf::from);
     if !p.exists() {
         println!(
-            "fleet_load skipped: {} is not built (cargo build --release -p acc-cli)",
+            "fleet_load skipped: {} is not built (cargo build --release -p acc-cli --features fleet)",
             p.display()
         );
         return None;

@@ -112,9 +112,9 @@ pub fn segments(labels: &[Regime]) -> Vec<Segment> {
 /// The smallest segment bias that counts, channel unit: a flagged bias must be
 /// statistically significant *and* of practical size. Significance alone flags ever
 /// smaller biases as a log grows — on a 10-minute production log a 73 s stretch biased by
-/// 0.07 % of the force is significant against a noise of 5 N (docs/twin.md, "Why the
-/// evaluated configuration is not the default yet") — and a bias of a steady stretch
-/// within the rounding of a coarsely quantised channel is the rounding, not the model.
+/// 0.07 % of the force is significant against a noise of 5 N — and a bias of a steady
+/// stretch within the rounding of a coarsely quantised channel is the rounding, not the
+/// model (docs/twin.md, "The practical floor").
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PracticalSize {
     /// The largest bias the channel's rounding can leave on the mean of a steady stretch,

@@ -9,7 +9,7 @@
 //! `--report-only` with it writes the figures of those rows without running the rest.
 //!
 //! cargo run --release -p acc-ident --example twin_eval -- --null-seeds 200 \
-//!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin.md
+//!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin-evaluation.md
 //!
 //! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`,
 //! `--only LABEL-PREFIX[,…]`, `--wp-limit N`, `--max-time S`; `--replay logged` analyses
@@ -23,7 +23,7 @@
 //! `<!-- twin-eval-board:begin -->` and `<!-- twin-eval-board:end -->` is replaced.
 //!
 //! cargo run --release -p acc-ident --example twin_eval -- --path board --null-seeds 20 \
-//!     --wp-limit 2 --oob-seeds 1 --out out/twin-board --update-doc docs/twin.md
+//!     --wp-limit 2 --oob-seeds 1 --out out/twin-board --update-doc docs/twin-evaluation.md
 
 mod board;
 
