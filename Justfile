@@ -15,6 +15,7 @@ ci: deps lint test
 lint:
     cargo fmt --all -- --check
     cargo clippy --workspace --all-targets -- -D warnings
+    cargo clippy -p acc-cli -- -D warnings
 
 # The main job on the built-in simulated machine (the README's first command).
 demo:
