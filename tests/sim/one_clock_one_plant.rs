@@ -27,16 +27,8 @@ const ALLOWED: &[(&str, &str)] = &[
         "the telemetry tap's test that publishing never blocks",
     ),
     (
-        "crates/acc-cli/src/cmd_fault_matrix",
-        "the fault harness: wall-clock timeouts on the processes it drives",
-    ),
-    (
-        "crates/acc-cli/src/cmd_soak",
-        "the fault harness: wall-clock timeouts on the processes it drives",
-    ),
-    (
-        "crates/acc-cli/src/harness.rs",
-        "the fault harness: wall-clock timeouts on the processes it drives",
+        "crates/acc-harness/src/",
+        "the fault matrix and soak harness: wall-clock timeouts on the processes it drives",
     ),
 ];
 
