@@ -44,7 +44,7 @@ fn production_rows_on(
     (sc, rows)
 }
 
-/// `periods` rows after `rows` in which the board is gone, as `CycleRecord::record` writes
+/// `periods` rows after `rows` in which the board is gone, as `PeriodRecord::record` writes
 /// them with the link in error (`link:<kind>`): no status, so no speed, power, force or
 /// override; the loop carries its feed and path.
 fn board_gone(rows: &[RunRecord], periods: usize, kind: &str) -> Vec<RunRecord> {

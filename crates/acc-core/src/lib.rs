@@ -1,7 +1,7 @@
 //! `acc-core`: the pure control core of `acc`.
 //!
 //! Everything here is a function of its inputs: no I/O, no clock, no logging and no
-//! allocation on the step path (checked by `tests/no_alloc.rs`). The sampling period `T` is
+//! allocation on the step path (checked by `tests/control/no_alloc.rs`). The sampling period `T` is
 //! data (`period_s` in [`ControllerConfig`]); equations cite the seed papers as restated in
 //! `physics.md` §1 (seed 002: eqs. 2, 4, 6, 11, 12, 14 and conclusion 5).
 //!

@@ -90,7 +90,7 @@ impl SpindleSpec {
 /// induction-motor channel (`crate::motor::MotorEffects`) loads its shaft with the bearing
 /// friction torque `ΔP·(1 − e^(−t/τ))/ω`, so its measured (two-wattmeter) input rises by
 /// that times the motor's input per shaft watt: ≈ 1.03 in air, 1.08 at 5 N·m and 1.19 at
-/// 15 N·m on `seed002-small-mill` at 600 rpm (`tests/sim_motor_effects.rs`). `t` is the
+/// 15 N·m on `seed002-small-mill` at 600 rpm (`tests/sim/motor_effects.rs`). `t` is the
 /// time since the machine (or the motor simulation) started.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -131,7 +131,7 @@ impl NoloadDrift {
 /// The induction-motor channel (`crate::motor::MotorEffects`) draws it as the copper loss
 /// of an extra stator series resistance `R_x = c·P_c²/(1000·3|I_s|²)` at the same phase
 /// currents: its measured (two-wattmeter) input rises by exactly `c·P_c²/1000` (within the
-/// 0.1 s window's ±0.2 W in `tests/sim_motor_effects.rs`), its RMS current does not.
+/// 0.1 s window's ±0.2 W in `tests/sim/motor_effects.rs`), its RMS current does not.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotorEfficiency {
@@ -473,7 +473,7 @@ impl ToolSpec {
 /// the power its force estimate is made from (the phase currents are not filtered). The
 /// channel's start-up calibration cut reads through it too, settling each level for
 /// `≥ τ·ln 1000`, so its constants are those of the unfiltered cut within the cut's own
-/// noise (measured in `tests/sim_motor_effects.rs`).
+/// noise (measured in `tests/sim/motor_effects.rs`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorLowpass {

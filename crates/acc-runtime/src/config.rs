@@ -361,7 +361,7 @@ impl TelemetrySection {
 
 /// The allowed range of every numeric key of a run config (what the validation checks),
 /// shown also when a value does not deserialize at all (`link_hold_periods = -1`,
-/// `time_scale = "fast"`). `tests/configs_load.rs` checks that every numeric key of the
+/// `time_scale = "fast"`). `tests/paper/configs_load.rs` checks that every numeric key of the
 /// shipped run configs is listed and that the limits agree with the validation.
 pub const RUN_KEY_RANGES: &[KeyRange] = &[
     KeyRange::new(

@@ -53,12 +53,12 @@ pub mod ticker;
 pub mod watch;
 
 pub use clock::{Clock, ManualClock, SystemClock};
-pub use control_loop::{BoardWrites, ControlLoop, CycleRecord, WriteResult};
+pub use control_loop::{BoardWrites, ControlLoop, PeriodRecord, WriteResult};
 pub use lookahead::{plan, plan_error};
 pub use lookahead::{LookAhead, LookAheadConfig, LookAheadInput, LookAheadStep};
 pub use plan::{ForceProfile, Plan, PlanError, PlanRow};
 pub use policy::{
-    AccState, Alarms, CommandLimits, CycleInput, CycleOutput, Event, FaultPolicy, PolicyConfig,
+    AccState, Alarms, CommandLimits, Event, FaultPolicy, PolicyConfig, PolicyInput, PolicyOutput,
     Rearm, Release,
 };
 pub use record::{RunLogWriter, RunRecord};

@@ -64,8 +64,9 @@ mod row;
 mod verdict;
 mod wrong_plan;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
@@ -125,6 +126,12 @@ pub struct FaultMatrixArgs {
     /// Seed of the proxy's corruption.
     #[arg(long, default_value_t = 1)]
     pub line_seed: u64,
+    /// Rows run at once (1 ..= 8). Each row has its own `acc board-sim`, pty and `acc run`,
+    /// so against the simulated board rows are independent; a row that fails while the host
+    /// was too loaded to keep the period is run again as with one job. Against one real
+    /// board, keep 1.
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
 }
 
 /// One row; if it failed (or never reached the fault moment) while `acc run` could not keep
@@ -163,16 +170,69 @@ fn run_row_rerun_if_overloaded(
     std::fs::rename(dir, &kept)
         .with_context(|| format!("keeping the first attempt in {}", kept.display()))?;
     std::fs::create_dir_all(dir)?;
-    eprint!("{outcome}; re-run: ");
-    std::io::stderr().flush().ok();
+    eprintln!(
+        "v{protocol} {}: {outcome}; running the row once more",
+        f.name
+    );
     let mut row = run_row(args, f, protocol, dir)?;
     row.first_attempt = Some(outcome);
     Ok(row)
 }
 
+/// Every row of `cells` (protocol, fault), `--jobs` at a time, in the order given; a progress
+/// line per finished row. The first error stops the matrix (rows under way finish).
+fn run_rows(args: &FaultMatrixArgs, cells: &[(u8, &Fault)]) -> anyhow::Result<Vec<Row>> {
+    let total = cells.len();
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let results: Mutex<Vec<Option<anyhow::Result<Row>>>> =
+        Mutex::new((0..total).map(|_| None).collect());
+    let started = Instant::now();
+    let worker = || loop {
+        let i = next.fetch_add(1, Ordering::SeqCst);
+        if i >= total || failed.load(Ordering::SeqCst) {
+            return;
+        }
+        let (protocol, f) = cells[i];
+        let dir = args.out.join(format!("v{protocol}-{}", f.name));
+        let row = std::fs::create_dir_all(&dir)
+            .map_err(anyhow::Error::from)
+            .and_then(|()| run_row_rerun_if_overloaded(args, f, protocol, &dir))
+            .with_context(|| format!("fault-matrix row v{protocol} {}", f.name));
+        let n = done.fetch_add(1, Ordering::SeqCst) + 1;
+        match &row {
+            Ok(r) => eprintln!(
+                "[{n:>2}/{total}] v{protocol} {:<16} {} ({:.0} s elapsed)",
+                f.name,
+                r.verdict,
+                started.elapsed().as_secs_f64()
+            ),
+            Err(_) => failed.store(true, Ordering::SeqCst),
+        }
+        results.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(row);
+    };
+    std::thread::scope(|s| {
+        for _ in 0..args.jobs {
+            s.spawn(worker);
+        }
+    });
+    let mut rows = Vec::with_capacity(total);
+    for r in results.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        match r {
+            Some(row) => rows.push(row?),
+            None => continue,
+        }
+    }
+    Ok(rows)
+}
+
 /// `acc fault-matrix`: every row, the table written to `--out` (`fault-matrix.md`,
 /// `fault-matrix.json`) and printed; an error naming the rows that failed.
 pub fn run(args: &FaultMatrixArgs) -> anyhow::Result<()> {
+    if !(1..=8).contains(&args.jobs) {
+        bail!("--jobs {}: allowed 1 ..= 8", args.jobs);
+    }
     if !(args.time_scale.is_finite() && (1.0..=20.0).contains(&args.time_scale)) {
         bail!("--time-scale {}: allowed 1 ..= 20", args.time_scale);
     }
@@ -216,29 +276,11 @@ pub fn run(args: &FaultMatrixArgs) -> anyhow::Result<()> {
         .iter()
         .filter(|f| args.only.is_empty() || args.only.iter().any(|o| o == f.name))
         .collect();
-    let total = faults.len() * protocols.len();
-    let mut rows = Vec::new();
-    let started = Instant::now();
-    for &protocol in protocols {
-        for f in &faults {
-            let dir = args.out.join(format!("v{protocol}-{}", f.name));
-            std::fs::create_dir_all(&dir)?;
-            eprint!(
-                "[{:>2}/{total}] v{protocol} {:<16} ",
-                rows.len() + 1,
-                f.name
-            );
-            std::io::stderr().flush().ok();
-            let row = run_row_rerun_if_overloaded(args, f, protocol, &dir)
-                .with_context(|| format!("fault-matrix row v{protocol} {}", f.name))?;
-            eprintln!(
-                "{} ({:.0} s elapsed)",
-                row.verdict,
-                started.elapsed().as_secs_f64()
-            );
-            rows.push(row);
-        }
-    }
+    let cells: Vec<(u8, &Fault)> = protocols
+        .iter()
+        .flat_map(|&p| faults.iter().map(move |&f| (p, f)))
+        .collect();
+    let rows = run_rows(args, &cells)?;
     let table = markdown(&rows, args);
     std::fs::write(args.out.join("fault-matrix.md"), &table)?;
     std::fs::write(

@@ -378,6 +378,7 @@ mod tests {
             line_after_s: 1.0,
             proxy: PathBuf::from("p"),
             line_seed: 1,
+            jobs: 1,
         }
     }
 

@@ -9,7 +9,7 @@
 //! the tool stood").
 //!
 //! When the start is not given ([`super::Options::estimate_path_start`]), the replay's
-//! start is searched along the path: on the log's first part ([`SHARE`] of it, at least
+//! start is searched along the path: on the log's first part ([`ESTIMATED_SHARE_OF_LOG`] of it, at least
 //! [`MIN_ROWS`] rows), for each trial start the model as given is replayed once and the
 //! residual is high-passed — first differences between consecutive valid rows, the
 //! replay's scaled by the factor that fits the measured ones best (`Ks`; a constant level
@@ -37,7 +37,7 @@ pub const TOLERANCE_MM: f64 = 0.001;
 /// most this fraction of the given start's.
 pub const ADOPT_RATIO: f64 = 0.8;
 /// Share of the log, from its beginning, the start is estimated on.
-pub const SHARE: f64 = 0.25;
+pub const ESTIMATED_SHARE_OF_LOG: f64 = 0.25;
 /// Fewest rows the start is estimated on (the whole log when it is shorter).
 pub const MIN_ROWS: usize = 300;
 
@@ -62,7 +62,7 @@ pub fn estimate_path_shift(
     let (Some((wp, _)), Some(start)) = (&opts.workpiece, given_start_mm(log, opts)) else {
         return Ok(None);
     };
-    let n = ((log.len() as f64 * SHARE) as usize)
+    let n = ((log.len() as f64 * ESTIMATED_SHARE_OF_LOG) as usize)
         .max(MIN_ROWS)
         .min(log.len());
     let head = log.slice(0..n);

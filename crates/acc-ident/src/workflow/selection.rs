@@ -50,7 +50,7 @@ pub(super) fn effect_grid(kind: EffectKind) -> Vec<Free> {
 /// trades off against the curve's exponent; acceptance uses the delta-method interval of
 /// [`WEAR_SIZE`]), the no-load drift (ΔP against τ), runout (amplitude against phase) and
 /// the delays and time constants.
-pub(super) const PROFILED: [EffectKind; 7] = [
+pub(super) const PROFILE_LIKELIHOOD_EFFECTS: [EffectKind; 7] = [
     EffectKind::MeasurementDelay,
     EffectKind::ToolWear,
     EffectKind::NoloadDrift,
@@ -548,7 +548,7 @@ pub(super) fn screen_candidate(
     // The primary parameter's interval: profile likelihood for the parameters that
     // sit on a curved ridge with a partner or enter through a delay / time
     // constant (computed only when the other criteria pass: it costs ~20 fits).
-    if others_pass && PROFILED.contains(&kind) {
+    if others_pass && PROFILE_LIKELIHOOD_EFFECTS.contains(&kind) {
         if let Some(k) = f.free.iter().position(|x| *x == Free::Effect(kind, 0)) {
             f.profile(k, inp, sel);
         }

@@ -55,7 +55,7 @@ pub const MISMATCH_RATIO: f64 = 10.0;
 /// 1.15 W with wear 0.01/cm³; a hidden copper loss at ENR 4 (`examples/one.rs`
 /// `motor_efficiency 4 0 11` and `4 0.6 12`) 9.94 → 8.05 and 12.02 → 8.45 W; a matching
 /// spindle with a wear and a no-load drift at ENR 6 each
-/// (`tests/ident_null_and_pairs.rs`, seed 21) 9.48 → 11.30 W.
+/// (`tests/twin/ident_null_and_pairs.rs`, seed 21) 9.48 → 11.30 W.
 pub const NOISE_RATIO: f64 = 2.0;
 /// Averaging windows of the power channel tried, fractions of the control period (0: the
 /// whole period), −.

@@ -157,7 +157,7 @@ impl SpindlePowerChannel<spindle_force::SpindleSource> {
     /// ones, so the calibrated force curve and the learned no-load power are those of the
     /// unfiltered cut within its own seed-to-seed noise (≤ 0.7 % of force for τ ≤ 3 s
     /// against a 0.9 % spread; with only the 10 default settle periods τ = 1.5 s would
-    /// bias it by 18 %: `tests/sim_motor_effects.rs`); only the learned σ of the air-cut
+    /// bias it by 18 %: `tests/sim/motor_effects.rs`); only the learned σ of the air-cut
     /// power is smaller, as the filtered sensor's is. With the key absent or `τ = 0` the
     /// cut is that of the unfiltered channel, bit for bit.
     pub fn calibrated_for(

@@ -5,7 +5,7 @@
 use acc_core::{FeedOverride, OverrideLaw, OverrideSpec};
 use acc_pmc::{BoardStatus, ControlBits};
 
-use super::{AccState, Alarms, CycleOutput, Event, FaultPolicy, Rearm, Release};
+use super::{AccState, Alarms, Event, FaultPolicy, PolicyOutput, Rearm, Release};
 
 impl FaultPolicy {
     /// The `CONTROL` bits wanted on the board: from the request, the feed hold and this
@@ -33,7 +33,7 @@ impl FaultPolicy {
     }
 
     /// Request feed hold (once).
-    pub(super) fn hold_feed(&mut self, out: &mut CycleOutput) -> bool {
+    pub(super) fn hold_feed(&mut self, out: &mut PolicyOutput) -> bool {
         if self.feed_hold {
             return false;
         }
@@ -48,7 +48,7 @@ impl FaultPolicy {
         &mut self,
         why: Release,
         s: &BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         if self.state == AccState::Active {
@@ -66,7 +66,7 @@ impl FaultPolicy {
     pub(super) fn release(
         &mut self,
         why: Release,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut (impl OverrideLaw + ?Sized),
     ) {
         out.events.push(Event::Released(why));
@@ -109,7 +109,7 @@ impl FaultPolicy {
     pub(super) fn arm<L: OverrideLaw + ?Sized>(
         &mut self,
         s: BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         let at = self
@@ -146,7 +146,7 @@ impl FaultPolicy {
         &mut self,
         why: Rearm,
         s: BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         out.fault = true;

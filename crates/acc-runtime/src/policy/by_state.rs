@@ -13,8 +13,8 @@ use super::reset::Ack;
 use super::settle::SettleJudge;
 use super::watchdog::{self, WatchdogVerdict};
 use super::{
-    delay_exceeded, log, tool_limits, AccState, CycleInput, CycleOutput, Event, FaultPolicy, Rearm,
-    Release,
+    delay_exceeded, log, tool_limits, AccState, Event, FaultPolicy, PolicyInput, PolicyOutput,
+    Rearm, Release,
 };
 
 /// A rule acted: the period ends here.
@@ -26,7 +26,7 @@ impl FaultPolicy {
     pub(super) fn by_state<L: OverrideLaw + ?Sized>(
         &mut self,
         seen: &Seen<'_>,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         match (self.state, seen.status) {
@@ -44,7 +44,7 @@ impl FaultPolicy {
     /// else hold the last command.
     fn active_without_status<L: OverrideLaw + ?Sized>(
         &mut self,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         if self.link.over_budget(self.cfg.link_hold_periods) {
@@ -62,7 +62,7 @@ impl FaultPolicy {
         &mut self,
         s: BoardStatus,
         seen: &Seen<'_>,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         if s.watchdog_tripped {
@@ -81,7 +81,7 @@ impl FaultPolicy {
         why: Release,
         s: BoardStatus,
         seen: &Seen<'_>,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         if why == Release::LinkLost
@@ -105,7 +105,7 @@ impl FaultPolicy {
         &mut self,
         s: BoardStatus,
         seen: &Seen<'_>,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         self.operator_priority(&s, out, law)?;
@@ -125,7 +125,7 @@ impl FaultPolicy {
     fn operator_priority<L: OverrideLaw + ?Sized>(
         &mut self,
         s: &BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         let board_clamps = self.board_clamps();
@@ -147,7 +147,7 @@ impl FaultPolicy {
     fn judge_watchdog<L: OverrideLaw + ?Sized>(
         &mut self,
         s: BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         let Some(v) = watchdog::judge(&s, self.link.outage(), self.last_cmd.is_some()) else {
@@ -165,7 +165,7 @@ impl FaultPolicy {
     fn judge_restart<L: OverrideLaw + ?Sized>(
         &mut self,
         s: BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         if !self.reset.restarted(&s) {
@@ -185,7 +185,7 @@ impl FaultPolicy {
     fn judge_lock<L: OverrideLaw + ?Sized>(
         &mut self,
         s: &BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         if let Some(frozen) = self.lock.judge(s.override_locked) {
@@ -204,8 +204,8 @@ impl FaultPolicy {
     fn judge_ack<L: OverrideLaw + ?Sized>(
         &mut self,
         s: &BoardStatus,
-        input: &CycleInput,
-        out: &mut CycleOutput,
+        input: &PolicyInput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         let write_ok = input.write_error.is_none();
@@ -227,7 +227,7 @@ impl FaultPolicy {
     fn judge_link_budget<L: OverrideLaw + ?Sized>(
         &mut self,
         s: &BoardStatus,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted<(OverrideSpec, u16)> {
         if self.link.over_budget(self.cfg.link_hold_periods) {
@@ -253,8 +253,8 @@ impl FaultPolicy {
     ///     holds the feed and releases.
     fn judge_log<L: OverrideLaw + ?Sized>(
         &mut self,
-        input: &CycleInput,
-        out: &mut CycleOutput,
+        input: &PolicyInput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         if log::recordable(input) {
@@ -271,8 +271,8 @@ impl FaultPolicy {
     ///     drive on into an oscillation (feed hold, release).
     fn judge_delay<L: OverrideLaw + ?Sized>(
         &mut self,
-        input: &CycleInput,
-        out: &mut CycleOutput,
+        input: &PolicyInput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) -> Acted {
         let Some((extra, margin)) = delay_exceeded(&input.delay, || law.delay_margin_periods())
@@ -302,7 +302,7 @@ impl FaultPolicy {
         seen: &Seen<'_>,
         grid: OverrideSpec,
         last: u16,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         let (input, force_valid) = (seen.input, seen.force_valid);

@@ -115,7 +115,7 @@ impl Events {
 
 /// What the runtime hands the policy once per period.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CycleInput {
+pub struct PolicyInput {
     /// Time of the period (start of the read), s since the run began.
     pub t_s: f64,
     /// Status read this period, or the link error kind.
@@ -143,7 +143,7 @@ pub struct CycleInput {
 
 /// What the runtime does with the board this period.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CycleOutput {
+pub struct PolicyOutput {
     /// State after this period.
     pub state: AccState,
     /// Override to write with the heartbeat (`None`: leave `OVERRIDE_CMD` alone).

@@ -3,9 +3,9 @@
 //! without a record: ACC does not arm, and an active ACC releases with a feed hold and
 //! latches ([`super::Release::LogStalled`]).
 
-use super::CycleInput;
+use super::PolicyInput;
 
 /// The period can be recorded: the run log's writer is not stalled past its buffer.
-pub fn recordable(input: &CycleInput) -> bool {
+pub fn recordable(input: &PolicyInput) -> bool {
     !input.log_stalled
 }

@@ -2,7 +2,7 @@
 //!
 //! Inputs of [`FaultPolicy::step`]: the result of this period's status read (or the link
 //! error), the error of the previous period's writes, the force sample the force source made
-//! of the status, and the time. Outputs ([`CycleOutput`]): the override to write (with the
+//! of the status, and the time. Outputs ([`PolicyOutput`]): the override to write (with the
 //! heartbeat), the `CONTROL` bits wanted on the board, the alarms in force and the events of
 //! this period. The controller itself is any [`OverrideLaw`], stepped from here so that the
 //! policy decides when it runs, when it is frozen and what of its command reaches the board.
@@ -114,7 +114,7 @@ mod watchdog;
 
 pub use config::{PolicyConfig, PolicyConfigError};
 pub use delay::delay_exceeded;
-pub use io::{CycleInput, CycleOutput, Event, Events};
+pub use io::{Event, Events, PolicyInput, PolicyOutput};
 pub use settle::{RECENT_PERIODS as SETTLE_RECENT_PERIODS, SETTLE_PERIODS};
 pub use state::{AccState, Alarms, Rearm, Release};
 pub use tool_limits::CommandLimits;

@@ -7,14 +7,14 @@ use acc_pmc::{BoardErrorKind, BoardProtocol, BoardStatus};
 
 use super::overload::OverloadVerdict;
 use super::{
-    log, plausibility, AccState, CycleInput, CycleOutput, Event, Events, FaultPolicy, Release,
+    log, plausibility, AccState, Event, Events, FaultPolicy, PolicyInput, PolicyOutput, Release,
 };
 
 /// What the rules of every period (1–8) found, for the rules by state (9–17).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Seen<'a> {
     /// The period's input.
-    pub input: &'a CycleInput,
+    pub input: &'a PolicyInput,
     /// The status the rules may read: `None` after a link error or when the line guard held
     /// the read.
     pub status: Option<BoardStatus>,
@@ -50,9 +50,9 @@ impl FaultPolicy {
     /// answers. `law` is the controller (stepped only while active and unlocked).
     pub fn step<L: OverrideLaw + ?Sized>(
         &mut self,
-        input: &CycleInput,
+        input: &PolicyInput,
         law: &mut L,
-    ) -> CycleOutput {
+    ) -> PolicyOutput {
         let mut out = self.begin_period();
         let link_fault = self.judge_link(input, &mut out);
         let status = self.accept_status(input);
@@ -77,9 +77,9 @@ impl FaultPolicy {
 
     /// The period's output before any rule: nothing to write, the state and `CONTROL` bits
     /// in force (this period's `ALARM_RESET` pulse cleared).
-    fn begin_period(&mut self) -> CycleOutput {
+    fn begin_period(&mut self) -> PolicyOutput {
         self.alarm_reset_pulse = false;
-        CycleOutput {
+        PolicyOutput {
             state: self.state,
             write_override: None,
             control: self.control(),
@@ -96,7 +96,11 @@ impl FaultPolicy {
 
     /// 1. Link (`link.rs`): this period's read error, else the previous period's write
     ///    error, counted against the link budget; returns it.
-    fn judge_link(&mut self, input: &CycleInput, out: &mut CycleOutput) -> Option<BoardErrorKind> {
+    fn judge_link(
+        &mut self,
+        input: &PolicyInput,
+        out: &mut PolicyOutput,
+    ) -> Option<BoardErrorKind> {
         let link_fault = input.link.err().or(input.write_error);
         if let Some(e) = self.link.observe(link_fault, self.state != AccState::Idle) {
             out.events.push(e);
@@ -107,7 +111,7 @@ impl FaultPolicy {
 
     /// 2. The line guard's verdict (`plausibility.rs`): the status the rules may read (a
     ///    held read is none), and from it the board's step, protocol and `CYCLE_ACTIVE`.
-    fn accept_status(&mut self, input: &CycleInput) -> Option<BoardStatus> {
+    fn accept_status(&mut self, input: &PolicyInput) -> Option<BoardStatus> {
         let status = plausibility::accepted(input);
         if let Some(s) = status {
             if s.override_step_pct > 0 {
@@ -125,7 +129,7 @@ impl FaultPolicy {
 
     /// 3. Staleness (`staleness.rs`): whether the power sensor's `SAMPLE_SEQ` has stood
     ///    still too long; logs how far it moved.
-    fn judge_staleness(&mut self, status: Option<&BoardStatus>, out: &mut CycleOutput) -> bool {
+    fn judge_staleness(&mut self, status: Option<&BoardStatus>, out: &mut PolicyOutput) -> bool {
         status.is_some_and(|s| {
             let (advance, stale) = self
                 .staleness
@@ -139,10 +143,10 @@ impl FaultPolicy {
     ///    as invalid; a judged invalid sample counts against the power budget.
     fn judge_force(
         &mut self,
-        input: &CycleInput,
+        input: &PolicyInput,
         status: Option<&BoardStatus>,
         stale: bool,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
     ) -> bool {
         let force_valid =
             plausibility::force_valid(status, stale, &input.force, self.cfg.max_power_w);
@@ -158,7 +162,7 @@ impl FaultPolicy {
 
     /// 6. The operator's switch and knob as seen (`operator.rs`); a tripped watchdog or a
     ///    locked override is a fault input.
-    fn observe_board(&mut self, s: &BoardStatus, out: &mut CycleOutput) {
+    fn observe_board(&mut self, s: &BoardStatus, out: &mut PolicyOutput) {
         self.operator.observe(s);
         if s.watchdog_tripped || s.override_locked {
             out.fault = true;
@@ -171,7 +175,7 @@ impl FaultPolicy {
         &mut self,
         s: &BoardStatus,
         seen: &Seen<'_>,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         let f = seen.input.force;
@@ -212,7 +216,7 @@ impl FaultPolicy {
         &mut self,
         s: &BoardStatus,
         seen: &Seen<'_>,
-        out: &mut CycleOutput,
+        out: &mut PolicyOutput,
         law: &mut L,
     ) {
         let f = seen.input.force;
@@ -236,7 +240,7 @@ impl FaultPolicy {
     }
 
     /// The period's output after the rules: the state, `CONTROL` bits and alarms they left.
-    fn end_period(&self, mut out: CycleOutput) -> CycleOutput {
+    fn end_period(&self, mut out: PolicyOutput) -> PolicyOutput {
         out.state = self.state;
         out.control = self.control();
         out.alarms = self.alarms;

@@ -9,11 +9,11 @@
 use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
 
-use super::{CycleInput, Event};
+use super::{Event, PolicyInput};
 
 /// The status the rules may read this period: `None` after a link error or when the line
 /// guard held the read (nothing is concluded from the last accepted status: it is stale).
-pub(crate) fn accepted(input: &CycleInput) -> Option<BoardStatus> {
+pub(crate) fn accepted(input: &PolicyInput) -> Option<BoardStatus> {
     input.link.ok().filter(|_| !input.held)
 }
 

@@ -7,7 +7,7 @@
 
 use acc_pmc::ControlBits;
 
-use super::{AccState, CycleInput, FaultPolicy};
+use super::{AccState, FaultPolicy, PolicyInput};
 
 /// Periods out of the cut in a row.
 #[derive(Debug, Clone, Default)]
@@ -21,7 +21,7 @@ pub(crate) struct DrainJudge {
 
 impl DrainJudge {
     /// Count this period (every period the policy steps).
-    pub(crate) fn observe(&mut self, input: &CycleInput) {
+    pub(crate) fn observe(&mut self, input: &PolicyInput) {
         let f = input.force;
         let air = input.link.is_ok_and(|s| {
             !s.cycle_active || (f.valid && f.force_n.is_finite() && f.force_n < self.air_force_n)

@@ -8,7 +8,7 @@ use std::sync::atomic::Ordering;
 use acc_core::{ForceSource, OverrideLaw};
 use crossbeam_channel::{Receiver, Sender};
 
-use crate::control_loop::{BoardWrites, ControlLoop, CycleRecord};
+use crate::control_loop::{BoardWrites, ControlLoop, PeriodRecord};
 use crate::log_backlog::Backlog;
 use crate::policy::{AccState, Alarms};
 use crate::record::RunRecord;
@@ -112,7 +112,7 @@ impl<'a, 'o, L: OverrideLaw, F: ForceSource> ControlThread<'a, 'o, L, F> {
             let rec = self.control.decide(msg.t_s * self.time_scale, msg.link);
             self.tell_io_out_of_cut();
             let r = self.record(&rec, &msg);
-            if writes.send((msg.seq, rec.plan)).is_err() {
+            if writes.send((msg.seq, rec.writes)).is_err() {
                 break;
             }
             self.log.offer(r);
@@ -159,7 +159,7 @@ impl<'a, 'o, L: OverrideLaw, F: ForceSource> ControlThread<'a, 'o, L, F> {
     /// The period's run-log row from the decision `rec`: the policy's events traced, the
     /// period's lateness, and the observer's annotations and verdict ([`Verdict::Finish`]
     /// ends the run after this period).
-    fn record(&mut self, rec: &CycleRecord, msg: &StatusMsg) -> RunRecord {
+    fn record(&mut self, rec: &PeriodRecord, msg: &StatusMsg) -> RunRecord {
         for e in rec.out.events.iter() {
             tracing::info!(period = rec.index, event = ?e, "policy event");
         }

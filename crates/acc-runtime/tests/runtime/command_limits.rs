@@ -6,7 +6,7 @@
 
 use acc_core::{FeedOverride, ForceSample};
 use acc_pmc::{Board, BoardStatus};
-use acc_runtime::policy::{AccState, CommandLimits, CycleInput, FaultPolicy, PolicyConfig};
+use acc_runtime::policy::{AccState, CommandLimits, FaultPolicy, PolicyConfig, PolicyInput};
 use acc_runtime::runner::execute_writes;
 use acc_runtime::testing::{ScriptedBoard, ScriptedLaw};
 use acc_runtime::BoardWrites;
@@ -52,7 +52,7 @@ impl Rig {
         self.b.board.push_power_sample(1200);
         self.b.now_ms += 100;
         let s: BoardStatus = self.b.read_status().expect("clean link");
-        let input = CycleInput {
+        let input = PolicyInput {
             t_s: f64::from(self.k) * 0.1,
             link: Ok(s),
             write_error: self.write_error.take(),

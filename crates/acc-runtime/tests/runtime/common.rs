@@ -6,7 +6,7 @@
 use acc_pmc::BoardStatus;
 use acc_runtime::policy::{AccState, Event, FaultPolicy, PolicyConfig, Release};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
-use acc_runtime::{ControlLoop, CycleRecord};
+use acc_runtime::{ControlLoop, PeriodRecord};
 /// 0.5 N per W: 1600 W is the paper's Fr = 800 N.
 pub const N_PER_W: f64 = 0.5;
 
@@ -65,7 +65,7 @@ impl Rig {
         }
     }
 
-    pub fn step(&mut self) -> CycleRecord {
+    pub fn step(&mut self) -> PeriodRecord {
         if self.freeze_seq {
             self.b.board.set_spindle_power_w(self.power_w);
         } else {
@@ -77,7 +77,7 @@ impl Rig {
         r
     }
 
-    pub fn run(&mut self, n: usize) -> Vec<CycleRecord> {
+    pub fn run(&mut self, n: usize) -> Vec<PeriodRecord> {
         (0..n).map(|_| self.step()).collect()
     }
 
@@ -97,7 +97,7 @@ impl Rig {
     }
 
     /// Operator cycles the ACC switch off then on (one period each).
-    pub fn cycle_switch(&mut self) -> (CycleRecord, CycleRecord) {
+    pub fn cycle_switch(&mut self) -> (PeriodRecord, PeriodRecord) {
         self.b.board.set_acc_switch(false);
         let off = self.step();
         self.b.board.set_acc_switch(true);
@@ -106,11 +106,11 @@ impl Rig {
     }
 }
 
-pub fn released(r: &CycleRecord, why: Release) -> bool {
+pub fn released(r: &PeriodRecord, why: Release) -> bool {
     r.out.events.contains(&Event::Released(why))
 }
 
-pub fn armed(r: &CycleRecord) -> bool {
+pub fn armed(r: &PeriodRecord) -> bool {
     r.out
         .events
         .iter()
@@ -118,7 +118,7 @@ pub fn armed(r: &CycleRecord) -> bool {
 }
 
 /// Applied override and feed hold on the board, period by period.
-pub fn applied(recs: &[CycleRecord]) -> Vec<(u16, bool)> {
+pub fn applied(recs: &[PeriodRecord]) -> Vec<(u16, bool)> {
     recs.iter()
         .filter_map(|r| r.link.ok())
         .map(|s| (s.override_applied_pct, s.feed_hold_active))

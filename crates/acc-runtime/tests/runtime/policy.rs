@@ -6,7 +6,9 @@
 
 use acc_core::ForceSample;
 use acc_pmc::{BoardErrorKind, BoardStatus};
-use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Rearm, Release};
+use acc_runtime::policy::{
+    AccState, Event, FaultPolicy, PolicyConfig, PolicyInput, Rearm, Release,
+};
 use acc_runtime::testing::{LinkFault, ScriptedLaw};
 
 use crate::common::*;
@@ -103,8 +105,8 @@ fn link_timeout_holds_then_stops_commanding_and_rearms_when_the_link_returns_mid
             })
         })
         .expect("re-armed at 120");
-    assert_eq!(re.plan.override_and_heartbeat.map(|p| p.0), Some(120));
-    let c = re.plan.control.expect("control written");
+    assert_eq!(re.writes.override_and_heartbeat.map(|p| p.0), Some(120));
+    let c = re.writes.control.expect("control written");
     assert!(c.acc_request && c.alarm_reset && !c.feed_hold_request);
     assert_eq!(rig.b.override_writes.last().map(|w| w.0), Some(120));
     assert!(rig.b.control_writes[controls_before..]
@@ -312,7 +314,7 @@ fn implausible_board_power_is_invalid_even_if_the_source_accepts_it() {
         ..BoardStatus::default()
     };
     let o = p.step(
-        &CycleInput {
+        &PolicyInput {
             t_s: 0.0,
             link: Ok(st),
             write_error: None,
@@ -349,7 +351,7 @@ fn nan_or_negative_force_is_invalid() {
         power_w: Some(1000.0),
         valid: true,
     };
-    let input = |t: f64, seq: u16, force: ForceSample, st: &BoardStatus| CycleInput {
+    let input = |t: f64, seq: u16, force: ForceSample, st: &BoardStatus| PolicyInput {
         t_s: t,
         link: Ok(BoardStatus {
             sample_seq: seq,
@@ -476,8 +478,8 @@ fn v2_board_restart_mid_cut_rearms_at_the_last_command_without_motion_above_it()
         at_pct: 70
     }));
     assert!(r.record(None).flags.contains("rearm:board_restart"));
-    assert_eq!(r.plan.override_and_heartbeat.map(|p| p.0), Some(70));
-    let c = r.plan.control.expect("control");
+    assert_eq!(r.writes.override_and_heartbeat.map(|p| p.0), Some(70));
+    let c = r.writes.control.expect("control");
     assert!(c.acc_request && c.alarm_reset);
     // override first, then CONTROL
     assert_eq!(rig.b.override_writes.last().map(|w| w.0), Some(70));

@@ -5,7 +5,7 @@
 
 use acc_core::ForceSample;
 use acc_pmc::{BoardErrorKind, BoardStatus};
-use acc_runtime::policy::{AccState, CycleInput, Event, FaultPolicy, PolicyConfig, Release};
+use acc_runtime::policy::{AccState, Event, FaultPolicy, PolicyConfig, PolicyInput, Release};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
 use acc_runtime::ControlLoop;
 
@@ -376,7 +376,7 @@ mod invariant {
             let mut last_seq: Option<u16> = None;
             let mut same_seq = 0u32;
             for (i, x) in periods.iter().enumerate() {
-                let input = CycleInput {
+                let input = PolicyInput {
                     t_s: i as f64 * 0.1,
                     link: x.link,
                     write_error: x.write_error,

@@ -5,7 +5,7 @@
 
 use acc_runtime::policy::{AccState, PolicyConfig};
 use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
-use acc_runtime::{ControlLoop, CycleRecord, FaultPolicy};
+use acc_runtime::{ControlLoop, FaultPolicy, PeriodRecord};
 
 const DITHER: [u16; 7] = [50, 60, 60, 70, 50, 50, 60];
 
@@ -38,7 +38,7 @@ impl Rig {
         self.t_s += 0.1;
     }
 
-    fn step(&mut self) -> CycleRecord {
+    fn step(&mut self) -> PeriodRecord {
         self.tick();
         self.lp.cycle(&mut self.b, self.t_s)
     }

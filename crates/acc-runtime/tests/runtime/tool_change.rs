@@ -5,7 +5,7 @@
 
 use acc_core::{FeedOverride, Measurement, Mode, OverrideLaw, StepOutput};
 use acc_runtime::testing::{empty_trace, LinearPowerForce, ScriptedBoard};
-use acc_runtime::{AccState, ControlLoop, CycleRecord, FaultPolicy, PolicyConfig, ShopControl};
+use acc_runtime::{AccState, ControlLoop, FaultPolicy, PeriodRecord, PolicyConfig, ShopControl};
 
 /// A law that always asks 150 %, keeps a force reference and a Kc_hat as a real law does
 /// (its Kc_hat grows by 0.5 N/(mm/min) per step, as an estimate that moves), and records
@@ -83,7 +83,7 @@ impl Rig {
         Self { lp, b, t_s: 0.0 }
     }
 
-    fn step(&mut self) -> CycleRecord {
+    fn step(&mut self) -> PeriodRecord {
         self.b.board.push_power_sample(800);
         self.b.now_ms += 100;
         let r = self.lp.cycle(&mut self.b, self.t_s);
@@ -94,7 +94,7 @@ impl Rig {
     /// Step until the period that applies a tool change (at most 5 periods: the line
     /// guard confirms a new `TOOL_NUMBER` on the next read); that period's record and the
     /// law's Kc_hat just before it.
-    fn step_to_change(&mut self) -> (CycleRecord, f64) {
+    fn step_to_change(&mut self) -> (PeriodRecord, f64) {
         for _ in 0..5 {
             let kc_before = self.lp.law().kc_hat;
             let r = self.step();
@@ -106,7 +106,7 @@ impl Rig {
     }
 }
 
-fn cmd(r: &CycleRecord) -> Option<u16> {
+fn cmd(r: &PeriodRecord) -> Option<u16> {
     r.out.write_override.map(|o| o.0)
 }
 
@@ -188,7 +188,7 @@ fn a_period_without_a_law_step_logs_the_fr_of_the_tool_in_use() {
     assert_eq!(lost.record(Some(800.0)).force_ref_n, Some(1200.0));
     // Without a tool table the fallback stays the run's Fr.
     assert_eq!(
-        CycleRecord {
+        PeriodRecord {
             tool_force_ref_n: None,
             ..lost
         }

@@ -1,294 +1,36 @@
-//! One controller cycle against any [`Board`]: read the status, make a force sample of it,
+//! One control period against any [`Board`]: read the status, make a force sample of it,
 //! run the [`FaultPolicy`] (which steps the law), write the override with the heartbeat and
 //! the `CONTROL` bits when they change.
 //!
-//! The cycle is split so that the threaded runtime can run the I/O on one thread and the
+//! The period is split so that the threaded runtime can run the I/O on one thread and the
 //! decision on another ([`ControlLoop::decide`] is pure: no I/O, no clock), while a
 //! single-threaded caller (tests, the simulator on a manual clock) uses
 //! [`ControlLoop::cycle`].
+//!
+//! | file | what |
+//! | --- | --- |
+//! | `mod.rs` | [`ControlLoop`]: the loop's state and the period's named steps |
+//! | `record.rs` | [`BoardWrites`], [`WriteResult`], [`PeriodRecord`] and its run-log row |
+//! | `in_force.rs` | the commands in force over the last periods (echoes, loop delay) |
 
-use acc_core::{ForceSample, ForceSource, Mode, OverrideLaw, PeriodInput, Saturation};
+mod in_force;
+mod record;
+
+pub use record::SEQ_SKIP_MAX;
+pub use record::{kind_name, mode_name, saturation_name, BoardWrites, PeriodRecord, WriteResult};
+
+use acc_core::{ForceSample, ForceSource, OverrideLaw, PeriodInput};
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardStatus, ControlBits};
 
-use crate::echo::{Booked, DelayReading, LoopDelay, MAX_ECHO_PERIODS};
+use crate::echo::{DelayReading, LoopDelay, MAX_ECHO_PERIODS};
 use crate::guard::{Expected, Guarded, LineGuard};
 use crate::lookahead::{LookAhead, LookAheadInput, LookAheadStep};
-use crate::policy::{CycleInput, CycleOutput, FaultPolicy};
+use crate::policy::{FaultPolicy, PolicyInput, PolicyOutput};
 use crate::record::RunRecord;
 use crate::runner::execute_writes;
-use crate::shop::{ShopControl, ShopState, ShopStep, ToolChange};
-
-/// The largest `SAMPLE_SEQ` advance logged as `seq_skip:<n>` (ten seconds of samples at
-/// T = 0.1 s; a larger jump is a board restart, not missed samples).
-pub const SEQ_SKIP_MAX: u16 = 100;
-
-/// The writes one period asks of the link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct BoardWrites {
-    /// `OVERRIDE_CMD` and `HEARTBEAT` to write (function 16), if any.
-    pub override_and_heartbeat: Option<(u16, u16)>,
-    /// `CONTROL` bits to write, if they differ from what the board was last given.
-    pub control: Option<ControlBits>,
-}
-
-/// Outcome of a [`BoardWrites`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct WriteResult {
-    /// Error of the override/heartbeat write.
-    pub override_error: Option<BoardErrorKind>,
-    /// Error of the control write.
-    pub control_error: Option<BoardErrorKind>,
-    /// The control bits that reached the board (the plan's, if written without error).
-    pub control_written: Option<ControlBits>,
-}
-
-impl WriteResult {
-    /// The first error, if any.
-    pub fn error(&self) -> Option<BoardErrorKind> {
-        self.override_error.or(self.control_error)
-    }
-}
-
-/// Everything known about one period, for the run log and tracing.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CycleRecord {
-    /// Period index.
-    pub index: u64,
-    /// Time of the period, s since start.
-    pub t_s: f64,
-    /// Status read, or the link error.
-    pub link: Result<BoardStatus, BoardErrorKind>,
-    /// Error of the previous period's writes, if any (reported to the policy this period).
-    pub write_error: Option<BoardErrorKind>,
-    /// Programmed feed the loop used, mm/min (`PROGRAMMED_FEED`, or the policy's nominal
-    /// feed when the board reports 0); `None` without a status.
-    pub programmed_feed_mm_min: Option<f64>,
-    /// Actual feed of the period, mm/min (programmed × applied override); `None` without a
-    /// status. Computed once here and used by the force source, the law and the path.
-    pub feed_mm_min: Option<f64>,
-    /// Path position after this period, mm: the integral of the actual feed (the last known
-    /// feed carries over periods without a status).
-    pub path_mm: f64,
-    /// The force source's sample.
-    pub force: ForceSample,
-    /// The policy's decision.
-    pub out: CycleOutput,
-    /// The writes asked for.
-    pub plan: BoardWrites,
-    /// What the shop layer (tool table, entry control) did, if the loop has one.
-    pub shop: Option<ShopStep>,
-    /// Force reference Fr of the tool in use, N (the shop layer's tool table; `None`
-    /// without one or before the first status): the Fr the law holds after this period's
-    /// tool change, logged also in periods where the law was not stepped.
-    pub tool_force_ref_n: Option<f64>,
-    /// What the line guard made of the read ([`crate::guard`]).
-    pub guard: Guarded,
-    /// The loop delay measured on the line ([`crate::echo`]).
-    pub delay: DelayReading,
-    /// Extra periods of dead time the law's gains tolerate (after this period's step).
-    pub delay_margin_periods: Option<u32>,
-    /// The run log's writer was stalled past the logger's buffer this period.
-    pub log_stalled: bool,
-    /// What the look-ahead decided, if the loop runs with a plan ([`crate::lookahead`]).
-    pub lookahead: Option<LookAheadStep>,
-}
-
-/// Short name of an error kind for the run log's `flags` (`timeout`, `crc`, `exception_03`,
-/// `disconnected`, `protocol`).
-pub fn kind_name(k: BoardErrorKind) -> String {
-    match k {
-        BoardErrorKind::Timeout => "timeout".into(),
-        BoardErrorKind::Crc => "crc".into(),
-        BoardErrorKind::Exception(c) => format!("exception_{c:02}"),
-        BoardErrorKind::Disconnected => "disconnected".into(),
-        BoardErrorKind::Protocol => "protocol".into(),
-    }
-}
-
-impl CycleRecord {
-    /// The period's run-log record (`force_ref_n`: Fr to log when the law was not stepped
-    /// and no tool table gives the Fr of the tool in use).
-    /// The plant-truth columns stay empty; the simulator fills them in.
-    pub fn record(&self, force_ref_n: Option<f64>) -> RunRecord {
-        let status = self.link.ok();
-        let step = self.out.step;
-        let trace = step.map(|o| o.trace);
-        let mut r = RunRecord {
-            t_s: self.t_s,
-            period: self.index,
-            x_mm: Some(self.path_mm),
-            spindle_rpm: status.map(|s| f64::from(s.spindle_rpm)),
-            programmed_feed_mm_min: self.programmed_feed_mm_min,
-            feed_mm_min: self.feed_mm_min,
-            power_w: status.map(|s| f64::from(s.spindle_power_w)),
-            force_n: (status.is_some() && self.force.valid && self.force.force_n.is_finite())
-                .then_some(self.force.force_n),
-            force_valid: self.out.force_valid,
-            force_ref_n: trace
-                .map(|t| t.force_ref_n)
-                .or(self.tool_force_ref_n)
-                .or(force_ref_n),
-            kc_hat: trace.map(|t| t.kc_hat),
-            kp: trace.map(|t| t.kp),
-            ki: trace.map(|t| t.ki),
-            error_n: trace.map(|t| t.error_n),
-            mode: trace.map_or_else(String::new, |t| mode_name(t.mode).to_string()),
-            saturation: trace
-                .map_or_else(String::new, |t| saturation_name(t.saturation).to_string()),
-            override_cmd_pct: self.out.write_override.map(|o| o.0),
-            heartbeat: self.plan.override_and_heartbeat.map(|(_, hb)| hb),
-            override_applied_pct: status.map(|s| s.override_applied_pct),
-            override_operator_pct: status.map(|s| s.operator_override_pct),
-            state: self.out.state.name().to_string(),
-            alarms: self.out.alarms.bits(),
-            feed_hold: self.out.control.feed_hold_request,
-            echo_delay_periods: self.delay.echo_periods,
-            feed_echo_periods: self.delay.feed_echo_periods,
-            seq_lag_periods: self.delay.seq_lag_periods,
-            delay_margin_periods: self.delay_margin_periods,
-            ..RunRecord::default()
-        };
-        // The NC context of a v2 board (0 = unknown there, an empty cell here).
-        if let Some(s) = status.filter(|s| s.is_v2()) {
-            let known = |v: u16| (v != 0).then_some(v);
-            r.tool = known(s.tool_number);
-            r.program = known(s.program_number);
-            r.block = known(s.block_number);
-        }
-        if let Err(k) = self.link {
-            r.flag(&format!("link:{}", kind_name(k)));
-        }
-        if let Some(reg) = self.guard.implausible {
-            r.flag(&format!("implausible:{}", reg.name()));
-        }
-        if let Some(reg) = self.guard.unconfirmed {
-            r.flag(&format!("unconfirmed:{}", reg.name()));
-        }
-        if let Some(k) = self.write_error {
-            r.flag(&format!("write:{}", kind_name(k)));
-        }
-        // Where the power sample sits in the board's sequence (a board restart starts it
-        // again: a jump of more than `SEQ_SKIP_MAX` is not logged as a skip).
-        match self.out.sample_advance {
-            Some(0) => r.flag("seq_repeat"),
-            Some(n) if (2..=SEQ_SKIP_MAX).contains(&n) => r.flag(&format!("seq_skip:{n}")),
-            _ => {}
-        }
-        if status.is_some() && !self.out.force_valid {
-            r.flag("force_invalid");
-        }
-        if self.out.fault {
-            r.flag("fault");
-        }
-        if let Some(c) = self.out.settle_cap {
-            r.flag(&format!("settle:{c}"));
-        }
-        if self.log_stalled {
-            r.flag("log_stalled");
-        }
-        if let Some(la) = self.lookahead {
-            la.flag_onto(&mut r);
-        }
-        if let Some(sh) = self.shop {
-            if sh.state == ShopState::Entry {
-                r.flag("entry");
-            }
-            if sh.tool_changed {
-                r.flag("tool_change");
-            }
-            if sh.limited {
-                r.flag("limit");
-            }
-        }
-        for e in self.out.events.iter() {
-            match e {
-                crate::policy::Event::Rearmed { reason, .. } => {
-                    r.flag(&format!("rearm:{}", reason.as_str()));
-                }
-                crate::policy::Event::Breakage(b) => r.flag(&format!("breakage:{}", b.kind())),
-                crate::policy::Event::SpindleStopRequest => r.flag("overload:spindle_stop"),
-                crate::policy::Event::DelayExceeded {
-                    extra_periods,
-                    margin_periods,
-                } => r.flag(&format!("delay:{extra_periods}/{margin_periods}")),
-                _ => {}
-            }
-        }
-        r
-    }
-}
-
-/// Whether the guard holds a block, tool or program number of the raw `read` until the
-/// next read confirms it (the guarded status `accepted` differs).
-fn context_pending(
-    read: Result<BoardStatus, BoardErrorKind>,
-    accepted: Option<&BoardStatus>,
-) -> bool {
-    match (read, accepted) {
-        (Ok(raw), Some(st)) => {
-            (raw.block_number, raw.tool_number, raw.program_number)
-                != (st.block_number, st.tool_number, st.program_number)
-        }
-        _ => false,
-    }
-}
-
-/// Run-log name of a law mode.
-pub fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::AdaptivePi => "adaptive_pi",
-        Mode::FixedPi => "fixed_pi",
-        Mode::AdaptiveIntegral => "adaptive_integral",
-        Mode::Baseline => "baseline",
-    }
-}
-
-/// Run-log name of a saturation state.
-pub fn saturation_name(s: Saturation) -> &'static str {
-    match s {
-        Saturation::None => "none",
-        Saturation::Low => "low",
-        Saturation::High => "high",
-    }
-}
-
-/// The override commands in force on the board after each of the last periods, newest
-/// first (`None`: ACC not driving, or unknown): booked by the loop once the policy has
-/// decided a period (or skipped it); read by the line guard (the echoes to expect) and the
-/// loop delay ([`LoopDelay::period`]) in the next period.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct InForce {
-    /// Newest first.
-    pub(crate) cmds: [Option<u16>; MAX_ECHO_PERIODS],
-    /// A period was booked with ACC not driving since the loop delay last looked.
-    pub(crate) released: bool,
-}
-
-impl InForce {
-    /// Book the command in force after this period: `written` while `driving` (`None`: the
-    /// last one is kept), nothing known while ACC is not driving.
-    pub(crate) fn book(&mut self, driving: bool, written: Option<u16>) {
-        let now = if driving {
-            written.or(self.cmds[0])
-        } else {
-            self.released = true;
-            None
-        };
-        self.cmds.rotate_right(1);
-        self.cmds[0] = now;
-    }
-
-    /// What the loop delay reads this period (`line_broke`: the line lost its cadence);
-    /// the release is reported once.
-    pub(crate) fn take(&mut self, line_broke: bool) -> Booked<'_> {
-        let released = std::mem::take(&mut self.released);
-        Booked {
-            in_force: &self.cmds,
-            released,
-            line_broke,
-        }
-    }
-}
+use crate::shop::{ShopControl, ShopStep, ToolChange};
+pub(crate) use in_force::InForce;
+use record::context_pending;
 
 /// The loop's state between periods: the policy, the law, the force source, the heartbeat
 /// counter and what the board was last given.
@@ -457,7 +199,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     ///
     /// With the shop layer, its [`ToolChange`] event is applied to the law here, before the
     /// policy steps it (the one place the law's Fr and Kc_hat change from outside the law).
-    pub fn decide(&mut self, t_s: f64, read: Result<BoardStatus, BoardErrorKind>) -> CycleRecord {
+    pub fn decide(&mut self, t_s: f64, read: Result<BoardStatus, BoardErrorKind>) -> PeriodRecord {
         let guard = self.guard_read(read);
         let link = match read {
             Err(k) => Err(k),
@@ -469,7 +211,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         self.advance_path(feeds);
         let force = self.estimate_force(link, feeds, held);
         let write_error = self.write_error.take();
-        let input = CycleInput {
+        let input = PolicyInput {
             t_s,
             link,
             write_error,
@@ -485,9 +227,9 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
         self.policy
             .set_context_pending(context_pending(read, guard.status.as_ref()));
         let out = self.policy.step(&input, &mut self.law);
-        let plan = self.board_writes(&out);
+        let writes = self.board_writes(&out);
         self.book_command(&out);
-        let rec = CycleRecord {
+        let rec = PeriodRecord {
             index: self.index,
             t_s,
             link,
@@ -497,7 +239,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
             path_mm: self.path_mm,
             force,
             out,
-            plan,
+            writes,
             shop,
             tool_force_ref_n: self.shop.as_ref().and_then(ShopControl::force_ref_n),
             guard,
@@ -677,7 +419,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
 
     /// The writes the policy's decision `out` asks of the link: the override with the next
     /// heartbeat, and the `CONTROL` bits where they differ from what the board was given.
-    fn board_writes(&mut self, out: &CycleOutput) -> BoardWrites {
+    fn board_writes(&mut self, out: &PolicyOutput) -> BoardWrites {
         let mut writes = BoardWrites::default();
         if let Some(cmd) = out.write_override {
             self.heartbeat = self.heartbeat.wrapping_add(1);
@@ -691,7 +433,7 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
 
     /// Book the command `out` writes: the look-ahead walks at it until the board applies it,
     /// and the guard and the loop delay expect its echo.
-    fn book_command(&mut self, out: &CycleOutput) {
+    fn book_command(&mut self, out: &PolicyOutput) {
         if let (Some(la), Some(cmd)) = (self.lookahead.as_mut(), out.write_override) {
             la.note_written(cmd.0);
         }
@@ -746,10 +488,10 @@ impl<L: OverrideLaw, F: ForceSource> ControlLoop<L, F> {
     }
 
     /// One full period on `pmc` at time `t_s`: read, decide, write.
-    pub fn cycle<P: Board>(&mut self, pmc: &mut P, t_s: f64) -> CycleRecord {
+    pub fn cycle<P: Board>(&mut self, pmc: &mut P, t_s: f64) -> PeriodRecord {
         let link = pmc.read_status().map_err(|e| e.kind());
         let rec = self.decide(t_s, link);
-        let r = execute_writes(pmc, &rec.plan);
+        let r = execute_writes(pmc, &rec.writes);
         self.writes_done(&r);
         rec
     }
