@@ -366,12 +366,12 @@ fn peer_against_acc_run(peer: fn(&str, u64, &[&str]) -> Command) {
         &config.to_string_lossy(),
         &pty,
         &log,
-        "60",
+        "30",
         &["--opcua", &url],
     );
     wait_listening(&mut run, p_run, "acc run --opcua");
     let mut client = Peer::spawn(peer(&url, u64::MAX >> 12, &["--timeout", "8"]));
-    // Hang guards only: 60 s of machine time is 15 s of wall time on an idle host.
+    // Hang guards only: 30 s of machine time is 15 s of wall time on an idle host (2×).
     client.json_with("ready", Duration::from_secs(180));
     let result = client.json_with("samples", Duration::from_secs(240));
     let (code, out, err) = run.finish(Duration::from_secs(240));
