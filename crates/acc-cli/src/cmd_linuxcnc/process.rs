@@ -13,6 +13,7 @@
 //! | `acc-process.feed` | float in, mm/s | path speed | `motion.current-vel` |
 //! | `acc-process.spindle-speed` | float in, rpm | spindle | `spindle.0.speed-out` |
 //! | `acc-process.tool-number` | s32 in | tool | `iocontrol.0.tool-number` |
+//! | `acc-process.adaptive-feed`, `heartbeat`, `feed-inhibit` | float / bit / bit in | logged only | `acc.adaptive-feed`, `acc.heartbeat-bit`, `motion.feed-inhibit` |
 //! | `acc-process.spindle-power` | float out, W | electrical power, mean over T | `acc.spindle-power` |
 //! | `acc-process.force` | float out, N | true force | (a scope) |
 //! | `acc-process.radial-depth`, `axial-depth` | float out, mm | engagement | (a scope) |
@@ -61,7 +62,7 @@ pub struct ProcessArgs {
 }
 
 /// The machine log's header.
-pub const MACHINE_LOG_HEADER: &str = "t_s,x_mm,y_mm,z_mm,feed_mm_min,spindle_rpm,tool,radial_mm,axial_mm,force_n,power_w,power_mean_w";
+pub const MACHINE_LOG_HEADER: &str = "t_s,x_mm,y_mm,z_mm,feed_mm_min,spindle_rpm,tool,radial_mm,axial_mm,force_n,power_w,power_mean_w,adaptive_feed,heartbeat,feed_inhibit";
 
 /// The checked inputs of a process run: the scenario, the stock and the tool table.
 pub struct ProcessSetup {
@@ -125,6 +126,9 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
     let feed = comp.float_in("feed").map_err(hal)?;
     let speed = comp.float_in("spindle-speed").map_err(hal)?;
     let tool = comp.s32_in("tool-number").map_err(hal)?;
+    let adaptive = comp.float_in("adaptive-feed").map_err(hal)?;
+    let heartbeat = comp.bit_in("heartbeat").map_err(hal)?;
+    let inhibit = comp.bit_in("feed-inhibit").map_err(hal)?;
     let mut power_pin = comp.float_out("spindle-power").map_err(hal)?;
     let mut force_pin = comp.float_out("force").map_err(hal)?;
     let mut radial_pin = comp.float_out("radial-depth").map_err(hal)?;
@@ -166,8 +170,17 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
         axial_pin.set(s.axial_mm);
         writeln!(
             log,
-            "{t_s:.4},{:.4},{:.4},{:.4},{feed_mm_min:.2},{rpm:.1},{tool_no},{:.4},{:.4},{:.2},{:.2},{power_mean_w:.2}",
-            position[0], position[1], position[2], s.radial_mm, s.axial_mm, s.force_n, s.power_w
+            "{t_s:.4},{:.4},{:.4},{:.4},{feed_mm_min:.2},{rpm:.1},{tool_no},{:.4},{:.4},{:.2},{:.2},{power_mean_w:.2},{:.4},{},{}",
+            position[0],
+            position[1],
+            position[2],
+            s.radial_mm,
+            s.axial_mm,
+            s.force_n,
+            s.power_w,
+            adaptive.get(),
+            u8::from(heartbeat.get()),
+            u8::from(inhibit.get())
         )
         .with_context(|| format!("--log {}: write", args.log.display()))?;
         rows += 1;
