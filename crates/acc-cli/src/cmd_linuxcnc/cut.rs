@@ -12,6 +12,10 @@ use acc_plant::process::ForceLaw;
 use acc_stock::{Move, Spindle, StepEngagement, Sweep, SweepOptions, ZMap};
 use std::path::PathBuf;
 
+/// A chord whose XY length is below this fraction of its Z length is cut as a vertical
+/// move.
+const VERTICAL_RATIO: f64 = 0.5;
+
 /// One sample of the process: the engagement held since the last path step and what it
 /// gives at the sample's feed and speed.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -42,9 +46,14 @@ pub struct LiveCut {
     flute_length_mm: f64,
     /// Where the last path step was cut (`None`: not yet, or after a tool change).
     last_cut_mm: Option<[f64; 3]>,
-    /// The engagement of the last path step.
+    /// The engagement of the last path step, and whether it was a plunge.
     radial_mm: f64,
     axial_mm: f64,
+    plunge: bool,
+    /// The previous sample's position, and the XY share of the path speed from it to the
+    /// latest (the chip load of a side cut comes from the XY motion alone).
+    prev_mm: Option<[f64; 3]>,
+    xy_share: f64,
     law: ForceLaw,
     spindle: SpindleSpec,
     radius_mm: f64,
@@ -73,6 +82,9 @@ impl LiveCut {
             last_cut_mm: None,
             radial_mm: 0.0,
             axial_mm: 0.0,
+            plunge: false,
+            prev_mm: None,
+            xy_share: 1.0,
             law: ForceLaw::new(scenario.tool.process),
             spindle: scenario.machine.spindle,
             radius_mm: scenario.tool.radius_mm(),
@@ -127,7 +139,7 @@ impl LiveCut {
     /// `tool`, moving at `feed_mm_min` with the spindle at `rpm`, `t_s` seconds after the
     /// spindle started. The path is cut in steps of at least one cell from the last step
     /// (the engagement holds in between); the force and power are those of the held
-    /// engagement at this sample's feed and speed.
+    /// engagement at this sample's XY feed (the whole feed for a plunge) and speed.
     pub fn sample(
         &mut self,
         position_mm: [f64; 3],
@@ -158,21 +170,52 @@ impl LiveCut {
                     + (position_mm[2] - from[2]).powi(2))
                 .sqrt();
                 if d >= sweep.step_mm() {
+                    // A chord mostly along Z (a plunge or retract, with the servo's last
+                    // micrometres of XY in it) is cut straight down or up: its tiny XY
+                    // direction would otherwise aim the leading half at the wall the tool
+                    // has just cut. The XY left over joins the next chord.
+                    let dxy = (position_mm[0] - from[0]).hypot(position_mm[1] - from[1]);
+                    let dz = (position_mm[2] - from[2]).abs();
+                    let to = if dxy < VERTICAL_RATIO * dz {
+                        [from[0], from[1], position_mm[2]]
+                    } else {
+                        position_mm
+                    };
                     self.buf.clear();
-                    let mv = Move::feed(from, position_mm, feed_mm_min.max(0.0));
+                    let mv = Move::feed(from, to, feed_mm_min.max(0.0));
                     sweep.cut(&mv, &mut self.buf);
                     if let Some(last) = self.buf.last() {
                         self.radial_mm = last.radial_mm;
                         self.axial_mm = last.ap_mm;
+                        self.plunge = last.kind == acc_stock::StepKind::Plunge;
                     }
-                    self.last_cut_mm = Some(position_mm);
+                    self.last_cut_mm = Some(to);
                 }
             }
         }
+        if let Some(prev) = self.prev_mm {
+            let d = [
+                position_mm[0] - prev[0],
+                position_mm[1] - prev[1],
+                position_mm[2] - prev[2],
+            ];
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            if len > 1e-7 {
+                self.xy_share = d[0].hypot(d[1]) / len;
+            }
+        }
+        self.prev_mm = Some(position_mm);
+        // A side cut's chip load comes from the XY feed (a retract out of a slot cuts
+        // nothing while it still holds the slot's engagement); a plunge's from the whole.
+        let chip_feed = if self.plunge {
+            feed_mm_min
+        } else {
+            feed_mm_min * self.xy_share
+        };
         let rpm = rpm.abs();
         let force_n = self
             .law
-            .mean_force_n(self.radial_mm, self.axial_mm, feed_mm_min, rpm, 1.0);
+            .mean_force_n(self.radial_mm, self.axial_mm, chip_feed, rpm, 1.0);
         let torque_nm = self.law.torque_nm(force_n, self.radius_mm);
         Ok(CutSample {
             radial_mm: self.radial_mm,
@@ -230,6 +273,23 @@ mod tests {
             "{full:?} vs {expected}"
         );
         assert!(full.power_w > air.power_w + 100.0, "{full:?}");
+        // A retract with a few micrometres of XY in it cuts nothing.
+        for k in 1..=100 {
+            let s = cut
+                .sample(
+                    [
+                        19.99 + 1e-5 * f64::from(k),
+                        1e-5 * f64::from(k),
+                        -2.0 + 0.05 * f64::from(k),
+                    ],
+                    0,
+                    feed,
+                    rpm,
+                    6.0 + 0.002 * f64::from(k),
+                )
+                .expect("sample");
+            assert!(s.force_n < 1.0, "retract sample {k}: {s:?}");
+        }
         // The spindle stopped: no force, no power.
         let stopped = cut
             .sample([20.5, 0.0, -2.0], 0, feed, 0.0, 7.0)
