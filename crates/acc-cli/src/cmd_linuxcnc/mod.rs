@@ -19,7 +19,9 @@ pub mod summary;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use acc_runtime::{Clock as _, SystemClock};
 
 use anyhow::Context as _;
 
@@ -311,24 +313,25 @@ fn run_linuxcnc(
         .stderr(log)
         .spawn()
         .context("starting `linuxcnc`")?;
-    let start = Instant::now();
+    let clock = SystemClock::new();
+    let pause = |clock: &SystemClock| clock.sleep_until(clock.now() + Duration::from_millis(100));
     loop {
         if let Some(status) = child.try_wait()? {
             return Ok(format!(
                 "LinuxCNC exited ({status}) after {:.1} s",
-                start.elapsed().as_secs_f64()
+                clock.now().as_secs_f64()
             ));
         }
-        if start.elapsed() > timeout {
+        if clock.now() > timeout {
             let _ = Command::new("kill")
                 .args(["-TERM", &child.id().to_string()])
                 .status();
-            let grace = Instant::now();
-            while grace.elapsed() < Duration::from_secs(20) {
+            let grace = clock.now() + Duration::from_secs(20);
+            while clock.now() < grace {
                 if child.try_wait()?.is_some() {
                     break;
                 }
-                std::thread::sleep(Duration::from_millis(100));
+                pause(&clock);
             }
             if child.try_wait()?.is_none() {
                 let _ = child.kill();
@@ -339,7 +342,7 @@ fn run_linuxcnc(
                 timeout.as_secs_f64()
             ));
         }
-        std::thread::sleep(Duration::from_millis(100));
+        pause(&clock);
     }
 }
 

@@ -23,9 +23,10 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use acc_hal::HalComponent;
+use acc_runtime::{Clock as _, SystemClock};
 use anyhow::Context as _;
 
 use super::cut::LiveCut;
@@ -148,12 +149,12 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
         window as u64 * args.period_ms,
         args.log.display()
     );
-    let start = Instant::now();
-    let mut next = start;
+    let clock = SystemClock::new();
+    let mut next = clock.now();
     let mut rows: u64 = 0;
     while !stop.load(Ordering::SeqCst) {
         next += period;
-        let t_s = start.elapsed().as_secs_f64();
+        let t_s = clock.now().as_secs_f64();
         let position = [x.get(), y.get(), z.get()];
         let feed_mm_min = 60.0 * feed.get().abs();
         let rpm = speed.get();
@@ -188,9 +189,9 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
             log.flush()
                 .with_context(|| format!("--log {}: write", args.log.display()))?;
         }
-        let now = Instant::now();
+        let now = clock.now();
         if next > now {
-            std::thread::sleep(next - now);
+            clock.sleep_until(next);
         } else {
             // Late (a loaded host): the next period starts now, none is run twice.
             next = now;
