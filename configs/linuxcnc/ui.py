@@ -84,6 +84,11 @@ start = time.monotonic()
 c.auto(linuxcnc.AUTO_RUN, 0)
 say("run " + program)
 killed = None
+# The feed held (motion.feed-inhibit: the watchdog tripped, or acc's feed hold) for
+# HELD_S without a kill of ours: abort, the program does not complete.
+HELD_S = 5.0
+held_since = None
+next_check = 0.0
 while True:
     s.poll()
     msg = e.poll()
@@ -102,6 +107,20 @@ while True:
                 os.kill(pid, signal.SIGKILL)
                 killed = time.monotonic()
                 say("killed acc pid %d at force %.1f N" % (pid, force))
+    now = time.monotonic()
+    if killed is None and now >= next_check:
+        next_check = now + 0.5
+        if getp("motion.feed-inhibit") == "TRUE":
+            held_since = held_since or now
+            if now - held_since > HELD_S:
+                say("feed inhibited for %.0f s (watchdog or acc's feed hold): aborting" % HELD_S)
+                c.abort()
+                c.wait_complete()
+                say("aborted")
+                c.state(linuxcnc.STATE_OFF)
+                sys.exit(4)
+        else:
+            held_since = None
     if killed is not None and time.monotonic() - killed > 2.0:
         c.abort()
         c.wait_complete()

@@ -199,6 +199,13 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
     let ended = ran?;
 
     // 4. The summary.
+    if !dir.join("machine.csv").is_file() || !dir.join("run.csv").is_file() {
+        anyhow::bail!(
+            "LinuxCNC did not start acc and the process ({ended}): see {} and {}",
+            dir.join("linuxcnc.log").display(),
+            dir.join("linuxcnc_print.txt").display()
+        );
+    }
     let fr = cfg.controller.force_ref_n;
     let machine = summary::read_machine_log(&dir.join("machine.csv"))?;
     let periods = summary::run_log_periods(&dir.join("run.csv"))?;
