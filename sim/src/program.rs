@@ -92,9 +92,11 @@ struct PathData {
     steps: Vec<(f64, acc_stock::StepEngagement)>,
 }
 
-/// The tool the program's piece `seg` is cut with: the tool table's diameter for its T
-/// number when it lists it, else the scenario's tool (flutes always the scenario's).
-fn cutter_for(
+/// The cutter of tool number `tool`: the tool table's diameter for it when it lists it, else
+/// the scenario's tool `default` (flutes always the scenario's); T0 or no table: `default`.
+/// An error (naming `file`) for a T number the table does not list. `acc linuxcnc-process`
+/// cuts with it too.
+pub fn cutter_for(
     tool: u32,
     table: Option<&acc_nc::ToolTable>,
     default: &ToolGeometry,

@@ -78,27 +78,40 @@ pub fn lookahead(
     Ok(Some(acc_runtime::LookAhead::new(plan, cfg)))
 }
 
+/// The stock of `--stock stock.toml` or `--stock-box X0,Y0,Z0,X1,Y1,Z1` on cells of `--cell`
+/// mm (0.01 ..= 10), checked (the box parsed, the file named); exactly one of the two.
+pub fn stock_source(
+    stock: Option<&Path>,
+    stock_box: Option<&str>,
+    cell_mm: f64,
+) -> anyhow::Result<StockSource> {
+    match (stock, stock_box) {
+        (Some(p), None) => Ok(StockSource::File(p.to_path_buf())),
+        (None, Some(b)) => {
+            if !(cell_mm.is_finite() && (0.01..=10.0).contains(&cell_mm)) {
+                anyhow::bail!("--cell {cell_mm}: allowed 0.01 ..= 10 mm");
+            }
+            let spec = b
+                .parse::<acc_stock::BoxSpec>()
+                .map_err(|e| anyhow::anyhow!("--stock-box {b}: {e}"))?;
+            Ok(StockSource::Box(spec, cell_mm))
+        }
+        _ => anyhow::bail!("give --stock stock.toml or --stock-box X0,Y0,Z0,X1,Y1,Z1"),
+    }
+}
+
 /// The program's path through its stock, with the warnings printed; `None` without
 /// `--program`.
 pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramPath>> {
     let Some(program) = &args.program else {
         return Ok(None);
     };
-    let stock = match (&args.stock, &args.stock_box) {
-        (Some(p), None) => StockSource::File(p.clone()),
-        (None, Some(b)) => {
-            if !(args.cell.is_finite() && (0.01..=10.0).contains(&args.cell)) {
-                anyhow::bail!("--cell {}: allowed 0.01 ..= 10 mm", args.cell);
-            }
-            let spec = b
-                .parse::<acc_stock::BoxSpec>()
-                .map_err(|e| anyhow::anyhow!("--stock-box {b}: {e}"))?;
-            StockSource::Box(spec, args.cell)
-        }
-        _ => anyhow::bail!(
+    if args.stock.is_none() && args.stock_box.is_none() {
+        anyhow::bail!(
             "--program needs its stock: --stock stock.toml or --stock-box X0,Y0,Z0,X1,Y1,Z1"
-        ),
-    };
+        );
+    }
+    let stock = stock_source(args.stock.as_deref(), args.stock_box.as_deref(), args.cell)?;
     let spec = ProgramSpec {
         program: program.clone(),
         stock,

@@ -9,6 +9,7 @@ mod cmd_compare_program;
 mod cmd_discrepancy;
 mod cmd_estimate_eval;
 mod cmd_history;
+mod cmd_linuxcnc;
 mod cmd_nc;
 mod cmd_optimize;
 mod cmd_plan;
@@ -71,6 +72,15 @@ enum Command {
     /// run ended (listed below).
     #[command(after_help = exit::RunExit::help())]
     Run(cmd_run::RunArgs),
+    /// One command for LinuxCNC: writes the INI, HAL file and UI script of
+    /// `configs/linuxcnc/` into `--out`, runs the program on headless LinuxCNC with
+    /// `acc run --hal` and the simulated process, stops everything and summarizes (peak
+    /// true force against Fr, log rows, cycle time). As root, realtime runs as `nobody`.
+    Linuxcnc(cmd_linuxcnc::LinuxcncArgs),
+    /// The simulated cutting process as a LinuxCNC HAL component (`acc-process`): follows
+    /// LinuxCNC's axis positions, feed and spindle speed, cuts the Z-map stock, puts the
+    /// spindle's electrical power on `acc-process.spindle-power` and writes a machine log.
+    LinuxcncProcess(cmd_linuxcnc::process::ProcessArgs),
     /// Serve the board protocol on a new pty (prints its path) or a given port, backed by
     /// the simulated machine running in step with real time.
     BoardSim(cmd_board_sim::BoardSimArgs),
@@ -168,6 +178,8 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::WhatIf(args) => cmd_what_if::run_cmd(&args),
         Command::Run(args) => cmd_run::run_cmd(&args),
         Command::BoardSim(args) => cmd_board_sim::run_cmd(&args),
+        Command::Linuxcnc(args) => cmd_linuxcnc::run_cmd(&args),
+        Command::LinuxcncProcess(args) => cmd_linuxcnc::process::run_cmd(&args),
         Command::Discrepancy(args) => cmd_discrepancy::run(&args),
         Command::FaultMatrix(args) => acc_harness::fault_matrix::run(&args),
         Command::Soak(args) => acc_harness::soak::run(&args),

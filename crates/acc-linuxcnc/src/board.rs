@@ -201,6 +201,10 @@ impl<B: PinBackend> Board for HalBoard<B> {
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         self.inputs = self.pins.read();
         self.reads = self.reads.wrapping_add(1);
+        // The loop reads the status every period, driving or not (it writes the override
+        // only while it drives): the watchdog's bit toggles here, so that it stops only
+        // when acc's loop stops.
+        self.outputs.heartbeat_bit = !self.outputs.heartbeat_bit;
         self.update();
         Ok(self.status())
     }
@@ -211,7 +215,6 @@ impl<B: PinBackend> Board for HalBoard<B> {
         }
         self.law_pct = override_pct;
         self.outputs.heartbeat = i32::from(heartbeat);
-        self.outputs.heartbeat_bit = heartbeat & 1 == 1;
         self.update();
         Ok(())
     }

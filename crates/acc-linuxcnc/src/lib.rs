@@ -8,8 +8,8 @@
 //! | [`HalBoard`] | the [`Board`](acc_pmc::Board): status from the machine's pins, override and control to the adaptive feed, heartbeat and state pins; a v2 board's fallback clamp |
 //! | [`MachineInputs`], [`AccOutputs`], [`PinBackend`], [`HalPins`] | the pins of one period, and what moves them (HAL, or a test's fake) |
 //!
-//! Not wired yet: `acc run --hal` (the command that loads this link), the realtime
-//! `watchdog` on `acc.heartbeat-bit`; docs/linuxcnc.md says what exists.
+//! `acc run --hal` loads this link; `configs/linuxcnc/acc.hal` nets its pins and puts
+//! LinuxCNC's realtime `watchdog` on `acc.heartbeat-bit` (docs/linuxcnc.md).
 //!
 //! ```
 //! use acc_linuxcnc::{AccOutputs, HalBoard, MachineInputs, PinBackend};

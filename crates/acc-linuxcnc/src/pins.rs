@@ -46,7 +46,8 @@ pub struct AccOutputs {
     pub adaptive_feed: f64,
     /// `acc.heartbeat` (s32): the value of the last override write.
     pub heartbeat: i32,
-    /// `acc.heartbeat-bit` → a `watchdog` input: the heartbeat's lowest bit, toggling.
+    /// `acc.heartbeat-bit` → a `watchdog` input: toggles at every status read, i.e. once a
+    /// period whether acc drives or not; it stops when acc's loop stops.
     pub heartbeat_bit: bool,
     /// `acc.feed-hold` → `motion.feed-inhibit` (or the integrator's pause).
     pub feed_hold: bool,

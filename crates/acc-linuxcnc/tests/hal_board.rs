@@ -178,16 +178,23 @@ fn the_operators_switch_releases_without_a_clamp() {
 }
 
 #[test]
-fn the_heartbeat_toggles_its_bit_and_the_feed_hold_reaches_its_pin() {
+fn the_heartbeat_bit_toggles_every_period_driving_or_not_and_the_feed_hold_reaches_its_pin() {
     let mut board = driving(100);
     let mut bits = Vec::new();
     for beat in 2..6u16 {
+        board.read_status().expect("status");
         board.write_override(100, beat).expect("override");
         let out = board.pins().written;
         assert_eq!(out.heartbeat, i32::from(beat));
         bits.push(out.heartbeat_bit);
     }
-    assert_eq!(bits, [false, true, false, true]);
+    assert_eq!(bits[0], !bits[1]);
+    assert_eq!(bits[1], !bits[2]);
+    assert_eq!(bits[2], !bits[3]);
+    // Not driving (no override written): the bit still toggles at each period's read.
+    let idle = board.pins().written.heartbeat_bit;
+    board.read_status().expect("status");
+    assert_eq!(board.pins().written.heartbeat_bit, !idle);
     board
         .write_control(ControlBits {
             acc_request: true,

@@ -471,6 +471,24 @@ pub enum LinkSettings {
         /// Link parameters.
         link: CanLinkConfig,
     },
+    /// LinuxCNC's HAL (`--hal [COMPONENT]`): acc is the userspace HAL component
+    /// `component` (crate `acc-linuxcnc`); no `[board]` key is read but `fallback_mode`.
+    Hal {
+        /// The HAL component's name (its pins are `<component>.<pin>`), e.g. `acc`.
+        component: String,
+    },
+}
+
+/// The link the command line chose: `--port` (or none: `board.port`), `--can`, `--hal`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinkFlag<'a> {
+    /// Modbus RTU; `Some(device)` (from `--port`) replaces `board.port`.
+    Serial(Option<&'a str>),
+    /// CAN on this interface (`--can <iface>`), the `[can]` table's other keys.
+    Can(&'a str),
+    /// LinuxCNC's HAL as this component (`--hal [COMPONENT]`); the run is in real time:
+    /// `runtime.time_scale` must be 1.
+    Hal(&'a str),
 }
 
 /// A loaded, validated run config.
@@ -539,9 +557,14 @@ impl RunConfig {
         port: Option<&str>,
         can: Option<&str>,
     ) -> Result<Self, ConfigError> {
+        Self::load_with(path, serial_or_can(port, can))
+    }
+
+    /// Load and validate `path` for the link `link` chose on the command line.
+    pub fn load_with(path: impl AsRef<Path>, link: LinkFlag<'_>) -> Result<Self, ConfigError> {
         let path = path.as_ref();
         let file: RunFile = load_toml_with(path, RUN_KEY_RANGES)?;
-        Self::from_file(path, file, port, can)
+        Self::from_file_with(path, file, link)
     }
 
     /// Validate a parsed run file that came from `path` (see [`RunConfig::load_for`]).
@@ -550,6 +573,16 @@ impl RunConfig {
         file: RunFile,
         port: Option<&str>,
         can: Option<&str>,
+    ) -> Result<Self, ConfigError> {
+        Self::from_file_with(path, file, serial_or_can(port, can))
+    }
+
+    /// Validate a parsed run file that came from `path` for `link` (see
+    /// [`RunConfig::load_with`]).
+    pub fn from_file_with(
+        path: &Path,
+        file: RunFile,
+        link: LinkFlag<'_>,
     ) -> Result<Self, ConfigError> {
         let invalid = |key: &str, message: String| ConfigError::Invalid {
             file: path.to_path_buf(),
@@ -566,9 +599,13 @@ impl RunConfig {
             None => FallbackMode::default(),
         };
 
-        // [board] or [can]
-        let link = match can {
-            Some(iface) => {
+        // [board] or [can], or HAL
+        let hal = matches!(link, LinkFlag::Hal(_));
+        let link = match link {
+            LinkFlag::Hal(component) => LinkSettings::Hal {
+                component: component.to_string(),
+            },
+            LinkFlag::Can(iface) => {
                 let mut table = file.can.unwrap_or_default();
                 table.insert("iface".into(), toml::Value::String(iface.to_string()));
                 let c: CanConfig = from_table(path, "can", table, RUN_KEY_RANGES)?;
@@ -577,7 +614,7 @@ impl RunConfig {
                     link: c.validate(path, "can")?,
                 }
             }
-            None => {
+            LinkFlag::Serial(port) => {
                 let mut table = board_table;
                 if let Some(p) = port {
                     table.insert("port".into(), toml::Value::String(p.to_string()));
@@ -629,6 +666,15 @@ impl RunConfig {
         // [runtime]
         let rt = file.runtime;
         check_range(path, "runtime.time_scale", rt.time_scale, 0.1, 100.0)?;
+        if hal && rt.time_scale != 1.0 {
+            return Err(invalid(
+                "runtime.time_scale",
+                format!(
+                    "= {} with --hal: LinuxCNC runs in real time; allowed 1",
+                    rt.time_scale
+                ),
+            ));
+        }
         check_range(
             path,
             "runtime.log_buffer",
@@ -686,6 +732,15 @@ impl RunConfig {
     /// Wall-clock period of the ticker: `T / time_scale`.
     pub fn tick_period(&self) -> std::time::Duration {
         std::time::Duration::from_secs_f64(self.controller.period_s / self.runtime.time_scale)
+    }
+}
+
+/// The link of `--port` / `--can`: CAN when `can` names an interface, else the serial
+/// link with `port` replacing `board.port`.
+fn serial_or_can<'a>(port: Option<&'a str>, can: Option<&'a str>) -> LinkFlag<'a> {
+    match can {
+        Some(iface) => LinkFlag::Can(iface),
+        None => LinkFlag::Serial(port),
     }
 }
 
@@ -771,5 +826,49 @@ mod telemetry_tests {
         );
         let e = section("[telemetry]\nshdr_addr = \"0.0.0.0:7878\"\n").expect_err("unknown key");
         assert!(e.contains("shdr_addr") && e.contains("shdr"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod hal_link_tests {
+    use super::*;
+
+    /// `configs/linuxcnc/acc.toml`, the run config the LinuxCNC templates ship.
+    fn shipped() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/linuxcnc/acc.toml")
+    }
+
+    #[test]
+    fn hal_needs_no_board_port_and_refuses_a_time_scale_other_than_1() {
+        let cfg = RunConfig::load_with(shipped(), LinkFlag::Hal("acc")).expect("loads");
+        assert!(
+            matches!(&cfg.link, LinkSettings::Hal { component } if component == "acc"),
+            "{:?}",
+            cfg.link
+        );
+        // The same file on the serial link wants a port.
+        let e = RunConfig::load_for(shipped(), None, None).expect_err("no board.port");
+        assert!(e.to_string().contains("board.port"), "{e}");
+
+        // The same file at time scale 4, its paths made absolute, in a temporary folder.
+        let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+        let abs = |rel: &str| format!("{:?}", configs.join(rel).display().to_string());
+        let text = std::fs::read_to_string(shipped())
+            .expect("read")
+            .replace("time_scale = 1.0", "time_scale = 4.0")
+            .replace("\"../presets/case3.toml\"", &abs("presets/case3.toml"))
+            .replace(
+                "\"../runtime/paper_vmc_power.toml\"",
+                &abs("runtime/paper_vmc_power.toml"),
+            );
+        let path = std::env::temp_dir().join(format!("acc-hal-link-{}.toml", std::process::id()));
+        std::fs::write(&path, text).expect("write");
+        let e = RunConfig::load_with(&path, LinkFlag::Hal("acc")).expect_err("scale 4");
+        let _ = std::fs::remove_file(&path);
+        let e = e.to_string();
+        assert!(
+            e.contains("runtime.time_scale") && e.contains("--hal") && e.contains("allowed 1"),
+            "{e}"
+        );
     }
 }

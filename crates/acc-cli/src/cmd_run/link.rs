@@ -1,5 +1,6 @@
 //! The links `acc run` drives the PMC interface board over, one opener each: Modbus RTU on a
-//! serial port ([`open_rtu`]) and CAN over SocketCAN ([`open_can`]).
+//! serial port ([`open_rtu`]), CAN over SocketCAN ([`open_can`]) and LinuxCNC's HAL
+//! ([`open_hal`]: acc is a HAL component, the board is `acc_linuxcnc::HalBoard`).
 //!
 //! An opener returns the board it opened with what differs between links ([`OpenLink`]):
 //! the first status (after the link's own start-up transactions), the banner, how the link
@@ -174,6 +175,50 @@ pub fn open_can<'a>(
         device: iface,
         banner,
         reopen: Box::new(open),
+        counters: |_| None,
+    })
+}
+
+/// LinuxCNC's HAL (`--hal [COMPONENT]`): registers the userspace component `component`
+/// with its pins (`acc_linuxcnc::HalPins`, made ready: `loadusr -Wn` returns), then reads
+/// the first status from them. HAL does not vanish as a serial port does: a reopen is an
+/// error. `HalBoard` answers as a v2 board; `board.fallback_mode` has no register here (the
+/// realtime `watchdog` in the HAL file holds the feed, docs/linuxcnc.md).
+pub fn open_hal<'a>(
+    cfg: &'a RunConfig,
+    component: &'a str,
+) -> anyhow::Result<OpenLink<'a, acc_linuxcnc::HalBoard<acc_linuxcnc::HalPins>>> {
+    let hal = |e: acc_hal::HalError| {
+        anyhow::anyhow!(
+            "{}: --hal {component}: cannot create the HAL component: {e}",
+            cfg.path.display()
+        )
+    };
+    let comp = acc_hal::HalComponent::new(component)
+        .map_err(hal)
+        .exit_as(RunExit::BoardNotAnswering)?;
+    let pins = acc_linuxcnc::HalPins::new(comp)
+        .map_err(hal)
+        .exit_as(RunExit::BoardNotAnswering)?;
+    let mut board = acc_linuxcnc::HalBoard::new(pins);
+    let status = match board.read_status() {
+        Ok(s) => s,
+        Err(e) => return Err(anyhow::anyhow!("reading the HAL pins of {component}: {e}")),
+    };
+    let banner = format!(
+        "board: LinuxCNC HAL component `{component}` (pins {component}.*); protocol {}; adaptive feed = override / 150 %",
+        protocol_name(board.protocol())
+    );
+    Ok(OpenLink {
+        board,
+        status,
+        device: component,
+        banner,
+        reopen: Box::new(move || {
+            Err(anyhow::anyhow!(
+                "HAL component `{component}`: HAL does not vanish; nothing to reopen"
+            ))
+        }),
         counters: |_| None,
     })
 }

@@ -1,6 +1,6 @@
 //! `acc run --config <run.toml> --port <device>`: the production loop against the PMC
-//! interface board (Modbus RTU, or CAN with `--can`; the links in [`link`]), with the run
-//! log written continuously.
+//! interface board (Modbus RTU, CAN with `--can`, or LinuxCNC's HAL with `--hal`; the links
+//! in [`link`]), with the run log written continuously.
 //!
 //! Order of events: the whole config and the options are loaded and validated and the run
 //! log is created (no port touched); the port is opened and its framing verified (nothing sent); the first transaction writes
@@ -17,7 +17,7 @@ use std::path::PathBuf;
 
 use acc_core::{Controller, OverrideSpec};
 use acc_pmc::{Board, BoardProtocol, BoardStatus};
-use acc_runtime::config::{DeviceLostAction, LinkSettings, RunConfig};
+use acc_runtime::config::{DeviceLostAction, LinkFlag, LinkSettings, RunConfig};
 use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
@@ -40,11 +40,16 @@ pub struct RunArgs {
     pub config: PathBuf,
     /// Serial device of the board (replaces `board.port`), e.g. `/dev/ttyUSB0` or the pty
     /// `acc board-sim` prints.
-    #[arg(long, conflicts_with = "can")]
+    #[arg(long, conflicts_with_all = ["can", "hal"])]
     pub port: Option<String>,
     /// CAN interface of a CAN board, e.g. `can0`.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "hal")]
     pub can: Option<String>,
+    /// LinuxCNC's HAL: acc is the userspace HAL component COMPONENT (default `acc`; load it
+    /// with `loadusr -Wn acc acc run --hal …`, pins in docs/linuxcnc.md). The run is in real
+    /// time (`runtime.time_scale` = 1).
+    #[arg(long, value_name = "COMPONENT", num_args = 0..=1, default_missing_value = "acc")]
+    pub hal: Option<String>,
     /// Run-log CSV (same schema as `acc sim`), flushed every period.
     #[arg(long, default_value = "out/run.csv")]
     pub log: PathBuf,
@@ -170,8 +175,12 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         "info",
     );
     // 1. Everything validated before the port is touched.
-    let cfg = RunConfig::load_for(&args.config, args.port.as_deref(), args.can.as_deref())
-        .exit_as(RunExit::Usage)?;
+    let flag = match (&args.hal, &args.can) {
+        (Some(component), _) => LinkFlag::Hal(component),
+        (None, Some(iface)) => LinkFlag::Can(iface),
+        (None, None) => LinkFlag::Serial(args.port.as_deref()),
+    };
+    let cfg = RunConfig::load_with(&args.config, flag).exit_as(RunExit::Usage)?;
     // The plan is checked here, before the port is touched (drive reads it again).
     if let Some(p) = &args.plan {
         acc_runtime::Plan::load(p).exit_as(RunExit::Usage)?;
@@ -228,6 +237,9 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         LinkSettings::Rtu(rtu) => run_on_link(args, &cfg, link::open_rtu(&cfg, rtu)?, sinks),
         LinkSettings::Can { iface, link: can } => {
             run_on_link(args, &cfg, link::open_can(&cfg, iface, *can)?, sinks)
+        }
+        LinkSettings::Hal { component } => {
+            run_on_link(args, &cfg, link::open_hal(&cfg, component)?, sinks)
         }
     }
 }

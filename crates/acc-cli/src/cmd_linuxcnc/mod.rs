@@ -1,0 +1,371 @@
+//! acc on LinuxCNC: `acc linuxcnc part.ngc --scenario … --stock-box … --out DIR` (this
+//! module: the one command that writes the configuration, runs LinuxCNC headless with acc
+//! and the simulated process, and summarizes) and `acc linuxcnc-process` (the simulated
+//! cutting process as a HAL component, [`process`], its model in [`cut`]). The files come
+//! from the templates of `configs/linuxcnc/` ([`setup`]); the summary from the logs
+//! ([`summary`]).
+//!
+//! Order: every input is checked (program, scenario, stock, config, plan, watchdog) before
+//! LinuxCNC starts; another LinuxCNC on the host (its lock file) is an error. As root,
+//! LinuxCNC's realtime runs as `nobody` (`RTAPI_UID`, `RTAPI_FIFO_PATH` in the run's
+//! folder, which is made writable for it). After LinuxCNC exits (or is stopped at
+//! `--timeout-s`), whatever it left (lock file, HAL's shared memory) is removed with
+//! `halrun -U`.
+
+pub mod cut;
+pub mod process;
+pub mod setup;
+pub mod summary;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use acc_runtime::{Clock as _, SystemClock};
+
+use anyhow::Context as _;
+
+/// LinuxCNC's lock file: one LinuxCNC per host.
+const LOCK_FILE: &str = "/tmp/linuxcnc.lock";
+
+/// Arguments of `acc linuxcnc`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LinuxcncArgs {
+    /// The NC program (RS274/NGC) LinuxCNC runs.
+    pub program: PathBuf,
+    /// Scenario of the simulated process (machine, tool, force law).
+    #[arg(long, default_value = "paper_case3")]
+    pub scenario: String,
+    /// The stock: a `stock.toml` (docs/stock.md).
+    #[arg(long, value_name = "stock.toml", conflicts_with = "stock_box")]
+    pub stock: Option<PathBuf>,
+    /// The stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
+    pub stock_box: Option<String>,
+    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
+    #[arg(long, value_name = "MM", default_value_t = 0.25)]
+    pub cell: f64,
+    /// LinuxCNC tool table (`.tbl`, mm): LinuxCNC's and the process's tool diameters.
+    #[arg(long, value_name = "FILE.tbl")]
+    pub tools: Option<PathBuf>,
+    /// acc's run config (default: the shipped `configs/linuxcnc/acc.toml`).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// The plan of the program (`acc plan`), for acc's look-ahead (`acc run --plan`).
+    #[arg(long, value_name = "plan.csv")]
+    pub plan: Option<PathBuf>,
+    /// The run's folder: INI, HAL, ui.py, run.csv, machine.csv, LinuxCNC's log.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Timeout of the realtime watchdog on acc's heartbeat, s (0.12 ..= 1; the heartbeat
+    /// toggles every 0.1 s).
+    #[arg(long, default_value_t = 0.2)]
+    pub watchdog_s: f64,
+    /// Fault test: SIGKILL acc the first time the true force reaches this many newtons
+    /// (> 0); the program is aborted 2 s later.
+    #[arg(long, value_name = "N")]
+    pub kill_acc_at_force: Option<f64>,
+    /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it.
+    #[arg(long, default_value_t = 900.0)]
+    pub timeout_s: f64,
+}
+
+/// `acc linuxcnc`.
+pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
+    // 1. Every input checked before LinuxCNC starts.
+    let program = absolute(&args.program)
+        .with_context(|| format!("PROGRAM {}: no such file", args.program.display()))?;
+    let scenario_path = absolute(&crate::configs::find("scenarios", &args.scenario))
+        .with_context(|| format!("--scenario {}: no such scenario", args.scenario))?;
+    let scenario = acc_sim::Scenario::load(&scenario_path)
+        .with_context(|| format!("--scenario {}", args.scenario))?;
+    crate::cmd_sim_program::stock_source(
+        args.stock.as_deref(),
+        args.stock_box.as_deref(),
+        args.cell,
+    )?
+    .build()
+    .map_err(|e| anyhow::anyhow!("the stock: {e}"))?;
+    std::fs::read_to_string(&program)
+        .with_context(|| format!("PROGRAM {}: cannot read", program.display()))?;
+    let config = match &args.config {
+        Some(c) => {
+            absolute(c).with_context(|| format!("--config {}: no such file", c.display()))?
+        }
+        None => absolute(&crate::configs::find(
+            "linuxcnc",
+            "configs/linuxcnc/acc.toml",
+        ))
+        .context("the shipped configs/linuxcnc/acc.toml")?,
+    };
+    let cfg = acc_runtime::config::RunConfig::load_with(
+        &config,
+        acc_runtime::config::LinkFlag::Hal("acc"),
+    )?;
+    let plan = match &args.plan {
+        Some(p) => {
+            acc_runtime::Plan::load(p)?;
+            Some(absolute(p).with_context(|| format!("--plan {}", p.display()))?)
+        }
+        None => None,
+    };
+    let tools = match &args.tools {
+        Some(t) => {
+            Some(absolute(t).with_context(|| format!("--tools {}: no such file", t.display()))?)
+        }
+        None => None,
+    };
+    if !(args.watchdog_s.is_finite() && (0.12..=1.0).contains(&args.watchdog_s)) {
+        anyhow::bail!("--watchdog-s {}: allowed 0.12 ..= 1 s", args.watchdog_s);
+    }
+    if let Some(n) = args.kill_acc_at_force {
+        if !(n.is_finite() && n > 0.0) {
+            anyhow::bail!("--kill-acc-at-force {n}: allowed > 0 N");
+        }
+    }
+    if !(args.timeout_s.is_finite() && (10.0..=86_400.0).contains(&args.timeout_s)) {
+        anyhow::bail!("--timeout-s {}: allowed 10 ..= 86400 s", args.timeout_s);
+    }
+    if let Some(why) = missing_linuxcnc() {
+        anyhow::bail!("LinuxCNC is needed: {why} (apt-get install linuxcnc-uspace)");
+    }
+    if Path::new(LOCK_FILE).exists() {
+        anyhow::bail!(
+            "another LinuxCNC runs on this host ({LOCK_FILE} exists); one per host: stop it, or remove the file if it is stale"
+        );
+    }
+
+    // 2. The folder and its files.
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("--out {}: cannot create it", args.out.display()))?;
+    let dir = absolute(&args.out).with_context(|| format!("--out {}", args.out.display()))?;
+    for stale in ["run.csv", "machine.csv", "ui.log", "linuxcnc.log"] {
+        let _ = std::fs::remove_file(dir.join(stale));
+    }
+    let mut stock_args = match (&args.stock, &args.stock_box) {
+        (Some(s), _) => format!(
+            "--stock {}",
+            absolute(s)
+                .with_context(|| format!("--stock {}", s.display()))?
+                .display()
+        ),
+        (None, Some(b)) => format!("--stock-box={b} --cell {}", args.cell),
+        (None, None) => anyhow::bail!("give --stock stock.toml or --stock-box X0,Y0,Z0,X1,Y1,Z1"),
+    };
+    if let Some(t) = &tools {
+        stock_args.push_str(&format!(" --tools {}", t.display()));
+    }
+    let fill = setup::Fill {
+        acc: std::env::current_exe().context("the path of the acc binary")?,
+        program: program.clone(),
+        scenario: scenario_path,
+        stock_args,
+        config,
+        run_args: plan
+            .as_ref()
+            .map(|p| format!("--plan {}", p.display()))
+            .unwrap_or_default(),
+        watchdog_s: args.watchdog_s,
+        dir: dir.clone(),
+    };
+    let ini = setup::write_files(&fill, tools.as_deref())?;
+
+    // 3. LinuxCNC, as an unprivileged realtime when invoked as root.
+    let mut env: Vec<(&str, String)> = vec![("HOME", dir.display().to_string())];
+    if command_out("id", &["-u"])?.trim() == "0" {
+        let uid = command_out("id", &["-u", "nobody"])
+            .context("running LinuxCNC's realtime as `nobody` (invoked as root)")?;
+        env.push(("RTAPI_UID", uid.trim().to_string()));
+        env.push((
+            "RTAPI_FIFO_PATH",
+            dir.join("rtapi_fifo").display().to_string(),
+        ));
+        use std::os::unix::fs::PermissionsExt as _;
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777))
+            .with_context(|| format!("--out {}: cannot make it writable", dir.display()))?;
+    }
+    if let Some(n) = args.kill_acc_at_force {
+        env.push(("ACC_KILL_AT_FORCE_N", format!("{n}")));
+    }
+    println!(
+        "linuxcnc: {} on `{}`, Fr = {} N; files in {}",
+        program.display(),
+        scenario.name,
+        cfg.controller.force_ref_n,
+        dir.display()
+    );
+    let ran = run_linuxcnc(&ini, &dir, &env, Duration::from_secs_f64(args.timeout_s));
+    cleanup(&env);
+    let ended = ran?;
+
+    // 4. The summary.
+    if !dir.join("machine.csv").is_file() || !dir.join("run.csv").is_file() {
+        anyhow::bail!(
+            "LinuxCNC did not start acc and the process ({ended}): see {} and {}",
+            dir.join("linuxcnc.log").display(),
+            dir.join("linuxcnc_print.txt").display()
+        );
+    }
+    let fr = cfg.controller.force_ref_n;
+    let machine = summary::read_machine_log(&dir.join("machine.csv"))?;
+    let periods = summary::run_log_periods(&dir.join("run.csv"))?;
+    let consecutive = periods.windows(2).all(|w| w[1] == w[0] + 1);
+    let peak = machine.iter().map(|r| r.force_n).fold(0.0, f64::max);
+    let cutting: Vec<f64> = machine
+        .iter()
+        .filter(|r| r.force_n > 0.2 * fr)
+        .map(|r| r.adaptive_feed)
+        .collect();
+    let (lo, hi) = cutting.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
+        (lo.min(*a), hi.max(*a))
+    });
+    println!(
+        "machine log: {} rows ({}); peak true force {:.0} N = {:.2} Fr",
+        machine.len(),
+        dir.join("machine.csv").display(),
+        peak,
+        peak / fr
+    );
+    println!(
+        "run log: {} rows ({}), periods {}",
+        periods.len(),
+        dir.join("run.csv").display(),
+        if consecutive {
+            "consecutive"
+        } else {
+            "NOT consecutive"
+        }
+    );
+    if !cutting.is_empty() {
+        println!(
+            "adaptive feed while cutting: {:.2} ..= {:.2} (law override {:.0} ..= {:.0} %)",
+            lo,
+            hi,
+            150.0 * lo,
+            150.0 * hi
+        );
+    }
+    if let Some(s) = summary::stop_after_heartbeat_s(&machine) {
+        println!(
+            "acc's heartbeat stopped mid-cut: the motion stopped {s:.3} s after its last beat"
+        );
+    }
+    let cycle = summary::cycle_s(&dir.join("ui.log"));
+    match cycle {
+        Some(c) => println!("cycle time {c:.1} s (program start to idle)"),
+        None => println!("the program did not reach its end (ui.log)"),
+    }
+    println!("linuxcnc: {ended}");
+    if cycle.is_none() {
+        anyhow::bail!(
+            "the program did not complete: see {} and {}",
+            dir.join("ui.log").display(),
+            dir.join("linuxcnc.log").display()
+        );
+    }
+    Ok(())
+}
+
+/// `path` made absolute (it must exist).
+fn absolute(path: &Path) -> anyhow::Result<PathBuf> {
+    Ok(path.canonicalize()?)
+}
+
+/// Why LinuxCNC cannot run here, or `None`.
+pub fn missing_linuxcnc() -> Option<String> {
+    if let Err(e) = acc_hal::probe_library() {
+        return Some(e.to_string());
+    }
+    for tool in ["linuxcnc", "halcmd", "halrun"] {
+        if Command::new("sh")
+            .args(["-c", &format!("command -v {tool}")])
+            .stdout(Stdio::null())
+            .status()
+            .map_or(true, |s| !s.success())
+        {
+            return Some(format!("`{tool}` is not on the PATH"));
+        }
+    }
+    None
+}
+
+/// The standard output of `program args`, or an error naming it.
+fn command_out(program: &str, args: &[&str]) -> anyhow::Result<String> {
+    let out = Command::new(program)
+        .args(args)
+        .output()
+        .with_context(|| format!("running `{program}`"))?;
+    if !out.status.success() {
+        anyhow::bail!("`{program} {}` failed", args.join(" "));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Runs `linuxcnc INI` in `dir` with `env` until it exits or `timeout` passes (then SIGTERM:
+/// its script shuts LinuxCNC down); its output to `dir/linuxcnc.log`. How it ended.
+fn run_linuxcnc(
+    ini: &Path,
+    dir: &Path,
+    env: &[(&str, String)],
+    timeout: Duration,
+) -> anyhow::Result<String> {
+    let log = std::fs::File::create(dir.join("linuxcnc.log"))
+        .with_context(|| format!("{}: cannot create linuxcnc.log", dir.display()))?;
+    let mut child = Command::new("linuxcnc")
+        .arg(ini)
+        .current_dir(dir)
+        .envs(env.iter().map(|(k, v)| (*k, v.as_str())))
+        .stdin(Stdio::null())
+        .stdout(log.try_clone()?)
+        .stderr(log)
+        .spawn()
+        .context("starting `linuxcnc`")?;
+    let clock = SystemClock::new();
+    let pause = |clock: &SystemClock| clock.sleep_until(clock.now() + Duration::from_millis(100));
+    loop {
+        if let Some(status) = child.try_wait()? {
+            return Ok(format!(
+                "LinuxCNC exited ({status}) after {:.1} s",
+                clock.now().as_secs_f64()
+            ));
+        }
+        if clock.now() > timeout {
+            let _ = Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status();
+            let grace = clock.now() + Duration::from_secs(20);
+            while clock.now() < grace {
+                if child.try_wait()?.is_some() {
+                    break;
+                }
+                pause(&clock);
+            }
+            if child.try_wait()?.is_none() {
+                let _ = child.kill();
+                let _ = child.wait();
+            }
+            return Ok(format!(
+                "stopped at --timeout-s {:.0} s",
+                timeout.as_secs_f64()
+            ));
+        }
+        pause(&clock);
+    }
+}
+
+/// Removes what a LinuxCNC that did not shut down cleanly leaves: its components, HAL's
+/// realtime and shared memory (`halrun -U`), and the lock file.
+fn cleanup(env: &[(&str, String)]) {
+    if !Path::new(LOCK_FILE).exists() {
+        return;
+    }
+    eprintln!("linuxcnc: cleaning up after LinuxCNC (halrun -U, {LOCK_FILE})");
+    let _ = Command::new("halrun")
+        .arg("-U")
+        .envs(env.iter().map(|(k, v)| (*k, v.as_str())))
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status();
+    let _ = std::fs::remove_file(LOCK_FILE);
+}
