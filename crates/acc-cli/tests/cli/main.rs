@@ -1,0 +1,7 @@
+//! The `acc` binary end to end where only the binary can be tested: `acc nc` on our programs
+//! and on bad ones, and `acc linuxcnc` on headless LinuxCNC.
+//!
+//! One module per command.
+
+mod linuxcnc;
+mod nc;
