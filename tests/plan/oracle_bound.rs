@@ -36,14 +36,40 @@ fn shipped() -> Vec<String> {
 fn no_shipped_law_beats_the_oracle_on_any_shipped_scenario() {
     let mut checked = [0usize; 3];
     let mut worst = (f64::INFINITY, String::new());
-    for name in shipped() {
-        let sc = scenario(&name);
-        let runs: Vec<_> = LawKind::ALL
-            .iter()
-            .map(|&k| sc.run_law(k).expect("law runs"))
+    // The scenarios are independent: every law and the oracle of each, on two threads (the
+    // slowest test of its binary); then every comparison, in scenario order.
+    let names = shipped();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut computed: Vec<_> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..2)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                        let Some(name) = names.get(i) else {
+                            return mine;
+                        };
+                        let sc = scenario(name);
+                        let runs: Vec<_> = LawKind::ALL
+                            .iter()
+                            .map(|&k| sc.run_law(k).expect("law runs"))
+                            .collect();
+                        let fr = runs[0].1.force_ref_n;
+                        let o = oracle(&sc, fr).expect("oracle");
+                        mine.push((i, runs, fr, o));
+                    }
+                })
+            })
             .collect();
-        let fr = runs[0].1.force_ref_n;
-        let o = oracle(&sc, fr).expect("oracle");
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().expect("scenario worker"))
+            .collect()
+    });
+    computed.sort_by_key(|c| c.0);
+    for (i, runs, fr, o) in computed {
+        let name = &names[i];
         // The fastest safe feed may not finish (a breakage that overloads at any feed): then
         // no law finishes with its force at or below Fr either.
         let o_cycle = o.safe.cycle_time_s.unwrap_or(f64::INFINITY);
