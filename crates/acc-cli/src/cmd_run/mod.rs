@@ -22,14 +22,15 @@ use acc_runtime::policy::FaultPolicy;
 use acc_runtime::record::{RunLogError, RunLogWriter};
 use acc_runtime::shutdown::{init_tracing, install_stop_signals, LogFormat};
 use acc_runtime::{
-    history::WatchSink, ControlLoop, Drain, Ended, Hooks, LogSink, OnDeviceLost, Reopen,
-    RunOptions, RunRecord, SystemClock,
+    history::WatchSink, ControlLoop, Drain, Hooks, LogSink, OnDeviceLost, Reopen, RunOptions,
+    RunRecord, SystemClock,
 };
 use anyhow::Context;
 
 use crate::exit::{ExitAs, RunExit};
 use link::OpenLink;
 
+mod ending;
 mod link;
 
 /// Arguments of `acc run`.
@@ -181,7 +182,7 @@ pub fn run_cmd(args: &RunArgs) -> anyhow::Result<()> {
         (None, None) => LinkFlag::Serial(args.port.as_deref()),
     };
     let cfg = RunConfig::load_with(&args.config, flag).exit_as(RunExit::Usage)?;
-    // The plan is checked here, before the port is touched (drive reads it again).
+    // The plan is checked here, before the port is touched (run_production_loop reads it again).
     if let Some(p) = &args.plan {
         acc_runtime::Plan::load(p).exit_as(RunExit::Usage)?;
     }
@@ -263,7 +264,7 @@ fn run_on_link<B: Board + Send>(
     println!("{banner}");
     let mut reopen = || open_again().map_err(|e| format!("{e:#}"));
     let reopen: Reopen<'_, _> = &mut reopen;
-    let result = drive(args, cfg, &mut board, status, sinks, device, reopen);
+    let result = run_production_loop(args, cfg, &mut board, status, sinks, device, reopen);
     if let Some(line) = counters(&board) {
         println!("{line}");
     }
@@ -279,8 +280,13 @@ struct RunSinks {
     fleet: Option<acc_fleet::sink::MachineFeed>,
 }
 
-/// Print the status, build the loop and run it on `pmc` until Ctrl-C or `--duration-s`.
-fn drive<P: Board + Send>(
+/// The production loop's sink: run log, fleet store, telemetry tap, wear watch (outermost).
+type ProductionSink = WatchSink<acc_runtime::TapSink<acc_fleet::FleetSink<RunLogSink>>>;
+
+/// The production loop on `pmc`, in order: the board announced and its resolution checked,
+/// the loop built for it, telemetry and the sinks started, the loop driven until Ctrl-C or
+/// `--duration-s`, then the summary and the exit that says how the run ended.
+fn run_production_loop<P: Board + Send>(
     args: &RunArgs,
     cfg: &RunConfig,
     pmc: &mut P,
@@ -289,8 +295,51 @@ fn drive<P: Board + Send>(
     device: &str,
     reopen: Reopen<'_, P>,
 ) -> anyhow::Result<()> {
-    // Once per run: a v1 board and what it cannot do.
-    announce_v1(pmc.protocol(), device);
+    let step = announce_board(pmc.protocol(), &status, device)?;
+    let (mut control, ccfg) = build_loop(args, cfg, step)?;
+    let period_s = ccfg.period_s;
+    let tel = start_telemetry(args, cfg, period_s)?;
+    let history = sinks.history.clone();
+    let mut sink = production_sink(sinks, &tel);
+    let stop = install_stop_signals().context("installing the Ctrl-C handler")?;
+    let opts = run_options(args, cfg, ccfg.force_ref_n, period_s);
+    let device_lost_periods = opts.device_lost_periods.unwrap_or_default();
+    println!(
+        "running `{}`: T = {} s (tick every {:.1} ms of wall time), Fr = {} N; run log {}; Ctrl-C stops once the cut has ended (a second Ctrl-C: feed hold now)",
+        cfg.name,
+        period_s,
+        cfg.tick_period().as_secs_f64() * 1e3,
+        ccfg.force_ref_n,
+        args.log.display()
+    );
+    let hooks = Hooks {
+        reopen: Some(reopen),
+        observer: None,
+    };
+    let s = acc_runtime::drive(
+        pmc,
+        &mut control,
+        SystemClock::new(),
+        &mut sink,
+        &stop,
+        opts,
+        hooks,
+    )
+    .exit_as(RunExit::Internal)?;
+    let left = ending::close_sinks(sink, tel);
+    ending::print_summary(&s, &control, left, args, cfg, &history);
+    ending::exit_of(&s, cfg, device, device_lost_periods)
+}
+
+/// Once per run: the board's protocol (a v1 board and what it cannot do), its override
+/// resolution and status printed; a resolution other than 10 % or 1 % is refused. The
+/// board's `OVERRIDE_STEP`, percent.
+fn announce_board(
+    protocol: Option<BoardProtocol>,
+    status: &BoardStatus,
+    device: &str,
+) -> anyhow::Result<u16> {
+    announce_v1(protocol, device);
     let step = status.override_step_pct;
     println!(
         "resolution: OVERRIDE_STEP = {} % ({})",
@@ -301,13 +350,28 @@ fn drive<P: Board + Send>(
             _ => "non-standard step",
         }
     );
-    println!("status: {}", describe_status(&status));
+    println!("status: {}", describe_status(status));
     if !(step == 1 || step == 10) {
         return Err(anyhow::anyhow!(
             "board reports OVERRIDE_STEP = {step} %: the spec allows 10 or 1; refusing to drive it"
         ))
         .exit_as(RunExit::BoardNotAnswering);
     }
+    Ok(step)
+}
+
+/// The control loop for a board of override resolution `step` (percent): the law with the
+/// preset's override spec rounded to the board, the fault policy with the watch's limits,
+/// the force source, the shop layer (`[tools]`) and the look-ahead (`--plan`); and the
+/// controller settings it was built with.
+fn build_loop(
+    args: &RunArgs,
+    cfg: &RunConfig,
+    step: u16,
+) -> anyhow::Result<(
+    ControlLoop<Controller, acc_core::spindle_force::SpindleSource>,
+    acc_core::ControllerConfig,
+)> {
     let mut ccfg = cfg.controller;
     ccfg.override_spec = spec_for_board(ccfg.override_spec, step)
         .with_context(|| format!("{}: key `controller` (the preset)", cfg.path.display()))
@@ -339,11 +403,18 @@ fn drive<P: Board + Send>(
         };
         control = control.with_lookahead(acc_runtime::LookAhead::new(plan, la));
     }
+    Ok((control, ccfg))
+}
 
-    // Run log (created before the port was opened) and the signals: the first Ctrl-C or
-    // SIGTERM drains (ACC keeps control until the cut ends), a second one stops now.
-    // Telemetry: the logger thread publishes each record on the tap just before writing it
-    // (the control thread never waits on it; a slow SHDR/MQTT peer only drops).
+/// SHDR, MQTT and OPC UA from the options over the config's `[telemetry]` (the PKI beside
+/// the run log), and the live view's title. The logger thread publishes each record on the
+/// tap just before writing it; the control thread never waits on it (a slow peer only
+/// drops).
+fn start_telemetry(
+    args: &RunArgs,
+    cfg: &RunConfig,
+    period_s: f64,
+) -> anyhow::Result<crate::telemetry::Telemetry> {
     let tel_cfg = crate::telemetry::with_default_pki(
         args.telemetry.over(&cfg.telemetry),
         &args
@@ -358,16 +429,21 @@ fn drive<P: Board + Send>(
         title: format!("acc run: {}", args.config.display()),
         overload_n: Some(cfg.policy.overload_force_n),
     });
-    // The wear and breakage watch and the tool history run on the logger thread, the
-    // database writes on their own thread (bounded queue, never waited on).
+    Ok(tel)
+}
+
+/// The sinks around the run log (created before the port was opened): the fleet store, the
+/// telemetry tap, and the wear and breakage watch with the tool history on the logger
+/// thread (the database writes on their own thread: bounded queue, never waited on).
+fn production_sink(sinks: RunSinks, tel: &crate::telemetry::Telemetry) -> ProductionSink {
     let RunSinks {
         log: writer,
-        history,
+        history: _,
         watch,
         history_writer,
         fleet,
     } = sinks;
-    let mut sink = WatchSink {
+    WatchSink {
         inner: acc_runtime::TapSink {
             inner: acc_fleet::FleetSink {
                 inner: RunLogSink::new(writer),
@@ -378,15 +454,20 @@ fn drive<P: Board + Send>(
         watch,
         writer: Some(history_writer),
         summary: Default::default(),
-    };
-    let stop = install_stop_signals().context("installing the Ctrl-C handler")?;
-    let opts = RunOptions {
+    }
+}
+
+/// The runner's options from the config and `--duration-s`: the period on the wall clock
+/// (time scale), the log buffer, the drain of a stop mid-cut and what a vanished device
+/// does; timeouts in machine seconds are divided by the time scale.
+fn run_options(args: &RunArgs, cfg: &RunConfig, force_ref_n: f64, period_s: f64) -> RunOptions {
+    RunOptions {
         max_periods: args
             .duration_s
             .map(|d| (d / period_s).round().max(1.0) as u64),
         log_buffer: cfg.runtime.log_buffer,
         time_scale: cfg.runtime.time_scale,
-        force_ref_n: Some(ccfg.force_ref_n),
+        force_ref_n: Some(force_ref_n),
         drain: Some(Drain {
             max: std::time::Duration::from_secs_f64(cfg.shutdown.drain_s / cfg.runtime.time_scale),
             air_periods: cfg.shutdown.air_periods,
@@ -400,161 +481,6 @@ fn drive<P: Board + Send>(
             },
         },
         ..RunOptions::new(cfg.tick_period())
-    };
-    let device_lost_periods = opts.device_lost_periods.unwrap_or_default();
-    println!(
-        "running `{}`: T = {} s (tick every {:.1} ms of wall time), Fr = {} N; run log {}; Ctrl-C stops once the cut has ended (a second Ctrl-C: feed hold now)",
-        cfg.name,
-        period_s,
-        cfg.tick_period().as_secs_f64() * 1e3,
-        ccfg.force_ref_n,
-        args.log.display()
-    );
-    let hooks = Hooks {
-        reopen: Some(reopen),
-        observer: None,
-    };
-    let s = acc_runtime::drive(
-        pmc,
-        &mut control,
-        SystemClock::new(),
-        &mut sink,
-        &stop,
-        opts,
-        hooks,
-    )
-    .exit_as(RunExit::Internal)?;
-    // The run log and the tap (the watch's summary and history writer are used below).
-    if let Some(f) = &sink.inner.inner.feed {
-        let c = f.store.committed();
-        println!(
-            "fleet store: {} periods, {} cuts of machine {} in {} files under {}",
-            c.periods,
-            c.cuts,
-            f.machine,
-            c.files,
-            f.store.root().display()
-        );
-    }
-    drop(sink.inner);
-    tel.finish();
-
-    // Summary.
-    // Every period has a run-log row: the cycles run plus the ones the ticker skipped.
-    println!("periods: {}", s.periods + s.skipped);
-    println!("cycles run: {}; skipped periods: {}", s.periods, s.skipped);
-    println!(
-        "period jitter: {} ; overruns {} ; skipped {}",
-        s.ticker.jitter.summary(),
-        s.ticker.overruns,
-        s.ticker.skipped
-    );
-    println!("cycle round trip: {}", s.cycle_rtt.summary());
-    let g = control.guard_counts();
-    let d = control.delay_reading();
-    let show = |v: Option<u32>| v.map_or_else(|| "?".to_string(), |v| v.to_string());
-    println!(
-        "line guard: {} implausible reads, {} held for confirmation ({} were bad frames), {} debounced values, {} replays of the board's past; loop delay: echo {} periods (designed 1), margin of the gains {} extra",
-        g.implausible,
-        g.held,
-        g.discarded,
-        g.debounced,
-        g.replays,
-        show(d.echo_periods),
-        show(acc_core::OverrideLaw::delay_margin_periods(control.law()))
-    );
-    println!(
-        "run log: {} rows written to {}, {} dropped (queue full), {} write errors",
-        s.logged - s.log_errors.min(s.logged),
-        args.log.display(),
-        s.log_dropped,
-        s.log_errors
-    );
-    if let Some(w) = sink.writer.as_mut() {
-        match w.finish() {
-            Ok(n) => println!(
-                "history: {n} items stored, {} dropped (queue full)",
-                w.dropped()
-            ),
-            Err(e) => eprintln!("history: {e}"),
-        }
-    }
-    crate::watch_cli::print_summary(&sink.summary, &history);
-    println!(
-        "final state: {}; alarms: {}",
-        s.final_state.name(),
-        s.alarms.names()
-    );
-    println!(
-        "board protocol: {}; reconnects: {}; longest time without the device: {:.1} s",
-        protocol_name(s.protocol),
-        s.reconnects,
-        s.longest_device_loss.as_secs_f64() * cfg.runtime.time_scale
-    );
-    if s.shutdown_feed_hold && !matches!(s.ended, Ended::FeedHold { .. }) {
-        println!(
-            "shutdown: still cutting on a board without the fallback clamp: feed hold requested before the release; the NC needs cycle start"
-        );
-    }
-    match (s.shutdown_ok, s.ended) {
-        (ok, Ended::DeviceLost) => Err(ExitWith {
-            code: EXIT_DEVICE_LOST,
-            message: format!(
-                "the board's device {device} is gone ({}: port or cable): run ended, run log flushed; final CONTROL write {}; the board's watchdog takes the override",
-                match cfg.runtime.on_device_lost {
-                    DeviceLostAction::Exit =>
-                        format!("{device_lost_periods} periods in a row without it"),
-                    DeviceLostAction::Reconnect => format!(
-                        "not back within reconnect_timeout_s = {} s, reopened every period",
-                        cfg.runtime.reconnect_timeout_s
-                    ),
-                },
-                if ok.is_ok() { "sent" } else { "not possible" }
-            ),
-        }
-        .into()),
-        (Ok(()), Ended::FeedHold { reason }) => {
-            let why = match reason {
-                "second_signal" => "a second stop signal came".to_string(),
-                "drain_timeout" => format!(
-                    "the cut had not ended after the {} s drain",
-                    cfg.shutdown.drain_s
-                ),
-                other => other.to_string(),
-            };
-            Err(ExitWith {
-                code: EXIT_FEED_HOLD,
-                message: format!(
-                    "shutdown: still cutting ({why}): feed hold requested, then ACC_REQUEST cleared with the feed hold kept; the NC needs cycle start"
-                ),
-            }
-            .into())
-        }
-        (Ok(()), Ended::Released | Ended::Completed | Ended::Finished) if fault_feed_hold(&s) => {
-            Err(ExitWith {
-            code: EXIT_FAULT_FEED_HOLD,
-            message: format!(
-                "shutdown: ACC_REQUEST cleared; a fault had requested feed hold (final state {}, alarms: {}): the NC needs cycle start",
-                s.final_state.name(),
-                s.alarms.names()
-            ),
-        }
-        .into())
-        }
-        (Ok(()), Ended::Released) => {
-            println!(
-                "shutdown: out of the cut; ACC_REQUEST cleared, the operator has the override"
-            );
-            Ok(())
-        }
-        (Ok(()), Ended::Completed | Ended::Finished) => {
-            println!("shutdown: ACC_REQUEST cleared, the operator has the override");
-            Ok(())
-        }
-        (Err(k), _) => Err(anyhow::anyhow!(
-            "shutdown: could not write CONTROL ({k:?}); the board's watchdog releases the override"
-        ))
-        .exit_as(RunExit::FinalWriteFailed),
     }
 }
 
