@@ -6,8 +6,18 @@ docs/linuxcnc.md), open [DISPLAY] OPEN_FILE, run it, wait until the interpreter 
 exit (LinuxCNC then shuts down). Writes ui.log beside the INI: one line per step, with
 time.monotonic() stamps, and `cycle_s` (program start to idle).
 
-Environment: ACC_KILL_AT_FORCE_N=N: SIGKILL the HAL component `acc` the first time
-acc-process.force reaches N newtons (the fault test), then abort the program 2 s later.
+Environment: ACC_FAULT=KIND@N[+S]: the fault test. S seconds (default 0) after
+acc-process.force first reaches N newtons, set acc-process.fault (the machine log's `fault`
+column marks the moment) and:
+  kill-acc       SIGKILL the HAL component `acc`; abort the program 2 s later
+  stop-acc       SIGSTOP acc, SIGCONT 2 s later, re-arm the watchdog 0.5 s after that
+                 (watchdog.enable-in 0, then 1: the operator's reset); the program goes on
+  kill-process   SIGKILL the simulated process `acc-process`: acc.spindle-power and
+                 acc.sample-seq keep their last values while the spindle turns
+  feed-override  the operator's feed override to 30 % (feedrate(0.3))
+  pause          pause the program (AUTO_PAUSE), resume it 2 s later
+  estop          estop: the program ends there
+ACC_KILL_AT_FORCE_N=N is kill-acc@N.
 """
 import os
 import signal
@@ -57,7 +67,27 @@ program = inifile.find("DISPLAY", "OPEN_FILE")
 c = linuxcnc.command()
 s = linuxcnc.stat()
 e = linuxcnc.error_channel()
-kill_at = os.environ.get("ACC_KILL_AT_FORCE_N")
+fault = os.environ.get("ACC_FAULT") or ""
+if not fault and os.environ.get("ACC_KILL_AT_FORCE_N"):
+    fault = "kill-acc@" + os.environ["ACC_KILL_AT_FORCE_N"]
+fault_kind, _, fault_at = fault.partition("@")
+fault_at, _, fault_delay = fault_at.partition("+")
+fault_at = float(fault_at) if fault else None
+fault_delay = float(fault_delay or "0")
+reached = None
+
+
+def setp(pin, value):
+    subprocess.run(["halcmd", "setp", pin, str(value)], capture_output=True)
+
+
+def signal_comp(name, sig, what):
+    pid = comp_pid(name)
+    if pid:
+        os.kill(pid, sig)
+        say("%s %s pid %d" % (what, name, pid))
+    else:
+        say("no pid of %s" % name)
 
 c.state(linuxcnc.STATE_ESTOP_RESET)
 c.state(linuxcnc.STATE_ON)
@@ -84,6 +114,9 @@ start = time.monotonic()
 c.auto(linuxcnc.AUTO_RUN, 0)
 say("run " + program)
 killed = None
+fired = None
+# The fault's later steps: (seconds after the fault, what).
+steps = []
 # The feed held (motion.feed-inhibit: the watchdog tripped, or acc's feed hold) for
 # HELD_S without a kill of ours: abort, the program does not complete.
 HELD_S = 5.0
@@ -96,17 +129,51 @@ while True:
         say("error %s" % (msg[1],))
     if time.monotonic() - start > 0.5 and s.interp_state == linuxcnc.INTERP_IDLE:
         break
-    if kill_at and killed is None:
+    if fault_at is not None and fired is None:
         try:
             force = float(getp("acc-process.force") or "0")
         except ValueError:
             force = 0.0
-        if force >= float(kill_at):
-            pid = comp_pid("acc")
-            if pid:
-                os.kill(pid, signal.SIGKILL)
-                killed = time.monotonic()
-                say("killed acc pid %d at force %.1f N" % (pid, force))
+        if reached is None and force >= fault_at:
+            reached = time.monotonic()
+            say("force %.1f N reached: the fault in %.1f s" % (force, fault_delay))
+        if reached is not None and time.monotonic() - reached >= fault_delay:
+            setp("acc-process.fault", 1)
+            fired = time.monotonic()
+            say("fault %s at force %.1f N" % (fault_kind, force))
+            if fault_kind == "kill-acc":
+                signal_comp("acc", signal.SIGKILL, "SIGKILL")
+                killed = fired
+            elif fault_kind == "stop-acc":
+                signal_comp("acc", signal.SIGSTOP, "SIGSTOP")
+                steps = [(2.0, "cont"), (2.5, "rearm")]
+            elif fault_kind == "kill-process":
+                time.sleep(0.02)  # the process logs the marker first
+                signal_comp("acc-process", signal.SIGKILL, "SIGKILL")
+            elif fault_kind == "feed-override":
+                c.feedrate(0.3)
+                say("feed override 30 %")
+            elif fault_kind == "pause":
+                c.auto(linuxcnc.AUTO_PAUSE)
+                say("paused")
+                steps = [(2.0, "resume")]
+            elif fault_kind == "estop":
+                c.state(linuxcnc.STATE_ESTOP)
+                say("estop")
+            else:
+                say("unknown fault %s" % fault_kind)
+    if steps and time.monotonic() - fired >= steps[0][0]:
+        step = steps.pop(0)[1]
+        if step == "cont":
+            signal_comp("acc", signal.SIGCONT, "SIGCONT")
+        elif step == "rearm":
+            setp("watchdog.enable-in", 0)
+            time.sleep(0.01)
+            setp("watchdog.enable-in", 1)
+            say("watchdog re-armed")
+        elif step == "resume":
+            c.auto(linuxcnc.AUTO_RESUME)
+            say("resumed")
     now = time.monotonic()
     if killed is None and now >= next_check:
         next_check = now + 0.5

@@ -47,7 +47,11 @@ struct FallbackClamp {
 /// `M52 P1`", `WATCHDOG_TRIPPED` is "`acc.watchdog-ok` false", `CYCLE_ACTIVE` the program
 /// running, `FEED_HOLD_ACTIVE` paused or acc's hold, `CNC_ALARM` estop or machine off, the
 /// block number `motion.program-line`, feeds in mm/min from the velocity pins (mm/s × 60),
-/// the override step 1 %, `SAMPLE_SEQ` a count of reads (HAL has no sample counter).
+/// the override step 1 %. `SAMPLE_SEQ` counts reads; with `acc.sample-seq-used` set, only the
+/// reads that found the power source's counter `acc.sample-seq` moved since the last read
+/// (a new sample: one step, as a board's sensor advances once a period), so that a frozen
+/// power pin is a sequence standing still, which the policy judges stale. HAL has no sample
+/// counter of its own.
 #[derive(Debug)]
 pub struct HalBoard<B> {
     /// The pins.
@@ -66,8 +70,10 @@ pub struct HalBoard<B> {
     was_active_this_cycle: bool,
     /// The engaged fallback clamp.
     clamp: Option<FallbackClamp>,
-    /// Reads so far (`SAMPLE_SEQ`).
+    /// `SAMPLE_SEQ`: reads so far, or with the source's counter, reads that found it moved.
     reads: u16,
+    /// The source's counter `acc.sample-seq` at the last read (with `acc.sample-seq-used`).
+    source_seq: Option<i32>,
 }
 
 impl<B: PinBackend> HalBoard<B> {
@@ -86,6 +92,7 @@ impl<B: PinBackend> HalBoard<B> {
             was_active_this_cycle: false,
             clamp: None,
             reads: 0,
+            source_seq: None,
         }
     }
 
@@ -200,7 +207,14 @@ impl<B: PinBackend> Board for HalBoard<B> {
 
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         self.inputs = self.pins.read();
-        self.reads = self.reads.wrapping_add(1);
+        let source = self
+            .inputs
+            .sample_seq_used
+            .then_some(self.inputs.sample_seq);
+        if source.is_none() || source != self.source_seq {
+            self.reads = self.reads.wrapping_add(1);
+        }
+        self.source_seq = source;
         // The loop reads the status every period, driving or not (it writes the override
         // only while it drives): the watchdog's bit toggles here, so that it stops only
         // when acc's loop stops.

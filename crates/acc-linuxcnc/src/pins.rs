@@ -37,6 +37,14 @@ pub struct MachineInputs {
     pub acc_switch: bool,
     /// `acc.watchdog-ok` ← `watchdog.ok-out`: the realtime watchdog on acc's heartbeat.
     pub watchdog_ok: bool,
+    /// `acc.sample-seq` ← a counter the power source advances with every new power sample
+    /// (the simulated process's `acc-process.sample-seq`); `SAMPLE_SEQ` when
+    /// [`Self::sample_seq_used`].
+    pub sample_seq: i32,
+    /// `acc.sample-seq-used` (`setp` in the HAL file): `acc.sample-seq` is netted to a power
+    /// source's counter. Without it `SAMPLE_SEQ` counts reads and a frozen power pin goes
+    /// unnoticed.
+    pub sample_seq_used: bool,
 }
 
 /// What acc writes to LinuxCNC each period.
@@ -85,6 +93,8 @@ struct InputPins {
     adaptive_enabled: BitIn,
     acc_switch: BitIn,
     watchdog_ok: BitIn,
+    sample_seq: S32In,
+    sample_seq_used: BitIn,
 }
 
 /// The output pins of component `acc` on HAL.
@@ -129,6 +139,8 @@ impl HalPins {
             adaptive_enabled: c.bit_in("adaptive-enabled")?,
             acc_switch: c.bit_in("enable")?,
             watchdog_ok: c.bit_in("watchdog-ok")?,
+            sample_seq: c.s32_in("sample-seq")?,
+            sample_seq_used: c.bit_in("sample-seq-used")?,
         };
         let outputs = OutputPins {
             adaptive_feed: c.float_out("adaptive-feed")?,
@@ -167,6 +179,8 @@ impl PinBackend for HalPins {
             adaptive_enabled: i.adaptive_enabled.get(),
             acc_switch: i.acc_switch.get(),
             watchdog_ok: i.watchdog_ok.get(),
+            sample_seq: i.sample_seq.get(),
+            sample_seq_used: i.sample_seq_used.get(),
         }
     }
 

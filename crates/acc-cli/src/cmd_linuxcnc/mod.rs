@@ -28,6 +28,43 @@ use anyhow::Context as _;
 /// LinuxCNC's lock file: one LinuxCNC per host.
 const LOCK_FILE: &str = "/tmp/linuxcnc.lock";
 
+/// The faults `--fault KIND@N[+S]` names, carried out by `configs/linuxcnc/ui.py`.
+pub const FAULT_KINDS: [&str; 6] = [
+    "kill-acc",
+    "stop-acc",
+    "kill-process",
+    "feed-override",
+    "pause",
+    "estop",
+];
+
+/// `--fault KIND@N[+S]` checked: the kind, the force (N) and the delay after it (s).
+pub fn parse_fault(spec: &str) -> anyhow::Result<(String, f64, f64)> {
+    let (kind, at) = spec.split_once('@').ok_or_else(|| {
+        anyhow::anyhow!("--fault {spec}: expected KIND@N[+S], e.g. stop-acc@700+2.5")
+    })?;
+    let (n, delay) = at.split_once('+').unwrap_or((at, "0"));
+    if !FAULT_KINDS.contains(&kind) {
+        anyhow::bail!(
+            "--fault {spec}: no fault `{kind}`; allowed: {}",
+            FAULT_KINDS.join(", ")
+        );
+    }
+    let n: f64 = n
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--fault {spec}: `{n}` is not a force in N"))?;
+    if !(n.is_finite() && n > 0.0) {
+        anyhow::bail!("--fault {spec}: the force {n}: allowed > 0 N");
+    }
+    let delay: f64 = delay
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--fault {spec}: `{delay}` is not a delay in s"))?;
+    if !(delay.is_finite() && (0.0..=60.0).contains(&delay)) {
+        anyhow::bail!("--fault {spec}: the delay {delay}: allowed 0 ..= 60 s");
+    }
+    Ok((kind.to_string(), n, delay))
+}
+
 /// Arguments of `acc linuxcnc`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LinuxcncArgs {
@@ -63,8 +100,14 @@ pub struct LinuxcncArgs {
     pub watchdog_s: f64,
     /// Fault test: SIGKILL acc the first time the true force reaches this many newtons
     /// (> 0); the program is aborted 2 s later.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", conflicts_with = "fault")]
     pub kill_acc_at_force: Option<f64>,
+    /// Fault test: `KIND@N[+S]`, carried out by `ui.py` S seconds (default 0) after the true
+    /// force first reaches N newtons; KIND is one of `kill-acc`, `stop-acc` (SIGSTOP 2 s, SIGCONT, the watchdog
+    /// re-armed), `kill-process` (the power pin frozen), `feed-override` (the operator's
+    /// override to 30 %), `pause` (2 s), `estop` ([`FAULT_KINDS`]).
+    #[arg(long, value_name = "KIND@N[+S]")]
+    pub fault: Option<String>,
     /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it.
     #[arg(long, default_value_t = 900.0)]
     pub timeout_s: f64,
@@ -123,6 +166,11 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
             anyhow::bail!("--kill-acc-at-force {n}: allowed > 0 N");
         }
     }
+    let fault = match (&args.fault, args.kill_acc_at_force) {
+        (Some(spec), _) => Some(parse_fault(spec)?),
+        (None, Some(n)) => Some(("kill-acc".to_string(), n, 0.0)),
+        (None, None) => None,
+    };
     if !(args.timeout_s.is_finite() && (10.0..=86_400.0).contains(&args.timeout_s)) {
         anyhow::bail!("--timeout-s {}: allowed 10 ..= 86400 s", args.timeout_s);
     }
@@ -184,8 +232,8 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777))
             .with_context(|| format!("--out {}: cannot make it writable", dir.display()))?;
     }
-    if let Some(n) = args.kill_acc_at_force {
-        env.push(("ACC_KILL_AT_FORCE_N", format!("{n}")));
+    if let Some((kind, n, delay)) = &fault {
+        env.push(("ACC_FAULT", format!("{kind}@{n}+{delay}")));
     }
     println!(
         "linuxcnc: {} on `{}`, Fr = {} N; files in {}",
@@ -256,7 +304,7 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         None => println!("the program did not reach its end (ui.log)"),
     }
     println!("linuxcnc: {ended}");
-    if cycle.is_none() {
+    if cycle.is_none() && fault.is_none() {
         anyhow::bail!(
             "the program did not complete: see {} and {}",
             dir.join("ui.log").display(),
@@ -368,4 +416,36 @@ fn cleanup(env: &[(&str, String)]) {
         .stderr(Stdio::null())
         .status();
     let _ = std::fs::remove_file(LOCK_FILE);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fault_is_a_kind_of_ui_py_at_a_positive_force() {
+        assert_eq!(
+            parse_fault("stop-acc@700").expect("ok"),
+            ("stop-acc".to_string(), 700.0, 0.0)
+        );
+        assert_eq!(
+            parse_fault("pause@650.5+2.5").expect("ok"),
+            ("pause".to_string(), 650.5, 2.5)
+        );
+        for kind in FAULT_KINDS {
+            assert!(parse_fault(&format!("{kind}@1.5")).is_ok(), "{kind}");
+        }
+        for (bad, says) in [
+            ("stop-acc", "expected KIND@N"),
+            ("nap@700", "allowed: kill-acc, stop-acc"),
+            ("pause@x", "not a force"),
+            ("pause@0", "allowed > 0 N"),
+            ("pause@inf", "allowed > 0 N"),
+            ("pause@700+x", "not a delay"),
+            ("pause@700+61", "allowed 0 ..= 60 s"),
+        ] {
+            let e = parse_fault(bad).expect_err(bad).to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+    }
 }

@@ -14,7 +14,10 @@
 //! | `acc-process.spindle-speed` | float in, rpm | spindle | `spindle.0.speed-out` |
 //! | `acc-process.tool-number` | s32 in | tool | `iocontrol.0.tool-number` |
 //! | `acc-process.adaptive-feed`, `heartbeat`, `feed-inhibit` | float / bit / bit in | logged only | `acc.adaptive-feed`, `acc.heartbeat-bit`, `motion.feed-inhibit` |
+//! | `acc-process.feed-override` | float in | logged only | `halui.feed-override.value` |
+//! | `acc-process.fault` | bit in | logged only: set by `ui.py` at a fault's moment | (`setp`) |
 //! | `acc-process.spindle-power` | float out, W | electrical power, mean over T | `acc.spindle-power` |
+//! | `acc-process.sample-seq` | s32 out | advances with every power sample: stands still when the process stops | `acc.sample-seq` |
 //! | `acc-process.force` | float out, N | true force | (a scope) |
 //! | `acc-process.radial-depth`, `axial-depth` | float out, mm | engagement | (a scope) |
 
@@ -63,7 +66,7 @@ pub struct ProcessArgs {
 }
 
 /// The machine log's header.
-pub const MACHINE_LOG_HEADER: &str = "t_s,x_mm,y_mm,z_mm,feed_mm_min,spindle_rpm,tool,radial_mm,axial_mm,force_n,power_w,power_mean_w,adaptive_feed,heartbeat,feed_inhibit";
+pub const MACHINE_LOG_HEADER: &str = "t_s,x_mm,y_mm,z_mm,feed_mm_min,spindle_rpm,tool,radial_mm,axial_mm,force_n,power_w,power_mean_w,adaptive_feed,heartbeat,feed_inhibit,feed_override,fault";
 
 /// The checked inputs of a process run: the scenario, the stock and the tool table.
 pub struct ProcessSetup {
@@ -130,6 +133,9 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
     let adaptive = comp.float_in("adaptive-feed").map_err(hal)?;
     let heartbeat = comp.bit_in("heartbeat").map_err(hal)?;
     let inhibit = comp.bit_in("feed-inhibit").map_err(hal)?;
+    let feed_override = comp.float_in("feed-override").map_err(hal)?;
+    let fault = comp.bit_in("fault").map_err(hal)?;
+    let mut seq_pin = comp.s32_out("sample-seq").map_err(hal)?;
     let mut power_pin = comp.float_out("spindle-power").map_err(hal)?;
     let mut force_pin = comp.float_out("force").map_err(hal)?;
     let mut radial_pin = comp.float_out("radial-depth").map_err(hal)?;
@@ -152,6 +158,7 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
     let clock = SystemClock::new();
     let mut next = clock.now();
     let mut rows: u64 = 0;
+    let mut seq: i32 = 0;
     while !stop.load(Ordering::SeqCst) {
         next += period;
         let t_s = clock.now().as_secs_f64();
@@ -160,18 +167,21 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
         let rpm = speed.get();
         let tool_no = u32::try_from(tool.get()).unwrap_or(0);
         let s = cut.sample(position, tool_no, feed_mm_min, rpm, t_s)?;
+        let fault_now = fault.get();
         recent.push_back(s.power_w);
         if recent.len() > window {
             recent.pop_front();
         }
         let power_mean_w = recent.iter().sum::<f64>() / recent.len() as f64;
         power_pin.set(power_mean_w);
+        seq = seq.wrapping_add(1);
+        seq_pin.set(seq);
         force_pin.set(s.force_n);
         radial_pin.set(s.radial_mm);
         axial_pin.set(s.axial_mm);
         writeln!(
             log,
-            "{t_s:.4},{:.4},{:.4},{:.4},{feed_mm_min:.2},{rpm:.1},{tool_no},{:.4},{:.4},{:.2},{:.2},{power_mean_w:.2},{:.4},{},{}",
+            "{t_s:.4},{:.4},{:.4},{:.4},{feed_mm_min:.2},{rpm:.1},{tool_no},{:.4},{:.4},{:.2},{:.2},{power_mean_w:.2},{:.4},{},{},{:.3},{}",
             position[0],
             position[1],
             position[2],
@@ -181,11 +191,14 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
             s.power_w,
             adaptive.get(),
             u8::from(heartbeat.get()),
-            u8::from(inhibit.get())
+            u8::from(inhibit.get()),
+            feed_override.get(),
+            u8::from(fault_now)
         )
         .with_context(|| format!("--log {}: write", args.log.display()))?;
         rows += 1;
-        if rows.is_multiple_of(50) {
+        // A fault's rows at once: the fault may be this process's SIGKILL.
+        if rows.is_multiple_of(50) || fault_now {
             log.flush()
                 .with_context(|| format!("--log {}: write", args.log.display()))?;
         }

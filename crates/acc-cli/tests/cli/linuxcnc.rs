@@ -4,7 +4,9 @@
 //! leave: acc is in control (the adaptive feed it writes is lower in the heavy slot than in
 //! the light one, and below 1 there), its run log has every period, and acc killed
 //! (SIGKILL) mid-cut stops the motion within 0.3 s of its last heartbeat (the realtime
-//! watchdog, read from the machine log).
+//! watchdog, read from the machine log); and the frozen-acc row of the fault matrix's
+//! LinuxCNC section (`acc fault-matrix --linuxcnc --only stop-acc`: SIGSTOP 2 s in the cut,
+//! the feed held within 0.3 s and never above what acc allowed, the run log complete).
 //!
 //! Needs LinuxCNC: absent, the test prints `SKIP: …` and passes, unless `CI` is set, then
 //! it fails. One LinuxCNC runs per host: the runs hold a file lock in /tmp.
@@ -205,4 +207,36 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
             .all(|r| r.feed_mm_min <= 0.0),
         "the feed stays held"
     );
+
+    // 3. acc frozen (SIGSTOP 2 s, SIGCONT) in the cut: the fault matrix's LinuxCNC row.
+    let dir = tmp.path().join("matrix");
+    let out = Command::new(env!("CARGO_BIN_EXE_acc"))
+        .args([
+            "fault-matrix",
+            "--linuxcnc",
+            "--only",
+            "stop-acc",
+            "--linuxcnc-program",
+            PROGRAM,
+            &format!("--linuxcnc-stock-box={STOCK_BOX}"),
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .expect("acc fault-matrix runs");
+    let table = std::fs::read_to_string(dir.join("fault-matrix-linuxcnc.md")).unwrap_or_default();
+    let ui = std::fs::read_to_string(dir.join("linuxcnc-stop-acc/lcnc/ui.log")).unwrap_or_default();
+    assert!(
+        out.status.success(),
+        "acc fault-matrix --linuxcnc --only stop-acc: {}\n{table}\nstderr:\n{}\nui.log:\n{ui}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json =
+        std::fs::read_to_string(dir.join("fault-matrix-linuxcnc.json")).expect("the JSON table");
+    assert!(
+        json.contains("\"fault\": \"stop-acc\"") && json.contains("\"ok\": true"),
+        "{json}"
+    );
+    eprintln!("{table}");
 }

@@ -51,6 +51,10 @@
 //! a lower stock (followed with the cap alone, or with the plan's lead) or a plan file that
 //! does not exist; their criteria are in [`wrong_plan`].
 //!
+//! **The LinuxCNC section** (`--linuxcnc`, its own table `fault-matrix-linuxcnc.md` /
+//! `.json`): the faults of a LinuxCNC machine under `acc run --hal`, each a run of `acc
+//! linuxcnc --fault KIND@N`; their criteria are in [`linuxcnc`].
+//!
 //! The other faults are timing faults, so their rows run on the wall clock. A row that fails, or
 //! never reaches the fault moment, while the host was too loaded for `acc run` to keep its
 //! period (its run log's `late` and `skipped` periods, [`rerun::HostLoad`]) or to start (its
@@ -58,6 +62,7 @@
 //! (and the JSON has it as `first_attempt`), its logs kept in `<row>-first`.
 
 mod faults;
+pub mod linuxcnc;
 mod report;
 mod rerun;
 mod row;
@@ -132,6 +137,17 @@ pub struct FaultMatrixArgs {
     /// board, keep 1.
     #[arg(long, default_value_t = 1)]
     pub jobs: usize,
+    /// The LinuxCNC section instead of the board rows ([`linuxcnc`]): each row one `acc
+    /// linuxcnc --fault KIND@N` run on headless LinuxCNC, one after another (one LinuxCNC
+    /// per host); the table in `--out` as `fault-matrix-linuxcnc.md` / `.json`.
+    #[arg(long)]
+    pub linuxcnc: bool,
+    /// The LinuxCNC rows' program.
+    #[arg(long, default_value = "tests/nc/linuxcnc_short.ngc")]
+    pub linuxcnc_program: PathBuf,
+    /// The LinuxCNC rows' stock box `X0,Y0,Z0,X1,Y1,Z1`, mm.
+    #[arg(long, default_value = "0,-20,-10,40,20,0", allow_hyphen_values = true)]
+    pub linuxcnc_stock_box: String,
 }
 
 /// One row; if it failed (or never reached the fault moment) while `acc run` could not keep
@@ -230,6 +246,9 @@ fn run_rows(args: &FaultMatrixArgs, cells: &[(u8, &Fault)]) -> anyhow::Result<Ve
 /// `acc fault-matrix`: every row, the table written to `--out` (`fault-matrix.md`,
 /// `fault-matrix.json`) and printed; an error naming the rows that failed.
 pub fn run(args: &FaultMatrixArgs) -> anyhow::Result<()> {
+    if args.linuxcnc {
+        return linuxcnc::run(args);
+    }
     if !(1..=8).contains(&args.jobs) {
         bail!("--jobs {}: allowed 1 ..= 8", args.jobs);
     }

@@ -379,6 +379,9 @@ mod tests {
             proxy: PathBuf::from("p"),
             line_seed: 1,
             jobs: 1,
+            linuxcnc: false,
+            linuxcnc_program: PathBuf::from("p.ngc"),
+            linuxcnc_stock_box: "0,0,0,1,1,1".into(),
         }
     }
 

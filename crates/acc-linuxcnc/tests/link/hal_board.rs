@@ -39,6 +39,8 @@ fn cutting() -> MachineInputs {
         adaptive_enabled: true,
         acc_switch: true,
         watchdog_ok: true,
+        sample_seq: 0,
+        sample_seq_used: false,
     }
 }
 
@@ -204,4 +206,35 @@ fn the_heartbeat_bit_toggles_every_period_driving_or_not_and_the_feed_hold_reach
         .expect("control");
     assert!(board.pins().written.feed_hold);
     assert!(board.read_status().expect("status").feed_hold_active);
+}
+
+#[test]
+fn sample_seq_stands_still_when_the_power_sources_counter_does() {
+    let mut board = driving(100);
+    let a = board.read_status().expect("status").sample_seq;
+    let b = board.read_status().expect("status").sample_seq;
+    assert_eq!(b, a.wrapping_add(1), "no counter: SAMPLE_SEQ counts reads");
+    // The process's counter netted (`setp acc.sample-seq-used 1`): one step per read that
+    // finds it moved, however far; none while it stands still (a frozen power source),
+    // which the policy's staleness judge sees.
+    board.pins_mut().machine.sample_seq_used = true;
+    board.pins_mut().machine.sample_seq = 70_001;
+    let s1 = board.read_status().expect("status").sample_seq;
+    assert_eq!(s1, b.wrapping_add(1), "a new counter value is a new sample");
+    assert_eq!(
+        board.read_status().expect("status").sample_seq,
+        s1,
+        "frozen"
+    );
+    assert_eq!(
+        board.read_status().expect("status").sample_seq,
+        s1,
+        "frozen"
+    );
+    board.pins_mut().machine.sample_seq = 70_051;
+    assert_eq!(
+        board.read_status().expect("status").sample_seq,
+        s1.wrapping_add(1),
+        "50 samples since: one step"
+    );
 }

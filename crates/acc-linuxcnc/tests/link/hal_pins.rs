@@ -30,7 +30,7 @@ fn halcmd_drives_hal_board_through_its_pins() {
         .lines()
         .filter(|line| !line.trim().is_empty())
         .count();
-    assert_eq!(count, 22, "{listed}");
+    assert_eq!(count, 24, "{listed}");
 
     for (pin, value) in [
         ("spindle-power", "2500"),
@@ -44,6 +44,8 @@ fn halcmd_drives_hal_board_through_its_pins() {
         ("adaptive-enabled", "1"),
         ("enable", "1"),
         ("watchdog-ok", "1"),
+        ("sample-seq", "70001"),
+        ("sample-seq-used", "1"),
     ] {
         halcmd(&["setp", &format!("{COMP}.{pin}"), value]);
     }
@@ -60,6 +62,18 @@ fn halcmd_drives_hal_board_through_its_pins() {
     assert_eq!(status.block_number, 17);
     assert_eq!(status.programmed_feed_mm_min, 600);
     assert_eq!(status.operator_override_pct, 150);
+    let seq = status.sample_seq;
+    assert_eq!(
+        board.read_status().expect("status").sample_seq,
+        seq,
+        "counter still"
+    );
+    halcmd(&["setp", &format!("{COMP}.sample-seq"), "70050"]);
+    assert_eq!(
+        board.read_status().expect("status").sample_seq,
+        seq.wrapping_add(1),
+        "the counter moved: one new sample"
+    );
     assert!(status.acc_active);
 
     board.write_override(75, 7).expect("override");
