@@ -116,6 +116,7 @@ impl FaultPolicy {
         let (grid, last) = self.judge_link_budget(&s, out, law)?;
         self.judge_log(seen.input, out, law)?;
         self.judge_delay(seen.input, out, law)?;
+        self.judge_standstill(&s, out)?;
         self.step_law(seen, grid, last, out, law);
         ControlFlow::Continue(())
     }
@@ -291,6 +292,24 @@ impl FaultPolicy {
         out.fault = true;
         self.release(Release::Delay, out, law);
         ControlFlow::Break(())
+    }
+
+    /// 16b. The axes stand still (`FEED_HOLD_ACTIVE`: the NC's feed hold, a paused program,
+    ///     ACC's own hold): the law is not stepped and the last command is written again
+    ///     (the heartbeat goes on). Without a chip the force reads as an air cut, and a law
+    ///     stepped on it would wind up to the maximum override for the moment the cut
+    ///     resumes; held, the cut resumes at the command that was cutting it.
+    fn judge_standstill(&mut self, s: &BoardStatus, out: &mut PolicyOutput) -> Acted {
+        if !s.feed_hold_active {
+            return ControlFlow::Continue(());
+        }
+        match self.held() {
+            Some(cmd) => {
+                out.write_override = Some(cmd);
+                ControlFlow::Break(())
+            }
+            None => ControlFlow::Continue(()),
+        }
     }
 
     /// 17. The control step on the feed the loop computed once for this period, its

@@ -40,6 +40,9 @@
 //! 15. `log.rs` — can the period be recorded (the run log's writer not stalled past its
 //!     buffer)? No record, no cut (feed hold, release).
 //! 16. `delay.rs` — is the line's delay beyond the gains' margin (feed hold, release)?
+//!     Do the axes stand still (`FEED_HOLD_ACTIVE`: the NC's feed hold, a paused program)?
+//!     Then the last command is written again and the law is not stepped (no wind-up on
+//!     the missing chip for the moment the cut resumes).
 //! 17. `settle.rs` — in the periods after a fault of the line or the board, no higher than
 //!     what ACC allowed before it; `tool_limits.rs` — what bounds the law's command (range, invalid sample,
 //!     knob, the shop layer's and the plan's limits, the settle cap)? Then the law's step within those bounds

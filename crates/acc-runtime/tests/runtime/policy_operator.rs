@@ -661,3 +661,45 @@ fn a_drop_while_the_next_block_waits_for_confirmation_is_judged_a_period_later()
     let (drop, _) = run(10, 10);
     assert!(drop.contains("breakage:drop"), "{drop}");
 }
+
+/// The NC's feed hold mid-cut (the operator's button, a paused program): the axes stand and
+/// the force falls to nothing, but the law is not stepped on it; the last command is written
+/// every period (the heartbeat goes on) and the cut resumes at it. Without the rule, a law
+/// stepped on the missing chip winds up to the maximum override for the resume (measured on
+/// LinuxCNC: 3.4 Fr at the resume of a paused heavy cut).
+#[test]
+fn a_feed_hold_mid_cut_holds_the_command_and_the_law() {
+    let mut rig = Rig::new(
+        PolicyConfig::default(),
+        [60, 70, 80, 90, 100, 110, 120, 130],
+    );
+    rig.power_w = 1600; // 800 N: cutting
+    let before = rig.run(2);
+    let last = before[1].out.write_override.expect("a command").0;
+    assert_eq!(rig.state(), AccState::Active);
+    rig.b.board.set_operator_feed_hold(true);
+    rig.power_w = 0;
+    let held = rig.run(6);
+    // The first period reads the hold unconfirmed (the line guard); from the confirmation on
+    // every period writes the last command and steps nothing.
+    for r in held.iter().skip(2) {
+        assert_eq!(r.out.write_override.map(|o| o.0), Some(last), "{r:?}");
+        assert!(
+            r.out.step.is_none(),
+            "the law is not stepped in a feed hold"
+        );
+        assert_eq!(r.writes.override_and_heartbeat.map(|w| w.0), Some(last));
+    }
+    assert_eq!(rig.state(), AccState::Active, "ACC keeps the cut");
+    rig.b.board.set_operator_feed_hold(false);
+    rig.power_w = 1600;
+    let resumed = rig.run(3);
+    let first_step = resumed
+        .iter()
+        .find_map(|r| r.out.step.map(|s| s.command.0))
+        .expect("the law steps again after the hold");
+    assert!(
+        first_step <= 90,
+        "the law resumes where it was, not wound up: {first_step}"
+    );
+}
