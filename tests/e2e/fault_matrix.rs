@@ -27,7 +27,7 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
     let out = dir.path().join("fm");
     let output = std::process::Command::new(acc_bin())
         .current_dir(root())
-        .args(["fault-matrix", "--jobs", "6", "--out"])
+        .args(["fault-matrix", "--jobs", "4", "--out"])
         .arg(&out)
         .output()
         .expect("run acc fault-matrix");
