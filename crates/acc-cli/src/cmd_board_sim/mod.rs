@@ -65,27 +65,33 @@
 //!   is more forgiving of a loaded host at high `--time-scale`.
 
 mod faults;
+mod in_force;
 mod line;
+mod machine_row;
+mod next_period;
+mod serve;
 
 use std::collections::VecDeque;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, PoisonError};
+use std::sync::Arc;
 use std::time::Duration;
 
-use acc_pmc::emu::{lock_board, spawn_server, EmulatedProtocol, PtyBoard, SharedBoard};
-use acc_runtime::record::{RunLogWriter, RunRecord};
+use acc_pmc::emu::{lock_board, EmulatedProtocol, SharedBoard};
+use acc_runtime::record::RunLogWriter;
 use acc_runtime::shutdown::install_stop_flag;
-use acc_runtime::{Clock, SystemClock, Ticker};
-use acc_sim::board::PowerFault;
-use acc_sim::truth::add_truth;
+use acc_runtime::{Clock, SystemClock};
 use acc_sim::Scenario;
 use anyhow::{bail, Context};
 
 use faults::{parse_fault, Scheduled};
-use line::{wrap, CommandPace, FaultQueue};
+use in_force::InForce;
+use line::CommandPace;
+use machine_row::BoardSide;
+use next_period::{Next, NextPeriod};
+use serve::LineFaults;
 
 /// Arguments of `acc board-sim`.
 #[derive(Debug, clap::Args)]
@@ -214,15 +220,137 @@ fn board_clock(kind: WatchdogTime, time_scale: f64) -> Box<dyn acc_pmc::clock::C
     }
 }
 
-/// `acc board-sim`.
+/// `acc board-sim`: serve the board, then advance the machine one period at a time until
+/// Ctrl-C (or the finished workpiece with `--exit-when-done`).
 pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
     acc_runtime::shutdown::init_tracing(acc_runtime::shutdown::LogFormat::Text, "warn");
-    let mut sc = Scenario::load(&args.scenario)?;
-    // The program's path through its stock, checked before the pty exists.
-    let program = crate::cmd_sim_program::load(&args.program, &sc)?;
-    if let Some(p) = &program {
-        sc = p.scenario_for(&sc);
+    let (sc, program) = load_scenario(args)?;
+    check_args(args)?;
+    let mut in_force = InForce::new(fault_schedule(args)?);
+    let period_s = sc.controller.period_s;
+    // The same simulated board and plant `acc sim` steps in process, served over the link.
+    let protocol = args.emulated_protocol();
+    let mut sim = sc.build_board_with(protocol);
+    if let Some(p) = program {
+        sim.set_engagement_source(Some(Box::new(p)));
     }
+    sim.logic_mut()
+        .set_operator_override_pct(args.operator_override);
+    let board: SharedBoard = sim.serve();
+    let line = LineFaults {
+        queue: Arc::default(),
+        unplugged: Arc::new(AtomicBool::new(false)),
+        paced_baud: args.paced.then_some(args.baud),
+        pace: (args.pace == Pace::Controller).then(|| Arc::new(CommandPace::default())),
+    };
+    // The board's own clock, shared by the server (watchdog on requests) and the machine
+    // loop below (watchdog ticks every period, also when no request arrives at all).
+    let clock: Arc<dyn acc_pmc::clock::Clock> =
+        Arc::from(board_clock(args.watchdog_time, args.time_scale));
+    let mut served = serve::open(args, &board, &line, &clock)?;
+    std::io::stdout().flush().ok();
+    eprintln!(
+        "board-sim: `{}`, {:?} board, slave {}, T = {} s machine time every {:.1} ms wall; operator override {} %",
+        sc.name,
+        protocol,
+        args.slave,
+        period_s,
+        1e3 * period_s / args.time_scale,
+        args.operator_override
+    );
+    let mut log = open_machine_log(args.log.as_deref())?;
+    let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
+    let tel = start_telemetry(args, &sc)?;
+    if args.wait_for_controller {
+        wait_for_controller(
+            &stop,
+            &board,
+            line.pace.as_deref(),
+            period_s / args.time_scale,
+        );
+    }
+    let mut next = NextPeriod::new(
+        Duration::from_secs_f64(period_s / args.time_scale),
+        line.pace.clone(),
+    )?;
+    // The machine log's period index: one per machine period, consecutive. A tick the
+    // ticker skipped (board-sim fell more than a period behind the wall clock) is not a lost
+    // machine period — the machine advances one period per loop — and is flagged instead.
+    let mut machine_period: u64 = 0;
+    let mut done_at: Option<f64> = None;
+    while !stop.load(Ordering::SeqCst) {
+        // A controller-paced run ends once the finished machine's controller is quiet for
+        // the linger time (it stopped out of the cut): nothing will move it again.
+        let quiet_end = (args.exit_when_done && done_at.is_some())
+            .then(|| Duration::from_secs_f64(args.linger_s / args.time_scale));
+        let tick = match next.wait(&board, machine_period, quiet_end)? {
+            Next::Period(tick) => tick,
+            Next::NotYet => continue,
+            Next::Done => break,
+        };
+        let t = sim.machine().t_s();
+        in_force.start_due(t, &board, &line, &mut served, &mut sim)?;
+        // The board's watchdog runs on its own timer, requests or not (a vanished device
+        // sends none).
+        lock_board(&board).tick(clock.now().as_millis() as u64);
+        in_force.end_due(t, &board, &mut sim);
+        let side = {
+            let b = lock_board(&board);
+            BoardSide {
+                status: b.status(),
+                command_pct: b.override_cmd_pct(),
+                unplugged: line.unplugged.load(Ordering::SeqCst),
+            }
+        };
+        let row = machine_row::advance_and_record(
+            &mut sim,
+            period_s,
+            machine_period,
+            &tick,
+            &side,
+            sc.controller.force_ref_n,
+        );
+        machine_period += 1;
+        if let Some(w) = log.as_mut() {
+            w.write(&row)?;
+        }
+        tel.tap.publish(&row);
+        next.period_taken();
+        if sim.machine().finished() && done_at.is_none() {
+            done_at = Some(sim.machine().t_s());
+            eprintln!(
+                "board-sim: workpiece finished at t = {:.1} s",
+                sim.machine().t_s()
+            );
+        }
+        if let (true, Some(d)) = (args.exit_when_done, done_at) {
+            if sim.machine().t_s() - d >= args.linger_s * args.time_scale {
+                break;
+            }
+        }
+    }
+    next.close();
+    tel.finish();
+    print_end(next.stats(), &board);
+    served.close()
+}
+
+/// The scenario, and the NC program's path through its stock (`--program`), checked before
+/// the pty exists; with a program, the scenario is the program's.
+fn load_scenario(
+    args: &BoardSimArgs,
+) -> anyhow::Result<(Scenario, Option<acc_sim::program::ProgramPath>)> {
+    let sc = Scenario::load(&args.scenario)?;
+    let program = crate::cmd_sim_program::load(&args.program, &sc)?;
+    let sc = match &program {
+        Some(p) => p.scenario_for(&sc),
+        None => sc,
+    };
+    Ok((sc, program))
+}
+
+/// The numeric options in their ranges.
+fn check_args(args: &BoardSimArgs) -> anyhow::Result<()> {
     if !(args.time_scale.is_finite() && (0.1..=100.0).contains(&args.time_scale)) {
         bail!("--time-scale {}: allowed 0.1 ..= 100", args.time_scale);
     }
@@ -242,6 +370,12 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             acc_pmc::serial::BAUD_RATES
         );
     }
+    Ok(())
+}
+
+/// `--fault` parsed and sorted by machine time; a fault that would silence a
+/// controller-paced machine is refused.
+fn fault_schedule(args: &BoardSimArgs) -> anyhow::Result<VecDeque<(f64, Scheduled)>> {
     let late = Duration::from_millis(args.late_ms);
     let mut schedule: Vec<(f64, Scheduled)> = args
         .faults
@@ -256,100 +390,29 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let mut schedule: VecDeque<_> = schedule.into();
+    Ok(schedule.into())
+}
 
-    let period_s = sc.controller.period_s;
-    // The same simulated board and plant `acc sim` steps in process, served over the link.
-    let protocol = args.emulated_protocol();
-    let mut sim = sc.build_board_with(protocol);
-    if let Some(p) = program {
-        sim.set_engagement_source(Some(Box::new(p)));
+/// `--log`: the machine log's writer (its folder created).
+fn open_machine_log(
+    path: Option<&std::path::Path>,
+) -> anyhow::Result<Option<RunLogWriter<BufWriter<File>>>> {
+    let Some(p) = path else {
+        return Ok(None);
+    };
+    if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
     }
-    sim.logic_mut()
-        .set_operator_override_pct(args.operator_override);
-    let board: SharedBoard = sim.serve();
-    let queue: FaultQueue = Arc::default();
-    let unplugged = Arc::new(AtomicBool::new(false));
-    let paced = args.paced.then_some(args.baud);
-    let pace = (args.pace == Pace::Controller).then(|| Arc::new(CommandPace::default()));
+    let f = File::create(p).with_context(|| format!("creating {}", p.display()))?;
+    Ok(Some(RunLogWriter::new(BufWriter::new(f))?))
+}
 
-    // The board's own clock, shared by the server (watchdog on requests) and the machine
-    // loop below (watchdog ticks every period, also when no request arrives at all).
-    let clock: Arc<dyn acc_pmc::clock::Clock> =
-        Arc::from(board_clock(args.watchdog_time, args.time_scale));
-    // Serve: a new pty (path printed) or the given port.
-    let stop_server = Arc::new(AtomicBool::new(false));
-    let (mut pty, server) = match &args.port {
-        None => {
-            let q = Arc::clone(&queue);
-            let u = Arc::clone(&unplugged);
-            let pty = PtyBoard::spawn_with_clock(
-                Arc::clone(&board),
-                args.slave,
-                args.baud,
-                {
-                    let pace = pace.clone();
-                    move |p| wrap(p, q, u, paced, pace)
-                },
-                Box::new(Arc::clone(&clock)),
-            )
-            .context("creating the pseudo-terminal")?;
-            println!("{}", pty.path());
-            (Some(pty), None)
-        }
-        Some(dev) => {
-            let parity = match args.parity.as_str() {
-                "none" => acc_pmc::serialport::Parity::None,
-                "even" => acc_pmc::serialport::Parity::Even,
-                "odd" => acc_pmc::serialport::Parity::Odd,
-                p => bail!("--parity {p}: allowed none, even, odd"),
-            };
-            let port = acc_pmc::serialport::new(dev, args.baud)
-                .parity(parity)
-                .data_bits(acc_pmc::serialport::DataBits::Eight)
-                .stop_bits(acc_pmc::serialport::StopBits::One)
-                .timeout(acc_pmc::serial::POLL_SLICE)
-                .open_native()
-                .with_context(|| format!("--port {dev}: cannot open"))?;
-            let h = spawn_server(
-                wrap(
-                    port,
-                    Arc::clone(&queue),
-                    Arc::clone(&unplugged),
-                    paced,
-                    pace.clone(),
-                ),
-                args.slave,
-                Arc::clone(&board),
-                Arc::clone(&stop_server),
-                Box::new(Arc::clone(&clock)),
-            );
-            println!("{dev}");
-            (None, Some(h))
-        }
-    };
-    std::io::stdout().flush().ok();
-    eprintln!(
-        "board-sim: `{}`, {:?} board, slave {}, T = {} s machine time every {:.1} ms wall; operator override {} %",
-        sc.name,
-        protocol,
-        args.slave,
-        period_s,
-        1e3 * period_s / args.time_scale,
-        args.operator_override
-    );
-
-    let mut log = match &args.log {
-        Some(p) => {
-            if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir)?;
-            }
-            let f = File::create(p).with_context(|| format!("creating {}", p.display()))?;
-            Some(RunLogWriter::new(BufWriter::new(f))?)
-        }
-        None => None,
-    };
-    let stop = install_stop_flag().context("installing the Ctrl-C handler")?;
+/// The machine side's telemetry (`--shdr`, `--mqtt`, the live view); its OPC UA keys in
+/// `pki/` beside the log.
+fn start_telemetry(
+    args: &BoardSimArgs,
+    sc: &Scenario,
+) -> anyhow::Result<crate::telemetry::Telemetry> {
     let pki = match &args.log {
         Some(l) => l.parent().unwrap_or(std::path::Path::new(".")).join("pki"),
         None => std::env::temp_dir().join("acc-board-sim-pki"),
@@ -363,284 +426,57 @@ pub fn run_cmd(args: &BoardSimArgs) -> anyhow::Result<()> {
         title: "acc board-sim (the simulated machine, as the board sees it)".into(),
         overload_n: None,
     });
+    Ok(tel)
+}
+
+/// `--wait-for-controller`: hold the machine at t = 0 until the controller sets
+/// `ACC_REQUEST`; `period_wall_s` is one period of wall time (s).
+fn wait_for_controller(
+    stop: &AtomicBool,
+    board: &SharedBoard,
+    pace: Option<&CommandPace>,
+    period_wall_s: f64,
+) {
     let wall = SystemClock::new();
-    if args.wait_for_controller {
-        while !stop.load(Ordering::SeqCst) && !lock_board(&board).control().acc_request {
-            // The controller's writes before its request move nothing.
-            if let Some(pace) = &pace {
-                pace.take_all();
-            }
-            wall.sleep_until(wall.now() + Duration::from_millis(2));
-        }
-        // The request arrived a write's time after the controller's tick, and so would
-        // every tick of ours: a slow write would then sometimes land after the tick that
-        // starts the next period, and the override the controller reads back
-        // (OVERRIDE_APPLIED, changed on the write) would not be the one that drove the
-        // power sample it reads with it — the discrepancy workflow's replay of `acc run`'s
-        // log went 0.033 mm off in position at every such row (docs/twin.md). Half a period
-        // later the writes land mid-period.
-        if pace.is_none() {
-            wall.sleep_until(
-                wall.now() + Duration::from_secs_f64(0.5 * period_s / args.time_scale),
-            );
-        }
-        eprintln!("board-sim: controller connected (ACC_REQUEST set); machine time starts");
-    }
-    let mut ticker = Ticker::new(wall, Duration::from_secs_f64(period_s / args.time_scale))?;
-    let (mut freeze_until, mut bad_until) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-    let mut lock_until: Option<f64> = None;
-    let mut replug_at: Option<f64> = None;
-    let mut hard_until: Option<f64> = None;
-    let mut done_at: Option<f64> = None;
-    // The machine log's period index: one per machine period, consecutive. A tick the
-    // ticker skipped (board-sim fell more than a period behind the wall clock) is not a lost
-    // machine period — the machine advances one period per loop — and is flagged instead.
-    let mut machine_period: u64 = 0;
-    // `--pace controller`: the heartbeat of the command the last period was taken for.
-    let mut last_heartbeat = None;
-    let mut last_command = wall.now();
-    // `--pace controller`: the machine runs on its own ticker again once the controller has
-    // released (ACC_REQUEST cleared after a run), as a real machine runs on when ACC lets go.
-    let mut on_own_ticker = pace.is_none();
-    while !stop.load(Ordering::SeqCst) {
-        let controlled = lock_board(&board).control().acc_request;
-        let tick = match &pace {
-            Some(pace) if !controlled => {
-                if !on_own_ticker {
-                    ticker =
-                        Ticker::new(wall, Duration::from_secs_f64(period_s / args.time_scale))?;
-                    on_own_ticker = true;
-                }
-                // Writes while released move nothing (as before the request).
-                pace.take_all();
-                ticker.wait()
-            }
-            None => ticker.wait(),
-            Some(pace) => {
-                on_own_ticker = false;
-                if !pace.next_command(Duration::from_millis(50)) {
-                    // A finished workpiece and a controller gone quiet (it stopped out of
-                    // the cut) for the linger time: nothing will move the machine again.
-                    let quiet = wall.now().saturating_sub(last_command);
-                    if args.exit_when_done
-                        && done_at.is_some()
-                        && quiet.as_secs_f64() >= args.linger_s / args.time_scale
-                    {
-                        break;
-                    }
-                    continue;
-                }
-                last_command = wall.now();
-                let heartbeat = lock_board(&board).heartbeat();
-                if last_heartbeat == Some(heartbeat) {
-                    // A repeated write (a retry after a lost reply): no new period.
-                    pace.take_all();
-                    continue;
-                }
-                last_heartbeat = Some(heartbeat);
-                let now = wall.now();
-                acc_runtime::Tick {
-                    index: machine_period,
-                    deadline: now,
-                    woke: now,
-                    lateness: Duration::ZERO,
-                    overrun: false,
-                    skipped: 0,
-                }
-            }
-        };
-        let t = sim.machine().t_s();
-        while schedule.front().is_some_and(|(at, _)| *at <= t) {
-            let Some((at, f)) = schedule.pop_front() else {
-                break;
-            };
-            eprintln!("board-sim: t = {t:.1} s: fault {f:?} (scheduled at {at} s)");
-            let mut b = lock_board(&board);
-            match f {
-                Scheduled::Replies(kind, n) => queue
-                    .lock()
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .extend(std::iter::repeat_n(kind, n)),
-                Scheduled::Restart => b.power_cycle(),
-                Scheduled::FreezeSeq(s) => freeze_until = t + s,
-                Scheduled::BadPower(s) => bad_until = t + s,
-                Scheduled::Lock(s) => {
-                    b.set_override_locked(true);
-                    lock_until = Some(t + s);
-                }
-                Scheduled::Switch(on) => b.set_acc_switch(on),
-                Scheduled::Operator(p) => b.set_operator_override_pct(p),
-                Scheduled::Unplug(s) => {
-                    unplugged.store(true, Ordering::SeqCst);
-                    replug_at = s.map(|s| t + s);
-                }
-                Scheduled::Vanish => {
-                    drop(b);
-                    // Closing the master end hangs up the pty: the controller's reads fail.
-                    if let Some(p) = pty.take() {
-                        let st = p.stop()?;
-                        eprintln!(
-                            "board-sim: t = {t:.1} s: device gone (pty closed after {} requests)",
-                            st.requests
-                        );
-                    } else {
-                        // A real port: stop serving it (the controller sees silence).
-                        stop_server.store(true, Ordering::SeqCst);
-                    }
-                }
-                Scheduled::Hard(secs, factor) => {
-                    sim.machine_mut().set_hardness_factor(factor);
-                    hard_until = Some(t + secs);
-                }
-            }
-        }
-        if replug_at.is_some_and(|u| t >= u) {
-            unplugged.store(false, Ordering::SeqCst);
-            replug_at = None;
-            eprintln!("board-sim: t = {t:.1} s: cable plugged back in");
-        }
-        // The board's watchdog runs on its own timer, requests or not (a vanished device
-        // sends none).
-        lock_board(&board).tick(clock.now().as_millis() as u64);
-        if hard_until.is_some_and(|u| t >= u) {
-            sim.machine_mut().set_hardness_factor(1.0);
-            hard_until = None;
-        }
-        if lock_until.is_some_and(|u| t >= u) {
-            lock_board(&board).set_override_locked(false);
-            lock_until = None;
-        }
-        sim.set_power_fault(if t < bad_until {
-            Some(PowerFault::Garbage)
-        } else if t < freeze_until {
-            Some(PowerFault::FrozenSeq)
-        } else {
-            None
-        });
-        // The board's side of the period: what the PMC inputs carried while the machine
-        // moved (the controller's side is logged by `acc run`).
-        let (status, cmd) = {
-            let b = lock_board(&board);
-            (b.status(), b.override_cmd_pct())
-        };
-        let programmed = sim.machine().programmed_feed_mm_min();
-        let mut row = {
-            let rec = sim.advance_period(period_s);
-            let mut row = RunRecord {
-                t_s: rec.t_end_s,
-                period: machine_period,
-                late_ms: tick.lateness.as_secs_f64() * 1e3,
-                spindle_rpm: Some(rec.spindle_rpm),
-                programmed_feed_mm_min: Some(programmed),
-                feed_mm_min: Some(if status.feed_hold_active {
-                    0.0
-                } else {
-                    programmed * f64::from(status.override_applied_pct) / 100.0
-                }),
-                power_w: Some(rec.power_mean_w),
-                force_ref_n: Some(sc.controller.force_ref_n),
-                override_cmd_pct: Some(cmd),
-                override_applied_pct: Some(status.override_applied_pct),
-                override_operator_pct: Some(status.operator_override_pct),
-                state: if status.acc_active {
-                    "acc_active"
-                } else {
-                    "operator"
-                }
-                .into(),
-                feed_hold: status.feed_hold_active,
-                tool: status.is_v2().then_some(status.tool_number),
-                program: status.is_v2().then_some(status.program_number),
-                block: status.is_v2().then_some(status.block_number),
-                x_mm: Some(rec.x_mm),
-                ..RunRecord::default()
-            };
-            add_truth(&mut row, &rec, rec.force_mean_n);
-            row
-        };
-        machine_period += 1;
-        if tick.overrun {
-            row.flag("late");
-        }
-        if tick.skipped > 0 {
-            row.flag(&format!("ticks_skipped:{}", tick.skipped));
-        }
-        if status.watchdog_tripped {
-            row.flag("watchdog");
-        }
-        if status.fallback_active {
-            row.flag(&format!("fallback:{}", status.fallback_override_pct));
-        }
-        if status.board_restarted {
-            row.flag("restarted");
-        }
-        if unplugged.load(Ordering::SeqCst) {
-            row.flag("unplugged");
-        }
-        if let Some(w) = log.as_mut() {
-            w.write(&row)?;
-        }
-        tel.tap.publish(&row);
-        if let Some(pace) = &pace {
+    while !stop.load(Ordering::SeqCst) && !lock_board(board).control().acc_request {
+        // The controller's writes before its request move nothing.
+        if let Some(pace) = pace {
             pace.take_all();
         }
-        if sim.machine().finished() && done_at.is_none() {
-            done_at = Some(sim.machine().t_s());
-            eprintln!(
-                "board-sim: workpiece finished at t = {:.1} s",
-                sim.machine().t_s()
-            );
-        }
-        if let (true, Some(d)) = (args.exit_when_done, done_at) {
-            if sim.machine().t_s() - d >= args.linger_s * args.time_scale {
-                break;
-            }
-        }
+        wall.sleep_until(wall.now() + Duration::from_millis(2));
     }
-    if let Some(pace) = &pace {
-        pace.close();
+    // The request arrived a write's time after the controller's tick, and so would every
+    // tick of ours: a slow write would then sometimes land after the tick that starts the
+    // next period, and the override the controller reads back (OVERRIDE_APPLIED, changed on
+    // the write) would not be the one that drove the power sample it reads with it — the
+    // discrepancy workflow's replay of `acc run`'s log went 0.033 mm off in position at
+    // every such row (docs/twin.md). Half a period later the writes land mid-period.
+    if pace.is_none() {
+        wall.sleep_until(wall.now() + Duration::from_secs_f64(0.5 * period_wall_s));
     }
-    tel.finish();
-    let st = ticker.stats();
+    eprintln!("board-sim: controller connected (ACC_REQUEST set); machine time starts");
+}
+
+/// The end of a run on stderr: the ticker's figures and the board's final registers.
+fn print_end(st: &acc_runtime::TickerStats, board: &SharedBoard) {
     eprintln!(
         "board-sim: {} periods; sim ticker jitter {}; overruns {}",
         st.ticks,
         st.jitter.summary(),
         st.overruns
     );
-    {
-        let b = lock_board(&board);
-        let st = b.status();
-        eprintln!(
-            "board-sim: final ACC_REQUEST={} ACC_ACTIVE={} OVERRIDE_APPLIED={} WATCHDOG_TRIPPED={} FALLBACK_ACTIVE={} FALLBACK_OVERRIDE={} FEED_HOLD_ACTIVE={}",
-            u8::from(b.control().acc_request),
-            u8::from(st.acc_active),
-            st.override_applied_pct,
-            u8::from(st.watchdog_tripped),
-            u8::from(st.fallback_active),
-            st.fallback_override_pct,
-            u8::from(st.feed_hold_active)
-        );
-    }
-    stop_server.store(true, Ordering::SeqCst);
-    if let Some(p) = pty {
-        let s = p.stop()?;
-        eprintln!(
-            "board-sim: served {} requests ({} exceptions, {} replies dropped undelivered, {} read errors)",
-            s.requests, s.exceptions, s.replies_dropped, s.io_errors
-        );
-    }
-    if let Some(h) = server {
-        match h.join() {
-            Ok(Ok(s)) => eprintln!(
-                "board-sim: served {} requests ({} exceptions, {} replies dropped undelivered, {} read errors)",
-                s.requests, s.exceptions, s.replies_dropped, s.io_errors
-            ),
-            Ok(Err(e)) => eprintln!("board-sim: server stopped: {e}"),
-            Err(_) => bail!("board-sim: server thread panicked"),
-        }
-    }
-    Ok(())
+    let b = lock_board(board);
+    let st = b.status();
+    eprintln!(
+        "board-sim: final ACC_REQUEST={} ACC_ACTIVE={} OVERRIDE_APPLIED={} WATCHDOG_TRIPPED={} FALLBACK_ACTIVE={} FALLBACK_OVERRIDE={} FEED_HOLD_ACTIVE={}",
+        u8::from(b.control().acc_request),
+        u8::from(st.acc_active),
+        st.override_applied_pct,
+        u8::from(st.watchdog_tripped),
+        u8::from(st.fallback_active),
+        st.fallback_override_pct,
+        u8::from(st.feed_hold_active)
+    );
 }
 
 #[cfg(test)]

@@ -5,47 +5,14 @@ use super::*;
 
 /// A live board cutting at 1500 W (750 N with [`control()`]'s force source) that raises a
 /// stop request at read `stop_at` (as a Ctrl-C would) and leaves the cut (10 W, 5 N) from
-/// read `air_from` on.
-struct CuttingBoard {
-    live: LiveBoard,
-    reads: usize,
-    stop_at: usize,
-    air_from: usize,
-    stop: Arc<AtomicBool>,
-}
-
-impl acc_pmc::Board for CuttingBoard {
-    type Error = <ScriptedBoard as acc_pmc::Board>::Error;
-    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
-        if self.reads == self.stop_at {
-            self.stop.store(true, Ordering::SeqCst);
-        }
-        let power = if self.reads >= self.air_from {
-            10
-        } else {
-            1500
-        };
-        self.reads += 1;
-        let b = &mut self.live.0;
-        b.board.push_power_sample(power);
-        b.now_ms += 100;
-        b.read_status()
-    }
-    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
-        self.live.write_override(o, hb)
-    }
-    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
-        self.live.write_control(c)
-    }
-}
-
-/// Run [`CuttingBoard`] with a drain of `max_s` (manual clock, T = 0.1 s) and 3 air periods.
+/// read `air_from` on, run with a drain of `max_s` (manual clock, T = 0.1 s) and 3 air
+/// periods.
 fn drain_run(
     stop_at: usize,
     air_from: usize,
     max_s: f64,
     stop_now: bool,
-) -> (acc_runtime::RunSummary, CuttingBoard, Vec<RunRecord>) {
+) -> (acc_runtime::RunSummary, LiveBoard, Vec<RunRecord>) {
     struct Signals {
         stop: Arc<AtomicBool>,
         now: bool,
@@ -59,22 +26,25 @@ fn drain_run(
         }
     }
     let stop = Arc::new(AtomicBool::new(false));
-    let mut board = CuttingBoard {
-        live: LiveBoard(ScriptedBoard::new(), Vec::new()),
-        reads: 0,
-        stop_at,
-        air_from,
-        stop: Arc::clone(&stop),
-    };
+    let raise = Arc::clone(&stop);
+    let mut board = HookedBoard::new(move |read| {
+        if read == stop_at {
+            raise.store(true, Ordering::SeqCst);
+        }
+        if read >= air_from {
+            10
+        } else {
+            1500
+        }
+    });
     let mut ctl = control().with_air_force_n(100.0);
     let mut sink = VecSink::default();
     let opts = RunOptions {
-        max_periods: Some(500),
         drain: Some(acc_runtime::Drain {
             max: Duration::from_secs_f64(max_s),
             air_periods: 3,
         }),
-        ..RunOptions::new(Duration::from_millis(100))
+        ..options(500)
     };
     let signals = Signals {
         stop,
@@ -89,7 +59,7 @@ fn drain_run(
         opts,
     )
     .expect("runs");
-    (s, board, sink.0)
+    (s, board.live, sink.0)
 }
 
 #[test]
@@ -104,7 +74,6 @@ fn a_stop_mid_cut_keeps_control_until_the_cut_ends_then_releases() {
     );
     assert!(rows[11..20].iter().all(|r| r.override_cmd_pct.is_some()));
     let last = board
-        .live
         .0
         .control_writes
         .last()
@@ -114,12 +83,7 @@ fn a_stop_mid_cut_keeps_control_until_the_cut_ends_then_releases() {
         !last.acc_request && !last.feed_hold_request,
         "released without feed hold out of the cut: {last:?}"
     );
-    assert!(board
-        .live
-        .0
-        .control_writes
-        .iter()
-        .all(|c| !c.feed_hold_request));
+    assert!(board.0.control_writes.iter().all(|c| !c.feed_hold_request));
 }
 
 #[test]
@@ -134,7 +98,7 @@ fn still_cutting_when_the_drain_ends_holds_the_feed_then_releases() {
     // 1 s of drain at T = 0.1 s after the stop at read 10.
     assert!((20..=22).contains(&s.periods), "{} cycles", s.periods);
     assert!(rows.iter().all(|r| r.state == "active"));
-    let w = &board.live.0.control_writes;
+    let w = &board.0.control_writes;
     let n = w.len();
     assert!(n >= 3, "{w:?}");
     assert!(
@@ -145,7 +109,7 @@ fn still_cutting_when_the_drain_ends_holds_the_feed_then_releases() {
         !w[n - 1].acc_request && w[n - 1].feed_hold_request,
         "then released with the hold kept: {w:?}"
     );
-    let st = board.live.0.board.status();
+    let st = board.0.board.status();
     assert!(st.feed_hold_active, "the NC is in feed hold: {st:?}");
 }
 
@@ -159,13 +123,7 @@ fn a_second_stop_holds_the_feed_at_once() {
         }
     );
     assert_eq!(s.periods, 11, "ends at the first check after the request");
-    let last = board
-        .live
-        .0
-        .control_writes
-        .last()
-        .copied()
-        .expect("written");
+    let last = board.0.control_writes.last().copied().expect("written");
     assert!(!last.acc_request && last.feed_hold_request, "{last:?}");
 }
 
@@ -174,12 +132,7 @@ fn a_stop_out_of_the_cut_releases_at_once() {
     let (s, board, _) = drain_run(10, 0, 10.0, false);
     assert_eq!(s.ended, acc_runtime::Ended::Released);
     assert_eq!(s.periods, 11);
-    assert!(board
-        .live
-        .0
-        .control_writes
-        .iter()
-        .all(|c| !c.feed_hold_request));
+    assert!(board.0.control_writes.iter().all(|c| !c.feed_hold_request));
 }
 
 #[test]

@@ -151,50 +151,30 @@ fn a_late_control_decision_is_dropped_not_applied_a_period_late() {
     assert_eq!(dropped, vec![LATE], "periods whose plan was dropped");
 }
 
-/// A [`LiveBoard`] whose read in period `at` stalls for 3.5 periods on the manual clock (a
-/// slow link): the next tick comes 2.5 periods late, and the ticker skips the two whole
-/// deadlines that passed meanwhile.
-struct StallingBoard {
-    live: LiveBoard,
-    clock: ManualClock,
-    at: usize,
-    reads: usize,
-}
-
-impl acc_pmc::Board for StallingBoard {
-    type Error = <ScriptedBoard as acc_pmc::Board>::Error;
-    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
-        if self.reads == self.at {
-            self.clock.advance(Duration::from_millis(350));
-        }
-        self.reads += 1;
-        self.live.read_status()
-    }
-    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
-        self.live.write_override(o, hb)
-    }
-    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
-        self.live.write_control(c)
-    }
-}
-
 #[test]
 fn skipped_periods_still_get_their_flagged_rows() {
+    // Read 5 answers 350 ms late (a slow link): the next tick comes 2.5 periods late, and
+    // the ticker skips the two whole deadlines that passed meanwhile.
     let clock = ManualClock::new();
-    let mut board = StallingBoard {
-        live: LiveBoard(ScriptedBoard::new(), Vec::new()),
-        clock: clock.clone(),
-        at: 5,
-        reads: 0,
-    };
+    let stalled = clock.clone();
+    let mut board = HookedBoard::new(move |read| {
+        if read == 5 {
+            stalled.advance(Duration::from_millis(350));
+        }
+        1500
+    });
     let mut ctl = control();
     let mut sink = VecSink::default();
     let stop = AtomicBool::new(false);
-    let opts = RunOptions {
-        max_periods: Some(20),
-        ..RunOptions::new(Duration::from_millis(100))
-    };
-    let s = run(&mut board, &mut ctl, clock.clone(), &mut sink, &stop, opts).expect("runs");
+    let s = run(
+        &mut board,
+        &mut ctl,
+        clock.clone(),
+        &mut sink,
+        &stop,
+        options(20),
+    )
+    .expect("runs");
     // `max_periods` counts the periods of the clock: 18 cycles and the 2 skipped deadlines.
     assert_eq!(s.periods, 18, "cycles run");
     assert_eq!(s.skipped, 2, "deadlines skipped by the stall");

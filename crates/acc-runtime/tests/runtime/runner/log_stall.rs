@@ -55,9 +55,8 @@ fn a_stalled_log_writer_holds_the_feed_and_loses_no_row() {
     let (mut sink, gate) = GatedSink::shut();
     let stop = AtomicBool::new(false);
     let opts = RunOptions {
-        max_periods: Some(PERIODS),
         log_buffer: BUFFER,
-        ..RunOptions::new(Duration::from_millis(100))
+        ..options(PERIODS)
     };
     // The disk comes back only once the last period has been decided: every period of the
     // run is decided with the writer stalled (the final hand-over then waits on it).

@@ -19,7 +19,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
 use acc_runtime::policy::{AccState, FaultPolicy, PolicyConfig};
-use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
+use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedError, ScriptedLaw};
 use acc_runtime::{
     run, Clock, ControlLoop, LogSink, ManualClock, RunOptions, RunRecord, SystemClock, VecSink,
 };
@@ -35,9 +35,8 @@ fn run_manual<P: acc_pmc::Board + Send, S: LogSink + Send>(
     // On the manual clock the control thread runs flat out; a buffer that holds every period
     // keeps a starved logger thread (a loaded test machine) from holding the feed.
     let opts = RunOptions {
-        max_periods: Some(max),
         log_buffer: 1 << 20,
-        ..RunOptions::new(Duration::from_millis(100))
+        ..options(max)
     };
     run(pmc, ctl, ManualClock::new(), sink, stop, opts).expect("runs")
 }
@@ -58,10 +57,7 @@ struct LiveBoard(ScriptedBoard, Vec<u16>);
 impl acc_pmc::Board for LiveBoard {
     type Error = <ScriptedBoard as acc_pmc::Board>::Error;
     fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
-        self.1.push(self.0.board.heartbeat());
-        self.0.board.push_power_sample(1500);
-        self.0.now_ms += 100;
-        self.0.read_status()
+        self.read_with_power(1500)
     }
     fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
         self.0.write_override(o, hb)
@@ -71,6 +67,60 @@ impl acc_pmc::Board for LiveBoard {
     }
     fn protocol(&self) -> Option<acc_pmc::BoardProtocol> {
         self.0.protocol()
+    }
+}
+
+impl LiveBoard {
+    /// One status read whose new power sample is `power_w` (W); the board's clock advances
+    /// one period (100 ms).
+    fn read_with_power(&mut self, power_w: u32) -> Result<acc_pmc::BoardStatus, ScriptedError> {
+        use acc_pmc::Board as _;
+        self.1.push(self.0.board.heartbeat());
+        self.0.board.push_power_sample(power_w);
+        self.0.now_ms += 100;
+        self.0.read_status()
+    }
+}
+
+/// [`LiveBoard`] with a hook run before each status read: given the read's index (from 0),
+/// it returns the power (W) that read's sample carries, and may raise a stop request or
+/// stall the clock at a chosen read.
+struct HookedBoard<F: FnMut(usize) -> u32> {
+    live: LiveBoard,
+    reads: usize,
+    before_read: F,
+}
+
+impl<F: FnMut(usize) -> u32> HookedBoard<F> {
+    fn new(before_read: F) -> Self {
+        HookedBoard {
+            live: LiveBoard(ScriptedBoard::new(), Vec::new()),
+            reads: 0,
+            before_read,
+        }
+    }
+}
+
+impl<F: FnMut(usize) -> u32> acc_pmc::Board for HookedBoard<F> {
+    type Error = ScriptedError;
+    fn read_status(&mut self) -> Result<acc_pmc::BoardStatus, Self::Error> {
+        let power_w = (self.before_read)(self.reads);
+        self.reads += 1;
+        self.live.read_with_power(power_w)
+    }
+    fn write_override(&mut self, o: u16, hb: u16) -> Result<(), Self::Error> {
+        self.live.write_override(o, hb)
+    }
+    fn write_control(&mut self, c: acc_pmc::ControlBits) -> Result<(), Self::Error> {
+        self.live.write_control(c)
+    }
+}
+
+/// The run options of these tests: T = 0.1 s, at most `max` periods.
+fn options(max: u64) -> RunOptions {
+    RunOptions {
+        max_periods: Some(max),
+        ..RunOptions::new(Duration::from_millis(100))
     }
 }
 
@@ -148,11 +198,15 @@ fn runs_max_periods_logs_each_and_clears_acc_request() {
     let clock = ManualClock::new();
     let mut sink = VecSink::default();
     let stop = AtomicBool::new(false);
-    let opts = RunOptions {
-        max_periods: Some(50),
-        ..RunOptions::new(Duration::from_millis(100))
-    };
-    let s = run(&mut board, &mut ctl, clock.clone(), &mut sink, &stop, opts).expect("runs");
+    let s = run(
+        &mut board,
+        &mut ctl,
+        clock.clone(),
+        &mut sink,
+        &stop,
+        options(50),
+    )
+    .expect("runs");
     assert_eq!(s.periods, 50);
     assert_eq!(s.logged, 50);
     assert_eq!(s.log_dropped, 0);

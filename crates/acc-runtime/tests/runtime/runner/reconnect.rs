@@ -98,9 +98,8 @@ fn reconnect_run(
         }
     };
     let opts = RunOptions {
-        max_periods: Some(80),
         on_device_lost: acc_runtime::OnDeviceLost::Reconnect { timeout },
-        ..RunOptions::new(Duration::from_millis(100))
+        ..options(80)
     };
     let mut ctl = control();
     let stop = AtomicBool::new(false);
