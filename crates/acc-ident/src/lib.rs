@@ -31,6 +31,7 @@ pub mod physics;
 pub mod replay;
 pub mod report;
 mod report_model_error;
+mod report_verdict;
 pub mod runlog;
 pub mod segment;
 pub mod stats;

@@ -9,6 +9,7 @@ use crate::segment::SegmentBias;
 use crate::stats::Noise;
 
 pub use crate::report_model_error::{ModelError, SealedBlock, SealedError};
+pub use crate::report_verdict::{KeptBlock, MostLikely};
 
 /// Version of the `report.json` schema; bumped on any incompatible change.
 pub const SCHEMA_VERSION: u32 = 1;
@@ -430,6 +431,14 @@ pub struct Report {
     /// Effects that passed selection but are not named, with the reason.
     #[serde(default)]
     pub withheld: Vec<Withheld>,
+    /// When nothing is confirmed: the withheld effects that best explain the log and by
+    /// how much (never a confirmed name).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub most_likely: Option<MostLikely>,
+    /// Sealed blocks biased beyond the noise or the model error that the names are kept
+    /// despite (small against what they fixed on the sealed part).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub kept_despite: Vec<KeptBlock>,
     /// What the workflow did and why: the candidates tried, why the named effect won,
     /// or why nothing was named.
     #[serde(default)]
@@ -648,8 +657,17 @@ impl Report {
         }
         if !self.withheld.is_empty() {
             let _ = writeln!(s, "\n## Passed selection but not named\n");
+            if let Some(m) = &self.most_likely {
+                let _ = writeln!(s, "{}\n", m.text(u));
+            }
             for w in &self.withheld {
                 let _ = writeln!(s, "- `{}`: {}", w.effect, w.reason);
+            }
+        }
+        if !self.kept_despite.is_empty() {
+            let _ = writeln!(s, "\n## Named despite a biased sealed block\n");
+            for k in &self.kept_despite {
+                let _ = writeln!(s, "- {}", k.text(u));
             }
         }
         if let Some(un) = &self.unexplained {
@@ -715,10 +733,12 @@ impl Report {
                     b.bias_without,
                     if self.accepted.is_empty() && self.withheld.is_empty() {
                         "nothing is named: the model is further off there than where it was fitted"
+                    } else if b.withholds {
+                        "the names made it materially worse: they are withheld"
                     } else if b.under_corrected {
                         "the names moved it toward the measurement: the effect is larger there than its law"
                     } else {
-                        "the names made it worse or overshot it"
+                        "the names made it worse or overshot it, but by little against the model error and what they fixed: they are kept"
                     }
                 );
             }

@@ -23,18 +23,21 @@ pub struct ModelError {
     /// (`acc_ident::workflow::MODEL_ERROR_MIN_SEGMENTS`).
     pub judged: bool,
     /// Sealed blocks whose bias with the updated model stands out of `√(τ² + se²)` at the
-    /// Bonferroni level: the names are withheld when one of them is not
-    /// [`SealedBlock::under_corrected`].
+    /// Bonferroni level: the names are withheld when one of them
+    /// [`SealedBlock::withholds`].
     pub sealed_beyond: Vec<SealedBlock>,
     /// The sealed part's squared error with the names against without them.
     pub sealed_error: SealedError,
+    /// What the names fixed on the sealed part: its RMS without them less with them (0
+    /// when they fixed nothing), channel unit.
+    pub sealed_gain: f64,
 }
 
 impl ModelError {
     /// Whether the names are withheld: a sealed block beyond the model error that they
-    /// made worse or overshot, or the sealed part predicted worse with them.
+    /// made materially worse, or the sealed part predicted worse with them.
     pub fn withholds(&self) -> bool {
-        self.sealed_beyond.iter().any(|b| !b.under_corrected) || self.sealed_error.worse
+        self.sealed_beyond.iter().any(|b| b.withholds) || self.sealed_error.worse
     }
 }
 
@@ -69,4 +72,10 @@ pub struct SealedBlock {
     /// The names moved it toward the measurement and left it on the same side: the effect
     /// is right but larger there than its law.
     pub under_corrected: bool,
+    /// How much the names made it worse, `|bias| − |bias_without|` (negative where they
+    /// improved it), channel unit.
+    pub worse_by: f64,
+    /// The names made it materially worse: the worsening exceeds the block's bound, its
+    /// floor and a tenth of [`ModelError::sealed_gain`]; such a block withholds them.
+    pub withholds: bool,
 }

@@ -12,8 +12,10 @@ mod model_error;
 pub mod path_shift;
 mod report;
 mod rows;
+mod sealed_rule;
 mod selection;
 mod spindle;
+mod verdict;
 
 use checks::*;
 use explain::*;
@@ -22,8 +24,12 @@ pub use model_error::MODEL_ERROR_MIN_SEGMENTS;
 pub use path_shift::estimate_path_shift;
 use report::*;
 use rows::*;
+pub use sealed_rule::{
+    block_withholds, made_materially_worse, sealed_gain, worse_by, SEALED_GAIN_SHARE,
+};
 pub use selection::WEAR_SIZE;
 use selection::*;
+use verdict::*;
 
 use crate::effects::EffectKind;
 use crate::fit::{self, Free};
@@ -396,6 +402,7 @@ pub fn analyse(model: &Model, log: &RunLog, opts: &Options) -> Result<Analysis, 
         unexplained,
         sealed,
         model_error,
+        noise: noise_f,
     };
     let mut a = assemble(model, p, s, upd_replay, found, opts);
     a.report.warnings.append(&mut warnings);

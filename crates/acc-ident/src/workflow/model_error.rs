@@ -12,9 +12,10 @@
 //! level is error the model did not have where it was fitted. When the names moved every
 //! such block toward the measurement and left it on the same side (the effect is right
 //! but grows faster there than its law: the turning tools' wear accelerating at the end
-//! of their life) the names stand and the blocks are reported; when a name made one of
-//! them worse or overshot it, it explains the rows it saw but not the ones it did not, and
-//! is withheld. Both parts are judged in blocks of one length ([`SEALED_BLOCKS`]), outside
+//! of their life) the names stand and the blocks are reported; when the names made one of
+//! them materially worse (beyond that bound, its floor and a share of what they fixed on
+//! the sealed part, `sealed_rule`), they explain the rows they saw but not the ones they
+//! did not, and are withheld. Both parts are judged in blocks of one length ([`SEALED_BLOCKS`]), outside
 //! the rows where the engagement changes inside a period ([`ENGAGEMENT_CHANGES`]), where
 //! the logged-depth replay has an error of its own. A model error that is large where
 //! the names were fitted (a hard band of the part the logged depths do not carry) hides
@@ -121,26 +122,32 @@ pub(super) fn judge(
     let sealed_without = biases(without, &sealed_segs);
     let tau = bias_spread(&on_selection);
     let judged = on_selection.len() >= MODEL_ERROR_MIN_SEGMENTS && !sealed.is_empty();
+    let whole = sealed_error(p, updated, without, noise, alpha);
+    let gain = sealed_rule::sealed_gain(whole.mse_without.sqrt(), whole.mse_with.sqrt());
     let beyond: Vec<SealedBlock> = if judged {
         let zc = normal_quantile(1.0 - 0.5 * alpha / sealed.len() as f64);
+        let bound = |b: &SegmentBias| zc * (tau * tau + standard_error(b).powi(2)).sqrt();
         sealed
             .into_iter()
             .zip(sealed_without)
-            .filter(|(b, _)| {
-                let scale = (tau * tau + standard_error(b).powi(2)).sqrt();
-                b.bias.abs() > zc * scale && b.bias.abs() > b.floor
-            })
-            .map(|(b, w)| SealedBlock {
-                under_corrected: b.bias * w.bias > 0.0 && b.bias.abs() < w.bias.abs(),
-                bias_without: w.bias,
-                block: b,
+            .filter(|(b, _)| b.bias.abs() > bound(b) && b.bias.abs() > b.floor)
+            .map(|(b, w)| {
+                let worse = sealed_rule::worse_by(b.bias, w.bias);
+                SealedBlock {
+                    under_corrected: b.bias * w.bias > 0.0 && b.bias.abs() < w.bias.abs(),
+                    withholds: sealed_rule::made_materially_worse(worse, bound(&b), b.floor, gain),
+                    worse_by: worse,
+                    bias_without: w.bias,
+                    block: b,
+                }
             })
             .collect()
     } else {
         Vec::new()
     };
     ModelError {
-        sealed_error: sealed_error(p, updated, without, noise, alpha),
+        sealed_error: whole,
+        sealed_gain: gain,
         selection_segments: on_selection.len(),
         block_rows: len,
         segment_bias_sd: tau,

@@ -19,6 +19,8 @@ pub(super) struct ResidualFindings {
     pub sealed: Sealed,
     /// The model error the names are judged against where the replay is not exact.
     pub model_error: Option<ModelError>,
+    /// The updated model's noise over the selection part (the sealed blocks' yardstick).
+    pub noise: Noise,
 }
 
 /// Assemble the report, the plot series and the updated model.
@@ -34,6 +36,7 @@ pub(super) fn assemble(
         unexplained,
         sealed,
         model_error,
+        noise: noise_f,
     } = found;
     let (inp, n, n_sel) = (&p.inp, p.n, p.n_sel);
     let unit = inp.channel.unit();
@@ -45,102 +48,16 @@ pub(super) fn assemble(
     // Strict where a correct model leaves only noise; elsewhere the names are judged
     // against the model error (`model_error`).
     let strict = opts.withhold_on_structure == Some(true) && p.replay_is_exact();
-    // The sealed part is the last word: a named fit that leaves a significantly biased
-    // stretch there does not predict beyond the rows it was fitted on (a sensor zero shift
-    // fitted as a Ks step over the cut, still visible in the air after it).
-    let sealed_biased: Vec<String> = sealed
-        .updated
-        .segments
-        .iter()
-        .filter(|b| b.significant)
-        .map(|b| {
-            format!(
-                "{} {:.1}–{:.1} s: {:+.3} {unit} (z {:.1})",
-                b.regime.name(),
-                b.t_start_s,
-                b.t_end_s,
-                b.bias,
-                b.z
-            )
-        })
-        .collect();
-    let mut withheld: Vec<Withheld> = match &unexplained {
-        Some(u) if strict && !passed.is_empty() && structure_remains(u) => passed
-            .iter()
-            .map(|e| Withheld {
-                effect: e.clone(),
-                reason: format!(
-                    "structure remains after its fit ({}): the residual is not noise, so the fit may be borrowing the signature of an effect outside the library",
-                    structure_text(u, unit)
-                ),
-            })
-            .collect(),
-        // A log rounded coarser than its noise: the residual after any fit is the
-        // rounding (a bias per steady stretch that follows the level), not noise, so no
-        // significance test holds.
-        _ if !passed.is_empty() && p.q_floor > p.raw_sigma => passed
-            .iter()
-            .map(|e| Withheld {
-                effect: e.clone(),
-                reason: quantized_text(&p, unit),
-            })
-            .collect(),
-        _ if strict && !passed.is_empty() && !sealed_biased.is_empty() => passed
-            .iter()
-            .map(|e| Withheld {
-                effect: e.clone(),
-                reason: format!(
-                    "the updated model does not predict the sealed part ({}): the fit explains the rows it saw but not the ones it did not, so it may be borrowing the signature of an effect outside the library",
-                    sealed_biased.join("; ")
-                ),
-            })
-            .collect(),
-        _ if !passed.is_empty() && model_error.as_ref().is_some_and(ModelError::withholds) => {
-            let me = model_error.as_ref().map_or(0.0, |m| m.segment_bias_sd);
-            let list: Vec<String> = model_error
-                .iter()
-                .flat_map(|m| &m.sealed_beyond)
-                .filter(|b| !b.under_corrected)
-                .map(|b| {
-                    format!(
-                        "{} {:.1}–{:.1} s: {:+.3} {unit} ({:+.3} {unit} without)",
-                        b.block.regime.name(),
-                        b.block.t_start_s,
-                        b.block.t_end_s,
-                        b.block.bias,
-                        b.bias_without
-                    )
-                })
-                .collect();
-            let mut why = Vec::new();
-            if let Some(e) = model_error.as_ref().map(|m| &m.sealed_error).filter(|e| e.worse) {
-                why.push(format!(
-                    "the updated model predicts the sealed part worse than the model without it (RMS {:.3} → {:.3} {unit}, t = {:.1} over {} blocks, beyond the noise)",
-                    e.mse_without.sqrt(),
-                    e.mse_with.sqrt(),
-                    e.t,
-                    e.blocks
-                ));
-            }
-            if !list.is_empty() {
-                why.push(format!(
-                    "the updated model makes the sealed part worse beyond the model error it has where it was fitted (a spread of {me:.3} {unit} in the selection part's block biases): {}",
-                    list.join("; ")
-                ));
-            }
-            passed
-                .iter()
-                .map(|e| Withheld {
-                    effect: e.clone(),
-                    reason: format!(
-                        "{}; the fit explains the rows it saw but not the ones it did not",
-                        why.join("; and ")
-                    ),
-                })
-                .collect()
-        }
-        _ => Vec::new(),
+    // The rules after selection (`verdict`): structure left, rounding, the sealed part
+    // (blocks large against what the names fixed), the model error.
+    let findings = Findings {
+        unexplained: unexplained.as_ref(),
+        sealed: &sealed,
+        model_error: model_error.as_ref(),
+        strict,
     };
+    let decision = decide(&p, &passed, &findings);
+    let mut withheld = decision.withheld.clone();
     let mut named: Vec<String> = passed
         .into_iter()
         .filter(|e| !withheld.iter().any(|w| &w.effect == e))
@@ -155,8 +72,8 @@ pub(super) fn assemble(
                 .filter(|b| b.significant)
                 .cloned()
                 .collect(),
-            variance_ratio: if p.noise0.sigma > 0.0 {
-                (sealed.updated.rms / p.noise0.sigma).powi(2)
+            variance_ratio: if noise_f.sigma > 0.0 {
+                (sealed.updated.rms / noise_f.sigma).powi(2)
             } else {
                 1.0
             },
@@ -244,6 +161,21 @@ pub(super) fn assemble(
             )
         );
     }
+    let left = (!strict && unexplained.is_some()).then_some("structure left unexplained");
+    let most_likely = most_likely(&named, &decision, left, &sealed);
+    if let Some(m) = &most_likely {
+        conclusion = format!("{} {conclusion}", m.text(unit));
+    }
+    if !named.is_empty() && !decision.kept.is_empty() {
+        let list: Vec<String> = decision.kept.iter().map(|k| k.text(unit)).collect();
+        conclusion.push_str(&format!(
+            " Named despite {} biased sealed block{} (each under {:.0} % of what the names fixed there): {}.",
+            list.len(),
+            if list.len() == 1 { "" } else { "s" },
+            100.0 * SEALED_GAIN_SHARE,
+            list.join("; ")
+        ));
+    }
     // Nothing named because the best fit was ruled out (by the logged power, or below the
     // noise on a replay that is not exact).
     if named.is_empty() && withheld.is_empty() {
@@ -325,6 +257,11 @@ pub(super) fn assemble(
             a.experiment
         ));
     }
+    let kept_despite = if named.is_empty() {
+        Vec::new()
+    } else {
+        decision.kept
+    };
     let series = plot_series(&p, &upd_replay, &sealed);
     let mut explanation = explain(&s, &named, &withheld, unexplained.as_ref(), opts);
     if let Some(c) = p.force_vs_power {
@@ -374,6 +311,8 @@ pub(super) fn assemble(
             .chain(wear_time_ambiguity)
             .collect(),
         withheld,
+        most_likely,
+        kept_despite,
         explanation,
         unexplained,
         model_error,
