@@ -1,0 +1,129 @@
+//! The twin learns LinuxCNC's motion (docs/twin-evaluation.md, "LinuxCNC"): `acc linuxcnc`
+//! runs `tests/nc/linuxcnc_accel.ngc` with X and Y accelerating at 20 mm/s² (`--ini`), a
+//! value the model (`configs/models/linuxcnc_paper_vmc.toml`: the template's 500 mm/s²) is
+//! not told; `acc discrepancy --program` on its run log must name `feed_accel_limit` with an
+//! interval that holds the truth (`1000/20 − 1000/500` = 48 s²/m) and shrink the sealed
+//! part's force residual.
+//!
+//! Needs LinuxCNC: absent, the test prints `SKIP: …` and passes, unless `CI` is set, then
+//! it fails. One LinuxCNC runs per host: the run holds the LinuxCNC tests' file lock.
+
+use std::fs::File;
+use std::path::Path;
+use std::process::Command;
+
+const PROGRAM: &str = "../../tests/nc/linuxcnc_accel.ngc";
+const STOCK_BOX: &str = "0,-20,-10,40,20,0";
+const MODEL: &str = "../../configs/models/linuxcnc_paper_vmc.toml";
+/// The hidden X and Y acceleration, mm/s², and the model's own.
+const HIDDEN_MM_S2: f64 = 20.0;
+const MODEL_MM_S2: f64 = 500.0;
+
+/// `acc ARGS`: its stdout; the test fails with stdout and stderr if it fails.
+fn acc(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_acc"))
+        .args(args)
+        .output()
+        .expect("acc runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "acc {args:?}: {}\nstdout:\n{stdout}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The numbers of `acc discrepancy`'s line `param NAME = V [LO, HI]`.
+fn param(out: &str, name: &str) -> Option<(f64, f64, f64)> {
+    let line = out
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("param {name} = ")))?;
+    let (v, rest) = line.split_once(" [")?;
+    let (lo, hi) = rest.trim_end_matches(']').split_once(", ")?;
+    Some((v.parse().ok()?, lo.parse().ok()?, hi.parse().ok()?))
+}
+
+/// The sealed part's RMS, nominal and updated (`sealed rms A -> B N`).
+fn sealed_rms(out: &str) -> (f64, f64) {
+    let line = out
+        .lines()
+        .find_map(|l| l.strip_prefix("sealed rms "))
+        .expect("the sealed line");
+    let (a, b) = line.split_once(" -> ").expect("a -> b");
+    let b = b.split_whitespace().next().expect("b");
+    (a.parse().expect("a"), b.parse().expect("b"))
+}
+
+#[test]
+fn the_twin_names_linuxcnc_s_acceleration_limit_and_the_gap_shrinks() {
+    if let Some(reason) = super::linuxcnc::missing_linuxcnc() {
+        if std::env::var_os("CI").is_some() {
+            panic!("LinuxCNC is required under CI: {reason} (run `bash .ci/deps`)");
+        }
+        eprintln!("SKIP: {reason} (apt-get install linuxcnc-uspace); LinuxCNC twin test not run");
+        return;
+    }
+    let lock = File::create(std::env::temp_dir().join("acc-linuxcnc-test.lock")).expect("lock");
+    lock.lock().expect("the LinuxCNC test lock");
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let run = tmp.path().join("run");
+    let accel = format!("{HIDDEN_MM_S2}");
+    let (x, y) = (
+        format!("--ini=AXIS_X.MAX_ACCELERATION={accel}"),
+        format!("--ini=AXIS_Y.MAX_ACCELERATION={accel}"),
+    );
+    let run_s = run.display().to_string();
+    let stock = format!("--stock-box={STOCK_BOX}");
+    acc(&[
+        "linuxcnc",
+        PROGRAM,
+        &stock,
+        "--out",
+        &run_s,
+        "--timeout-s",
+        "60",
+        &x,
+        &y,
+    ]);
+    let ini = std::fs::read_to_string(run.join("acc.ini")).expect("acc.ini");
+    assert_eq!(
+        ini.matches(&format!("MAX_ACCELERATION = {accel}")).count(),
+        4,
+        "X and Y, axis and joint: {ini}"
+    );
+    let measured = run.join("run.csv").display().to_string();
+    let out_dir = tmp.path().join("disc").display().to_string();
+    let out = acc(&[
+        "discrepancy",
+        "--model",
+        MODEL,
+        "--measured",
+        &measured,
+        "--program",
+        PROGRAM,
+        &stock,
+        "--out",
+        &out_dir,
+    ]);
+    eprintln!("{out}");
+    let named = out
+        .lines()
+        .find_map(|l| l.strip_prefix("named: "))
+        .unwrap_or("");
+    assert!(named.contains("feed_accel_limit"), "named: {named}\n{out}");
+    let truth = 1000.0 / HIDDEN_MM_S2 - 1000.0 / MODEL_MM_S2;
+    let (v, lo, hi) =
+        param(&out, "feed_accel_limit.inverse_accel_s2_per_m").expect("the fitted limit");
+    assert!(
+        lo <= truth && truth <= hi,
+        "1000/a = {v:.1} [{lo:.1}, {hi:.1}] s²/m, truth {truth:.1}"
+    );
+    let (nominal, updated) = sealed_rms(&out);
+    assert!(
+        updated < 0.8 * nominal,
+        "sealed force RMS {nominal:.1} -> {updated:.1} N"
+    );
+    assert!(Path::new(&out_dir).join("where.md").is_file());
+}
