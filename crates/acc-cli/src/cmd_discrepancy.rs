@@ -271,6 +271,10 @@ pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
         let places = where_they_disagree(log, &analysis.series, entries, blocks);
         let table = places_markdown(&places, &analysis.report.input.unit);
         write("where.md", &table)?;
+        write(
+            "rows.csv",
+            &crate::cmd_discrepancy_program::rows_csv(log, &analysis.series, blocks),
+        )?;
         println!("where the model and the run disagree (where.md):\n{table}");
         crate::cmd_discrepancy_program::print_findings(&analysis.report);
     }

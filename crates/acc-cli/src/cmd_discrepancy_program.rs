@@ -4,15 +4,17 @@
 //!
 //! Such a log has no depth of cut, but it has the block (`block`: the N word, else the
 //! line, as `motion.program-line` reports it) and the controller's actual path speed
-//! (`feed_mm_min`: `motion.current-vel`). Each row's path position is rebuilt from them:
-//! where the block changes it is the block's start plus half the period's travel at the
-//! row's speed (the change fell somewhere in the period), and inside a block the
-//! trapezoidal integral of the logged speed, held within the block. The engagement of the
+//! (`feed_mm_min`: programmed feed × applied override). Each row's path position is rebuilt
+//! from them: where the block changes it is the block's start plus half the period's travel
+//! at the row's feed (the change fell somewhere in the period; one period more when the
+//! read before found it and the line guard held it, flag `unconfirmed:`), and inside a
+//! block the trapezoidal integral of the logged feed, held within the block. The engagement of the
 //! row is then the program's sweep through the stock there
 //! ([`acc_sim::program::ProgramPath`], as `acc sim --program` builds it): the log gets the
 //! depth columns of a simulator's log and the model replays on them (docs/twin.md,
-//! "Replay on the logged depths"). A rapid's rows get programmed feed 0: the planner
-//! comes to the end of a rapid at rest or blends out of it, and those rows are in air.
+//! "Replay on the logged depths"). A rapid's rows, and a block's rows once the position
+//! reaches the block's end, get programmed feed 0: in exact-path mode (`G61`) the planner
+//! comes to rest at every block's end.
 //!
 //! [`where_they_disagree`] then places the residual on the program: per block, at the
 //! entries, and at the override's speed changes.
@@ -30,7 +32,7 @@ use anyhow::Context as _;
 #[derive(Debug, Clone, clap::Args)]
 pub struct ProgramOpts {
     /// The NC program the measured run ran (a log of `acc run` under a CNC controller that
-    /// reports its block and path speed, e.g. `acc linuxcnc`'s `run.csv`): the engagement
+    /// reports its block, e.g. `acc linuxcnc`'s `run.csv`): the engagement
     /// of each row is the program's sweep through the stock at the row's path position.
     #[arg(long, value_name = "FILE.ngc", conflicts_with = "workpiece")]
     pub program: Option<PathBuf>,
@@ -114,8 +116,8 @@ impl ProgramLog {
         Ok(Some(ProgramLog { path, tool, blocks }))
     }
 
-    /// The path position of every row, mm, and whether the row is in a rapid (see the
-    /// module).
+    /// The path position of every row, mm, and whether the tool stands or rapids there (a
+    /// rapid, or at its block's end: see the module).
     fn positions(&self, rows: &[RunRecord]) -> Vec<(f64, bool)> {
         let mut out = Vec::with_capacity(rows.len());
         let (mut s, mut block, mut rapid) = (0.0, None::<u32>, false);
@@ -126,7 +128,11 @@ impl ProgramLog {
             let span = b.and_then(|b| self.blocks.get(&b));
             match span {
                 Some(sp) if b != block => {
-                    s = (sp.start_mm + 0.5 * v * dt).min(sp.end_mm);
+                    // The line guard logs a new block one read late: the read before
+                    // found it and held it (`unconfirmed:`).
+                    let held = k > 0 && rows[k - 1].flags.contains("unconfirmed:");
+                    let periods = if held { 1.5 } else { 0.5 };
+                    s = (sp.start_mm + periods * v * dt).min(sp.end_mm);
                     rapid = sp.rapid;
                 }
                 Some(sp) => {
@@ -136,24 +142,26 @@ impl ProgramLog {
                 None => {}
             }
             block = b;
-            out.push((s, rapid));
+            let at_end = span.is_some_and(|sp| s >= sp.end_mm - 1e-9);
+            out.push((s, rapid || at_end));
         }
         out
     }
 
     /// The records with the engagement of the program at each row's path position
-    /// (depth columns and `x_true_mm`) and programmed feed 0 in rapids.
+    /// (depth columns and `x_true_mm`) and programmed feed 0 where the tool stands or
+    /// rapids.
     pub fn with_engagement(&self, rows: &[RunRecord]) -> Vec<RunRecord> {
         let mut path = self.path.clone();
         rows.iter()
             .zip(self.positions(rows))
-            .map(|(r, (s, rapid))| {
+            .map(|(r, (s, stands))| {
                 let e = path.engagement_at(&self.tool, s);
                 let mut r = r.clone();
                 r.radial_depth_mm = Some(e.radial_mm);
                 r.axial_depth_mm = Some(e.axial_mm);
                 r.x_true_mm = Some(s);
-                if rapid {
+                if stands {
                     r.programmed_feed_mm_min = Some(0.0);
                 }
                 r
@@ -319,4 +327,30 @@ pub fn print_findings(report: &acc_ident::report::Report) {
         "sealed rms {} -> {} {}",
         report.sealed.nominal.rms, report.sealed.updated.rms, report.input.unit
     );
+}
+
+/// The analysed rows as CSV: time, block, path position, depths, measured, nominal and
+/// updated prediction (`rows.csv` of `acc discrepancy --program`).
+pub fn rows_csv(
+    log: &RunLog,
+    series: &acc_ident::workflow::Series,
+    blocks: &[Option<u16>],
+) -> String {
+    let mut s = String::from("t_s,block,x_mm,radial_mm,axial_mm,measured,nominal,updated\n");
+    let n = series.t_s.len().min(log.t_s.len()).min(blocks.len());
+    let x = log.x_mm.clone().unwrap_or_else(|| vec![0.0; n]);
+    for i in 0..n {
+        s.push_str(&format!(
+            "{:.3},{},{:.3},{:.3},{:.3},{:.2},{:.2},{:.2}\n",
+            log.t_s[i],
+            blocks[i].map_or(String::new(), |b| b.to_string()),
+            x[i],
+            log.radial_depth_mm[i],
+            log.axial_depth_mm[i],
+            series.measured[i],
+            series.nominal[i],
+            series.updated[i]
+        ));
+    }
+    s
 }
