@@ -62,7 +62,7 @@ fn sealed_rms(out: &str) -> (f64, f64) {
 }
 
 #[test]
-fn the_twin_names_linuxcnc_s_acceleration_limit_and_the_gap_shrinks() {
+fn the_twin_fits_linuxcnc_s_acceleration_limit_and_the_gap_shrinks() {
     if let Some(reason) = super::linuxcnc::missing_linuxcnc() {
         if std::env::var_os("CI").is_some() {
             panic!("LinuxCNC is required under CI: {reason} (run `bash .ci/deps`)");
