@@ -40,7 +40,7 @@
 #![deny(missing_docs)]
 
 pub use acc_plant::{
-    board, channel, config, engagement, machine, motor, process, replay, workpiece,
+    accel, board, channel, config, engagement, machine, motor, process, replay, workpiece,
 };
 
 pub mod baselines;

@@ -80,6 +80,10 @@ pub struct DiscrepancyArgs {
     /// (report section "Spindle calibration", docs/twin.md).
     #[arg(long)]
     pub no_spindle_calibration: bool,
+    /// The NC program of the measured run (`--program`, `--stock-box`/`--stock`, `--cell`,
+    /// `--tools`): see [`crate::cmd_discrepancy_program`].
+    #[command(flatten)]
+    pub program: crate::cmd_discrepancy_program::ProgramOpts,
 }
 
 /// The engagement source of `--workpiece` (with `--x0-mm`) for `model`'s tool, if given.
@@ -122,10 +126,24 @@ fn path_engagement(
     Ok(Some(eng))
 }
 
-fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
+fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog, Option<Program>)> {
     // The model first: a production log's engagement needs its tool diameter.
     let given_model = args.model.as_deref().map(Model::load).transpose()?;
     let engagement = path_engagement(args, given_model.as_ref())?;
+    let program = match (&args.program.program, &given_model) {
+        (None, _) => None,
+        (Some(_), _) if args.import.is_some() => {
+            bail!("--program applies to run logs written by `acc`, not to --import")
+        }
+        (Some(_), None) => bail!("--program needs --model (its tool cuts the stock)"),
+        (Some(_), Some(m)) => crate::cmd_discrepancy_program::ProgramLog::load(&args.program, m)?,
+    };
+    if let Some(p) = &program {
+        let (log, blocks) = crate::cmd_discrepancy_program::read_log(&args.measured, p)?;
+        let model = given_model.context("--program needs --model")?;
+        let model = with_channel(model, args)?;
+        return Ok((model, log.clone(), Some((p.entries_mm(), log, blocks))));
+    }
     let (log, default_model) = match args.import.as_deref() {
         None => (
             acc_ident::runlog::read_csv_with(&args.measured, engagement.as_ref())?,
@@ -154,18 +172,26 @@ fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog)> {
         }
         Some(other) => bail!("--import `{other}`: allowed `vicomtech-turning`, `umich-mill`"),
     };
-    let mut model = match (given_model, default_model) {
+    let model = match (given_model, default_model) {
         (Some(m), _) => m,
         (None, Some(m)) => m,
         (None, None) => bail!("--model is required unless --import gives a nominal model"),
     };
+    Ok((with_channel(model, args)?, log, None))
+}
+
+/// The entries of a `--program` run's path (mm), its log as analysed and each row's block.
+type Program = (Vec<f64>, RunLog, Vec<Option<u16>>);
+
+/// `model` compared on `--channel` if given.
+fn with_channel(mut model: Model, args: &DiscrepancyArgs) -> anyhow::Result<Model> {
     match args.channel.as_deref() {
         None => {}
         Some("power") => model.measurement.channel = Channel::Power,
         Some("force") => model.measurement.channel = Channel::Force,
         Some(other) => bail!("--channel `{other}`: allowed `power`, `force`"),
     }
-    Ok((model, log))
+    Ok(model)
 }
 
 fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
@@ -194,7 +220,7 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
                     format!(
                         "--effects: unknown effect `{}`; allowed: all, or any of {}",
                         s.trim(),
-                        EffectKind::ALL.map(|k| k.name()).join(", ")
+                        EffectKind::LIBRARY.map(|k| k.name()).join(", ")
                     )
                 })
             })
@@ -207,7 +233,11 @@ fn options(args: &DiscrepancyArgs) -> anyhow::Result<workflow::Options> {
 pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
     // Flags first: a bad flag is reported before any file is read.
     let mut opts = options(args)?;
-    let (model, log) = load_inputs(args)?;
+    let (model, log, program) = load_inputs(args)?;
+    // A controller plans the program's motion: its acceleration limit is a candidate.
+    if program.is_some() && args.effects.is_none() {
+        opts.candidates.push(EffectKind::FeedAccelLimit);
+    }
     // A plant replay (a log with the applied override) takes the engagement from the
     // workpiece inside each period, as the simulator does.
     if let Some(eng) = path_engagement(args, Some(&model))? {
@@ -236,6 +266,18 @@ pub fn run(args: &DiscrepancyArgs) -> anyhow::Result<()> {
     write("machine.updated.toml", &updated.machine_toml()?)?;
     write("tool.updated.toml", &updated.tool_toml()?)?;
     plots(&analysis, out, &analysis.report.input.unit)?;
+    if let Some((entries, log, blocks)) = &program {
+        use crate::cmd_discrepancy_program::{places_markdown, where_they_disagree};
+        let places = where_they_disagree(log, &analysis.series, entries, blocks);
+        let table = places_markdown(&places, &analysis.report.input.unit);
+        write("where.md", &table)?;
+        write(
+            "rows.csv",
+            &crate::cmd_discrepancy_program::rows_csv(log, &analysis.series, blocks),
+        )?;
+        println!("where the model and the run disagree (where.md):\n{table}");
+        crate::cmd_discrepancy_program::print_findings(&analysis.report);
+    }
     println!("{}", analysis.report.conclusion);
     println!("wrote {}", out.display());
     Ok(())

@@ -7,6 +7,7 @@ mod cmd_collect;
 mod cmd_compare;
 mod cmd_compare_program;
 mod cmd_discrepancy;
+mod cmd_discrepancy_program;
 mod cmd_estimate_eval;
 mod cmd_history;
 mod cmd_linuxcnc;

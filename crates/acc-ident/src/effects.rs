@@ -54,6 +54,11 @@ pub enum EffectKind {
     /// A second-order feed drive: a second first-order lag `τ₂` in series with the drive
     /// lag (the simulator's `feed_drive.tau2_s`).
     SecondOrderDrive,
+    /// An acceleration-limited feed: the drive's input ramps at most `a` mm/s² along the
+    /// path, a trajectory planner's tangential limit (the simulator's
+    /// `feed_drive.accel_mm_s2`). In [`EffectKind::LIBRARY`], not in the default
+    /// candidates [`EffectKind::ALL`]: a candidate where a controller plans the motion.
+    FeedAccelLimit,
 }
 
 /// Description of one effect parameter.
@@ -115,6 +120,17 @@ const P_KS_STEP: [ParamInfo; 2] = [
 /// Coarse grid of the second lag (each point is a full plant replay); LM refines.
 const TAU2_GRID: &[f64] = &[0.0, 0.05, 0.12, 0.25, 0.45];
 const P_TAU2: [ParamInfo; 1] = [p("tau2_s", "s", 0.0, 0.99, 0.02, Some(TAU2_GRID))];
+/// Coarse grid of the inverse acceleration `1000/a` (a in mm/s²: ∞, 1000, 200, 100, 50,
+/// 25, 12.5, 6.7 mm/s²); each point is a full plant replay, LM refines.
+const INV_ACCEL_GRID: &[f64] = &[0.0, 1.0, 5.0, 10.0, 20.0, 40.0, 80.0, 150.0];
+const P_ACCEL: [ParamInfo; 1] = [p(
+    "inverse_accel_s2_per_m",
+    "s²/m",
+    0.0,
+    200.0,
+    0.5,
+    Some(INV_ACCEL_GRID),
+)];
 const THERMAL_GRID: &[f64] = &[20.0, 40.0, 80.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
 const fn p(
@@ -230,7 +246,21 @@ impl EffectKind {
         d
     };
 
-    /// All effects, in report order: the workflow's candidates (`Options::candidates`).
+    /// The whole library, in [`EFFECTS`] order: [`EffectKind::ALL`] and the acceleration
+    /// limit, a candidate only where a log's motion is a controller's plan (`acc
+    /// discrepancy --program`).
+    pub const LIBRARY: [EffectKind; 14] = {
+        let mut d = [EffectKind::FeedAccelLimit; 14];
+        let mut i = 0;
+        while i < EffectKind::ALL.len() {
+            d[i] = EffectKind::ALL[i];
+            i += 1;
+        }
+        d
+    };
+
+    /// The default candidates, in report order (`Options::candidates`): the library
+    /// without [`EffectKind::FeedAccelLimit`].
     pub const ALL: [EffectKind; 13] = [
         EffectKind::ToolWear,
         EffectKind::MotorEfficiency,
@@ -259,7 +289,7 @@ impl EffectKind {
 
     /// Look an effect up by [`EffectKind::name`].
     pub fn from_name(name: &str) -> Option<EffectKind> {
-        EffectKind::ALL.into_iter().find(|k| k.name() == name)
+        EffectKind::LIBRARY.into_iter().find(|k| k.name() == name)
     }
 
     /// The effect's parameters; the first is the primary one (its interval must exclude
@@ -331,6 +361,11 @@ impl EffectKind {
             }
             (NoloadDrift, KsStep) => {
                 "an air-cut pause just before and just after the boundary: a no-load drift moves the air power, a material step only the cutting power"
+            }
+            (FeedDriveLag, FeedAccelLimit)
+            | (SecondOrderDrive, FeedAccelLimit)
+            | (OverrideDeadTime, FeedAccelLimit) => {
+                "two override steps held for several seconds, one small (10 %) and one large (≥ 50 %): an acceleration limit takes a time in proportion to the step, a lag or a dead time the same time whatever its size"
             }
             (FeedDriveLag, SecondOrderDrive)
             | (OverrideDeadTime, SecondOrderDrive)
@@ -457,6 +492,26 @@ pub struct SecondOrderDrive {
     pub tau2_s: f64,
 }
 
+/// An acceleration limit of the feed (`[effects.feed_accel_limit]`), parameterized by its
+/// inverse `k = 1000/a` (s²/m, `a` in mm/s²) so that 0 is the null (no limit) and a
+/// limit adds to the machine's own: `1000/a = k_machine + k`. A trajectory planner
+/// accelerates the path at most at `a` (LinuxCNC: the tangential share of `[AXIS_*]
+/// MAX_ACCELERATION`), so the feed ramps at `60·a` mm/min per s
+/// ([`acc_sim::accel::AccelLimit`]). Null: 0 s²/m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedAccelLimit {
+    /// Inverse acceleration `1000/a`, s²/m. Range 0 ..= 200 (a ≥ 5 mm/s²).
+    pub inverse_accel_s2_per_m: f64,
+}
+
+impl FeedAccelLimit {
+    /// The acceleration, mm/s² (`f64::INFINITY` at the null).
+    pub fn accel_mm_s2(&self) -> f64 {
+        1000.0 / self.inverse_accel_s2_per_m
+    }
+}
+
 /// The `[effects]` section: each effect absent (off) or present with its parameters.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -500,6 +555,9 @@ pub struct Effects {
     /// Second-order feed drive.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub second_order_drive: Option<SecondOrderDrive>,
+    /// Acceleration-limited feed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_accel_limit: Option<FeedAccelLimit>,
 }
 
 /// Gain drift of the measured channel (`[effects.sensor_gain_drift]`). Null: 0.
@@ -567,7 +625,7 @@ impl Effects {
 
     /// The effects switched on.
     pub fn active(&self) -> Vec<EffectKind> {
-        EffectKind::ALL
+        EffectKind::LIBRARY
             .into_iter()
             .filter(|k| self.is_on(*k))
             .collect()
@@ -677,8 +735,8 @@ const fn pad(v: &[f64]) -> [f64; MAX_PARAMS] {
     out
 }
 
-/// The effect library, in [`EffectKind`] order ([`EffectKind::ALL`]).
-pub static EFFECTS: [EffectDesc; 13] = [
+/// The effect library, in [`EffectKind`] order ([`EffectKind::LIBRARY`]).
+pub static EFFECTS: [EffectDesc; 14] = [
     entry!(ToolWear, tool_wear: ToolWear { ks_growth_per_cm3 = 0.0, volume_exponent = 1.0 }, P_TOOL_WEAR),
     entry!(MotorEfficiency, motor_efficiency: MotorEfficiency { copper_loss_per_kw = 0.0 }, P_MOTOR),
     entry!(FeedDriveLag, feed_drive_lag: FeedDriveLag { extra_tau_s = 0.0 }, P_LAG),
@@ -692,6 +750,7 @@ pub static EFFECTS: [EffectDesc; 13] = [
     entry!(DepthExponent, depth_exponent: DepthExponent { delta_alpha = 0.0 }, P_DEPTH_EXP),
     entry!(KsStep, ks_step: KsStep { delta = 0.0, boundary_frac = 0.5 }, P_KS_STEP),
     entry!(SecondOrderDrive, second_order_drive: SecondOrderDrive { tau2_s = 0.0 }, P_TAU2),
+    entry!(FeedAccelLimit, feed_accel_limit: FeedAccelLimit { inverse_accel_s2_per_m = 0.0 }, P_ACCEL),
 ];
 
 #[cfg(test)]
@@ -719,7 +778,7 @@ mod tests {
 
     #[test]
     fn the_table_is_in_kind_order_and_round_trips_every_parameter() {
-        for (i, k) in EffectKind::ALL.into_iter().enumerate() {
+        for (i, k) in EffectKind::LIBRARY.into_iter().enumerate() {
             let d = &EFFECTS[i];
             assert_eq!(d.kind, k);
             assert!(d.params.len() <= MAX_PARAMS, "{}", d.name);
@@ -743,8 +802,9 @@ mod tests {
         for (k, n) in [
             (EffectKind::SensorGainDrift, "sensor_gain_drift"),
             (EffectKind::MeasurementDelay, "measurement_delay"),
+            (EffectKind::FeedAccelLimit, "feed_accel_limit"),
         ] {
-            assert!(EffectKind::ALL.contains(&k));
+            assert!(EffectKind::LIBRARY.contains(&k));
             assert_eq!(EffectKind::from_name(n), Some(k));
             let mut e = Effects::default();
             e.set(k, 0, 0.1);

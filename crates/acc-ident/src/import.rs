@@ -234,6 +234,7 @@ fn recorded_feed_model(name: &str, machine: &str, channel: Channel, spindle: Spi
             feed_drive: FeedDrive {
                 tau_s: 0.0,
                 tau2_s: 0.0,
+                accel_mm_s2: 0.0,
                 rapid_mm_min: 10_000.0,
             },
             override_path: OverridePath {

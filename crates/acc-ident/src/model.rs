@@ -328,7 +328,8 @@ impl Model {
     }
 
     /// The effects that the simulator already has a key for are folded into the
-    /// machine and tool sections (extra lag into `feed_drive.tau_s`, extra dead time into
+    /// machine and tool sections (extra lag into `feed_drive.tau_s`, an acceleration limit
+    /// into `feed_drive.accel_mm_s2`, extra dead time into
     /// `override_path.delay_s`, wear into `wear.growth_per_cm3`, feed exponent into
     /// `process.beta` with `Ks` kept at the calibration point, losses added to
     /// `spindle.motor_efficiency.copper_loss_per_kw`, drift into `spindle.noload_drift`
@@ -342,6 +343,13 @@ impl Model {
         }
         if let Some(e) = fx.override_dead_time {
             m.machine.override_path.delay_s += e.extra_delay_s;
+        }
+        if let Some(e) = fx.feed_accel_limit {
+            // The inverse accelerations add (`1000/a = k_machine + k`).
+            let k = crate::replay::machine_inv_accel(self) + e.inverse_accel_s2_per_m;
+            if k > 0.0 {
+                m.machine.feed_drive.accel_mm_s2 = 1000.0 / k;
+            }
         }
         if let Some(e) = fx.tool_wear {
             // Clamp at the simulator's lower bound: a negative growth is not a wear law.
@@ -400,6 +408,7 @@ impl Model {
         }
         for k in [
             EffectKind::FeedDriveLag,
+            EffectKind::FeedAccelLimit,
             EffectKind::OverrideDeadTime,
             EffectKind::ToolWear,
         ] {

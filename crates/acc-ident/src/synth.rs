@@ -105,6 +105,7 @@ pub fn nominal_model(case: &Case) -> Model {
             feed_drive: FeedDrive {
                 tau_s: 0.05,
                 tau2_s: 0.0,
+                accel_mm_s2: 0.0,
                 rapid_mm_min: 10_000.0,
             },
             override_path: OverridePath {

@@ -174,6 +174,11 @@ pub struct FeedDriveSpec {
     /// position loop). Range 0 ..= 1.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub tau2_s: f64,
+    /// Acceleration limit of the feed along the path, mm/s² (default 0: none; > 0: the
+    /// drive's input ramps at most this fast, as a trajectory planner's tangential limit,
+    /// [`crate::accel::AccelLimit`]). Range 0 ..= 100 000.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_mm_s2: f64,
     /// Rapid traverse rate of an NC program's G0 moves, mm/min (not overridden by the
     /// feed override). Default 10 000, range 100 ..= 100 000.
     #[serde(default = "default_rapid_mm_min")]
@@ -309,6 +314,13 @@ impl MachineSpec {
         self.spindle.validate_effects(f, "spindle")?;
         check_range(f, "feed_drive.tau_s", self.feed_drive.tau_s, 0.0, 1.0)?;
         check_range(f, "feed_drive.tau2_s", self.feed_drive.tau2_s, 0.0, 1.0)?;
+        check_range(
+            f,
+            "feed_drive.accel_mm_s2",
+            self.feed_drive.accel_mm_s2,
+            0.0,
+            100_000.0,
+        )?;
         check_range(
             f,
             "feed_drive.rapid_mm_min",

@@ -16,6 +16,7 @@
 //! Background: `../shared/docs/physics.md` §1 (seed 002) and §3 (seed 004).
 #![deny(missing_docs)]
 
+pub mod accel;
 pub mod board;
 pub mod channel;
 pub mod config;

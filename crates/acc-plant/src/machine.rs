@@ -6,6 +6,7 @@ use std::f64::consts::PI;
 
 use acc_core::filter::FirstOrderLag;
 
+use crate::accel::AccelLimit;
 use crate::config::{MachineSpec, Runout, SensorLowpass, SpindleSpec, ToolSpec};
 use crate::engagement::{EngagementSource, ToolGeometry, WorkpieceSource};
 use crate::process::{ForceLaw, ForceMemo, ToothModel, Wear, WearSpec};
@@ -168,6 +169,8 @@ pub struct Machine {
     /// Second lag of a second-order feed drive (0: first order), s, and its state, mm/min.
     tau2_s: f64,
     feed_inner_mm_min: f64,
+    /// The acceleration limit on the drive's input and its state.
+    accel: AccelLimit,
     programmed_feed_mm_min: f64,
     rate_hz: f64,
     spindle: Box<dyn SpindleModel>,
@@ -248,6 +251,7 @@ impl Machine {
             tau_s: machine.feed_drive.tau_s,
             tau2_s: machine.feed_drive.tau2_s,
             feed_inner_mm_min: 0.0,
+            accel: AccelLimit::new(machine.feed_drive.accel_mm_s2),
             programmed_feed_mm_min,
             rate_hz,
             spindle: Box::new(ConstantSpeedSpindle::new(machine.spindle)),
@@ -289,6 +293,7 @@ impl Machine {
             tau_s: self.tau_s,
             tau2_s: self.tau2_s,
             feed_inner_mm_min: self.feed_inner_mm_min,
+            accel: self.accel,
             programmed_feed_mm_min: self.programmed_feed_mm_min,
             rate_hz: self.rate_hz,
             spindle: self.spindle.boxed_clone()?,
@@ -441,7 +446,8 @@ impl Machine {
     /// Advance one control period `period_s` and return what happened.
     ///
     /// Per internal step `dt`: the override input enters the delay line; the feed target
-    /// `f_prog · ov/100` drives the feed drive's first-order lag (exact discretisation,
+    /// `f_prog · ov/100`, rate-limited by `feed_drive.accel_mm_s2` when set
+    /// ([`AccelLimit`]), drives the feed drive's first-order lag (exact discretisation,
     /// `f += (target − f)(1 − e^(−dt/τ))`, seed 002 eq. 5); the tool moves `f·dt`; the
     /// engaged radial and axial depth and `Ks` factor come from the engagement source at
     /// the step's position (the workpiece unless [`Machine::set_engagement_source`] set
@@ -476,6 +482,7 @@ impl Machine {
                 (false, Some(p)) => p.feed_mm_min * f64::from(ov) / 100.0,
                 (false, None) => self.programmed_feed_mm_min * f64::from(ov) / 100.0,
             };
+            let target = self.accel.step(target, dt);
             let f_old = self.feed_mm_min;
             self.feed_mm_min = if self.tau2_s > 0.0 {
                 self.feed_inner_mm_min =

@@ -112,9 +112,12 @@ impl SpindleModel for LoggedSpeedSpindle {
 }
 
 /// The time the override path and the feed drive of `machine` need to settle on a constant
-/// input to within e⁻³⁰ (≈ 1e−13) of it, s: the delay plus 30 time constants.
-fn settling_time_s(machine: &MachineSpec) -> f64 {
-    machine.override_path.delay_s + 30.0 * (machine.feed_drive.tau_s + machine.feed_drive.tau2_s)
+/// input of `feed_mm_min` (mm/min) to within e⁻³⁰ (≈ 1e−13) of it, s: the delay, the
+/// acceleration limit's ramp and 30 time constants.
+fn settling_time_s(machine: &MachineSpec, feed_mm_min: f64) -> f64 {
+    machine.override_path.delay_s
+        + crate::accel::AccelLimit::new(machine.feed_drive.accel_mm_s2).ramp_time_s(feed_mm_min)
+        + 30.0 * (machine.feed_drive.tau_s + machine.feed_drive.tau2_s)
 }
 
 /// How the measurement channel looks at each period.
@@ -261,7 +264,8 @@ pub fn trace(
         set_inputs(&mut m, 0);
         m.set_engagement_source(Some(Box::new(Held(Engagement::air(0.0)))));
         let p = drive.period_s[0].max(1e-3);
-        for _ in 0..(settling_time_s(machine) / p).ceil() as usize {
+        let feed = drive.programmed_feed_mm_min[0] * drive.override_applied_pct[0] / 100.0;
+        for _ in 0..(settling_time_s(machine, feed) / p).ceil() as usize {
             m.advance(p);
         }
         m.set_engagement_source(None);

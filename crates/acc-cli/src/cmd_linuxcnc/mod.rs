@@ -13,6 +13,7 @@
 //! `halrun -U`.
 
 pub mod cut;
+pub mod ini;
 pub mod process;
 pub mod setup;
 pub mod summary;
@@ -111,6 +112,12 @@ pub struct LinuxcncArgs {
     /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it.
     #[arg(long, default_value_t = 900.0)]
     pub timeout_s: f64,
+    /// A LinuxCNC configuration value, `SECTION.KEY=VALUE` (repeatable), set in the
+    /// generated `acc.ini`: the section and key must be in the template, a number in its
+    /// kind's range (accelerations 1 ..= 100000 mm/s²); an `AXIS_X/Y/Z` limit also sets its
+    /// `JOINT_0/1/2` ([`ini`]).
+    #[arg(long = "ini", value_name = "SECTION.KEY=VALUE")]
+    pub ini: Vec<String>,
 }
 
 /// `acc linuxcnc`.
@@ -174,6 +181,12 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
     if !(args.timeout_s.is_finite() && (10.0..=86_400.0).contains(&args.timeout_s)) {
         anyhow::bail!("--timeout-s {}: allowed 10 ..= 86400 s", args.timeout_s);
     }
+    let ini_values = args
+        .ini
+        .iter()
+        .map(|s| ini::parse(s))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    setup::check_ini(&ini_values)?;
     if let Some(why) = missing_linuxcnc() {
         anyhow::bail!("LinuxCNC is needed: {why} (apt-get install linuxcnc-uspace)");
     }
@@ -215,6 +228,7 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
             .unwrap_or_default(),
         watchdog_s: args.watchdog_s,
         dir: dir.clone(),
+        ini: ini_values,
     };
     let ini = setup::write_files(&fill, tools.as_deref())?;
 

@@ -27,6 +27,8 @@ pub struct Fill {
     pub watchdog_s: f64,
     /// The run's folder: `@RUN_LOG@` = `run.csv`, `@MACHINE_LOG@` = `machine.csv` in it.
     pub dir: PathBuf,
+    /// `--ini` values written into `acc.ini` ([`super::ini::apply`]).
+    pub ini: Vec<super::ini::IniValue>,
 }
 
 /// The shipped template `name` of `configs/linuxcnc/`, read.
@@ -50,6 +52,16 @@ fn fill_in(text: &str, fill: &Fill) -> String {
         .replace("@MACHINE_LOG@", &p(&fill.dir.join("machine.csv")))
 }
 
+/// The run's `acc.ini`: the template filled in, with the `--ini` values set.
+pub fn ini_text(fill: &Fill) -> anyhow::Result<String> {
+    super::ini::apply(&fill_in(&template("acc.ini")?, fill), &fill.ini)
+}
+
+/// `values` checked against the shipped template (before anything is written or run).
+pub fn check_ini(values: &[super::ini::IniValue]) -> anyhow::Result<()> {
+    super::ini::apply(&template("acc.ini")?, values).map(|_| ())
+}
+
 /// Writes `acc.ini`, `acc.hal`, `ui.py` (executable) and `tool.tbl` (the `tools` file if
 /// given, else the template's) into `fill.dir`; the INI's path.
 pub fn write_files(fill: &Fill, tools: Option<&Path>) -> anyhow::Result<PathBuf> {
@@ -60,7 +72,7 @@ pub fn write_files(fill: &Fill, tools: Option<&Path>) -> anyhow::Result<PathBuf>
             .with_context(|| format!("--out {}: cannot write {name}", dir.display()))?;
         Ok(path)
     };
-    let ini = write("acc.ini", fill_in(&template("acc.ini")?, fill))?;
+    let ini = write("acc.ini", ini_text(fill)?)?;
     write("acc.hal", fill_in(&template("acc.hal")?, fill))?;
     let ui = write("ui.py", template("ui.py")?)?;
     {
@@ -92,6 +104,7 @@ mod tests {
             run_args: "--plan /p/plan.csv".into(),
             watchdog_s: 0.2,
             dir: "/run".into(),
+            ini: vec![super::super::ini::parse("AXIS_Y.MAX_ACCELERATION=40").expect("ini")],
         };
         for name in ["acc.ini", "acc.hal"] {
             let text = fill_in(&template(name).expect("template"), &fill);
@@ -108,5 +121,8 @@ mod tests {
         assert!(hal.contains("setp watchdog.timeout-0 0.2"));
         let ini = fill_in(&template("acc.ini").expect("ini"), &fill);
         assert!(ini.contains("OPEN_FILE = /p/part.ngc") && ini.contains("M52 P1"));
+        // `--ini` reaches the shipped template's axis and joint.
+        let ini = ini_text(&fill).expect("ini");
+        assert_eq!(ini.matches("MAX_ACCELERATION = 40").count(), 2, "{ini}");
     }
 }

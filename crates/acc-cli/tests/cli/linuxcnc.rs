@@ -80,7 +80,7 @@ fn run_periods(dir: &Path) -> Vec<u64> {
 }
 
 /// Why LinuxCNC cannot run here, or `None`.
-fn missing_linuxcnc() -> Option<String> {
+pub(crate) fn missing_linuxcnc() -> Option<String> {
     for f in [
         "/usr/bin/linuxcnc",
         "/usr/bin/halcmd",

@@ -4,4 +4,5 @@
 //! One module per command.
 
 mod linuxcnc;
+mod linuxcnc_twin;
 mod nc;

@@ -324,6 +324,7 @@ impl Inputs {
             EffectKind::FeedDriveLag
             | EffectKind::OverrideDeadTime
             | EffectKind::SecondOrderDrive
+            | EffectKind::FeedAccelLimit
                 if self.feed_cmd_mm_min.is_none() =>
             {
                 Err("needs the feed command (programmed_feed_mm_min, override_cmd_pct)")
@@ -331,7 +332,10 @@ impl Inputs {
             EffectKind::Runout if self.runout_visibility() < 0.05 => {
                 Err("not observable: the sampling averages whole spindle revolutions")
             }
-            EffectKind::FeedDriveLag | EffectKind::OverrideDeadTime | EffectKind::SecondOrderDrive
+            EffectKind::FeedDriveLag
+            | EffectKind::OverrideDeadTime
+            | EffectKind::SecondOrderDrive
+            | EffectKind::FeedAccelLimit
                 if !self.command_steps() =>
             {
                 Err("not excited: the feed command never changes")

@@ -17,6 +17,7 @@ mod path;
 pub use consistency::ForcePowerConsistency;
 pub use inputs::{FeedSource, Inputs, PlantInputs, ReplayError};
 use ks_step::*;
+pub(crate) use path::machine_inv_accel;
 use path::{path, PathCache};
 
 use crate::effects::EffectKind;

@@ -38,6 +38,9 @@ const LAG_NODE_S: f64 = 5e-4;
 /// [`LAG_NODE_S`]).
 const LAG_NODE_SHARE: f64 = 0.05;
 
+/// Spacing of the traced nodes of the inverse acceleration `1000/a` at 0, s²/m.
+const ACCEL_NODE: f64 = 0.25;
+
 /// Spacing of the traced nodes of the depth exponent `α`, −.
 const ALPHA_NODE: f64 = 0.01;
 
@@ -50,6 +53,8 @@ struct PathKey {
     tau_s: f64,
     /// Second lag of the feed drive, s (0: first-order drive).
     tau2_s: f64,
+    /// Inverse acceleration limit `1000/a` of the feed, s²/m (0: none).
+    inv_accel_s2_per_m: f64,
     window_s: f64,
     process: [f64; 8],
 }
@@ -74,6 +79,11 @@ fn plant_trace(
     machine.override_path.delay_s = if instant { 0.0 } else { key.delay_s };
     machine.feed_drive.tau_s = if instant { 0.0 } else { key.tau_s };
     machine.feed_drive.tau2_s = if instant { 0.0 } else { key.tau2_s };
+    machine.feed_drive.accel_mm_s2 = if instant || key.inv_accel_s2_per_m <= 0.0 {
+        0.0
+    } else {
+        1000.0 / key.inv_accel_s2_per_m
+    };
     // The process constants of the key (the depth-exponent candidate changes α).
     let mut tool = model.tool.clone();
     tool.process.alpha = key.process[4];
@@ -251,6 +261,30 @@ fn lag_nodes(base: f64, offset: f64) -> Vec<(f64, f64)> {
     )
 }
 
+/// The nodes of the inverse acceleration around `base + offset` (`offset` ≥ 0), s²/m: as
+/// [`lag_nodes`], [`ACCEL_NODE`] apart at 0 and widening by [`LAG_NODE_SHARE`].
+fn accel_nodes(base: f64, offset: f64) -> Vec<(f64, f64)> {
+    let r = LAG_NODE_SHARE;
+    let c = ACCEL_NODE / r;
+    let growth = (1.0 + r).ln();
+    between(
+        base,
+        offset,
+        |j| (base + c) * (j * growth).exp() - c,
+        |v| ((v + c) / (base + c)).ln() / growth,
+    )
+}
+
+/// The machine's own inverse acceleration `1000/a`, s²/m (0 without a limit).
+pub(crate) fn machine_inv_accel(model: &Model) -> f64 {
+    let a = model.machine.feed_drive.accel_mm_s2;
+    if a > 0.0 {
+        1000.0 / a
+    } else {
+        0.0
+    }
+}
+
 /// The nodes of the depth exponent around `base + offset`, [`ALPHA_NODE`] apart from
 /// `base`.
 fn exponent_nodes(base: f64, offset: f64) -> Vec<(f64, f64)> {
@@ -320,10 +354,11 @@ pub(super) fn path(model: &Model, inp: &Inputs) -> Rc<Vec<PeriodTrace>> {
         steps / rate_hz
     };
     let window_s = channel_window_s(model, inp);
-    let key = |tau_s: f64, tau2_s: f64, alpha: f64| PathKey {
+    let key = |tau_s: f64, tau2_s: f64, alpha: f64, inv_accel_s2_per_m: f64| PathKey {
         delay_s,
         tau_s,
         tau2_s,
+        inv_accel_s2_per_m,
         window_s,
         process: [
             p.calib_radial_mm,
@@ -345,11 +380,17 @@ pub(super) fn path(model: &Model, inp: &Inputs) -> Rc<Vec<PeriodTrace>> {
         fx.get(EffectKind::SecondOrderDrive, 0).max(0.0),
     );
     let alpha = exponent_nodes(p.alpha, fx.get(EffectKind::DepthExponent, 0));
-    let mut parts = Vec::with_capacity(8);
+    let accel = accel_nodes(
+        machine_inv_accel(model),
+        fx.get(EffectKind::FeedAccelLimit, 0).max(0.0),
+    );
+    let mut parts = Vec::with_capacity(16);
     for &(a, wa) in &lag {
         for &(b, wb) in &lag2 {
             for &(c, wc) in &alpha {
-                parts.push((traced(model, inp, key(a, b, c)), wa * wb * wc));
+                for &(d, wd) in &accel {
+                    parts.push((traced(model, inp, key(a, b, c, d)), wa * wb * wc * wd));
+                }
             }
         }
     }
@@ -385,6 +426,7 @@ mod tests {
             delay_s: model.machine.override_path.delay_s + fx.get(EffectKind::OverrideDeadTime, 0),
             tau_s: model.machine.feed_drive.tau_s + fx.get(EffectKind::FeedDriveLag, 0),
             tau2_s: model.machine.feed_drive.tau2_s + fx.get(EffectKind::SecondOrderDrive, 0),
+            inv_accel_s2_per_m: machine_inv_accel(model) + fx.get(EffectKind::FeedAccelLimit, 0),
             window_s: channel_window_s(model, inp),
             process: [
                 p.calib_radial_mm,
@@ -422,6 +464,7 @@ mod tests {
             (EffectKind::FeedDriveLag, 0.0053),
             (EffectKind::SecondOrderDrive, 0.0047),
             (EffectKind::DepthExponent, 0.1037),
+            (EffectKind::FeedAccelLimit, 3.37),
         ] {
             let mut m = model.clone();
             m.effects.set(kind, 0, value);
