@@ -63,7 +63,7 @@ pub struct DiscrepancyArgs {
     /// Workpiece the measured run cut (`configs/workpieces/*.toml`, or the scenario file
     /// that names it): the engagement of a production log (`acc run`, no depth columns) is
     /// rebuilt from it at the logged path position `x_mm`, for the model's tool diameter.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "program")]
     pub workpiece: Option<PathBuf>,
     /// With `--workpiece`: workpiece coordinate of the tool centre when `acc run` first read
     /// the machine (the end of the first row's period), mm (-1e5..=1e5). 0 = the start of
@@ -80,10 +80,13 @@ pub struct DiscrepancyArgs {
     /// (report section "Spindle calibration", docs/twin.md).
     #[arg(long)]
     pub no_spindle_calibration: bool,
-    /// The NC program of the measured run (`--program`, `--stock-box`/`--stock`, `--cell`,
-    /// `--tools`): see [`crate::cmd_discrepancy_program`].
+    /// The NC program the measured run ran (`--program`, `--stock-box`/`--stock`, `--cell`,
+    /// `--tools`, as `acc sim --program`): a log of `acc run` under a CNC controller that
+    /// reports its block, e.g. `acc linuxcnc`'s `run.csv`. Each row's engagement is the
+    /// program's sweep through the stock at the row's path position
+    /// ([`crate::cmd_discrepancy_program`]).
     #[command(flatten)]
-    pub program: crate::cmd_discrepancy_program::ProgramOpts,
+    pub program: crate::cmd_sim_program::ProgramArgs,
 }
 
 /// The engagement source of `--workpiece` (with `--x0-mm`) for `model`'s tool, if given.

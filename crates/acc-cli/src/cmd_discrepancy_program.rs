@@ -20,45 +20,13 @@
 //! entries, and at the override's speed changes.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use acc_ident::RunLog;
 use acc_runtime::record::RunRecord;
 use acc_sim::engagement::{EngagementSource as _, ToolGeometry};
 use acc_sim::program::{ProgramPath, ProgramSpec};
 use anyhow::Context as _;
-
-/// The program options of `acc discrepancy`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct ProgramOpts {
-    /// The NC program the measured run ran (a log of `acc run` under a CNC controller that
-    /// reports its block, e.g. `acc linuxcnc`'s `run.csv`): the engagement
-    /// of each row is the program's sweep through the stock at the row's path position.
-    #[arg(long, value_name = "FILE.ngc", conflicts_with = "workpiece")]
-    pub program: Option<PathBuf>,
-    /// The program's stock: a `stock.toml`.
-    #[arg(
-        long,
-        value_name = "stock.toml",
-        requires = "program",
-        conflicts_with = "stock_box"
-    )]
-    pub stock: Option<PathBuf>,
-    /// The program's stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm.
-    #[arg(
-        long,
-        value_name = "X0,Y0,Z0,X1,Y1,Z1",
-        requires = "program",
-        allow_hyphen_values = true
-    )]
-    pub stock_box: Option<String>,
-    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
-    #[arg(long, value_name = "MM", default_value_t = 0.25)]
-    pub cell: f64,
-    /// LinuxCNC tool table (`.tbl`) with the program's tool diameters.
-    #[arg(long, value_name = "FILE.tbl", requires = "program")]
-    pub tools: Option<PathBuf>,
-}
 
 /// Where a block lies on the path.
 #[derive(Debug, Clone, Copy)]
@@ -78,7 +46,10 @@ pub struct ProgramLog {
 impl ProgramLog {
     /// Build the path of `opts` for the model's tool (diameter, flutes, flute length), its
     /// spindle speed and rapid rate; `None` without `--program`.
-    pub fn load(opts: &ProgramOpts, model: &acc_ident::Model) -> anyhow::Result<Option<Self>> {
+    pub fn load(
+        opts: &crate::cmd_sim_program::ProgramArgs,
+        model: &acc_ident::Model,
+    ) -> anyhow::Result<Option<Self>> {
         let Some(program) = &opts.program else {
             return Ok(None);
         };

@@ -14,8 +14,9 @@ use anyhow::Context as _;
 /// The program options of `acc sim` and `acc board-sim`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ProgramArgs {
-    /// Run an NC program (RS274/NGC) instead of the scenario's 1-D workpiece; the
-    /// scenario gives the machine, tool, controller and measurement.
+    /// An NC program (RS274/NGC) in place of the scenario's 1-D workpiece; the scenario
+    /// gives the machine, tool, controller and measurement (`acc discrepancy`: the program
+    /// the measured run ran).
     #[arg(long, value_name = "FILE.ngc")]
     pub program: Option<PathBuf>,
     /// The program's stock: a `stock.toml` (a box or a height map, docs/stock.md).
