@@ -190,3 +190,15 @@ fn dispatch(cli: Cli) -> anyhow::Result<()> {
         Command::Collect(args) => cmd_collect::run(&args),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    /// Every subcommand's arguments are consistent (ids named by `conflicts_with` and
+    /// `requires` exist, no two options share a name): clap checks it here once, not at a
+    /// user's first call.
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        use clap::CommandFactory as _;
+        super::Cli::command().debug_assert();
+    }
+}
