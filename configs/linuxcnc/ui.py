@@ -6,6 +6,12 @@ docs/linuxcnc.md), open [DISPLAY] OPEN_FILE, run it, wait until the interpreter 
 exit (LinuxCNC then shuts down). Writes ui.log beside the INI: one line per step, with
 time.monotonic() stamps, and `cycle_s` (program start to idle).
 
+M52 for acc: the HAL component `acc-ui` of this script has one pin, `acc-ui.adaptive-enabled`
+(bit out), joined to acc.hal's signal `acc-adaptive` (=> acc.adaptive-enabled). After every
+stat poll it is `stat().adaptive_feed_enabled`: during a program, the AF bit of the move
+the motion controller executes (LinuxCNC's enables_queued), so `M52 P0` / `M52 P1` reach acc
+when the motion reaches them, not when the interpreter reads them (docs/linuxcnc.md).
+
 Environment: ACC_FAULT=KIND@N[+S]: the fault test. S seconds (default 0) after
 acc-process.force first reaches N newtons, set acc-process.fault (the machine log's `fault`
 column marks the moment) and:
@@ -17,6 +23,13 @@ column marks the moment) and:
   feed-override  the operator's feed override to 30 % (feedrate(0.3))
   pause          pause the program (AUTO_PAUSE), resume it 2 s later
   estop          estop: the program ends there
+  m52-off        none of ours: the program's own `M52 P0`. The marker is set while the
+                 adaptive feed is off (M52 P0 in force) and cleared when it is on again
+  abort-restart  abort the program (the operator's abort), retract Z 10 mm by MDI, 1 s
+                 later run it again from its start (M52 P1 by MDI, feed override 150 %,
+                 AUTO_RUN as at the start); the marker is cleared when the second run starts
+  tool-change    none of ours: the program's own `M6`. The marker is set when the tool in
+                 the spindle changes
 ACC_KILL_AT_FORCE_N=N is kill-acc@N.
 """
 import os
@@ -25,6 +38,7 @@ import subprocess
 import sys
 import time
 
+import hal
 import linuxcnc
 
 ini_path = sys.argv[sys.argv.index("-ini") + 1] if "-ini" in sys.argv else "acc.ini"
@@ -39,7 +53,7 @@ def say(what):
 def wait(cond, timeout, what):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        s.poll()
+        poll()
         if cond():
             return
         time.sleep(0.02)
@@ -48,8 +62,11 @@ def wait(cond, timeout, what):
 
 
 def getp(pin):
-    out = subprocess.run(["halcmd", "-s", "getp", pin], capture_output=True, text=True)
-    return out.stdout.strip()
+    """A pin's or signal's value (hal.get_value: no halcmd process per read)."""
+    try:
+        return hal.get_value(pin)
+    except Exception:  # not there (yet, or any more)
+        return None
 
 
 def comp_pid(name):
@@ -60,6 +77,19 @@ def comp_pid(name):
         if len(f) >= 4 and f[2] == name and f[3].isdigit():
             return int(f[3])
     return None
+
+
+ui = hal.component("acc-ui")
+ui.newpin("adaptive-enabled", hal.HAL_BIT, hal.HAL_OUT)
+ui.ready()
+# acc.hal made the signal (acc.adaptive-enabled reads it): no M52 P1 seen until now.
+hal.connect("acc-ui.adaptive-enabled", "acc-adaptive")
+
+
+def poll():
+    """stat() polled, and M52 published to acc."""
+    s.poll()
+    ui["adaptive-enabled"] = bool(s.adaptive_feed_enabled)
 
 
 inifile = linuxcnc.ini(ini_path)
@@ -78,7 +108,10 @@ reached = None
 
 
 def setp(pin, value):
-    subprocess.run(["halcmd", "setp", pin, str(value)], capture_output=True)
+    try:
+        hal.set_p(pin, str(value))
+    except Exception:
+        subprocess.run(["halcmd", "setp", pin, str(value)], capture_output=True)
 
 
 def signal_comp(name, sig, what):
@@ -89,6 +122,31 @@ def signal_comp(name, sig, what):
     else:
         say("no pid of %s" % name)
 
+
+def mark(on):
+    """The machine log's fault marker (acc-process.fault)."""
+    setp("acc-process.fault", 1 if on else 0)
+
+
+def run_program(what):
+    """M52 P1 by MDI, MODE_AUTO, feed override 150 %, the program run from its start."""
+    # M52 P1 once more by MDI: the startup code's runs while the machine is still in
+    # estop, and its motion message does not survive the machine coming on.
+    c.mode(linuxcnc.MODE_MDI)
+    c.wait_complete()
+    c.mdi("M52 P1")
+    c.wait_complete()
+    say("M52 P1")
+    c.mode(linuxcnc.MODE_AUTO)
+    c.wait_complete()
+    c.feedrate(1.5)
+    c.program_open(program)
+    c.wait_complete()
+    c.auto(linuxcnc.AUTO_RUN, 0)
+    say("%s %s" % (what, program))
+    return time.monotonic()
+
+
 c.state(linuxcnc.STATE_ESTOP_RESET)
 c.state(linuxcnc.STATE_ON)
 wait(lambda: s.task_state == linuxcnc.STATE_ON, 10, "machine on")
@@ -98,21 +156,8 @@ c.wait_complete()
 c.home(-1)
 wait(lambda: all(s.homed[i] for i in range(3)), 20, "homed")
 say("homed")
-# M52 P1 once more by MDI: the startup code's runs while the machine is still in estop,
-# and its motion message does not survive the machine coming on.
-c.mode(linuxcnc.MODE_MDI)
-c.wait_complete()
-c.mdi("M52 P1")
-c.wait_complete()
-say("M52 P1")
-c.mode(linuxcnc.MODE_AUTO)
-c.wait_complete()
-c.feedrate(1.5)
-c.program_open(program)
-c.wait_complete()
-start = time.monotonic()
-c.auto(linuxcnc.AUTO_RUN, 0)
-say("run " + program)
+start = run_program("run")
+first_start = start
 killed = None
 fired = None
 # The fault's later steps: (seconds after the fault, what).
@@ -122,26 +167,43 @@ steps = []
 HELD_S = 5.0
 held_since = None
 next_check = 0.0
+# tool-change: the tool in the spindle when the force was reached.
+tool_was = None
 while True:
-    s.poll()
+    poll()
     msg = e.poll()
     if msg:
         say("error %s" % (msg[1],))
-    if time.monotonic() - start > 0.5 and s.interp_state == linuxcnc.INTERP_IDLE:
+    if time.monotonic() - start > 0.5 and s.interp_state == linuxcnc.INTERP_IDLE and not steps:
         break
     if fault_at is not None and fired is None:
         try:
-            force = float(getp("acc-process.force") or "0")
-        except ValueError:
+            force = float(getp("acc-process.force") or 0.0)
+        except (TypeError, ValueError):
             force = 0.0
         if reached is None and force >= fault_at:
             reached = time.monotonic()
             say("force %.1f N reached: the fault in %.1f s" % (force, fault_delay))
         if reached is not None and time.monotonic() - reached >= fault_delay:
-            setp("acc-process.fault", 1)
-            fired = time.monotonic()
-            say("fault %s at force %.1f N" % (fault_kind, force))
-            if fault_kind == "kill-acc":
+            if fault_kind == "m52-off":
+                if not s.adaptive_feed_enabled:
+                    mark(True)
+                    fired = time.monotonic()
+                    say("fault m52-off: adaptive feed off (M52 P0) at force %.1f N" % force)
+            elif fault_kind == "tool-change":
+                if tool_was is None:
+                    tool_was = s.tool_in_spindle
+                elif s.tool_in_spindle != tool_was:
+                    mark(True)
+                    fired = time.monotonic()
+                    say("fault tool-change: tool %d -> %d" % (tool_was, s.tool_in_spindle))
+            else:
+                mark(True)
+                fired = time.monotonic()
+                say("fault %s at force %.1f N" % (fault_kind, force))
+            if fired is None:
+                pass
+            elif fault_kind == "kill-acc":
                 signal_comp("acc", signal.SIGKILL, "SIGKILL")
                 killed = fired
             elif fault_kind == "stop-acc":
@@ -160,9 +222,33 @@ while True:
             elif fault_kind == "estop":
                 c.state(linuxcnc.STATE_ESTOP)
                 say("estop")
+            elif fault_kind == "abort-restart":
+                c.abort()
+                c.wait_complete()
+                # The operator takes the tool out of the cut along its axis before the
+                # restart (the program's first rapid would drag it through the stock).
+                c.mode(linuxcnc.MODE_MDI)
+                c.wait_complete()
+                c.mdi("G91 G0 Z10")
+                c.wait_complete()
+                c.mdi("G90")
+                c.wait_complete()
+                say("operator abort, Z retracted 10 mm; the program runs again in 1 s")
+                steps = [(1.0, "restart")]
+            elif fault_kind == "m52-off":
+                steps = [(0.0, "m52-on")]
+            elif fault_kind == "tool-change":
+                pass
             else:
                 say("unknown fault %s" % fault_kind)
-    if steps and time.monotonic() - fired >= steps[0][0]:
+    if steps and steps[0][1] == "m52-on":
+        if s.adaptive_feed_enabled:
+            steps.pop(0)
+            mark(False)
+            say("adaptive feed on again (M52 P1)")
+        elif s.interp_state == linuxcnc.INTERP_IDLE:
+            steps.pop(0)
+    elif steps and time.monotonic() - fired >= steps[0][0]:
         step = steps.pop(0)[1]
         if step == "cont":
             signal_comp("acc", signal.SIGCONT, "SIGCONT")
@@ -174,10 +260,13 @@ while True:
         elif step == "resume":
             c.auto(linuxcnc.AUTO_RESUME)
             say("resumed")
+        elif step == "restart":
+            start = run_program("run again")
+            mark(False)
     now = time.monotonic()
     if killed is None and now >= next_check:
         next_check = now + 0.5
-        if getp("motion.feed-inhibit") == "TRUE":
+        if getp("motion.feed-inhibit"):
             held_since = held_since or now
             if now - held_since > HELD_S:
                 say("feed inhibited for %.0f s (watchdog or acc's feed hold): aborting" % HELD_S)
@@ -193,7 +282,7 @@ while True:
         c.wait_complete()
         say("aborted")
         break
-    if time.monotonic() - start > 600:
+    if time.monotonic() - first_start > 600:
         say("TIMEOUT program")
         c.abort()
         break

@@ -44,7 +44,8 @@ struct FallbackClamp {
 /// acc's board link on LinuxCNC, over any [`PinBackend`] ([`crate::HalPins`] on a machine).
 ///
 /// Status, per `BoardStatus` field: the switch is `acc.enable`, `OVERRIDE_LOCKED` is "no
-/// `M52 P1`", `WATCHDOG_TRIPPED` is "`acc.watchdog-ok` false", `CYCLE_ACTIVE` the program
+/// `M52 P1`", `WATCHDOG_TRIPPED` is "`acc.watchdog-ok` false after it was true",
+/// `CYCLE_ACTIVE` the program
 /// running, `FEED_HOLD_ACTIVE` paused or acc's hold, `CNC_ALARM` estop or machine off, the
 /// block number `motion.program-line`, feeds in mm/min from the velocity pins (mm/s × 60),
 /// the override step 1 %. `SAMPLE_SEQ` counts reads; with `acc.sample-seq-used` set, only the
@@ -74,6 +75,9 @@ pub struct HalBoard<B> {
     reads: u16,
     /// The source's counter `acc.sample-seq` at the last read (with `acc.sample-seq-used`).
     source_seq: Option<i32>,
+    /// `acc.watchdog-ok` has been true at a read: the watchdog runs. Before that (HAL still
+    /// loading, its threads not started) a false pin is no trip.
+    watchdog_seen_ok: bool,
 }
 
 impl<B: PinBackend> HalBoard<B> {
@@ -93,6 +97,7 @@ impl<B: PinBackend> HalBoard<B> {
             clamp: None,
             reads: 0,
             source_seq: None,
+            watchdog_seen_ok: false,
         }
     }
 
@@ -122,7 +127,7 @@ impl<B: PinBackend> HalBoard<B> {
             feed_hold: self.control.feed_hold_request,
             active,
             handed_back: self.was_active_this_cycle && !active,
-            alarm: i.estop || !i.machine_on || !i.watchdog_ok,
+            alarm: i.estop || !i.machine_on || self.watchdog_tripped(),
         };
         self.pins.write(&self.outputs);
     }
@@ -134,7 +139,7 @@ impl<B: PinBackend> HalBoard<B> {
         let operator_released = !i.acc_switch || !i.adaptive_enabled;
         if self.active && !active && !operator_released {
             self.clamp = Some(FallbackClamp {
-                pct: applied_pct(self.inputs.feed_override, self.outputs.adaptive_feed),
+                pct: self.applied_now(),
                 feed_override: i.feed_override,
             });
         }
@@ -145,12 +150,21 @@ impl<B: PinBackend> HalBoard<B> {
         }
     }
 
-    /// The adaptive feed to write: the law's override mapped while active, the clamp's
-    /// `min(operator, FALLBACK_OVERRIDE)` while engaged, 1.0 (the operator's override alone)
-    /// otherwise; 1.0 on a traverse.
+    /// acc requests the override and nothing but `M52 P0` keeps it from driving: the NC
+    /// ignores the pin (`OVERRIDE_LOCKED`), the policy holds its command.
+    fn locked_out(&self) -> bool {
+        let i = &self.inputs;
+        self.control.acc_request && i.acc_switch && i.watchdog_ok && !i.adaptive_enabled
+    }
+
+    /// The adaptive feed to write: the law's override mapped while active, and while only
+    /// `M52 P0` keeps acc from driving (LinuxCNC ignores the pin then; it holds the held
+    /// command for the moment `M52 P1` takes effect, which LinuxCNC applies a servo period
+    /// later, before acc's next read); the clamp's `min(operator, FALLBACK_OVERRIDE)` while
+    /// engaged; 1.0 (the operator's override alone) otherwise; 1.0 on a traverse.
     fn adaptive_feed_now(&self) -> f64 {
         let motion_type = self.inputs.motion_type;
-        if self.active {
+        if self.active || self.locked_out() {
             return adaptive_feed(self.law_pct, motion_type);
         }
         match self.clamp {
@@ -163,6 +177,35 @@ impl<B: PinBackend> HalBoard<B> {
         }
     }
 
+    /// `OVERRIDE_APPLIED`: the override a feed move gets now, percent of its programmed
+    /// feed, `100 × feed override × adaptive feed`. On a traverse, where the pin is 1.0
+    /// (rapids are never slowed), the adaptive feed the feed move after it gets: acc's
+    /// command while it drives (so that the command echoes as on a board, and a release
+    /// during a rapid clamps at that command, not at 150 %). Under `M52 P0` the motion
+    /// ignores the pin: the knob alone.
+    fn applied_now(&self) -> u16 {
+        let i = &self.inputs;
+        if !i.adaptive_enabled {
+            return ratio_pct(i.feed_override);
+        }
+        let driving = self.active || self.locked_out();
+        let adaptive = if i.motion_type == MOTION_TYPE_TRAVERSE && driving {
+            adaptive_feed(self.law_pct, 0)
+        } else {
+            self.outputs.adaptive_feed
+        };
+        applied_pct(i.feed_override, adaptive)
+    }
+
+    /// `WATCHDOG_TRIPPED`: `acc.watchdog-ok` false after it has been true. acc is loaded
+    /// (`loadusr -W`) before the rest of its HAL file and LinuxCNC starts HAL's threads
+    /// after all of them: until the watchdog has run, its `ok-out` is false without a trip,
+    /// and a trip read then latched ACC for the whole run (seen once under load). ACC does
+    /// not drive before the pin is true either way (`ACC_ACTIVE` needs it).
+    fn watchdog_tripped(&self) -> bool {
+        self.watchdog_seen_ok && !self.inputs.watchdog_ok
+    }
+
     /// The status block of the last read.
     fn status(&self) -> BoardStatus {
         let i = &self.inputs;
@@ -171,10 +214,10 @@ impl<B: PinBackend> HalBoard<B> {
             acc_active: self.active,
             cycle_active: i.program_running,
             feed_hold_active: i.program_paused || self.control.feed_hold_request,
-            watchdog_tripped: !i.watchdog_ok,
+            watchdog_tripped: self.watchdog_tripped(),
             override_locked: !i.adaptive_enabled,
             cnc_alarm: i.estop || !i.machine_on,
-            override_applied_pct: applied_pct(i.feed_override, self.outputs.adaptive_feed),
+            override_applied_pct: self.applied_now(),
             operator_override_pct: ratio_pct(i.feed_override),
             override_step_pct: 1,
             spindle_power_w: i.spindle_power_w.round().clamp(0.0, f64::from(u32::MAX)) as u32,
@@ -207,6 +250,7 @@ impl<B: PinBackend> Board for HalBoard<B> {
 
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         self.inputs = self.pins.read();
+        self.watchdog_seen_ok |= self.inputs.watchdog_ok;
         let source = self
             .inputs
             .sample_seq_used

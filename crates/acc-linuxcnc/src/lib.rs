@@ -7,6 +7,7 @@
 //! | [`mapping`] | the law's 0–150 % onto the pin's [0, 1]: `adaptive = override / 150 %` with the machine at a 150 % feed override; rapids never slowed |
 //! | [`HalBoard`] | the [`Board`](acc_pmc::Board): status from the machine's pins, override and control to the adaptive feed, heartbeat and state pins; a v2 board's fallback clamp |
 //! | [`MachineInputs`], [`AccOutputs`], [`PinBackend`], [`HalPins`] | the pins of one period, and what moves them (HAL, or a test's fake) |
+//! | [`machine_log`] | the simulated process's machine log (`machine.csv`) read: one reader for `acc linuxcnc` and the fault matrix |
 //!
 //! `acc run --hal` loads this link; `configs/linuxcnc/acc.hal` nets its pins and puts
 //! LinuxCNC's realtime `watchdog` on `acc.heartbeat-bit` (docs/linuxcnc.md).
@@ -34,6 +35,7 @@
 //! ```
 
 mod board;
+pub mod machine_log;
 pub mod mapping;
 mod pins;
 

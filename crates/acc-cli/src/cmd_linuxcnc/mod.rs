@@ -30,13 +30,16 @@ use anyhow::Context as _;
 const LOCK_FILE: &str = "/tmp/linuxcnc.lock";
 
 /// The faults `--fault KIND@N[+S]` names, carried out by `configs/linuxcnc/ui.py`.
-pub const FAULT_KINDS: [&str; 6] = [
+pub const FAULT_KINDS: [&str; 9] = [
     "kill-acc",
     "stop-acc",
     "kill-process",
     "feed-override",
     "pause",
     "estop",
+    "m52-off",
+    "abort-restart",
+    "tool-change",
 ];
 
 /// `--fault KIND@N[+S]` checked: the kind, the force (N) and the delay after it (s).
@@ -106,7 +109,9 @@ pub struct LinuxcncArgs {
     /// Fault test: `KIND@N[+S]`, carried out by `ui.py` S seconds (default 0) after the true
     /// force first reaches N newtons; KIND is one of `kill-acc`, `stop-acc` (SIGSTOP 2 s, SIGCONT, the watchdog
     /// re-armed), `kill-process` (the power pin frozen), `feed-override` (the operator's
-    /// override to 30 %), `pause` (2 s), `estop` ([`FAULT_KINDS`]).
+    /// override to 30 %), `pause` (2 s), `estop`, `abort-restart` (abort, run again 1 s
+    /// later), `m52-off` / `tool-change` (the program's own `M52 P0` / `M6`, marked)
+    /// ([`FAULT_KINDS`]).
     #[arg(long, value_name = "KIND@N[+S]")]
     pub fault: Option<String>,
     /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it.
@@ -200,7 +205,13 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("--out {}: cannot create it", args.out.display()))?;
     let dir = absolute(&args.out).with_context(|| format!("--out {}", args.out.display()))?;
-    for stale in ["run.csv", "machine.csv", "ui.log", "linuxcnc.log"] {
+    for stale in [
+        "run.csv",
+        "machine.csv",
+        "ui.log",
+        "linuxcnc.log",
+        "blocks.csv",
+    ] {
         let _ = std::fs::remove_file(dir.join(stale));
     }
     let mut stock_args = match (&args.stock, &args.stock_box) {
@@ -311,6 +322,16 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         println!(
             "acc's heartbeat stopped mid-cut: the motion stopped {s:.3} s after its last beat"
         );
+    }
+    // A run log a killed acc cut short still gives the rest of the summary.
+    match summary::write_blocks(&dir, &machine, fr, cfg.controller.period_s) {
+        Ok(b) => println!(
+            "blocks: {} ({} block rows; force RMS error while cutting {:.1} N)",
+            dir.join("blocks.csv").display(),
+            b.blocks.len(),
+            b.rms_error_n
+        ),
+        Err(e) => eprintln!("linuxcnc: blocks.csv not written: {e:#}"),
     }
     let cycle = summary::cycle_s(&dir.join("ui.log"));
     match cycle {

@@ -5,58 +5,72 @@ use std::path::Path;
 
 use anyhow::Context as _;
 
-/// One machine-log row, the columns the summary reads.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MachineRow {
-    /// Time since the process started, s.
-    pub t_s: f64,
-    /// Path speed, mm/min.
-    pub feed_mm_min: f64,
-    /// True force, N.
-    pub force_n: f64,
-    /// The adaptive feed acc wrote, 0 ..= 1.
-    pub adaptive_feed: f64,
-    /// acc's heartbeat bit.
-    pub heartbeat: bool,
-}
+/// The machine log: one reader for the summary and the fault matrix
+/// ([`acc_linuxcnc::machine_log`]; its errors name the file and the line).
+pub use acc_linuxcnc::machine_log::{read as read_machine_log, MachineRow};
 
-/// The machine log at `path`.
-pub fn read_machine_log(path: &Path) -> anyhow::Result<Vec<MachineRow>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read the machine log", path.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .ok_or_else(|| anyhow::anyhow!("{}: no column `{name}`", path.display()))
+/// acc's run log at `path` with the machine log's truth: each period's `force_true_n` is
+/// the mean true force of the machine-log rows in it, as the simulator logs it ("true mean
+/// cutting force over what the sensor looked at"; the machine log's own rows, every 2 ms,
+/// peak higher within a period) (`x_true_mm`, `radial_depth_mm`,
+/// `axial_depth_mm`, `feed_true_mm_min` from its last row). The run log goes onto the
+/// machine log's clock by acc's first heartbeat toggle (its first status read, to within a
+/// period); a period the machine log does not cover (the process died) keeps no truth.
+pub fn run_log_with_truth(
+    path: &Path,
+    machine: &[MachineRow],
+    period_s: f64,
+) -> anyhow::Result<Vec<acc_runtime::record::RunRecord>> {
+    let file = std::fs::File::open(path)
+        .with_context(|| format!("{}: cannot read the run log", path.display()))?;
+    let mut rows = acc_runtime::record::read_run_log(file)
+        .with_context(|| format!("{}: the run log", path.display()))?;
+    let first_beat = machine
+        .windows(2)
+        .position(|w| w[0].heartbeat != w[1].heartbeat)
+        .map(|k| machine[k + 1].t_s);
+    let offset = match (first_beat, rows.first()) {
+        (Some(t), Some(r0)) => t - r0.t_s,
+        _ => return Ok(rows),
     };
-    let (t, feed, force, adaptive, beat) = (
-        col("t_s")?,
-        col("feed_mm_min")?,
-        col("force_n")?,
-        col("adaptive_feed")?,
-        col("heartbeat")?,
-    );
-    let mut rows = Vec::new();
-    for line in lines {
-        let f: Vec<&str> = line.split(',').collect();
-        let num = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok());
-        // A last line cut short by a killed process is skipped.
-        if let (Some(t_s), Some(feed_mm_min), Some(force_n), Some(adaptive_feed), Some(b)) =
-            (num(t), num(feed), num(force), num(adaptive), num(beat))
-        {
-            rows.push(MachineRow {
-                t_s,
-                feed_mm_min,
-                force_n,
-                adaptive_feed,
-                heartbeat: b != 0.0,
-            });
+    let end = machine.last().map_or(0.0, |r| r.t_s);
+    for r in &mut rows {
+        let t1 = r.t_s + offset;
+        let (t0, t1) = (t1 - period_s, t1);
+        if t1 > end {
+            continue;
         }
+        let a = machine.partition_point(|m| m.t_s < t0);
+        let b = machine.partition_point(|m| m.t_s < t1);
+        let Some(last) = machine[a..b].last() else {
+            continue;
+        };
+        let rows_in = &machine[a..b];
+        r.force_true_n =
+            Some(rows_in.iter().map(|m| m.force_n).sum::<f64>() / rows_in.len() as f64);
+        r.x_true_mm = Some(last.x_mm);
+        r.radial_depth_mm = Some(last.radial_mm);
+        r.axial_depth_mm = Some(last.axial_mm);
+        r.feed_true_mm_min = Some(last.feed_mm_min);
     }
     Ok(rows)
+}
+
+/// `blocks.csv` in `dir` (as `acc sim --program` writes it: per NC block, from the run log's
+/// `block` = `motion.program-line`, peak and mean force, the true peak from the machine
+/// log, the mean override, the time in the block) and the summary it came from.
+pub fn write_blocks(
+    dir: &Path,
+    machine: &[MachineRow],
+    force_ref_n: f64,
+    period_s: f64,
+) -> anyhow::Result<acc_sim::program_summary::ProgramSummary> {
+    let rows = run_log_with_truth(&dir.join("run.csv"), machine, period_s)?;
+    let s = acc_sim::program_summary::summarize_program(&rows, force_ref_n, period_s);
+    let csv = dir.join("blocks.csv");
+    std::fs::write(&csv, s.blocks_csv())
+        .with_context(|| format!("{}: cannot write", csv.display()))?;
+    Ok(s)
 }
 
 /// The run log's periods (column `period`) at `path`.
@@ -115,10 +129,50 @@ mod tests {
         MachineRow {
             t_s,
             feed_mm_min: feed,
-            force_n: 0.0,
             adaptive_feed: 1.0,
             heartbeat: beat,
+            ..MachineRow::default()
         }
+    }
+
+    #[test]
+    fn the_run_log_gets_the_machine_logs_truth_on_its_clock() {
+        // Machine log every 10 ms from 0 to 1 s; acc's first read toggles the heartbeat
+        // at 0.3 s; the force ramps with time (N = 1000 × t).
+        let machine: Vec<MachineRow> = (0..=100)
+            .map(|k| {
+                let t = 0.01 * f64::from(k);
+                MachineRow {
+                    t_s: t,
+                    force_n: 1000.0 * t,
+                    heartbeat: t >= 0.3 && ((t * 10.0 + 1e-9) as u64) % 2 == 1,
+                    ..MachineRow::default()
+                }
+            })
+            .collect();
+        let dir = tempfile::tempdir().expect("dir");
+        let path = dir.path().join("run.csv");
+        let mut w =
+            acc_runtime::record::RunLogWriter::new(std::fs::File::create(&path).expect("f"))
+                .expect("writer");
+        for k in 0..12u32 {
+            let rec = acc_runtime::record::RunRecord {
+                t_s: 0.1 * f64::from(k),
+                period: u64::from(k),
+                ..Default::default()
+            };
+            w.write(&rec).expect("row");
+        }
+        drop(w);
+        let rows = run_log_with_truth(&path, &machine, 0.1).expect("read");
+        // Period 0 is the first read (0.3 s on the machine clock): the mean of the rows of
+        // 0.2 ..< 0.3 s.
+        let p0 = rows[0].force_true_n.expect("truth");
+        assert!((p0 - 245.0).abs() < 1e-6, "{p0}");
+        let p2 = rows[2].force_true_n.expect("truth");
+        assert!((p2 - 445.0).abs() < 1e-6, "{p2}");
+        // Beyond the machine log's end: no truth.
+        assert_eq!(rows[11].force_true_n, None);
     }
 
     #[test]

@@ -6,7 +6,10 @@
 //! (SIGKILL) mid-cut stops the motion within 0.3 s of its last heartbeat (the realtime
 //! watchdog, read from the machine log); and the frozen-acc row of the fault matrix's
 //! LinuxCNC section (`acc fault-matrix --linuxcnc --only stop-acc`: SIGSTOP 2 s in the cut,
-//! the feed held within 0.3 s and never above what acc allowed, the run log complete).
+//! the feed held within 0.3 s and never above what acc allowed, the run log complete). A
+//! second test runs the rows whose fault the program makes (`m52-off`: `M52 P0` mid-cut and
+//! back; `tool-change`: `M5`, `T2 M6`, `M3` between two cuts) or the operator's restart
+//! (`abort-restart`) together, about 80 s.
 //!
 //! Needs LinuxCNC: absent, the test prints `SKIP: …` and passes, unless `CI` is set, then
 //! it fails. One LinuxCNC runs per host: the runs hold a file lock in /tmp.
@@ -15,52 +18,16 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use acc_linuxcnc::machine_log::{self, MachineRow};
+
 /// The program, its stock and the scenario's Fr (configs/presets/case3.toml), N.
 const PROGRAM: &str = "../../tests/nc/linuxcnc_short.ngc";
 const STOCK_BOX: &str = "0,-20,-10,40,20,0";
 const FR_N: f64 = 800.0;
 
-/// One machine-log row: the columns the test reads.
-#[derive(Debug, Clone, Copy)]
-struct Row {
-    t_s: f64,
-    feed_mm_min: f64,
-    axial_mm: f64,
-    force_n: f64,
-    adaptive_feed: f64,
-    heartbeat: bool,
-}
-
-fn machine_log(dir: &Path) -> Vec<Row> {
-    let text = std::fs::read_to_string(dir.join("machine.csv")).expect("machine.csv");
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let col = |n: &str| header.iter().position(|h| *h == n).expect(n);
-    let (t, feed, ap, force, af, hb) = (
-        col("t_s"),
-        col("feed_mm_min"),
-        col("axial_mm"),
-        col("force_n"),
-        col("adaptive_feed"),
-        col("heartbeat"),
-    );
-    lines
-        .filter_map(|l| {
-            let f: Vec<f64> = l
-                .split(',')
-                .map(|v| v.parse().unwrap_or(f64::NAN))
-                .collect();
-            let g = |i: usize| f.get(i).copied().filter(|v| v.is_finite());
-            Some(Row {
-                t_s: g(t)?,
-                feed_mm_min: g(feed)?,
-                axial_mm: g(ap)?,
-                force_n: g(force)?,
-                adaptive_feed: g(af)?,
-                heartbeat: g(hb)? != 0.0,
-            })
-        })
-        .collect()
+/// The machine log, read by the one reader `acc linuxcnc` and the fault matrix use.
+fn machine_log(dir: &Path) -> Vec<MachineRow> {
+    machine_log::read(&dir.join("machine.csv")).expect("machine.csv")
 }
 
 /// The run log's `period` column.
@@ -121,7 +88,7 @@ fn acc_linuxcnc(dir: &Path, more: &[&str]) -> String {
 
 /// The mean adaptive feed while the tool cuts at axial depth `ap_mm` (± 0.2 mm) with the
 /// force above 0.2 Fr.
-fn mean_adaptive_at_depth(rows: &[Row], ap_mm: f64) -> f64 {
+fn mean_adaptive_at_depth(rows: &[MachineRow], ap_mm: f64) -> f64 {
     let v: Vec<f64> = rows
         .iter()
         .filter(|r| (r.axial_mm - ap_mm).abs() < 0.2 && r.force_n > 0.2 * FR_N)
@@ -131,18 +98,61 @@ fn mean_adaptive_at_depth(rows: &[Row], ap_mm: f64) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
 }
 
-#[test]
-fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
+/// LinuxCNC's test lock (one LinuxCNC per host: held while a test runs it), or `None`
+/// when LinuxCNC is missing on a developer machine (`SKIP`; under `CI` it fails).
+fn linuxcnc_or_skip() -> Option<File> {
     if let Some(reason) = missing_linuxcnc() {
         if std::env::var_os("CI").is_some() {
             panic!("LinuxCNC is required under CI: {reason} (run `bash .ci/deps`)");
         }
         eprintln!("SKIP: {reason} (apt-get install linuxcnc-uspace); LinuxCNC test not run");
-        return;
+        return None;
     }
-    // One LinuxCNC per host: wait for any other run of this test.
     let lock = File::create(std::env::temp_dir().join("acc-linuxcnc-test.lock")).expect("lock");
     lock.lock().expect("the LinuxCNC test lock");
+    Some(lock)
+}
+
+/// `acc fault-matrix --linuxcnc` with these `--only` rows into `dir`: the JSON table, after
+/// asserting that it passed.
+fn fault_matrix_rows(dir: &Path, rows: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_acc"))
+        .args(["fault-matrix", "--linuxcnc"])
+        .args(rows.iter().flat_map(|r| ["--only", r]))
+        .args([
+            "--linuxcnc-program",
+            PROGRAM,
+            &format!("--linuxcnc-stock-box={STOCK_BOX}"),
+            "--out",
+        ])
+        .arg(dir)
+        .output()
+        .expect("acc fault-matrix runs");
+    let table = std::fs::read_to_string(dir.join("fault-matrix-linuxcnc.md")).unwrap_or_default();
+    let ui: Vec<String> = rows
+        .iter()
+        .map(|r| {
+            let log = dir.join(format!("linuxcnc-{r}/lcnc/ui.log"));
+            format!("{r}: {}", std::fs::read_to_string(log).unwrap_or_default())
+        })
+        .collect();
+    assert!(
+        out.status.success(),
+        "acc fault-matrix --linuxcnc {rows:?}: {}\n{table}\nstderr:\n{}\nui.log:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr),
+        ui.join("\n")
+    );
+    eprintln!("{table}");
+    std::fs::read_to_string(dir.join("fault-matrix-linuxcnc.json")).expect("the JSON table")
+}
+
+#[test]
+fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
+    // One LinuxCNC per host: wait for any other run of a LinuxCNC test.
+    let Some(_lock) = linuxcnc_or_skip() else {
+        return;
+    };
     let tmp = tempfile::tempdir().expect("temp dir");
 
     // 1. The whole program under acc.
@@ -209,34 +219,26 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
     );
 
     // 3. acc frozen (SIGSTOP 2 s, SIGCONT) in the cut: the fault matrix's LinuxCNC row.
-    let dir = tmp.path().join("matrix");
-    let out = Command::new(env!("CARGO_BIN_EXE_acc"))
-        .args([
-            "fault-matrix",
-            "--linuxcnc",
-            "--only",
-            "stop-acc",
-            "--linuxcnc-program",
-            PROGRAM,
-            &format!("--linuxcnc-stock-box={STOCK_BOX}"),
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .expect("acc fault-matrix runs");
-    let table = std::fs::read_to_string(dir.join("fault-matrix-linuxcnc.md")).unwrap_or_default();
-    let ui = std::fs::read_to_string(dir.join("linuxcnc-stop-acc/lcnc/ui.log")).unwrap_or_default();
-    assert!(
-        out.status.success(),
-        "acc fault-matrix --linuxcnc --only stop-acc: {}\n{table}\nstderr:\n{}\nui.log:\n{ui}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let json =
-        std::fs::read_to_string(dir.join("fault-matrix-linuxcnc.json")).expect("the JSON table");
+    let json = fault_matrix_rows(&tmp.path().join("matrix"), &["stop-acc"]);
     assert!(
         json.contains("\"fault\": \"stop-acc\"") && json.contains("\"ok\": true"),
         "{json}"
     );
-    eprintln!("{table}");
+}
+
+/// The rows whose fault is the program's own or the operator's restart (each about 25 s,
+/// so together in one test, beside the one above): `M52 P0` mid-cut and back, an abort and
+/// a run from the start, a tool change between two cuts (docs/linuxcnc.md).
+#[test]
+fn the_fault_matrix_rows_m52_off_abort_restart_and_tool_change_pass_on_linuxcnc() {
+    let Some(_lock) = linuxcnc_or_skip() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let rows = ["m52-off", "abort-restart", "tool-change"];
+    let json = fault_matrix_rows(tmp.path(), &rows);
+    for r in rows {
+        assert!(json.contains(&format!("\"fault\": \"{r}\"")), "{r}: {json}");
+    }
+    assert_eq!(json.matches("\"ok\": true").count(), rows.len(), "{json}");
 }

@@ -138,6 +138,26 @@ fn the_adaptive_feed_is_the_laws_override_over_150_percent_and_rapids_are_not_sl
         1.0,
         "a traverse runs at 1.0"
     );
+    // OVERRIDE_APPLIED is the command the next feed move gets: it echoes as on a board (a
+    // traverse reported at 150 % read as a late echo to acc's loop-delay judge, found on
+    // LinuxCNC: a `delay` release on the rapids of a restarted program).
+    assert_eq!(
+        board.read_status().expect("status").override_applied_pct,
+        30
+    );
+    // A release during the rapid clamps at that command, not at the rapid's 1.0.
+    board.write_control(request(false)).expect("release");
+    let s = board.read_status().expect("status");
+    assert!(s.fallback_active && s.fallback_override_pct == 30, "{s:?}");
+    assert_eq!(
+        board.pins().written.adaptive_feed,
+        1.0,
+        "still no slower rapid"
+    );
+    let s = read_after(&mut board, |m| m.motion_type = 2);
+    assert_eq!(s.override_applied_pct, 30);
+    assert_eq!(board.pins().written.adaptive_feed, 0.2);
+    board.write_control(request(true)).expect("request");
     let err = board.write_override(151, 5).expect_err("above 150 %");
     assert_eq!(err, HalBoardError::OverrideOutOfRange { pct: 151 });
     assert_eq!(err.kind(), BoardErrorKind::Exception(3));
@@ -169,6 +189,63 @@ fn a_release_mid_cut_clamps_the_feed_until_the_knob_turns() {
     let s = read_after(&mut board, |m| m.feed_override = 1.0);
     assert!(!s.fallback_active);
     assert_eq!(board.pins().written.adaptive_feed, 1.0);
+}
+
+#[test]
+fn under_m52_p0_the_pin_holds_the_laws_command_for_the_moment_m52_p1_returns() {
+    // Found on LinuxCNC (the fault matrix's m52-off row): with 1.0 on the pin while M52 P0
+    // was in force, M52 P1 ran the heavy slot at 150 % until acc's next write (2 249 N =
+    // 2.8 Fr for 30 ms). The pin keeps the held command instead.
+    let mut board = driving(40);
+    let s = read_after(&mut board, |m| m.adaptive_enabled = false);
+    assert!(s.override_locked && !s.acc_active && !s.fallback_active);
+    assert_eq!(
+        s.override_applied_pct, 150,
+        "the motion ignores the pin: the knob alone"
+    );
+    // The policy holds its command while locked.
+    board.write_override(40, 2).expect("held");
+    let held = board.pins().written.adaptive_feed;
+    assert!((held - 40.0 / 150.0).abs() < 1e-12, "{held}");
+    // M52 P1 takes effect before acc's next read: the pin already says 40 %.
+    change_only(&mut board, |m| m.adaptive_enabled = true);
+    assert_eq!(board.pins().written.adaptive_feed, held);
+    let s = board.read_status().expect("status");
+    assert!(s.acc_active && !s.override_locked);
+    assert_eq!(s.override_applied_pct, 40);
+    // The operator's switch off under M52 P0: acc lets go, the knob alone (no clamp).
+    let s = read_after(&mut board, |m| {
+        m.adaptive_enabled = false;
+        m.acc_switch = false;
+    });
+    assert!(!s.fallback_active);
+    assert_eq!(board.pins().written.adaptive_feed, 1.0);
+}
+
+#[test]
+fn a_watchdog_that_has_not_run_yet_is_no_trip_but_acc_does_not_drive() {
+    // HAL still loading after acc's `loadusr -W`: watchdog.ok-out not netted / not run.
+    let mut board = HalBoard::new(FakePins {
+        machine: MachineInputs {
+            watchdog_ok: false,
+            ..cutting()
+        },
+        ..FakePins::default()
+    });
+    let s = board.read_status().expect("status");
+    assert!(!s.watchdog_tripped, "not run yet: no trip to latch on");
+    board.write_control(request(true)).expect("control");
+    assert!(!board.read_status().expect("status").acc_active);
+    // The threads start: ok; then a trip is a trip.
+    assert!(read_after(&mut board, |m| m.watchdog_ok = true).acc_active);
+    let s = read_after(&mut board, |m| m.watchdog_ok = false);
+    assert!(s.watchdog_tripped && !s.acc_active);
+    assert!(board.pins().written.alarm);
+}
+
+/// Changes the fake machine's inputs without a read (LinuxCNC moving between acc's reads).
+fn change_only(board: &mut HalBoard<FakePins>, change: impl FnOnce(&mut MachineInputs)) {
+    change(&mut board.pins_mut().machine);
 }
 
 #[test]

@@ -20,7 +20,7 @@
 //! 2. `plausibility.rs` (the line guard's verdict) — is there a status to read at all?
 //! 3. `staleness.rs` — is the power sensor stale (`SAMPLE_SEQ` unchanged)?
 //! 4. `plausibility.rs` (the power's) — is the force sample valid, and for how long has it
-//!    not been?
+//!    not been (not counted while the spindle is off: no speed, no power)?
 //! 5. `shutdown.rs` — is this period out of the cut (the drain of a stop)?
 //! 6. `operator.rs` — the switch and the knob as seen (a latch needs the switch off, then on);
 //! 7. `overload.rs` — has the force been above the overload limit for too long?

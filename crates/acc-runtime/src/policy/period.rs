@@ -140,7 +140,8 @@ impl FaultPolicy {
     }
 
     /// 4. The force sample's validity (`plausibility.rs`, the power's): a held read counts
-    ///    as invalid; a judged invalid sample counts against the power budget.
+    ///    as invalid; a judged invalid sample counts against the power budget, except with
+    ///    the spindle off (no cut possible: the count neither grows nor restarts).
     fn judge_force(
         &mut self,
         input: &PolicyInput,
@@ -151,7 +152,9 @@ impl FaultPolicy {
         let force_valid =
             plausibility::force_valid(status, stale, &input.force, self.cfg.max_power_w);
         out.force_valid = force_valid;
-        if status.is_some() || input.held {
+        let spindle_off =
+            status.is_some_and(|s| plausibility::spindle_off(s, self.cfg.max_power_w));
+        if (status.is_some() || input.held) && (force_valid || !spindle_off) {
             if let Some(e) = self.power.count(force_valid, stale) {
                 out.events.push(e);
                 out.fault = true;

@@ -5,6 +5,13 @@
 //! source's and the board's raw register) are finite, non-negative and within
 //! `max_power_w`. An invalid sample never raises the command; more than
 //! `invalid_power_periods` in a row release ([`super::Release::PowerInvalid`]).
+//!
+//! An invalid sample while the spindle is off ([`spindle_off`]: no speed and no power, an
+//! `M5` before a tool change, at a program's end, an abort) is no sensor fault: no chip can
+//! be cut, there is nothing to estimate. It is not used (the command is held) and does not
+//! count against the budget: the count neither grows nor restarts. Without this a program's
+//! `M5` released ACC (latched) and the program after it ran uncontrolled (found on
+//! LinuxCNC: an abort, then the same program again: 3.4 Fr at the heavy slot's re-entry).
 
 use acc_core::ForceSample;
 use acc_pmc::BoardStatus;
@@ -35,6 +42,13 @@ pub(crate) fn force_valid(
         && f.force_n.is_finite()
         && f.force_n >= 0.0
         && power_ok
+}
+
+/// The spindle is off: the status reports no speed (`SPINDLE_RPM` 0) and no more than 1 % of
+/// `max_power_w` on the power register (a de-energized motor; a stalled one under load still
+/// draws power and counts as invalid power as before).
+pub(crate) fn spindle_off(s: &BoardStatus, max_power_w: f64) -> bool {
+    s.spindle_rpm == 0 && f64::from(s.spindle_power_w) <= 0.01 * max_power_w
 }
 
 /// Consecutive invalid samples.

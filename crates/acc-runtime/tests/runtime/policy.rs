@@ -562,6 +562,55 @@ fn a_board_that_keeps_restarting_is_released() {
 }
 
 #[test]
+fn a_stopped_spindle_is_no_power_fault_acc_holds_through_it_and_drives_on() {
+    // An M5 (a tool change, a program's end, an abort): no speed, no power, and a sample the
+    // estimator cannot make (here: stale). Found on LinuxCNC: counted as invalid power, it
+    // released ACC latched, and the program after it ran uncontrolled (3.4 Fr).
+    let cfg = PolicyConfig {
+        stale_seq_periods: 1,
+        invalid_power_periods: 3,
+        ..PolicyConfig::default()
+    };
+    let mut rig = Rig::new(cfg, [60, 70, 80, 90, 100, 110, 120, 130, 140, 150]);
+    rig.run(3);
+    let last = rig.lp.policy().last_command().expect("a command");
+    rig.b.board.set_spindle_rpm(0);
+    rig.power_w = 0;
+    rig.freeze_seq = true;
+    let stopped = rig.run(10);
+    for r in &stopped {
+        assert!(!r.out.force_valid);
+        assert_eq!(r.out.state, AccState::Active, "held through the stop");
+        assert!(r.out.write_override.is_some_and(|c| c.0 <= last));
+        assert!(!r
+            .out
+            .events
+            .iter()
+            .any(|e| matches!(e, Event::PowerInvalid { .. })));
+    }
+    assert!(!stopped.iter().any(|r| r.out.control.feed_hold_request));
+    // M3: the spindle turns, the samples are valid, the law steps on from the held command.
+    rig.b.board.set_spindle_rpm(600);
+    rig.power_w = 1200;
+    rig.freeze_seq = false;
+    let on = rig.run(3);
+    assert!(on.iter().all(|r| r.out.state == AccState::Active));
+    assert!(on
+        .last()
+        .is_some_and(|r| r.out.force_valid && r.out.step.is_some()));
+
+    // A stalled spindle (no speed, but power drawn) is invalid power as before: released.
+    let mut rig = Rig::new(cfg, [60, 70, 80]);
+    rig.run(3);
+    rig.b.board.set_spindle_rpm(0);
+    rig.freeze_seq = true;
+    let stalled = rig.run(5);
+    assert!(stalled
+        .iter()
+        .any(|r| released(r, Release::PowerInvalid) && r.out.control.feed_hold_request));
+}
+
+#[test]
 fn a_fault_release_mid_cut_holds_the_feed_on_v1_and_v2() {
     let cfg = PolicyConfig {
         invalid_power_periods: 2,
