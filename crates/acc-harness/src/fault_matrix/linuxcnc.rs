@@ -123,12 +123,12 @@ pub static LCNC_FAULTS: [LcncFault; 9] = [
     },
     LcncFault {
         name: "m52-off",
-        what: "the program switches the adaptive feed off mid-cut (`M52 P0`, F60) and on again (`M52 P1`): tests/nc/linuxcnc_m52.ngc",
+        what: "the program switches the adaptive feed off mid-cut (`M52 P0`, F60) and on again (`M52 P1`): tests/nc/linuxcnc/m52.ngc",
         no_raise: false,
         watchdog_stop: false,
         at_force_n: LIGHT_ENTRY.0,
         delay_s: LIGHT_ENTRY.1,
-        program: Some("linuxcnc_m52.ngc"),
+        program: Some("linuxcnc/m52.ngc"),
     },
     LcncFault {
         name: "abort-restart",
