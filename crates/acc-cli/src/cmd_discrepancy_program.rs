@@ -25,7 +25,7 @@ use std::path::Path;
 use acc_ident::RunLog;
 use acc_runtime::record::RunRecord;
 use acc_sim::engagement::{EngagementSource as _, ToolGeometry};
-use acc_sim::program::{ProgramPath, ProgramSpec};
+use acc_sim::program::ProgramPath;
 use anyhow::Context as _;
 
 /// Where a block lies on the path.
@@ -51,18 +51,10 @@ impl ProgramLog {
         model: &acc_ident::Model,
     ) -> anyhow::Result<Option<Self>> {
         let Some(program) = &opts.program else {
+            opts.stock.check_without_program()?;
             return Ok(None);
         };
-        let stock = crate::cmd_sim_program::stock_source(
-            opts.stock.as_deref(),
-            opts.stock_box.as_deref(),
-            opts.cell,
-        )?;
-        let spec = ProgramSpec {
-            program: program.clone(),
-            stock,
-            tools: opts.tools.clone(),
-        };
+        let spec = opts.stock.spec(program)?;
         let tool = ToolGeometry::of(&model.tool);
         let path = ProgramPath::build(
             &spec,

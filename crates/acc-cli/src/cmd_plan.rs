@@ -24,18 +24,9 @@ pub struct PlanInput {
     /// (a name under configs/scenarios or a path).
     #[arg(long, default_value = "paper_case3")]
     pub scenario: String,
-    /// The program's stock: a `stock.toml` (a box or a height map, docs/stock.md).
-    #[arg(long, value_name = "stock.toml", conflicts_with = "stock_box")]
-    pub stock: Option<PathBuf>,
-    /// The program's stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
-    pub stock_box: Option<String>,
-    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
-    #[arg(long, value_name = "MM", default_value_t = 0.25)]
-    pub cell: f64,
-    /// LinuxCNC tool table (`.tbl`, mm) with the diameters of the program's T numbers.
-    #[arg(long, value_name = "FILE.tbl")]
-    pub tools: Option<PathBuf>,
+    /// The program's stock and tool table.
+    #[command(flatten)]
+    pub stock: crate::cmd_sim_program::StockArgs,
     /// Model file (e.g. `acc discrepancy`'s `model.updated.toml`) whose machine, tool and
     /// cutting-force effects predict the force instead of the scenario's; its tool's wear
     /// law (a learned `tool_wear`) raises the force along the path with the volume removed.
@@ -118,9 +109,6 @@ impl PlanInput {
         let program_args = crate::cmd_sim_program::ProgramArgs {
             program: Some(program.to_path_buf()),
             stock: self.stock.clone(),
-            stock_box: self.stock_box.clone(),
-            cell: self.cell,
-            tools: self.tools.clone(),
         };
         crate::cmd_sim_program::load(&program_args, sc)?
             .ok_or_else(|| anyhow::anyhow!("no program"))

@@ -11,47 +11,86 @@ use acc_sim::program_summary::summarize_program;
 use acc_sim::{RunResult, Scenario};
 use anyhow::Context as _;
 
-/// The program options of `acc sim` and `acc board-sim`.
-#[derive(Debug, Clone, clap::Args)]
+/// The program options of `acc sim`, `acc board-sim`, `acc compare` and
+/// `acc discrepancy`: a program and its stock.
+#[derive(Debug, Clone, Default, clap::Args)]
 pub struct ProgramArgs {
     /// An NC program (RS274/NGC) in place of the scenario's 1-D workpiece; the scenario
     /// gives the machine, tool, controller and measurement (`acc discrepancy`: the program
     /// the measured run ran).
     #[arg(long, value_name = "FILE.ngc")]
     pub program: Option<PathBuf>,
+    /// The program's stock and tool table (only with `--program`).
+    #[command(flatten)]
+    pub stock: StockArgs,
+}
+
+/// A program's stock and tool table: the options every command that cuts an NC program
+/// shares (`acc sim --program`, `acc plan`, `acc optimize`, `acc linuxcnc`,
+/// `acc linuxcnc-process`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct StockArgs {
     /// The program's stock: a `stock.toml` (a box or a height map, docs/stock.md).
     #[arg(
-        long,
+        id = "stock",
+        long = "stock",
         value_name = "stock.toml",
-        requires = "program",
         conflicts_with = "stock_box"
     )]
-    pub stock: Option<PathBuf>,
+    pub file: Option<PathBuf>,
     /// The program's stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
     #[arg(
-        long,
+        id = "stock_box",
+        long = "stock-box",
         value_name = "X0,Y0,Z0,X1,Y1,Z1",
-        requires = "program",
         allow_hyphen_values = true
     )]
-    pub stock_box: Option<String>,
+    pub box_spec: Option<String>,
     /// Cell size of `--stock-box`, mm (0.01 ..= 10).
     #[arg(long, value_name = "MM", default_value_t = 0.25)]
     pub cell: f64,
     /// LinuxCNC tool table (`.tbl`, mm) with the diameters of the program's T numbers
     /// (without it, or for T0, the scenario's tool).
-    #[arg(long, value_name = "FILE.tbl", requires = "program")]
+    #[arg(long, value_name = "FILE.tbl")]
     pub tools: Option<PathBuf>,
 }
 
-impl Default for ProgramArgs {
+impl Default for StockArgs {
     fn default() -> Self {
         Self {
-            program: None,
-            stock: None,
-            stock_box: None,
+            file: None,
+            box_spec: None,
             cell: 0.25,
             tools: None,
+        }
+    }
+}
+
+impl StockArgs {
+    /// The stock, checked: exactly one of `--stock` and `--stock-box` ([`stock_source`]).
+    pub fn source(&self) -> anyhow::Result<StockSource> {
+        stock_source(self.file.as_deref(), self.box_spec.as_deref(), self.cell)
+    }
+
+    /// `program` on this stock with this tool table.
+    pub fn spec(&self, program: &Path) -> anyhow::Result<ProgramSpec> {
+        Ok(ProgramSpec {
+            program: program.to_path_buf(),
+            stock: self.source()?,
+            tools: self.tools.clone(),
+        })
+    }
+
+    /// Refuses a stock or tool table given without the program it belongs to.
+    pub fn check_without_program(&self) -> anyhow::Result<()> {
+        let given = [
+            ("--stock", self.file.is_some()),
+            ("--stock-box", self.box_spec.is_some()),
+            ("--tools", self.tools.is_some()),
+        ];
+        match given.iter().find(|(_, g)| *g) {
+            Some((flag, _)) => anyhow::bail!("{flag} belongs to a program: give --program too"),
+            None => Ok(()),
         }
     }
 }
@@ -105,19 +144,15 @@ pub fn stock_source(
 /// `--program`.
 pub fn load(args: &ProgramArgs, sc: &Scenario) -> anyhow::Result<Option<ProgramPath>> {
     let Some(program) = &args.program else {
+        args.stock.check_without_program()?;
         return Ok(None);
     };
-    if args.stock.is_none() && args.stock_box.is_none() {
+    if args.stock.file.is_none() && args.stock.box_spec.is_none() {
         anyhow::bail!(
             "--program needs its stock: --stock stock.toml or --stock-box X0,Y0,Z0,X1,Y1,Z1"
         );
     }
-    let stock = stock_source(args.stock.as_deref(), args.stock_box.as_deref(), args.cell)?;
-    let spec = ProgramSpec {
-        program: program.clone(),
-        stock,
-        tools: args.tools.clone(),
-    };
+    let spec = args.stock.spec(program)?;
     let tool = acc_plant::engagement::ToolGeometry::of(&sc.tool);
     let path = ProgramPath::build_within(
         &spec,

@@ -77,18 +77,10 @@ pub struct LinuxcncArgs {
     /// Scenario of the simulated process (machine, tool, force law).
     #[arg(long, default_value = "paper_case3")]
     pub scenario: String,
-    /// The stock: a `stock.toml` (docs/stock.md).
-    #[arg(long, value_name = "stock.toml", conflicts_with = "stock_box")]
-    pub stock: Option<PathBuf>,
-    /// The stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
-    pub stock_box: Option<String>,
-    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
-    #[arg(long, value_name = "MM", default_value_t = 0.25)]
-    pub cell: f64,
-    /// LinuxCNC tool table (`.tbl`, mm): LinuxCNC's and the process's tool diameters.
-    #[arg(long, value_name = "FILE.tbl")]
-    pub tools: Option<PathBuf>,
+    /// The stock the simulated process cuts, and the tool table LinuxCNC and the process
+    /// read.
+    #[command(flatten)]
+    pub stock: crate::cmd_sim_program::StockArgs,
     /// acc's run config (default: the shipped `configs/linuxcnc/acc.toml`).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -134,13 +126,10 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         .with_context(|| format!("--scenario {}: no such scenario", args.scenario))?;
     let scenario = acc_sim::Scenario::load(&scenario_path)
         .with_context(|| format!("--scenario {}", args.scenario))?;
-    crate::cmd_sim_program::stock_source(
-        args.stock.as_deref(),
-        args.stock_box.as_deref(),
-        args.cell,
-    )?
-    .build()
-    .map_err(|e| anyhow::anyhow!("the stock: {e}"))?;
+    args.stock
+        .source()?
+        .build()
+        .map_err(|e| anyhow::anyhow!("the stock: {e}"))?;
     std::fs::read_to_string(&program)
         .with_context(|| format!("PROGRAM {}: cannot read", program.display()))?;
     let config = match &args.config {
@@ -164,7 +153,7 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let tools = match &args.tools {
+    let tools = match &args.stock.tools {
         Some(t) => {
             Some(absolute(t).with_context(|| format!("--tools {}: no such file", t.display()))?)
         }
@@ -214,14 +203,14 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
     ] {
         let _ = std::fs::remove_file(dir.join(stale));
     }
-    let mut stock_args = match (&args.stock, &args.stock_box) {
+    let mut stock_args = match (&args.stock.file, &args.stock.box_spec) {
         (Some(s), _) => format!(
             "--stock {}",
             absolute(s)
                 .with_context(|| format!("--stock {}", s.display()))?
                 .display()
         ),
-        (None, Some(b)) => format!("--stock-box={b} --cell {}", args.cell),
+        (None, Some(b)) => format!("--stock-box={b} --cell {}", args.stock.cell),
         (None, None) => anyhow::bail!("give --stock stock.toml or --stock-box X0,Y0,Z0,X1,Y1,Z1"),
     };
     if let Some(t) = &tools {

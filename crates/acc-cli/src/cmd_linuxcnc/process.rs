@@ -40,19 +40,10 @@ pub struct ProcessArgs {
     /// Scenario (machine, tool, process), e.g. `configs/scenarios/paper_case3.toml`.
     #[arg(long)]
     pub scenario: PathBuf,
-    /// The stock: a `stock.toml` (docs/stock.md).
-    #[arg(long, value_name = "stock.toml", conflicts_with = "stock_box")]
-    pub stock: Option<PathBuf>,
-    /// The stock as a box `X0,Y0,Z0,X1,Y1,Z1`, mm (program coordinates).
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
-    pub stock_box: Option<String>,
-    /// Cell size of `--stock-box`, mm (0.01 ..= 10).
-    #[arg(long, value_name = "MM", default_value_t = 0.25)]
-    pub cell: f64,
-    /// LinuxCNC tool table (`.tbl`, mm): the diameters of the tool numbers (without it, the
-    /// scenario's tool).
-    #[arg(long, value_name = "FILE.tbl")]
-    pub tools: Option<PathBuf>,
+    /// The stock, and the tool table with the diameters of the tool numbers (without it,
+    /// the scenario's tool).
+    #[command(flatten)]
+    pub stock: crate::cmd_sim_program::StockArgs,
     /// Machine log (CSV, one row per period): time, position, feed, speed, tool,
     /// engagement, true force, power.
     #[arg(long, default_value = "machine.csv")]
@@ -84,14 +75,12 @@ pub fn setup(args: &ProcessArgs) -> anyhow::Result<ProcessSetup> {
     }
     let scenario = acc_sim::Scenario::load(&args.scenario)
         .with_context(|| format!("--scenario {}", args.scenario.display()))?;
-    let stock = crate::cmd_sim_program::stock_source(
-        args.stock.as_deref(),
-        args.stock_box.as_deref(),
-        args.cell,
-    )?
-    .build()
-    .map_err(|e| anyhow::anyhow!("the stock: {e}"))?;
-    let table = match &args.tools {
+    let stock = args
+        .stock
+        .source()?
+        .build()
+        .map_err(|e| anyhow::anyhow!("the stock: {e}"))?;
+    let table = match &args.stock.tools {
         Some(p) => {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("--tools {}: cannot read", p.display()))?;
