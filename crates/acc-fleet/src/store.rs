@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use crate::parquet_file::{write_cuts, write_periods};
 use crate::schema::{CutRow, PeriodRow};
 use crate::FleetError;
+#[cfg(not(feature = "store"))]
+use absent::{write_cuts, write_periods};
 
 /// Periods per file by default: ten minutes at T = 0.1 s.
 pub const ROWS_PER_FILE: usize = 6000;
@@ -187,16 +189,24 @@ impl StoreWriter {
     }
 }
 
-/// Without the `store` feature no file is written ([`StoreWriter::new`] refuses first).
-#[cfg(not(feature = "store"))]
-fn write_periods(_path: &Path, _rows: &[PeriodRow]) -> Result<(), FleetError> {
-    Err(FleetError::NotBuilt)
-}
+/// The writers of a build without the `store` feature: no file is written
+/// ([`StoreWriter::new`] refuses first). Compiled, and linted, in every build.
+#[cfg_attr(feature = "store", allow(dead_code))]
+mod absent {
+    use std::path::Path;
 
-/// Without the `store` feature no file is written ([`StoreWriter::new`] refuses first).
-#[cfg(not(feature = "store"))]
-fn write_cuts(_path: &Path, _rows: &[CutRow]) -> Result<(), FleetError> {
-    Err(FleetError::NotBuilt)
+    use crate::schema::{CutRow, PeriodRow};
+    use crate::FleetError;
+
+    /// Always [`FleetError::NotBuilt`].
+    pub(super) fn write_periods(_path: &Path, _rows: &[PeriodRow]) -> Result<(), FleetError> {
+        Err(FleetError::NotBuilt)
+    }
+
+    /// Always [`FleetError::NotBuilt`].
+    pub(super) fn write_cuts(_path: &Path, _rows: &[CutRow]) -> Result<(), FleetError> {
+        Err(FleetError::NotBuilt)
+    }
 }
 
 #[cfg(test)]
