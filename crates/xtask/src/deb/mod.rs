@@ -7,7 +7,7 @@
 //! ```sh
 //! cargo build --release -p acc-cli --features full
 //! cargo run -p xtask -- deb                       # target/debian/acc_<version>_<arch>.deb
-//! cargo run -p xtask -- deb --bin target/debug/acc --out /tmp/deb
+//! cargo run -p xtask -- deb --bin target/debug/acc --out /tmp/deb --compression none
 //! ```
 
 mod control;
@@ -28,10 +28,16 @@ pub struct DebArgs {
     pub out: PathBuf,
     /// `Depends` stated by hand (`--depends`); `None`: computed by `dpkg-shlibdeps`.
     pub depends: Option<String>,
+    /// `dpkg-deb -Z`: the archive's compression (`--compression`, default `gzip`, which
+    /// every dpkg reads; `none` packs a debug build's binary in a second).
+    pub compression: String,
 }
 
 /// The options `deb` takes, for its usage line.
-const OPTIONS: &str = "--bin PATH, --out DIR, --depends TEXT";
+const OPTIONS: &str = "--bin PATH, --out DIR, --depends TEXT, --compression TYPE";
+
+/// The compressions `dpkg-deb -Z` takes.
+const COMPRESSIONS: [&str; 4] = ["gzip", "xz", "zstd", "none"];
 
 impl DebArgs {
     /// `args` (after `deb`) read; the defaults are relative to the repository `root`.
@@ -40,6 +46,7 @@ impl DebArgs {
             bin: root.join("target/release/acc"),
             out: root.join("target/debian"),
             depends: None,
+            compression: "gzip".to_string(),
         };
         let mut it = args.iter();
         while let Some(option) = it.next() {
@@ -50,6 +57,13 @@ impl DebArgs {
                 "--bin" => parsed.bin = PathBuf::from(value),
                 "--out" => parsed.out = PathBuf::from(value),
                 "--depends" => parsed.depends = Some(value.clone()),
+                "--compression" if COMPRESSIONS.contains(&value.as_str()) => {
+                    parsed.compression = value.clone()
+                }
+                "--compression" => bail!(
+                    "deb --compression {value}: allowed {}",
+                    COMPRESSIONS.join(", ")
+                ),
                 _ => bail!("deb {option}: not an option; allowed: {OPTIONS}"),
             }
         }
@@ -107,7 +121,8 @@ pub fn build(root: &Path, args: &DebArgs) -> anyhow::Result<PathBuf> {
         .with_context(|| format!("{}: cannot write control", debian.display()))?;
     let deb = args.out.join(format!("acc_{version}_{arch}.deb"));
     let status = Command::new("dpkg-deb")
-        .args(["--root-owner-group", "-Zgzip", "--build"])
+        .args(["--root-owner-group", "--build"])
+        .arg(format!("-Z{}", args.compression))
         .arg(&pkg)
         .arg(&deb)
         .stdout(std::process::Stdio::null())
@@ -154,6 +169,11 @@ mod tests {
         assert_eq!(a.depends.as_deref(), Some("libc6"));
         let e = DebArgs::parse(root, &["--bn".into(), "x".into()]).expect_err("bad");
         assert!(e.to_string().contains("--bn: not an option"), "{e}");
+        let e = DebArgs::parse(root, &["--compression".into(), "lz4".into()]).expect_err("lz4");
+        assert!(
+            e.to_string().contains("lz4: allowed gzip, xz, zstd, none"),
+            "{e}"
+        );
         let e = DebArgs::parse(root, &["--out".into()]).expect_err("no value");
         assert!(e.to_string().contains("--out: needs a value"), "{e}");
     }
@@ -165,6 +185,7 @@ mod tests {
             bin: dir.path().join("no-acc"),
             out: dir.path().join("out"),
             depends: None,
+            compression: "none".into(),
         };
         let e = build(dir.path(), &args).expect_err("no binary");
         assert!(e.to_string().contains("no-acc: no such file"), "{e}");
