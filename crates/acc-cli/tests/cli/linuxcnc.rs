@@ -170,6 +170,10 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
     let dir: PathBuf = tmp.path().join("run");
     let out = acc_linuxcnc(pkg, &dir, &[]);
     assert!(out.contains("cycle time"), "{out}");
+    // LinuxCNC loaded the installed acc, not the test build's.
+    let hal = std::fs::read_to_string(dir.join("acc.hal")).expect("acc.hal");
+    let loadusr = format!("loadusr -Wn acc {} run --hal", pkg.acc().display());
+    assert!(hal.contains(&loadusr), "{loadusr:?} in acc.hal:\n{hal}");
     let rows = machine_log(&dir);
     let light = mean_adaptive_at_depth(&rows, 1.0);
     let heavy = mean_adaptive_at_depth(&rows, 3.0);
