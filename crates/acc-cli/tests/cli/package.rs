@@ -180,8 +180,20 @@ fn the_package_holds_the_binary_the_linuxcnc_configuration_and_the_docs() {
             rel.display()
         );
     }
-    // The installed binary runs from a folder outside the repository.
+    // Every installed file is the packaged one (the package's md5sums, as `dpkg --verify`).
     let cwd = tempfile::tempdir().expect("temp dir");
+    let control = cwd.path().join("control");
+    run(Command::new("dpkg-deb")
+        .arg("-e")
+        .arg(&pkg.deb)
+        .arg(&control));
+    let sums = std::fs::read_to_string(control.join("md5sums")).expect("md5sums");
+    assert!(sums.contains("  usr/bin/acc\n"), "{sums}");
+    run(Command::new("md5sum")
+        .current_dir(&pkg.root)
+        .args(["--check", "--quiet"])
+        .arg(control.join("md5sums")));
+    // The installed binary runs from a folder outside the repository.
     let out = run(Command::new(pkg.acc())
         .current_dir(cwd.path())
         .arg("nc")

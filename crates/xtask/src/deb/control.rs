@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use anyhow::{bail, Context};
+use anyhow::Context;
 
 /// The maintainer when `DEBFULLNAME` and `DEBEMAIL` are not set (the address matches the
 /// workspace's placeholder repository).
@@ -82,24 +82,14 @@ pub fn shlib_depends(scratch: &Path, bin: &Path) -> anyhow::Result<String> {
         "Source: acc\n\nPackage: acc\nArchitecture: any\n",
     )
     .with_context(|| format!("{}: cannot write control", debian.display()))?;
-    let out = Command::new("dpkg-shlibdeps")
-        .arg("-O")
-        .arg(bin)
-        .current_dir(scratch)
-        .output()
-        .context(
-            "starting dpkg-shlibdeps (Debian package dpkg-dev), which computes Depends; \
-             install it or state Depends with --depends",
-        )?;
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    if !out.status.success() {
-        bail!(
-            "dpkg-shlibdeps {}: {}: {}",
-            bin.display(),
-            out.status,
-            String::from_utf8_lossy(&out.stderr).trim()
-        );
-    }
+    let out = super::stdout_of(
+        Command::new("dpkg-shlibdeps")
+            .arg("-O")
+            .arg(bin)
+            .current_dir(scratch),
+        "Debian package dpkg-dev, which computes Depends; install it or state Depends with --depends",
+    )?;
+    let stdout = String::from_utf8_lossy(&out);
     parse_shlibs(&stdout)
         .with_context(|| format!("dpkg-shlibdeps printed no shlibs:Depends: {stdout}"))
 }

@@ -115,8 +115,8 @@ pub fn build(root: &Path, args: &DebArgs) -> anyhow::Result<PathBuf> {
         installed_size_kib: stage::size_kib(&pkg)?,
         maintainer: control::maintainer(),
     };
+    stage::write_md5sums(&pkg)?;
     let debian = pkg.join("DEBIAN");
-    std::fs::create_dir_all(&debian).with_context(|| format!("{}", debian.display()))?;
     std::fs::write(debian.join("control"), fields.text())
         .with_context(|| format!("{}: cannot write control", debian.display()))?;
     let deb = args.out.join(format!("acc_{version}_{arch}.deb"));
@@ -136,19 +136,25 @@ pub fn build(root: &Path, args: &DebArgs) -> anyhow::Result<PathBuf> {
 
 /// `program args`'s stdout, trimmed; an error names the program.
 fn output(program: &str, args: &[&str]) -> anyhow::Result<String> {
-    let out = Command::new(program)
-        .args(args)
+    let out = stdout_of(Command::new(program).args(args), program)?;
+    Ok(String::from_utf8_lossy(&out).trim().to_string())
+}
+
+/// `cmd` run to its end: its stdout. An error names the command and, when it cannot
+/// start, `what` it is (its Debian package, what to do instead); when it fails, its
+/// status and stderr.
+fn stdout_of(cmd: &mut Command, what: &str) -> anyhow::Result<Vec<u8>> {
+    let out = cmd
         .output()
-        .with_context(|| format!("starting {program}"))?;
+        .with_context(|| format!("starting {:?}: {what}", cmd.get_program()))?;
     if !out.status.success() {
         bail!(
-            "{program} {}: {}: {}",
-            args.join(" "),
+            "{cmd:?}: {}: {}",
             out.status,
             String::from_utf8_lossy(&out.stderr).trim()
         );
     }
-    Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
+    Ok(out.stdout)
 }
 
 #[cfg(test)]

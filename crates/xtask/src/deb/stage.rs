@@ -4,7 +4,7 @@
 //! --root-owner-group` makes every entry root's.
 
 use std::os::unix::fs::PermissionsExt as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{bail, Context};
@@ -130,21 +130,49 @@ fn set_mode(path: &Path, mode: u32) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot set its mode", path.display()))
 }
 
+/// The files under `dir`, relative to it, sorted.
+pub fn files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).with_context(|| format!("{}", dir.display()))? {
+        let path = entry.with_context(|| format!("{}", dir.display()))?.path();
+        let name = PathBuf::from(path.file_name().unwrap_or_default());
+        if path.is_dir() {
+            found.extend(files(&path)?.into_iter().map(|p| name.join(p)));
+        } else {
+            found.push(name);
+        }
+    }
+    found.sort();
+    Ok(found)
+}
+
 /// The staged files' size as `Installed-Size` counts it: KiB, each file rounded up.
 pub fn size_kib(dir: &Path) -> anyhow::Result<u64> {
     let mut kib = 0;
-    for entry in std::fs::read_dir(dir).with_context(|| format!("{}", dir.display()))? {
-        let entry = entry.with_context(|| format!("{}", dir.display()))?;
-        let meta = entry
-            .metadata()
-            .with_context(|| format!("{}", dir.display()))?;
-        kib += if meta.is_dir() {
-            size_kib(&entry.path())?
-        } else {
-            meta.len().div_ceil(1024)
-        };
+    for rel in files(dir)? {
+        let path = dir.join(rel);
+        let len = std::fs::metadata(&path)
+            .with_context(|| format!("{}", path.display()))?
+            .len();
+        kib += len.div_ceil(1024);
     }
     Ok(kib)
+}
+
+/// `DEBIAN/md5sums` of the staged files (`dpkg --verify` checks an installation by it),
+/// from `md5sum`.
+pub fn write_md5sums(pkg: &Path) -> anyhow::Result<()> {
+    let sums = super::stdout_of(
+        Command::new("md5sum")
+            .current_dir(pkg)
+            .arg("--")
+            .args(files(pkg)?),
+        "Debian package coreutils",
+    )?;
+    let debian = pkg.join("DEBIAN");
+    std::fs::create_dir_all(&debian).with_context(|| format!("{}", debian.display()))?;
+    std::fs::write(debian.join("md5sums"), sums)
+        .with_context(|| format!("{}: cannot write md5sums", debian.display()))
 }
 
 #[cfg(test)]
@@ -176,6 +204,13 @@ mod tests {
         );
         // The staged size counts every file: at least the docs' and configs' bytes.
         assert!(size_kib(&pkg).expect("size") > 300);
+        write_md5sums(&pkg).expect("md5sums");
+        let sums = std::fs::read_to_string(pkg.join("DEBIAN/md5sums")).expect("md5sums");
+        assert_eq!(sums.lines().count(), files(&pkg).expect("files").len() - 1);
+        assert!(
+            sums.contains("  usr/share/acc/linuxcnc/acc.ini\n"),
+            "{sums}"
+        );
     }
 
     #[test]
