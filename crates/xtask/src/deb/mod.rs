@@ -95,7 +95,7 @@ pub fn build(root: &Path, args: &DebArgs) -> anyhow::Result<PathBuf> {
             args.bin.display()
         );
     }
-    let arch = output("dpkg", &["--print-architecture"])?;
+    let arch = architecture()?;
     let version = env!("CARGO_PKG_VERSION");
     let scratch = args.out.join("acc.build");
     if scratch.exists() {
@@ -134,9 +134,10 @@ pub fn build(root: &Path, args: &DebArgs) -> anyhow::Result<PathBuf> {
     Ok(deb)
 }
 
-/// `program args`'s stdout, trimmed; an error names the program.
-fn output(program: &str, args: &[&str]) -> anyhow::Result<String> {
-    let out = stdout_of(Command::new(program).args(args), program)?;
+/// `dpkg --print-architecture`: the package's `Architecture`.
+fn architecture() -> anyhow::Result<String> {
+    let cmd = &mut Command::new("dpkg");
+    let out = stdout_of(cmd.arg("--print-architecture"), "Debian package dpkg")?;
     Ok(String::from_utf8_lossy(&out).trim().to_string())
 }
 
