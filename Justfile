@@ -21,6 +21,11 @@ lint:
 demo:
     cargo run --release -p acc-cli -- sim configs/scenarios/paper_case3.toml --out out/case3
 
+# The Debian package of the release build: target/debian/acc_<version>_<arch>.deb (docs/linuxcnc.md).
+deb:
+    cargo build --release -p acc-cli --features full
+    cargo run -p xtask -- deb
+
 # One scenario on the simulated machine: `just sim configs/scenarios/paper_case1.toml`.
 sim scenario:
     cargo run --release -p acc-cli -- sim {{scenario}} --out out/sim

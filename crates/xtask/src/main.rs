@@ -15,7 +15,11 @@
 //! Arguments after the task go to the `acc` command unchanged (all but `--out`, which the
 //! task sets). The table is spliced in even when rows fail, as the command prints it; the
 //! task then fails with the command's exit status.
+//!
+//! `cargo run -p xtask -- deb [--bin PATH] [--out DIR]` builds the Debian package of
+//! `acc` ([`deb`]).
 
+mod deb;
 mod splice;
 
 use std::path::{Path, PathBuf};
@@ -62,12 +66,16 @@ fn main() -> anyhow::Result<()> {
     let names: Vec<&str> = TASKS.iter().map(|(n, _)| *n).collect();
     let Some(task) = args.next() else {
         bail!(
-            "usage: cargo run -p xtask -- <{}> [acc arguments]",
+            "usage: cargo run -p xtask -- <{}|deb> [arguments]",
             names.join("|")
         );
     };
+    if task == "deb" {
+        let rest: Vec<String> = args.collect();
+        return deb::run(&repository(), &rest);
+    }
     let Some((_, doc_table)) = TASKS.iter().find(|(n, _)| *n == task) else {
-        bail!("{task}: not a task; allowed: {}", names.join(", "));
+        bail!("{task}: not a task; allowed: {}, deb", names.join(", "));
     };
     let rest: Vec<String> = args.collect();
     regenerate(&repository(), doc_table, &rest)

@@ -11,8 +11,12 @@
 //! back; `tool-change`: `M5`, `T2 M6`, `M3` between two cuts) or the operator's restart
 //! (`abort-restart`) together, about 80 s.
 //!
-//! Needs LinuxCNC: absent, the test prints `SKIP: …` and passes, unless `CI` is set, then
-//! it fails. One LinuxCNC runs per host: the runs hold a file lock in /tmp.
+//! Both run acc as LinuxCNC users do: from its Debian package (`package.rs`: built from
+//! this test build's `acc`, installed), the program its installed example, the working
+//! folder outside the repository.
+//!
+//! Needs LinuxCNC and dpkg-deb: absent, the test prints `SKIP: …` and passes, unless `CI`
+//! is set, then it fails. One LinuxCNC runs per host: the runs hold a file lock in /tmp.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -20,8 +24,11 @@ use std::process::Command;
 
 use acc_linuxcnc::machine_log::{self, MachineRow};
 
-/// The program, its stock and the scenario's Fr (configs/presets/case3.toml), N.
-const PROGRAM: &str = "../../tests/nc/linuxcnc_short.ngc";
+use crate::package::{installed_or_skip, Installed};
+
+/// The program (an example of the package, `tests/nc/`), its stock and the scenario's Fr
+/// (configs/presets/case3.toml), N.
+const PROGRAM: &str = "linuxcnc_short.ngc";
 const STOCK_BOX: &str = "0,-20,-10,40,20,0";
 const FR_N: f64 = 800.0;
 
@@ -61,15 +68,20 @@ pub(crate) fn missing_linuxcnc() -> Option<String> {
     None
 }
 
+/// The installed `acc` run from `dir`'s parent (a temp folder, outside the repository).
+fn installed_acc(pkg: &Installed, dir: &Path) -> Command {
+    let mut cmd = Command::new(pkg.acc());
+    cmd.current_dir(dir.parent().expect("a run folder in a temp folder"))
+        .env_remove("ACC_CONFIGS");
+    cmd
+}
+
 /// `acc linuxcnc` on the program into `dir` with `more` options: its stdout.
-fn acc_linuxcnc(dir: &Path, more: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_acc"))
-        .args([
-            "linuxcnc",
-            PROGRAM,
-            &format!("--stock-box={STOCK_BOX}"),
-            "--out",
-        ])
+fn acc_linuxcnc(pkg: &Installed, dir: &Path, more: &[&str]) -> String {
+    let out = installed_acc(pkg, dir)
+        .arg("linuxcnc")
+        .arg(pkg.example(PROGRAM))
+        .args([&format!("--stock-box={STOCK_BOX}"), "--out"])
         .arg(dir)
         .args(["--timeout-s", "60"])
         .args(more)
@@ -98,9 +110,10 @@ fn mean_adaptive_at_depth(rows: &[MachineRow], ap_mm: f64) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
 }
 
-/// LinuxCNC's test lock (one LinuxCNC per host: held while a test runs it), or `None`
-/// when LinuxCNC is missing on a developer machine (`SKIP`; under `CI` it fails).
-fn linuxcnc_or_skip() -> Option<File> {
+/// LinuxCNC's test lock (one LinuxCNC per host: held while a test runs it) and the
+/// installed package, or `None` when LinuxCNC or dpkg-deb is missing on a developer
+/// machine (`SKIP`; under `CI` it fails).
+fn linuxcnc_or_skip() -> Option<(File, &'static Installed)> {
     if let Some(reason) = missing_linuxcnc() {
         if std::env::var_os("CI").is_some() {
             panic!("LinuxCNC is required under CI: {reason} (run `bash .ci/deps`)");
@@ -108,23 +121,21 @@ fn linuxcnc_or_skip() -> Option<File> {
         eprintln!("SKIP: {reason} (apt-get install linuxcnc-uspace); LinuxCNC test not run");
         return None;
     }
+    let pkg = installed_or_skip()?;
     let lock = File::create(std::env::temp_dir().join("acc-linuxcnc-test.lock")).expect("lock");
     lock.lock().expect("the LinuxCNC test lock");
-    Some(lock)
+    Some((lock, pkg))
 }
 
 /// `acc fault-matrix --linuxcnc` with these `--only` rows into `dir`: the JSON table, after
 /// asserting that it passed.
-fn fault_matrix_rows(dir: &Path, rows: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_acc"))
+fn fault_matrix_rows(pkg: &Installed, dir: &Path, rows: &[&str]) -> String {
+    let out = installed_acc(pkg, dir)
         .args(["fault-matrix", "--linuxcnc"])
         .args(rows.iter().flat_map(|r| ["--only", r]))
-        .args([
-            "--linuxcnc-program",
-            PROGRAM,
-            &format!("--linuxcnc-stock-box={STOCK_BOX}"),
-            "--out",
-        ])
+        .arg("--linuxcnc-program")
+        .arg(pkg.example(PROGRAM))
+        .args([&format!("--linuxcnc-stock-box={STOCK_BOX}"), "--out"])
         .arg(dir)
         .output()
         .expect("acc fault-matrix runs");
@@ -150,15 +161,19 @@ fn fault_matrix_rows(dir: &Path, rows: &[&str]) -> String {
 #[test]
 fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
     // One LinuxCNC per host: wait for any other run of a LinuxCNC test.
-    let Some(_lock) = linuxcnc_or_skip() else {
+    let Some((_lock, pkg)) = linuxcnc_or_skip() else {
         return;
     };
     let tmp = tempfile::tempdir().expect("temp dir");
 
     // 1. The whole program under acc.
     let dir: PathBuf = tmp.path().join("run");
-    let out = acc_linuxcnc(&dir, &[]);
+    let out = acc_linuxcnc(pkg, &dir, &[]);
     assert!(out.contains("cycle time"), "{out}");
+    // LinuxCNC loaded the installed acc, not the test build's.
+    let hal = std::fs::read_to_string(dir.join("acc.hal")).expect("acc.hal");
+    let loadusr = format!("loadusr -Wn acc {} run --hal", pkg.acc().display());
+    assert!(hal.contains(&loadusr), "{loadusr:?} in acc.hal:\n{hal}");
     let rows = machine_log(&dir);
     let light = mean_adaptive_at_depth(&rows, 1.0);
     let heavy = mean_adaptive_at_depth(&rows, 3.0);
@@ -187,7 +202,7 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
 
     // 2. acc killed (SIGKILL) in the cut: the watchdog inhibits the feed.
     let dir = tmp.path().join("kill");
-    acc_linuxcnc(&dir, &["--kill-acc-at-force", "700"]);
+    acc_linuxcnc(pkg, &dir, &["--kill-acc-at-force", "700"]);
     let rows = machine_log(&dir);
     let last_beat = rows
         .windows(2)
@@ -219,7 +234,7 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
     );
 
     // 3. acc frozen (SIGSTOP 2 s, SIGCONT) in the cut: the fault matrix's LinuxCNC row.
-    let json = fault_matrix_rows(&tmp.path().join("matrix"), &["stop-acc"]);
+    let json = fault_matrix_rows(pkg, &tmp.path().join("matrix"), &["stop-acc"]);
     assert!(
         json.contains("\"fault\": \"stop-acc\"") && json.contains("\"ok\": true"),
         "{json}"
@@ -231,12 +246,12 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
 /// a run from the start, a tool change between two cuts (docs/linuxcnc.md).
 #[test]
 fn the_fault_matrix_rows_m52_off_abort_restart_and_tool_change_pass_on_linuxcnc() {
-    let Some(_lock) = linuxcnc_or_skip() else {
+    let Some((_lock, pkg)) = linuxcnc_or_skip() else {
         return;
     };
     let tmp = tempfile::tempdir().expect("temp dir");
     let rows = ["m52-off", "abort-restart", "tool-change"];
-    let json = fault_matrix_rows(tmp.path(), &rows);
+    let json = fault_matrix_rows(pkg, &tmp.path().join("matrix"), &rows);
     for r in rows {
         assert!(json.contains(&format!("\"fault\": \"{r}\"")), "{r}: {json}");
     }
