@@ -52,7 +52,9 @@ impl Sub {
 }
 
 fn subscribe(port: u16, topic: &str) -> Sub {
-    // Line-buffered (coreutils `stdbuf`): the subscriber is killed at the end.
+    // Line-buffered (coreutils `stdbuf`): the subscriber is killed at the end. A persistent
+    // session (`-c`, one client id, QoS 1): a broker restarted from its saved sessions keeps
+    // the subscription and queues what is published before the subscriber is back.
     let mut child = Command::new("stdbuf")
         .args([
             "-oL",
@@ -62,7 +64,7 @@ fn subscribe(port: u16, topic: &str) -> Sub {
             "-p",
             &port.to_string(),
         ])
-        .args(["-v", "-t", topic])
+        .args(["-c", "-i", "acctest-sub", "-q", "1", "-v", "-t", topic])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -121,13 +123,16 @@ fn acc_sim_mqtt_to_mosquitto_survives_a_broker_restart() {
     let port = free_port();
     let conf = dir.path().join("mosquitto.conf");
     let mut f = std::fs::File::create(&conf).expect("conf");
+    // Sessions saved on SIGTERM and restored at start, QoS 0 messages queued for them too:
+    // what acc publishes between the restart and the subscriber's return is kept for it.
     writeln!(
         f,
-        "listener {port} 127.0.0.1\nallow_anonymous true\npersistence false"
+        "listener {port} 127.0.0.1\nallow_anonymous true\npersistence true\npersistence_location {}/\nqueue_qos0_messages true",
+        dir.path().display()
     )
     .expect("conf");
     drop(f);
-    let broker = Broker::start(&conf, port);
+    let mut broker = Broker::start(&conf, port);
     let sub1 = subscribe(port, "acctest/#");
     std::thread::sleep(Duration::from_millis(300));
 
@@ -155,7 +160,7 @@ fn acc_sim_mqtt_to_mosquitto_survives_a_broker_restart() {
     let mut steps = sim.stdin.take().expect("stdin piped");
     writeln!(steps, "150").expect("step");
     sub1.wait_for_period(149);
-    drop(broker);
+    broker.terminate();
     let before = lines_of(sub1);
     writeln!(steps, "100").expect("step");
     // The 100 periods run with the broker down (the publisher queues them).
