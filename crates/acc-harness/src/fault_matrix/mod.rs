@@ -301,12 +301,7 @@ pub fn run(args: &FaultMatrixArgs) -> anyhow::Result<()> {
         .collect();
     let rows = run_rows(args, &cells)?;
     let table = markdown(&rows, args);
-    std::fs::write(args.out.join("fault-matrix.md"), &table)?;
-    std::fs::write(
-        args.out.join("fault-matrix.json"),
-        serde_json::to_string_pretty(&rows)?,
-    )?;
-    println!("{table}");
+    report::write_section(&args.out, "fault-matrix", &table, &rows)?;
     let failed: Vec<_> = rows.iter().filter(|r| !r.ok).collect();
     if !failed.is_empty() {
         bail!(

@@ -1,7 +1,26 @@
 //! The table of `acc fault-matrix`.
 
+use std::path::Path;
+
 use super::verdict::Row;
 use super::FaultMatrixArgs;
+
+/// Writes a section's table as `<out>/<stem>.md` and its rows as `<out>/<stem>.json`, and
+/// prints the table.
+pub fn write_section<R: serde::Serialize>(
+    out: &Path,
+    stem: &str,
+    table: &str,
+    rows: &[R],
+) -> anyhow::Result<()> {
+    std::fs::write(out.join(format!("{stem}.md")), table)?;
+    std::fs::write(
+        out.join(format!("{stem}.json")),
+        serde_json::to_string_pretty(rows)?,
+    )?;
+    println!("{table}");
+    Ok(())
+}
 
 /// The markdown table of the rows, with the settings that produced it.
 pub fn markdown(rows: &[Row], args: &FaultMatrixArgs) -> String {

@@ -103,12 +103,7 @@ pub fn run(args: &FaultMatrixArgs) -> anyhow::Result<()> {
         rows.push(row);
     }
     let table = markdown(&rows, args);
-    std::fs::write(args.out.join("fault-matrix-linuxcnc.md"), &table)?;
-    std::fs::write(
-        args.out.join("fault-matrix-linuxcnc.json"),
-        serde_json::to_string_pretty(&rows)?,
-    )?;
-    println!("{table}");
+    super::report::write_section(&args.out, "fault-matrix-linuxcnc", &table, &rows)?;
     let failed: Vec<_> = rows
         .iter()
         .filter(|r| !r.ok)
