@@ -10,9 +10,12 @@
 //! delay of N + 1. The estimate is the shortest delay `d` (1 ..= [`MAX_ECHO_PERIODS`])
 //! whose prediction "applied at k = command in force after k − d" has the fewest mismatches
 //! over the last `WINDOW` informative periods (periods in which the candidates disagree).
-//! Only a board on its regular cadence is judged: after a link error or a repeated or
-//! skipped sample (a stall, a board working through queued requests) the echo is judged
-//! again once one new sample per period has held for the whole history examined.
+//! Only a board on its regular cadence is judged ([`Cadence`]): after a link error, or a
+//! run of repeated or skipped samples (a stall, a board working through queued requests),
+//! the echo is judged again once the cadence has held for the whole history examined. A
+//! lone repeat or skip — the board's sample tick and the loop's read a hair apart, so that
+//! jitter of either moves the sample across the read — keeps the cadence but is not
+//! judged itself (a CAN board's status frame is the sample's: its echo is one sample old).
 //! `ACTUAL_FEED` (v2 boards) is matched the same way against programmed ×
 //! command, within the feed drive's lag (`FEED_TOLERANCE`).
 //!
@@ -39,6 +42,32 @@ const FEED_TOLERANCE: f64 = 0.05;
 const STEADY_PERIODS: u32 = 3;
 /// Informative periods needed before an estimate is reported.
 const MIN_INFORMATIVE: u32 = 2;
+
+/// How a read's `SAMPLE_SEQ` advanced against the loop's period count since the read
+/// before it (the drift: the sequence's advance less the periods' advance).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Cadence {
+    /// One new sample per period (drift 0).
+    Regular,
+    /// A lone repeated or skipped sample (drift ±1 after a regular read, or the skip that
+    /// makes good the repeat before it): the sample tick and the read close together.
+    Jitter,
+    /// Anything else: the first read, a run of repeats or skips, a jump, a sequence that
+    /// went back.
+    Broken,
+}
+
+impl Cadence {
+    /// This read's cadence from its drift and the previous read's drift (`None`: no
+    /// previous read on the unbroken line).
+    fn of(drift: Option<i64>, previous: Option<i64>) -> Self {
+        match (drift, previous) {
+            (Some(0), _) => Cadence::Regular,
+            (Some(d @ (-1 | 1)), Some(p)) if p == 0 || p == -d => Cadence::Jitter,
+            _ => Cadence::Broken,
+        }
+    }
+}
 
 /// One period's measurement.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -116,7 +145,11 @@ pub struct LoopDelay {
     feed: Scores,
     seq_unwrapped: Option<i64>,
     last_seq: Option<u16>,
-    /// Consecutive reads with one new sample each (the board's regular cadence).
+    /// The period of the last read, and how its sample drifted from the one before
+    /// ([`Cadence`]); `None` after a break of the line.
+    last_read: Option<(u64, Option<i64>)>,
+    /// Reads on the board's cadence ([`Cadence::Regular`] or [`Cadence::Jitter`]) since it
+    /// last broke.
     on_cadence: u32,
     /// The freshest offset that held for [`STEADY_PERIODS`] periods in a row.
     best_offset: Option<i64>,
@@ -155,6 +188,7 @@ impl LoopDelay {
         }
         if booked.line_broke {
             self.on_cadence = 0;
+            self.last_read = None;
         }
         match status {
             Some(s) => self.observe(index, s, booked.in_force),
@@ -168,12 +202,19 @@ impl LoopDelay {
         s: &BoardStatus,
         in_force: &[Option<u16>; MAX_ECHO_PERIODS],
     ) -> DelayReading {
-        // Only a board on its regular cadence (one new sample per period) is judged: after a
-        // stall, a repeated or a skipped sample, the board may still be working through
-        // queued requests, and its echo says nothing about the line.
-        // After a break the board may still be working through queued requests: its echo is
-        // judged once it has kept its cadence for the whole history examined.
-        if self.last_seq.map(|l| s.sample_seq.wrapping_sub(l)) != Some(1) {
+        // Only a board on its cadence is judged: after a stall or a run of repeated or
+        // skipped samples the board may still be working through queued requests, and its
+        // echo says nothing about the line; it is judged once it has kept its cadence for
+        // the whole history examined.
+        let drift = match (self.last_read, self.last_seq) {
+            (Some((k, _)), Some(l)) => {
+                Some(i64::from(s.sample_seq.wrapping_sub(l) as i16) - (index as i64 - k as i64))
+            }
+            _ => None,
+        };
+        let cadence = Cadence::of(drift, self.last_read.and_then(|(_, d)| d));
+        self.last_read = Some((index, drift));
+        if cadence == Cadence::Broken {
             self.applied = Scores::default();
             self.feed = Scores::default();
             self.on_cadence = 0;
@@ -182,7 +223,8 @@ impl LoopDelay {
         }
         let driven = s.acc_active && !s.override_locked && !s.feed_hold_active;
         let settled = self.on_cadence as usize >= MAX_ECHO_PERIODS;
-        if let (true, true, Some(preds)) = (driven, settled, predictions(in_force)) {
+        let judged = driven && settled && cadence == Cadence::Regular;
+        if let (true, Some(preds)) = (judged, predictions(in_force)) {
             let applied = s.override_applied_pct;
             self.applied.observe(&preds, |p| p == applied);
             if s.is_v2() && s.programmed_feed_mm_min > 0 {
@@ -379,11 +421,69 @@ mod tests {
                 "seq_moves {seq_moves}: {after:?}"
             );
             assert_eq!(after.last().and_then(|r| r.echo_periods), Some(1));
-            // On the board's cadence the estimate carries on through the skip; a sample
-            // skipped with it is judged again from scratch.
-            let first = after[0].echo_periods;
-            assert_eq!(first, (!seq_moves).then_some(1), "seq_moves {seq_moves}");
+            // The board's tick in the skipped period keeps its cadence against the period
+            // count; a board that did not tick is one lone repeat: the estimate carries on
+            // through the skip either way.
+            assert_eq!(after[0].echo_periods, Some(1), "seq_moves {seq_moves}");
         }
+    }
+
+    /// A board whose replies reach the loop `lag` reads late, driven by a dithering command,
+    /// its sample tick and the loop's read so close that the sample seen jitters: at the
+    /// periods in `repeats` the read still finds the sample before (a repeat), and the
+    /// next read finds the one after (a skip). Returns every reading.
+    fn run_jittered(lag: usize, periods: usize, repeats: &[usize]) -> Vec<DelayReading> {
+        let mut rig = Rig::default();
+        let cmds: Vec<u16> = (0..periods).map(|k| DITHER[k % 7]).collect();
+        let mut out = Vec::new();
+        for k in 0..periods {
+            let seen = k.checked_sub(1 + lag).map_or(50, |j| cmds[j]);
+            let seq = k.saturating_sub(lag) - usize::from(repeats.contains(&k));
+            out.push(rig.read(k as u64, Some(status(seen, seq as u16))));
+            rig.f.book(true, Some(cmds[k]));
+        }
+        out
+    }
+
+    #[test]
+    fn lone_repeats_and_skips_of_the_sample_keep_the_delay_judged() {
+        // Every third read sees its sample one tick late, as when board and loop sample at
+        // the same instant: the buffering line is found all the same.
+        let jitter: Vec<usize> = (10..200).step_by(3).collect();
+        for lag in [0, 2, 5] {
+            let r = run_jittered(lag, 200, &jitter);
+            let last = r.last().copied().unwrap_or_default();
+            assert_eq!(
+                last.echo_periods,
+                Some(1 + lag as u32),
+                "lag {lag}: {last:?}"
+            );
+            if lag == 0 {
+                assert!(r.iter().all(|x| x.late_streak == 0), "no false delay");
+            } else {
+                assert!(last.late_streak >= 2, "lag {lag}: {last:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_run_of_repeated_samples_breaks_the_cadence() {
+        // Reads 40–42 find the same sample (a stalled board), then it goes on: the
+        // estimate starts again from scratch.
+        let mut rig = Rig::default();
+        for k in 0..60usize {
+            let seen = k.checked_sub(1).map_or(50, |j| DITHER[j % 7]);
+            let seq = if (40..=42).contains(&k) { 39 } else { k };
+            let r = rig.read(k as u64, Some(status(seen, seq as u16)));
+            rig.f.book(true, Some(DITHER[k % 7]));
+            if k == 39 {
+                assert_eq!(r.echo_periods, Some(1));
+            }
+            if k == 42 {
+                assert_eq!(r.echo_periods, None, "judged again from scratch");
+            }
+        }
+        assert_eq!(rig.t.last().echo_periods, Some(1));
     }
 
     #[test]

@@ -465,16 +465,17 @@ impl LineGuard {
     /// How many periods older than expected the confirming read `raw`'s sample is, when
     /// the held read `cand` had `SAMPLE_SEQ` go back from `acc` by at most
     /// [`MAX_REPLAY_PERIODS`], `raw` goes on from `cand` at the board's cadence (one sample
-    /// per period) and the board's state bits are unchanged (no restart to explain it). A
-    /// sequence that jumps further back or stands still is a sensor that restarted or froze,
-    /// judged by the power rules, not a replay.
+    /// per period, or two: a sample tick that fell just before the read, as
+    /// [`crate::echo`] allows a lone skip) and the board's state bits are unchanged (no
+    /// restart to explain it). A sequence that jumps further back or stands still is a
+    /// sensor that restarted or froze, judged by the power rules, not a replay.
     fn replay_lag(&self, acc: &BoardStatus, cand: &BoardStatus, raw: &BoardStatus) -> Option<u32> {
         let expected = acc
             .sample_seq
             .wrapping_add(self.periods_since_accept as u16);
         let behind = expected.wrapping_sub(raw.sample_seq);
         let went_back = cand.sample_seq.wrapping_sub(acc.sample_seq) >= 0x8000;
-        let continues = raw.sample_seq == cand.sample_seq.wrapping_add(1);
+        let continues = matches!(raw.sample_seq.wrapping_sub(cand.sample_seq), 1 | 2);
         let same_board = !raw.board_restarted
             && raw.watchdog_tripped == acc.watchdog_tripped
             && (raw.acc_active || !acc.acc_active);
@@ -705,6 +706,19 @@ mod tests {
         let v = g.check(Ok(at(20)), &ex(&[70]));
         assert!(!v.hold);
         assert_eq!(v.replay_lag_periods, Some(2));
+        // A 6-read buffer whose confirming read finds one sample more (the board's tick
+        // just before the read): 40 accepted, 35 (held), 37: 42 was due, 5 late.
+        let mut g = LineGuard::new(GuardConfig::default());
+        g.check(Ok(at(40)), &ex(&[70]));
+        assert!(g.check(Ok(at(35)), &ex(&[70])).hold);
+        let v = g.check(Ok(at(37)), &ex(&[70]));
+        assert_eq!(v.replay_lag_periods, Some(5));
+        // A sequence that goes back and then stands still is no replay (a sensor that
+        // restarted and froze: the power rules judge it).
+        let mut g = LineGuard::new(GuardConfig::default());
+        g.check(Ok(at(40)), &ex(&[70]));
+        assert!(g.check(Ok(at(35)), &ex(&[70])).hold);
+        assert_eq!(g.check(Ok(at(35)), &ex(&[70])).replay_lag_periods, None);
     }
 
     #[test]

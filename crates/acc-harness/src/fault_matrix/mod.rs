@@ -58,7 +58,9 @@
 //! The other faults are timing faults, so their rows run on the wall clock. A row that fails, or
 //! never reaches the fault moment, while the host was too loaded for `acc run` to keep its
 //! period (its run log's `late` and `skipped` periods, [`rerun::HostLoad`]) or to start (its
-//! start-up transactions unanswered, exit 5, before a period) is run once more; the table's verdict then names the first attempt beside the second one's verdict
+//! start-up transactions unanswered, exit 5, before a period), or whose fault met no cut
+//! under ACC (ACC had released or held the feed before it: the row tested nothing), is run
+//! once more; the table's verdict then names the first attempt beside the second one's verdict
 //! (and the JSON has it as `first_attempt`), its logs kept in `<row>-first`.
 
 mod faults;
@@ -151,8 +153,9 @@ pub struct FaultMatrixArgs {
 }
 
 /// One row; if it failed (or never reached the fault moment) while `acc run` could not keep
-/// its period ([`HostLoad::overloaded`]), once more, its first attempt's logs kept in
-/// `<dir>-first` and its outcome in [`Row::first_attempt`].
+/// its period ([`HostLoad::overloaded`]), or its fault met no cut under ACC
+/// ([`Row::untested`]: the row says nothing of its fault), once more, its first attempt's
+/// logs kept in `<dir>-first` and its outcome in [`Row::first_attempt`].
 fn run_row_rerun_if_overloaded(
     args: &FaultMatrixArgs,
     f: &Fault,
@@ -173,7 +176,8 @@ fn run_row_rerun_if_overloaded(
             HostLoad::of(&run_log, f, None).with_start(&run_err),
         ),
     };
-    if !load.overloaded() {
+    let untested = matches!(&first, Ok(row) if row.untested.is_some());
+    if !load.overloaded() && !untested {
         return first;
     }
     let outcome = first_attempt(&outcome, &load);

@@ -83,9 +83,15 @@ impl HostLoad {
 }
 
 /// What the table and the JSON say of a first attempt: `FAIL: … (host overloaded: 12 of
-/// 450 acc run periods late or skipped)`.
+/// 450 acc run periods late or skipped)`, or, for a row re-run because its fault met no cut
+/// under ACC on a host that kept the period, `FAIL: … (host load: 0 of 400 …)`.
 pub fn first_attempt(outcome: &str, load: &HostLoad) -> String {
-    format!("{outcome} (host overloaded: {})", load.describe())
+    let what = if load.overloaded() {
+        "host overloaded"
+    } else {
+        "host load"
+    };
+    format!("{outcome} ({what}: {})", load.describe())
 }
 
 #[cfg(test)]

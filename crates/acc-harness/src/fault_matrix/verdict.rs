@@ -84,9 +84,42 @@ pub struct Row {
     /// Hostile-line rows: the proxy's alterations and the controller's flags.
     pub line: Option<LineReport>,
     /// The row was run twice: the first attempt's verdict (or error) on an overloaded host,
-    /// with the controller's late and skipped periods ([`super::rerun`]); `verdict` and `ok`
-    /// are the second attempt's.
+    /// with the controller's late and skipped periods, or on a run in which the fault met
+    /// no cut under ACC ([`super::rerun`]); `verdict` and `ok` are the second attempt's.
     pub first_attempt: Option<String>,
+    /// The fault met no cut under ACC, so the row did not test it: what the machine and
+    /// `acc run` were doing at the fault moment (`None`: ACC drove the cut).
+    pub untested: Option<String>,
+}
+
+/// Why the fault at `tf` met no cut under ACC, from the machine log's last period before
+/// it (`m`: ACC not driving the override, or the feed held) and `acc run`'s state then
+/// (`r`); `None` when ACC was driving the cut.
+fn untested(m: &[&RunRecord], r: &[RunRecord], tf: f64) -> Option<String> {
+    let at = m.last()?;
+    if at.state == "acc_active" && !at.feed_hold {
+        return None;
+    }
+    let run = r.iter().rev().find(|x| x.t_s <= tf).map_or_else(
+        || "no period".to_string(),
+        |x| format!("`{}` since t = {:.1} s", x.state, since(r, x)),
+    );
+    Some(format!(
+        "the fault met no cut under ACC (machine at t = {:.1} s: {}{}; acc run: {run})",
+        at.t_s,
+        at.state,
+        if at.feed_hold { ", feed held" } else { "" },
+    ))
+}
+
+/// When `acc run`'s log entered the state of its row `x`, s.
+fn since(r: &[RunRecord], x: &RunRecord) -> f64 {
+    r.iter()
+        .rev()
+        .skip_while(|y| y.period > x.period)
+        .take_while(|y| y.state == x.state)
+        .last()
+        .map_or(x.t_s, |y| y.t_s)
 }
 
 /// What a row is judged from: the machine-side log, `acc run`'s log, and on a hostile line
@@ -171,6 +204,8 @@ pub fn judge(
     if last_cmd.is_none() {
         problems.push("ACC was not active before the fault".into());
     }
+    let untested = untested(&before, r, tf);
+    problems.extend(untested.clone());
     if let Some(first) = over.first() {
         problems.push(format!(
             "override above ACC's last command in {} periods (first {first})",
@@ -241,6 +276,7 @@ pub fn judge(
         ok,
         line,
         first_attempt: None,
+        untested,
     }
 }
 
@@ -427,6 +463,35 @@ mod tests {
         gappy.remove(2);
         let r = judge_sigkill(2, &m, &gappy);
         assert!(!r.ok && r.verdict.contains("misses periods"), "{r:?}");
+    }
+
+    #[test]
+    fn a_fault_that_met_no_cut_under_acc_tested_nothing() {
+        // ACC had released with a feed hold at 0.8 s: the signal at 1 s found the machine
+        // standing, and no rule was broken, but the row tested nothing.
+        let run: Vec<RunRecord> = (0..11)
+            .map(|i| {
+                let state = if i < 8 { "active" } else { "power_invalid" };
+                row(0.1 * i as f64, state, 70, 0.0, false, i)
+            })
+            .collect();
+        let m = vec![
+            row(0.9, "operator", 70, 0.0, true, 9),
+            row(1.0, "operator", 70, 0.0, true, 10),
+            row(1.1, "operator", 70, 0.0, true, 11),
+        ];
+        let r = judge_sigkill(2, &m, &run);
+        assert!(!r.ok, "{r:?}");
+        let why = r.untested.as_deref().unwrap_or_default();
+        assert!(why.contains("met no cut under ACC"), "{why}");
+        assert!(why.contains("`power_invalid` since t = 0.8 s"), "{why}");
+        assert!(r.verdict.contains(why), "{}", r.verdict);
+        // Driving the cut at the fault moment: tested.
+        let m = vec![
+            row(1.0, "acc_active", 80, 800.0, false, 10),
+            row(1.1, "operator", 80, 0.0, true, 11),
+        ];
+        assert_eq!(judge_sigkill(2, &m, &run).untested, None);
     }
 
     #[test]

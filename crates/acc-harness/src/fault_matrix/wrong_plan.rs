@@ -23,7 +23,9 @@
 //!   the middle (`tests/peers/mitm_proxy.py`) starts answering every status read with the
 //!   board's reply of 2 reads earlier (a buffering gateway), to the end of the run. The
 //!   reference is the same plan with its cap only on the same slow line. Pass: the largest
-//!   true force after the line went slow ≤ 1.05 × the reference's, no period commands above
+//!   true force after the line went slow ≤ 1.05 × the reference's (or, when the reference
+//!   stopped sooner, × the largest force of the [`SLOW_LINE_BEFORE_S`] before the line
+//!   went slow: what ACC allowed), no period commands above
 //!   the limit in force or raises the command with an unusable force sample, `acc run`'s
 //!   log shows the slow line (a replayed or lagging sample, a measured delay, or the delay
 //!   judge's state) and no period is led (`plan_lead:`) from [`SLOW_LINE_GRACE_S`] s after
@@ -65,6 +67,8 @@ pub const SLOW_LINE_DELAY_READS: u32 = 2;
 /// After `acc run`'s log first shows the slow line, the loop has this long to stop the
 /// lead, s.
 pub const SLOW_LINE_GRACE_S: f64 = 0.5;
+/// The window before the line goes slow whose largest force is what ACC allowed, s.
+pub const SLOW_LINE_BEFORE_S: f64 = 2.0;
 
 fn s(v: impl ToString) -> String {
     v.to_string()
@@ -274,6 +278,7 @@ fn row_of(f: &Fault, protocol: u8, exit: String) -> Row {
         ok: false,
         line: None,
         first_attempt: None,
+        untested: None,
     }
 }
 
@@ -440,7 +445,16 @@ fn judge_slow_line(f: &Fault, protocol: u8, capped: &Loop, led_loop: &Loop) -> R
             .filter_map(|x| x.force_true_n)
             .fold(0.0, f64::max)
     };
-    row.force_before_n = after(capped);
+    // The bound: the reference's largest force on the same slow line, or, when the
+    // reference stopped sooner (its delay judge saw the line earlier), what ACC allowed in
+    // this run in the SLOW_LINE_BEFORE_S before the line went slow.
+    let allowed_before = t0.map_or(0.0, |t| {
+        m.iter()
+            .filter(|x| x.t_s < t && x.t_s >= t - SLOW_LINE_BEFORE_S)
+            .filter_map(|x| x.force_true_n)
+            .fold(0.0, f64::max)
+    });
+    row.force_before_n = after(capped).max(allowed_before);
     row.force_after_n = after(led_loop);
     row.force_after_released_n = m
         .iter()
@@ -659,6 +673,21 @@ mod tests {
         // More force after the moment than the cap alone on the same line.
         let r = judge_slow_line(f, 2, &capped, &slow(run.clone(), 800.0));
         assert!(!r.ok && r.verdict.contains("800 N"), "{r:?}");
+        // A reference that stopped sooner (200 N): the bound is what ACC allowed before
+        // the line went slow in this run (500 N before 2.0 s here, so 800 N fails) ...
+        let early = slow(vec![], 200.0);
+        let r = judge_slow_line(f, 2, &early, &slow(run.clone(), 800.0));
+        assert!(
+            !r.ok && r.verdict.contains("800 N") && r.verdict.contains("500 N"),
+            "{r:?}"
+        );
+        // ... and a cut that kept the force it had before the line went slow passes.
+        let mut flat = slow(run.clone(), 700.0);
+        for m in &mut flat.machine {
+            m.force_true_n = Some(700.0);
+        }
+        let r = judge_slow_line(f, 2, &early, &flat);
+        assert!(r.ok, "{r:?}");
         // A v1 board is never led; and on v2 the lead must have acted before the moment.
         let r = judge_slow_line(f, 1, &capped, &slow(run.clone(), 700.0));
         assert!(!r.ok && r.verdict.contains("v1"), "{r:?}");

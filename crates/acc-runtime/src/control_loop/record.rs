@@ -177,6 +177,9 @@ impl PeriodRecord {
         if let Some(c) = self.out.settle_cap {
             r.flag(&format!("settle:{c}"));
         }
+        if let Some(c) = self.out.restart_cap {
+            r.flag(&format!("restart:{c}"));
+        }
         if self.log_stalled {
             r.flag("log_stalled");
         }

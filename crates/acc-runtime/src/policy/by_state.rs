@@ -314,8 +314,8 @@ impl FaultPolicy {
 
     /// 17. The control step on the feed the loop computed once for this period, its
     ///     command placed on `grid` within the bounds of `tool_limits.rs` (range, invalid
-    ///     sample, knob, the shop layer's and the plan's limits, the settle cap of
-    ///     `settle.rs`): one quantization.
+    ///     sample, knob, the shop layer's and the plan's limits, the caps of `settle.rs`
+    ///     and `restart.rs`): one quantization.
     fn step_law<L: OverrideLaw + ?Sized>(
         &mut self,
         seen: &Seen<'_>,
@@ -336,12 +336,11 @@ impl FaultPolicy {
             valid: force_valid,
         };
         let mut limits = self.shop_limits;
-        out.settle_cap = self.settle.cap(SettleJudge::cutting(
-            force_valid,
-            input.force.force_n,
-            self.breakage.force_ref_n,
-        ));
-        if let Some(c) = out.settle_cap {
+        let cutting =
+            SettleJudge::cutting(force_valid, input.force.force_n, self.breakage.force_ref_n);
+        out.settle_cap = self.settle.cap(cutting);
+        out.restart_cap = self.restart.cap();
+        for c in [out.settle_cap, out.restart_cap].into_iter().flatten() {
             limits.cap_pct = Some(limits.cap_pct.map_or(c, |l| l.min(c)));
         }
         let bounds =
@@ -352,6 +351,7 @@ impl FaultPolicy {
         if !out.fault {
             self.settle.written(step.command.0);
         }
+        self.restart.stepped(cutting, step.command.0);
         out.write_override = Some(step.command);
         out.step = Some(step);
         out.measurement = Some(m);

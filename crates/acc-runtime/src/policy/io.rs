@@ -173,4 +173,8 @@ pub struct PolicyOutput {
     /// after a fault input, no higher than what ACC allowed before it); logged
     /// `settle:<pct>`.
     pub settle_cap: Option<u16>,
+    /// The restart judge's cap on the law's command this period, percent
+    /// (`policy/restart.rs`: a program stopped in a cut, the new cycle's cut not yet
+    /// measured); logged as `restart:<pct>`.
+    pub restart_cap: Option<u16>,
 }

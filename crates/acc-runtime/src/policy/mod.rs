@@ -44,7 +44,8 @@
 //!     Then the last command is written again and the law is not stepped (no wind-up on
 //!     the missing chip for the moment the cut resumes).
 //! 17. `settle.rs` — in the periods after a fault of the line or the board, no higher than
-//!     what ACC allowed before it; `tool_limits.rs` — what bounds the law's command (range, invalid sample,
+//!     what ACC allowed before it; `restart.rs` — after a program stopped in a cut, no
+//!     higher than the command that was cutting until the new cycle's cut is measured; `tool_limits.rs` — what bounds the law's command (range, invalid sample,
 //!     knob, the shop layer's and the plan's limits, the settle cap)? Then the law's step within those bounds
 //!     ([`OverrideLaw::step_within`]: its one quantization step applies them).
 //!
@@ -108,6 +109,7 @@ mod overload;
 mod period;
 mod plausibility;
 mod reset;
+mod restart;
 mod settle;
 mod shutdown;
 mod staleness;
@@ -129,6 +131,7 @@ use operator::OperatorJudge;
 use overload::OverloadJudge;
 use plausibility::PowerJudge;
 use reset::ResetJudge;
+use restart::RestartJudge;
 use settle::SettleJudge;
 use shutdown::DrainJudge;
 use staleness::Staleness;
@@ -168,6 +171,7 @@ pub struct FaultPolicy {
     reset: ResetJudge,
     lock: LockJudge,
     settle: SettleJudge,
+    restart: RestartJudge,
 }
 
 impl FaultPolicy {
@@ -201,6 +205,7 @@ impl FaultPolicy {
             reset: ResetJudge::default(),
             lock: LockJudge::default(),
             settle: SettleJudge::default(),
+            restart: RestartJudge::default(),
         }
     }
 

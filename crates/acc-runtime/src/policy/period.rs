@@ -91,6 +91,7 @@ impl FaultPolicy {
             fault: false,
             sample_advance: None,
             settle_cap: None,
+            restart_cap: None,
         }
     }
 
@@ -123,6 +124,7 @@ impl FaultPolicy {
                 BoardProtocol::V1
             });
             self.cycle_active = s.cycle_active;
+            self.restart.cycle(s.cycle_active);
         }
         status
     }

@@ -50,11 +50,17 @@ impl Rig {
         cfg: PolicyConfig,
         script: impl IntoIterator<Item = u16>,
     ) -> Self {
+        Self::with_law(b, cfg, ScriptedLaw::new(script))
+    }
+
+    /// With `cfg` as given and the law `law` (e.g. one that reports an Fr, for the rules
+    /// that judge the force against it), at 1200 W.
+    pub fn with_law(b: ScriptedBoard, cfg: PolicyConfig, law: ScriptedLaw) -> Self {
         cfg.validate().expect("valid policy config");
         Self {
             lp: ControlLoop::new(
                 FaultPolicy::new(cfg),
-                ScriptedLaw::new(script),
+                law,
                 LinearPowerForce { n_per_w: N_PER_W },
                 cfg.period_s,
             ),

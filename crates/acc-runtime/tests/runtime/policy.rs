@@ -9,7 +9,7 @@ use acc_pmc::{BoardErrorKind, BoardStatus};
 use acc_runtime::policy::{
     AccState, Event, FaultPolicy, PolicyConfig, PolicyInput, Rearm, Release,
 };
-use acc_runtime::testing::{LinkFault, ScriptedLaw};
+use acc_runtime::testing::{LinkFault, ScriptedBoard, ScriptedLaw};
 
 use crate::common::*;
 
@@ -655,4 +655,61 @@ fn a_board_that_never_confirms_acc_is_released() {
         recs.push(rig.step());
     }
     assert!(recs.iter().any(|r| released(r, Release::NoBoardAck)));
+}
+
+#[test]
+fn a_program_stopped_in_the_cut_runs_again_at_the_command_that_was_cutting() {
+    // An abort in the cut (CYCLE_ACTIVE falls, the spindle stops), the program run again
+    // from its start: its air moves ask 150 %, but until its first cut has been measured
+    // the command stays at the 40 % that was cutting when the program stopped. Found on
+    // LinuxCNC: the re-entry into the wall the abort left, at the air's 150 %, reached
+    // 3.3 Fr.
+    let cfg = PolicyConfig {
+        debounce_reads: 1,
+        ..PolicyConfig::default()
+    };
+    let law = ScriptedLaw {
+        force_ref_n: Some(800.0),
+        ..ScriptedLaw::new([40; 10].into_iter().chain([150; 60]))
+    };
+    let mut rig = Rig::with_law(ScriptedBoard::new(), cfg, law);
+    rig.power_w = 1700;
+    let cut = rig.run(8);
+    assert!(cut.iter().any(|r| r.out.state == AccState::Active));
+    assert_eq!(rig.lp.policy().last_command(), Some(40));
+    // The abort.
+    rig.b.board.set_cycle_active(false);
+    rig.b.board.set_spindle_rpm(0);
+    rig.power_w = 0;
+    rig.run(5);
+    // Run again: the spindle on, the air moves (20 W: 10 N, no cut).
+    rig.b.board.set_cycle_active(true);
+    rig.b.board.set_spindle_rpm(600);
+    rig.power_w = 20;
+    let air = rig.run(20);
+    for r in air.iter().filter(|r| r.out.step.is_some()) {
+        assert_eq!(r.out.restart_cap, Some(40), "{:?}", r.out);
+        assert!(r.out.write_override.is_some_and(|c| c.0 <= 40));
+    }
+    assert!(air.iter().filter(|r| r.out.step.is_some()).count() >= 15);
+    // The re-entry: capped for its first ENTRY_PERIODS cutting periods, then the law is
+    // free (here its script's 150 %).
+    rig.power_w = 1700;
+    let entry = rig.run(6);
+    let capped: Vec<bool> = entry.iter().map(|r| r.out.restart_cap.is_some()).collect();
+    assert_eq!(capped, [true, true, true, false, false, false], "{entry:?}");
+    assert!(entry[..3]
+        .iter()
+        .all(|r| r.out.write_override.is_some_and(|c| c.0 <= 40)));
+    assert_eq!(entry[5].out.write_override.map(|c| c.0), Some(150));
+
+    // A program that ends in air and starts again: no cap.
+    let mut rig = Rig::new(cfg, [150; 40]);
+    rig.power_w = 20;
+    rig.run(10);
+    rig.b.board.set_cycle_active(false);
+    rig.run(3);
+    rig.b.board.set_cycle_active(true);
+    let again = rig.run(5);
+    assert!(again.iter().all(|r| r.out.restart_cap.is_none()));
 }

@@ -6,8 +6,7 @@
 use acc_core::ForceSample;
 use acc_pmc::{BoardErrorKind, BoardStatus};
 use acc_runtime::policy::{AccState, Event, FaultPolicy, PolicyConfig, PolicyInput, Release};
-use acc_runtime::testing::{LinearPowerForce, ScriptedBoard, ScriptedLaw};
-use acc_runtime::ControlLoop;
+use acc_runtime::testing::{ScriptedBoard, ScriptedLaw};
 
 use crate::common::*;
 
@@ -624,18 +623,8 @@ fn a_drop_while_the_next_block_waits_for_confirmation_is_judged_a_period_later()
             force_ref_n: Some(800.0),
             ..ScriptedLaw::new([100])
         };
-        let mut rig = Rig {
-            lp: ControlLoop::new(
-                FaultPolicy::new(cfg),
-                law,
-                LinearPowerForce { n_per_w: N_PER_W },
-                cfg.period_s,
-            ),
-            b: ScriptedBoard::new(),
-            t_s: 0.0,
-            power_w: 1600, // 800 N
-            freeze_seq: false,
-        };
+        let mut rig = Rig::with_law(ScriptedBoard::new(), cfg, law);
+        rig.power_w = 1600; // 800 N
         rig.b.board.set_tool_number(1);
         rig.b.board.set_block_number(10);
         let steady = rig.run(30);

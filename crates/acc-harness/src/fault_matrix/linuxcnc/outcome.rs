@@ -81,7 +81,7 @@ fn event_outcome(f: &LcncFault, r: &LcncRow, e: &EventFigures) -> String {
             e.periods_stepped
         ),
         "abort-restart" => format!(
-            "run again {dur} after the abort at acc's {} (last before the abort {}); peak after the restart {} (first run {:.0} N), above 1.05 × {:.0} N for at most {} (the re-entry into the wall the abort left, at the air cut's command); acc drove every cut period",
+            "run again {dur} after the abort at acc's {} (last before the abort {}); peak after the restart {} (first run {:.0} N), above 1.05 × {:.0} N for {} (the restart's air moves and its re-entry into the wall the abort left capped at acc's command of the stopped cut, `restart:<pct>`); acc drove every cut period",
             u(e.cmd_after_end_pct),
             u(e.cmd_before_pct),
             n(e.peak_after_n),

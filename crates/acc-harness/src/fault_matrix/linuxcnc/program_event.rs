@@ -75,9 +75,10 @@ pub struct EventFigures {
 ///   its law steps) in the cut after the return.
 /// - **abort-restart**: the program ran again and completed; acc's first command of the
 ///   restarted run is not above its last before the abort (no wind-up over the abort);
-///   acc drives in every cut period of the restarted run; no true force above 1.05 × the
-///   force before the abort lasts longer than [`MAX_EXCURSION_S`] (acc brings every entry
-///   back; the entry itself is a feedback limit, stated as the peak).
+///   acc drives in every cut period of the restarted run; the peak after the restart is at
+///   most 1.05 × the force before the abort (the restart judge caps the restarted program
+///   at the command of the stopped cut until its first cut is measured:
+///   `acc_runtime::policy`, `restart.rs`).
 /// - **tool-change**: acc drives in every cut period after the change (it neither latches
 ///   nor holds the feed on the `M5` / `M6` / `M3`); the second tool's peak is at most 1.05 ×
 ///   the first tool's (both entries from the air cut); its cut settles within
@@ -270,9 +271,10 @@ fn abort_restart(
             ));
         }
     }
-    if longest > MAX_EXCURSION_S {
+    let peak = e.peak_after_n.unwrap_or(0.0);
+    if peak > 1.05 * row.force_before_n {
         why.push(format!(
-            "the true force stayed above 1.05 × {:.0} N for {longest:.2} s after the restart",
+            "peak {peak:.0} N after the restart > 1.05 × {:.0} N before the abort (above for {longest:.2} s)",
             row.force_before_n
         ));
     }

@@ -259,21 +259,24 @@ fn m52_off_passes_when_the_pin_holds_and_fails_when_it_says_150_percent() {
 #[test]
 fn abort_restart_passes_when_acc_drives_on_and_fails_latched_or_wound_up() {
     // The first run cuts at 900 N to 5 s; aborted 5–6.3 s; the restart re-enters the
-    // wall at 8 s (2 600 N for 0.1 s), then 900 N.
-    let m = marked(
-        machine(14.0, 5.0, 99.0, |t| {
-            if (5.0..6.3).contains(&t) {
-                (0.0, 0.0, 0.333, 1.5)
-            } else if (6.3..8.0).contains(&t) {
-                (450.0, 0.0, 1.0, 1.5)
-            } else if (8.0..8.1).contains(&t) {
-                (450.0, 2600.0, 1.0, 1.5)
-            } else {
-                (150.0, 900.0, 0.333, 1.5)
-            }
-        }),
-        |t| (5.0..6.3).contains(&t),
-    );
+    // wall at 8 s (`entry_n` for 0.1 s), then 900 N.
+    let restarted = |entry_n: f64| {
+        marked(
+            machine(14.0, 5.0, 99.0, move |t| {
+                if (5.0..6.3).contains(&t) {
+                    (0.0, 0.0, 0.333, 1.5)
+                } else if (6.3..8.0).contains(&t) {
+                    (450.0, 0.0, 1.0, 1.5)
+                } else if (8.0..8.1).contains(&t) {
+                    (450.0, entry_n, 1.0, 1.5)
+                } else {
+                    (150.0, 900.0, 0.333, 1.5)
+                }
+            }),
+            |t| (5.0..6.3).contains(&t),
+        )
+    };
+    let m = restarted(930.0);
     let ok = run_log_stepped(13.0, |_| ("active", 50, true));
     let r = judge(fault("abort-restart"), FR, &m, &ok, COMPLETED);
     assert!(r.ok, "{r:#?}");
@@ -282,10 +285,25 @@ fn abort_restart_passes_when_acc_drives_on_and_fails_latched_or_wound_up() {
         (e.cmd_before_pct, e.cmd_after_end_pct),
         (Some(50), Some(50))
     );
+    assert_eq!(e.peak_after_n, Some(930.0));
+    // The re-entry at the air cut's command: 2 600 N for 0.1 s is above what ACC allowed.
+    let r = judge(
+        fault("abort-restart"),
+        FR,
+        &restarted(2600.0),
+        &ok,
+        COMPLETED,
+    );
+    assert!(
+        r.verdict
+            .contains("peak 2600 N after the restart > 1.05 × 900 N"),
+        "{}",
+        r.verdict
+    );
+    let e = r.event.as_ref().expect("figures");
     assert!(e
         .longest_excursion_s
         .is_some_and(|s| (s - 0.1).abs() < 0.011));
-    assert_eq!(e.peak_after_n, Some(2600.0));
     // Latched on the abort's stopped spindle: the restart runs uncontrolled.
     let latched = run_log_stepped(13.0, |t| {
         if t < 5.2 {
@@ -314,11 +332,7 @@ fn abort_restart_passes_when_acc_drives_on_and_fails_latched_or_wound_up() {
         |t| (5.0..6.3).contains(&t),
     );
     let r = judge(fault("abort-restart"), FR, &slow, &ok, COMPLETED);
-    assert!(
-        r.verdict.contains("stayed above 1.05 × 900 N"),
-        "{}",
-        r.verdict
-    );
+    assert!(r.verdict.contains("peak 2600 N after"), "{}", r.verdict);
     // It never ran again.
     let r = judge(
         fault("abort-restart"),
