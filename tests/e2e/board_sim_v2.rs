@@ -41,6 +41,10 @@ fn board_sim(log: &std::path::Path, extra: &[&str]) -> Proc {
 fn command_override_for(path: &str, cmd: u16, run: Duration, expect: BoardProtocol) -> (u32, u32) {
     let mut cfg = RtuConfig::for_port(path);
     cfg.parity = "none".into();
+    // A board-sim started beside other tests on 2 cores can answer the start-up writes
+    // later than the default 40 ms: retried, as a controller would; while the cable is out
+    // a cycle then takes up to three timeouts, which only slows the loop.
+    cfg.retries = 2;
     let settings = cfg.validate("e2e.toml", "board").expect("valid");
     let mut b = open_rtu_board(&settings).expect("open the board-sim pty");
     let s = b.read_status().expect("status");
