@@ -67,7 +67,7 @@ stock-bench:
 
 # The discrepancy workflow's full hidden-effect sweep (confusion matrix, recovery vs size; ~12 min).
 ident-sweep:
-    cargo run --release -p acc-ident --example sweep -- --seeds 10 --enr 0.25,0.5,1,2,4,8 --fdr 200 --pairs 10 --out out/sweep
+    cargo run --release -p acc-ident --example twin_lab -- sweep --seeds 10 --enr 0.25,0.5,1,2,4,8 --fdr 200 --pairs 10 --out out/sweep
 
 # Loop timing: the real ticker for 36 000 periods at T = 1 ms.
 jitter:

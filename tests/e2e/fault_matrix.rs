@@ -13,10 +13,7 @@
 //! wrong-plan rows run `acc run --plan` against `acc board-sim --program` (the pocket
 //! program): a plan made for a lower stock must keep the force at most that of feedback
 //! alone and be flagged, a missing plan file must be refused before the board sees a
-//! request. Then a
-//! short soak on the same hostile line (1 % garbage throughout, two delay episodes) with a
-//! random board fault every few seconds for 200 s of machine time: no lost rows, no dead
-//! thread, the invariant holds.
+//! request.
 
 use crate::e2e_support::{acc_bin, one_at_a_time, root};
 
@@ -156,37 +153,4 @@ fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
             assert_eq!(row["exit"].as_str(), Some("3"), "v{p} {sig}: {row}");
         }
     }
-}
-
-#[test]
-fn a_short_soak_with_random_faults_loses_no_rows_and_keeps_every_thread() {
-    let _serial = one_at_a_time();
-    let dir = tempfile::tempdir().expect("temp dir");
-    let out = dir.path().join("soak");
-    let child = std::process::Command::new(acc_bin())
-        .current_dir(root())
-        .args(["soak", "--machine-s", "200", "--seed", "3"])
-        // The hostile line (the default) with a delay episode every 60 s: two in 200 s.
-        .args(["--delay-every-s", "60", "--out"])
-        .arg(&out)
-        .output()
-        .expect("run acc soak");
-    let stdout = String::from_utf8_lossy(&child.stdout);
-    let stderr = String::from_utf8_lossy(&child.stderr);
-    println!("{stdout}\n{stderr}");
-    assert!(
-        child.status.success(),
-        "acc soak failed:\n{stdout}\n{stderr}"
-    );
-    let json = std::fs::read_to_string(out.join("soak.json")).expect("json");
-    let r: serde_json::Value = serde_json::from_str(&json).expect("report");
-    assert!(r["faults_fired"].as_u64().unwrap_or(0) >= 40, "{r}");
-    assert_eq!(r["run_missing"].as_u64(), Some(0), "{r}");
-    assert_eq!(r["raised_in_fault"].as_u64(), Some(0), "{r}");
-    assert!(r["machine_s"].as_f64().unwrap_or(0.0) > 190.0, "{r}");
-    let line = &r["line"];
-    assert!(line["corrupted"].as_u64().unwrap_or(0) > 0, "{r}");
-    assert_eq!(line["episodes"], 2, "{r}");
-    assert_eq!(line["episodes_planned"], 2, "{r}");
-    assert!(line["delayed_reads"].as_u64().unwrap_or(0) > 0, "{r}");
 }

@@ -14,7 +14,6 @@ use acc_sim::Scenario;
 
 #[test]
 fn acc_run_drives_a_one_percent_board_with_sigma_delta() {
-    let _one = crate::e2e_support::one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let configs = root().join("configs");
     let abs = |text: String| text.replace("\"../", &format!("\"{}/", configs.display()));

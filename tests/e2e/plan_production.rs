@@ -82,7 +82,6 @@ fn peaks(machine: &[RunRecord], fr: f64) -> ((f64, usize), (f64, usize)) {
 
 #[test]
 fn acc_run_with_the_plan_holds_every_entry_and_corner_of_the_pocket_at_fr() {
-    let _serial = crate::e2e_support::one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let plan_dir = dir.path().join("plan");
     let (ok, out, err) = crate::e2e_support::acc_output(&[

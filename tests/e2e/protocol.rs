@@ -5,7 +5,7 @@
 
 use std::time::Duration;
 
-use crate::e2e_support::{load_tolerant_config, one_at_a_time, spawn_board_sim, spawn_run_for};
+use crate::e2e_support::{load_tolerant_config, spawn_board_sim, spawn_run_for};
 
 /// `acc run --duration-s 2` against a board-sim started with `board_args` and paced by the
 /// controller's writes; returns its stdout and stderr lines. The subject is the protocol, not
@@ -34,7 +34,6 @@ fn v1_warnings(err: &[String]) -> usize {
 
 #[test]
 fn a_v1_board_is_announced_exactly_once() {
-    let _serial = one_at_a_time();
     for registers in ["exception", "zeros"] {
         let (out, err) = short_run(&["--protocol", "1", "--v1-registers", registers]);
         assert_eq!(v1_warnings(&err), 1, "{registers}: stderr {err:#?}");
@@ -53,7 +52,6 @@ fn a_v1_board_is_announced_exactly_once() {
 
 #[test]
 fn a_v2_board_gets_its_fallback_mode_and_no_warning() {
-    let _serial = one_at_a_time();
     let (out, err) = short_run(&[]);
     assert_eq!(v1_warnings(&err), 0, "{err:#?}");
     assert!(

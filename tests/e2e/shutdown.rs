@@ -1,6 +1,7 @@
 //! Ctrl-C in the middle of a cut never raises the feed: `acc run` against `acc board-sim`
-//! over a pty (paper case III; the board paced by the controller's writes), SIGINT while the
-//! tool is deep in the 4 mm step.
+//! over a pty (paper case III's cut as the fault matrix runs it,
+//! `configs/scenarios/fault_matrix.toml`; the board paced by the controller's writes), SIGINT
+//! while the tool is deep in the 4 mm step.
 //! ACC keeps control through the drain (`[shutdown] drain_s`, 10 s of machine time by
 //! default); the cut is still going when the drain ends, so `acc run` requests feed hold,
 //! then releases with the hold kept, and exits with code 3. The machine-side log of
@@ -9,33 +10,35 @@
 use std::time::Duration;
 
 use crate::e2e_support::{
-    load_tolerant_config, one_at_a_time, read_log, spawn_board_sim, spawn_run,
+    load_tolerant_config, one_at_a_time, read_log, spawn_board_sim, spawn_board_sim_on, spawn_run,
 };
 
 #[test]
 fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force() {
-    let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let sim_log = dir.path().join("machine.csv");
     let run_log = dir.path().join("run.csv");
     let sim_log_s = sim_log.to_string_lossy().to_string();
-    // A no-op operator fault at 40 s of machine time marks the moment (the knob stays at
-    // 100 %): the 4 mm step runs from about 31 s to 55 s.
+    // A no-op operator fault at 16 s of machine time marks the moment (the knob stays at
+    // 100 %): the 4 mm step runs from about 10 s to 34 s.
     // The machine moves one period per command write of `acc run` (`--pace controller`):
     // the signal lands at the same machine time whatever the host's load.
-    let (mut board, pty) = spawn_board_sim(&[
-        "--log",
-        &sim_log_s,
-        "--fault",
-        "operator@40:100",
-        "--pace",
-        "controller",
-    ]);
+    let (mut board, pty) = spawn_board_sim_on(
+        "configs/scenarios/fault_matrix.toml",
+        &[
+            "--log",
+            &sim_log_s,
+            "--fault",
+            "operator@16:100",
+            "--pace",
+            "controller",
+        ],
+    );
     let config = load_tolerant_config(dir.path(), "");
     let run = spawn_run(&config.to_string_lossy(), &pty, &run_log);
     assert!(
         board.wait_for("fault Operator(100)", Duration::from_secs(60)),
-        "board-sim did not reach t = 40 s: {:?}",
+        "board-sim did not reach t = 16 s: {:?}",
         board.err_lines
     );
     run.sigint();
@@ -57,7 +60,7 @@ fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force()
     let last = rows.last().expect("rows");
     assert_eq!(last.state, "active", "ACC kept control through the drain");
     assert!(
-        last.t_s > 48.0,
+        last.t_s > 24.0,
         "drained for ~10 s after the signal: {}",
         last.t_s
     );
@@ -67,15 +70,15 @@ fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force()
     let force = |r: &acc_runtime::RunRecord| r.force_true_n.unwrap_or(0.0);
     let pre = m
         .iter()
-        .filter(|r| (34.0..40.0).contains(&r.t_s))
+        .filter(|r| (10.0..16.0).contains(&r.t_s))
         .map(force)
         .fold(0.0, f64::max);
     let post = m
         .iter()
-        .filter(|r| r.t_s >= 40.0)
+        .filter(|r| r.t_s >= 16.0)
         .map(force)
         .fold(0.0, f64::max);
-    println!("largest true force: {pre:.0} N in 34..40 s, {post:.0} N after the signal");
+    println!("largest true force: {pre:.0} N in 10..16 s, {post:.0} N after the signal");
     assert!(pre > 600.0, "cutting before the signal: {pre}");
     assert!(
         post <= 1.05 * pre,
@@ -87,13 +90,13 @@ fn sigint_mid_cut_keeps_control_then_holds_the_feed_and_never_raises_the_force()
     // board's fallback clamp keeps the last command.)
     let cmd_before = m
         .iter()
-        .filter(|r| (34.0..40.0).contains(&r.t_s))
+        .filter(|r| (10.0..16.0).contains(&r.t_s))
         .filter_map(|r| r.override_applied_pct)
         .max()
         .expect("applied");
     let applied_after = m
         .iter()
-        .filter(|r| r.t_s >= 40.0 && !r.feed_hold)
+        .filter(|r| r.t_s >= 16.0 && !r.feed_hold)
         .filter_map(|r| r.override_applied_pct)
         .max()
         .expect("applied");

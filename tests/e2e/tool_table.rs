@@ -20,7 +20,6 @@ fn run_config_with_tools(dir: &std::path::Path) -> std::path::PathBuf {
 
 #[test]
 fn acc_run_switches_the_force_limit_with_the_boards_tool_number() {
-    let _serial = crate::e2e_support::one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let config = run_config_with_tools(dir.path());
     let run_log = dir.path().join("run.csv");

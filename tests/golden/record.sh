@@ -16,7 +16,7 @@
 #   compare.txt      `acc compare --no-plot` of every shipped scenario.
 #   fault-matrix.txt `acc fault-matrix` (5x time, the shipped defaults): per row the fault,
 #                    board, what, and the columns that are stable run to run (see below).
-#   twin.txt         the twin evaluation (crates/acc-ident/examples/twin_eval/main.rs) on a fixed
+#   twin.txt         the twin evaluation (crates/acc-ident/examples/twin_lab/twin_eval/mod.rs) on a fixed
 #                    small subset: its confusion tables and the per-case rows, sorted.
 #
 # Determinism. Everything except the fault matrix runs on the simulator's stepped clock with
@@ -128,10 +128,10 @@ TWIN_ARGS=(--null-seeds 2 --lib-seeds 1 --oob-seeds 1 --wp-limit 1 --threads 2
     --only "tool_wear,Ks step,log delay,depth scale")
 if want twin; then
     log "twin.txt"
-    cargo build --release -q -p acc-ident --example twin_eval
+    cargo build --release -q -p acc-ident --example twin_lab
     {
         echo "=== twin_eval ${TWIN_ARGS[*]}"
-        run cargo run --release -q -p acc-ident --example twin_eval -- \
+        run cargo run --release -q -p acc-ident --example twin_lab -- twin_eval \
             "${TWIN_ARGS[@]}" --out "${WORK}/twin" |
             sed -e 's/; [0-9.]* s on \([0-9]*\) threads (release build) for the rest\./; <wall time> on \1 threads (release build) for the rest./' \
                 -e '/^total time: /d'

@@ -416,9 +416,12 @@ pub fn peer_ready(what: &str, check: &mut Command) -> bool {
     ok
 }
 
-/// The closed loops of one test binary that take this lock run one at a time: two
-/// board-sim/acc-run pairs faster than real time on a 2-core machine would slip each other's
-/// timing.
+/// The wall-paced closed loops of one test binary (the board on its own ticker, the link's
+/// timing under test: the fault matrix, the fault schedule, the pymodbus stand-in, the
+/// reconnects) take this lock and run one at a time: two such pairs faster than real time
+/// on a 2-core machine would slip each other's timing. A pair whose board moves with the
+/// controller's writes (`--pace controller`, the run config made tolerant of a loaded host:
+/// [`load_tolerant_config`]) runs the same whatever runs beside it, and takes no lock.
 pub fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
     static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
     SERIAL

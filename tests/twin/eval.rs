@@ -1,5 +1,5 @@
 //! Issue 13: the honest twin on logs from the production path (CI-sized; the full figures
-//! come from `cargo run --release -p acc-ident --example twin_eval`, docs/twin.md), and the
+//! come from `cargo run --release -p acc-ident --example twin_lab -- twin_eval`, docs/twin.md), and the
 //! bad-input checks (dead channel, non-finite values, units, gaps).
 
 use acc_ident::model::Channel;

@@ -2,7 +2,7 @@
 //! hidden effects at once.
 //!
 //! The 200-seed false-discovery rate is measured by
-//! `cargo run --release -p acc-ident --example sweep`; here a fast subset.
+//! `cargo run --release -p acc-ident --example twin_lab -- sweep`; here a fast subset.
 
 use acc_ident::synth::{self, Hidden};
 use acc_ident::{workflow, EffectKind};

@@ -1,7 +1,7 @@
 //! Hidden-effect recovery, fast grid, dynamic and drift effects: for each
 //! effect, one log with white and one with AR(1) noise at effect-to-noise ratio 4; the
 //! nominal model lacks the effect. The full sweep is
-//! `cargo run --release -p acc-ident --example sweep`.
+//! `cargo run --release -p acc-ident --example twin_lab -- sweep`.
 
 use acc_ident::EffectKind;
 

@@ -1,7 +1,7 @@
 //! Hidden-effect recovery, fast grid, process and spindle effects: for each
 //! effect, one log with white and one with AR(1) noise at effect-to-noise ratio 4; the
 //! nominal model lacks the effect. The full sweep (confusion matrix, recovery against
-//! size, 200-seed false-discovery rate) is `cargo run --release -p acc-ident --example sweep`.
+//! size, 200-seed false-discovery rate) is `cargo run --release -p acc-ident --example twin_lab -- sweep`.
 
 use acc_ident::EffectKind;
 

@@ -7,7 +7,7 @@
 //! the repository.
 //!
 //! ```sh
-//! cargo run -p xtask -- fault-matrix-doc            # about 7½ minutes
+//! cargo run -p xtask -- fault-matrix-doc            # about 5½ minutes
 //! cargo run -p xtask -- soak-doc                    # about 6 minutes
 //! cargo run -p xtask -- fault-matrix-doc --only sigint --protocol 2
 //! ```

@@ -299,9 +299,11 @@ fn low_stock_row(
     lead: bool,
 ) -> anyhow::Result<Row> {
     let plan = write_plan(args, dir, PLAN_STOCK_LOW)?;
-    let alone = closed_loop(args, protocol, &dir.join("alone"), None, false, false)?;
-    let wrong = closed_loop(args, protocol, dir, Some(&plan), lead, false)?;
-    Ok(judge_low_stock(f, protocol, &alone, &wrong))
+    let (alone, wrong) = side_by_side(
+        || closed_loop(args, protocol, &dir.join("alone"), None, false, false),
+        || closed_loop(args, protocol, dir, Some(&plan), lead, false),
+    );
+    Ok(judge_low_stock(f, protocol, &alone?, &wrong?))
 }
 
 fn slow_line_row(
@@ -311,9 +313,25 @@ fn slow_line_row(
     dir: &Path,
 ) -> anyhow::Result<Row> {
     let plan = write_plan(args, dir, PLAN_STOCK)?;
-    let capped = closed_loop(args, protocol, &dir.join("cap"), Some(&plan), false, true)?;
-    let led = closed_loop(args, protocol, dir, Some(&plan), true, true)?;
-    Ok(judge_slow_line(f, protocol, &capped, &led))
+    let (capped, led) = side_by_side(
+        || closed_loop(args, protocol, &dir.join("cap"), Some(&plan), false, true),
+        || closed_loop(args, protocol, dir, Some(&plan), true, true),
+    );
+    Ok(judge_slow_line(f, protocol, &capped?, &led?))
+}
+
+/// The reference loop and the loop under test of a row, at the same time: each has its
+/// own board-sim, pty and `acc run`, and the board moves with its controller's writes
+/// (`--pace controller`), so neither slips the other's timing.
+fn side_by_side<A: Send, B: Send>(
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    std::thread::scope(|s| {
+        let b = s.spawn(b);
+        let a = a();
+        (a, b.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+    })
 }
 
 /// `acc plan` of the program for the stock `stock_box` into `dir/plan/plan.csv`.

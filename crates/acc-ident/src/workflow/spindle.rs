@@ -51,8 +51,8 @@ pub const MISMATCH_RATIO: f64 = 10.0;
 /// the calibrated one, −. A mismatch that the noise does not see (a copper loss, a level,
 /// a scale) is left to the effect search and the nominal refit. Measured (dev build):
 /// the simulator's induction motor against a constant-efficiency model
-/// (`examples/motor_mismatch.rs`, seed 1000) 4.59 → 0.96 W on the null log, 8.97 →
-/// 1.15 W with wear 0.01/cm³; a hidden copper loss at ENR 4 (`examples/one.rs`
+/// (`examples/twin_lab/motor_mismatch.rs`, seed 1000) 4.59 → 0.96 W on the null log, 8.97 →
+/// 1.15 W with wear 0.01/cm³; a hidden copper loss at ENR 4 (`examples/twin_lab/one.rs`
 /// `motor_efficiency 4 0 11` and `4 0.6 12`) 9.94 → 8.05 and 12.02 → 8.45 W; a matching
 /// spindle with a wear and a no-load drift at ENR 6 each
 /// (`tests/twin/ident_null_and_pairs.rs`, seed 21) 9.48 → 11.30 W.

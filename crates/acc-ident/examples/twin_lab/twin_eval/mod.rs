@@ -8,7 +8,7 @@
 //! `--resume FILE` (a `cases.csv` of a run stopped early) skips the cases already in it;
 //! `--report-only` with it writes the figures of those rows without running the rest.
 //!
-//! cargo run --release -p acc-ident --example twin_eval -- --null-seeds 200 \
+//! cargo run --release -p acc-ident --example twin_lab -- twin_eval --null-seeds 200 \
 //!     --lib-seeds 1 --oob-seeds 1 --threads 2 --out out/twin --update-doc docs/twin-evaluation.md
 //!
 //! Other options: `--channels power|force`, `--skip LABEL-PREFIX[,…]`,
@@ -22,7 +22,7 @@
 //! with `cargo build --release -p acc-cli`). With `--update-doc` the block between
 //! `<!-- twin-eval-board:begin -->` and `<!-- twin-eval-board:end -->` is replaced.
 //!
-//! cargo run --release -p acc-ident --example twin_eval -- --path board --null-seeds 20 \
+//! cargo run --release -p acc-ident --example twin_lab -- twin_eval --path board --null-seeds 20 \
 //!     --wp-limit 2 --oob-seeds 1 --out out/twin-board --update-doc docs/twin-evaluation.md
 
 mod board;
@@ -463,8 +463,8 @@ fn channel_md(name: &str, rows: &[(Hidden, &Row)]) -> String {
     md
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+pub fn main() {
+    let args: Vec<String> = crate::args().skip(1).collect();
     let get = |k: &str| {
         args.iter()
             .position(|a| a == k)

@@ -1,12 +1,12 @@
 //! Residual of the nominal replay of one null log, row by row (development aid); with
 //! `LOGGED=1` replayed on its logged depths instead of the workpiece.
 //!
-//! cargo run --release -p acc-ident --example twin_resid -- interrupted.toml force 1007
+//! cargo run --release -p acc-ident --example twin_lab -- twin_resid interrupted.toml force 1007
 use acc_ident::model::Channel;
 use acc_ident::twin;
 
-fn main() {
-    let a: Vec<String> = std::env::args().skip(1).collect();
+pub fn main() {
+    let a: Vec<String> = crate::args().skip(1).collect();
     let wp = a
         .first()
         .cloned()

@@ -1,12 +1,12 @@
 //! One evaluation case end to end (development aid): workpiece, hidden effect label,
 //! channel, seed → the verdict and the time it took.
 //!
-//! cargo run --release -p acc-ident --example twin_one -- interrupted.toml null force 1007
+//! cargo run --release -p acc-ident --example twin_lab -- twin_one interrupted.toml null force 1007
 use acc_ident::model::Channel;
 use acc_ident::twin::{run_case, Hidden};
 
-fn main() {
-    let a: Vec<String> = std::env::args().skip(1).collect();
+pub fn main() {
+    let a: Vec<String> = crate::args().skip(1).collect();
     let wp = a
         .first()
         .cloned()

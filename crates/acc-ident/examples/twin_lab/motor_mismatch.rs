@@ -2,15 +2,15 @@
 //! spindle model (`configs/models/paper_vmc.toml`) and with the matching model: names,
 //! wear's effect-to-noise ratio and the noise σ, per seed.
 //!
-//! cargo run -p acc-ident --example motor_mismatch -- tool_wear=0.005 1000 1001 …
+//! cargo run -p acc-ident --example twin_lab -- motor_mismatch tool_wear=0.005 1000 1001 …
 //! (case III on `steps_2_3_4` with the tool's own wear, 0.005/cm³; `null`: the tool does
 //! not wear). `WINDOW=s` sets the shipped model's power window; `DUMP=prefix` writes the
 //! series as `prefix.<model>.<seed>.csv`.
 use acc_ident::model::{Channel, Model};
 use acc_ident::twin::{case_log, Hidden};
 
-fn main() {
-    let a: Vec<String> = std::env::args().skip(1).collect();
+pub fn main() {
+    let a: Vec<String> = crate::args().skip(1).collect();
     let hidden = Hidden::parse(a.first().map_or("tool_wear=0.005", String::as_str))
         .expect("hidden effect label");
     let seeds: Vec<u64> = a.iter().skip(1).filter_map(|s| s.parse().ok()).collect();

@@ -3,13 +3,13 @@
 //! the tool starting at X0 instead); with `POS=1` the replayed tool position per row instead
 //! (development aid: compare it with `acc board-sim --log`'s `x_true_mm`).
 //!
-//! cargo run --release -p acc-ident --example log_resid -- RUN.csv MODEL.toml WORKPIECE.toml X0 power
+//! cargo run --release -p acc-ident --example twin_lab -- log_resid RUN.csv MODEL.toml WORKPIECE.toml X0 power
 use acc_ident::model::Channel;
 use acc_ident::twin;
 use std::path::Path;
 
-fn main() {
-    let a: Vec<String> = std::env::args().skip(1).collect();
+pub fn main() {
+    let a: Vec<String> = crate::args().skip(1).collect();
     let mut m = acc_ident::Model::load(Path::new(&a[1])).expect("model");
     let x0: f64 = a[3].parse().expect("x0");
     let eng = acc_ident::engagement::PathEngagement::load(Path::new(&a[2]), m.tool.diameter_mm, x0)

@@ -11,7 +11,7 @@
 //! figures can be compared. `--only default-power` (or `default-force`) runs one of the two
 //! analyses.
 //!
-//! cargo run --release -p acc-ident --example discrepancy_speed -- [--repeat N] [--out DIR] [--only NAME]
+//! cargo run --release -p acc-ident --example twin_lab -- discrepancy_speed [--repeat N] [--out DIR] [--only NAME]
 use std::path::Path;
 use std::time::Instant;
 
@@ -20,8 +20,8 @@ use acc_ident::model::Channel;
 use acc_ident::{runlog, workflow, Model};
 use acc_sim::scenario::MeasurementSpec;
 
-fn main() {
-    let args: Vec<String> = std::env::args().collect();
+pub fn main() {
+    let args: Vec<String> = crate::args().collect();
     let repeat: usize = args
         .iter()
         .position(|a| a == "--repeat")

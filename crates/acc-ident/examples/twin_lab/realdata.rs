@@ -1,10 +1,10 @@
 //! Run the workflow on the real data in `../shared/data` and print the verdicts:
-//! `cargo run --release -p acc-ident --example realdata`.
+//! `cargo run --release -p acc-ident --example twin_lab -- realdata`.
 use std::path::Path;
 
 use acc_ident::{import, workflow};
 
-fn main() {
+pub fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     let turning = root.join("vicomtech-turning/tool_wear_tools_3-10.csv");
     match import::vicomtech_turning(&turning) {

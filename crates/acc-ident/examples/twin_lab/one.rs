@@ -1,10 +1,10 @@
 //! Development aid: one hidden-effect case with the candidate table.
-//! `cargo run --release -p acc-ident --example one -- <effect> <enr> <rho> <seed>`
+//! `cargo run --release -p acc-ident --example twin_lab -- one <effect> <enr> <rho> <seed>`
 use acc_ident::synth::{self, Case, Hidden};
 use acc_ident::{workflow, EffectKind};
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let a: Vec<String> = std::env::args().collect();
+pub fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let a: Vec<String> = crate::args().collect();
     let kind = EffectKind::from_name(a.get(1).map(String::as_str).unwrap_or("tool_wear"))
         .ok_or("effect")?;
     let enr: f64 = a.get(2).and_then(|s| s.parse().ok()).unwrap_or(4.0);

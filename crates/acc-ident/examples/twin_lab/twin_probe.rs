@@ -1,9 +1,9 @@
 //! Probe: replay residual of null logs from `acc sim` (development aid).
 use acc_ident::model::Channel;
 use acc_ident::twin;
-fn main() {
+pub fn main() {
     let dir = acc_sim::run::configs_dir();
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<String> = crate::args().skip(1).collect();
     let names = if args.is_empty() {
         vec!["paper_case3.toml".to_string()]
     } else {

@@ -3,7 +3,7 @@
 //! runs in `cargo test`):
 //!
 //! ```text
-//! cargo run --release -p acc-ident --example sweep -- [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--pairs 10] [--threads 2] [--effects a,b] [--out out/sweep]
+//! cargo run --release -p acc-ident --example twin_lab -- sweep [--seeds 20] [--enr 1,2,4,8] [--fdr 200] [--pairs 10] [--threads 2] [--effects a,b] [--out out/sweep]
 //! ```
 //!
 //! For every candidate effect, effect-to-noise ratio (ENR, see `synth::effect_to_noise`),
@@ -40,7 +40,7 @@ struct Job {
 }
 
 fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
-    let args: Vec<String> = std::env::args().collect();
+    let args: Vec<String> = crate::args().collect();
     args.iter()
         .position(|a| a == name)
         .and_then(|i| args.get(i + 1))
@@ -65,7 +65,7 @@ fn case(rho: f64) -> Case {
     }
 }
 
-fn main() {
+pub fn main() {
     let seeds: u64 = arg("--seeds", 20);
     let fdr: u64 = arg("--fdr", 200);
     let threads: usize = arg("--threads", 2);
