@@ -145,7 +145,7 @@ fi
 # ---------------------------------------------------------------- fault-matrix.txt
 # One `acc fault-matrix --protocol P --only FAULT` per row (v2 rows, then v1, in the table's
 # order), so that a harness error on a loaded machine (e.g. `acc board-sim never reached
-# t = 40 s`, or acc run timing out on its first read) costs one row, which is retried up to
+# t = 16 s`, or acc run timing out on its first read) costs one row, which is retried up to
 # 3 times, instead of the whole matrix. A row is also run again (up to 3 times in all) when
 # it looks disturbed by the load: the machine was not cutting when the fault came (force
 # before < 100 N), or its verdict is FAIL; after the third try the row is kept as it is.
@@ -198,7 +198,7 @@ if want fault-matrix; then
         done
     done
     {
-        echo "=== acc fault-matrix (defaults: paper_case3, 5x time), one row per run; stable columns only"
+        echo "=== acc fault-matrix (defaults: fault_matrix, 5x time), one row per run; stable columns only"
         # Columns of the table (1-based after the leading '|'): 1 fault, 2 board, 3 what,
         # 8 feed hold after, 9 fault periods raising cmd, 12 operator-labelled releases,
         # 13 log rows (complete), 14 acc run exit, 15 verdict.
