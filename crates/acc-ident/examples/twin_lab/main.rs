@@ -54,6 +54,23 @@ fn args() -> std::vec::IntoIter<String> {
     all.into_iter()
 }
 
+/// A command's case arguments `WORKPIECE … CHANNEL SEED`, the channel and the seed at
+/// positions `at` and `at + 1`: the workpiece file (default `interrupted.toml`), the
+/// channel (`power`, else force) and the seed (default 1000).
+fn case_args(a: &[String], at: usize) -> (String, acc_ident::model::Channel, u64) {
+    let wp = a
+        .first()
+        .cloned()
+        .unwrap_or_else(|| "interrupted.toml".into());
+    let ch = if a.get(at).map(String::as_str) == Some("power") {
+        acc_ident::model::Channel::Power
+    } else {
+        acc_ident::model::Channel::Force
+    };
+    let seed = a.get(at + 1).and_then(|s| s.parse().ok()).unwrap_or(1000);
+    (wp, ch, seed)
+}
+
 fn main() {
     let command = std::env::args().nth(1).unwrap_or_default();
     match command.as_str() {

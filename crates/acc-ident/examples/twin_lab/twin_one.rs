@@ -2,22 +2,12 @@
 //! channel, seed → the verdict and the time it took.
 //!
 //! cargo run --release -p acc-ident --example twin_lab -- twin_one interrupted.toml null force 1007
-use acc_ident::model::Channel;
 use acc_ident::twin::{run_case, Hidden};
 
 pub fn main() {
     let a: Vec<String> = crate::args().skip(1).collect();
-    let wp = a
-        .first()
-        .cloned()
-        .unwrap_or_else(|| "interrupted.toml".into());
+    let (wp, ch, seed) = crate::case_args(&a, 2);
     let h = a.get(1).cloned().unwrap_or_else(|| "null".into());
-    let ch = if a.get(2).map(String::as_str) == Some("power") {
-        Channel::Power
-    } else {
-        Channel::Force
-    };
-    let seed: u64 = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(1000);
     let hidden = Hidden::parse(&h).expect("hidden effect label");
     let dir = acc_sim::run::configs_dir();
     let mut sc = acc_sim::Scenario::load(dir.join("scenarios/paper_case3.toml")).expect("sc");

@@ -7,16 +7,7 @@ use acc_ident::twin;
 
 pub fn main() {
     let a: Vec<String> = crate::args().skip(1).collect();
-    let wp = a
-        .first()
-        .cloned()
-        .unwrap_or_else(|| "interrupted.toml".into());
-    let ch = if a.get(1).map(String::as_str) == Some("power") {
-        Channel::Power
-    } else {
-        Channel::Force
-    };
-    let seed: u64 = a.get(2).and_then(|s| s.parse().ok()).unwrap_or(1000);
+    let (wp, ch, seed) = crate::case_args(&a, 1);
     let dir = acc_sim::run::configs_dir();
     let mut sc = acc_sim::Scenario::load(dir.join("scenarios/paper_case3.toml")).expect("sc");
     sc.workpiece = acc_sim::Workpiece::load(dir.join("workpieces").join(&wp)).expect("wp");
