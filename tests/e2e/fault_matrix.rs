@@ -15,26 +15,22 @@
 //! alone and be flagged, a missing plan file must be refused before the board sees a
 //! request.
 
-use crate::e2e_support::{acc_bin, one_at_a_time, root};
+use crate::e2e_support::{acc_output, one_at_a_time};
 
 #[test]
 fn every_fault_of_the_matrix_never_raises_the_feed_on_a_v2_board() {
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("fm");
-    let output = std::process::Command::new(acc_bin())
-        .current_dir(root())
-        .args(["fault-matrix", "--jobs", "4", "--out"])
-        .arg(&out)
-        .output()
-        .expect("run acc fault-matrix");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    let stderr = String::from_utf8_lossy(&output.stderr);
+    let (ok, stdout, stderr) = acc_output(&[
+        "fault-matrix",
+        "--jobs",
+        "4",
+        "--out",
+        &out.to_string_lossy(),
+    ]);
     println!("{stdout}\n{stderr}");
-    assert!(
-        output.status.success(),
-        "acc fault-matrix failed:\n{stdout}\n{stderr}"
-    );
+    assert!(ok, "acc fault-matrix failed:\n{stdout}\n{stderr}");
     let json = std::fs::read_to_string(out.join("fault-matrix.json")).expect("json");
     let rows: Vec<serde_json::Value> = serde_json::from_str(&json).expect("rows");
     assert_eq!(rows.len(), 50, "25 faults x 2 boards");

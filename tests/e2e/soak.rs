@@ -2,28 +2,27 @@
 //! throughout, two delay episodes) with a random board fault every few seconds for 200 s of
 //! machine time: no lost rows, no dead thread, the invariant holds.
 
-use crate::e2e_support::{acc_bin, one_at_a_time, root};
+use crate::e2e_support::{acc_output, one_at_a_time};
 
 #[test]
 fn a_short_soak_with_random_faults_loses_no_rows_and_keeps_every_thread() {
     let _serial = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("soak");
-    let child = std::process::Command::new(acc_bin())
-        .current_dir(root())
-        .args(["soak", "--machine-s", "200", "--seed", "3"])
-        // The hostile line (the default) with a delay episode every 60 s: two in 200 s.
-        .args(["--delay-every-s", "60", "--out"])
-        .arg(&out)
-        .output()
-        .expect("run acc soak");
-    let stdout = String::from_utf8_lossy(&child.stdout);
-    let stderr = String::from_utf8_lossy(&child.stderr);
+    // The hostile line (the default) with a delay episode every 60 s: two in 200 s.
+    let (ok, stdout, stderr) = acc_output(&[
+        "soak",
+        "--machine-s",
+        "200",
+        "--seed",
+        "3",
+        "--delay-every-s",
+        "60",
+        "--out",
+        &out.to_string_lossy(),
+    ]);
     println!("{stdout}\n{stderr}");
-    assert!(
-        child.status.success(),
-        "acc soak failed:\n{stdout}\n{stderr}"
-    );
+    assert!(ok, "acc soak failed:\n{stdout}\n{stderr}");
     let json = std::fs::read_to_string(out.join("soak.json")).expect("json");
     let r: serde_json::Value = serde_json::from_str(&json).expect("report");
     assert!(r["faults_fired"].as_u64().unwrap_or(0) >= 40, "{r}");
