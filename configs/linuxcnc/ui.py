@@ -173,7 +173,11 @@ while True:
     poll()
     msg = e.poll()
     if msg:
-        say("error %s" % (msg[1],))
+        # Errors stop the program; the rest is the program's or the operator's text.
+        if msg[0] in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR):
+            say("error %s" % (msg[1],))
+        else:
+            say("message %s" % (msg[1],))
     if time.monotonic() - start > 0.5 and s.interp_state == linuxcnc.INTERP_IDLE and not steps:
         break
     if fault_at is not None and fired is None:

@@ -92,6 +92,22 @@ struct PathData {
     steps: Vec<(f64, acc_stock::StepEngagement)>,
 }
 
+/// The tool table of a program run without `--tools`: T0 ..= T999 all the scenario's tool
+/// (diameter `diameter_mm`, mm; no length offset).
+pub fn scenario_tool_table(diameter_mm: f64) -> acc_nc::ToolTable {
+    let mut t = acc_nc::ToolTable::default();
+    for n in 0..=DEFAULT_TOOLS {
+        t.insert(acc_nc::ToolEntry {
+            tool: n,
+            pocket: n,
+            length_mm: 0.0,
+            diameter_mm,
+            comment: "the scenario's tool".into(),
+        });
+    }
+    t
+}
+
 /// The cutter of tool number `tool`: the tool table's diameter for it when it lists it, else
 /// the scenario's tool `default` (flutes always the scenario's); T0 or no table: `default`.
 /// An error (naming `file`) for a T number the table does not list. `acc linuxcnc-process`
@@ -165,19 +181,9 @@ impl ProgramPath {
             None => None,
         };
         // Without a tool table every T number is the scenario's tool (no length offset).
-        let tools = table.clone().unwrap_or_else(|| {
-            let mut t = acc_nc::ToolTable::default();
-            for n in 0..=DEFAULT_TOOLS {
-                t.insert(acc_nc::ToolEntry {
-                    tool: n,
-                    pocket: n,
-                    length_mm: 0.0,
-                    diameter_mm: tool.diameter_mm,
-                    comment: "the scenario's tool".into(),
-                });
-            }
-            t
-        });
+        let tools = table
+            .clone()
+            .unwrap_or_else(|| scenario_tool_table(tool.diameter_mm));
         let setup = acc_nc::Setup {
             tools,
             ..acc_nc::Setup::default()

@@ -2,6 +2,10 @@
 //! adaptive feed with the 150 % mapping ([`crate::mapping`]) and behaves as a v2 board
 //! (`../shared/docs/pmc-board.md`, "Board behaviour"), fallback clamp included.
 
+use std::sync::Arc;
+use std::time::Duration;
+
+use acc_pmc::clock::Clock;
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
 
 use crate::mapping::{adaptive_feed, applied_pct, ratio_pct, LAW_MAX_PCT, MOTION_TYPE_TRAVERSE};
@@ -78,7 +82,19 @@ pub struct HalBoard<B> {
     /// `acc.watchdog-ok` has been true at a read: the watchdog runs. Before that (HAL still
     /// loading, its threads not started) a false pin is no trip.
     watchdog_seen_ok: bool,
+    /// The clock that spaces the heartbeat's toggles ([`HalBoard::with_clock`]), and the time
+    /// of the last toggle on it.
+    beat_clock: Option<(Arc<dyn Clock>, Option<Duration>)>,
 }
+
+/// Shortest time between two toggles of `acc.heartbeat-bit`, s. LinuxCNC's watchdog samples
+/// the bit once a servo period (1 ms) and sees a change only between two samples: two toggles
+/// within one sample (a late period followed at once by the next, its deadline a few ms
+/// later) cancel, and the watchdog counts from the toggle before. On a loaded host the servo
+/// thread itself runs late by several ms. A read sooner than this after the last toggle
+/// leaves the bit as it is; the next period toggles it. Toggles are never added, so a dead
+/// or frozen loop trips the watchdog as before.
+pub const MIN_BEAT_SPACING: Duration = Duration::from_millis(20);
 
 impl<B: PinBackend> HalBoard<B> {
     /// A link over `pins`, as a board after power-up: override command 100 %, no request.
@@ -98,7 +114,28 @@ impl<B: PinBackend> HalBoard<B> {
             reads: 0,
             source_seq: None,
             watchdog_seen_ok: false,
+            beat_clock: None,
         }
+    }
+
+    /// The same link, its heartbeat's toggles at least [`MIN_BEAT_SPACING`] apart on `clock`
+    /// (without a clock every status read toggles the bit).
+    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
+        self.beat_clock = Some((clock, None));
+        self
+    }
+
+    /// Whether this status read toggles the heartbeat (and, with a clock, when it did).
+    fn beat_due(&mut self) -> bool {
+        let Some((clock, last)) = self.beat_clock.as_mut() else {
+            return true;
+        };
+        let now = clock.now();
+        if last.is_some_and(|t| now.saturating_sub(t) < MIN_BEAT_SPACING) {
+            return false;
+        }
+        *last = Some(now);
+        true
     }
 
     /// The pin backend (a test reads its fake's outputs here).
@@ -261,8 +298,10 @@ impl<B: PinBackend> Board for HalBoard<B> {
         self.source_seq = source;
         // The loop reads the status every period, driving or not (it writes the override
         // only while it drives): the watchdog's bit toggles here, so that it stops only
-        // when acc's loop stops.
-        self.outputs.heartbeat_bit = !self.outputs.heartbeat_bit;
+        // when acc's loop stops; never twice within MIN_BEAT_SPACING.
+        if self.beat_due() {
+            self.outputs.heartbeat_bit = !self.outputs.heartbeat_bit;
+        }
         self.update();
         Ok(self.status())
     }

@@ -35,9 +35,10 @@
 //! ```
 
 mod board;
+pub mod halsampler;
 pub mod machine_log;
 pub mod mapping;
 mod pins;
 
-pub use board::{HalBoard, HalBoardError};
+pub use board::{HalBoard, HalBoardError, MIN_BEAT_SPACING};
 pub use pins::{AccOutputs, HalPins, MachineInputs, PinBackend};

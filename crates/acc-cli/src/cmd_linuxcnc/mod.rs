@@ -87,6 +87,10 @@ pub struct LinuxcncArgs {
     /// The plan of the program (`acc plan`), for acc's look-ahead (`acc run --plan`).
     #[arg(long, value_name = "plan.csv")]
     pub plan: Option<PathBuf>,
+    /// With `--plan`: the plan's lead sets the command from the force ahead while the
+    /// measurement confirms the plan (`acc run --plan-lead`, docs/plan.md).
+    #[arg(long, requires = "plan")]
+    pub plan_lead: bool,
     /// The run's folder: INI, HAL, ui.py, run.csv, machine.csv, LinuxCNC's log.
     #[arg(long)]
     pub out: PathBuf,
@@ -106,6 +110,15 @@ pub struct LinuxcncArgs {
     /// ([`FAULT_KINDS`]).
     #[arg(long, value_name = "KIND@N[+S]")]
     pub fault: Option<String>,
+    /// The simulated spindle's speed while LinuxCNC's spindle turns: `scenario` (the
+    /// scenario's machine, as `acc sim --program` and `acc plan` model it) or `program`
+    /// (the program's S word, LinuxCNC's commanded speed).
+    #[arg(long, value_enum, default_value_t = process::SpindleMode::Scenario)]
+    pub spindle: process::SpindleMode,
+    /// Capture LinuxCNC's joint positions with its `halsampler` every servo period
+    /// (`halsampler.txt`) and compare the process's path with them.
+    #[arg(long)]
+    pub capture: bool,
     /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it.
     #[arg(long, default_value_t = 900.0)]
     pub timeout_s: f64,
@@ -200,6 +213,7 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         "ui.log",
         "linuxcnc.log",
         "blocks.csv",
+        setup::CAPTURE_FILE,
     ] {
         let _ = std::fs::remove_file(dir.join(stale));
     }
@@ -221,16 +235,19 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         program: program.clone(),
         scenario: scenario_path,
         stock_args,
+        spindle: args.spindle,
         config,
-        run_args: plan
-            .as_ref()
-            .map(|p| format!("--plan {}", p.display()))
-            .unwrap_or_default(),
+        run_args: match (&plan, args.plan_lead) {
+            (Some(p), true) => format!("--plan {} --plan-lead", p.display()),
+            (Some(p), false) => format!("--plan {}", p.display()),
+            (None, _) => String::new(),
+        },
         watchdog_s: args.watchdog_s,
         dir: dir.clone(),
         ini: ini_values,
+        capture: args.capture,
     };
-    let ini = setup::write_files(&fill, tools.as_deref())?;
+    let ini = setup::write_files(&fill, tools.as_deref(), scenario.tool.diameter_mm)?;
 
     // 3. LinuxCNC, as an unprivileged realtime when invoked as root.
     let mut env: Vec<(&str, String)> = vec![("HOME", dir.display().to_string())];
@@ -322,12 +339,25 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         ),
         Err(e) => eprintln!("linuxcnc: blocks.csv not written: {e:#}"),
     }
+    if args.capture {
+        summary::print_path_match(&dir.join(setup::CAPTURE_FILE), &machine)?;
+    }
     let cycle = summary::cycle_s(&dir.join("ui.log"));
     match cycle {
         Some(c) => println!("cycle time {c:.1} s (program start to idle)"),
         None => println!("the program did not reach its end (ui.log)"),
     }
     println!("linuxcnc: {ended}");
+    let errors = summary::errors(&dir.join("ui.log"));
+    for e in &errors {
+        eprintln!("linuxcnc: LinuxCNC reported: {e}");
+    }
+    if let (Some(first), None) = (errors.first(), &fault) {
+        anyhow::bail!(
+            "LinuxCNC stopped the program: {first} (see {})",
+            dir.join("ui.log").display()
+        );
+    }
     if cycle.is_none() && fault.is_none() {
         anyhow::bail!(
             "the program did not complete: see {} and {}",

@@ -11,13 +11,14 @@
 //! | --- | --- | --- | --- |
 //! | `acc-process.position-x/-y/-z` | float in, mm | tool tip | `axis.L.pos-cmd` / `joint.N.pos-fb` |
 //! | `acc-process.feed` | float in, mm/s | path speed | `motion.current-vel` |
-//! | `acc-process.spindle-speed` | float in, rpm | spindle | `spindle.0.speed-out` |
+//! | `acc-process.spindle-speed` | float in, rpm | LinuxCNC's commanded spindle | `spindle.0.speed-out` |
 //! | `acc-process.tool-number` | s32 in | tool | `iocontrol.0.tool-number` |
 //! | `acc-process.adaptive-feed`, `heartbeat`, `feed-inhibit` | float / bit / bit in | logged only | `acc.adaptive-feed`, `acc.heartbeat-bit`, `motion.feed-inhibit` |
 //! | `acc-process.feed-override` | float in | logged only | `halui.feed-override.value` |
 //! | `acc-process.fault` | bit in | logged only: set by `ui.py` at a fault's moment | (`setp`) |
 //! | `acc-process.spindle-power` | float out, W | electrical power, mean over T | `acc.spindle-power` |
 //! | `acc-process.sample-seq` | s32 out | advances with every power sample: stands still when the process stops | `acc.sample-seq` |
+//! | `acc-process.spindle-rpm` | float out, rpm | the simulated spindle's speed (`--spindle`), as a VFD's speed feedback | `acc.spindle-speed` |
 //! | `acc-process.force` | float out, N | true force | (a scope) |
 //! | `acc-process.radial-depth`, `axial-depth` | float out, mm | engagement | (a scope) |
 
@@ -54,6 +55,41 @@ pub struct ProcessArgs {
     /// The process's period, ms (1 ..= 10): how often it follows LinuxCNC's path.
     #[arg(long, default_value_t = 2)]
     pub period_ms: u64,
+    /// The simulated spindle's speed while LinuxCNC's spindle turns: `scenario` (the
+    /// scenario's machine, as `acc sim --program` and `acc plan` model it) or `program`
+    /// (LinuxCNC's commanded speed, the program's S word).
+    #[arg(long, value_enum, default_value_t = SpindleMode::Scenario)]
+    pub spindle: SpindleMode,
+}
+
+/// Where the simulated spindle's speed comes from ([`ProcessArgs::spindle`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SpindleMode {
+    /// The scenario's spindle speed (`[spindle] rpm` of its machine), in LinuxCNC's
+    /// direction, whenever LinuxCNC's spindle turns; 0 when it stands.
+    Scenario,
+    /// LinuxCNC's commanded speed (`spindle.0.speed-out`).
+    Program,
+}
+
+impl SpindleMode {
+    /// The option's value on a command line.
+    pub fn as_arg(self) -> &'static str {
+        match self {
+            SpindleMode::Scenario => "scenario",
+            SpindleMode::Program => "program",
+        }
+    }
+
+    /// The simulated spindle's speed, rpm, for LinuxCNC's commanded `commanded_rpm` on a
+    /// machine whose spindle turns at `scenario_rpm`.
+    pub fn rpm(self, commanded_rpm: f64, scenario_rpm: f64) -> f64 {
+        match self {
+            SpindleMode::Program => commanded_rpm,
+            SpindleMode::Scenario if commanded_rpm == 0.0 => 0.0,
+            SpindleMode::Scenario => scenario_rpm.abs() * commanded_rpm.signum(),
+        }
+    }
 }
 
 /// The machine log's header.
@@ -126,6 +162,7 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
     let fault = comp.bit_in("fault").map_err(hal)?;
     let mut seq_pin = comp.s32_out("sample-seq").map_err(hal)?;
     let mut power_pin = comp.float_out("spindle-power").map_err(hal)?;
+    let mut rpm_pin = comp.float_out("spindle-rpm").map_err(hal)?;
     let mut force_pin = comp.float_out("force").map_err(hal)?;
     let mut radial_pin = comp.float_out("radial-depth").map_err(hal)?;
     let mut axial_pin = comp.float_out("axial-depth").map_err(hal)?;
@@ -137,10 +174,14 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
     let window = ((scenario.controller.period_s / period.as_secs_f64()).round() as usize).max(1);
     let mut recent: VecDeque<f64> = VecDeque::with_capacity(window + 1);
     eprintln!(
-        "linuxcnc-process: component `{}` ready: `{}` every {} ms, power the mean over {} ms; machine log {}",
+        "linuxcnc-process: component `{}` ready: `{}` every {} ms, the spindle at {}, power the mean over {} ms; machine log {}",
         args.name,
         scenario.name,
         args.period_ms,
+        match args.spindle {
+            SpindleMode::Scenario => format!("the scenario's {} rpm", scenario.machine.spindle.rpm),
+            SpindleMode::Program => "LinuxCNC's commanded speed".to_string(),
+        },
         window as u64 * args.period_ms,
         args.log.display()
     );
@@ -153,7 +194,7 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
         let t_s = clock.now().as_secs_f64();
         let position = [x.get(), y.get(), z.get()];
         let feed_mm_min = 60.0 * feed.get().abs();
-        let rpm = speed.get();
+        let rpm = args.spindle.rpm(speed.get(), scenario.machine.spindle.rpm);
         let tool_no = u32::try_from(tool.get()).unwrap_or(0);
         let s = cut.sample(position, tool_no, feed_mm_min, rpm, t_s)?;
         let fault_now = fault.get();
@@ -165,6 +206,7 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
         power_pin.set(power_mean_w);
         seq = seq.wrapping_add(1);
         seq_pin.set(seq);
+        rpm_pin.set(rpm);
         force_pin.set(s.force_n);
         radial_pin.set(s.radial_mm);
         axial_pin.set(s.axial_mm);
@@ -203,4 +245,19 @@ pub fn run_cmd(args: &ProcessArgs) -> anyhow::Result<()> {
         .with_context(|| format!("--log {}: write", args.log.display()))?;
     eprintln!("linuxcnc-process: {rows} rows in {}", args.log.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SpindleMode;
+
+    #[test]
+    fn the_spindle_turns_at_the_scenarios_speed_in_linuxcncs_direction() {
+        let m = SpindleMode::Scenario;
+        assert_eq!(m.rpm(3400.0, 600.0), 600.0);
+        assert_eq!(m.rpm(-3000.0, 600.0), -600.0);
+        assert_eq!(m.rpm(0.0, 600.0), 0.0);
+        assert_eq!(SpindleMode::Program.rpm(3400.0, 600.0), 3400.0);
+        assert_eq!(SpindleMode::Program.rpm(0.0, 600.0), 0.0);
+    }
 }

@@ -97,6 +97,36 @@ pub fn cycle_s(ui_log: &Path) -> Option<f64> {
     })
 }
 
+/// The process's path against the `halsampler` capture at `capture`
+/// ([`acc_linuxcnc::halsampler::compare`]), printed; an error if the capture is missing or
+/// unreadable.
+pub fn print_path_match(capture: &Path, machine: &[MachineRow]) -> anyhow::Result<()> {
+    let c = acc_linuxcnc::halsampler::read(capture)?;
+    let m = acc_linuxcnc::halsampler::compare(machine, &c);
+    println!(
+        "path: {} machine-log rows against LinuxCNC's joint positions ({}, {} servo periods, {} overruns; {} rows outside it), the joints {} servo periods behind the axis command: at most {:.4} mm apart, {:.4} mm while cutting (the joints move up to {:.4} mm in a servo period)",
+        m.rows,
+        capture.display(),
+        c.samples.len(),
+        c.overruns,
+        m.rows_outside,
+        m.lag_periods,
+        m.max_mm,
+        m.max_cutting_mm,
+        m.max_step_mm
+    );
+    Ok(())
+}
+
+/// The errors LinuxCNC reported during the run (`ui.py` logs its error channel's errors as
+/// `<t> error <text>`), in order; empty without `ui.log`.
+pub fn errors(ui_log: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(ui_log).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| Some(l.split_once(" error ")?.1.trim().to_string()))
+        .collect()
+}
+
 /// How long the motion took to stop after acc's heartbeat stopped: from the last change of
 /// the heartbeat bit (acc's last period; the kill came within one period after it) to the
 /// first row with the feed at 0 after it, s. `None` if the heartbeat never stopped while

@@ -200,7 +200,9 @@ pub fn open_hal<'a>(
     let pins = acc_linuxcnc::HalPins::new(comp)
         .map_err(hal)
         .exit_as(RunExit::BoardNotAnswering)?;
-    let mut board = acc_linuxcnc::HalBoard::new(pins);
+    // The heartbeat's toggles spaced on the wall clock (LinuxCNC runs in real time only).
+    let mut board = acc_linuxcnc::HalBoard::new(pins)
+        .with_clock(std::sync::Arc::new(acc_runtime::SystemClock::new()));
     let status = match board.read_status() {
         Ok(s) => s,
         Err(e) => return Err(anyhow::anyhow!("reading the HAL pins of {component}: {e}")),

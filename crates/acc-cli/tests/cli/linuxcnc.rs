@@ -4,7 +4,8 @@
 //! leave: acc is in control (the adaptive feed it writes is lower in the heavy slot than in
 //! the light one, and below 1 there), its run log has every period, and acc killed
 //! (SIGKILL) mid-cut stops the motion within 0.3 s of its last heartbeat (the realtime
-//! watchdog, read from the machine log); and the frozen-acc row of the fault matrix's
+//! watchdog, read from the machine log); the process's path matches LinuxCNC's joint
+//! positions as LinuxCNC's own `halsampler` records them (`--capture`); and the frozen-acc row of the fault matrix's
 //! LinuxCNC section (`acc fault-matrix --linuxcnc --only stop-acc`: SIGSTOP 2 s in the cut,
 //! the feed held within 0.3 s and never above what acc allowed, the run log complete). A
 //! second test runs the rows whose fault the program makes (`m52-off`: `M52 P0` mid-cut and
@@ -168,7 +169,7 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
 
     // 1. The whole program under acc.
     let dir: PathBuf = tmp.path().join("run");
-    let out = acc_linuxcnc(pkg, &dir, &[]);
+    let out = acc_linuxcnc(pkg, &dir, &["--capture"]);
     assert!(out.contains("cycle time"), "{out}");
     // LinuxCNC loaded the installed acc, not the test build's.
     let hal = std::fs::read_to_string(dir.join("acc.hal")).expect("acc.hal");
@@ -181,6 +182,19 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
         heavy < 0.8 * light && heavy < 0.7,
         "the adaptive feed follows the cut: light slot {light:.2}, heavy slot {heavy:.2}"
     );
+    // The process's path is LinuxCNC's: every machine-log position is a joint position
+    // LinuxCNC's own halsampler recorded in that process period (to the logs' 4 decimals).
+    let capture = acc_linuxcnc::halsampler::read(&dir.join("halsampler.txt")).expect("capture");
+    let path = acc_linuxcnc::halsampler::compare(&rows, &capture);
+    eprintln!(
+        "path against halsampler: {path:?}, {} overruns",
+        capture.overruns
+    );
+    assert!(
+        path.rows > rows.len() * 9 / 10 && path.max_mm <= 0.001,
+        "the process's path against LinuxCNC's joint positions: {path:?}"
+    );
+    assert!(path.max_step_mm > 0.05, "the capture moved: {path:?}");
     let periods = run_periods(&dir);
     assert!(periods.len() > 100, "{} run-log rows", periods.len());
     assert!(

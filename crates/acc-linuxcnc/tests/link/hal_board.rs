@@ -315,3 +315,37 @@ fn sample_seq_stands_still_when_the_power_sources_counter_does() {
         "50 samples since: one step"
     );
 }
+
+#[test]
+fn heartbeat_toggles_are_spaced_so_that_the_watchdog_sees_each() {
+    use std::sync::Arc;
+    use std::time::Duration;
+
+    use acc_linuxcnc::MIN_BEAT_SPACING;
+    use acc_pmc::clock::ManualClock;
+
+    let clock = Arc::new(ManualClock::new());
+    let mut board = HalBoard::new(FakePins {
+        machine: cutting(),
+        ..FakePins::default()
+    })
+    .with_clock(clock.clone());
+    let mut bits = Vec::new();
+    // Periods 0.1 s apart; the third runs 95 ms late and the fourth 5 ms after it.
+    for at_ms in [0, 100, 295, 300, 400, 500] {
+        clock.set(Duration::from_millis(at_ms));
+        board.read_status().expect("status");
+        bits.push(board.pins().written.heartbeat_bit);
+    }
+    // The read 5 ms after a toggle leaves the bit; every other read toggles it.
+    let toggled: Vec<bool> = std::iter::once(bits[0])
+        .chain(bits.windows(2).map(|w| w[0] != w[1]))
+        .collect();
+    assert_eq!(toggled, [true, true, true, false, true, true], "{bits:?}");
+    assert!(MIN_BEAT_SPACING >= Duration::from_millis(10));
+    // Without a clock every read toggles (a fake backend's reads are not timed).
+    let mut plain = driving(100);
+    let before = plain.pins().written.heartbeat_bit;
+    plain.read_status().expect("status");
+    assert_ne!(plain.pins().written.heartbeat_bit, before);
+}
