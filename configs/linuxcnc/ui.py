@@ -1,8 +1,11 @@
 #!/usr/bin/python3
 """Headless user interface of acc's LinuxCNC configuration (acc.ini [DISPLAY] DISPLAY).
 
-Estop reset, machine on, home all, MODE_AUTO, feed override 150 % (acc's range, see
-docs/linuxcnc.md), open [DISPLAY] OPEN_FILE, run it, wait until the interpreter is idle,
+Invoked as root: the servo thread SCHED_FIFO, acc and the process reniced (realtime_priority).
+Once acc's heartbeat toggles, the watchdog is armed (the operator's reset before the cycle).
+Then estop reset, machine on, home all, MODE_AUTO, feed override 150 % (acc's range, see
+docs/linuxcnc.md), open [DISPLAY] OPEN_FILE, run it (resuming the program's own M0/M1 pauses after
+0.5 s, the operator's cycle start), wait until the interpreter is idle,
 exit (LinuxCNC then shuts down). Writes ui.log beside the INI: one line per step, with
 time.monotonic() stamps, and `cycle_s` (program start to idle).
 
@@ -147,6 +150,57 @@ def run_program(what):
     return time.monotonic()
 
 
+def realtime_priority():
+    """Invoked as root, LinuxCNC's realtime runs as `nobody` without realtime scheduling:
+    on a loaded host its servo thread then stalls for 0.1 s and more, and the watchdog,
+    counting the stalled periods at once when the thread runs again, trips on an alive acc.
+    The servo thread gets SCHED_FIFO (as a setuid rtapi_app gives it on an installed
+    machine), acc and the process a higher share of the CPU."""
+    if os.geteuid() != 0:
+        return
+    for name, cmd in (
+        ("rtapi_app", ["chrt", "-a", "-f", "-p", "70"]),
+        ("acc", ["renice", "-n", "-10", "-p"]),
+        ("acc-process", ["renice", "-n", "-10", "-p"]),
+    ):
+        if name == "rtapi_app":
+            out = subprocess.run(["pidof", name], capture_output=True, text=True).stdout.split()
+            pid = int(out[0]) if out else None
+        else:
+            pid = comp_pid(name)
+        if pid is None:
+            say("priority: no pid of %s" % name)
+            continue
+        r = subprocess.run(cmd + [str(pid)], capture_output=True, text=True)
+        failed = "" if r.returncode == 0 else " failed: " + r.stderr.strip()
+        say("priority: %s %d%s" % (" ".join(cmd), pid, failed))
+
+
+def arm_watchdog():
+    """The operator's reset before the cycle: once acc's heartbeat toggles (acc is alive),
+    the watchdog is re-armed (enable-in 0, then 1), so that a trip while LinuxCNC started
+    (threads running before acc's first beat, or before the priority above) does not hold
+    the program's feed. A trip from now on holds it as designed."""
+    seen = []
+    t0 = time.monotonic()
+    while len(seen) < 3 and time.monotonic() - t0 < 5.0:
+        b = getp("acc.heartbeat-bit")
+        if not seen or b != seen[-1]:
+            seen.append(b)
+        time.sleep(0.005)
+    if len(seen) < 3:
+        say("watchdog: acc's heartbeat did not toggle in 5 s; not re-armed")
+        return
+    was = getp("watchdog.ok-out")
+    setp("watchdog.enable-in", 0)
+    time.sleep(0.02)
+    setp("watchdog.enable-in", 1)
+    time.sleep(0.02)
+    say("watchdog armed (ok-out was %s, now %s)" % (was, getp("watchdog.ok-out")))
+
+
+realtime_priority()
+arm_watchdog()
 c.state(linuxcnc.STATE_ESTOP_RESET)
 c.state(linuxcnc.STATE_ON)
 wait(lambda: s.task_state == linuxcnc.STATE_ON, 10, "machine on")
@@ -169,6 +223,8 @@ held_since = None
 next_check = 0.0
 # tool-change: the tool in the spindle when the force was reached.
 tool_was = None
+# Since when the program's own M0/M1 pauses it.
+program_paused = None
 while True:
     poll()
     msg = e.poll()
@@ -267,6 +323,16 @@ while True:
         elif step == "restart":
             start = run_program("run again")
             mark(False)
+    # The program's own pause (M0, M1): the operator's cycle start 0.5 s later, as acc sim
+    # --program runs on through it. Our `pause` fault resumes by its own step.
+    if s.interp_state == linuxcnc.INTERP_PAUSED and not any(st[1] == "resume" for st in steps):
+        program_paused = program_paused or time.monotonic()
+        if time.monotonic() - program_paused > 0.5:
+            c.auto(linuxcnc.AUTO_RESUME)
+            say("program pause (M0/M1): resumed (the operator's cycle start)")
+            program_paused = None
+    else:
+        program_paused = None
     now = time.monotonic()
     if killed is None and now >= next_check:
         next_check = now + 0.5
