@@ -33,7 +33,8 @@ column marks the moment) and:
                  AUTO_RUN as at the start); the marker is cleared when the second run starts
   tool-change    none of ours: the program's own `M6`. The marker is set when the tool in
                  the spindle changes
-ACC_KILL_AT_FORCE_N=N is kill-acc@N.
+ACC_KILL_AT_FORCE_N=N is kill-acc@N. ACC_PROGRAM_TIMEOUT_S: the longest program run, s
+(default 600); after it the program is aborted and the script exits with status 3.
 """
 import os
 import signal
@@ -223,6 +224,8 @@ held_since = None
 next_check = 0.0
 # tool-change: the tool in the spindle when the force was reached.
 tool_was = None
+# The longest program run, s (acc linuxcnc: its --timeout-s less the start and the stop).
+PROGRAM_TIMEOUT_S = float(os.environ.get("ACC_PROGRAM_TIMEOUT_S") or "600")
 # Since when the program's own M0/M1 pauses it.
 program_paused = None
 while True:
@@ -352,10 +355,12 @@ while True:
         c.wait_complete()
         say("aborted")
         break
-    if time.monotonic() - first_start > 600:
-        say("TIMEOUT program")
+    if time.monotonic() - first_start > PROGRAM_TIMEOUT_S:
+        say("TIMEOUT program: not done after %.0f s (acc linuxcnc --timeout-s): aborted" % PROGRAM_TIMEOUT_S)
         c.abort()
-        break
+        c.wait_complete()
+        c.state(linuxcnc.STATE_OFF)
+        sys.exit(3)
     time.sleep(0.02)
 say("cycle_s %.3f" % (time.monotonic() - start))
 c.state(linuxcnc.STATE_OFF)

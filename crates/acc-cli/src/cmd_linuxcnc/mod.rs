@@ -130,6 +130,10 @@ pub struct LinuxcncArgs {
     pub ini: Vec<String>,
 }
 
+/// Of `--timeout-s`, the seconds left to LinuxCNC's start and stop: `ui.py` aborts the
+/// program after the rest (`ACC_PROGRAM_TIMEOUT_S`).
+const PROGRAM_TIMEOUT_MARGIN_S: f64 = 15.0;
+
 /// `acc linuxcnc`.
 pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
     // 1. Every input checked before LinuxCNC starts.
@@ -263,6 +267,14 @@ pub fn run_cmd(args: &LinuxcncArgs) -> anyhow::Result<()> {
         std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777))
             .with_context(|| format!("--out {}: cannot make it writable", dir.display()))?;
     }
+    // LinuxCNC's start and stop take a few seconds of the run's wall time.
+    env.push((
+        "ACC_PROGRAM_TIMEOUT_S",
+        format!(
+            "{:.0}",
+            (args.timeout_s - PROGRAM_TIMEOUT_MARGIN_S).max(5.0)
+        ),
+    ));
     if let Some((kind, n, delay)) = &fault {
         env.push(("ACC_FAULT", format!("{kind}@{n}+{delay}")));
     }
