@@ -62,6 +62,7 @@ pub fn judge(
     machine_log_figures(&mut row, fr_n, machine, i_f);
     let clock = RunClock::place(machine, run, i_f);
     run_log_figures(&mut row, fr_n, machine, run, &clock);
+    row.allowed_pct = allowed_with_last_write(&row, machine, i_f);
     let why = if program_event(f) {
         let (figures, why) = judge_program_event(f, fr_n, machine, i_f, run, clock.offset_s, &row);
         // The generic after-the-fault figures do not apply to the program's own event.
@@ -76,6 +77,22 @@ pub fn judge(
         failures(f, &row)
     };
     finish(f, row, why)
+}
+
+/// What acc last allowed: the applied override in the machine-log row before the fault, or
+/// acc's last command before it if that is higher (on the knob of that row: applied =
+/// 100 × knob × command / 150 %, the knob a ratio). `ui.py` marks the fault a few ms before it signals acc, and
+/// acc's write of the period that was running may land in between: the machine log's
+/// last row before the mark then still shows the command before.
+fn allowed_with_last_write(row: &LcncRow, machine: &[MachineRow], i_f: usize) -> Option<f64> {
+    let knob = machine[..i_f].last()?.feed_override;
+    let by_write = row
+        .last_cmd_pct
+        .map(|c| 100.0 * knob * f64::from(c) / acc_linuxcnc::mapping::LAW_MAX_PCT);
+    match (row.allowed_pct, by_write) {
+        (Some(a), Some(w)) => Some(a.max(w)),
+        (a, _) => a,
+    }
 }
 
 /// The first machine-log row `ui.py` marked as the fault's (`None`: it never came).

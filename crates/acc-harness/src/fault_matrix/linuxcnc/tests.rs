@@ -107,6 +107,42 @@ fn a_feed_above_what_acc_allowed_while_it_is_silent_fails() {
 }
 
 #[test]
+fn acc_allowed_its_last_write_even_when_the_mark_came_before_it() {
+    // acc's last period stepped 40 -> 50 %; its write landed between ui.py's mark (5.0 s)
+    // and the freeze: the machine log shows 40 % before the mark and 50 % after it.
+    let m = machine(8.0, 5.0, 5.0, |t| {
+        let af = if t >= 5.02 {
+            50.0 / 150.0
+        } else {
+            40.0 / 150.0
+        };
+        (300.0, 700.0, af, 1.5)
+    });
+    let run = run_log(5.0, |t| {
+        if t < 4.9 {
+            ("active", 40, 40)
+        } else {
+            ("active", 50, 40)
+        }
+    });
+    let r = judge(fault("stop-acc"), FR, &m, &run, "");
+    assert_eq!(r.allowed_pct.map(f64::round), Some(50.0), "{r:#?}");
+    assert!(!r.verdict.contains("with acc not driving"), "{}", r.verdict);
+    // A feed above that last write still fails.
+    let m = machine(8.0, 5.0, 5.0, |t| {
+        let af = if t >= 5.5 { 1.0 } else { 40.0 / 150.0 };
+        let feed = if (5.2..5.5).contains(&t) { 0.0 } else { 300.0 };
+        (feed, 700.0, af, 1.5)
+    });
+    let r = judge(fault("stop-acc"), FR, &m, &run, "");
+    assert!(
+        r.verdict.contains("applied 150 %") && r.verdict.contains("above the 50 %"),
+        "{}",
+        r.verdict
+    );
+}
+
+#[test]
 fn acc_raising_its_command_on_a_frozen_power_fails() {
     // The process killed at 5 s: its log ends; acc keeps driving and raises 90 → 120.
     let m = machine(5.05, 5.0, 99.0, |_| (270.0, 700.0, 0.6, 1.5));
