@@ -28,5 +28,6 @@ mod scheduled_faults;
 mod shutdown;
 mod soak;
 mod tool_table;
+mod twin_demo;
 mod twin_production;
 mod watch_live;

@@ -33,6 +33,9 @@ impl RowFlags {
     /// Feed hold requested (`feed_hold`) with the tool out of the material: nothing moves
     /// and nothing is cut, so the row says nothing about the process or the feed path.
     pub const FEED_HOLD_IN_AIR: u8 = 1 << 5;
+    /// The line guard held the read for confirmation ([`guard_held`]): the loop used none
+    /// of it, and its cells are a raw read the sequence does not place.
+    pub const HELD: u8 = 1 << 6;
 
     /// Whether bit `b` is set.
     pub fn has(self, b: u8) -> bool {
@@ -50,6 +53,7 @@ impl RowFlags {
             (Self::NO_STATUS, DeadReason::LinkLost),
             (Self::SKIPPED, DeadReason::Skipped),
             (Self::IMPLAUSIBLE, DeadReason::Implausible),
+            (Self::HELD, DeadReason::Held),
             (missing, DeadReason::NoSample),
             (Self::FEED_HOLD_IN_AIR, DeadReason::FeedHoldInAir),
         ]
@@ -69,6 +73,8 @@ impl RowFlags {
                 b |= Self::SKIPPED;
             } else if f.starts_with("implausible:") {
                 b |= Self::IMPLAUSIBLE;
+            } else if guard_held(f) {
+                b |= Self::HELD;
             }
         }
         if r.power_w.is_none() {
@@ -82,6 +88,28 @@ impl RowFlags {
         }
         RowFlags(b)
     }
+}
+
+/// The registers whose unconfirmed change makes the line guard hold the whole read
+/// (`acc_runtime::guard`): a `STATUS` bit, `OVERRIDE_APPLIED`, the power, the spindle
+/// speed, `SAMPLE_SEQ`. Other unconfirmed registers (the knob, the programmed feed, the
+/// NC numbers) are debounced: the read is used with their old value.
+pub const HELD_REGISTERS: [&str; 5] = [
+    "status",
+    "override_applied",
+    "power",
+    "spindle_rpm",
+    "sample_seq",
+];
+
+/// Whether one run-log flag marks a read the line guard held: `unconfirmed:<register>` of
+/// a [`HELD_REGISTERS`] register. The loop used nothing of such a read: its `SAMPLE_SEQ`
+/// was not taken (the next used read's `seq_skip:<n>` counts from the last used one), and
+/// its power and applied override are a raw reply the sequence does not place — on a
+/// tight link timing a reply that arrived after its timeout and answered the next request.
+pub fn guard_held(flag: &str) -> bool {
+    flag.strip_prefix("unconfirmed:")
+        .is_some_and(|reg| HELD_REGISTERS.contains(&reg))
 }
 
 /// A change of the logged axial depth from one row to the next that the replay's one
@@ -127,6 +155,9 @@ pub enum DeadReason {
     Skipped,
     /// A status value was implausible and not used (`implausible:<register>`).
     Implausible,
+    /// The line guard held the read for confirmation (`unconfirmed:<register>` of a
+    /// [`HELD_REGISTERS`] register): the loop did not use it.
+    Held,
     /// The channel's cell is empty (no usable sample).
     NoSample,
     /// Feed hold with the tool in the air.
@@ -142,10 +173,11 @@ pub enum DeadReason {
 impl DeadReason {
     /// Every reason: those of [`RowFlags::dead_on`] in the order it tries them, then the
     /// one [`dead_rows`] adds.
-    pub const ALL: [DeadReason; 6] = [
+    pub const ALL: [DeadReason; 7] = [
         DeadReason::LinkLost,
         DeadReason::Skipped,
         DeadReason::Implausible,
+        DeadReason::Held,
         DeadReason::NoSample,
         DeadReason::FeedHoldInAir,
         DeadReason::AxialDepthChange,
@@ -161,6 +193,9 @@ impl DeadReason {
             DeadReason::Implausible => {
                 "implausible status value, sample not used (`implausible:<register>`)"
             }
+            DeadReason::Held => {
+                "read held by the line guard, not used (`unconfirmed:<register>` of a status bit, the power, the speed, `SAMPLE_SEQ` or the applied override)"
+            }
             DeadReason::NoSample => "no sample on the compared channel (empty cell)",
             DeadReason::FeedHoldInAir => "feed hold with the tool in the air (`feed_hold`)",
             DeadReason::AxialDepthChange => {
@@ -169,13 +204,14 @@ impl DeadReason {
         }
     }
 
-    /// Short name for reports (`link_lost`, `skipped`, `implausible`, `no_sample`,
+    /// Short name for reports (`link_lost`, `skipped`, `implausible`, `held`, `no_sample`,
     /// `feed_hold_in_air`, `axial_depth_change`).
     pub fn name(self) -> &'static str {
         match self {
             DeadReason::LinkLost => "link_lost",
             DeadReason::Skipped => "skipped",
             DeadReason::Implausible => "implausible",
+            DeadReason::Held => "held",
             DeadReason::NoSample => "no_sample",
             DeadReason::FeedHoldInAir => "feed_hold_in_air",
             DeadReason::AxialDepthChange => "axial_depth_change",
@@ -214,6 +250,13 @@ mod tests {
         assert_eq!(no_force.dead_on(Channel::Force), Some(DeadReason::NoSample));
         let bad = RowFlags::of_record(&rec("implausible:power", Some(9e9), None, false), true);
         assert_eq!(bad.dead_on(Channel::Power), Some(DeadReason::Implausible));
+        let held = "unconfirmed:sample_seq;force_invalid;fault";
+        let held = RowFlags::of_record(&rec(held, Some(1146.0), None, false), true);
+        assert_eq!(held.dead_on(Channel::Power), Some(DeadReason::Held));
+        // A debounced register (the knob, the block) leaves the read in use.
+        let debounced = "unconfirmed:block_number";
+        let debounced = RowFlags::of_record(&rec(debounced, Some(900.0), Some(300.0), false), true);
+        assert_eq!(debounced.dead_on(Channel::Power), None);
         let skipped = RowFlags::of_record(&rec("skipped", None, None, false), false);
         assert_eq!(skipped.dead_on(Channel::Force), Some(DeadReason::Skipped));
         let hold_air = RowFlags::of_record(&rec("", Some(700.0), Some(0.0), true), false);

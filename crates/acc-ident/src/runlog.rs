@@ -530,7 +530,11 @@ pub fn from_records_with(
         override_cmd_pct: Some(carry(rows, |r| {
             r.override_cmd_pct.or(r.override_applied_pct).map(f64::from)
         })),
-        override_applied_pct: Some(carry_back(rows, |r| r.override_applied_pct.map(f64::from))),
+        override_applied_pct: Some(carry_back(rows, |r| {
+            r.override_applied_pct
+                .filter(|_| !r.flags.split(';').any(crate::dead::guard_held))
+                .map(f64::from)
+        })),
         feed_mm_min: carry(rows, |r| r.feed_true_mm_min.or(r.feed_mm_min)),
         force_n: has(&force).then(|| carry(rows, force)),
         power_w: has(&power).then(|| carry(rows, power)),
@@ -546,15 +550,18 @@ pub fn from_records_with(
 
 /// Board samples a row's power read moved on from the previous row's, from its flags
 /// (`seq_repeat`: 0, `seq_skip:<n>`: n, otherwise 1). A row whose status read failed
-/// (`link:<kind>`) or that the ticker skipped (`skipped`: no cycle ran) read nothing: 0
-/// (its power cell carries the last sample; the next good read's `seq_skip` counts the
-/// samples since the last good read, the dead rows' included).
+/// (`link:<kind>`), that the ticker skipped (`skipped`: no cycle ran), or whose read the
+/// line guard held (`implausible:<register>`, [`crate::dead::guard_held`]) read nothing
+/// the loop used: 0 (the next used read's `seq_skip` counts the samples since the last
+/// used read, the dead rows' included). Counted 1, each held read put every later row a
+/// board period ahead of the sample it read.
 fn sample_advance(flags: &str) -> u32 {
     flags
         .split(';')
         .find_map(|f| match f {
             "seq_repeat" | "skipped" => Some(0),
-            _ if f.starts_with("link:") => Some(0),
+            _ if f.starts_with("link:") || f.starts_with("implausible:") => Some(0),
+            _ if crate::dead::guard_held(f) => Some(0),
             _ => f.strip_prefix("seq_skip:").and_then(|n| n.parse().ok()),
         })
         .unwrap_or(1)

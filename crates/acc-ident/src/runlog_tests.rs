@@ -49,3 +49,43 @@ fn sample_advance_is_read_from_the_flags() {
     // A period the ticker skipped read nothing: the next read's `seq_skip` counts it.
     assert_eq!(sample_advance("skipped"), 0);
 }
+
+/// A read the line guard held (`unconfirmed:sample_seq`, here the late reply to the failed
+/// read before it) is no read: the loop took neither its `SAMPLE_SEQ` nor its override,
+/// and the next used read's `seq_skip:4` counts from the last used one. Counted as one
+/// sample, it put every later row of a 10x production log a board period ahead (1 054 of
+/// 3 389 periods on the wrong override).
+#[test]
+fn a_read_the_line_guard_held_reads_no_sample() {
+    let row = |t_s: f64, flags: &str, applied: Option<u16>| acc_runtime::RunRecord {
+        t_s,
+        flags: flags.into(),
+        spindle_rpm: Some(600.0),
+        radial_depth_mm: Some(3.0),
+        axial_depth_mm: Some(16.0),
+        power_w: applied.map(|_| 1146.0),
+        override_applied_pct: applied,
+        ..acc_runtime::RunRecord::default()
+    };
+    let rows = [
+        row(15.5, "settle:70", Some(70)),
+        row(15.6, "link:timeout;fault", None),
+        row(
+            15.7,
+            "unconfirmed:sample_seq;force_invalid;fault;late",
+            Some(70),
+        ),
+        row(15.8, "seq_skip:4;settle:70;late", Some(60)),
+        row(15.9, "seq_repeat;settle:70", Some(60)),
+        row(16.0, "unconfirmed:block_number", Some(60)),
+    ];
+    let log = from_records(&rows, Path::new("held.csv")).expect("log");
+    assert_eq!(log.sample_advance, Some(vec![1, 0, 0, 4, 0, 1]));
+    assert_eq!(
+        log.override_applied_pct,
+        Some(vec![70.0, 60.0, 60.0, 60.0, 60.0, 60.0])
+    );
+    let dead = log.dead_rows(crate::model::Channel::Power);
+    assert_eq!(dead[2], Some(crate::dead::DeadReason::Held));
+    assert_eq!(dead[5], None, "a debounced register leaves the read in use");
+}

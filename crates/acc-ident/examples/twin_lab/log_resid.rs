@@ -3,6 +3,9 @@
 //! the tool starting at X0 instead); with `POS=1` the replayed tool position per row instead
 //! (development aid: compare it with `acc board-sim --log`'s `x_true_mm`).
 //!
+//! `SCENARIO=FILE` replays the scenario's own model (`twin::model_for_scenario`, its wear
+//! included) instead of MODEL.toml's machine and tool: the machine's true model.
+//!
 //! cargo run --release -p acc-ident --example twin_lab -- log_resid RUN.csv MODEL.toml WORKPIECE.toml X0 power
 use acc_ident::model::Channel;
 use acc_ident::twin;
@@ -21,6 +24,10 @@ pub fn main() {
     } else {
         Channel::Power
     };
+    if let Some(sc) = std::env::var_os("SCENARIO") {
+        let sc = acc_sim::Scenario::load(Path::new(&sc)).expect("scenario");
+        m = twin::model_for_scenario(&sc, m.measurement.channel);
+    }
     if std::env::var("POS").is_ok() {
         positions(&m, &log, &wp);
         return;
