@@ -194,7 +194,8 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
         "the adaptive feed follows the cut: light slot {light:.2}, heavy slot {heavy:.2}"
     );
     // The process's path is LinuxCNC's: every machine-log position is a joint position
-    // LinuxCNC's own halsampler recorded in that process period (to the logs' 4 decimals).
+    // LinuxCNC's own halsampler recorded in that process period, within 0.01 mm (two servo
+    // periods of travel at the cut's feed; a rapid covers 0.1 mm in one).
     let capture = acc_linuxcnc::halsampler::read(&dir.join("halsampler.txt")).expect("capture");
     let path = acc_linuxcnc::halsampler::compare(&rows, &capture);
     eprintln!(
@@ -202,7 +203,7 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
         capture.overruns
     );
     assert!(
-        path.rows > rows.len() * 9 / 10 && path.max_mm <= 0.001,
+        path.rows > rows.len() * 9 / 10 && path.max_mm <= 0.01,
         "the process's path against LinuxCNC's joint positions: {path:?}"
     );
     assert!(path.max_step_mm > 0.05, "the capture moved: {path:?}");
