@@ -194,8 +194,12 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
         "the adaptive feed follows the cut: light slot {light:.2}, heavy slot {heavy:.2}"
     );
     // The process's path is LinuxCNC's: every machine-log position is a joint position
-    // LinuxCNC's own halsampler recorded in that process period, within 0.01 mm (two servo
-    // periods of travel at the cut's feed; a rapid covers 0.1 mm in one).
+    // LinuxCNC's own halsampler recorded in that process period. While cutting within
+    // 0.01 mm (two servo periods of travel at the cut's feed). Elsewhere within one servo
+    // period's travel (a rapid covers 0.1 mm in one): the process is a userspace task, and
+    // on a loaded host its read of the axes and its write of the sample counter can fall in
+    // two servo periods (a clean clone's CI run measured 0.043 mm on a rapid, 0.0001 mm
+    // while cutting).
     let capture = acc_linuxcnc::halsampler::read(&dir.join("halsampler.txt")).expect("capture");
     let path = acc_linuxcnc::halsampler::compare(&rows, &capture);
     eprintln!(
@@ -203,7 +207,9 @@ fn acc_drives_linuxcnc_and_a_killed_acc_stops_the_motion() {
         capture.overruns
     );
     assert!(
-        path.rows > rows.len() * 9 / 10 && path.max_mm <= 0.01,
+        path.rows > rows.len() * 9 / 10
+            && path.max_cutting_mm <= 0.01
+            && path.max_mm <= path.max_step_mm + 1e-3,
         "the process's path against LinuxCNC's joint positions: {path:?}"
     );
     assert!(path.max_step_mm > 0.05, "the capture moved: {path:?}");
