@@ -23,5 +23,6 @@ mod ident_sim_and_files;
 mod ident_unexplained;
 mod library;
 mod path_start;
+mod program_visits;
 mod replay;
 mod spindle_calibration;

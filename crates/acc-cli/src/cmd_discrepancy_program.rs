@@ -5,7 +5,9 @@
 //! Such a log has no depth of cut, but it has the block (`block`: the N word, else the
 //! line, as `motion.program-line` reports it) and the controller's actual path speed
 //! (`feed_mm_min`: programmed feed × applied override). Each row's path position is rebuilt
-//! from them: where the block changes it is the block's start plus half the period's travel
+//! from them: where the block changes it is the start of the block's next visit (a
+//! subroutine, a loop or a repeat runs the same lines again; the visit is the first one
+//! that starts where the row before left the tool or after it) plus half the period's travel
 //! at the row's feed (the change fell somewhere in the period; one period more when the
 //! read before found it and the line guard held it, flag `unconfirmed:`), and inside a
 //! block the trapezoidal integral of the logged feed, held within the block. The engagement of the
@@ -40,8 +42,24 @@ struct Span {
 pub struct ProgramLog {
     path: ProgramPath,
     tool: ToolGeometry,
-    blocks: BTreeMap<u32, Span>,
+    /// Every visit of each block, in path order: a block runs more than once when a
+    /// subroutine (`o… call`), a loop or a repeat runs its lines again.
+    blocks: BTreeMap<u32, Vec<Span>>,
 }
+
+/// The visit of a block that starts where the tool is or after it (`at_mm`, the path
+/// position before the block changed), the first such; the block's first visit when none
+/// does (the program was restarted).
+fn next_visit(visits: &[Span], at_mm: f64) -> Option<&Span> {
+    visits
+        .iter()
+        .find(|v| v.start_mm >= at_mm - VISIT_TOLERANCE_MM)
+        .or_else(|| visits.first())
+}
+
+/// How far before the position a visit of the next block may start, mm: the rebuilt
+/// position stops at its block's end, which is where the next block starts.
+const VISIT_TOLERANCE_MM: f64 = 1e-6;
 
 impl ProgramLog {
     /// Build the path of `opts` for the model's tool (diameter, flutes, flute length), its
@@ -63,18 +81,22 @@ impl ProgramLog {
             model.machine.feed_drive.rapid_mm_min,
         )
         .with_context(|| format!("--program {}", program.display()))?;
-        let mut blocks: BTreeMap<u32, Span> = BTreeMap::new();
+        let mut blocks: BTreeMap<u32, Vec<Span>> = BTreeMap::new();
+        let mut last: Option<u32> = None;
         for (s, &x0) in path.segments().iter().zip(path.piece_starts_mm()) {
             let b = s.block.unwrap_or(s.line);
             let end = x0 + s.length_mm();
-            blocks
-                .entry(b)
-                .and_modify(|sp| sp.end_mm = sp.end_mm.max(end))
-                .or_insert(Span {
+            let visits = blocks.entry(b).or_default();
+            match visits.last_mut() {
+                // The next piece of the same visit (an arc's chords, a block's pieces).
+                Some(v) if last == Some(b) => v.end_mm = v.end_mm.max(end),
+                _ => visits.push(Span {
                     start_mm: x0,
                     end_mm: end,
                     rapid: s.rapid,
-                });
+                }),
+            }
+            last = Some(b);
         }
         Ok(Some(ProgramLog { path, tool, blocks }))
     }
@@ -84,11 +106,16 @@ impl ProgramLog {
     fn positions(&self, rows: &[RunRecord]) -> Vec<(f64, bool)> {
         let mut out = Vec::with_capacity(rows.len());
         let (mut s, mut block, mut rapid) = (0.0, None::<u32>, false);
+        let mut span: Option<&Span> = None;
         for (k, r) in rows.iter().enumerate() {
             let v = r.feed_mm_min.unwrap_or(0.0) / 60.0;
             let dt = if k == 0 { 0.0 } else { r.t_s - rows[k - 1].t_s };
             let b = r.block.map(u32::from);
-            let span = b.and_then(|b| self.blocks.get(&b));
+            if b != block {
+                span = b
+                    .and_then(|b| self.blocks.get(&b))
+                    .and_then(|visits| next_visit(visits, s));
+            }
             match span {
                 Some(sp) if b != block => {
                     // The line guard logs a new block one read late: the read before

@@ -119,8 +119,10 @@ pub struct LinuxcncArgs {
     /// (`halsampler.txt`) and compare the process's path with them.
     #[arg(long)]
     pub capture: bool,
-    /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it.
-    #[arg(long, default_value_t = 900.0)]
+    /// Longest run, s of wall time (10 ..= 86400): LinuxCNC is stopped after it. The
+    /// default, an hour, holds the longest example program (17 minutes of machine time)
+    /// with room for a slow cut.
+    #[arg(long, default_value_t = 3600.0)]
     pub timeout_s: f64,
     /// A LinuxCNC configuration value, `SECTION.KEY=VALUE` (repeatable), set in the
     /// generated `acc.ini`: the section and key must be in the template, a number in its
