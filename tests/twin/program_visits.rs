@@ -5,35 +5,27 @@
 //! rows carry the true path position (`x_true_mm`) and depth: the rebuilt positions and
 //! depths of `rows.csv` are compared with them.
 
-use std::collections::HashMap;
+use std::path::Path;
 
-use crate::e2e_support::acc_output;
+use crate::e2e_support::{acc_output, read_log};
 
 const PROGRAM: &str = "tests/nc/subroutine_passes.ngc";
 const STOCK: &str = "--stock-box=0,-20,-10,60,20,0";
 
-/// The CSV file's rows as column → value maps.
-fn csv_rows(path: &std::path::Path) -> Vec<HashMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).expect("csv");
-    let head: Vec<String> = r
-        .headers()
-        .expect("header")
-        .iter()
-        .map(String::from)
-        .collect();
+/// The rebuilt path position and axial depth of every row of `acc discrepancy`'s
+/// `rows.csv`, mm.
+fn rebuilt_rows(path: &Path) -> Vec<(f64, f64)> {
+    let mut r = csv::Reader::from_path(path).expect("rows.csv");
+    let head = r.headers().expect("header").clone();
+    let col = |name: &str| head.iter().position(|h| h == name).expect(name);
+    let (x, axial) = (col("x_mm"), col("axial_mm"));
     r.records()
         .map(|rec| {
             let rec = rec.expect("row");
-            head.iter()
-                .cloned()
-                .zip(rec.iter().map(String::from))
-                .collect()
+            let num = |i: usize| rec[i].parse::<f64>().expect("a number");
+            (num(x), num(axial))
         })
         .collect()
-}
-
-fn num(row: &HashMap<String, String>, key: &str) -> f64 {
-    row[key].parse().unwrap_or(0.0)
 }
 
 #[test]
@@ -66,24 +58,27 @@ fn each_pass_of_a_subroutine_is_placed_on_its_own_visit() {
         &disc.display().to_string(),
     ]);
     assert!(ok, "acc discrepancy --program: {out}\n{err}");
-    let truth = csv_rows(&run);
-    let rebuilt = csv_rows(&disc.join("rows.csv"));
+    let truth = read_log(&run);
+    let rebuilt = rebuilt_rows(&disc.join("rows.csv"));
     assert_eq!(truth.len(), rebuilt.len(), "one analysed row per log row");
     // The cutting rows of both passes: the first at 1 mm, the second at 3 mm deep. A row
     // whose period holds the entry may read the depth on either side of it.
     let mut per_depth = [0usize; 2];
     let mut off_depth = Vec::new();
     let mut worst_mm: f64 = 0.0;
-    for (t, r) in truth.iter().zip(&rebuilt) {
-        let depth = num(t, "axial_depth_mm");
-        if num(t, "radial_depth_mm") <= 0.0 || depth <= 0.0 {
+    for (t, &(x_mm, axial_mm)) in truth.iter().zip(&rebuilt) {
+        let (Some(radial), Some(depth), Some(x_true)) =
+            (t.radial_depth_mm, t.axial_depth_mm, t.x_true_mm)
+        else {
+            continue;
+        };
+        if radial <= 0.0 || depth <= 0.0 {
             continue;
         }
-        let pass = usize::from(depth > 2.0);
-        per_depth[pass] += 1;
-        worst_mm = worst_mm.max((num(r, "x_mm") - num(t, "x_true_mm")).abs());
-        if (num(r, "axial_mm") - depth).abs() > 0.05 {
-            off_depth.push((t["t_s"].clone(), r["axial_mm"].clone(), depth));
+        per_depth[usize::from(depth > 2.0)] += 1;
+        worst_mm = worst_mm.max((x_mm - x_true).abs());
+        if (axial_mm - depth).abs() > 0.05 {
+            off_depth.push((t.t_s, axial_mm, depth));
         }
     }
     let cutting = per_depth[0] + per_depth[1];
