@@ -1,4 +1,4 @@
-//! The twin on LinuxCNC's motion (docs/twin-evaluation.md, "LinuxCNC"): `acc linuxcnc`
+//! The twin on LinuxCNC's motion (docs/twin-linuxcnc.md): `acc linuxcnc`
 //! runs `tests/nc/linuxcnc_accel.ngc` with X and Y accelerating at 20 mm/s² (`--ini`), a
 //! value the model (`configs/models/linuxcnc_paper_vmc.toml`: the template's 500 mm/s²) is
 //! not told. `acc discrepancy --program` on its run log must fit `feed_accel_limit` and
