@@ -113,6 +113,8 @@ fn discrepancy(log: &Path) -> serde_json::Value {
         &o,
     ];
     let run = Command::new(acc_bin())
+        // One tracing thread beside the binary's wall-paced loops (`e2e_support::acc_output`).
+        .env("ACC_TRACE_THREADS", "1")
         .args(args)
         .current_dir(root())
         .output()

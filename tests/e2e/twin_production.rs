@@ -128,6 +128,8 @@ fn rounding(runlog: &acc_ident::RunLog) -> [(acc_ident::model::Channel, f64, &'s
 /// Run `acc <args>` in the repository root: (exit code, stdout, stderr).
 fn acc(args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(acc_bin())
+        // One tracing thread beside the binary's wall-paced loops (`e2e_support::acc_output`).
+        .env("ACC_TRACE_THREADS", "1")
         .args(args)
         .current_dir(root())
         .output()

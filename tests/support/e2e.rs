@@ -469,9 +469,12 @@ pub fn program_path(
     ProgramPath::for_scenario(&spec, sc).expect("program")
 }
 
-/// Run `acc <args>` from the repository root to its end: (exit 0, stdout, stderr).
+/// Run `acc <args>` from the repository root to its end: (exit 0, stdout, stderr). An
+/// analysis traces its plant on one thread (`ACC_TRACE_THREADS=1`): in this binary it
+/// runs beside the wall-paced closed loops, whose two processes need the other core.
 pub fn acc_output(args: &[&str]) -> (bool, String, String) {
     let out = Command::new(acc_bin())
+        .env("ACC_TRACE_THREADS", "1")
         .args(args)
         .current_dir(root())
         .output()

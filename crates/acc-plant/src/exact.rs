@@ -47,7 +47,9 @@ pub(crate) fn round(x: f64) -> f64 {
 
 /// `x.powf(e)` remembered for the last argument pair: the simulator raises slowly varying
 /// quantities (speed, engaged depth, feed in steady state) to fixed exponents at every
-/// internal step; an unchanged argument (bitwise) returns the remembered power.
+/// internal step; an unchanged argument (bitwise) returns the remembered power. The
+/// exponent 1 (the force law's usual depth and feed exponents) returns `x` itself, which
+/// is what `powf` returns for it (IEEE 754 `pow(x, 1) = x`, NaN and signed zeros included).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct PowMemo {
     last: Option<(u64, u64, f64)>,
@@ -57,6 +59,9 @@ impl PowMemo {
     /// `x.powf(e)`.
     #[inline]
     pub(crate) fn powf(&mut self, x: f64, e: f64) -> f64 {
+        if e == 1.0 {
+            return x;
+        }
         let key = (x.to_bits(), e.to_bits());
         match self.last {
             Some((kx, ke, y)) if (kx, ke) == key => y,
@@ -168,8 +173,17 @@ mod tests {
             (0.0, 0.5),
             (f64::NAN, 1.0),
             (f64::NAN, 1.0),
+            (-0.0, 1.0),
+            (f64::INFINITY, 1.0),
+            (f64::NEG_INFINITY, 1.0),
         ] {
             assert!(same(m.powf(x, e), x.powf(e)));
+        }
+        // The exponent 1 over every magnitude and sign: x itself, as powf gives.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for _ in 0..100_000 {
+            let x = f64::from_bits(rng.random::<u64>());
+            assert!(same(m.powf(x, 1.0), x.powf(1.0)), "{x:e}");
         }
     }
 }

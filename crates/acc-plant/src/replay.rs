@@ -85,25 +85,21 @@ impl SharedRpm {
     }
 }
 
-/// A spindle turning at the speed the log recorded (set per row by [`trace`]); input power
-/// by the machine's spindle law ([`crate::config::SpindleSpec::input_power_w`]).
-struct LoggedSpeedSpindle {
-    spec: crate::config::SpindleSpec,
+/// The replay's spindle: it turns at the speed the log recorded (set per row by
+/// [`trace`]) or at the machine's, and has no input power — the trace reads the force
+/// and the torque of each sample (the motor channel is the caller's, from the unit
+/// torque), so the spindle law's power is not computed at every internal step.
+struct ReplaySpindle {
     rpm: SharedRpm,
-    power_w: f64,
-    t_s: f64,
 }
 
-impl SpindleModel for LoggedSpeedSpindle {
-    fn step(&mut self, load_torque_nm: f64, dt_s: f64) -> f64 {
-        self.t_s += dt_s;
-        let rpm = self.rpm.get();
-        self.power_w = self.spec.input_power_w(load_torque_nm, rpm, self.t_s);
-        rpm
+impl SpindleModel for ReplaySpindle {
+    fn step(&mut self, _load_torque_nm: f64, _dt_s: f64) -> f64 {
+        self.rpm.get()
     }
 
     fn input_power_w(&self) -> f64 {
-        self.power_w
+        0.0
     }
 
     fn speed_rpm(&self) -> f64 {
@@ -161,6 +157,16 @@ pub struct PeriodTrace {
     pub x_mm: f64,
 }
 
+/// The runout basis of every internal sample of a replay (see [`PeriodTrace::runout_mean`]),
+/// shared by the traces of one drive: it depends only on the periods and the spindle's
+/// speeds (the spindle angle turns at the logged or the machine's speed, whatever the
+/// override path, the feed drive or the engagement), so the first trace on a drive
+/// computes it and the next ones read it instead of a sine and a cosine per sample.
+/// Use one per [`ReplayDrive`] (and machine rate): [`trace`] recomputes it where its
+/// sample count differs.
+#[derive(Debug, Clone, Default)]
+pub struct RunoutBasis(std::sync::OnceLock<Vec<[f64; 2]>>);
+
 /// The engagement of logged row `i` over its period, the tool at `x_start_mm`: the chord
 /// from the row before's sample to this row's ([`Ramp`]) over `path_mm` (the last
 /// period's path: the feed seldom changes much in one period), or this row's held where
@@ -189,7 +195,9 @@ fn logged_source(
 }
 
 /// Replay the plant of `machine` + `tool` (force model `force_model`) on `drive` with the
-/// engagement `engagement`, seen through `channel`. One [`PeriodTrace`] per row.
+/// engagement `engagement`, seen through `channel`. One [`PeriodTrace`] per row. The
+/// runout basis is read from `basis` when an earlier trace on the same drive left it
+/// there, else computed and left there.
 ///
 /// The simulator's own [`Machine::advance`] runs every period (same internal rate, delay
 /// line, drive lag, engagement and force law); only the unit scale (no `Ks`, wear or
@@ -201,8 +209,22 @@ pub fn trace(
     engagement: &ReplayEngagement,
     drive: &ReplayDrive<'_>,
     channel: &ReplayChannel,
+    basis: &RunoutBasis,
 ) -> Vec<PeriodTrace> {
     let n = drive.period_s.len();
+    let rate_hz = match force_model {
+        ForceModel::Mean => machine.sim.mean_rate_hz,
+        ForceModel::Tooth => machine.sim.tooth_rate_hz,
+    };
+    // The samples `Machine::advance` takes over the drive's periods.
+    let samples: usize = drive
+        .period_s
+        .iter()
+        .map(|p| ((p * rate_hz).round() as usize).max(1))
+        .sum();
+    let known = basis.0.get().filter(|b| b.len() == samples);
+    let mut fresh: Vec<[f64; 2]> = Vec::with_capacity(if known.is_some() { 0 } else { samples });
+    let mut at_sample = 0usize;
     let mut unit = tool.clone();
     unit.process.calib_force_n = 1.0;
     unit.runout = None;
@@ -238,13 +260,10 @@ pub fn trace(
     let rpm_in = SharedRpm::new(machine.spindle.rpm);
     if let Some(r) = drive.spindle_rpm {
         rpm_in.set(r.first().copied().unwrap_or(machine.spindle.rpm));
-        m.set_spindle(Box::new(LoggedSpeedSpindle {
-            spec: machine.spindle,
-            rpm: rpm_in.clone(),
-            power_w: 0.0,
-            t_s: 0.0,
-        }));
     }
+    m.set_spindle(Box::new(ReplaySpindle {
+        rpm: rpm_in.clone(),
+    }));
     let set_inputs = |m: &mut Machine, i: usize| {
         let ov = drive.override_applied_pct[i];
         m.set_override_input_pct(if ov.is_finite() {
@@ -307,23 +326,31 @@ pub fn trace(
         let dth = rpm / 60.0 * 2.0 * PI * dt;
         let (mut fw, mut ffw, mut rm, mut rw) = (0.0, 0.0, [0.0; 2], [0.0; 2]);
         for (j, s) in rec.samples.iter().enumerate() {
-            let th0 = theta;
-            let th1 = th0 + dth;
-            theta = crate::exact::rem_tau(th1);
-            // sin and cos of the sample's start: the last sample's end where the angle
-            // was not wrapped (the same number, so the same values).
-            let (s0, c0) = match end_sc {
-                Some((a, s, c)) if a == th0 => (s, c),
-                _ => th0.sin_cos(),
+            let basis = match known {
+                Some(b) => b[at_sample],
+                None => {
+                    let th0 = theta;
+                    let th1 = th0 + dth;
+                    theta = crate::exact::rem_tau(th1);
+                    // sin and cos of the sample's start: the last sample's end where the
+                    // angle was not wrapped (the same number, so the same values).
+                    let (s0, c0) = match end_sc {
+                        Some((a, s, c)) if a == th0 => (s, c),
+                        _ => th0.sin_cos(),
+                    };
+                    let b = if dth.abs() < 1e-12 {
+                        end_sc = None;
+                        [c0, -s0]
+                    } else {
+                        let (s1, c1) = th1.sin_cos();
+                        end_sc = Some((th1, s1, c1));
+                        [(s1 - s0) / dth, (c1 - c0) / dth]
+                    };
+                    fresh.push(b);
+                    b
+                }
             };
-            let basis = if dth.abs() < 1e-12 {
-                end_sc = None;
-                [c0, -s0]
-            } else {
-                let (s1, c1) = th1.sin_cos();
-                end_sc = Some((th1, s1, c1));
-                [(s1 - s0) / dth, (c1 - c0) / dth]
-            };
+            at_sample += 1;
             rm[0] += s.force_n * basis[0];
             rm[1] += s.force_n * basis[1];
             if j >= ns - k {
@@ -371,6 +398,10 @@ pub fn trace(
         tr.volume_mm3 = m.volume_mm3();
         out.push(tr);
     }
+    if known.is_none() && fresh.len() == samples {
+        // Another thread's trace on the same drive may have left it first: the same values.
+        let _ = basis.0.set(fresh);
+    }
     out
 }
 
@@ -386,6 +417,83 @@ mod tests {
         let tool = ToolSpec::load(dir.join("machines/tools/hss_endmill_16_4f.toml")).expect("tool");
         let wp = Workpiece::load(dir.join("workpieces").join(file)).expect("workpiece");
         (spec, tool, wp)
+    }
+
+    #[test]
+    fn a_shared_runout_basis_gives_the_traces_a_fresh_one_gives() {
+        // A drive with uneven periods and a changing spindle speed (the angle wraps at
+        // every speed), traced at two feed-drive lags: the second trace on the shared
+        // basis reads it, and every field of every period is the same bits as on a basis
+        // of its own.
+        let (mut spec, tool, wp) = paper_machine_on("steps_1_2_3.toml");
+        let n = 200;
+        let period: Vec<f64> = (0..n).map(|i| [0.1, 0.1, 0.103, 0.098][i % 4]).collect();
+        let ov: Vec<f64> = (0..n).map(|i| [100.0, 70.0, 130.0][(i / 30) % 3]).collect();
+        let fp = vec![200.0; n];
+        let rpm: Vec<f64> = (0..n).map(|i| 600.0 + 3.7 * i as f64).collect();
+        let drive = ReplayDrive {
+            period_s: &period,
+            override_applied_pct: &ov,
+            programmed_feed_mm_min: &fp,
+            feed_hold: None,
+            spindle_rpm: Some(&rpm),
+            settled: false,
+        };
+        let eng = ReplayEngagement::Workpiece {
+            workpiece: wp,
+            x0_mm: 0.0,
+        };
+        let shared = RunoutBasis::default();
+        let bits = |t: &PeriodTrace| {
+            [
+                t.feed_mean_mm_min,
+                t.unit_force_mean,
+                t.unit_force_window,
+                t.runout_mean[0],
+                t.runout_mean[1],
+                t.runout_window[0],
+                t.runout_window[1],
+                t.unit_torque_window,
+            ]
+            .map(f64::to_bits)
+        };
+        let channel = ReplayChannel {
+            window_s: 0.05,
+            ..ReplayChannel::default()
+        };
+        let run = |spec: &MachineSpec, drive: &ReplayDrive<'_>, basis: &RunoutBasis| {
+            trace(spec, &tool, ForceModel::Mean, &eng, drive, &channel, basis)
+        };
+        let first = run(&spec, &drive, &shared);
+        assert!(shared.0.get().is_some(), "the first trace leaves the basis");
+        let nominal_tau_s = spec.feed_drive.tau_s;
+        for tau_s in [nominal_tau_s, 0.03] {
+            spec.feed_drive.tau_s = tau_s;
+            let own = run(&spec, &drive, &RunoutBasis::default());
+            let read = run(&spec, &drive, &shared);
+            assert_eq!(own.len(), n);
+            for (a, b) in own.iter().zip(&read) {
+                assert_eq!(bits(a), bits(b));
+            }
+            assert!(own.iter().any(|t| t.runout_mean != [0.0; 2]));
+            if tau_s == nominal_tau_s {
+                assert!(first.iter().zip(&own).all(|(a, b)| bits(a) == bits(b)));
+            }
+        }
+        // Another drive (other periods) with the same basis: recomputed, not misread.
+        let short = &period[..n - 1];
+        let other = ReplayDrive {
+            period_s: short,
+            override_applied_pct: &ov[..n - 1],
+            programmed_feed_mm_min: &fp[..n - 1],
+            spindle_rpm: Some(&rpm[..n - 1]),
+            ..drive
+        };
+        let own = run(&spec, &other, &RunoutBasis::default());
+        let read = run(&spec, &other, &shared);
+        for (a, b) in own.iter().zip(&read) {
+            assert_eq!(bits(a), bits(b));
+        }
     }
 
     #[test]
@@ -426,6 +534,7 @@ mod tests {
                 settled: false,
             },
             &ReplayChannel::default(),
+            &RunoutBasis::default(),
         );
         let calib = tool.process.calib_force_n;
         let mut cut = 0;
@@ -469,6 +578,7 @@ mod tests {
             },
             &drive,
             &ReplayChannel::default(),
+            &RunoutBasis::default(),
         );
         let rows: Vec<Engagement> = on_wp
             .iter()
@@ -485,6 +595,7 @@ mod tests {
             &ReplayEngagement::Logged(rows.clone()),
             &drive,
             &ReplayChannel::default(),
+            &RunoutBasis::default(),
         );
         let full = on_wp.iter().map(|t| t.unit_force_mean).fold(0.0, f64::max);
         let worst = |tr: &[PeriodTrace]| {
@@ -513,6 +624,7 @@ mod tests {
                     &ReplayEngagement::Logged(same),
                     &drive,
                     &ReplayChannel::default(),
+                    &RunoutBasis::default(),
                 )
                 .last()
                 .expect("row")

@@ -74,6 +74,7 @@ fn positions(m: &acc_ident::Model, log: &acc_ident::RunLog, wp: &acc_sim::Workpi
         &eng,
         &drive,
         &acc_sim::replay::ReplayChannel::default(),
+        &acc_sim::replay::RunoutBasis::default(),
     );
     for (i, t) in tr.iter().enumerate() {
         println!(

@@ -63,6 +63,9 @@ pub struct Inputs {
     pub(super) replays: std::cell::RefCell<Vec<(Model, std::rc::Rc<Replay>)>>,
     /// Quadratic fits of the spindle motor's input power against torque, per speed.
     pub(super) motor_curves: std::cell::RefCell<Vec<(f64, [f64; 3])>>,
+    /// The runout basis of the plant's drive, left by the first trace for the next ones
+    /// (the drive is the rows', or the board's periods with [`Inputs::board_sample`]).
+    pub(super) runout_basis: acc_sim::replay::RunoutBasis,
 }
 
 /// What drives the simulator's plant in a replay ([`acc_sim::replay::trace`]).
@@ -273,6 +276,7 @@ impl Inputs {
             cache: Default::default(),
             replays: Default::default(),
             motor_curves: Default::default(),
+            runout_basis: Default::default(),
         })
     }
 

@@ -7,7 +7,9 @@
 //! depth exponent) are fitted by Levenberg–Marquardt: each iterate, Jacobian column and
 //! cross-validation fold moves them by a little, and each would otherwise be a new trace
 //! of the whole log (a 10-minute log: about 80 ms each, several hundred per analysis).
-//! Two rules keep the number of traces to the points that differ:
+//! The nodes one model needs and the cache lacks are traced on the machine's threads at
+//! once (a bilinear blend of the two lags needs four). Two rules keep the number of traces
+//! to the points that differ:
 //! - the dead time is taken in whole internal steps of the plant, as its delay line holds
 //!   it (`Machine::new` rounds `delay_s·rate`): a delay of the same step count is the
 //!   same trace;
@@ -66,13 +68,40 @@ pub(super) struct PathCache {
     plant: Rc<Vec<PeriodTrace>>,
 }
 
+/// What a plant trace reads of the [`Inputs`]: plain data, so that the traces of one
+/// model's nodes can run on several threads (the `Inputs` keep their caches in cells).
+#[derive(Debug, Clone, Copy)]
+struct TraceFrom<'a> {
+    plant: &'a PlantInputs,
+    /// Period ending at each row, s.
+    dt_s: &'a [f64],
+    /// Median period, s.
+    period_s: f64,
+    /// [`Inputs::board_sample`], when it covers every row.
+    board_sample: Option<&'a [usize]>,
+    /// The channel reads the motor's power: the compared power, or the power a
+    /// spindle-power force estimator reads.
+    power_read: bool,
+    /// The runout basis of the inputs' drive, shared by their traces.
+    runout_basis: &'a acc_sim::replay::RunoutBasis,
+}
+
+impl<'a> TraceFrom<'a> {
+    fn new(inp: &'a Inputs) -> Self {
+        TraceFrom {
+            plant: &inp.plant,
+            dt_s: &inp.dt_s,
+            period_s: inp.period_s,
+            board_sample: inp.board_sample.as_deref().filter(|s| s.len() == inp.len()),
+            power_read: inp.channel == Channel::Power || inp.estimator_no_load.is_some(),
+            runout_basis: &inp.runout_basis,
+        }
+    }
+}
+
 /// Replay the simulator's plant for the path key (see [`acc_sim::replay::trace`]).
-fn plant_trace(
-    model: &Model,
-    inp: &Inputs,
-    plant: &PlantInputs,
-    key: &PathKey,
-) -> Vec<acc_sim::replay::PeriodTrace> {
+fn plant_trace(model: &Model, from: TraceFrom<'_>, key: &PathKey) -> Vec<PeriodTrace> {
+    let plant = from.plant;
     let mut machine = model.machine.clone();
     // The recorded feed is the feed: no override path, no drive lag.
     let instant = plant.source == FeedSource::Recorded;
@@ -88,8 +117,7 @@ fn plant_trace(
     let mut tool = model.tool.clone();
     tool.process.alpha = key.process[4];
     // The motor channel: the power, or the power a spindle-power force estimator reads.
-    let power_read = inp.channel == Channel::Power || inp.estimator_no_load.is_some();
-    let motor = match (power_read, model.measurement.spindle_motor) {
+    let motor = match (from.power_read, model.measurement.spindle_motor) {
         (true, Some(m)) => m.config().ok(),
         _ => None,
     };
@@ -107,14 +135,15 @@ fn plant_trace(
             engagement,
             drive,
             &channel,
+            from.runout_basis,
         )
     };
     let settled = plant.source == FeedSource::Command;
-    let Some(sample) = inp.board_sample.as_ref().filter(|s| s.len() == inp.len()) else {
+    let Some(sample) = from.board_sample else {
         return run(
             &plant.engagement,
             &acc_sim::replay::ReplayDrive {
-                period_s: &inp.dt_s,
+                period_s: from.dt_s,
                 override_applied_pct: &plant.override_applied_pct,
                 programmed_feed_mm_min: &plant.programmed_feed_mm_min,
                 feed_hold: None,
@@ -164,7 +193,7 @@ fn plant_trace(
     let grid = run(
         &engagement,
         &acc_sim::replay::ReplayDrive {
-            period_s: &vec![inp.period_s; periods],
+            period_s: &vec![from.period_s; periods],
             override_applied_pct: &ov,
             programmed_feed_mm_min: &prog,
             feed_hold: None,
@@ -180,9 +209,12 @@ fn plant_trace(
 const PATH_CACHE: usize = 24;
 
 /// Rows of plant trace kept per [`Inputs`] (about 110 bytes a row): more paths than
-/// [`PATH_CACHE`] on a log shorter than this over [`PATH_CACHE`] rows, so that a log of
-/// 10 minutes keeps every node its analysis traces (about 110 on one channel).
-const PATH_CACHE_ROWS: usize = 1_000_000;
+/// [`PATH_CACHE`] on a log shorter than this over [`PATH_CACHE`] rows. A 10-minute log
+/// (6 000 rows) keeps 250 paths, 165 MB: its analysis traces about 110 nodes on one
+/// channel of a simulator log, and about 390 on a LinuxCNC log whose drive candidates
+/// wander to lags of tenths of a second; with 250 kept, the nodes traced again after
+/// being dropped are 3 % of the traces there (with 166 kept, 36 %).
+const PATH_CACHE_ROWS: usize = 1_500_000;
 
 /// Keep `c`, dropping the path used longest ago when the cache is full.
 fn remember(inp: &Inputs, c: Rc<PathCache>) {
@@ -194,27 +226,81 @@ fn remember(inp: &Inputs, c: Rc<PathCache>) {
     v.push(c);
 }
 
-/// The trace of `key`, from the cache or traced now.
-fn traced(model: &Model, inp: &Inputs, key: PathKey) -> Rc<Vec<PeriodTrace>> {
-    {
+/// The threads the traces of one model run on: `ACC_TRACE_THREADS` when it is a number
+/// ≥ 1 (the test suite sets 1 where an analysis runs beside a wall-paced closed loop),
+/// else as many as the machine has. The traces are the same on any number.
+fn trace_threads() -> usize {
+    std::env::var("ACC_TRACE_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n >= 1)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// The traces of `keys`, from the cache or traced now. Keys the cache lacks are traced
+/// on [`trace_threads`] threads (each trace is the same pure function of its key
+/// on any thread), then kept in the order of `keys`.
+fn traced(model: &Model, inp: &Inputs, keys: &[PathKey]) -> Vec<Rc<Vec<PeriodTrace>>> {
+    let cached = |key: &PathKey| {
         let mut v = inp.cache.borrow_mut();
-        if let Some(k) = v.iter().position(|c| c.key == key) {
-            // Most recently used last.
-            let c = v.remove(k);
-            let plant = c.plant.clone();
-            v.push(c);
-            return plant;
+        let k = v.iter().position(|c| c.key == *key)?;
+        // Most recently used last.
+        let c = v.remove(k);
+        let plant = c.plant.clone();
+        v.push(c);
+        Some(plant)
+    };
+    let mut out: Vec<Option<Rc<Vec<PeriodTrace>>>> = keys.iter().map(cached).collect();
+    let mut missing: Vec<&PathKey> = Vec::new();
+    for (key, o) in keys.iter().zip(&out) {
+        if o.is_none() && !missing.contains(&key) {
+            missing.push(key);
         }
     }
-    let plant = Rc::new(plant_trace(model, inp, &inp.plant, &key));
-    remember(
-        inp,
-        Rc::new(PathCache {
-            key,
-            plant: plant.clone(),
-        }),
-    );
-    plant
+    let from = TraceFrom::new(inp);
+    let threads = trace_threads();
+    let fresh: Vec<Vec<PeriodTrace>> = if missing.len() < 2 || threads < 2 {
+        missing
+            .iter()
+            .map(|k| plant_trace(model, from, k))
+            .collect()
+    } else {
+        let per = missing.len().div_ceil(threads);
+        std::thread::scope(|scope| {
+            let jobs: Vec<_> = missing
+                .chunks(per)
+                .map(|chunk| {
+                    scope.spawn(move || {
+                        chunk
+                            .iter()
+                            .map(|k| plant_trace(model, from, k))
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            jobs.into_iter()
+                .flat_map(|j| j.join().expect("a plant trace panicked"))
+                .collect()
+        })
+    };
+    for (key, plant) in missing.into_iter().zip(fresh) {
+        let plant = Rc::new(plant);
+        for (k, o) in keys.iter().zip(out.iter_mut()) {
+            if k == key {
+                *o = Some(plant.clone());
+            }
+        }
+        remember(
+            inp,
+            Rc::new(PathCache {
+                key: key.clone(),
+                plant,
+            }),
+        );
+    }
+    out.into_iter()
+        .map(|o| o.expect("every key cached or traced"))
+        .collect()
 }
 
 /// The traced values around `base + offset` on the nodes `node(j)`, `j` ≠ 0 (`node(0)` is
@@ -384,16 +470,19 @@ pub(super) fn path(model: &Model, inp: &Inputs) -> Rc<Vec<PeriodTrace>> {
         machine_inv_accel(model),
         fx.get(EffectKind::FeedAccelLimit, 0).max(0.0),
     );
-    let mut parts = Vec::with_capacity(16);
+    let mut keys = Vec::with_capacity(16);
+    let mut weights = Vec::with_capacity(16);
     for &(a, wa) in &lag {
         for &(b, wb) in &lag2 {
             for &(c, wc) in &alpha {
                 for &(d, wd) in &accel {
-                    parts.push((traced(model, inp, key(a, b, c, d)), wa * wb * wc * wd));
+                    keys.push(key(a, b, c, d));
+                    weights.push(wa * wb * wc * wd);
                 }
             }
         }
     }
+    let parts: Vec<_> = traced(model, inp, &keys).into_iter().zip(weights).collect();
     match parts.as_slice() {
         [(one, _)] => one.clone(),
         _ => Rc::new(blend(&parts)),
@@ -439,7 +528,7 @@ mod tests {
                 p.radial_ratio,
             ],
         };
-        plant_trace(model, inp, &inp.plant, &key)
+        plant_trace(model, TraceFrom::new(inp), &key)
     }
 
     /// Largest difference of the window's unit force, over the largest unit force.
