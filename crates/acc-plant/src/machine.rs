@@ -225,10 +225,7 @@ impl Machine {
         model: ForceModel,
         programmed_feed_mm_min: f64,
     ) -> Self {
-        let rate_hz = match model {
-            ForceModel::Mean => machine.sim.mean_rate_hz,
-            ForceModel::Tooth => machine.sim.tooth_rate_hz,
-        };
+        let rate_hz = Self::rate_hz(machine, model);
         let tooth = (model == ForceModel::Tooth).then(|| {
             ToothModel::new(
                 &tool.tooth,
@@ -441,6 +438,16 @@ impl Machine {
     /// Internal sample step, s.
     pub fn sample_dt_s(&self) -> f64 {
         1.0 / self.rate_hz
+    }
+
+    /// The internal rate of `machine` under force model `model`, Hz (`sim.mean_rate_hz` or
+    /// `sim.tooth_rate_hz`): [`Machine::advance`] takes `round(period · rate)` samples, at
+    /// least one.
+    pub fn rate_hz(machine: &MachineSpec, model: ForceModel) -> f64 {
+        match model {
+            ForceModel::Mean => machine.sim.mean_rate_hz,
+            ForceModel::Tooth => machine.sim.tooth_rate_hz,
+        }
     }
 
     /// Advance one control period `period_s` and return what happened.

@@ -212,10 +212,7 @@ pub fn trace(
     basis: &RunoutBasis,
 ) -> Vec<PeriodTrace> {
     let n = drive.period_s.len();
-    let rate_hz = match force_model {
-        ForceModel::Mean => machine.sim.mean_rate_hz,
-        ForceModel::Tooth => machine.sim.tooth_rate_hz,
-    };
+    let rate_hz = Machine::rate_hz(machine, force_model);
     // The samples `Machine::advance` takes over the drive's periods.
     let samples: usize = drive
         .period_s

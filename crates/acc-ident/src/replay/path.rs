@@ -427,10 +427,7 @@ pub(super) fn path(model: &Model, inp: &Inputs) -> Rc<Vec<PeriodTrace>> {
     let fx = &model.effects;
     let p = &model.tool.process;
     let machine = &model.machine;
-    let rate_hz = match model.measurement.force_model.sim() {
-        acc_sim::ForceModel::Mean => machine.sim.mean_rate_hz,
-        acc_sim::ForceModel::Tooth => machine.sim.tooth_rate_hz,
-    };
+    let rate_hz = acc_sim::Machine::rate_hz(machine, model.measurement.force_model.sim());
     // The delay line holds whole internal steps.
     let base_delay = machine.override_path.delay_s;
     let steps = ((base_delay + fx.get(EffectKind::OverrideDeadTime, 0).max(0.0)) * rate_hz).round();
