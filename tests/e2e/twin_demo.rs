@@ -10,8 +10,10 @@
 //! The part is `configs/workpieces/wear_cut_150.toml` (2 × 75 mm of 3 mm cut, about 7 cm³:
 //! +11 % `Ks`), so each closed loop takes about 10 s of wall time. The board moves with the
 //! controller's writes (`--pace controller`), so a loaded host slows the pair without
-//! changing its log, and the test takes no lock. On a wall-paced board a write can still
-//! race a late board tick, which the log does not show (docs/twin.md, "Limits").
+//! changing its log, and the test takes no lock. On a wall-paced board a write can race a
+//! late board tick; the replay re-times those periods by the log's `board_feed_mm_min`
+//! (docs/twin.md, "Logs from `acc board-sim` and `acc run`"), measured by hand at 10× in
+//! docs/twin-production.md.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

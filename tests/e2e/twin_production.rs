@@ -279,7 +279,7 @@ fn production_log_without_workpiece_says_what_is_missing() {
     for want in [
         m.as_str(),
         "line 2:",
-        "columns 34 (`radial_depth_mm`) and 35 (`axial_depth_mm`) are empty",
+        "columns 35 (`radial_depth_mm`) and 36 (`axial_depth_mm`) are empty",
         &format!("{rows} of {rows} data rows, lines 2..={}", rows + 1),
         "nothing can be compared",
         "--workpiece",

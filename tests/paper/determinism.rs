@@ -72,7 +72,7 @@ fn the_log_has_the_documented_columns_and_one_row_per_period() {
         "t_s,period,flags,late_ms,tool,program,block,x_mm,spindle_rpm,programmed_feed_mm_min,\
 feed_mm_min,power_w,force_n,force_valid,force_ref_n,kc_hat,kp,ki,error_n,mode,saturation,\
 override_cmd_pct,heartbeat,override_applied_pct,override_operator_pct,state,alarms,feed_hold,\
-echo_delay_periods,feed_echo_periods,seq_lag_periods,delay_margin_periods,\
+echo_delay_periods,feed_echo_periods,seq_lag_periods,delay_margin_periods,board_feed_mm_min,\
 x_true_mm,radial_depth_mm,axial_depth_mm,force_true_n,feed_true_mm_min"
     );
     // docs/runlog.md documents every column (a row of its table starts with the name).

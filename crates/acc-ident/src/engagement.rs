@@ -206,8 +206,8 @@ mod record_tests {
                     last_line: 41,
                     empty_rows: 40,
                     rows: 40,
-                    radial_col: 34,
-                    axial_col: 35,
+                    radial_col: 35,
+                    axial_col: 36,
                     x_col: 8,
                     ..
                 }

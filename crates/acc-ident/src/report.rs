@@ -36,6 +36,9 @@ pub struct InputInfo {
     /// Rows without a valid measurement on the channel, per reason: replayed, but in
     /// neither the selection nor the sealed part, nor in the noise.
     pub excluded_rows: Vec<ExcludedRows>,
+    /// Override steps the board's `ACTUAL_FEED` placed a period off the log's reads
+    /// (`acc run` logs of a v2 board; [`crate::replay::raced`]).
+    pub retimed: crate::replay::raced::RaceCount,
 }
 
 /// Rows left out of an analysis for one reason ([`crate::dead::DeadReason`]).

@@ -127,6 +127,12 @@ pub struct RunLog {
     /// (`acc run`'s flags: `seq_repeat` = 0, `seq_skip:<n>` = n, otherwise 1); `None` when
     /// every row moved by one.
     pub sample_advance: Option<Vec<u32>>,
+    /// The board's `ACTUAL_FEED` with each row's sample (`board_feed_mm_min`, v2 boards),
+    /// mm/min: the NC's feed over the sampled period; `None` in a row without a used read
+    /// (a failed or held read). `None` as a whole when no row has it, and for a simulator's
+    /// log (`x_true_mm` in every row: its board runs in lockstep). The replay reads it
+    /// to find writes that raced the board's tick ([`crate::replay::raced`]).
+    pub board_feed_mm_min: Option<Vec<Option<f64>>>,
     /// What each row's flags and cells say about its sample (a log written by `acc`);
     /// `None` when every row holds a sample (the importers, logs built in code). Rows
     /// without a valid measurement on the compared channel ([`RunLog::dead_rows`]) are
@@ -216,6 +222,10 @@ impl RunLog {
                 .map(|v| keep.iter().map(|&i| v[i].clone()).collect()),
             sample_advance: self
                 .sample_advance
+                .as_ref()
+                .map(|v| keep.iter().map(|&i| v[i]).collect()),
+            board_feed_mm_min: self
+                .board_feed_mm_min
                 .as_ref()
                 .map(|v| keep.iter().map(|&i| v[i]).collect()),
             row_flags: self
@@ -544,6 +554,20 @@ pub fn from_records_with(
             let adv: Vec<u32> = rows.iter().map(|r| sample_advance(&r.flags)).collect();
             adv.iter().any(|&a| a != 1).then_some(adv)
         },
+        // A log with the plant's truth ran its board in the same process, in lockstep: no
+        // write can race its tick, and its feeds are left unread.
+        board_feed_mm_min: (!rows.iter().all(|r| r.x_true_mm.is_some())
+            && rows.iter().any(|r| r.board_feed_mm_min.is_some()))
+        .then(|| {
+            rows.iter()
+                .zip(&row_flags)
+                .map(|(r, f)| {
+                    let used = !f.has(RowFlags::NO_STATUS | RowFlags::SKIPPED)
+                        && !f.has(RowFlags::HELD | RowFlags::IMPLAUSIBLE);
+                    r.board_feed_mm_min.filter(|v| used && v.is_finite())
+                })
+                .collect()
+        }),
         row_flags: Some(row_flags),
     })
 }
@@ -759,6 +783,7 @@ pub fn read_csv_from_with(
         wear_vb_um: take(6)?,
         phase: idx_phase.map(|_| phase),
         sample_advance: None,
+        board_feed_mm_min: None,
         row_flags: None,
     };
     log.validate(path)?;

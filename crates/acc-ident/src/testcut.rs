@@ -63,6 +63,7 @@ pub fn cut_log(inp: &Inputs) -> (RunLog, String) {
         wear_vb_um: None,
         phase: None,
         sample_advance: None,
+        board_feed_mm_min: None,
         row_flags: None,
     };
     let mut t = 0.0;

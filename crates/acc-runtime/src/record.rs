@@ -2,7 +2,7 @@
 //! writer (`acc sim`, `acc run`, `acc board-sim`) and every reader (`acc discrepancy`, the
 //! summaries, the tests).
 //!
-//! The CSV layout is schema **v3** (documented column by column with units in
+//! The CSV layout is schema **v4** (documented column by column with units in
 //! `docs/runlog.md`): one header line with the names of [`COLUMNS`], then one row per period,
 //! skipped and late periods included (flagged in `flags`). A value the writer cannot know —
 //! the true force and depth of cut on a real machine, the controller's gains in a period
@@ -33,7 +33,7 @@ use std::io::{Read, Write};
 use serde::{Deserialize, Serialize};
 
 /// Version of the CSV layout written by [`RunLogWriter`].
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// One control period, as logged. Field order is the CSV column order ([`COLUMNS`]).
 ///
@@ -63,8 +63,9 @@ pub struct RunRecord {
     pub program: Option<u16>,
     /// Active block number (`BLOCK_NUMBER`, v2), empty when unknown.
     pub block: Option<u16>,
-    /// Path position, mm: the integral of the actual feed since the run began (the board's
-    /// `ACTUAL_FEED` when it has one, else programmed feed × applied override).
+    /// Path position, mm: the integral of the period's feed since the run began (programmed
+    /// feed × applied override, 0 in feed hold; [`RunRecord::board_feed_mm_min`] is not
+    /// integrated).
     pub x_mm: Option<f64>,
     /// Spindle speed, rpm.
     pub spindle_rpm: Option<f64>,
@@ -125,6 +126,12 @@ pub struct RunRecord {
     /// model). Schema v3.
     #[serde(default)]
     pub delay_margin_periods: Option<u32>,
+    /// `ACTUAL_FEED` as the board reported it with the period's sample (v2 boards), mm/min:
+    /// the NC's path feed over the sampled period, after override, 0 in feed hold. Empty
+    /// without a read, or on a v1 board. Tells which override drove the sampled period
+    /// where a write raced the board's tick (`acc_ident`'s replay). Schema v4.
+    #[serde(default)]
+    pub board_feed_mm_min: Option<f64>,
     /// Simulator only: true tool-centre position along the path, mm.
     pub x_true_mm: Option<f64>,
     /// Simulator only: engaged radial depth of cut at the period's end, mm (0 in air).
@@ -137,8 +144,8 @@ pub struct RunRecord {
     pub feed_true_mm_min: Option<f64>,
 }
 
-/// Column names of schema v3, in order (the [`RunRecord`] fields).
-pub const COLUMNS: [&str; 37] = [
+/// Column names of schema v4, in order (the [`RunRecord`] fields).
+pub const COLUMNS: [&str; 38] = [
     "t_s",
     "period",
     "flags",
@@ -171,6 +178,7 @@ pub const COLUMNS: [&str; 37] = [
     "feed_echo_periods",
     "seq_lag_periods",
     "delay_margin_periods",
+    "board_feed_mm_min",
     "x_true_mm",
     "radial_depth_mm",
     "axial_depth_mm",
@@ -185,6 +193,9 @@ pub const SINCE_V3: [&str; 4] = [
     "seq_lag_periods",
     "delay_margin_periods",
 ];
+
+/// Columns added in schema v4 (a v2 or v3 log without them reads them as empty).
+pub const SINCE_V4: [&str; 1] = ["board_feed_mm_min"];
 
 /// Column names of the schema as a slice.
 pub fn columns() -> &'static [&'static str] {
@@ -281,7 +292,8 @@ impl From<csv::Error> for RunLogError {
     }
 }
 
-/// Writes [`RunRecord`]s as schema-v2 CSV to any `Write`, flushing every row.
+/// Writes [`RunRecord`]s as CSV of the current schema ([`SCHEMA_VERSION`]) to any `Write`,
+/// flushing every row.
 #[derive(Debug)]
 pub struct RunLogWriter<W: Write> {
     csv: csv::Writer<W>,
@@ -311,7 +323,7 @@ impl<W: Write> RunLogWriter<W> {
 pub enum Schema {
     /// The previous 20-column layout (`valid`, no `period`).
     V1,
-    /// [`COLUMNS`] (v2, and v3 with its four delay columns).
+    /// [`COLUMNS`] (v2; v3 adds its four delay columns, v4 the board's feed).
     V2,
 }
 
@@ -328,7 +340,7 @@ pub fn detect_schema<'a>(header: impl IntoIterator<Item = &'a str>) -> Option<Sc
     }
 }
 
-/// Read a run log of schema v3 or v2, or of schema v1 (migrated row by row).
+/// Read a run log of schema v4, v3 or v2, or of schema v1 (migrated row by row).
 pub fn read_run_log(input: impl Read) -> Result<Vec<RunRecord>, RunLogError> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
@@ -336,12 +348,13 @@ pub fn read_run_log(input: impl Read) -> Result<Vec<RunRecord>, RunLogError> {
     let headers = rdr.headers()?.clone();
     match detect_schema(headers.iter()) {
         Some(Schema::V2) => {
-            for c in columns().iter().filter(|c| !SINCE_V3.contains(c)) {
+            let later = |c: &&&str| SINCE_V3.contains(c) || SINCE_V4.contains(c);
+            for c in columns().iter().filter(|c| !later(c)) {
                 if !headers.iter().any(|h| h == *c) {
                     return Err(RunLogError::Field {
                         line: 1,
                         column: (*c).to_string(),
-                        message: "missing column (run log schema v2/v3)".into(),
+                        message: "missing column (run log schema v2 to v4)".into(),
                     });
                 }
             }
@@ -607,6 +620,7 @@ mod tests {
             feed_echo_periods: Some(2),
             seq_lag_periods: Some(0),
             delay_margin_periods: Some(0),
+            board_feed_mm_min: Some(119.0),
             x_true_mm: Some(45.2),
             radial_depth_mm: Some(3.0),
             axial_depth_mm: Some(10.0),
@@ -620,7 +634,7 @@ mod tests {
         let v2: Vec<&str> = columns()
             .iter()
             .copied()
-            .filter(|c| !SINCE_V3.contains(c))
+            .filter(|c| !SINCE_V3.contains(c) && !SINCE_V4.contains(c))
             .collect();
         let mut text = v2.join(",");
         text.push('\n');
@@ -637,6 +651,7 @@ mod tests {
         assert_eq!(back.len(), 1);
         assert_eq!(back[0].echo_delay_periods, None);
         assert_eq!(back[0].delay_margin_periods, None);
+        assert_eq!(back[0].board_feed_mm_min, None);
     }
 
     #[test]

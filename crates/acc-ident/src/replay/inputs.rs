@@ -57,6 +57,11 @@ pub struct Inputs {
     /// `None`: row `k` read sample `k` — or the board samples faster than the control
     /// period (most rows moved by more than one sample), where the periods are the rows'.
     pub board_sample: Option<Vec<usize>>,
+    /// The periods the board's `ACTUAL_FEED` placed on another override than the log's
+    /// (writes that raced the board's tick, late ticks), re-timed in
+    /// [`PlantInputs::override_applied_pct`] or [`PlantInputs::board_override_pct`]
+    /// ([`super::raced`]).
+    pub raced: super::raced::RaceCount,
     /// The last feed paths and unit forces (see [`replay`]); not part of the inputs.
     pub(super) cache: std::cell::RefCell<Vec<std::rc::Rc<PathCache>>>,
     /// The last replays and their models (see [`replay_shared`]); not part of the inputs.
@@ -73,8 +78,14 @@ pub struct Inputs {
 pub struct PlantInputs {
     /// Which logged columns drive it.
     pub source: FeedSource,
-    /// Override on the PMC inputs during each row's period, %.
+    /// Override on the PMC inputs during each row's period (the sample it read), %: the
+    /// logged `override_applied_pct`, with writes that raced the board's tick re-timed
+    /// ([`super::raced`]).
     pub override_applied_pct: Vec<f64>,
+    /// Override on the PMC inputs during each of the board's periods, %, when the replay
+    /// runs on them ([`Inputs::board_sample`]) and the board's feed placed them
+    /// ([`super::raced::retime`]); `None`: from the rows (`raced::board_periods`).
+    pub board_override_pct: Option<Vec<f64>>,
     /// Programmed feed, mm/min.
     pub programmed_feed_mm_min: Vec<f64>,
     /// Spindle speed per row, rpm (`None`: the model machine's `spindle.rpm`).
@@ -151,12 +162,47 @@ impl Inputs {
             (FeedInput::Command | FeedInput::Auto, _, Some(_)) => FeedSource::Command,
             _ => FeedSource::Recorded,
         };
+        // Only for a board that samples once per control period (most rows moved by one):
+        // a board sampling faster moves by several every row.
+        let board_sample: Option<Vec<usize>> = log
+            .sample_advance
+            .as_ref()
+            .filter(|adv| 2 * adv.iter().filter(|&&a| a == 1).count() > adv.len())
+            .map(|adv| {
+                // The first row's advance counts from before the log: not a period.
+                let mut s = 0usize;
+                std::iter::once(0)
+                    .chain(adv.iter().skip(1).map(|&a| {
+                        s += a as usize;
+                        s
+                    }))
+                    .collect()
+            });
+        let mut raced = super::raced::RaceCount::default();
+        let mut board_override = None;
         let plant = match (source, &log.programmed_feed_mm_min, &log.override_cmd_pct) {
             (FeedSource::Applied, _, _) => {
-                let (p, o) = applied.clone().ok_or(ReplayError::MissingApplied)?;
+                let (p, mut o) = applied.clone().ok_or(ReplayError::MissingApplied)?;
+                if let Some(feed) = &log.board_feed_mm_min {
+                    let m = &model.machine;
+                    let share = super::raced::first_period_share(
+                        m.override_path.delay_s,
+                        m.feed_drive.tau_s,
+                        m.feed_drive.tau2_s,
+                        log.median_period_s(),
+                    );
+                    let (periods, count) =
+                        super::raced::retime(&o, &p, feed, board_sample.as_deref(), share);
+                    raced = count;
+                    match board_sample {
+                        None => o = periods,
+                        Some(_) => board_override = Some(periods),
+                    }
+                }
                 PlantInputs {
                     source,
                     override_applied_pct: o,
+                    board_override_pct: board_override,
                     programmed_feed_mm_min: p,
                     spindle_rpm: None,
                     engagement: logged_engagement(log),
@@ -181,6 +227,7 @@ impl Inputs {
                 PlantInputs {
                     source,
                     override_applied_pct: shift(o, o0),
+                    board_override_pct: None,
                     programmed_feed_mm_min: shift(p, p.first().copied().unwrap_or(0.0)),
                     spindle_rpm: Some(log.spindle_rpm.clone()),
                     engagement: logged_engagement(log),
@@ -189,6 +236,7 @@ impl Inputs {
             _ => PlantInputs {
                 source: FeedSource::Recorded,
                 override_applied_pct: vec![100.0; log.len()],
+                board_override_pct: None,
                 programmed_feed_mm_min: log.feed_mm_min.clone(),
                 spindle_rpm: Some(log.spindle_rpm.clone()),
                 engagement: logged_engagement(log),
@@ -257,22 +305,8 @@ impl Inputs {
                 Channel::Force => model.measurement.force_window_s,
                 Channel::Power => model.measurement.power_window_s,
             },
-            // Only for a board that samples once per control period (most rows moved by
-            // one): a board sampling faster moves by several every row.
-            board_sample: log
-                .sample_advance
-                .as_ref()
-                .filter(|adv| 2 * adv.iter().filter(|&&a| a == 1).count() > adv.len())
-                .map(|adv| {
-                    // The first row's advance counts from before the log: not a period.
-                    let mut s = 0usize;
-                    std::iter::once(0)
-                        .chain(adv.iter().skip(1).map(|&a| {
-                            s += a as usize;
-                            s
-                        }))
-                        .collect()
-                }),
+            board_sample,
+            raced,
             cache: Default::default(),
             replays: Default::default(),
             motor_curves: Default::default(),

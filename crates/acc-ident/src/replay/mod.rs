@@ -7,12 +7,14 @@
 //!
 //! Files: [`inputs`] (the logged columns the plant runs on), [`path`] (the plant's trace
 //! under a model, shared between models), [`consistency`] (force
-//! against power), [`ks_step`] (the material-step candidate).
+//! against power), [`ks_step`] (the material-step candidate), [`raced`] (writes that raced
+//! the board's tick, re-timed by the board's feed).
 
 mod consistency;
 mod inputs;
 mod ks_step;
 mod path;
+pub mod raced;
 
 pub use consistency::ForcePowerConsistency;
 pub use inputs::{FeedSource, Inputs, PlantInputs, ReplayError};

@@ -152,32 +152,27 @@ fn plant_trace(model: &Model, from: TraceFrom<'_>, key: &PathKey) -> Vec<PeriodT
             },
         );
     };
-    // On the board's periods. The override register a row reads is the one that drove the
-    // sample it reads (the board takes a period at its tick, with the register as it is
-    // then; the write of the row before landed well before that tick). A period no row
-    // read lies between row k−1 and row k: if row k−1 read the same sample as the row
-    // before it, the board's tick was late and fired just after row k−1's read — most
-    // likely before that row's write landed, so the period ran on what row k−1 read; if
-    // not, row k read late, and the period ran on what row k reads.
-    let periods = sample.last().map_or(0, |&s| s + 1);
-    let mut ov = Vec::with_capacity(periods);
-    let mut prog = Vec::with_capacity(periods);
-    let mut rpm = Vec::with_capacity(periods);
+    // On the board's periods (`raced::board_periods`): the override, programmed feed and
+    // speed of the row that drove each (or the board's feed's placement of the override,
+    // `PlantInputs::board_override_pct`), the engagement of the row that read it or the next.
+    let periods = super::raced::board_periods(sample);
+    let mut ov = Vec::with_capacity(periods.len());
+    let mut prog = Vec::with_capacity(periods.len());
+    let mut rpm = Vec::with_capacity(periods.len());
     // A logged engagement is per row: on the board's periods, a period no row read takes
     // the engagement of the row that read the next sample.
     let logged = match &plant.engagement {
         acc_sim::replay::ReplayEngagement::Logged(e) => Some(e),
         acc_sim::replay::ReplayEngagement::Workpiece { .. } => None,
     };
-    let mut eng = Vec::with_capacity(if logged.is_some() { periods } else { 0 });
-    let mut row = 0;
-    for s in 0..periods {
-        while sample[row] < s {
-            row += 1;
-        }
-        let late_tick = row >= 2 && sample[row] > s && sample[row - 1] == sample[row - 2];
-        let from = if late_tick { row - 1 } else { row };
-        ov.push(plant.override_applied_pct[from]);
+    let mut eng = Vec::with_capacity(if logged.is_some() { periods.len() } else { 0 });
+    for (s, &(from, row)) in periods.iter().enumerate() {
+        ov.push(
+            plant
+                .board_override_pct
+                .as_ref()
+                .map_or(plant.override_applied_pct[from], |o| o[s]),
+        );
         prog.push(plant.programmed_feed_mm_min[from]);
         if let Some(r) = &plant.spindle_rpm {
             rpm.push(r[from]);
@@ -193,7 +188,7 @@ fn plant_trace(model: &Model, from: TraceFrom<'_>, key: &PathKey) -> Vec<PeriodT
     let grid = run(
         &engagement,
         &acc_sim::replay::ReplayDrive {
-            period_s: &vec![from.period_s; periods],
+            period_s: &vec![from.period_s; periods.len()],
             override_applied_pct: &ov,
             programmed_feed_mm_min: &prog,
             feed_hold: None,

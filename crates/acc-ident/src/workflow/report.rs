@@ -149,6 +149,9 @@ pub(super) fn assemble(
     if let Some(t) = &excluded_note {
         conclusion.push_str(&format!(" {t}."));
     }
+    if let Some(t) = inp.raced.text() {
+        conclusion.push_str(&format!(" Note: {t}."));
+    }
     if !withheld.is_empty() {
         let list: Vec<&str> = withheld.iter().map(|w| w.effect.as_str()).collect();
         conclusion = format!(
@@ -289,6 +292,7 @@ pub(super) fn assemble(
             sealed_from_s: inp.t_s[n_sel],
             folds: opts.folds,
             excluded_rows: p.excluded.report(),
+            retimed: inp.raced,
         },
         spindle_calibration: None,
         path_shift: None,

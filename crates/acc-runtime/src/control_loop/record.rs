@@ -148,6 +148,7 @@ impl PeriodRecord {
             r.tool = known(s.tool_number);
             r.program = known(s.program_number);
             r.block = known(s.block_number);
+            r.board_feed_mm_min = Some(f64::from(s.actual_feed_mm_min));
         }
         if let Err(k) = self.link {
             r.flag(&format!("link:{}", kind_name(k)));
