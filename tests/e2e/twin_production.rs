@@ -217,6 +217,44 @@ fn production_log_force_channel_names_the_hidden_wear() {
     assert_wear_found(&report, "N");
 }
 
+/// The dynamometer's model file (`paper_vmc.toml`, force averaged over the last 0.05 s) on
+/// the production log: `acc discrepancy` compares `acc run`'s force over the power's
+/// window, says so, and finds what the production model finds.
+#[test]
+fn a_dynamometer_model_is_compared_over_the_power_window_on_a_production_log() {
+    let log = production_log();
+    let out = log.with_file_name("disc-dynamometer-model");
+    let (m, o) = (log.display().to_string(), out.display().to_string());
+    let (code, stdout, stderr) = {
+        let _turn = machine();
+        acc(&[
+            "discrepancy",
+            "--measured",
+            &m,
+            "--model",
+            "configs/models/paper_vmc.toml",
+            "--workpiece",
+            WORKPIECE,
+            "--channel",
+            "force",
+            "--out",
+            &o,
+        ])
+    };
+    assert_eq!(code, Some(0), "stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(
+        stderr.contains("compared over the power's window, 0 s")
+            && stderr.contains("force_window_s = 0.05 s"),
+        "{stderr}"
+    );
+    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
+    let dynamometer: serde_json::Value = serde_json::from_str(&text).expect("report.json");
+    let production = discrepancy("force");
+    assert_eq!(dynamometer["accepted"], production["accepted"]);
+    assert_eq!(dynamometer["sealed"], production["sealed"]);
+    assert_wear_found(&dynamometer, "N");
+}
+
 #[test]
 fn production_log_power_channel_names_the_hidden_wear() {
     let report = discrepancy("power");

@@ -180,7 +180,29 @@ fn load_inputs(args: &DiscrepancyArgs) -> anyhow::Result<(Model, RunLog, Option<
         (None, Some(m)) => m,
         (None, None) => bail!("--model is required unless --import gives a nominal model"),
     };
-    Ok((with_channel(model, args)?, log, None))
+    let model = with_channel(model, args)?;
+    Ok((production_measurement(model, &log), log, None))
+}
+
+/// `model` as it measures a production log's channel: `acc run`'s `force_n` is its
+/// estimate from the board's power register, so the force channel averages over the power
+/// channel's window (`power_window_s`), whatever a dynamometer's `force_window_s` the
+/// model file gives (`configs/models/paper_vmc.toml`: the last 0.05 s). A model with a
+/// `[measurement.force_estimator]` already replays the estimator on the power.
+fn production_measurement(mut model: Model, log: &RunLog) -> Model {
+    let m = &mut model.measurement;
+    if log.is_production()
+        && m.channel == Channel::Force
+        && m.force_estimator.is_none()
+        && m.force_window_s != m.power_window_s
+    {
+        eprintln!(
+            "measurement: the log is `acc run`'s, its force_n the estimate from the board's power register: the force channel is compared over the power's window, {} s (power_window_s), not the model's force_window_s = {} s (a dynamometer's)",
+            m.power_window_s, m.force_window_s
+        );
+        m.force_window_s = m.power_window_s;
+    }
+    model
 }
 
 /// The entries of a `--program` run's path (mm), its log as analysed and each row's block.

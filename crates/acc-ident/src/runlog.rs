@@ -133,6 +133,10 @@ pub struct RunLog {
     /// log (`x_true_mm` in every row: its board runs in lockstep). The replay reads it
     /// to find writes that raced the board's tick ([`crate::replay::raced`]).
     pub board_feed_mm_min: Option<Vec<Option<f64>>>,
+    /// Every row carries the plant's truth (`x_true_mm`): a simulator's log (`acc sim`,
+    /// `acc board-sim --log`). `false` for `acc run`'s logs, logs built in code and the
+    /// importers.
+    pub plant_truth: bool,
     /// What each row's flags and cells say about its sample (a log written by `acc`);
     /// `None` when every row holds a sample (the importers, logs built in code). Rows
     /// without a valid measurement on the compared channel ([`RunLog::dead_rows`]) are
@@ -176,6 +180,13 @@ impl RunLog {
             Some(f) => dead_rows(f, &self.radial_depth_mm, &self.axial_depth_mm, channel),
             None => vec![None; self.len()],
         }
+    }
+
+    /// Written by `acc run` (or another production writer): flags and cells of a log
+    /// written by `acc` ([`RunLog::row_flags`]) without the plant's truth. Its `force_n` is
+    /// the loop's estimate from the board's power register (`power_w`).
+    pub fn is_production(&self) -> bool {
+        self.row_flags.is_some() && !self.plant_truth
     }
 
     /// Number of rows.
@@ -228,6 +239,7 @@ impl RunLog {
                 .board_feed_mm_min
                 .as_ref()
                 .map(|v| keep.iter().map(|&i| v[i]).collect()),
+            plant_truth: self.plant_truth,
             row_flags: self
                 .row_flags
                 .as_ref()
@@ -568,6 +580,7 @@ pub fn from_records_with(
                 })
                 .collect()
         }),
+        plant_truth: !rows.is_empty() && rows.iter().all(|r| r.x_true_mm.is_some()),
         row_flags: Some(row_flags),
     })
 }
@@ -784,6 +797,7 @@ pub fn read_csv_from_with(
         phase: idx_phase.map(|_| phase),
         sample_advance: None,
         board_feed_mm_min: None,
+        plant_truth: false,
         row_flags: None,
     };
     log.validate(path)?;

@@ -64,6 +64,7 @@ pub fn cut_log(inp: &Inputs) -> (RunLog, String) {
         phase: None,
         sample_advance: None,
         board_feed_mm_min: None,
+        plant_truth: false,
         row_flags: None,
     };
     let mut t = 0.0;

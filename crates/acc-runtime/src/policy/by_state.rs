@@ -351,7 +351,11 @@ impl FaultPolicy {
         if !out.fault {
             self.settle.written(step.command.0);
         }
-        self.restart.stepped(cutting, step.command.0);
+        self.restart.stepped(
+            cutting,
+            step.command.0,
+            seen.status.map(|s| s.override_applied_pct),
+        );
         out.write_override = Some(step.command);
         out.step = Some(step);
         out.measurement = Some(m);

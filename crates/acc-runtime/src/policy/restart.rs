@@ -10,7 +10,12 @@
 //! stopped, 3.3 Fr, until the law's next period. So from the stop until the new cycle's
 //! first cut has been measured ([`ENTRY_PERIODS`] periods with a valid force of at least
 //! [`super::settle::CUTTING_SHARE`] × Fr), the command is capped at the command that was
-//! cutting when the program stopped: what ACC last allowed in the material. The cap joins
+//! cutting when the program stopped: what ACC last allowed in the material and saw the
+//! force of, the lower of the last cutting period's command and the override its force was
+//! measured at. (A command the law raised in the period the program stopped was never
+//! measured in the material: on LinuxCNC under load, the abort came as the law wrote 60 %
+//! over a cut measured at 50 %, and the re-entry at 60 % reached 1 060 N against the 898 N
+//! before.) The cap joins
 //! the shop layer's and the plan's limits (the lower wins; it re-seats the law's
 //! integrator) and is logged as `restart:<pct>`. It never raises a command; it survives a
 //! release and a re-arm (the wall is still there), and a board without NC context (v1:
@@ -54,13 +59,14 @@ impl RestartJudge {
 
     /// A period in which the law stepped: `cutting` is whether its valid force shows the
     /// tool in the material ([`super::settle::SettleJudge::cutting`]), `cmd` the command
-    /// written. Under the cap, the new cycle's cutting periods are counted until the cap
-    /// lifts.
-    pub(super) fn stepped(&mut self, cutting: bool, cmd: u16) {
+    /// written, `measured_at` the override the period's force was measured at
+    /// (`OVERRIDE_APPLIED`; `None`: not known). Under the cap, the new cycle's cutting
+    /// periods are counted until the cap lifts.
+    pub(super) fn stepped(&mut self, cutting: bool, cmd: u16, measured_at: Option<u16>) {
         if !cutting {
             return;
         }
-        self.last_cut = Some((cmd, 0));
+        self.last_cut = Some((measured_at.map_or(cmd, |a| a.min(cmd)), 0));
         if self.cap.is_some() && self.cycle_active {
             self.measured += 1;
             if self.measured >= ENTRY_PERIODS {
@@ -84,7 +90,7 @@ mod tests {
     fn cut(j: &mut RestartJudge, cmd: u16) {
         for _ in 0..4 {
             j.cycle(true);
-            j.stepped(true, cmd);
+            j.stepped(true, cmd, None);
         }
     }
 
@@ -94,24 +100,44 @@ mod tests {
         cut(&mut j, 40);
         // The abort: the force goes first, then the cycle.
         j.cycle(true);
-        j.stepped(false, 40);
+        j.stepped(false, 40, None);
         j.cycle(false);
         assert_eq!(j.cap(), Some(40));
         // The retract, the restart and its air moves: capped, however long.
         for _ in 0..50 {
             j.cycle(true);
-            j.stepped(false, 40);
+            j.stepped(false, 40, None);
             assert_eq!(j.cap(), Some(40));
         }
         // The re-entry: ENTRY_PERIODS cutting periods under the cap, then free.
         for k in 1..ENTRY_PERIODS {
             j.cycle(true);
-            j.stepped(true, 40);
+            j.stepped(true, 40, None);
             assert_eq!(j.cap(), Some(40), "{k}");
         }
         j.cycle(true);
-        j.stepped(true, 40);
+        j.stepped(true, 40, None);
         assert_eq!(j.cap(), None);
+    }
+
+    #[test]
+    fn a_command_raised_as_the_program_stopped_is_not_the_cap() {
+        let mut j = RestartJudge::default();
+        for _ in 0..4 {
+            j.cycle(true);
+            j.stepped(true, 50, Some(50));
+        }
+        // The law raises to 60 % in the last cutting period, measured at 50 %; the abort.
+        j.cycle(true);
+        j.stepped(true, 60, Some(50));
+        j.cycle(false);
+        assert_eq!(j.cap(), Some(50));
+        // A command lowered in the last period is the cap.
+        let mut j = RestartJudge::default();
+        j.cycle(true);
+        j.stepped(true, 40, Some(50));
+        j.cycle(false);
+        assert_eq!(j.cap(), Some(40));
     }
 
     #[test]
@@ -120,7 +146,7 @@ mod tests {
         cut(&mut j, 60);
         for _ in 0..=STOP_PERIODS {
             j.cycle(true);
-            j.stepped(false, 150);
+            j.stepped(false, 150, None);
         }
         j.cycle(false);
         assert_eq!(
@@ -137,7 +163,7 @@ mod tests {
         cut(&mut j, 60);
         for _ in 0..20 {
             j.cycle(true);
-            j.stepped(false, 150);
+            j.stepped(false, 150, None);
         }
         assert_eq!(j.cap(), None);
     }
@@ -151,7 +177,7 @@ mod tests {
         // The new cycle enters at the cap, the law comes down to 30 %, and the program is
         // stopped again before its cut was measured for ENTRY_PERIODS.
         j.cycle(true);
-        j.stepped(true, 30);
+        j.stepped(true, 30, None);
         j.cycle(false);
         assert_eq!(j.cap(), Some(30));
     }
