@@ -15,7 +15,7 @@
 //!   engagement ahead while the plan and the measurement agree ([`plan_error`]: the plan's
 //!   force error of a run log);
 //! - [`control_loop`]: the control loop: one period against any `Board` (read, decide, write);
-//! - [`record`]: the run log — one [`RunRecord`] per period, schema v3, older versions
+//! - [`record`]: the run log — one [`RunRecord`] per period, schema v4, older versions
 //!   migrated;
 //! - [`watch`]: wear and breakage watch (Kc trend, breakage detector the policy steps);
 //! - [`cuts`]: per-cut records from a stream of run-log records;
