@@ -192,13 +192,17 @@ pub fn retime(
             [c(from), c(other)]
         })
         .collect();
+    // The board's feed of each period a row read (0: a feed hold, which tells nothing).
+    let feed_at = |s: usize| {
+        read_by[s]
+            .and_then(|k| board_feed_mm_min.get(k).copied().flatten())
+            .filter(|&f| f > 0.0)
+    };
     // cost[j]: the least cost of periods 0..=s with period s on candidate j.
     let mut cost = [0.0, f64::INFINITY];
     let mut back: Vec<[usize; 2]> = vec![[0, 0]; periods.len()];
     for s in 1..periods.len() {
-        let observed = read_by[s]
-            .and_then(|k| board_feed_mm_min.get(k).copied().flatten())
-            .filter(|&f| f > 0.0);
+        let observed = feed_at(s);
         let mut next = [f64::INFINITY; 2];
         for j in 0..2 {
             let (_, now) = cand[s][j];
@@ -227,11 +231,6 @@ pub fn retime(
     // the period and the one after, to the feed's rounding: an override path slower or
     // faster than the model's (a dead time the machine has, for the model to describe)
     // fits neither placement, and stays where the log puts it.
-    let feed_at = |s: usize| {
-        read_by[s]
-            .and_then(|k| board_feed_mm_min.get(k).copied().flatten())
-            .filter(|&f| f > 0.0)
-    };
     for s in 1..periods.len() {
         if pick[s] == 0 {
             continue;
