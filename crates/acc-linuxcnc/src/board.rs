@@ -8,6 +8,7 @@ use std::time::Duration;
 use acc_pmc::clock::Clock;
 use acc_pmc::{Board, BoardError, BoardErrorKind, BoardProtocol, BoardStatus, ControlBits};
 
+use crate::cycle::ProgramCycle;
 use crate::mapping::{adaptive_feed, applied_pct, ratio_pct, LAW_MAX_PCT, MOTION_TYPE_TRAVERSE};
 use crate::pins::{AccOutputs, MachineInputs, PinBackend};
 
@@ -50,7 +51,8 @@ struct FallbackClamp {
 /// Status, per `BoardStatus` field: the switch is `acc.enable`, `OVERRIDE_LOCKED` is "no
 /// `M52 P1`", `WATCHDOG_TRIPPED` is "`acc.watchdog-ok` false after it was true",
 /// `CYCLE_ACTIVE` the program
-/// running, `FEED_HOLD_ACTIVE` paused or acc's hold, `CNC_ALARM` estop or machine off, the
+/// running (low through the MDI command that follows the program's run in AUTO at once:
+/// [`crate::cycle`]), `FEED_HOLD_ACTIVE` paused or acc's hold, `CNC_ALARM` estop or machine off, the
 /// block number `motion.program-line`, feeds in mm/min from the velocity pins (mm/s × 60),
 /// the override step 1 %. `SAMPLE_SEQ` counts reads; with `acc.sample-seq-used` set, only the
 /// reads that found the power source's counter `acc.sample-seq` moved since the last read
@@ -73,6 +75,8 @@ pub struct HalBoard<B> {
     active: bool,
     /// acc has been active since the cycle started.
     was_active_this_cycle: bool,
+    /// `CYCLE_ACTIVE` from `acc.program-running` and `acc.mode-auto` ([`crate::cycle`]).
+    cycle: ProgramCycle,
     /// The engaged fallback clamp.
     clamp: Option<FallbackClamp>,
     /// `SAMPLE_SEQ`: reads so far, or with the source's counter, reads that found it moved.
@@ -110,6 +114,7 @@ impl<B: PinBackend> HalBoard<B> {
             control: ControlBits::default(),
             active: false,
             was_active_this_cycle: false,
+            cycle: ProgramCycle::default(),
             clamp: None,
             reads: 0,
             source_seq: None,
@@ -156,7 +161,7 @@ impl<B: PinBackend> HalBoard<B> {
             self.control.acc_request && i.acc_switch && i.watchdog_ok && i.adaptive_enabled;
         self.update_clamp(active);
         self.active = active;
-        self.was_active_this_cycle = i.program_running && (self.was_active_this_cycle || active);
+        self.was_active_this_cycle = self.cycle_active() && (self.was_active_this_cycle || active);
         self.outputs = AccOutputs {
             adaptive_feed: self.adaptive_feed_now(),
             heartbeat: self.outputs.heartbeat,
@@ -181,10 +186,15 @@ impl<B: PinBackend> HalBoard<B> {
             });
         }
         if let Some(clamp) = self.clamp {
-            if active || !i.program_running || clamp.feed_override != i.feed_override {
+            if active || !self.cycle_active() || clamp.feed_override != i.feed_override {
                 self.clamp = None;
             }
         }
+    }
+
+    /// `CYCLE_ACTIVE` of the last read ([`crate::cycle`]).
+    fn cycle_active(&self) -> bool {
+        self.cycle.active()
     }
 
     /// acc requests the override and nothing but `M52 P0` keeps it from driving: the NC
@@ -249,7 +259,7 @@ impl<B: PinBackend> HalBoard<B> {
         BoardStatus {
             acc_switch: i.acc_switch,
             acc_active: self.active,
-            cycle_active: i.program_running,
+            cycle_active: self.cycle_active(),
             feed_hold_active: i.program_paused || self.control.feed_hold_request,
             watchdog_tripped: self.watchdog_tripped(),
             override_locked: !i.adaptive_enabled,
@@ -288,6 +298,8 @@ impl<B: PinBackend> Board for HalBoard<B> {
     fn read_status(&mut self) -> Result<BoardStatus, Self::Error> {
         self.inputs = self.pins.read();
         self.watchdog_seen_ok |= self.inputs.watchdog_ok;
+        self.cycle
+            .read(self.inputs.program_running, self.inputs.mode_auto);
         let source = self
             .inputs
             .sample_seq_used

@@ -35,6 +35,7 @@
 //! ```
 
 mod board;
+pub mod cycle;
 pub mod halsampler;
 pub mod machine_log;
 pub mod mapping;

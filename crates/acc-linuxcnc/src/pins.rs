@@ -31,6 +31,10 @@ pub struct MachineInputs {
     pub program_running: bool,
     /// `acc.program-paused` ← `halui.program.is-paused`.
     pub program_paused: bool,
+    /// `acc.mode-auto` ← `halui.mode.is-auto`: the run is the program's (an MDI command
+    /// also sets `halui.program.is-running`). Unconnected (false), `CYCLE_ACTIVE` is the
+    /// program running alone.
+    pub mode_auto: bool,
     /// `acc.adaptive-enabled` ← true while `M52 P1` is in force (the integrator's signal).
     pub adaptive_enabled: bool,
     /// `acc.enable` ← the operator's ACC ON switch.
@@ -90,6 +94,7 @@ struct InputPins {
     estop: BitIn,
     program_running: BitIn,
     program_paused: BitIn,
+    mode_auto: BitIn,
     adaptive_enabled: BitIn,
     acc_switch: BitIn,
     watchdog_ok: BitIn,
@@ -136,6 +141,7 @@ impl HalPins {
             estop: c.bit_in("estop")?,
             program_running: c.bit_in("program-running")?,
             program_paused: c.bit_in("program-paused")?,
+            mode_auto: c.bit_in("mode-auto")?,
             adaptive_enabled: c.bit_in("adaptive-enabled")?,
             acc_switch: c.bit_in("enable")?,
             watchdog_ok: c.bit_in("watchdog-ok")?,
@@ -176,6 +182,7 @@ impl PinBackend for HalPins {
             estop: i.estop.get(),
             program_running: i.program_running.get(),
             program_paused: i.program_paused.get(),
+            mode_auto: i.mode_auto.get(),
             adaptive_enabled: i.adaptive_enabled.get(),
             acc_switch: i.acc_switch.get(),
             watchdog_ok: i.watchdog_ok.get(),

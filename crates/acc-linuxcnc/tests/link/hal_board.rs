@@ -36,6 +36,7 @@ fn cutting() -> MachineInputs {
         estop: false,
         program_running: true,
         program_paused: false,
+        mode_auto: true,
         adaptive_enabled: true,
         acc_switch: true,
         watchdog_ok: true,
@@ -241,6 +242,42 @@ fn a_watchdog_that_has_not_run_yet_is_no_trip_but_acc_does_not_drive() {
     let s = read_after(&mut board, |m| m.watchdog_ok = false);
     assert!(s.watchdog_tripped && !s.acc_active);
     assert!(board.pins().written.alarm);
+}
+
+#[test]
+fn an_abort_and_an_mdi_retract_between_two_reads_end_the_cycle_through_the_retract() {
+    let mut board = driving(60);
+    // The operator aborts and retracts by MDI: the program was idle for a few ms between
+    // acc's reads, and `halui.program.is-running` is set again by the MDI command.
+    let s = read_after(&mut board, |m| m.mode_auto = false);
+    assert!(!s.cycle_active, "the program's run in AUTO ended");
+    // The retract runs on: the cycle stays ended (a fall the line guard can confirm).
+    for _ in 0..3 {
+        assert!(!board.read_status().expect("status").cycle_active);
+    }
+    // MDI idle; the next MDI command is a cycle (acc drives an MDI cut too).
+    // (The same when a read found the program idle before the retract:
+    // `acc_linuxcnc::cycle`'s unit tests.)
+    assert!(!read_after(&mut board, |m| m.program_running = false).cycle_active);
+    assert!(read_after(&mut board, |m| m.program_running = true).cycle_active);
+    // Idle, then the program run again in AUTO.
+    assert!(!read_after(&mut board, |m| m.program_running = false).cycle_active);
+    let s = read_after(&mut board, |m| {
+        m.program_running = true;
+        m.mode_auto = true;
+    });
+    assert!(s.cycle_active);
+    // An integrator who has not netted `acc.mode-auto`: the program running alone.
+    let mut board = HalBoard::new(FakePins {
+        machine: MachineInputs {
+            mode_auto: false,
+            ..cutting()
+        },
+        ..FakePins::default()
+    });
+    for _ in 0..3 {
+        assert!(board.read_status().expect("status").cycle_active);
+    }
 }
 
 /// Changes the fake machine's inputs without a read (LinuxCNC moving between acc's reads).

@@ -30,7 +30,7 @@ fn halcmd_drives_hal_board_through_its_pins() {
         .lines()
         .filter(|line| !line.trim().is_empty())
         .count();
-    assert_eq!(count, 24, "{listed}");
+    assert_eq!(count, 25, "{listed}");
 
     for (pin, value) in [
         ("spindle-power", "2500"),
@@ -41,6 +41,7 @@ fn halcmd_drives_hal_board_through_its_pins() {
         ("requested-vel", "10"),
         ("machine-on", "1"),
         ("program-running", "1"),
+        ("mode-auto", "1"),
         ("adaptive-enabled", "1"),
         ("enable", "1"),
         ("watchdog-ok", "1"),
@@ -74,7 +75,7 @@ fn halcmd_drives_hal_board_through_its_pins() {
         seq.wrapping_add(1),
         "the counter moved: one new sample"
     );
-    assert!(status.acc_active);
+    assert!(status.acc_active && status.cycle_active);
 
     board.write_override(75, 7).expect("override");
     assert_eq!(

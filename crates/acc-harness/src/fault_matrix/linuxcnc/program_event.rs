@@ -34,8 +34,9 @@ pub struct EventFigures {
     /// m52-off: the largest applied override in the cut in the [`RETURN_S`] after the end,
     /// percent.
     pub applied_after_end_pct: Option<f64>,
-    /// m52-off: the largest applied override in the cut in the [`BEFORE_S`] before the
-    /// event: what acc allowed there (its law steps between neighbouring values), percent.
+    /// m52-off, abort-restart: the largest applied override in the cut in the [`BEFORE_S`]
+    /// before the event: what acc allowed there (its law steps between neighbouring
+    /// values), percent.
     pub allowed_recent_pct: Option<f64>,
     /// acc's last command up to the event, percent.
     pub cmd_before_pct: Option<u16>,
@@ -74,7 +75,9 @@ pub struct EventFigures {
 ///   the law steps on the block end's deceleration, `M52` ends the blend); acc drives (and
 ///   its law steps) in the cut after the return.
 /// - **abort-restart**: the program ran again and completed; acc's first command of the
-///   restarted run is not above its last before the abort (no wind-up over the abort);
+///   restarted run is not above what it allowed in the cut before the abort (its last
+///   command, or the largest override applied in the cut in the [`BEFORE_S`] before it:
+///   no wind-up over the abort);
 ///   acc drives in every cut period of the restarted run; the peak after the restart is at
 ///   most 1.05 × the force before the abort (the restart judge caps the restarted program
 ///   at the command of the stopped cut until its first cut is measured:
@@ -107,7 +110,7 @@ pub fn judge_program_event(
     driving_after(&mut e, fr_n, machine, run, offset, t_end);
     let mut why = match f.name {
         "m52-off" => m52_off(&mut e, fr_n, machine, i_f, i_end, row),
-        "abort-restart" => abort_restart(&mut e, machine, i_end, row),
+        "abort-restart" => abort_restart(&mut e, fr_n, machine, i_f, i_end, row),
         _ => tool_change(&mut e, fr_n, machine, i_end),
     };
     if e.periods_not_driving > 0 {
@@ -252,22 +255,35 @@ fn m52_off(
     why
 }
 
-/// abort-restart: acc restarts at no more than its last command before the abort (no
-/// wind-up), and no force excursion after the restart lasts.
+/// abort-restart: acc restarts at no more than it allowed in the cut before the abort (no
+/// wind-up: the larger of its last command before the abort and the largest override
+/// applied in the cut in the [`BEFORE_S`] before it, since the two logs' clocks place the
+/// abort within a period: a command written in the abort's period may be the cut's last),
+/// and no force excursion after the restart lasts.
 fn abort_restart(
     e: &mut EventFigures,
+    fr_n: f64,
     machine: &[MachineRow],
+    i_f: usize,
     i_end: usize,
     row: &LcncRow,
 ) -> Vec<String> {
     let mut why = Vec::new();
+    let t_f = machine[i_f].t_s;
+    e.allowed_recent_pct = machine[..i_f]
+        .iter()
+        .filter(|r| r.t_s >= t_f - BEFORE_S)
+        .filter(|r| in_contact(r.force_n, fr_n) && r.feed_mm_min > 0.0)
+        .map(applied)
+        .reduce(f64::max);
     e.peak_after_n = Some(peak(&machine[i_end..]));
     let longest = longest_excursion_s(&machine[i_end..], 1.05 * row.force_before_n);
     e.longest_excursion_s = Some(longest);
     if let (Some(a), Some(b)) = (e.cmd_after_end_pct, e.cmd_before_pct) {
-        if a > b {
+        let recent = e.allowed_recent_pct.unwrap_or(0.0);
+        if f64::from(a) > f64::from(b).max(recent) + 1.0 {
             why.push(format!(
-                "acc restarted at {a} %, above its {b} % before the abort (wound up)"
+                "acc restarted at {a} %, above its {b} % before the abort and the {recent:.0} % applied in the cut in the {BEFORE_S} s before it (wound up)"
             ));
         }
     }
