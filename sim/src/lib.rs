@@ -51,6 +51,7 @@ pub mod plan;
 pub mod plan_follower;
 pub mod program;
 pub mod program_summary;
+pub mod program_visits;
 pub mod run;
 pub mod scenario;
 pub mod summary;

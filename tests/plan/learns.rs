@@ -41,7 +41,7 @@ fn part(dir: &std::path::Path, name: &str, seed: &str) -> String {
 }
 
 /// The RMS (N) of `acc plan --measured`'s force error line.
-fn plan_rms(stdout: &str) -> f64 {
+pub(crate) fn plan_rms(stdout: &str) -> f64 {
     let line = stdout
         .lines()
         .find(|l| l.starts_with("plan's force error against"))

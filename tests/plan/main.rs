@@ -6,6 +6,7 @@
 #[path = "../support/e2e.rs"]
 mod e2e_support;
 
+mod controller_log;
 mod follower;
 mod learns;
 mod lookahead;

@@ -2,41 +2,25 @@
 //! controller that ran an NC program (LinuxCNC: `acc linuxcnc`, docs/linuxcnc.md), compared
 //! with the model replaying the same program through the same stock.
 //!
-//! Such a log has no depth of cut, but it has the block (`block`: the N word, else the
-//! line, as `motion.program-line` reports it) and the controller's actual path speed
-//! (`feed_mm_min`: programmed feed × applied override). Each row's path position is rebuilt
-//! from them: where the block changes it is the start of the block's next visit (a
-//! subroutine, a loop or a repeat runs the same lines again; the visit is the first one
-//! that starts where the row before left the tool or after it) plus half the period's travel
-//! at the row's feed (the change fell somewhere in the period; one period more when the
-//! read before found it and the line guard held it, flag `unconfirmed:`), and inside a
-//! block the trapezoidal integral of the logged feed, held within the block. The engagement of the
-//! row is then the program's sweep through the stock there
-//! ([`acc_sim::program::ProgramPath`], as `acc sim --program` builds it): the log gets the
-//! depth columns of a simulator's log and the model replays on them (docs/twin.md,
-//! "Replay on the logged depths"). A rapid's rows, and a block's rows once the position
-//! reaches the block's end, get programmed feed 0: in exact-path mode (`G61`) the planner
-//! comes to rest at every block's end.
+//! Such a log has no depth of cut. Each row's path position is rebuilt from its block and
+//! its logged feed ([`acc_sim::program_visits`]); the engagement of the row is then the
+//! program's sweep through the stock there ([`acc_sim::program::ProgramPath`], as `acc sim
+//! --program` builds it): the log gets the depth columns of a simulator's log and the model
+//! replays on them (docs/twin.md, "Replay on the logged depths"). A rapid's rows, and a
+//! block's rows once the position reaches the block's end, get programmed feed 0: in
+//! exact-path mode (`G61`) the planner comes to rest at every block's end.
 //!
 //! [`where_they_disagree`] then places the residual on the program: per block, at the
 //! entries, and at the override's speed changes.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use acc_ident::RunLog;
 use acc_runtime::record::RunRecord;
 use acc_sim::engagement::{EngagementSource as _, ToolGeometry};
 use acc_sim::program::ProgramPath;
+use acc_sim::program_visits::{BlockVisits, PathPlace};
 use anyhow::Context as _;
-
-/// Where a block lies on the path.
-#[derive(Debug, Clone, Copy)]
-struct Span {
-    start_mm: f64,
-    end_mm: f64,
-    rapid: bool,
-}
 
 /// The program's path and its blocks.
 pub struct ProgramLog {
@@ -44,22 +28,8 @@ pub struct ProgramLog {
     tool: ToolGeometry,
     /// Every visit of each block, in path order: a block runs more than once when a
     /// subroutine (`o… call`), a loop or a repeat runs its lines again.
-    blocks: BTreeMap<u32, Vec<Span>>,
+    visits: BlockVisits,
 }
-
-/// The visit of a block that starts where the tool is or after it (`at_mm`, the path
-/// position before the block changed), the first such; the block's first visit when none
-/// does (the program was restarted).
-fn next_visit(visits: &[Span], at_mm: f64) -> Option<&Span> {
-    visits
-        .iter()
-        .find(|v| v.start_mm >= at_mm - VISIT_TOLERANCE_MM)
-        .or_else(|| visits.first())
-}
-
-/// How far before the position a visit of the next block may start, mm: the rebuilt
-/// position stops at its block's end, which is where the next block starts.
-const VISIT_TOLERANCE_MM: f64 = 1e-6;
 
 impl ProgramLog {
     /// Build the path of `opts` for the model's tool (diameter, flutes, flute length), its
@@ -81,61 +51,8 @@ impl ProgramLog {
             model.machine.feed_drive.rapid_mm_min,
         )
         .with_context(|| format!("--program {}", program.display()))?;
-        let mut blocks: BTreeMap<u32, Vec<Span>> = BTreeMap::new();
-        let mut last: Option<u32> = None;
-        for (s, &x0) in path.segments().iter().zip(path.piece_starts_mm()) {
-            let b = s.block.unwrap_or(s.line);
-            let end = x0 + s.length_mm();
-            let visits = blocks.entry(b).or_default();
-            match visits.last_mut() {
-                // The next piece of the same visit (an arc's chords, a block's pieces).
-                Some(v) if last == Some(b) => v.end_mm = v.end_mm.max(end),
-                _ => visits.push(Span {
-                    start_mm: x0,
-                    end_mm: end,
-                    rapid: s.rapid,
-                }),
-            }
-            last = Some(b);
-        }
-        Ok(Some(ProgramLog { path, tool, blocks }))
-    }
-
-    /// The path position of every row, mm, and whether the tool stands or rapids there (a
-    /// rapid, or at its block's end: see the module).
-    fn positions(&self, rows: &[RunRecord]) -> Vec<(f64, bool)> {
-        let mut out = Vec::with_capacity(rows.len());
-        let (mut s, mut block, mut rapid) = (0.0, None::<u32>, false);
-        let mut span: Option<&Span> = None;
-        for (k, r) in rows.iter().enumerate() {
-            let v = r.feed_mm_min.unwrap_or(0.0) / 60.0;
-            let dt = if k == 0 { 0.0 } else { r.t_s - rows[k - 1].t_s };
-            let b = r.block.map(u32::from);
-            if b != block {
-                span = b
-                    .and_then(|b| self.blocks.get(&b))
-                    .and_then(|visits| next_visit(visits, s));
-            }
-            match span {
-                Some(sp) if b != block => {
-                    // The line guard logs a new block one read late: the read before
-                    // found it and held it (`unconfirmed:`).
-                    let held = k > 0 && rows[k - 1].flags.contains("unconfirmed:");
-                    let periods = if held { 1.5 } else { 0.5 };
-                    s = (sp.start_mm + periods * v * dt).min(sp.end_mm);
-                    rapid = sp.rapid;
-                }
-                Some(sp) => {
-                    let v0 = rows[k - 1].feed_mm_min.unwrap_or(0.0) / 60.0;
-                    s = (s + 0.5 * (v0 + v) * dt).clamp(sp.start_mm, sp.end_mm);
-                }
-                None => {}
-            }
-            block = b;
-            let at_end = span.is_some_and(|sp| s >= sp.end_mm - 1e-9);
-            out.push((s, rapid || at_end));
-        }
-        out
+        let visits = BlockVisits::of(&path);
+        Ok(Some(ProgramLog { path, tool, visits }))
     }
 
     /// The records with the engagement of the program at each row's path position
@@ -144,8 +61,8 @@ impl ProgramLog {
     pub fn with_engagement(&self, rows: &[RunRecord]) -> Vec<RunRecord> {
         let mut path = self.path.clone();
         rows.iter()
-            .zip(self.positions(rows))
-            .map(|(r, (s, stands))| {
+            .zip(self.visits.positions(rows))
+            .map(|(r, PathPlace { at_mm: s, stands })| {
                 let e = path.engagement_at(&self.tool, s);
                 let mut r = r.clone();
                 r.radial_depth_mm = Some(e.radial_mm);

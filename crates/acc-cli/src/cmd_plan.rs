@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use acc_ident::cutting::CuttingModel;
 use acc_plot::{Figure, HLine, Panel, Series, Style};
 use acc_runtime::plan::Plan;
+use acc_runtime::record::RunRecord;
 use acc_sim::plan::{PlanFigures, PlanParams};
 use acc_sim::program::ProgramPath;
 use acc_sim::Scenario;
@@ -235,7 +236,14 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
             + if events.len() > 12 { ", …" } else { "" }
     );
     if let (Some(rows), Some(file)) = (&measured, &args.measured) {
-        let e = acc_runtime::plan_error::plan_force_error(&plan, rows);
+        let (rows, placed) = on_the_path(path, rows);
+        if placed {
+            println!(
+                "{}: a controller's log (blocks, no simulator's position): rows placed on the program's path by their block visits",
+                file.display()
+            );
+        }
+        let e = acc_runtime::plan_error::plan_force_error(&plan, &rows);
         if e.periods == 0 {
             anyhow::bail!(
                 "{}: no cutting period of the log lies on the plan's cutting rows (is it a run of this program?)",
@@ -259,6 +267,27 @@ pub fn run_cmd(args: &PlanArgs) -> anyhow::Result<()> {
         println!("plot: {} and {}", w.svg.display(), w.png.display());
     }
     Ok(())
+}
+
+/// The run log's rows with their place on the program's path, and whether they were placed:
+/// a simulator's log (`acc sim --program`) has its true path position (`x_true_mm`); a
+/// controller's (`acc linuxcnc`, `acc run` on a v2 board) has blocks and a position that
+/// integrates the feed through homing and tool changes, so its rows are placed by their
+/// block visits ([`acc_sim::program_visits`]).
+fn on_the_path(path: &ProgramPath, rows: &[RunRecord]) -> (Vec<RunRecord>, bool) {
+    if rows.iter().any(|r| r.x_true_mm.is_some()) || rows.iter().all(|r| r.block.is_none()) {
+        return (rows.to_vec(), false);
+    }
+    let places = acc_sim::program_visits::BlockVisits::of(path).positions(rows);
+    let placed = rows
+        .iter()
+        .zip(places)
+        .map(|(r, p)| RunRecord {
+            x_true_mm: Some(p.at_mm),
+            ..r.clone()
+        })
+        .collect();
+    (placed, true)
 }
 
 /// The predicted force (at 100 % and at the planned overrides) and the planned override
