@@ -193,6 +193,18 @@ fn driving_after(
     }
 }
 
+/// The largest override applied in the cut (in contact, feeding) in the [`BEFORE_S`] before
+/// the machine-log row `i_f`, percent: what acc allowed just before an event.
+fn allowed_before(machine: &[MachineRow], i_f: usize, fr_n: f64) -> Option<f64> {
+    let t_f = machine[i_f].t_s;
+    machine[..i_f]
+        .iter()
+        .filter(|r| r.t_s >= t_f - BEFORE_S)
+        .filter(|r| in_contact(r.force_n, fr_n) && r.feed_mm_min > 0.0)
+        .map(applied)
+        .reduce(f64::max)
+}
+
 /// m52-off: the pin under `M52 P0` holds what acc allowed; after `M52 P1` the applied
 /// override stays at what acc allowed just before, and no force excursion lasts.
 fn m52_off(
@@ -204,7 +216,7 @@ fn m52_off(
     row: &LcncRow,
 ) -> Vec<String> {
     let mut why = Vec::new();
-    let (t_f, t_end) = (machine[i_f].t_s, machine[i_end].t_s);
+    let t_end = machine[i_end].t_s;
     let cutting = |r: &&MachineRow| in_contact(r.force_n, fr_n) && r.feed_mm_min > 0.0;
     let section = &machine[i_f..i_end];
     e.pin_during_pct = section.iter().map(applied).reduce(f64::max);
@@ -212,12 +224,7 @@ fn m52_off(
         .iter()
         .map(|r| 100.0 * r.feed_override)
         .reduce(f64::max);
-    e.allowed_recent_pct = machine[..i_f]
-        .iter()
-        .filter(|r| r.t_s >= t_f - BEFORE_S)
-        .filter(cutting)
-        .map(applied)
-        .reduce(f64::max);
+    e.allowed_recent_pct = allowed_before(machine, i_f, fr_n);
     e.applied_after_end_pct = machine[i_end..]
         .iter()
         .take_while(|r| r.t_s <= t_end + RETURN_S)
@@ -269,13 +276,7 @@ fn abort_restart(
     row: &LcncRow,
 ) -> Vec<String> {
     let mut why = Vec::new();
-    let t_f = machine[i_f].t_s;
-    e.allowed_recent_pct = machine[..i_f]
-        .iter()
-        .filter(|r| r.t_s >= t_f - BEFORE_S)
-        .filter(|r| in_contact(r.force_n, fr_n) && r.feed_mm_min > 0.0)
-        .map(applied)
-        .reduce(f64::max);
+    e.allowed_recent_pct = allowed_before(machine, i_f, fr_n);
     e.peak_after_n = Some(peak(&machine[i_end..]));
     let longest = longest_excursion_s(&machine[i_end..], 1.05 * row.force_before_n);
     e.longest_excursion_s = Some(longest);
